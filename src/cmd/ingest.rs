@@ -1,0 +1,14 @@
+//! `minos ingest` (not written yet).
+
+use std::process::ExitCode;
+
+use super::Context;
+
+/// Flags of `minos ingest`.
+#[derive(Debug, clap::Args)]
+pub struct Args {}
+
+/// Runs the subcommand.
+pub fn run(_args: Args, _ctx: &Context) -> anyhow::Result<ExitCode> {
+    anyhow::bail!("`minos ingest` is not implemented yet")
+}

@@ -1,0 +1,14 @@
+//! `minos split` (not written yet).
+
+use std::process::ExitCode;
+
+use super::Context;
+
+/// Flags of `minos split`.
+#[derive(Debug, clap::Args)]
+pub struct Args {}
+
+/// Runs the subcommand.
+pub fn run(_args: Args, _ctx: &Context) -> anyhow::Result<ExitCode> {
+    anyhow::bail!("`minos split` is not implemented yet")
+}

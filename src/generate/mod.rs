@@ -1,0 +1,1 @@
+//! Procedural houses written in real dataset formats.

@@ -1,0 +1,1 @@
+//! Ingest: load a batch of scenes, compile them, write the manifest.

@@ -1,0 +1,1 @@
+//! Scene export to OBJ and GLB.

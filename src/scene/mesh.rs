@@ -1,0 +1,230 @@
+//! Indexed triangle meshes, materials, and placing a mesh in the world.
+
+use glam::{Mat3, Mat4, Vec3};
+use serde::{Deserialize, Serialize};
+
+use super::geometry::Aabb;
+
+/// A surface appearance: a diffuse colour and, where the dataset has one, a texture name.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Material {
+    /// The name the source file gives the material.
+    pub name: String,
+    /// Linear RGBA diffuse colour in `[0, 1]`; alpha below 1 means translucent.
+    pub diffuse: [f32; 4],
+    /// Texture name or path as the dataset gives it (not loaded by ingest).
+    pub texture: Option<String>,
+}
+
+impl Material {
+    /// An opaque material of one colour.
+    pub fn solid(name: impl Into<String>, rgb: [f32; 3]) -> Self {
+        Material {
+            name: name.into(),
+            diffuse: [rgb[0], rgb[1], rgb[2], 1.0],
+            texture: None,
+        }
+    }
+}
+
+/// An indexed triangle mesh in its own (model) space, shared by every instance that uses it.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Mesh {
+    /// Where the mesh came from (a file path, or a name for generated meshes).
+    pub name: String,
+    /// Vertex positions in metres.
+    pub positions: Vec<[f32; 3]>,
+    /// Unit vertex normals, one per position.
+    pub normals: Vec<[f32; 3]>,
+    /// Texture coordinates, one per position, or empty when the mesh has none.
+    pub uvs: Vec<[f32; 2]>,
+    /// Three vertex indices per triangle, counter-clockwise seen from the front.
+    pub indices: Vec<u32>,
+    /// Material slot of each triangle (index into `materials`).
+    pub face_materials: Vec<u16>,
+    /// The material slots.
+    pub materials: Vec<Material>,
+}
+
+impl Mesh {
+    /// Number of triangles.
+    pub fn triangle_count(&self) -> usize {
+        self.indices.len() / 3
+    }
+
+    /// Box of all vertices in model space.
+    pub fn bounds(&self) -> Aabb {
+        Aabb::from_points(self.positions.iter().map(|p| Vec3::from_array(*p)))
+    }
+
+    /// Box of all vertices after `transform`, computed from every vertex (exact).
+    pub fn world_bounds(&self, transform: &Mat4) -> Aabb {
+        Aabb::from_points(
+            self.positions
+                .iter()
+                .map(|p| transform.transform_point3(Vec3::from_array(*p))),
+        )
+    }
+
+    /// Recomputes vertex normals as the area-weighted average of adjacent face normals.
+    pub fn compute_normals(&mut self) {
+        let mut acc = vec![Vec3::ZERO; self.positions.len()];
+        for t in self.indices.chunks_exact(3) {
+            let [a, b, c] = [t[0] as usize, t[1] as usize, t[2] as usize];
+            let (pa, pb, pc) = (
+                Vec3::from_array(self.positions[a]),
+                Vec3::from_array(self.positions[b]),
+                Vec3::from_array(self.positions[c]),
+            );
+            let n = (pb - pa).cross(pc - pa);
+            acc[a] += n;
+            acc[b] += n;
+            acc[c] += n;
+        }
+        self.normals = acc
+            .into_iter()
+            .map(|n| n.try_normalize().unwrap_or(Vec3::Y).to_array())
+            .collect();
+    }
+
+    /// Checks the invariants every stage relies on; returns what is wrong.
+    pub fn validate(&self) -> Result<(), String> {
+        let n = self.positions.len();
+        if self.indices.len() % 3 != 0 {
+            return Err(format!("{} indices is not a multiple of 3", self.indices.len()));
+        }
+        if let Some(bad) = self.indices.iter().find(|&&i| i as usize >= n) {
+            return Err(format!("index {bad} out of range for {n} vertices"));
+        }
+        if self.normals.len() != n {
+            return Err(format!("{} normals for {n} vertices", self.normals.len()));
+        }
+        if !self.uvs.is_empty() && self.uvs.len() != n {
+            return Err(format!("{} uvs for {n} vertices", self.uvs.len()));
+        }
+        if self.face_materials.len() != self.triangle_count() {
+            return Err(format!(
+                "{} face materials for {} triangles",
+                self.face_materials.len(),
+                self.triangle_count()
+            ));
+        }
+        if let Some(bad) = self
+            .face_materials
+            .iter()
+            .find(|&&m| m as usize >= self.materials.len())
+        {
+            return Err(format!(
+                "material slot {bad} out of range for {} materials",
+                self.materials.len()
+            ));
+        }
+        if let Some(p) = self.positions.iter().find(|p| !p.iter().all(|v| v.is_finite())) {
+            return Err(format!("non-finite vertex position {p:?}"));
+        }
+        Ok(())
+    }
+}
+
+/// A mesh placed in the world: world-space positions and normals, with the triangle winding
+/// flipped when the transform mirrors (negative determinant), so front faces stay front faces.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct WorldMesh {
+    /// World positions.
+    pub positions: Vec<Vec3>,
+    /// World unit normals.
+    pub normals: Vec<Vec3>,
+    /// Triangle indices (winding corrected).
+    pub indices: Vec<u32>,
+    /// Material slot of each triangle.
+    pub face_materials: Vec<u16>,
+}
+
+impl WorldMesh {
+    /// Places `mesh` with `transform`: the one place where mirrored instances get their
+    /// winding flipped and normals get the inverse-transpose.
+    pub fn place(mesh: &Mesh, transform: &Mat4) -> Self {
+        let normal_matrix = Mat3::from_mat4(*transform).inverse().transpose();
+        let mirrored = transform.determinant() < 0.0;
+        let positions = mesh
+            .positions
+            .iter()
+            .map(|p| transform.transform_point3(Vec3::from_array(*p)))
+            .collect();
+        let normals = mesh
+            .normals
+            .iter()
+            .map(|n| {
+                (normal_matrix * Vec3::from_array(*n))
+                    .try_normalize()
+                    .unwrap_or(Vec3::Y)
+            })
+            .collect();
+        let mut indices = mesh.indices.clone();
+        if mirrored {
+            for t in indices.chunks_exact_mut(3) {
+                t.swap(1, 2);
+            }
+        }
+        WorldMesh {
+            positions,
+            normals,
+            indices,
+            face_materials: mesh.face_materials.clone(),
+        }
+    }
+
+    /// Geometric (right-hand rule) normal of triangle `t`, not normalised.
+    pub fn face_normal(&self, t: usize) -> Vec3 {
+        let [a, b, c] = [
+            self.positions[self.indices[3 * t] as usize],
+            self.positions[self.indices[3 * t + 1] as usize],
+            self.positions[self.indices[3 * t + 2] as usize],
+        ];
+        (b - a).cross(c - a)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn one_triangle() -> Mesh {
+        let mut m = Mesh {
+            name: "tri".into(),
+            positions: vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]],
+            indices: vec![0, 1, 2],
+            face_materials: vec![0],
+            materials: vec![Material::solid("m", [1.0, 1.0, 1.0])],
+            ..Default::default()
+        };
+        m.compute_normals();
+        m
+    }
+
+    #[test]
+    fn computed_normals_follow_ccw_winding() {
+        let m = one_triangle();
+        assert_eq!(m.normals[0], [0.0, 1.0, 0.0]);
+        assert!(m.validate().is_ok());
+    }
+
+    #[test]
+    fn mirrored_placement_keeps_faces_facing_their_normals() {
+        let m = one_triangle();
+        let mirror = Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0));
+        let w = WorldMesh::place(&m, &mirror);
+        assert_eq!(w.indices, vec![0, 2, 1]);
+        let geometric = w.face_normal(0).normalize();
+        assert!(geometric.dot(w.normals[0]) > 0.99, "{geometric} vs {}", w.normals[0]);
+        let plain = WorldMesh::place(&m, &Mat4::IDENTITY);
+        assert_eq!(plain.indices, vec![0, 1, 2]);
+    }
+
+    #[test]
+    fn validate_reports_bad_indices() {
+        let mut m = one_triangle();
+        m.indices[2] = 9;
+        assert!(m.validate().unwrap_err().contains("index 9"));
+    }
+}

@@ -1,0 +1,16 @@
+//! Scenes: the canonical model (`model`, `mesh`, `geometry`), the taxonomies, and one loader
+//! per dataset format (`formats`). The model knows no file format; loaders know no later stage.
+
+pub mod formats;
+pub mod geometry;
+pub mod mesh;
+pub mod model;
+pub mod taxonomy;
+
+pub use geometry::Aabb;
+pub use mesh::{Material, Mesh, WorldMesh};
+pub use model::{
+    Categories, Dataset, Level, MaterialOverride, MeshId, Object, ObjectFlags, Room, Scene,
+    Surface, SurfaceKind,
+};
+pub use taxonomy::RoomClass;

@@ -1,0 +1,1 @@
+//! Train/val/test splits: filter expressions, official lists, seeded ratio splits.

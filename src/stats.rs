@@ -1,0 +1,1 @@
+//! Environment statistics of a set of scenes.
