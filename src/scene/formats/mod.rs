@@ -1,1 +1,90 @@
-//! Dataset loaders.
+//! Dataset loaders: each turns one on-disk format into the canonical [`Scene`](super::Scene).
+//!
+//! Loaders never panic on data: every problem becomes a [`LoadError`] whose one-line message
+//! names the file, the record (node id, line) and what is wrong.
+
+pub mod gltf_mesh;
+pub mod obj_mesh;
+pub mod suncg;
+
+use std::path::{Path, PathBuf};
+
+use super::mesh::Mesh;
+
+/// A failure to load a scene or one of its files.
+#[derive(Debug, thiserror::Error)]
+pub enum LoadError {
+    /// The file could not be read.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// The file is not valid for its format.
+    #[error("{}: {message}", path.display())]
+    Parse {
+        /// The file.
+        path: PathBuf,
+        /// Where (line, field) and what is wrong.
+        message: String,
+    },
+    /// One record (node, object) of a valid file is wrong.
+    #[error("{}: node {node}: {message}", path.display())]
+    Node {
+        /// The file holding the record.
+        path: PathBuf,
+        /// The record's id.
+        node: String,
+        /// What is wrong.
+        message: String,
+    },
+}
+
+impl LoadError {
+    /// A parse error; newlines in `message` are folded so the error stays one line.
+    pub fn parse(path: &Path, message: impl Into<String>) -> Self {
+        LoadError::Parse {
+            path: path.to_path_buf(),
+            message: one_line(message.into()),
+        }
+    }
+
+    /// A record error.
+    pub fn node(path: &Path, node: impl Into<String>, message: impl Into<String>) -> Self {
+        LoadError::Node {
+            path: path.to_path_buf(),
+            node: node.into(),
+            message: one_line(message.into()),
+        }
+    }
+}
+
+fn one_line(s: String) -> String {
+    if s.contains('\n') {
+        s.split_whitespace().collect::<Vec<_>>().join(" ")
+    } else {
+        s
+    }
+}
+
+/// Loads a mesh file by extension: `.obj` (tobj) or `.gltf` / `.glb` (gltf).
+pub fn load_mesh_file(path: &Path) -> Result<Mesh, LoadError> {
+    let ext = path
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    let mesh = match ext.as_str() {
+        "obj" => obj_mesh::load_obj(path)?,
+        "gltf" | "glb" => gltf_mesh::load_gltf(path)?,
+        other => {
+            return Err(LoadError::parse(
+                path,
+                format!("unsupported mesh format `.{other}` (expected .obj, .gltf or .glb)"),
+            ))
+        }
+    };
+    mesh.validate().map_err(|m| LoadError::parse(path, m))?;
+    Ok(mesh)
+}
