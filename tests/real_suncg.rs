@@ -43,15 +43,27 @@ fn real_suncg_house_loads_with_all_objects_categories_and_bbox() {
     assert_eq!(models.len(), 40);
     // Each distinct model is stored once: 40 object meshes + 3 room meshes.
     assert_eq!(scene.meshes.len(), 43);
-    assert!(level.objects.iter().all(|o| o.categories.fine.is_some()), "{:?}", loaded.warnings);
+    assert!(
+        level.objects.iter().all(|o| o.categories.fine.is_some()),
+        "{:?}",
+        loaded.warnings
+    );
     assert!(level.objects.iter().all(|o| o.rooms == vec![0]));
     assert!(level.objects.iter().any(|o| o.flags.door));
     assert!(level.objects.iter().any(|o| o.flags.window));
     // The file's level bbox.
     let (min, max) = ([37.315_26, 0.0, 37.292_77], [45.074_735, 2.74, 42.15]);
     for a in 0..3 {
-        assert!((level.bbox.min[a] - min[a]).abs() < 1e-3, "min {a}: {}", level.bbox.min);
-        assert!((level.bbox.max[a] - max[a]).abs() < 1e-3, "max {a}: {}", level.bbox.max);
+        assert!(
+            (level.bbox.min[a] - min[a]).abs() < 1e-3,
+            "min {a}: {}",
+            level.bbox.min
+        );
+        assert!(
+            (level.bbox.max[a] - max[a]).abs() < 1e-3,
+            "max {a}: {}",
+            level.bbox.max
+        );
     }
     let floor = level.rooms[0]
         .surfaces
@@ -59,9 +71,17 @@ fn real_suncg_house_loads_with_all_objects_categories_and_bbox() {
         .find(|s| s.kind == SurfaceKind::Floor)
         .unwrap();
     assert!(scene.meshes[floor.mesh as usize].triangle_count() > 0);
-    assert!(level.rooms[0].area > 20.0 && level.rooms[0].area < 40.0, "{}", level.rooms[0].area);
+    assert!(
+        level.rooms[0].area > 20.0 && level.rooms[0].area < 40.0,
+        "{}",
+        level.rooms[0].area
+    );
     // Mirrored instances keep their faces pointing along their normals.
-    let mirrored: Vec<_> = level.objects.iter().filter(|o| o.transform.determinant() < 0.0).collect();
+    let mirrored: Vec<_> = level
+        .objects
+        .iter()
+        .filter(|o| o.transform.determinant() < 0.0)
+        .collect();
     assert_eq!(mirrored.len(), 4);
     for o in mirrored {
         let w = scene.object_world_mesh(o).unwrap();
@@ -72,6 +92,11 @@ fn real_suncg_house_loads_with_all_objects_categories_and_bbox() {
                 n.length() > 1e-9 && n.normalize().dot(vn) > 0.0
             })
             .count();
-        assert!(agree * 10 >= (w.indices.len() / 3) * 8, "object {}: {agree} of {}", o.id, w.indices.len() / 3);
+        assert!(
+            agree * 10 >= (w.indices.len() / 3) * 8,
+            "object {}: {agree} of {}",
+            o.id,
+            w.indices.len() / 3
+        );
     }
 }

@@ -11,6 +11,7 @@ mod demo;
 mod export;
 mod generate;
 mod ingest;
+mod range;
 mod split;
 mod stats;
 
@@ -58,7 +59,10 @@ pub fn main() -> ExitCode {
     let cli = Cli::parse();
     let ctx = Context::new(cli.quiet, cli.verbose);
     if let Some(n) = cli.threads {
-        if let Err(e) = rayon::ThreadPoolBuilder::new().num_threads(n).build_global() {
+        if let Err(e) = rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build_global()
+        {
             eprintln!("error: --threads {n}: {e}");
             return ExitCode::FAILURE;
         }

@@ -1,1 +1,221 @@
-//! Ingest: load a batch of scenes, compile them, write the manifest.
+//! Ingest: find the scenes of a dataset root, load each in parallel, write one compiled scene
+//! per scene under `DATA/scenes/` and the manifest `DATA/houses.parquet`.
+//!
+//! A scene that fails gets an error row and the batch goes on. A compiled scene newer than
+//! all its sources is reused (unless `force`), so re-running resumes an interrupted ingest.
+//! Rows of scenes not in this run (another dataset, an `--ids` subset) are kept.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+use std::time::SystemTime;
+
+use rayon::prelude::*;
+
+use crate::io::manifest::{read_manifest, write_manifest, ManifestError, ManifestRow};
+use crate::io::scene_file::{read_header, read_scene, scene_path, write_scene, SceneHeader};
+use crate::progress::Progress;
+use crate::scene::formats::suncg::{HouseEntry, SuncgLoader};
+use crate::scene::formats::LoadError;
+
+/// Dataset formats ingest reads.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DatasetFormat {
+    /// SUNCG `house.json` houses.
+    Suncg,
+}
+
+/// What to ingest.
+#[derive(Debug, Clone)]
+pub struct IngestConfig {
+    /// Format of the dataset.
+    pub format: DatasetFormat,
+    /// Dataset root.
+    pub root: PathBuf,
+    /// DATA folder to fill.
+    pub data: PathBuf,
+    /// Only these scene ids (all when `None`).
+    pub ids: Option<Vec<String>>,
+    /// Rebuild compiled scenes even when up to date.
+    pub force: bool,
+    /// Category table overriding the one found under the root.
+    pub categories: Option<PathBuf>,
+}
+
+/// How one scene went.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Outcome {
+    /// Loaded from its sources and compiled.
+    Compiled,
+    /// Its compiled scene was up to date.
+    UpToDate,
+    /// It failed (the row holds the error).
+    Failed,
+}
+
+/// What ingest did.
+#[derive(Debug, Default)]
+pub struct IngestReport {
+    /// This run's rows with their outcome, sorted by id.
+    pub scenes: Vec<(ManifestRow, Outcome)>,
+    /// Requested ids that the root does not hold.
+    pub missing_ids: Vec<String>,
+    /// Non-fatal remarks, one line each.
+    pub warnings: Vec<String>,
+    /// The manifest written.
+    pub manifest: PathBuf,
+}
+
+impl IngestReport {
+    /// Number of scenes with the given outcome.
+    pub fn count(&self, outcome: Outcome) -> usize {
+        self.scenes.iter().filter(|(_, o)| *o == outcome).count()
+    }
+}
+
+/// Errors that stop a whole ingest (per-scene errors become rows instead).
+#[derive(Debug, thiserror::Error)]
+pub enum IngestError {
+    /// The root or its category table cannot be read.
+    #[error(transparent)]
+    Load(#[from] LoadError),
+    /// The manifest cannot be read or written.
+    #[error(transparent)]
+    Manifest(#[from] ManifestError),
+    /// An `--ids` file problem.
+    #[error("{0}")]
+    Ids(String),
+}
+
+/// Reads an id list: one id per line, `#` comments and blank lines ignored.
+pub fn read_id_list(path: &Path) -> Result<Vec<String>, IngestError> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| IngestError::Ids(format!("{}: {e}", path.display())))?;
+    Ok(text
+        .lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty() && !l.starts_with('#'))
+        .map(str::to_string)
+        .collect())
+}
+
+fn mtime(path: &Path) -> Option<SystemTime> {
+    std::fs::metadata(path).and_then(|m| m.modified()).ok()
+}
+
+/// True when the compiled scene exists, was built from `source`, and is newer than every
+/// file it was built from.
+fn up_to_date(compiled: &Path, source: &Path) -> bool {
+    let Some(built) = mtime(compiled) else {
+        return false;
+    };
+    let Ok(header) = read_header(compiled) else {
+        return false;
+    };
+    header.source == source.display().to_string()
+        && header
+            .sources
+            .iter()
+            .all(|s| mtime(Path::new(s)).is_some_and(|t| t <= built))
+}
+
+fn ingest_one(
+    loader: &SuncgLoader,
+    house: &HouseEntry,
+    data: &Path,
+    force: bool,
+) -> (ManifestRow, Outcome, Vec<String>) {
+    let compiled = scene_path(data, &house.id);
+    let source = house.path.display().to_string();
+    let fail = |e: String| {
+        // A stale compiled scene must not outlive a source that no longer loads.
+        let _ = std::fs::remove_file(&compiled);
+        (
+            ManifestRow::failed(&house.id, "suncg", &source, e),
+            Outcome::Failed,
+            Vec::new(),
+        )
+    };
+    if !force && up_to_date(&compiled, &house.path) {
+        if let Ok((header, scene)) = read_scene(&compiled) {
+            return (
+                ManifestRow::from_scene(&scene, &header.source),
+                Outcome::UpToDate,
+                Vec::new(),
+            );
+        }
+    }
+    let loaded = match loader.load(house) {
+        Ok(l) => l,
+        Err(e) => return fail(e.to_string()),
+    };
+    let header = SceneHeader {
+        id: house.id.clone(),
+        source: source.clone(),
+        sources: loaded
+            .sources
+            .iter()
+            .map(|p| p.display().to_string())
+            .collect(),
+    };
+    if let Err(e) = write_scene(&compiled, &header, &loaded.scene) {
+        return fail(e.to_string());
+    }
+    (
+        ManifestRow::from_scene(&loaded.scene, &source),
+        Outcome::Compiled,
+        loaded.warnings,
+    )
+}
+
+/// Ingests every selected scene of the root into the DATA folder.
+pub fn ingest(cfg: &IngestConfig, progress: &dyn Progress) -> Result<IngestReport, IngestError> {
+    let DatasetFormat::Suncg = cfg.format;
+    let loader = SuncgLoader::open(&cfg.root, cfg.categories.as_deref())?;
+    let mut report = IngestReport {
+        manifest: cfg.data.join("houses.parquet"),
+        ..Default::default()
+    };
+    if loader.mapping_path().is_none() {
+        report.warnings.push(format!(
+            "{}: no metadata/ModelCategoryMapping.csv: objects will have no categories (pass --categories FILE)",
+            cfg.root.display()
+        ));
+    }
+    let mut houses = loader.discover()?;
+    if let Some(ids) = &cfg.ids {
+        let wanted: BTreeSet<&str> = ids.iter().map(String::as_str).collect();
+        let present: BTreeSet<String> = houses.iter().map(|h| h.id.clone()).collect();
+        report.missing_ids = wanted
+            .iter()
+            .filter(|id| !present.contains(**id))
+            .map(|s| s.to_string())
+            .collect();
+        houses.retain(|h| wanted.contains(h.id.as_str()));
+    }
+    progress.set_total(houses.len() as u64);
+    let results: Vec<(ManifestRow, Outcome, Vec<String>)> = houses
+        .par_iter()
+        .map(|h| {
+            let r = ingest_one(&loader, h, &cfg.data, cfg.force);
+            progress.advance(1);
+            r
+        })
+        .collect();
+    for (row, outcome, warnings) in results {
+        report.warnings.extend(warnings);
+        report.scenes.push((row, outcome));
+    }
+    // Merge with the rows of scenes this run did not touch.
+    let mut rows: BTreeMap<String, ManifestRow> = BTreeMap::new();
+    if report.manifest.is_file() {
+        for row in read_manifest(&report.manifest)? {
+            rows.insert(row.id.clone(), row);
+        }
+    }
+    for (row, _) in &report.scenes {
+        rows.insert(row.id.clone(), row.clone());
+    }
+    let rows: Vec<ManifestRow> = rows.into_values().collect();
+    write_manifest(&report.manifest, &rows)?;
+    Ok(report)
+}

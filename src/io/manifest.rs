@@ -12,8 +12,8 @@ use std::path::Path;
 use std::sync::Arc;
 
 use arrow::array::{
-    Array, ArrayRef, Float64Array, ListArray, ListBuilder, RecordBatch, StringArray,
-    StringBuilder, UInt32Array, UInt64Array,
+    Array, ArrayRef, Float64Array, ListArray, ListBuilder, RecordBatch, StringArray, StringBuilder,
+    UInt32Array, UInt64Array,
 };
 use arrow::datatypes::{DataType, Field, Schema};
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
@@ -142,10 +142,22 @@ fn schema() -> Arc<Schema> {
         Field::new("nobjects", DataType::UInt32, true),
         Field::new("floor_area", DataType::Float64, true),
     ];
-    for c in ["bbox_min_x", "bbox_min_y", "bbox_min_z", "bbox_max_x", "bbox_max_y", "bbox_max_z"] {
+    for c in [
+        "bbox_min_x",
+        "bbox_min_y",
+        "bbox_min_z",
+        "bbox_max_x",
+        "bbox_max_y",
+        "bbox_max_z",
+    ] {
         fields.push(Field::new(c, DataType::Float64, true));
     }
-    for c in ["room_classes", "room_types", "categories", "coarse_categories"] {
+    for c in [
+        "room_classes",
+        "room_types",
+        "categories",
+        "coarse_categories",
+    ] {
         fields.push(Field::new(c, list(), true));
     }
     fields.push(Field::new("ntriangles", DataType::UInt64, true));
@@ -159,10 +171,18 @@ fn to_batch(rows: &[ManifestRow]) -> Result<RecordBatch, arrow::error::ArrowErro
         Arc::new(StringArray::from_iter_values(rows.iter().map(f)))
     };
     let u32s = |f: fn(&ManifestRow) -> u32| -> ArrayRef {
-        Arc::new(rows.iter().map(|r| ok(r).then(|| f(r))).collect::<UInt32Array>())
+        Arc::new(
+            rows.iter()
+                .map(|r| ok(r).then(|| f(r)))
+                .collect::<UInt32Array>(),
+        )
     };
     let f64s = |f: &dyn Fn(&ManifestRow) -> f64| -> ArrayRef {
-        Arc::new(rows.iter().map(|r| ok(r).then(|| f(r))).collect::<Float64Array>())
+        Arc::new(
+            rows.iter()
+                .map(|r| ok(r).then(|| f(r)))
+                .collect::<Float64Array>(),
+        )
     };
     let lists = |f: fn(&ManifestRow) -> &Vec<String>| -> ArrayRef {
         let mut b = ListBuilder::new(StringBuilder::new());
@@ -203,7 +223,9 @@ fn to_batch(rows: &[ManifestRow]) -> Result<RecordBatch, arrow::error::ArrowErro
             .collect::<UInt64Array>(),
     ));
     columns.push(Arc::new(
-        rows.iter().map(|r| r.error.as_deref()).collect::<StringArray>(),
+        rows.iter()
+            .map(|r| r.error.as_deref())
+            .collect::<StringArray>(),
     ));
     RecordBatch::try_new(schema(), columns)
 }
@@ -217,7 +239,9 @@ pub fn write_manifest(path: &Path, rows: &[ManifestRow]) -> Result<(), ManifestE
     };
     let batch = to_batch(rows).map_err(|e| fmt(&e))?;
     let props = WriterProperties::builder()
-        .set_compression(Compression::ZSTD(ZstdLevel::try_new(3).map_err(|e| fmt(&e))?))
+        .set_compression(Compression::ZSTD(
+            ZstdLevel::try_new(3).map_err(|e| fmt(&e))?,
+        ))
         .build();
     write_atomic(path, |w| -> Result<(), WriteErr> {
         let mut writer = ArrowWriter::try_new(w, batch.schema(), Some(props))?;
@@ -226,7 +250,10 @@ pub fn write_manifest(path: &Path, rows: &[ManifestRow]) -> Result<(), ManifestE
         Ok(())
     })
     .map_err(|e| match e {
-        WriteErr::Io(source) => ManifestError::Io { path: p.clone(), source },
+        WriteErr::Io(source) => ManifestError::Io {
+            path: p.clone(),
+            source,
+        },
         WriteErr::Parquet(e) => fmt(&e),
     })
 }
@@ -279,15 +306,25 @@ fn read_batch(batch: &RecordBatch, rows: &mut Vec<ManifestRow>) -> Result<(), St
     let nobjects = column::<UInt32Array>(batch, "nobjects")?;
     let area = column::<Float64Array>(batch, "floor_area")?;
     let bbox: Vec<&Float64Array> = [
-        "bbox_min_x", "bbox_min_y", "bbox_min_z", "bbox_max_x", "bbox_max_y", "bbox_max_z",
+        "bbox_min_x",
+        "bbox_min_y",
+        "bbox_min_z",
+        "bbox_max_x",
+        "bbox_max_y",
+        "bbox_max_z",
     ]
     .iter()
     .map(|c| column::<Float64Array>(batch, c))
     .collect::<Result<_, _>>()?;
-    let lists: Vec<&ListArray> = ["room_classes", "room_types", "categories", "coarse_categories"]
-        .iter()
-        .map(|c| column::<ListArray>(batch, c))
-        .collect::<Result<_, _>>()?;
+    let lists: Vec<&ListArray> = [
+        "room_classes",
+        "room_types",
+        "categories",
+        "coarse_categories",
+    ]
+    .iter()
+    .map(|c| column::<ListArray>(batch, c))
+    .collect::<Result<_, _>>()?;
     let ntri = column::<UInt64Array>(batch, "ntriangles")?;
     let error = column::<StringArray>(batch, "error")?;
     let list_at = |l: &ListArray, i: usize| -> Vec<String> {

@@ -91,7 +91,10 @@ impl Mesh {
     pub fn validate(&self) -> Result<(), String> {
         let n = self.positions.len();
         if self.indices.len() % 3 != 0 {
-            return Err(format!("{} indices is not a multiple of 3", self.indices.len()));
+            return Err(format!(
+                "{} indices is not a multiple of 3",
+                self.indices.len()
+            ));
         }
         if let Some(bad) = self.indices.iter().find(|&&i| i as usize >= n) {
             return Err(format!("index {bad} out of range for {n} vertices"));
@@ -119,7 +122,11 @@ impl Mesh {
                 self.materials.len()
             ));
         }
-        if let Some(p) = self.positions.iter().find(|p| !p.iter().all(|v| v.is_finite())) {
+        if let Some(p) = self
+            .positions
+            .iter()
+            .find(|p| !p.iter().all(|v| v.is_finite()))
+        {
             return Err(format!("non-finite vertex position {p:?}"));
         }
         Ok(())
@@ -216,7 +223,11 @@ mod tests {
         let w = WorldMesh::place(&m, &mirror);
         assert_eq!(w.indices, vec![0, 2, 1]);
         let geometric = w.face_normal(0).normalize();
-        assert!(geometric.dot(w.normals[0]) > 0.99, "{geometric} vs {}", w.normals[0]);
+        assert!(
+            geometric.dot(w.normals[0]) > 0.99,
+            "{geometric} vs {}",
+            w.normals[0]
+        );
         let plain = WorldMesh::place(&m, &Mat4::IDENTITY);
         assert_eq!(plain.indices, vec![0, 1, 2]);
     }

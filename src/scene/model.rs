@@ -227,7 +227,11 @@ impl Scene {
                     .map(|s| tri(s.mesh))
                     .sum::<u64>()
                     + l.ground.iter().map(|&g| tri(g)).sum::<u64>()
-                    + l.objects.iter().filter_map(|o| o.mesh).map(tri).sum::<u64>()
+                    + l.objects
+                        .iter()
+                        .filter_map(|o| o.mesh)
+                        .map(tri)
+                        .sum::<u64>()
             })
             .sum()
     }
@@ -248,7 +252,8 @@ impl Scene {
     pub fn validate(&self) -> Result<(), String> {
         let nmesh = self.meshes.len() as u32;
         for (i, m) in self.meshes.iter().enumerate() {
-            m.validate().map_err(|e| format!("mesh {i} ({}): {e}", m.name))?;
+            m.validate()
+                .map_err(|e| format!("mesh {i} ({}): {e}", m.name))?;
         }
         for l in &self.levels {
             for r in &l.rooms {

@@ -147,8 +147,14 @@ impl FlagTable {
     pub fn flags_of(&self, cats: &Categories) -> ObjectFlags {
         let mut f = ObjectFlags::default();
         for (category, flag) in &self.rows {
-            if cats.fine.as_deref().is_some_and(|c| c.eq_ignore_ascii_case(category))
-                || cats.coarse.as_deref().is_some_and(|c| c.eq_ignore_ascii_case(category))
+            if cats
+                .fine
+                .as_deref()
+                .is_some_and(|c| c.eq_ignore_ascii_case(category))
+                || cats
+                    .coarse
+                    .as_deref()
+                    .is_some_and(|c| c.eq_ignore_ascii_case(category))
             {
                 match flag.as_str() {
                     "door" => f.door = true,
@@ -180,8 +186,8 @@ impl ModelCategories {
             .ok_or_else(|| format!("{source}: empty file"))?;
         let cols: Vec<&str> = header.split(',').map(str::trim).collect();
         let find = |name: &str| cols.iter().position(|c| *c == name);
-        let model = find("model_id")
-            .ok_or_else(|| format!("{source}: line 1: no `model_id` column"))?;
+        let model =
+            find("model_id").ok_or_else(|| format!("{source}: line 1: no `model_id` column"))?;
         let fine = find("fine_grained_class");
         let coarse = find("coarse_grained_class");
         let nyu = find("nyuv2_40class");
@@ -267,7 +273,10 @@ mod tests {
         let flags = FlagTable::builtin();
         assert!(flags.flags_of(t.get("122").unwrap()).door);
         let arch = flags.flags_of(t.get("778").unwrap());
-        assert!(arch.arch && !arch.door, "nyu40 `door` must not make an arch a door");
+        assert!(
+            arch.arch && !arch.door,
+            "nyu40 `door` must not make an arch a door"
+        );
         assert_eq!(flags.flags_of(bed), ObjectFlags::default());
     }
 

@@ -29,11 +29,16 @@ pub fn load_gltf(path: &Path) -> Result<Mesh, LoadError> {
         ..Default::default()
     };
     let mut slots: HashMap<Option<usize>, u16> = HashMap::new();
-    let roots: Vec<gltf::Node> = match gltf.document.default_scene().or_else(|| gltf.document.scenes().next()) {
+    let roots: Vec<gltf::Node> = match gltf
+        .document
+        .default_scene()
+        .or_else(|| gltf.document.scenes().next())
+    {
         Some(scene) => scene.nodes().collect(),
         None => gltf.document.nodes().collect(),
     };
-    let mut stack: Vec<(gltf::Node, Mat4)> = roots.into_iter().map(|n| (n, Mat4::IDENTITY)).collect();
+    let mut stack: Vec<(gltf::Node, Mat4)> =
+        roots.into_iter().map(|n| (n, Mat4::IDENTITY)).collect();
     let mut visited = 0usize;
     while let Some((node, parent)) = stack.pop() {
         visited += 1;
@@ -57,7 +62,8 @@ pub fn load_gltf(path: &Path) -> Result<Mesh, LoadError> {
         out.uvs.clear();
     }
     if out.materials.is_empty() {
-        out.materials.push(Material::solid("default", [0.7, 0.7, 0.7]));
+        out.materials
+            .push(Material::solid("default", [0.7, 0.7, 0.7]));
     }
     Ok(out)
 }
@@ -89,18 +95,22 @@ fn add_primitive(
         })
         .collect()
     });
-    let uvs: Option<Vec<[f32; 2]>> = reader
-        .read_tex_coords(0)
-        .map(|t| t.into_f32().collect());
+    let uvs: Option<Vec<[f32; 2]>> = reader.read_tex_coords(0).map(|t| t.into_f32().collect());
     let indices: Vec<u32> = match reader.read_indices() {
         Some(i) => i.into_u32().collect(),
         None => (0..n as u32).collect(),
     };
     if indices.len() % 3 != 0 {
-        return Err(LoadError::parse(path, "triangle primitive index count not a multiple of 3"));
+        return Err(LoadError::parse(
+            path,
+            "triangle primitive index count not a multiple of 3",
+        ));
     }
     if let Some(bad) = indices.iter().find(|&&i| i as usize >= n) {
-        return Err(LoadError::parse(path, format!("index {bad} out of range ({n} vertices)")));
+        return Err(LoadError::parse(
+            path,
+            format!("index {bad} out of range ({n} vertices)"),
+        ));
     }
     let mirrored = world.determinant() < 0.0;
     out.positions.extend(positions);
@@ -132,13 +142,18 @@ fn add_primitive(
             s
         }
     };
-    out.face_materials
-        .extend(std::iter::repeat_n(slot, (out.indices.len() - first_tri) / 3));
+    out.face_materials.extend(std::iter::repeat_n(
+        slot,
+        (out.indices.len() - first_tri) / 3,
+    ));
     if !had_normals {
         // Flat normals for this primitive only.
         for t in out.indices[first_tri..].chunks_exact(3) {
             let p = |i: u32| Vec3::from_array(out.positions[i as usize]);
-            let nrm = (p(t[1]) - p(t[0])).cross(p(t[2]) - p(t[0])).try_normalize().unwrap_or(Vec3::Y);
+            let nrm = (p(t[1]) - p(t[0]))
+                .cross(p(t[2]) - p(t[0]))
+                .try_normalize()
+                .unwrap_or(Vec3::Y);
             for &i in t {
                 out.normals[i as usize] = nrm.to_array();
             }

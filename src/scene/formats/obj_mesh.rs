@@ -26,7 +26,10 @@ pub fn load_obj(path: &Path) -> Result<Mesh, LoadError> {
     let materials = match materials {
         Ok(m) => m,
         Err(e) => {
-            tracing::debug!("{}: MTL not loaded ({e}); using default materials", path.display());
+            tracing::debug!(
+                "{}: MTL not loaded ({e}); using default materials",
+                path.display()
+            );
             Vec::new()
         }
     };
@@ -48,17 +51,20 @@ pub fn load_obj(path: &Path) -> Result<Mesh, LoadError> {
                 .extend(m.normals.chunks_exact(3).map(|n| [n[0], n[1], n[2]]));
         } else {
             needs_normals = true;
-            mesh.normals.extend(std::iter::repeat_n([0.0, 1.0, 0.0], nverts));
+            mesh.normals
+                .extend(std::iter::repeat_n([0.0, 1.0, 0.0], nverts));
         }
         if m.texcoords.len() / 2 == nverts {
-            mesh.uvs.extend(m.texcoords.chunks_exact(2).map(|t| [t[0], t[1]]));
+            mesh.uvs
+                .extend(m.texcoords.chunks_exact(2).map(|t| [t[0], t[1]]));
         } else {
             mesh.uvs.extend(std::iter::repeat_n([0.0, 0.0], nverts));
         }
         let slot = match m.material_id {
             Some(id) if id < mesh.materials.len() => id as u16,
             _ => *default_slot.get_or_insert_with(|| {
-                mesh.materials.push(Material::solid("default", [0.7, 0.7, 0.7]));
+                mesh.materials
+                    .push(Material::solid("default", [0.7, 0.7, 0.7]));
                 (mesh.materials.len() - 1) as u16
             }),
         };

@@ -16,8 +16,7 @@ use serde::Deserialize;
 use crate::scene::geometry::Aabb;
 use crate::scene::mesh::Mesh;
 use crate::scene::model::{
-    Categories, Dataset, Level, MaterialOverride, MeshId, Object, Room, Scene, Surface,
-    SurfaceKind,
+    Categories, Dataset, Level, MaterialOverride, MeshId, Object, Room, Scene, Surface, SurfaceKind,
 };
 use crate::scene::taxonomy::{FlagTable, ModelCategories, RoomTypeTable};
 
@@ -145,7 +144,11 @@ impl SuncgLoader {
     /// sorted by id.
     pub fn discover(&self) -> Result<Vec<HouseEntry>, LoadError> {
         let standard = self.root.join("house");
-        let dir = if standard.is_dir() { standard } else { self.root.clone() };
+        let dir = if standard.is_dir() {
+            standard
+        } else {
+            self.root.clone()
+        };
         let entries = std::fs::read_dir(&dir).map_err(|source| LoadError::Io {
             path: dir.clone(),
             source,
@@ -174,7 +177,12 @@ impl SuncgLoader {
         let json: HouseJson = serde_json::from_slice(&nan_tokens_to_null(&bytes)).map_err(|e| {
             LoadError::parse(
                 path,
-                format!("line {} column {}: {}", e.line(), e.column(), strip_position(&e)),
+                format!(
+                    "line {} column {}: {}",
+                    e.line(),
+                    e.column(),
+                    strip_position(&e)
+                ),
             )
         })?;
         let mut ctx = HouseBuild {
@@ -192,8 +200,10 @@ impl SuncgLoader {
             object_meshes: HashMap::new(),
         };
         if let Some(id) = json.id.as_deref().filter(|id| *id != house.id) {
-            ctx.warnings
-                .push(format!("{}: id `{id}` differs from folder name", path.display()));
+            ctx.warnings.push(format!(
+                "{}: id `{id}` differs from folder name",
+                path.display()
+            ));
         }
         for (index, level) in json.levels.iter().enumerate() {
             let level = ctx.level(index as u32, level)?;
@@ -217,7 +227,11 @@ impl SuncgLoader {
         let beside = house.path.parent().unwrap_or(Path::new("."));
         let candidates: Vec<PathBuf> = [standard.as_path(), beside]
             .into_iter()
-            .flat_map(|dir| MESH_EXTENSIONS.iter().map(move |ext| dir.join(format!("{stem}.{ext}"))))
+            .flat_map(|dir| {
+                MESH_EXTENSIONS
+                    .iter()
+                    .map(move |ext| dir.join(format!("{stem}.{ext}")))
+            })
             .collect();
         candidates.into_iter().find(|p| p.is_file())
     }
@@ -264,7 +278,12 @@ impl HouseBuild<'_> {
     }
 
     /// Loads a world-space room/ground mesh `<modelId><suffix>`, applying the root transform.
-    fn world_mesh(&mut self, node: &NodeJson, model: &str, suffix: &str) -> Result<MeshId, LoadError> {
+    fn world_mesh(
+        &mut self,
+        node: &NodeJson,
+        model: &str,
+        suffix: &str,
+    ) -> Result<MeshId, LoadError> {
         let stem = format!("{model}{suffix}");
         let file = self
             .loader
@@ -438,7 +457,10 @@ impl HouseBuild<'_> {
             .map(|(slot, m)| {
                 let diffuse = match &m.diffuse {
                     Some(hex) => Some(parse_hex_color(hex).ok_or_else(|| {
-                        self.node_err(&node.id, format!("materials[{slot}].diffuse `{hex}` is not a #rrggbb colour"))
+                        self.node_err(
+                            &node.id,
+                            format!("materials[{slot}].diffuse `{hex}` is not a #rrggbb colour"),
+                        )
                     })?),
                     None => None,
                 };
@@ -469,17 +491,25 @@ impl HouseBuild<'_> {
             .as_ref()
             .ok_or_else(|| self.node_err(&node.id, "object without `transform`"))?;
         if t.len() != 16 {
-            return Err(self.node_err(&node.id, format!("transform has {} values, expected 16", t.len())));
+            return Err(self.node_err(
+                &node.id,
+                format!("transform has {} values, expected 16", t.len()),
+            ));
         }
         let mut m = [0f32; 16];
         for (i, v) in t.iter().enumerate() {
             match v {
                 Some(v) if v.is_finite() && v.abs() < 1e12 => m[i] = *v as f32,
                 Some(v) => {
-                    return Err(self.node_err(&node.id, format!("transform[{i}] is {v}, not a finite number")))
+                    return Err(self.node_err(
+                        &node.id,
+                        format!("transform[{i}] is {v}, not a finite number"),
+                    ))
                 }
                 None => {
-                    return Err(self.node_err(&node.id, format!("transform[{i}] is NaN, infinite or null")))
+                    return Err(
+                        self.node_err(&node.id, format!("transform[{i}] is NaN, infinite or null"))
+                    )
                 }
             }
         }
@@ -495,7 +525,10 @@ impl HouseBuild<'_> {
 fn root_transform(json: &HouseJson, path: &Path) -> Result<Mat4, LoadError> {
     let scale = json.scale_to_meters.unwrap_or(1.0);
     if !(scale.is_finite() && scale > 0.0) {
-        return Err(LoadError::parse(path, format!("scaleToMeters is {scale}, expected a positive number")));
+        return Err(LoadError::parse(
+            path,
+            format!("scaleToMeters is {scale}, expected a positive number"),
+        ));
     }
     let up = json.up.unwrap_or([0.0, 1.0, 0.0]);
     let up = Vec3::new(up[0] as f32, up[1] as f32, up[2] as f32);
@@ -515,8 +548,16 @@ pub fn floor_area_and_height(mesh: &Mesh) -> (f64, Option<f32>) {
     for t in mesh.indices.chunks_exact(3) {
         let p = |i: u32| mesh.positions[i as usize];
         let (a, b, c) = (p(t[0]), p(t[1]), p(t[2]));
-        let (ux, uy, uz) = (f64::from(b[0] - a[0]), f64::from(b[1] - a[1]), f64::from(b[2] - a[2]));
-        let (vx, vy, vz) = (f64::from(c[0] - a[0]), f64::from(c[1] - a[1]), f64::from(c[2] - a[2]));
+        let (ux, uy, uz) = (
+            f64::from(b[0] - a[0]),
+            f64::from(b[1] - a[1]),
+            f64::from(b[2] - a[2]),
+        );
+        let (vx, vy, vz) = (
+            f64::from(c[0] - a[0]),
+            f64::from(c[1] - a[1]),
+            f64::from(c[2] - a[2]),
+        );
         // y component of (b - a) x (c - a): positive when the triangle faces up.
         let ny = uz * vx - ux * vz;
         let len = ((uy * vz - uz * vy).powi(2) + ny.powi(2) + (ux * vy - uy * vx).powi(2)).sqrt();
@@ -609,7 +650,10 @@ mod tests {
 
     #[test]
     fn hex_colours_parse() {
-        assert_eq!(parse_hex_color("#ff0080"), Some([1.0, 0.0, 128.0 / 255.0, 1.0]));
+        assert_eq!(
+            parse_hex_color("#ff0080"),
+            Some([1.0, 0.0, 128.0 / 255.0, 1.0])
+        );
         assert_eq!(parse_hex_color("ff0080"), None);
         assert_eq!(parse_hex_color("#ff00"), None);
     }

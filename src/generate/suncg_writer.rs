@@ -1,0 +1,308 @@
+//! Writes plans in SUNCG's on-disk layout:
+//! `house/<id>/house.json`, `room/<id>/<modelId>{f,c,w}.obj/.mtl`,
+//! `object/<modelId>/<modelId>.obj/.mtl` and `metadata/ModelCategoryMapping.csv`.
+//!
+//! Every file is written atomically, and `house.json` last, so a house whose `house.json`
+//! exists is complete.
+
+use std::fmt::Write as _;
+use std::io;
+use std::path::Path;
+
+use serde_json::{json, Value};
+
+use crate::io::atomic::write_bytes_atomic;
+
+use super::catalog::catalog;
+use super::objwrite::{mtl_text, ObjText};
+use super::plan::{HousePlan, LevelPlan, Rect, RoomPlan, Side, WALL_T};
+
+/// Writes the model library (`object/`) and its category table (`metadata/`).
+pub fn write_library(root: &Path) -> io::Result<()> {
+    let mut csv = String::from(
+        "index,model_id,fine_grained_class,coarse_grained_class,empty_struct_obj,nyuv2_40class,wnsynsetid,wnsynsetkey\n",
+    );
+    for (i, m) in catalog().models.iter().enumerate() {
+        let dir = root.join("object").join(&m.id);
+        let names: Vec<String> = m.materials.iter().map(|x| x.name.clone()).collect();
+        let mut obj = ObjText::new(&format!("{}.mtl", m.id));
+        for p in &m.parts {
+            obj.add_box(p.min, p.max, p.material);
+        }
+        write_bytes_atomic(
+            &dir.join(format!("{}.obj", m.id)),
+            obj.finish(&names).as_bytes(),
+        )?;
+        let mtl: Vec<(String, [f64; 3], f64)> = m
+            .materials
+            .iter()
+            .map(|x| (x.name.clone(), x.rgb, x.alpha))
+            .collect();
+        write_bytes_atomic(
+            &dir.join(format!("{}.mtl", m.id)),
+            mtl_text(&mtl).as_bytes(),
+        )?;
+        let structure = if m.fine == "stairs" { 1 } else { 2 };
+        let _ = writeln!(
+            csv,
+            "{i},{},{},{},{structure},{},-,-",
+            m.id, m.fine, m.coarse, m.nyu40
+        );
+    }
+    write_bytes_atomic(
+        &root.join("metadata").join("ModelCategoryMapping.csv"),
+        csv.as_bytes(),
+    )
+}
+
+fn room_model_id(level: usize, k: usize) -> String {
+    format!("fr_{level}rm_{k}")
+}
+
+fn ground_model_id(level: usize) -> String {
+    format!("fr_{level}gd_0")
+}
+
+fn hex(rgb: [f64; 3]) -> String {
+    let c = |v: f64| (v.clamp(0.0, 1.0) * 255.0).round() as u8;
+    format!("#{:02x}{:02x}{:02x}", c(rgb[0]), c(rgb[1]), c(rgb[2]))
+}
+
+fn r4(v: f64) -> f64 {
+    let r = (v * 10_000.0).round() / 10_000.0;
+    if r == 0.0 {
+        0.0
+    } else {
+        r
+    }
+}
+
+fn bbox_json(lo: [f64; 3], hi: [f64; 3]) -> Value {
+    json!({"min": [r4(lo[0]), r4(lo[1]), r4(lo[2])], "max": [r4(hi[0]), r4(hi[1]), r4(hi[2])]})
+}
+
+const ROOM_MATERIALS: [(&str, [f64; 3]); 3] = [
+    ("floor", [0.62, 0.5, 0.38]),
+    ("ceiling", [0.95, 0.95, 0.95]),
+    ("wall", [0.85, 0.83, 0.78]),
+];
+
+fn write_obj_mtl(dir: &Path, stem: &str, obj: ObjText, material: usize) -> io::Result<()> {
+    let (name, rgb) = ROOM_MATERIALS[material];
+    let names: Vec<String> = ROOM_MATERIALS.iter().map(|(n, _)| n.to_string()).collect();
+    write_bytes_atomic(
+        &dir.join(format!("{stem}.obj")),
+        obj.finish(&names).as_bytes(),
+    )?;
+    write_bytes_atomic(
+        &dir.join(format!("{stem}.mtl")),
+        mtl_text(&[(name.to_string(), rgb, 1.0)]).as_bytes(),
+    )
+}
+
+/// Wall boxes of one side of a room, with its openings cut out.
+fn wall_boxes(room: &RoomPlan, side: Side, base: f64, out: &mut ObjText) {
+    let r = room.rect;
+    let h = room.wall_height;
+    let (u_start, u_end) = if side.along_x() {
+        (r.x0, r.x1)
+    } else {
+        (r.z0, r.z1)
+    };
+    let openings: Vec<_> = room.openings.iter().filter(|o| o.side == side).collect();
+    let mut cuts = vec![u_start, u_end];
+    for o in &openings {
+        cuts.push(o.u0.clamp(u_start, u_end));
+        cuts.push(o.u1.clamp(u_start, u_end));
+    }
+    cuts.sort_by(f64::total_cmp);
+    cuts.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
+    for w in cuts.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        let mut holes: Vec<(f64, f64)> = openings
+            .iter()
+            .filter(|o| o.u0 <= a + 1e-9 && o.u1 >= b - 1e-9)
+            .map(|o| (o.y0.max(0.0), o.y1.min(h)))
+            .filter(|(y0, y1)| y1 > y0)
+            .collect();
+        holes.sort_by(|x, y| x.0.total_cmp(&y.0));
+        let mut y = 0.0;
+        let mut solid = Vec::new();
+        for (y0, y1) in holes {
+            if y0 > y {
+                solid.push((y, y0));
+            }
+            y = y.max(y1);
+        }
+        if y < h {
+            solid.push((y, h));
+        }
+        for (y0, y1) in solid {
+            let (min, max) = match side {
+                Side::MinX => ([r.x0, base + y0, a], [r.x0 + WALL_T, base + y1, b]),
+                Side::MaxX => ([r.x1 - WALL_T, base + y0, a], [r.x1, base + y1, b]),
+                Side::MinZ => ([a, base + y0, r.z0], [b, base + y1, r.z0 + WALL_T]),
+                Side::MaxZ => ([a, base + y0, r.z1 - WALL_T], [b, base + y1, r.z1]),
+            };
+            out.add_box(min, max, 2);
+        }
+    }
+}
+
+fn minus_all(r: Rect, holes: &[Rect]) -> Vec<Rect> {
+    let mut parts = vec![r];
+    for h in holes {
+        parts = parts.iter().flat_map(|p| p.minus(h)).collect();
+    }
+    parts
+}
+
+fn write_room(dir: &Path, model: &str, room: &RoomPlan, base: f64) -> io::Result<()> {
+    let mut floor = ObjText::new(&format!("{model}f.mtl"));
+    for part in minus_all(room.rect, &room.floor_holes) {
+        floor.add_flat(&part, base, true, 0);
+    }
+    write_obj_mtl(dir, &format!("{model}f"), floor, 0)?;
+    let mut ceiling = ObjText::new(&format!("{model}c.mtl"));
+    for part in minus_all(room.rect, &room.ceiling_holes) {
+        ceiling.add_flat(&part, base + room.wall_height, false, 1);
+    }
+    write_obj_mtl(dir, &format!("{model}c"), ceiling, 1)?;
+    let mut walls = ObjText::new(&format!("{model}w.mtl"));
+    for side in Side::ALL {
+        wall_boxes(room, side, base, &mut walls);
+    }
+    write_obj_mtl(dir, &format!("{model}w"), walls, 2)
+}
+
+fn level_nodes(li: usize, level: &LevelPlan, lo: &mut [f64; 3], hi: &mut [f64; 3]) -> Vec<Value> {
+    let mut grow = |a: [f64; 3], b: [f64; 3]| {
+        for k in 0..3 {
+            lo[k] = lo[k].min(a[k]);
+            hi[k] = hi[k].max(b[k]);
+        }
+    };
+    let nrooms = level.rooms.len();
+    let mut nodes = Vec::with_capacity(nrooms + level.objects.len() + 1);
+    for (k, room) in level.rooms.iter().enumerate() {
+        let members: Vec<usize> = level
+            .objects
+            .iter()
+            .enumerate()
+            .filter(|(_, o)| o.rooms.contains(&k))
+            .map(|(i, _)| nrooms + i)
+            .collect();
+        let a = [room.rect.x0, level.base_y, room.rect.z0];
+        let b = [room.rect.x1, level.base_y + room.wall_height, room.rect.z1];
+        grow(a, b);
+        nodes.push(json!({
+            "id": format!("{li}_{k}"),
+            "type": "Room",
+            "valid": 1,
+            "modelId": room_model_id(li, k),
+            "nodeIndices": members,
+            "roomTypes": [room.raw_type],
+            "bbox": bbox_json(a, b),
+            "hideCeiling": i32::from(room.hide_ceiling),
+            "hideFloor": 0,
+            "hideWalls": 0,
+        }));
+    }
+    for (i, o) in level.objects.iter().enumerate() {
+        let (a, b) = o.world_box();
+        grow(a, b);
+        let mut node = json!({
+            "id": format!("{li}_{}", nrooms + i),
+            "type": "Object",
+            "valid": 1,
+            "modelId": o.spec().id,
+            "transform": o.transform().iter().map(|v| r4(*v)).collect::<Vec<_>>(),
+            "bbox": bbox_json(a, b),
+        });
+        if o.colors.iter().any(Option::is_some) {
+            let mats: Vec<Value> = o
+                .spec()
+                .materials
+                .iter()
+                .zip(&o.colors)
+                .map(|(m, c)| json!({"name": m.name, "diffuse": hex(c.unwrap_or(m.rgb))}))
+                .collect();
+            node["materials"] = Value::Array(mats);
+        }
+        if o.mirrored {
+            node["isMirrored"] = json!(1);
+        }
+        nodes.push(node);
+    }
+    if let Some(g) = level.ground {
+        let a = [g.x0, level.base_y, g.z0];
+        let b = [g.x1, level.base_y, g.z1];
+        grow(a, b);
+        nodes.push(json!({
+            "id": format!("{li}_{}", nrooms + level.objects.len()),
+            "type": "Ground",
+            "valid": 1,
+            "modelId": ground_model_id(li),
+            "bbox": bbox_json(a, b),
+        }));
+    }
+    nodes
+}
+
+/// Writes one house (room meshes first, `house.json` last).
+pub fn write_house(root: &Path, plan: &HousePlan) -> io::Result<()> {
+    let room_dir = root.join("room").join(&plan.id);
+    let mut levels = Vec::new();
+    let mut house_lo = [f64::INFINITY; 3];
+    let mut house_hi = [f64::NEG_INFINITY; 3];
+    for (li, level) in plan.levels.iter().enumerate() {
+        for (k, room) in level.rooms.iter().enumerate() {
+            write_room(&room_dir, &room_model_id(li, k), room, level.base_y)?;
+        }
+        if let Some(g) = level.ground {
+            let footprint = level.rooms.iter().fold(
+                Rect::new(
+                    f64::INFINITY,
+                    f64::INFINITY,
+                    f64::NEG_INFINITY,
+                    f64::NEG_INFINITY,
+                ),
+                |acc, r| {
+                    Rect::new(
+                        acc.x0.min(r.rect.x0),
+                        acc.z0.min(r.rect.z0),
+                        acc.x1.max(r.rect.x1),
+                        acc.z1.max(r.rect.z1),
+                    )
+                },
+            );
+            let mut ground = ObjText::new(&format!("{}f.mtl", ground_model_id(li)));
+            for part in g.minus(&footprint) {
+                ground.add_flat(&part, level.base_y, true, 0);
+            }
+            write_obj_mtl(&room_dir, &format!("{}f", ground_model_id(li)), ground, 0)?;
+        }
+        let mut lo = [f64::INFINITY; 3];
+        let mut hi = [f64::NEG_INFINITY; 3];
+        let nodes = level_nodes(li, level, &mut lo, &mut hi);
+        for k in 0..3 {
+            house_lo[k] = house_lo[k].min(lo[k]);
+            house_hi[k] = house_hi[k].max(hi[k]);
+        }
+        levels.push(json!({"id": li.to_string(), "bbox": bbox_json(lo, hi), "nodes": nodes}));
+    }
+    let house = json!({
+        "version": "suncg@1.0.0",
+        "id": plan.id,
+        "up": [0, 1, 0],
+        "front": [0, 0, 1],
+        "scaleToMeters": 1,
+        "bbox": bbox_json(house_lo, house_hi),
+        "levels": levels,
+    });
+    let bytes = serde_json::to_vec(&house).map_err(io::Error::other)?;
+    write_bytes_atomic(
+        &root.join("house").join(&plan.id).join("house.json"),
+        &bytes,
+    )
+}
