@@ -1,1 +1,0 @@
-//! Scene export to OBJ and GLB.
