@@ -100,7 +100,7 @@ fn add_primitive(
         Some(i) => i.into_u32().collect(),
         None => (0..n as u32).collect(),
     };
-    if indices.len() % 3 != 0 {
+    if !indices.len().is_multiple_of(3) {
         return Err(LoadError::parse(
             path,
             "triangle primitive index count not a multiple of 3",
