@@ -1,14 +1,135 @@
-//! `minos split` (not written yet).
+//! `minos split`: reads the manifest, parses `--where`, calls [`minos::split`] and writes
+//! `DATA/splits/NAME/{train,val,test}.txt`.
 
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+
+use anyhow::Context as _;
+use clap::ArgGroup;
+use minos::io::manifest::read_manifest;
+use minos::split::expr::SYNTAX_HELP;
+use minos::split::{self, Expr, Ratios, SplitResult};
 
 use super::Context;
 
+/// Ids of missing scenes a warning names before "…".
+const SHOW_MISSING: usize = 5;
+
+const AFTER_HELP: &str = "\
+Scenes that failed to ingest are never put in a split. Ratio splits hash each id with the
+seed on its own, so adding scenes to DATA later never moves the scenes already split.
+--lists reads DIR/train.txt, DIR/val.txt and DIR/test.txt (one id per line; blank lines and
+# comments ignored) and keeps the listed scenes that are in DATA; listed ids missing from DATA
+are reported, not fatal.
+
+Examples:
+  # The MINOS Matterport3D split (61/11/18 scenes), from the lists shipped with minos
+  minos split --data data/mp3d --name mp3d --lists splits/mp3d
+
+  # MINOS's SUNCG multi-room split, keeping only houses with a kitchen and no people
+  minos split --data data/suncg --name multiroom --lists splits/suncg-multiroom \\
+      --where 'has_room(\"kitchen\") && !has_category(\"person\")'
+
+  # A seeded 60/20/20 split of houses with 3 to 5 rooms
+  minos split --data data/suncg --name mid --ratios 0.6,0.2,0.2 --seed 1 \\
+      --where 'nrooms > 2 && nrooms < 6'
+
+  # Two-room houses only
+  minos split --data data/suncg --name tworoom --ratios 0.8,0.1,0.1 --where 'nrooms == 2'
+";
+
 /// Flags of `minos split`.
 #[derive(Debug, clap::Args)]
-pub struct Args {}
+#[command(
+    after_help = format!("{SYNTAX_HELP}\n\n{AFTER_HELP}"),
+    group(ArgGroup::new("source").required(true).args(["lists", "ratios"])),
+)]
+pub struct Args {
+    /// DATA folder made by `minos ingest`; reads DATA/houses.parquet.
+    #[arg(long, value_name = "DATA")]
+    data: PathBuf,
+    /// Split name: the lists go to DATA/splits/NAME/{train,val,test}.txt (replacing them).
+    #[arg(long, value_name = "NAME")]
+    name: String,
+    /// Keep only scenes for which EXPR is true, e.g. 'nrooms > 2 && has_room("kitchen")'.
+    /// The language is described below.
+    #[arg(long = "where", value_name = "EXPR")]
+    filter: Option<String>,
+    /// Take the subsets from DIR/{train,val,test}.txt, e.g. splits/mp3d.
+    #[arg(long, value_name = "DIR")]
+    lists: Option<PathBuf>,
+    /// Split by fractions TRAIN,VAL,TEST (non-negative, summing to 1), e.g. 0.6,0.2,0.2.
+    #[arg(long, value_name = "TRAIN,VAL,TEST")]
+    ratios: Option<Ratios>,
+    /// Seed of a --ratios split: the same seed always gives the same split.
+    #[arg(long, value_name = "S", default_value_t = 0, conflicts_with = "lists")]
+    seed: u64,
+}
 
 /// Runs the subcommand.
-pub fn run(_args: Args, _ctx: &Context) -> anyhow::Result<ExitCode> {
-    anyhow::bail!("`minos split` is not implemented yet")
+pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
+    let filter = args
+        .filter
+        .as_deref()
+        .map(Expr::parse)
+        .transpose()
+        .context("--where")?;
+    // Fail on a bad name before any work.
+    let dir = split::split_dir(&args.data, &args.name).context("--name")?;
+    let rows = read_manifest(&args.data.join("houses.parquet"))
+        .context("cannot read the manifest (run `minos ingest` first)")?;
+    let result = match (&args.lists, args.ratios) {
+        (Some(lists_dir), _) => {
+            let lists = split::read_lists(lists_dir).context("--lists")?;
+            split::split_by_lists(&rows, filter.as_ref(), &lists)
+                .with_context(|| format!("--lists {}", lists_dir.display()))?
+        }
+        (None, Some(ratios)) => split::split_by_ratios(&rows, filter.as_ref(), ratios, args.seed),
+        (None, None) => anyhow::bail!("one of --lists and --ratios is required"),
+    };
+    warn_missing(&result.missing, "listed ids are not in DATA");
+    if result.lists.total() == 0 {
+        tracing::warn!("split {} is empty", args.name);
+    }
+    split::write_split(&args.data, &args.name, &result.lists)?;
+    ctx.say(summary(&args, &result, &dir));
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Warns, when `missing` is not empty, with its count, `what`, and its first few ids.
+pub(super) fn warn_missing(missing: &[String], what: &str) {
+    if missing.is_empty() {
+        return;
+    }
+    let shown = missing[..missing.len().min(SHOW_MISSING)].join(", ");
+    let more = if missing.len() > SHOW_MISSING {
+        ", …"
+    } else {
+        ""
+    };
+    tracing::warn!("{} {what}: {shown}{more}", missing.len());
+}
+
+/// `split NAME: 207 train, 76 val, 77 test (12 filtered out by --where, 1 failed to ingest) -> DIR/`
+fn summary(args: &Args, r: &SplitResult, dir: &Path) -> String {
+    let mut notes = Vec::new();
+    if args.filter.is_some() {
+        notes.push(format!("{} filtered out by --where", r.filtered_out));
+    }
+    notes.push(format!("{} failed to ingest", r.failed));
+    if r.unlisted > 0 {
+        notes.push(format!("{} in no list", r.unlisted));
+    }
+    if !r.missing.is_empty() {
+        notes.push(format!("{} listed but not in DATA", r.missing.len()));
+    }
+    format!(
+        "split {}: {} train, {} val, {} test ({}) -> {}/",
+        args.name,
+        r.lists.train.len(),
+        r.lists.val.len(),
+        r.lists.test.len(),
+        notes.join(", "),
+        dir.display()
+    )
 }
