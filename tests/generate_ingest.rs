@@ -30,10 +30,20 @@ fn manifest_agrees_with_what_the_generator_intended() {
     let plans = generate_into(&config(16, 7), &root);
     let report = ingest_into(&root, &data);
     assert_eq!(report.scenes.len(), 16);
-    assert_eq!(report.count(Outcome::Failed), 0, "{:?}", report.scenes.iter().find_map(|(r, _)| r.error.clone()));
+    assert_eq!(
+        report.count(Outcome::Failed),
+        0,
+        "{:?}",
+        report.scenes.iter().find_map(|(r, _)| r.error.clone())
+    );
     assert!(report.warnings.is_empty(), "{:?}", report.warnings);
     for plan in &plans {
-        let row = &report.scenes.iter().find(|(r, _)| r.id == plan.id).expect("row").0;
+        let row = &report
+            .scenes
+            .iter()
+            .find(|(r, _)| r.id == plan.id)
+            .expect("row")
+            .0;
         assert_eq!(row.nlevels as usize, plan.levels.len(), "{}", plan.id);
         assert_eq!(row.nrooms as usize, plan.room_count());
         assert_eq!(row.nobjects as usize, plan.object_count());
@@ -42,13 +52,19 @@ fn manifest_agrees_with_what_the_generator_intended() {
             .iter()
             .flat_map(|l| l.rooms.iter().map(|r| r.class.name().to_string()))
             .collect();
-        assert_eq!(row.room_classes.iter().cloned().collect::<BTreeSet<_>>(), classes);
+        assert_eq!(
+            row.room_classes.iter().cloned().collect::<BTreeSet<_>>(),
+            classes
+        );
         let cats: BTreeSet<String> = plan
             .levels
             .iter()
             .flat_map(|l| l.objects.iter().map(|o| o.spec().fine.to_string()))
             .collect();
-        assert_eq!(row.categories.iter().cloned().collect::<BTreeSet<_>>(), cats);
+        assert_eq!(
+            row.categories.iter().cloned().collect::<BTreeSet<_>>(),
+            cats
+        );
         // Floor area: room rectangles minus stairwells, from an independent sum.
         let area: f64 = plan
             .levels
@@ -56,7 +72,12 @@ fn manifest_agrees_with_what_the_generator_intended() {
             .flat_map(|l| &l.rooms)
             .map(|r| r.rect.area() - r.floor_holes.iter().map(Rect::area).sum::<f64>())
             .sum();
-        assert!((row.floor_area - area).abs() < 1e-3 * area, "{}: {} vs {area}", plan.id, row.floor_area);
+        assert!(
+            (row.floor_area - area).abs() < 1e-3 * area,
+            "{}: {} vs {area}",
+            plan.id,
+            row.floor_area
+        );
     }
 }
 
@@ -66,12 +87,20 @@ fn generated_houses_are_plausible_navigation_environments() {
     let (root, data) = (dir.path().join("suncg"), dir.path().join("DATA"));
     let plans = generate_into(&config(40, 3), &root);
     ingest_into(&root, &data);
-    let (mut closed, mut open, mut windows, mut two_level, mut sizes) = (0, 0, 0, 0, BTreeSet::new());
+    let (mut closed, mut open, mut windows, mut two_level, mut sizes) =
+        (0, 0, 0, 0, BTreeSet::new());
     for plan in &plans {
         sizes.insert(plan.room_count());
         if plan.levels.len() == 2 {
             two_level += 1;
-            assert!(plan.levels[0].objects.iter().any(|o| o.spec().fine == "stairs"), "{} has no stairs", plan.id);
+            assert!(
+                plan.levels[0]
+                    .objects
+                    .iter()
+                    .any(|o| o.spec().fine == "stairs"),
+                "{} has no stairs",
+                plan.id
+            );
         }
         for level in &plan.levels {
             // Rooms of a level are connected through doors and arches.
@@ -91,7 +120,11 @@ fn generated_houses_are_plausible_navigation_environments() {
                     }
                 }
             }
-            assert!(reached.iter().all(|r| *r), "{}: rooms not connected", plan.id);
+            assert!(
+                reached.iter().all(|r| *r),
+                "{}: rooms not connected",
+                plan.id
+            );
             for r in &level.rooms {
                 for o in &r.openings {
                     match o.kind {
@@ -113,20 +146,42 @@ fn generated_houses_are_plausible_navigation_environments() {
                 .collect();
             for (i, a) in furniture.iter().enumerate() {
                 for b in &furniture[i + 1..] {
-                    assert!(!a.bbox.overlaps(&b.bbox, 1e-3), "{}: {} overlaps {}", plan.id, a.id, b.id);
+                    assert!(
+                        !a.bbox.overlaps(&b.bbox, 1e-3),
+                        "{}: {} overlaps {}",
+                        plan.id,
+                        a.id,
+                        b.id
+                    );
                 }
                 // Inside one of its rooms.
                 let room = &level.rooms[a.rooms[0] as usize];
-                assert!(a.bbox.min.x >= room.bbox.min.x - 1e-3 && a.bbox.max.x <= room.bbox.max.x + 1e-3);
-                assert!(a.bbox.min.z >= room.bbox.min.z - 1e-3 && a.bbox.max.z <= room.bbox.max.z + 1e-3);
+                assert!(
+                    a.bbox.min.x >= room.bbox.min.x - 1e-3
+                        && a.bbox.max.x <= room.bbox.max.x + 1e-3
+                );
+                assert!(
+                    a.bbox.min.z >= room.bbox.min.z - 1e-3
+                        && a.bbox.max.z <= room.bbox.max.z + 1e-3
+                );
             }
         }
-        let classes: BTreeSet<RoomClass> = plan.levels.iter().flat_map(|l| l.rooms.iter().map(|r| r.class)).collect();
+        let classes: BTreeSet<RoomClass> = plan
+            .levels
+            .iter()
+            .flat_map(|l| l.rooms.iter().map(|r| r.class))
+            .collect();
         assert!(!classes.is_empty());
     }
-    assert!(closed > 0 && open > closed, "doors: {open} open, {closed} closed");
+    assert!(
+        closed > 0 && open > closed,
+        "doors: {open} open, {closed} closed"
+    );
     assert!(windows > 40);
-    assert!(two_level > 5 && two_level < 40, "{two_level} two-level houses");
+    assert!(
+        two_level > 5 && two_level < 40,
+        "{two_level} two-level houses"
+    );
     assert!(sizes.len() >= 6, "room counts {sizes:?}");
     assert!(*sizes.iter().next().unwrap() >= 1 && *sizes.iter().last().unwrap() <= 12);
 }
@@ -144,12 +199,21 @@ fn same_seed_gives_identical_bytes_whatever_the_thread_count() {
     };
     run(1, &dir.path().join("a"));
     run(2, &dir.path().join("b"));
-    let (a, b) = (tree_bytes(&dir.path().join("a")), tree_bytes(&dir.path().join("b")));
+    let (a, b) = (
+        tree_bytes(&dir.path().join("a")),
+        tree_bytes(&dir.path().join("b")),
+    );
     assert!(a.len() > 12 * 4);
     assert!(a == b, "outputs differ");
     // Another seed gives other houses.
-    let other = GenerateConfig { seed: 12, ..cfg.clone() };
-    assert_ne!(minos::generate::house_id(&cfg, 0), minos::generate::house_id(&other, 0));
+    let other = GenerateConfig {
+        seed: 12,
+        ..cfg.clone()
+    };
+    assert_ne!(
+        minos::generate::house_id(&cfg, 0),
+        minos::generate::house_id(&other, 0)
+    );
     // Ingest too: manifests and compiled scenes are identical for 1 and 2 threads.
     for (threads, name) in [(1, "da"), (2, "db")] {
         rayon::ThreadPoolBuilder::new()

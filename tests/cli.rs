@@ -1,0 +1,230 @@
+//! The command line as a user meets it: bad input, resuming, help, the demo.
+
+mod common;
+
+use std::path::Path;
+
+use common::minos;
+use minos::generate::{house_id, GenerateConfig};
+use minos::io::manifest::read_manifest;
+
+fn gen(root: &Path, houses: usize) -> GenerateConfig {
+    let out = minos()
+        .args([
+            "generate",
+            "--houses",
+            &houses.to_string(),
+            "--seed",
+            "5",
+            "--rooms",
+            "2..5",
+            "--out",
+        ])
+        .arg(root)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    GenerateConfig {
+        houses,
+        seed: 5,
+        rooms: (2, 5),
+        ..GenerateConfig::default()
+    }
+}
+
+fn edit(path: &Path, f: impl FnOnce(String) -> String) {
+    let text = std::fs::read_to_string(path).unwrap();
+    std::fs::write(path, f(text)).unwrap();
+}
+
+#[test]
+fn bad_houses_get_one_line_errors_and_the_batch_finishes() {
+    let dir = tempfile::tempdir().unwrap();
+    let (root, data) = (dir.path().join("suncg"), dir.path().join("DATA"));
+    let cfg = gen(&root, 5);
+    let json = |i: usize| {
+        root.join("house")
+            .join(house_id(&cfg, i))
+            .join("house.json")
+    };
+    // 0: malformed JSON.
+    edit(&json(0), |t| t[..t.len() / 2].to_string());
+    // 1: an object whose mesh does not exist.
+    edit(&json(1), |t| {
+        t.replacen("\"modelId\":\"g_", "\"modelId\":\"missing_", 1)
+    });
+    // 2: a NaN in a transform, as Python's json module writes it.
+    edit(&json(2), |t| {
+        let start = t.find("\"transform\":[").unwrap() + "\"transform\":[".len();
+        let end = start + t[start..].find(',').unwrap();
+        format!("{}NaN{}", &t[..start], &t[end..])
+    });
+    let out = minos()
+        .args(["ingest", "--root"])
+        .arg(&root)
+        .arg("--out")
+        .arg(&data)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    let errors: Vec<&str> = stderr
+        .lines()
+        .filter(|l| l.starts_with("error: "))
+        .collect();
+    assert_eq!(errors.len(), 3, "{stderr}");
+    assert!(errors.iter().all(|l| l.contains("house.json")), "{stderr}");
+    let id = |i: usize| house_id(&cfg, i);
+    let line = |i: usize| *errors.iter().find(|l| l.contains(&id(i))).unwrap();
+    assert!(line(0).contains("line 1 column"), "{}", line(0));
+    assert!(
+        line(1).contains("node ")
+            && line(1).contains("missing mesh")
+            && line(1).contains("missing_"),
+        "{}",
+        line(1)
+    );
+    assert!(
+        line(2).contains("node ") && line(2).contains("transform[0]"),
+        "{}",
+        line(2)
+    );
+    let rows = read_manifest(&data.join("houses.parquet")).unwrap();
+    assert_eq!(rows.len(), 5);
+    assert_eq!(rows.iter().filter(|r| r.error.is_some()).count(), 3);
+    for i in 3..5 {
+        assert!(data
+            .join("scenes")
+            .join(format!("{}.mscene", id(i)))
+            .is_file());
+    }
+    assert!(!data
+        .join("scenes")
+        .join(format!("{}.mscene", id(0)))
+        .exists());
+}
+
+#[test]
+fn wrong_number_of_transform_values_is_reported() {
+    let dir = tempfile::tempdir().unwrap();
+    let (root, data) = (dir.path().join("suncg"), dir.path().join("DATA"));
+    let cfg = gen(&root, 1);
+    let json = root
+        .join("house")
+        .join(house_id(&cfg, 0))
+        .join("house.json");
+    edit(&json, |t| {
+        t.replacen("\"transform\":[", "\"transform\":[1,", 1)
+    });
+    let out = minos()
+        .args(["ingest", "--root"])
+        .arg(&root)
+        .arg("--out")
+        .arg(&data)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(stderr.contains("17 values, expected 16"), "{stderr}");
+}
+
+#[test]
+fn rerun_skips_up_to_date_scenes_and_rebuilds_changed_ones() {
+    let dir = tempfile::tempdir().unwrap();
+    let (root, data) = (dir.path().join("suncg"), dir.path().join("DATA"));
+    let cfg = gen(&root, 3);
+    let ingest = |extra: &[&str]| {
+        let out = minos()
+            .args(["ingest", "--root"])
+            .arg(&root)
+            .arg("--out")
+            .arg(&data)
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(out.status.success());
+        String::from_utf8_lossy(&out.stdout).to_string()
+    };
+    assert!(ingest(&[]).contains("3 compiled, 0 up to date"));
+    let manifest = std::fs::read(data.join("houses.parquet")).unwrap();
+    assert!(ingest(&[]).contains("0 compiled, 3 up to date"));
+    assert_eq!(
+        std::fs::read(data.join("houses.parquet")).unwrap(),
+        manifest
+    );
+    std::thread::sleep(std::time::Duration::from_millis(20));
+    let json = root
+        .join("house")
+        .join(house_id(&cfg, 1))
+        .join("house.json");
+    edit(&json, |t| t);
+    assert!(ingest(&[]).contains("1 compiled, 2 up to date"));
+    assert!(ingest(&["--force"]).contains("3 compiled, 0 up to date"));
+    // No temporary files are left behind.
+    let leftovers: Vec<_> = std::fs::read_dir(data.join("scenes"))
+        .unwrap()
+        .flatten()
+        .filter(|e| e.file_name().to_string_lossy().contains(".tmp"))
+        .collect();
+    assert!(leftovers.is_empty());
+}
+
+#[test]
+fn every_subcommand_documents_its_flags_with_examples() {
+    for cmd in ["generate", "ingest", "split", "stats", "export", "demo"] {
+        let out = minos().args([cmd, "--help"]).output().unwrap();
+        let help = String::from_utf8_lossy(&out.stdout);
+        assert!(out.status.success());
+        assert!(
+            help.contains("Examples:"),
+            "{cmd} --help has no examples:\n{help}"
+        );
+        assert!(
+            help.contains(&format!("minos {cmd}")),
+            "{cmd}: examples do not run {cmd}"
+        );
+    }
+    let out = minos().arg("--help").output().unwrap();
+    let help = String::from_utf8_lossy(&out.stdout);
+    for flag in ["--quiet", "--verbose", "--threads"] {
+        assert!(help.contains(flag), "{flag} missing");
+    }
+}
+
+#[test]
+fn demo_leaves_a_manifest_splits_and_statistics() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = minos()
+        .args(["demo", "--houses", "12", "--out"])
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let data = dir.path().join("data");
+    let rows = read_manifest(&data.join("houses.parquet")).unwrap();
+    assert_eq!(rows.len(), 12);
+    assert!(rows.iter().all(|r| r.error.is_none()));
+    let listed: usize = ["train", "val", "test"]
+        .iter()
+        .map(|s| {
+            std::fs::read_to_string(data.join("splits/all").join(format!("{s}.txt")))
+                .unwrap()
+                .lines()
+                .count()
+        })
+        .sum();
+    assert_eq!(listed, 12);
+    assert!(
+        stdout.contains("houses") && stdout.contains("living_room"),
+        "{stdout}"
+    );
+}
