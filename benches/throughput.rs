@@ -9,8 +9,8 @@ use std::path::Path;
 use std::time::Instant;
 
 use minos::generate::{generate, plan_house, GenerateConfig, OutputFormat};
-use minos::io::scene_file::{read_scene, scene_path};
 use minos::ingest::{ingest, DatasetFormat, IngestConfig};
+use minos::io::scene_file::{read_scene, scene_path};
 use minos::progress::NoProgress;
 use minos::scene::formats::suncg::{HouseEntry, SuncgLoader};
 
@@ -26,7 +26,10 @@ fn best_rate(n: usize, reps: usize, mut f: impl FnMut()) -> f64 {
 }
 
 fn pool(threads: usize) -> rayon::ThreadPool {
-    rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("thread pool")
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .expect("thread pool")
 }
 
 fn row(what: &str, threads: usize, rate: f64, unit: &str) {
@@ -35,8 +38,14 @@ fn row(what: &str, threads: usize, rate: f64, unit: &str) {
 
 fn main() {
     let houses = 300;
-    let cfg = GenerateConfig { houses, seed: 1, ..GenerateConfig::default() };
-    let cores = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
+    let cfg = GenerateConfig {
+        houses,
+        seed: 1,
+        ..GenerateConfig::default()
+    };
+    let cores = std::thread::available_parallelism()
+        .map(|n| n.get())
+        .unwrap_or(1);
     let dir = tempfile::tempdir().expect("tempdir");
     let root = dir.path().join("suncg");
     let data = dir.path().join("DATA");
@@ -53,7 +62,12 @@ fn main() {
                 generate(&cfg, OutputFormat::Suncg, &root, true, &NoProgress).expect("generate");
             })
         });
-        row("generate (plan + write SUNCG files)", threads, rate, "houses/s");
+        row(
+            "generate (plan + write SUNCG files)",
+            threads,
+            rate,
+            "houses/s",
+        );
     }
     let loader = SuncgLoader::open(&root, None).expect("loader");
     let entries = loader.discover().expect("discover");
@@ -80,7 +94,12 @@ fn main() {
                 .expect("ingest");
             })
         });
-        row("ingest (load + compile + manifest)", threads, rate, "houses/s");
+        row(
+            "ingest (load + compile + manifest)",
+            threads,
+            rate,
+            "houses/s",
+        );
     }
     let compiled = best_rate(entries.len(), 3, || {
         for e in &entries {
@@ -88,7 +107,10 @@ fn main() {
         }
     });
     row("load compiled scene", 1, compiled, "houses/s");
-    println!("\ncompiled scenes load {:.1}x faster than their sources (generated houses)", compiled / load);
+    println!(
+        "\ncompiled scenes load {:.1}x faster than their sources (generated houses)",
+        compiled / load
+    );
     if let Some(real) = std::env::var_os("MINOS_REAL_DATA") {
         real_sample(Path::new(&real), dir.path());
     }
@@ -98,13 +120,20 @@ fn real_sample(real: &Path, tmp: &Path) {
     let root = real.join("suncg");
     let id = "00e2eed27fb6b5c911624902888039ee";
     let loader = SuncgLoader::open(&root, None).expect("loader");
-    let entry = HouseEntry { id: id.into(), path: root.join(id).join("house.json") };
+    let entry = HouseEntry {
+        id: id.into(),
+        path: root.join(id).join("house.json"),
+    };
     let source = best_rate(1, 10, || {
         black_box(loader.load(&entry).expect("real house"));
     });
     let loaded = loader.load(&entry).expect("real house");
     let path = tmp.join("real.mscene");
-    let header = minos::io::scene_file::SceneHeader { id: id.into(), source: String::new(), sources: vec![] };
+    let header = minos::io::scene_file::SceneHeader {
+        id: id.into(),
+        source: String::new(),
+        sources: vec![],
+    };
     minos::io::scene_file::write_scene(&path, &header, &loaded.scene).expect("write");
     let compiled = best_rate(1, 10, || {
         black_box(read_scene(&path).expect("read"));

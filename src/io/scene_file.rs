@@ -149,3 +149,79 @@ pub fn read_header(path: &Path) -> Result<SceneHeader, SceneFileError> {
         message: format!("corrupt header: {e}"),
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::{Aabb, Dataset, Level, Material, Mesh};
+
+    fn scene() -> Scene {
+        let mut mesh = Mesh {
+            name: "m".into(),
+            positions: vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]],
+            indices: vec![0, 1, 2],
+            face_materials: vec![0],
+            materials: vec![Material::solid("a", [0.5, 0.25, 1.0])],
+            ..Default::default()
+        };
+        mesh.compute_normals();
+        Scene {
+            id: "h".into(),
+            dataset: Dataset::Suncg,
+            levels: vec![Level {
+                index: 0,
+                bbox: Aabb::from_corners(glam::Vec3::ZERO, glam::Vec3::ONE),
+                floor_heights: vec![0.0],
+                rooms: vec![],
+                objects: vec![],
+                ground: vec![0],
+            }],
+            meshes: vec![mesh],
+        }
+    }
+
+    #[test]
+    fn compiled_scene_round_trips_and_header_reads_alone() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = scene_path(dir.path(), "h");
+        let header = SceneHeader {
+            id: "h".into(),
+            source: "house.json".into(),
+            sources: vec!["house.json".into(), "a.obj".into()],
+        };
+        write_scene(&path, &header, &scene()).unwrap();
+        let (h, s) = read_scene(&path).unwrap();
+        assert_eq!(h, header);
+        assert_eq!(s, scene());
+        assert_eq!(read_header(&path).unwrap(), header);
+    }
+
+    #[test]
+    fn wrong_magic_version_and_truncation_are_errors_naming_the_file() {
+        let p = Path::new("x.mscene");
+        let good = encode(
+            &SceneHeader {
+                id: "h".into(),
+                source: String::new(),
+                sources: vec![],
+            },
+            &scene(),
+        )
+        .unwrap();
+        let mut bad_magic = good.clone();
+        bad_magic[0] = b'X';
+        assert!(decode(p, &bad_magic)
+            .unwrap_err()
+            .to_string()
+            .contains("bad magic"));
+        let mut old = good.clone();
+        old[8] = 99;
+        assert!(decode(p, &old)
+            .unwrap_err()
+            .to_string()
+            .contains("version 99"));
+        let cut = &good[..good.len() - 5];
+        let err = decode(p, cut).unwrap_err().to_string();
+        assert!(err.starts_with("x.mscene: corrupt"), "{err}");
+    }
+}
