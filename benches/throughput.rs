@@ -9,7 +9,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use minos::generate::{generate, plan_house, GenerateConfig, OutputFormat};
-use minos::ingest::{ingest, DatasetFormat, IngestConfig};
+use minos::ingest::{ingest, IngestConfig};
 use minos::io::scene_file::{read_scene, scene_path};
 use minos::progress::NoProgress;
 use minos::scene::formats::suncg::{HouseEntry, SuncgLoader};
@@ -82,12 +82,8 @@ fn main() {
             pool(threads).install(|| {
                 ingest(
                     &IngestConfig {
-                        format: DatasetFormat::Suncg,
-                        root: root.clone(),
-                        data: data.clone(),
-                        ids: None,
                         force: true,
-                        categories: None,
+                        ..IngestConfig::suncg(&root, &data)
                     },
                     &NoProgress,
                 )

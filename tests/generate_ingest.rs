@@ -111,12 +111,11 @@ fn generated_houses_are_plausible_navigation_environments() {
             while changed {
                 changed = false;
                 for o in &level.objects {
-                    if o.spec().fine == "door" || o.spec().fine == "arch" {
-                        if o.rooms.len() == 2 && reached[o.rooms[0]] != reached[o.rooms[1]] {
-                            reached[o.rooms[0]] = true;
-                            reached[o.rooms[1]] = true;
-                            changed = true;
-                        }
+                    let passage = o.spec().fine == "door" || o.spec().fine == "arch";
+                    if passage && o.rooms.len() == 2 && reached[o.rooms[0]] != reached[o.rooms[1]] {
+                        reached[o.rooms[0]] = true;
+                        reached[o.rooms[1]] = true;
+                        changed = true;
                     }
                 }
             }

@@ -7,7 +7,7 @@ use std::time::Instant;
 
 use anyhow::Context as _;
 use minos::generate::{generate, GenerateConfig, OutputFormat};
-use minos::ingest::{ingest, DatasetFormat, IngestConfig, Outcome};
+use minos::ingest::{ingest, IngestConfig, Outcome};
 use minos::io::manifest::read_manifest;
 use minos::split::{self, Expr, Ratios};
 use minos::stats;
@@ -56,18 +56,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     ));
     let report = {
         let bar = ctx.progress(0, "ingest");
-        ingest(
-            &IngestConfig {
-                format: DatasetFormat::Suncg,
-                root: root.clone(),
-                data: data.clone(),
-                ids: None,
-                force: false,
-                categories: None,
-            },
-            &bar,
-        )
-        .context("ingest")?
+        ingest(&IngestConfig::suncg(&root, &data), &bar).context("ingest")?
     };
     let failed = report.count(Outcome::Failed);
     ctx.say(format!(

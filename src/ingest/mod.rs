@@ -41,6 +41,20 @@ pub struct IngestConfig {
     pub categories: Option<PathBuf>,
 }
 
+impl IngestConfig {
+    /// Ingest every scene of a SUNCG root into `data`, reusing up-to-date compiled scenes.
+    pub fn suncg(root: &Path, data: &Path) -> Self {
+        IngestConfig {
+            format: DatasetFormat::Suncg,
+            root: root.to_path_buf(),
+            data: data.to_path_buf(),
+            ids: None,
+            force: false,
+            categories: None,
+        }
+    }
+}
+
 /// How one scene went.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum Outcome {

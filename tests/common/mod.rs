@@ -5,7 +5,7 @@
 use std::path::{Path, PathBuf};
 
 use minos::generate::{generate, plan_house, GenerateConfig, HousePlan, OutputFormat};
-use minos::ingest::{ingest, DatasetFormat, IngestConfig, IngestReport};
+use minos::ingest::{ingest, IngestConfig, IngestReport};
 use minos::progress::NoProgress;
 
 /// Generates `cfg` into `root` and returns the plans.
@@ -16,18 +16,7 @@ pub fn generate_into(cfg: &GenerateConfig, root: &Path) -> Vec<HousePlan> {
 
 /// Ingests a SUNCG root into `data`.
 pub fn ingest_into(root: &Path, data: &Path) -> IngestReport {
-    ingest(
-        &IngestConfig {
-            format: DatasetFormat::Suncg,
-            root: root.to_path_buf(),
-            data: data.to_path_buf(),
-            ids: None,
-            force: false,
-            categories: None,
-        },
-        &NoProgress,
-    )
-    .expect("ingest")
+    ingest(&IngestConfig::suncg(root, data), &NoProgress).expect("ingest")
 }
 
 /// Every file under `dir` with its bytes, sorted by path.
