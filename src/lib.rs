@@ -8,6 +8,7 @@
 
 pub mod generate;
 pub mod ingest;
+pub mod navmesh;
 pub mod io;
 pub mod progress;
 pub mod scene;

@@ -1,0 +1,167 @@
+//! The baked navigation grid: a multi-layer 2.5D grid of walkable floor spans.
+//!
+//! Each (x, z) column holds zero or more spans, one per floor surface the agent's cylinder
+//! fits above (ground floor, upper floor, stair steps). Spans store their links to the
+//! neighbouring spans the agent can step to, so stairs connect levels. Columns are stored in
+//! compressed form: `column_start[c]..column_start[c + 1]` are the spans of column `c`
+//! (`c = iz * nx + ix`), sorted by height.
+
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+
+use super::params::NavParams;
+
+/// No span (a missing link, no room, no island).
+pub const NONE: u32 = u32::MAX;
+
+/// The 8 neighbour directions as (dx, dz): 4 axis directions first, then diagonals.
+pub const DIRS: [(i32, i32); 8] = [(1, 0), (0, 1), (-1, 0), (0, -1), (1, 1), (-1, 1), (-1, -1), (1, -1)];
+
+/// One walkable-floor candidate in a column.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Span {
+    /// Floor height (m).
+    pub y: f32,
+    /// Free height above the floor up to the next solid (m; `f32::INFINITY` when open).
+    pub headroom: f32,
+    /// Distance (m) from the span centre to the nearest non-walkable edge.
+    pub clearance: f32,
+    /// Linked neighbour span per direction of [`DIRS`] (`NONE` when blocked).
+    pub links: [u32; 8],
+    /// The agent can stand here (cylinder fits, radius clear of obstacles).
+    pub walkable: bool,
+    /// Room index (into [`NavGrid::rooms`]), `NONE` outside rooms.
+    pub room: u32,
+    /// Island (connected component of walkable spans), `NONE` when not walkable.
+    pub island: u32,
+    /// Level index of the room (or of the nearest level below).
+    pub level: u16,
+}
+
+/// A room as the grid knows it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct NavRoom {
+    /// Room id in the scene.
+    pub id: String,
+    /// MINOS class index (0–8).
+    pub class: u8,
+    /// Level index.
+    pub level: u16,
+}
+
+/// An object the grid records spans under (doors, and everything above walkable floor).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct NavObject {
+    /// Instance id in the scene.
+    pub id: String,
+    /// Best category label.
+    pub category: String,
+    /// Is a door.
+    pub door: bool,
+    /// Is an arch.
+    pub arch: bool,
+    /// World box minimum.
+    pub min: [f32; 3],
+    /// World box maximum.
+    pub max: [f32; 3],
+}
+
+/// A connected component of walkable spans.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Island {
+    /// Walkable area (m²).
+    pub area: f32,
+    /// Largest distance (m, in XZ) of a span centre from the island's centroid.
+    pub radius: f32,
+    /// Number of spans.
+    pub spans: u32,
+    /// Centroid.
+    pub centroid: [f32; 3],
+}
+
+/// The baked navigation grid of one scene.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct NavGrid {
+    /// Scene id.
+    pub scene: String,
+    /// Parameters it was built with.
+    pub params: NavParams,
+    /// World x of the grid's minimum corner.
+    pub x0: f32,
+    /// World z of the grid's minimum corner.
+    pub z0: f32,
+    /// Columns along x.
+    pub nx: u32,
+    /// Columns along z.
+    pub nz: u32,
+    /// Span index ranges per column (length `nx * nz + 1`).
+    pub column_start: Vec<u32>,
+    /// All spans, column by column.
+    pub spans: Vec<Span>,
+    /// Rooms referenced by spans.
+    pub rooms: Vec<NavRoom>,
+    /// Objects referenced by `span_objects`.
+    pub objects: Vec<NavObject>,
+    /// `(span, object)` pairs, sorted: the objects above each walkable span.
+    pub span_objects: Vec<(u32, u32)>,
+    /// Islands referenced by spans.
+    pub islands: Vec<Island>,
+    /// Floor height of each level.
+    pub level_heights: Vec<f32>,
+}
+
+impl NavGrid {
+    /// Cell edge (m).
+    pub fn cell(&self) -> f32 {
+        self.params.cell_size
+    }
+
+    /// Column index of cell (ix, iz), if inside the grid.
+    pub fn column(&self, ix: i64, iz: i64) -> Option<usize> {
+        (ix >= 0 && iz >= 0 && ix < self.nx as i64 && iz < self.nz as i64)
+            .then(|| iz as usize * self.nx as usize + ix as usize)
+    }
+
+    /// Span index range of a column.
+    pub fn column_spans(&self, column: usize) -> std::ops::Range<usize> {
+        self.column_start[column] as usize..self.column_start[column + 1] as usize
+    }
+
+    /// Cell coordinates of a world point (may be outside the grid).
+    pub fn cell_of(&self, x: f32, z: f32) -> (i64, i64) {
+        (
+            ((x - self.x0) / self.cell()).floor() as i64,
+            ((z - self.z0) / self.cell()).floor() as i64,
+        )
+    }
+
+    /// Column of a span (binary search over `column_start`).
+    pub fn column_of_span(&self, span: usize) -> usize {
+        self.column_start.partition_point(|&s| s as usize <= span) - 1
+    }
+
+    /// World position of a span: the centre of its cell at floor height.
+    pub fn span_position(&self, span: usize) -> Vec3 {
+        let c = self.column_of_span(span);
+        let (ix, iz) = (c % self.nx as usize, c / self.nx as usize);
+        Vec3::new(
+            self.x0 + (ix as f32 + 0.5) * self.cell(),
+            self.spans[span].y,
+            self.z0 + (iz as f32 + 0.5) * self.cell(),
+        )
+    }
+
+    /// Objects recorded above a span.
+    pub fn objects_above(&self, span: u32) -> impl Iterator<Item = &NavObject> {
+        let start = self.span_objects.partition_point(|&(s, _)| s < span);
+        self.span_objects[start..]
+            .iter()
+            .take_while(move |&&(s, _)| s == span)
+            .map(|&(_, o)| &self.objects[o as usize])
+    }
+
+    /// Number of walkable spans.
+    pub fn walkable_count(&self) -> usize {
+        self.spans.iter().filter(|s| s.walkable).count()
+    }
+}

@@ -1,0 +1,18 @@
+//! Navigation: walkable space as a multi-layer 2.5D grid of floor spans, islands, geodesic
+//! distance fields and shortest paths.
+//!
+//! Split by job: `params` (agent and grid), `grid` (the data structure), `build` (voxelising a
+//! scene into spans, erosion, rooms, objects), `islands`, `los` (line of sight over spans),
+//! `geodesic` (any-angle distance fields), `path` (shortest paths with rooms and doors),
+//! `query` (snapping, sampling), `file` (the `.nav` format) and `preview` (PNG images).
+
+pub mod build;
+pub mod geodesic;
+pub mod grid;
+pub mod los;
+pub mod params;
+pub mod path;
+pub mod query;
+
+pub use grid::{NavGrid, Span, NONE};
+pub use params::NavParams;
