@@ -6,11 +6,13 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+mod bake;
 mod common;
 mod demo;
 mod export;
 mod generate;
 mod ingest;
+mod nav;
 mod range;
 mod split;
 mod stats;
@@ -48,6 +50,10 @@ enum Command {
     Split(split::Args),
     /// Print environment statistics of a DATA folder or one of its splits.
     Stats(stats::Args),
+    /// Bake navigation grids (walkable spans, islands, rooms) for ingested scenes.
+    Bake(bake::Args),
+    /// Navigation queries on baked grids (shortest paths, distances).
+    Nav(nav::Args),
     /// Export a compiled scene's world-space geometry as OBJ or GLB.
     Export(export::Args),
     /// Run the whole pipeline on generated houses into ./minos-demo/.
@@ -72,6 +78,8 @@ pub fn main() -> ExitCode {
         Command::Ingest(a) => ingest::run(a, &ctx),
         Command::Split(a) => split::run(a, &ctx),
         Command::Stats(a) => stats::run(a, &ctx),
+        Command::Bake(a) => bake::run(a, &ctx),
+        Command::Nav(a) => nav::run(a, &ctx),
         Command::Export(a) => export::run(a, &ctx),
         Command::Demo(a) => demo::run(a, &ctx),
     };

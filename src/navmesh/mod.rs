@@ -6,13 +6,19 @@
 //! `geodesic` (any-angle distance fields), `path` (shortest paths with rooms and doors),
 //! `query` (snapping, sampling), `file` (the `.nav` format) and `preview` (PNG images).
 
+pub mod bake;
 pub mod build;
+pub mod file;
 pub mod geodesic;
 pub mod grid;
+pub mod islands;
 pub mod los;
 pub mod params;
 pub mod path;
+pub mod preview;
 pub mod query;
+pub mod raster;
+pub mod route;
 
 pub use grid::{NavGrid, Span, NONE};
 pub use params::NavParams;

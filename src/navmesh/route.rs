@@ -1,0 +1,57 @@
+//! Point-to-point routes for users and later stages: snap both points, find the shortest
+//! path, and report it between the points themselves (not the span centres).
+
+use glam::Vec3;
+
+use super::grid::NavGrid;
+use super::path::{shortest_path, PathResult};
+
+/// A route between two world points.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Route {
+    /// Both points lie on one island.
+    pub reachable: bool,
+    /// Length of the path (m), `None` when unreachable.
+    pub geodesic: Option<f32>,
+    /// Rooms passed, in order (indices into `grid.rooms`).
+    pub rooms: Vec<u32>,
+    /// Doors passed, in order (indices into `grid.objects`).
+    pub doors: Vec<u32>,
+    /// The polyline from `from` to `to` (empty when unreachable).
+    pub points: Vec<Vec3>,
+}
+
+/// A route endpoint that is not near walkable floor.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{which} point ({:.2}, {:.2}, {:.2}) is not within 2 m of walkable floor", point.x, point.y, point.z)]
+pub struct NotWalkable {
+    /// `start` or `goal`.
+    pub which: &'static str,
+    /// The point.
+    pub point: Vec3,
+}
+
+/// The shortest route from `from` to `to` (y = floor height under the agent).
+pub fn route(grid: &NavGrid, from: Vec3, to: Vec3) -> Result<Route, NotWalkable> {
+    let a = grid.snap(from).ok_or(NotWalkable { which: "start", point: from })?;
+    let b = grid.snap(to).ok_or(NotWalkable { which: "goal", point: to })?;
+    match shortest_path(grid, a, b) {
+        PathResult::Unreachable => Ok(Route { reachable: false, geodesic: None, rooms: vec![], doors: vec![], points: vec![] }),
+        PathResult::Found(p) => {
+            let mut points = p.points.clone();
+            // Start and end at the points themselves, on the floor of their spans.
+            let ya = grid.spans[a as usize].y;
+            let yb = grid.spans[b as usize].y;
+            if let Some(first) = points.first_mut() {
+                *first = Vec3::new(from.x, ya, from.z);
+            }
+            if points.len() == 1 {
+                points.push(Vec3::new(to.x, yb, to.z));
+            } else if let Some(last) = points.last_mut() {
+                *last = Vec3::new(to.x, yb, to.z);
+            }
+            let length = points.windows(2).map(|w| w[0].distance(w[1])).sum();
+            Ok(Route { reachable: true, geodesic: Some(length), rooms: p.rooms, doors: p.doors, points })
+        }
+    }
+}
