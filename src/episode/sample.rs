@@ -1,0 +1,391 @@
+//! Sampling episodes in one scene: a uniformly random walkable start (by area) with a uniform
+//! yaw on an island large enough, and a goal on the same island, filtered by distance, the
+//! geodesic/Euclidean ratio, doors and rooms on the shortest path, level, and distance bins.
+//!
+//! Every choice draws from one generator seeded from `(seed, scene id, task)`, so a scene's
+//! episodes never depend on thread count, scene order or sharding. Rejected draws are counted
+//! by reason so users can see why a scene yields few episodes.
+
+use std::collections::BTreeMap;
+
+use glam::Vec3;
+
+use crate::navmesh::geodesic::{DistanceField, Geodesic};
+use crate::navmesh::path::{path_from_field, shortest_path_in, Path, PathResult};
+use crate::navmesh::{NavGrid, NONE};
+use crate::scene::RoomClass;
+use crate::seed::{derive_seed, Rng};
+
+use super::{Difficulty, Episode, Goal, GoalTarget, Task};
+
+/// Which instance(s) of the goal category count.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Select {
+    /// Every instance counts (distance to the nearest).
+    Any,
+    /// One instance drawn at random.
+    Random,
+    /// The instance geodesically closest to the start.
+    Closest,
+}
+
+/// How episodes are sampled.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SampleConfig {
+    /// The task.
+    pub task: Task,
+    /// Episodes wanted per scene.
+    pub per_scene: usize,
+    /// User seed.
+    pub seed: u64,
+    /// Smallest island radius (m) a start may lie on (Habitat: 1.5).
+    pub min_island_radius: f32,
+    /// Success radius (m).
+    pub success_radius: f32,
+    /// ObjectGoal categories.
+    pub categories: Vec<String>,
+    /// RoomGoal classes (`None`: any class).
+    pub room_classes: Option<Vec<RoomClass>>,
+    /// Which instances count.
+    pub select: Select,
+    /// Shortest allowed geodesic distance (m).
+    pub min_geodesic: f32,
+    /// Longest allowed geodesic distance (m).
+    pub max_geodesic: f32,
+    /// Habitat's rule: pairs with geodesic/Euclidean < 1.1 are kept with probability
+    /// 20·(ratio − 0.98)².
+    pub ratio_rule: bool,
+    /// Fewest doors on the shortest path (MINOS).
+    pub min_doors: u32,
+    /// Fewest rooms on the shortest path (MINOS).
+    pub min_rooms: u32,
+    /// Start and goal on the same level.
+    pub same_level: bool,
+    /// Geodesic thresholds between easy/medium and medium/hard (m).
+    pub bins: [f32; 2],
+    /// Draw the same number of episodes in each bin (val/test sets).
+    pub stratified: bool,
+    /// Step limit written into episodes.
+    pub max_steps: u32,
+    /// Draws allowed per wanted episode before the scene gives up.
+    pub attempts_per_episode: usize,
+}
+
+impl Default for SampleConfig {
+    fn default() -> Self {
+        SampleConfig {
+            task: Task::PointGoal,
+            per_scene: 10,
+            seed: 0,
+            min_island_radius: 1.5,
+            success_radius: 0.2,
+            categories: vec!["door".into(), "arch".into()],
+            room_classes: None,
+            select: Select::Any,
+            min_geodesic: 1.0,
+            max_geodesic: 30.0,
+            ratio_rule: true,
+            min_doors: 0,
+            min_rooms: 0,
+            same_level: false,
+            bins: [4.0, 8.0],
+            stratified: false,
+            max_steps: 500,
+            attempts_per_episode: 200,
+        }
+    }
+}
+
+/// Why draws were rejected, with counts.
+pub type Rejections = BTreeMap<&'static str, u64>;
+
+/// What one scene yielded.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct SceneEpisodes {
+    /// The episodes, in index order.
+    pub episodes: Vec<Episode>,
+    /// Rejected draws by reason.
+    pub rejected: Rejections,
+    /// Why the scene yields nothing at all, if so.
+    pub unusable: Option<String>,
+}
+
+/// A goal candidate: what counts, and the walkable spans from which it counts as reached.
+struct GoalSet {
+    name: String,
+    targets: Vec<GoalTarget>,
+    /// Goal spans per target.
+    spans: Vec<Vec<u32>>,
+}
+
+/// Up to this many view points are stored per target.
+const MAX_VIEW_POINTS: usize = 16;
+
+fn bin(cfg: &SampleConfig, geodesic: f32) -> Difficulty {
+    if geodesic < cfg.bins[0] {
+        Difficulty::Easy
+    } else if geodesic < cfg.bins[1] {
+        Difficulty::Medium
+    } else {
+        Difficulty::Hard
+    }
+}
+
+fn position_of(grid: &NavGrid, spans: &[u32]) -> [f32; 3] {
+    if spans.is_empty() {
+        return [0.0; 3];
+    }
+    let c = spans.iter().map(|&s| grid.span_position(s as usize)).sum::<Vec3>() / spans.len() as f32;
+    // The walkable span nearest to the centroid stands for the region.
+    let best = spans
+        .iter()
+        .min_by(|&&a, &&b| grid.span_position(a as usize).distance(c).total_cmp(&grid.span_position(b as usize).distance(c)))
+        .copied()
+        .unwrap_or(spans[0]);
+    grid.span_position(best as usize).to_array()
+}
+
+fn view_points(grid: &NavGrid, spans: &[u32]) -> Vec<[f32; 3]> {
+    let step = spans.len().div_ceil(MAX_VIEW_POINTS).max(1);
+    spans.iter().step_by(step).map(|&s| grid.span_position(s as usize).to_array()).collect()
+}
+
+/// The goal sets of a scene for the task: one per category (ObjectGoal) or room class (RoomGoal).
+fn goal_sets(grid: &NavGrid, cfg: &SampleConfig) -> Vec<GoalSet> {
+    match cfg.task {
+        Task::PointGoal => Vec::new(),
+        Task::ObjectGoal => cfg
+            .categories
+            .iter()
+            .filter_map(|cat| {
+                let mut set = GoalSet { name: cat.clone(), targets: Vec::new(), spans: Vec::new() };
+                for (i, o) in grid.objects.iter().enumerate() {
+                    if !o.category.eq_ignore_ascii_case(cat) {
+                        continue;
+                    }
+                    let spans = grid.object_spans(i as u32, cfg.success_radius);
+                    if spans.is_empty() {
+                        continue;
+                    }
+                    let centre = [(o.min[0] + o.max[0]) / 2.0, (o.min[1] + o.max[1]) / 2.0, (o.min[2] + o.max[2]) / 2.0];
+                    set.targets.push(GoalTarget { id: o.id.clone(), position: centre, view_points: view_points(grid, &spans) });
+                    set.spans.push(spans);
+                }
+                (!set.targets.is_empty()).then_some(set)
+            })
+            .collect(),
+        Task::RoomGoal => {
+            let classes: Vec<RoomClass> = cfg.room_classes.clone().unwrap_or_else(|| RoomClass::ALL.to_vec());
+            classes
+                .iter()
+                .filter_map(|class| {
+                    let mut set = GoalSet { name: class.name().to_string(), targets: Vec::new(), spans: Vec::new() };
+                    for (i, r) in grid.rooms.iter().enumerate() {
+                        if r.class != class.index() {
+                            continue;
+                        }
+                        let spans = grid.room_spans(i as u32);
+                        if spans.is_empty() {
+                            continue;
+                        }
+                        set.targets.push(GoalTarget { id: r.id.clone(), position: position_of(grid, &spans), view_points: Vec::new() });
+                        set.spans.push(spans);
+                    }
+                    (!set.targets.is_empty()).then_some(set)
+                })
+                .collect()
+        }
+    }
+}
+
+/// Lazily computed distance fields of goal span sets, keyed by (goal set, target or all).
+struct FieldCache<'g> {
+    geo: &'g Geodesic<'g>,
+    fields: BTreeMap<(usize, Option<usize>), DistanceField>,
+}
+
+impl<'g> FieldCache<'g> {
+    fn get(&mut self, sets: &[GoalSet], set: usize, target: Option<usize>) -> &DistanceField {
+        let geo = self.geo;
+        self.fields.entry((set, target)).or_insert_with(|| {
+            let goals: Vec<u32> = match target {
+                Some(t) => sets[set].spans[t].clone(),
+                None => sets[set].spans.iter().flatten().copied().collect(),
+            };
+            geo.field(&goals)
+        })
+    }
+}
+
+/// Samples the episodes of one scene (`scene_id` names it in ids; `split` is written as is).
+pub fn sample_scene(grid: &NavGrid, scene_id: &str, split: &str, cfg: &SampleConfig) -> SceneEpisodes {
+    let seed = derive_seed(cfg.seed, &[scene_id, cfg.task.name(), "episodes"]);
+    let mut rng = Rng::new(seed);
+    let mut out = SceneEpisodes::default();
+    let islands: Vec<bool> = grid.islands.iter().map(|i| i.radius >= cfg.min_island_radius).collect();
+    let starts: Vec<u32> = grid.walkable_spans(None).into_iter().filter(|&s| islands[grid.spans[s as usize].island as usize]).collect();
+    if starts.is_empty() {
+        out.unusable = Some(format!("no island of radius >= {} m", cfg.min_island_radius));
+        return out;
+    }
+    let by_island: BTreeMap<u32, Vec<u32>> = starts.iter().fold(BTreeMap::new(), |mut m, &s| {
+        m.entry(grid.spans[s as usize].island).or_insert_with(Vec::new).push(s);
+        m
+    });
+    let sets = goal_sets(grid, cfg);
+    if cfg.task != Task::PointGoal && sets.is_empty() {
+        out.unusable = Some(match cfg.task {
+            Task::ObjectGoal => format!("no reachable object of categories {}", cfg.categories.join(",")),
+            _ => "no room of the requested classes with walkable floor".into(),
+        });
+        return out;
+    }
+    let geo = Geodesic::new(grid);
+    let mut fields = FieldCache { geo: &geo, fields: BTreeMap::new() };
+    let per_bin = cfg.per_scene.div_ceil(3);
+    let mut bin_counts = [0usize; 3];
+    let attempts = cfg.per_scene.saturating_mul(cfg.attempts_per_episode).max(1);
+    let mut reject = |out: &mut SceneEpisodes, why: &'static str| *out.rejected.entry(why).or_insert(0) += 1;
+    for _ in 0..attempts {
+        if out.episodes.len() >= cfg.per_scene {
+            break;
+        }
+        let Some((start_span, start)) = grid.random_point_from(&mut rng, &starts) else { break };
+        let yaw = rng.range_f64(0.0, std::f64::consts::TAU) as f32;
+        let island = grid.spans[start_span as usize].island;
+        let (goal, path, goal_point) = match cfg.task {
+            Task::PointGoal => {
+                let Some((goal_span, goal)) = grid.random_point_from(&mut rng, &by_island[&island]) else { continue };
+                match shortest_path_in(&geo, start_span, goal_span) {
+                    PathResult::Found(p) => (Goal::Point { position: goal.to_array() }, p, goal),
+                    PathResult::Unreachable => {
+                        reject(&mut out, "unreachable");
+                        continue;
+                    }
+                }
+            }
+            Task::ObjectGoal | Task::RoomGoal => {
+                let set = rng.below(sets.len());
+                let target = match cfg.select {
+                    Select::Random => Some(rng.below(sets[set].targets.len())),
+                    Select::Any | Select::Closest => None,
+                };
+                let field = fields.get(&sets, set, target);
+                if !field.reachable(start_span) {
+                    reject(&mut out, "goal not reachable from start");
+                    continue;
+                }
+                let PathResult::Found(p) = path_from_field(grid, field, start_span) else {
+                    reject(&mut out, "goal not reachable from start");
+                    continue;
+                };
+                let end = *p.spans.last().unwrap_or(&start_span);
+                let targets: Vec<GoalTarget> = match target {
+                    Some(t) => vec![sets[set].targets[t].clone()],
+                    None if cfg.select == Select::Closest => {
+                        let t = sets[set].spans.iter().position(|s| s.contains(&end)).unwrap_or(0);
+                        vec![sets[set].targets[t].clone()]
+                    }
+                    None => sets[set].targets.clone(),
+                };
+                let goal = match cfg.task {
+                    Task::ObjectGoal => Goal::Object { category: sets[set].name.clone(), targets },
+                    _ => Goal::Room { class: sets[set].name.clone(), targets },
+                };
+                (goal, p, grid.span_position(end as usize))
+            }
+        };
+        let Some(ep) = check(grid, cfg, &mut rng, &path, start, goal_point, &mut |why| reject(&mut out, why)) else { continue };
+        let difficulty = bin(cfg, ep.0);
+        if cfg.stratified && bin_counts[difficulty as usize] >= per_bin {
+            reject(&mut out, "distance bin full");
+            continue;
+        }
+        bin_counts[difficulty as usize] += 1;
+        let index = out.episodes.len();
+        out.episodes.push(Episode {
+            episode_id: format!("{scene_id}:{}:{index:05}", cfg.task.name()),
+            scene_id: scene_id.to_string(),
+            split: split.to_string(),
+            task: cfg.task,
+            seed,
+            start_position: start.to_array(),
+            start_yaw: yaw,
+            goal,
+            euclidean_distance: ep.1,
+            geodesic_distance: ep.0,
+            path_num_doors: path.doors.len() as u32,
+            path_num_rooms: path.rooms.len() as u32,
+            difficulty,
+            success_radius: cfg.success_radius,
+            max_steps: cfg.max_steps,
+        });
+    }
+    out
+}
+
+/// Geodesic length of a path whose end points are replaced by the sampled points.
+pub fn path_length_between(path: &Path, start: Vec3, goal: Vec3) -> f32 {
+    let mut pts = path.points.clone();
+    if pts.len() < 2 {
+        return start.distance(goal);
+    }
+    pts[0] = start;
+    let n = pts.len();
+    pts[n - 1] = goal;
+    pts.windows(2).map(|w| w[0].distance(w[1])).sum()
+}
+
+/// Applies the filters; returns (geodesic, euclidean) of an accepted pair.
+fn check(
+    grid: &NavGrid,
+    cfg: &SampleConfig,
+    rng: &mut Rng,
+    path: &Path,
+    start: Vec3,
+    goal: Vec3,
+    reject: &mut dyn FnMut(&'static str),
+) -> Option<(f32, f32)> {
+    let geodesic = match cfg.task {
+        Task::PointGoal => path_length_between(path, start, goal),
+        // Object and room goals end at the nearest goal span.
+        _ => path_length_between(path, start, *path.points.last().unwrap_or(&goal)),
+    };
+    let euclidean = start.distance(goal);
+    if cfg.task == Task::RoomGoal && geodesic <= 0.0 {
+        reject("start inside the goal room");
+        return None;
+    }
+    if geodesic < cfg.min_geodesic {
+        reject("geodesic below --min-geodesic");
+        return None;
+    }
+    if geodesic > cfg.max_geodesic {
+        reject("geodesic above --max-geodesic");
+        return None;
+    }
+    if cfg.ratio_rule && cfg.task == Task::PointGoal && euclidean > 0.0 {
+        let ratio = geodesic / euclidean;
+        if ratio < 1.1 && rng.unit_f64() > 20.0 * f64::from(ratio - 0.98).powi(2) {
+            reject("geodesic/euclidean ratio rule");
+            return None;
+        }
+    }
+    if (path.doors.len() as u32) < cfg.min_doors {
+        reject("fewer doors than --min-doors");
+        return None;
+    }
+    if (path.rooms.len() as u32) < cfg.min_rooms {
+        reject("fewer rooms than --min-rooms");
+        return None;
+    }
+    if cfg.same_level {
+        let level = |p: Vec3| grid.snap(p).map(|s| grid.spans[s as usize].level);
+        if level(start) != level(goal) {
+            reject("start and goal on different levels");
+            return None;
+        }
+    }
+    let _ = NONE;
+    Some((geodesic, euclidean))
+}
