@@ -3,6 +3,7 @@
 
 pub mod format;
 pub mod habitat;
+pub mod interchange;
 pub mod minos_csv;
 
 use serde::{Deserialize, Serialize};
