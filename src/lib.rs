@@ -15,3 +15,4 @@ pub mod scene;
 pub mod seed;
 pub mod split;
 pub mod stats;
+pub mod episode;
