@@ -9,6 +9,7 @@ use clap::{Parser, Subcommand};
 mod bake;
 mod common;
 mod demo;
+mod episodes;
 mod export;
 mod generate;
 mod ingest;
@@ -54,6 +55,8 @@ enum Command {
     Bake(bake::Args),
     /// Navigation queries on baked grids (shortest paths, distances).
     Nav(nav::Args),
+    /// Sample navigable PointGoal / ObjectGoal / RoomGoal episodes (or import episode files).
+    Episodes(episodes::Args),
     /// Export a compiled scene's world-space geometry as OBJ or GLB.
     Export(export::Args),
     /// Run the whole pipeline on generated houses into ./minos-demo/.
@@ -80,6 +83,7 @@ pub fn main() -> ExitCode {
         Command::Stats(a) => stats::run(a, &ctx),
         Command::Bake(a) => bake::run(a, &ctx),
         Command::Nav(a) => nav::run(a, &ctx),
+        Command::Episodes(a) => episodes::run(a, &ctx),
         Command::Export(a) => export::run(a, &ctx),
         Command::Demo(a) => demo::run(a, &ctx),
     };

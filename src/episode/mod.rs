@@ -1,6 +1,7 @@
 //! Episodes: navigable PointGoal / ObjectGoal / RoomGoal start–goal pairs, their Parquet
 //! file, and interchange with Habitat-Lab and MINOS formats.
 
+pub mod batch;
 pub mod format;
 pub mod habitat;
 pub mod interchange;

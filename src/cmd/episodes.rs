@@ -1,0 +1,289 @@
+//! `minos episodes`: flags → [`minos::episode::sample::SampleConfig`]; writes the episode
+//! Parquet, its statistics JSON, and optionally Habitat's layout. `minos episodes import`
+//! reads Habitat or MINOS episode files into the same Parquet.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::{bail, Context as _};
+use minos::episode::batch::{sample_scenes, Shard};
+use minos::episode::format::{read_episodes, write_episodes};
+use minos::episode::habitat::{export_habitat, import_habitat};
+use minos::episode::minos_csv::import_minos_csv;
+use minos::episode::sample::{SampleConfig, Select};
+use minos::episode::Task;
+use minos::io::atomic::write_bytes_atomic;
+use minos::scene::RoomClass;
+use minos::split::read_split;
+
+use super::Context;
+
+/// Sample navigable PointGoal, ObjectGoal or RoomGoal episodes, or import episode files.
+#[derive(Debug, clap::Args)]
+#[command(args_conflicts_with_subcommands = true)]
+pub struct Args {
+    #[command(subcommand)]
+    command: Option<Sub>,
+    #[command(flatten)]
+    sample: SampleArgs,
+}
+
+#[derive(Debug, clap::Subcommand)]
+enum Sub {
+    /// Read Habitat (json.gz) or MINOS (csv, csv.bz2) episodes into minos's Parquet.
+    Import(ImportArgs),
+}
+
+/// Task of `--task`.
+#[derive(Debug, Clone, Copy, clap::ValueEnum)]
+enum TaskArg {
+    Pointgoal,
+    Objectgoal,
+    Roomgoal,
+}
+
+/// Instance selection of `--select`.
+#[derive(Debug, Clone, Copy, clap::ValueEnum)]
+enum SelectArg {
+    /// Every instance counts.
+    Any,
+    /// One random instance.
+    Random,
+    /// The geodesically closest instance.
+    Closest,
+}
+
+/// When to stratify by distance bin.
+#[derive(Debug, Clone, Copy, clap::ValueEnum)]
+enum Stratify {
+    /// For val and test subsets only (MINOS picked their states across the distance range).
+    Auto,
+    On,
+    Off,
+}
+
+/// Each start is a uniformly random walkable point (by area) with a uniform yaw, on an island
+/// of radius >= --min-island-radius; the goal lies on the same island. Per-scene randomness
+/// derives from (seed, scene id, task), so thread count, scene order and sharding never change
+/// the output bytes. Scenes must be baked first (`minos bake`).
+#[derive(Debug, clap::Args)]
+#[command(after_help = "Examples:\n  minos episodes --data DATA --task pointgoal --split all --per-scene 20 --seed 1 --out eps/point.parquet\n  \
+    minos episodes --data DATA --task objectgoal --categories door,arch --select closest --split all --subset val \\\n      --per-scene 10 --out eps/door_val.parquet --export habitat eps/habitat\n  \
+    minos episodes --data DATA --task roomgoal --room-types kitchen,bedroom --split all --per-scene 10 --out eps/rooms.parquet\n  \
+    minos episodes --data DATA --task pointgoal --split all --shard 0/4 --out eps/part0.parquet\n  \
+    minos episodes import --from habitat val.json.gz --out eps/habitat_val.parquet")]
+pub struct SampleArgs {
+    /// DATA folder (baked with `minos bake`).
+    #[arg(long, required = false)]
+    data: Option<PathBuf>,
+    /// Task.
+    #[arg(long, value_enum)]
+    task: Option<TaskArg>,
+    /// Split whose scenes are used (DATA/splits/NAME).
+    #[arg(long, value_name = "NAME")]
+    split: Option<String>,
+    /// Only this subset of the split (train, val or test); default: all three.
+    #[arg(long, value_parser = ["train", "val", "test"])]
+    subset: Option<String>,
+    /// Episodes per scene.
+    #[arg(long, default_value_t = 10)]
+    per_scene: usize,
+    /// Seed.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Output Parquet file (statistics go to FILE.stats.json).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Smallest island radius for starts (m).
+    #[arg(long, default_value_t = 1.5)]
+    min_island_radius: f32,
+    /// Success radius (m); MINOS used 0.25 (objects) and 0.4 (points).
+    #[arg(long, default_value_t = 0.2)]
+    success_radius: f32,
+    /// ObjectGoal categories, comma-separated (MINOS used doors).
+    #[arg(long, value_delimiter = ',', default_value = "door,arch")]
+    categories: Vec<String>,
+    /// RoomGoal classes, comma-separated, or `any`: other, bedroom, living_room, bathroom,
+    /// kitchen, dining_room, office, hallway, outdoor.
+    #[arg(long, value_delimiter = ',', default_value = "any")]
+    room_types: Vec<String>,
+    /// Which goal instances count.
+    #[arg(long, value_enum, default_value = "any")]
+    select: SelectArg,
+    /// Shortest geodesic distance (m).
+    #[arg(long, default_value_t = 1.0)]
+    min_geodesic: f32,
+    /// Longest geodesic distance (m).
+    #[arg(long, default_value_t = 30.0)]
+    max_geodesic: f32,
+    /// Disable Habitat's geodesic/Euclidean ratio rule (pairs with ratio < 1.1 kept with
+    /// probability 20·(ratio−0.98)²).
+    #[arg(long)]
+    no_ratio_rule: bool,
+    /// Fewest doors on the shortest path (MINOS).
+    #[arg(long, default_value_t = 0)]
+    min_doors: u32,
+    /// Fewest rooms on the shortest path (MINOS).
+    #[arg(long, default_value_t = 0)]
+    min_rooms: u32,
+    /// Start and goal on the same level.
+    #[arg(long)]
+    same_level: bool,
+    /// Geodesic thresholds easy/medium and medium/hard (m), e.g. 3,6.
+    #[arg(long, value_delimiter = ',', default_value = "3,6", num_args = 1)]
+    bins: Vec<f32>,
+    /// Stratified sampling across distance bins.
+    #[arg(long, value_enum, default_value = "auto")]
+    stratify: Stratify,
+    /// Step limit stored in each episode.
+    #[arg(long, default_value_t = 500)]
+    max_steps: u32,
+    /// Process every n-th scene: i/n.
+    #[arg(long, value_parser = Shard::parse, default_value = "0/1")]
+    shard: Shard,
+    /// Also write Habitat-Lab's layout (DIR/<subset>/<subset>.json.gz + content/) into DIR.
+    #[arg(long, num_args = 2, value_names = ["FORMAT", "DIR"])]
+    export: Option<Vec<String>>,
+    /// Scene path prefix written into Habitat's scene_id.
+    #[arg(long, default_value = "")]
+    scene_prefix: String,
+}
+
+/// Reads an episode file of another tool.
+#[derive(Debug, clap::Args)]
+#[command(after_help = "Examples:\n  minos episodes import --from habitat data/objectnav/val/content/X.json.gz --out x.parquet\n  \
+    minos episodes import --from minos-csv episode_states.suncg.csv.bz2 --out minos_suncg.parquet")]
+struct ImportArgs {
+    /// Format of FILE.
+    #[arg(long, value_parser = ["habitat", "minos-csv"])]
+    from: String,
+    /// The file (.json, .json.gz, .csv, .csv.bz2).
+    file: PathBuf,
+    /// Write the episodes to this Parquet file.
+    #[arg(long)]
+    out: Option<PathBuf>,
+}
+
+/// Runs `minos episodes`.
+pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
+    if let Some(Sub::Import(a)) = args.command {
+        return import(a, ctx);
+    }
+    let a = args.sample;
+    let (Some(data), Some(task), Some(split), Some(out)) = (a.data.clone(), a.task, a.split.clone(), a.out.clone()) else {
+        bail!("--data, --task, --split and --out are required (see `minos episodes --help`)");
+    };
+    if a.bins.len() != 2 || a.bins[0] > a.bins[1] {
+        bail!("--bins: expected two increasing distances, e.g. 3,6");
+    }
+    let room_classes = if a.room_types.iter().any(|t| t == "any") {
+        None
+    } else {
+        Some(
+            a.room_types
+                .iter()
+                .map(|t| RoomClass::from_name(t).with_context(|| format!("--room-types: unknown class `{t}`")))
+                .collect::<anyhow::Result<Vec<_>>>()?,
+        )
+    };
+    let lists = read_split(&data, &split).with_context(|| format!("--split {split}"))?;
+    let mut scenes = Vec::new();
+    for (name, ids) in [("train", &lists.train), ("val", &lists.val), ("test", &lists.test)] {
+        if a.subset.as_deref().is_none_or(|s| s == name) {
+            scenes.extend(ids.iter().map(|id| (id.clone(), name.to_string())));
+        }
+    }
+    let stratified = match a.stratify {
+        Stratify::On => true,
+        Stratify::Off => false,
+        Stratify::Auto => matches!(a.subset.as_deref(), Some("val") | Some("test")),
+    };
+    let cfg = SampleConfig {
+        task: match task {
+            TaskArg::Pointgoal => Task::PointGoal,
+            TaskArg::Objectgoal => Task::ObjectGoal,
+            TaskArg::Roomgoal => Task::RoomGoal,
+        },
+        per_scene: a.per_scene,
+        seed: a.seed,
+        min_island_radius: a.min_island_radius,
+        success_radius: a.success_radius,
+        categories: a.categories.clone(),
+        room_classes,
+        select: match a.select {
+            SelectArg::Any => Select::Any,
+            SelectArg::Random => Select::Random,
+            SelectArg::Closest => Select::Closest,
+        },
+        min_geodesic: a.min_geodesic,
+        max_geodesic: a.max_geodesic,
+        ratio_rule: !a.no_ratio_rule,
+        min_doors: a.min_doors,
+        min_rooms: a.min_rooms,
+        same_level: a.same_level,
+        bins: [a.bins[0], a.bins[1]],
+        stratified,
+        max_steps: a.max_steps,
+        ..SampleConfig::default()
+    };
+    let batch = {
+        let bar = ctx.progress(scenes.len() as u64, "episodes");
+        sample_scenes(&data, &scenes, &cfg, a.shard, &bar)
+    };
+    write_episodes(&out, &batch.episodes).with_context(|| format!("writing {}", out.display()))?;
+    let stats_path = PathBuf::from(format!("{}.stats.json", out.display()));
+    let stats = serde_json::to_vec_pretty(&batch).context("statistics")?;
+    write_bytes_atomic(&stats_path, &stats).with_context(|| stats_path.display().to_string())?;
+    for (id, s) in &batch.scenes {
+        if let Some(p) = &s.problem {
+            tracing::warn!("scene {id}: {p}");
+        }
+    }
+    if let Some(export) = &a.export {
+        if export[0] != "habitat" {
+            bail!("--export: unknown format `{}` (habitat)", export[0]);
+        }
+        let dir = PathBuf::from(&export[1]);
+        for subset in ["train", "val", "test"] {
+            let eps: Vec<_> = batch.episodes.iter().filter(|e| e.split == subset).cloned().collect();
+            if !eps.is_empty() {
+                export_habitat(&dir, subset, &a.scene_prefix, &eps)?;
+            }
+        }
+        ctx.say(format!("exported Habitat episodes -> {}", dir.display()));
+    }
+    let top: Vec<String> = {
+        let mut r: Vec<(&String, &u64)> = batch.rejected.iter().collect();
+        r.sort_by(|x, y| y.1.cmp(x.1));
+        r.iter().take(3).map(|(k, v)| format!("{k}: {v}")).collect()
+    };
+    ctx.say(format!(
+        "{} {} episodes from {} scenes -> {} (rejected draws: {}; details in {})",
+        batch.total,
+        cfg.task.name(),
+        batch.scenes.len(),
+        out.display(),
+        if top.is_empty() { "none".to_string() } else { top.join(", ") },
+        stats_path.display()
+    ));
+    let failed = batch.scenes.values().filter(|s| s.episodes == 0).count();
+    if failed > 0 {
+        ctx.say(format!("{failed} scenes yielded no episode (see warnings)"));
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn import(a: ImportArgs, ctx: &Context) -> anyhow::Result<ExitCode> {
+    let episodes = match a.from.as_str() {
+        "habitat" => import_habitat(&a.file)?,
+        _ => import_minos_csv(&a.file)?,
+    };
+    let scenes: std::collections::BTreeSet<&str> = episodes.iter().map(|e| e.scene_id.as_str()).collect();
+    ctx.say(format!("read {} episodes of {} scenes from {}", episodes.len(), scenes.len(), a.file.display()));
+    if let Some(out) = &a.out {
+        write_episodes(out, &episodes)?;
+        let back = read_episodes(out)?;
+        ctx.say(format!("wrote {} episodes -> {}", back.len(), out.display()));
+    }
+    Ok(ExitCode::SUCCESS)
+}
