@@ -13,6 +13,7 @@ pub mod los;
 pub mod params;
 pub mod path;
 pub mod query;
+#[cfg(test)] pub(crate) mod testmaps;
 
 pub use grid::{NavGrid, Span, NONE};
 pub use params::NavParams;
