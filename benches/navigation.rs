@@ -9,14 +9,16 @@ use std::time::Instant;
 
 use glam::{Mat4, Vec3};
 use minos::generate::{generate, GenerateConfig, OutputFormat};
-use minos::io::scene_file::{read_scene, scene_path};
 use minos::ingest::{ingest, IngestConfig};
+use minos::io::scene_file::{read_scene, scene_path};
 use minos::navmesh::build::build;
 use minos::navmesh::geodesic::distance_field;
 use minos::navmesh::path::shortest_path;
 use minos::navmesh::NavParams;
 use minos::progress::NoProgress;
-use minos::scene::{Aabb, Dataset, Level, Material, Mesh, Room, RoomClass, Scene, Surface, SurfaceKind};
+use minos::scene::{
+    Aabb, Dataset, Level, Material, Mesh, Room, RoomClass, Scene, Surface, SurfaceKind,
+};
 use minos::seed::Rng;
 
 fn best_ms(reps: usize, mut f: impl FnMut()) -> f64 {
@@ -44,7 +46,12 @@ fn houses(cfg: &GenerateConfig, dir: &std::path::Path) -> Vec<Scene> {
 fn flat_floor(side: f32) -> Scene {
     let mut mesh = Mesh {
         name: "floor".into(),
-        positions: vec![[0.0, 0.0, 0.0], [0.0, 0.0, side], [side, 0.0, side], [side, 0.0, 0.0]],
+        positions: vec![
+            [0.0, 0.0, 0.0],
+            [0.0, 0.0, side],
+            [side, 0.0, side],
+            [side, 0.0, 0.0],
+        ],
         indices: vec![0, 1, 2, 0, 2, 3],
         face_materials: vec![0, 0],
         materials: vec![Material::solid("f", [0.5, 0.5, 0.5])],
@@ -65,7 +72,10 @@ fn flat_floor(side: f32) -> Scene {
                 raw_types: vec![],
                 class: RoomClass::Other,
                 floor_polygon: None,
-                surfaces: vec![Surface { kind: SurfaceKind::Floor, mesh: 0 }],
+                surfaces: vec![Surface {
+                    kind: SurfaceKind::Floor,
+                    mesh: 0,
+                }],
                 area: side * side,
                 floor_height: 0.0,
                 bbox,
@@ -81,38 +91,82 @@ fn main() {
     let params = NavParams::default();
     let dir = tempfile::tempdir().expect("tempdir");
     println!("| measurement | scene | time |\n|---|---|---|");
-    let single = houses(&GenerateConfig { houses: 40, seed: 2, rooms: (6, 9), levels: (1, 1), closed_door_prob: 0.25 }, &dir.path().join("a"));
+    let single = houses(
+        &GenerateConfig {
+            houses: 40,
+            seed: 2,
+            rooms: (6, 9),
+            levels: (1, 1),
+            closed_door_prob: 0.25,
+        },
+        &dir.path().join("a"),
+    );
     let level = single
         .iter()
-        .min_by(|a, b| (a.floor_area() - 100.0).abs().total_cmp(&(b.floor_area() - 100.0).abs()))
+        .min_by(|a, b| {
+            (a.floor_area() - 100.0)
+                .abs()
+                .total_cmp(&(b.floor_area() - 100.0).abs())
+        })
         .expect("houses");
     let ms = best_ms(5, || {
         black_box(build(level, &params).expect("bake"));
     });
-    println!("| bake, 5 cm, 1 core | furnished level, {:.0} m², {} objects | {ms:.1} ms |", level.floor_area(), level.objects().count());
-    let multi = houses(&GenerateConfig { houses: 20, seed: 3, rooms: (24, 24), levels: (2, 2), closed_door_prob: 0.25 }, &dir.path().join("b"));
-    let big = multi.iter().max_by(|a, b| a.floor_area().total_cmp(&b.floor_area())).expect("houses");
+    println!(
+        "| bake, 5 cm, 1 core | furnished level, {:.0} m², {} objects | {ms:.1} ms |",
+        level.floor_area(),
+        level.objects().count()
+    );
+    let multi = houses(
+        &GenerateConfig {
+            houses: 20,
+            seed: 3,
+            rooms: (24, 24),
+            levels: (2, 2),
+            closed_door_prob: 0.25,
+        },
+        &dir.path().join("b"),
+    );
+    let big = multi
+        .iter()
+        .max_by(|a, b| a.floor_area().total_cmp(&b.floor_area()))
+        .expect("houses");
     let ms = best_ms(3, || {
         black_box(build(big, &params).expect("bake"));
     });
-    println!("| bake, 5 cm, 1 core | {} levels, {:.0} m², {} objects | {ms:.1} ms |", big.levels.len(), big.floor_area(), big.objects().count());
+    println!(
+        "| bake, 5 cm, 1 core | {} levels, {:.0} m², {} objects | {ms:.1} ms |",
+        big.levels.len(),
+        big.floor_area(),
+        big.objects().count()
+    );
     let flat = flat_floor(50.0);
     let grid = build(&flat, &params).expect("bake");
     let goal = grid.snap(Vec3::new(25.0, 0.0, 25.0)).expect("centre");
     let ms = best_ms(3, || {
         black_box(distance_field(&grid, &[goal]));
     });
-    println!("| distance field, one goal | open floor, {} walkable spans | {ms:.1} ms |", grid.walkable_count());
+    println!(
+        "| distance field, one goal | open floor, {} walkable spans | {ms:.1} ms |",
+        grid.walkable_count()
+    );
     let grid = build(big, &params).expect("bake");
-    let island = (0..grid.islands.len()).max_by_key(|&i| grid.islands[i].spans).expect("island") as u32;
+    let island = (0..grid.islands.len())
+        .max_by_key(|&i| grid.islands[i].spans)
+        .expect("island") as u32;
     let spans = grid.walkable_spans(Some(island));
     let ms = best_ms(3, || {
         black_box(distance_field(&grid, &[spans[0]]));
     });
-    println!("| distance field, one goal | largest house, {} walkable spans | {ms:.1} ms |", grid.walkable_count());
+    println!(
+        "| distance field, one goal | largest house, {} walkable spans | {ms:.1} ms |",
+        grid.walkable_count()
+    );
     let queries = 2_000;
     let mut rng = Rng::new(7);
-    let pairs: Vec<(u32, u32)> = (0..queries).map(|_| (*rng.pick(&spans).unwrap(), *rng.pick(&spans).unwrap())).collect();
+    let pairs: Vec<(u32, u32)> = (0..queries)
+        .map(|_| (*rng.pick(&spans).unwrap(), *rng.pick(&spans).unwrap()))
+        .collect();
     let ms = best_ms(2, || {
         for &(a, b) in &pairs {
             black_box(shortest_path(&grid, a, b));

@@ -6,13 +6,13 @@
 //! line (`src/cmd/`, in the binary) only turns flags into the configuration structs of these
 //! modules. See `docs/ARCHITECTURE.md`.
 
+pub mod episode;
 pub mod generate;
 pub mod ingest;
-pub mod navmesh;
 pub mod io;
+pub mod navmesh;
 pub mod progress;
 pub mod scene;
 pub mod seed;
 pub mod split;
 pub mod stats;
-pub mod episode;

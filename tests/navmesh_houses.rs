@@ -11,18 +11,28 @@ use minos::generate::GenerateConfig;
 use minos::io::scene_file::{read_scene, scene_path};
 use minos::navmesh::build::build;
 use minos::navmesh::geodesic::distance_field;
+use minos::navmesh::path::shortest_path;
 use minos::navmesh::{NavGrid, NavParams};
 use minos::seed::Rng;
 
 fn islands_of_room(grid: &NavGrid, room: u32) -> BTreeSet<u32> {
-    grid.room_spans(room).iter().map(|&s| grid.spans[s as usize].island).collect()
+    grid.room_spans(room)
+        .iter()
+        .map(|&s| grid.spans[s as usize].island)
+        .collect()
 }
 
 #[test]
 fn doors_rooms_and_levels_of_generated_houses_connect_as_planned() {
     let dir = tempfile::tempdir().unwrap();
     let (root, data) = (dir.path().join("suncg"), dir.path().join("DATA"));
-    let cfg = GenerateConfig { houses: 12, seed: 21, rooms: (2, 9), levels: (1, 2), closed_door_prob: 0.6 };
+    let cfg = GenerateConfig {
+        houses: 12,
+        seed: 21,
+        rooms: (2, 9),
+        levels: (1, 2),
+        closed_door_prob: 0.6,
+    };
     let plans = generate_into(&cfg, &root);
     ingest_into(&root, &data);
     let (mut open_checked, mut closed_checked, mut stairs_checked) = (0, 0, 0);
@@ -45,22 +55,49 @@ fn doors_rooms_and_levels_of_generated_houses_connect_as_planned() {
                 let passages: Vec<_> = level
                     .objects
                     .iter()
-                    .filter(|o| (o.spec().fine == "door" || o.spec().fine == "arch") && o.rooms.len() == 2 && o.rooms.contains(&k))
+                    .filter(|o| {
+                        (o.spec().fine == "door" || o.spec().fine == "arch")
+                            && o.rooms.len() == 2
+                            && o.rooms.contains(&k)
+                    })
                     .collect();
-                if !passages.is_empty() && passages.iter().all(|o| o.spec().id.contains("closed")) {
+                // Stair halls are also reached by their stairs.
+                let stairwell = !level.rooms[k].floor_holes.is_empty()
+                    || !level.rooms[k].ceiling_holes.is_empty();
+                if !stairwell
+                    && !passages.is_empty()
+                    && passages.iter().all(|o| o.spec().id.contains("closed"))
+                {
                     closed_rooms.insert(offsets[li] + k as u32);
                 }
             }
-            for o in level.objects.iter().filter(|o| o.spec().id.starts_with("g_door_open") && o.rooms.len() == 2) {
-                let (a, b) = (offsets[li] + o.rooms[0] as u32, offsets[li] + o.rooms[1] as u32);
-                let shared = islands_of_room(&grid, a).intersection(&islands_of_room(&grid, b)).count();
-                assert!(shared > 0, "{}: open door between rooms {a} and {b} does not connect them", plan.id);
+            for o in level
+                .objects
+                .iter()
+                .filter(|o| o.spec().id.starts_with("g_door_open") && o.rooms.len() == 2)
+            {
+                let (a, b) = (
+                    offsets[li] + o.rooms[0] as u32,
+                    offsets[li] + o.rooms[1] as u32,
+                );
+                let shared = islands_of_room(&grid, a)
+                    .intersection(&islands_of_room(&grid, b))
+                    .count();
+                assert!(
+                    shared > 0,
+                    "{}: open door between rooms {a} and {b} does not connect them",
+                    plan.id
+                );
                 open_checked += 1;
             }
         }
         for &room in &closed_rooms {
             let mine = islands_of_room(&grid, room);
-            assert!(!mine.is_empty(), "{}: closed room {room} has no walkable floor", plan.id);
+            assert!(
+                !mine.is_empty(),
+                "{}: closed room {room} has no walkable floor",
+                plan.id
+            );
             for other in (0..grid.rooms.len() as u32).filter(|r| *r != room) {
                 assert!(
                     mine.is_disjoint(&islands_of_room(&grid, other)),
@@ -71,13 +108,22 @@ fn doors_rooms_and_levels_of_generated_houses_connect_as_planned() {
             closed_checked += 1;
         }
         // Every room not behind a closed door is on one island, whatever its level.
-        let open_rooms: Vec<u32> = (0..grid.rooms.len() as u32).filter(|r| !closed_rooms.contains(r)).collect();
+        let open_rooms: Vec<u32> = (0..grid.rooms.len() as u32)
+            .filter(|r| !closed_rooms.contains(r))
+            .collect();
+        if open_rooms.is_empty() {
+            continue; // two rooms shut from each other by their only door
+        }
         let common = open_rooms
             .iter()
             .map(|&r| islands_of_room(&grid, r))
             .reduce(|a, b| a.intersection(&b).copied().collect())
             .unwrap_or_default();
-        assert!(!common.is_empty(), "{}: rooms {open_rooms:?} are not all connected", plan.id);
+        assert!(
+            !common.is_empty(),
+            "{}: rooms {open_rooms:?} are not all connected",
+            plan.id
+        );
         if plan.levels.len() == 2 {
             stairs_checked += 1;
         }
@@ -87,11 +133,28 @@ fn doors_rooms_and_levels_of_generated_houses_connect_as_planned() {
         let mut rng = Rng::new(plan.levels.len() as u64);
         for _ in 0..4 {
             let (a, b) = (*rng.pick(&spans).unwrap(), *rng.pick(&spans).unwrap());
-            let (dab, dba) = (distance_field(&grid, &[a]).distance(b).unwrap(), distance_field(&grid, &[b]).distance(a).unwrap());
-            assert!((dab - dba).abs() <= 0.01 * dab.max(0.05), "{}: {dab} vs {dba}", plan.id);
+            let (dab, dba) = (
+                shortest_path(&grid, a, b).length().unwrap(),
+                shortest_path(&grid, b, a).length().unwrap(),
+            );
+            // The field agrees with the path up to the search's cell-centred corners.
+            let field = distance_field(&grid, &[b]).distance(a).unwrap();
+            assert!(
+                field >= dab - 1e-3 && field <= dab * 1.05 + 0.05,
+                "{}: field {field} vs path {dab}",
+                plan.id
+            );
+            assert!(
+                (dab - dba).abs() <= 0.01 * dab.max(0.05),
+                "{}: {dab} vs {dba}",
+                plan.id
+            );
         }
     }
-    assert!(open_checked > 10 && closed_checked > 0 && stairs_checked > 0, "{open_checked} {closed_checked} {stairs_checked}");
+    assert!(
+        open_checked > 10 && closed_checked > 0 && stairs_checked > 0,
+        "{open_checked} {closed_checked} {stairs_checked}"
+    );
 }
 
 #[test]
@@ -108,11 +171,21 @@ fn real_suncg_sample_bakes_with_free_floor_around_the_furniture() {
     let room_area = scene.levels[0].rooms[0].area;
     let walkable = grid.walkable_count() as f32 * grid.cell() * grid.cell();
     // The bed, wardrobes and shelves take floor; what remains is one connected free floor.
-    assert!(walkable > 0.25 * room_area && walkable < 0.8 * room_area, "{walkable} of {room_area} m²");
+    assert!(
+        walkable > 0.25 * room_area && walkable < 0.8 * room_area,
+        "{walkable} of {room_area} m²"
+    );
     let biggest = grid.islands.iter().map(|i| i.area).fold(0.0, f32::max);
-    assert!(biggest > 0.9 * walkable, "free floor is fragmented: {:?}", grid.islands);
+    assert!(
+        biggest > 0.9 * walkable,
+        "free floor is fragmented: {:?}",
+        grid.islands
+    );
     // Under the bed is not walkable; the middle of the room is.
-    let bed = scene.objects().find(|o| o.categories.fine.as_deref() == Some("double_bed")).unwrap();
+    let bed = scene
+        .objects()
+        .find(|o| o.categories.fine.as_deref() == Some("double_bed"))
+        .unwrap();
     assert!(!grid.is_walkable(bed.bbox.center().with_y(0.05)));
     let nav = dir.path().join("nav").join(format!("{id}.nav"));
     minos::navmesh::file::write_nav(&nav, &grid).unwrap();

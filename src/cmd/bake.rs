@@ -22,12 +22,14 @@ use super::Context;
 /// differ by at most `max_climb`, so stairs join levels. Grids newer than their scene and
 /// baked with the same parameters are kept (use --force).
 #[derive(Debug, clap::Args)]
-#[command(after_help = "Parameters (TOML keys of --config; defaults are minos's):\n  \
+#[command(
+    after_help = "Parameters (TOML keys of --config; defaults are minos's):\n  \
     cell_size 0.05, agent_radius 0.1, agent_height 1.19, max_climb 0.2, max_slope_deg 45,\n  \
     clearance_margin 0.2, clearance_weight 1 (MINOS used 10: paths keep off walls, geodesics\n  \
     are no longer exact). A config may start from a preset: preset = \"minos\".\n\n\
     Examples:\n  minos bake --data DATA\n  minos bake --data DATA --split multiroom --preset minos\n  \
-    minos bake --data DATA --config nav.toml --force")]
+    minos bake --data DATA --config nav.toml --force"
+)]
 pub struct Args {
     /// DATA folder made by `minos ingest`.
     #[arg(long)]
@@ -61,7 +63,12 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     let ids: Vec<String> = match &args.split {
         Some(name) => {
             let lists = read_split(&args.data, name).with_context(|| format!("--split {name}"))?;
-            let mut ids: Vec<String> = lists.train.into_iter().chain(lists.val).chain(lists.test).collect();
+            let mut ids: Vec<String> = lists
+                .train
+                .into_iter()
+                .chain(lists.val)
+                .chain(lists.test)
+                .collect();
             ids.sort();
             ids.dedup();
             ids
@@ -90,7 +97,11 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         eprintln!("error: scene {id}: {e}");
         failed += 1;
     }
-    let baked = report.scenes.iter().filter(|(_, o)| matches!(o, BakeOutcome::Baked { .. })).count();
+    let baked = report
+        .scenes
+        .iter()
+        .filter(|(_, o)| matches!(o, BakeOutcome::Baked { .. }))
+        .count();
     ctx.say(format!(
         "baked {} scenes in {:.2} s: {baked} baked, {} up to date, {failed} failed -> {}",
         report.scenes.len(),
@@ -98,5 +109,9 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         report.scenes.len() - baked - failed,
         args.data.join("nav").display()
     ));
-    Ok(if failed == 0 { ExitCode::SUCCESS } else { ExitCode::FAILURE })
+    Ok(if failed == 0 {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    })
 }

@@ -67,11 +67,13 @@ enum Stratify {
 /// derives from (seed, scene id, task), so thread count, scene order and sharding never change
 /// the output bytes. Scenes must be baked first (`minos bake`).
 #[derive(Debug, clap::Args)]
-#[command(after_help = "Examples:\n  minos episodes --data DATA --task pointgoal --split all --per-scene 20 --seed 1 --out eps/point.parquet\n  \
+#[command(
+    after_help = "Examples:\n  minos episodes --data DATA --task pointgoal --split all --per-scene 20 --seed 1 --out eps/point.parquet\n  \
     minos episodes --data DATA --task objectgoal --categories door,arch --select closest --split all --subset val \\\n      --per-scene 10 --out eps/door_val.parquet --export habitat eps/habitat\n  \
     minos episodes --data DATA --task roomgoal --room-types kitchen,bedroom --split all --per-scene 10 --out eps/rooms.parquet\n  \
     minos episodes --data DATA --task pointgoal --split all --shard 0/4 --out eps/part0.parquet\n  \
-    minos episodes import --from habitat val.json.gz --out eps/habitat_val.parquet")]
+    minos episodes import --from habitat val.json.gz --out eps/habitat_val.parquet"
+)]
 pub struct SampleArgs {
     /// DATA folder (baked with `minos bake`).
     #[arg(long, required = false)]
@@ -151,8 +153,10 @@ pub struct SampleArgs {
 
 /// Reads an episode file of another tool.
 #[derive(Debug, clap::Args)]
-#[command(after_help = "Examples:\n  minos episodes import --from habitat data/objectnav/val/content/X.json.gz --out x.parquet\n  \
-    minos episodes import --from minos-csv episode_states.suncg.csv.bz2 --out minos_suncg.parquet")]
+#[command(
+    after_help = "Examples:\n  minos episodes import --from habitat data/objectnav/val/content/X.json.gz --out x.parquet\n  \
+    minos episodes import --from minos-csv episode_states.suncg.csv.bz2 --out minos_suncg.parquet"
+)]
 struct ImportArgs {
     /// Format of FILE.
     #[arg(long, value_parser = ["habitat", "minos-csv"])]
@@ -170,7 +174,9 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         return import(a, ctx);
     }
     let a = args.sample;
-    let (Some(data), Some(task), Some(split), Some(out)) = (a.data.clone(), a.task, a.split.clone(), a.out.clone()) else {
+    let (Some(data), Some(task), Some(split), Some(out)) =
+        (a.data.clone(), a.task, a.split.clone(), a.out.clone())
+    else {
         bail!("--data, --task, --split and --out are required (see `minos episodes --help`)");
     };
     if a.bins.len() != 2 || a.bins[0] > a.bins[1] {
@@ -182,13 +188,20 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         Some(
             a.room_types
                 .iter()
-                .map(|t| RoomClass::from_name(t).with_context(|| format!("--room-types: unknown class `{t}`")))
+                .map(|t| {
+                    RoomClass::from_name(t)
+                        .with_context(|| format!("--room-types: unknown class `{t}`"))
+                })
                 .collect::<anyhow::Result<Vec<_>>>()?,
         )
     };
     let lists = read_split(&data, &split).with_context(|| format!("--split {split}"))?;
     let mut scenes = Vec::new();
-    for (name, ids) in [("train", &lists.train), ("val", &lists.val), ("test", &lists.test)] {
+    for (name, ids) in [
+        ("train", &lists.train),
+        ("val", &lists.val),
+        ("test", &lists.test),
+    ] {
         if a.subset.as_deref().is_none_or(|s| s == name) {
             scenes.extend(ids.iter().map(|id| (id.clone(), name.to_string())));
         }
@@ -245,7 +258,12 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         }
         let dir = PathBuf::from(&export[1]);
         for subset in ["train", "val", "test"] {
-            let eps: Vec<_> = batch.episodes.iter().filter(|e| e.split == subset).cloned().collect();
+            let eps: Vec<_> = batch
+                .episodes
+                .iter()
+                .filter(|e| e.split == subset)
+                .cloned()
+                .collect();
             if !eps.is_empty() {
                 export_habitat(&dir, subset, &a.scene_prefix, &eps)?;
             }
@@ -263,7 +281,11 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         cfg.task.name(),
         batch.scenes.len(),
         out.display(),
-        if top.is_empty() { "none".to_string() } else { top.join(", ") },
+        if top.is_empty() {
+            "none".to_string()
+        } else {
+            top.join(", ")
+        },
         stats_path.display()
     ));
     let failed = batch.scenes.values().filter(|s| s.episodes == 0).count();
@@ -278,12 +300,22 @@ fn import(a: ImportArgs, ctx: &Context) -> anyhow::Result<ExitCode> {
         "habitat" => import_habitat(&a.file)?,
         _ => import_minos_csv(&a.file)?,
     };
-    let scenes: std::collections::BTreeSet<&str> = episodes.iter().map(|e| e.scene_id.as_str()).collect();
-    ctx.say(format!("read {} episodes of {} scenes from {}", episodes.len(), scenes.len(), a.file.display()));
+    let scenes: std::collections::BTreeSet<&str> =
+        episodes.iter().map(|e| e.scene_id.as_str()).collect();
+    ctx.say(format!(
+        "read {} episodes of {} scenes from {}",
+        episodes.len(),
+        scenes.len(),
+        a.file.display()
+    ));
     if let Some(out) = &a.out {
         write_episodes(out, &episodes)?;
         let back = read_episodes(out)?;
-        ctx.say(format!("wrote {} episodes -> {}", back.len(), out.display()));
+        ctx.say(format!(
+            "wrote {} episodes -> {}",
+            back.len(),
+            out.display()
+        ));
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -56,7 +56,7 @@ enum Command {
     /// Navigation queries on baked grids (shortest paths, distances).
     Nav(nav::Args),
     /// Sample navigable PointGoal / ObjectGoal / RoomGoal episodes (or import episode files).
-    Episodes(episodes::Args),
+    Episodes(Box<episodes::Args>),
     /// Export a compiled scene's world-space geometry as OBJ or GLB.
     Export(export::Args),
     /// Run the whole pipeline on generated houses into ./minos-demo/.
@@ -83,7 +83,7 @@ pub fn main() -> ExitCode {
         Command::Stats(a) => stats::run(a, &ctx),
         Command::Bake(a) => bake::run(a, &ctx),
         Command::Nav(a) => nav::run(a, &ctx),
-        Command::Episodes(a) => episodes::run(a, &ctx),
+        Command::Episodes(a) => episodes::run(*a, &ctx),
         Command::Export(a) => export::run(a, &ctx),
         Command::Demo(a) => demo::run(a, &ctx),
     };

@@ -29,8 +29,10 @@ enum NavCommand {
 /// Points are x,y,z in world metres with y the floor height under the agent; they snap to the
 /// nearest walkable span within 2 m.
 #[derive(Debug, clap::Args)]
-#[command(after_help = "Examples:\n  minos nav query --data DATA --scene ID --from 1.0,0,2.5 --to 6.2,0,4.0\n  \
-    minos nav query --data DATA --scene ID --from 1,0,2.5 --to 6,3,4 --json | jq .geodesic")]
+#[command(
+    after_help = "Examples:\n  minos nav query --data DATA --scene ID --from 1.0,0,2.5 --to 6.2,0,4.0\n  \
+    minos nav query --data DATA --scene ID --from 1,0,2.5 --to 6,3,4 --json | jq .geodesic"
+)]
 struct QueryArgs {
     /// DATA folder with DATA/nav/<scene>.nav (run `minos bake`).
     #[arg(long)]
@@ -52,7 +54,11 @@ struct QueryArgs {
 fn parse_point(s: &str) -> Result<Vec3, String> {
     let v: Vec<f32> = s
         .split(',')
-        .map(|t| t.trim().parse::<f32>().map_err(|_| format!("`{t}` is not a number")))
+        .map(|t| {
+            t.trim()
+                .parse::<f32>()
+                .map_err(|_| format!("`{t}` is not a number"))
+        })
         .collect::<Result<_, _>>()?;
     match v[..] {
         [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok(Vec3::new(x, y, z)),
@@ -64,8 +70,15 @@ fn parse_point(s: &str) -> Result<Vec3, String> {
 pub fn run(args: Args, _ctx: &Context) -> anyhow::Result<ExitCode> {
     let NavCommand::Query(q) = args.command;
     let path = nav_path(&q.data, &q.scene);
-    let grid = read_nav(&path).with_context(|| format!("scene {} (run `minos bake --data {}`)", q.scene, q.data.display()))?;
-    let r: Route = route(&grid, q.from, q.to).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    let grid = read_nav(&path).with_context(|| {
+        format!(
+            "scene {} (run `minos bake --data {}`)",
+            q.scene,
+            q.data.display()
+        )
+    })?;
+    let r: Route =
+        route(&grid, q.from, q.to).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
     let euclidean = q.from.distance(q.to);
     let rooms: Vec<serde_json::Value> = r
         .rooms
@@ -75,7 +88,11 @@ pub fn run(args: Args, _ctx: &Context) -> anyhow::Result<ExitCode> {
             json!({"id": room.id, "class": minos::scene::RoomClass::ALL.get(room.class as usize).map(|c| c.name()).unwrap_or("other")})
         })
         .collect();
-    let doors: Vec<&str> = r.doors.iter().map(|&i| grid.objects[i as usize].id.as_str()).collect();
+    let doors: Vec<&str> = r
+        .doors
+        .iter()
+        .map(|&i| grid.objects[i as usize].id.as_str())
+        .collect();
     if q.json {
         let out = json!({
             "reachable": r.reachable,
@@ -93,10 +110,23 @@ pub fn run(args: Args, _ctx: &Context) -> anyhow::Result<ExitCode> {
             None => println!("geodesic:  unreachable"),
         }
         println!("euclidean: {euclidean:.3} m");
-        let names: Vec<String> = rooms.iter().map(|r| format!("{} ({})", r["id"].as_str().unwrap_or(""), r["class"].as_str().unwrap_or(""))).collect();
+        let names: Vec<String> = rooms
+            .iter()
+            .map(|r| {
+                format!(
+                    "{} ({})",
+                    r["id"].as_str().unwrap_or(""),
+                    r["class"].as_str().unwrap_or("")
+                )
+            })
+            .collect();
         println!("rooms:     {}", names.join(" -> "));
         println!("doors:     {}", doors.join(", "));
-        let pts: Vec<String> = r.points.iter().map(|p| format!("({:.2}, {:.2}, {:.2})", p.x, p.y, p.z)).collect();
+        let pts: Vec<String> = r
+            .points
+            .iter()
+            .map(|p| format!("({:.2}, {:.2}, {:.2})", p.x, p.y, p.z))
+            .collect();
         println!("path:      {}", pts.join(" "));
     }
     Ok(ExitCode::SUCCESS)

@@ -29,8 +29,14 @@ impl Shard {
 
     /// Parses `i/n` with `0 <= i < n`.
     pub fn parse(s: &str) -> Result<Shard, String> {
-        let (i, n) = s.split_once('/').ok_or_else(|| format!("`{s}`: expected i/n, e.g. 0/4"))?;
-        let num = |t: &str| t.trim().parse::<usize>().map_err(|_| format!("`{s}`: `{t}` is not a whole number"));
+        let (i, n) = s
+            .split_once('/')
+            .ok_or_else(|| format!("`{s}`: expected i/n, e.g. 0/4"))?;
+        let num = |t: &str| {
+            t.trim()
+                .parse::<usize>()
+                .map_err(|_| format!("`{s}`: `{t}` is not a whole number"))
+        };
         let (index, count) = (num(i)?, num(n)?);
         if count == 0 || index >= count {
             return Err(format!("`{s}`: need 0 <= i < n"));
@@ -65,11 +71,22 @@ pub struct EpisodeBatch {
 }
 
 /// Samples `cfg` over `scenes` (`(scene id, split subset)`), reading grids from `data`.
-pub fn sample_scenes(data: &Path, scenes: &[(String, String)], cfg: &SampleConfig, shard: Shard, progress: &dyn Progress) -> EpisodeBatch {
+pub fn sample_scenes(
+    data: &Path,
+    scenes: &[(String, String)],
+    cfg: &SampleConfig,
+    shard: Shard,
+    progress: &dyn Progress,
+) -> EpisodeBatch {
     let mut sorted: Vec<&(String, String)> = scenes.iter().collect();
     sorted.sort();
     sorted.dedup();
-    let mine: Vec<&(String, String)> = sorted.into_iter().enumerate().filter(|(i, _)| i % shard.count == shard.index).map(|(_, s)| s).collect();
+    let mine: Vec<&(String, String)> = sorted
+        .into_iter()
+        .enumerate()
+        .filter(|(i, _)| i % shard.count == shard.index)
+        .map(|(_, s)| s)
+        .collect();
     progress.set_total(mine.len() as u64);
     let results: Vec<(String, Result<super::sample::SceneEpisodes, String>)> = mine
         .par_iter()
@@ -92,7 +109,13 @@ pub fn sample_scenes(data: &Path, scenes: &[(String, String)], cfg: &SampleConfi
                     stats.rejected.insert(why.to_string(), *n);
                 }
                 stats.problem = s.unusable.or_else(|| {
-                    (s.episodes.len() < cfg.per_scene).then(|| format!("only {} of {} episodes after all attempts", s.episodes.len(), cfg.per_scene))
+                    (s.episodes.len() < cfg.per_scene).then(|| {
+                        format!(
+                            "only {} of {} episodes after all attempts",
+                            s.episodes.len(),
+                            cfg.per_scene
+                        )
+                    })
                 });
                 batch.episodes.extend(s.episodes);
             }

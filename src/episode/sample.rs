@@ -135,11 +135,19 @@ fn position_of(grid: &NavGrid, spans: &[u32]) -> [f32; 3] {
     if spans.is_empty() {
         return [0.0; 3];
     }
-    let c = spans.iter().map(|&s| grid.span_position(s as usize)).sum::<Vec3>() / spans.len() as f32;
+    let c = spans
+        .iter()
+        .map(|&s| grid.span_position(s as usize))
+        .sum::<Vec3>()
+        / spans.len() as f32;
     // The walkable span nearest to the centroid stands for the region.
     let best = spans
         .iter()
-        .min_by(|&&a, &&b| grid.span_position(a as usize).distance(c).total_cmp(&grid.span_position(b as usize).distance(c)))
+        .min_by(|&&a, &&b| {
+            grid.span_position(a as usize)
+                .distance(c)
+                .total_cmp(&grid.span_position(b as usize).distance(c))
+        })
         .copied()
         .unwrap_or(spans[0]);
     grid.span_position(best as usize).to_array()
@@ -147,7 +155,11 @@ fn position_of(grid: &NavGrid, spans: &[u32]) -> [f32; 3] {
 
 fn view_points(grid: &NavGrid, spans: &[u32]) -> Vec<[f32; 3]> {
     let step = spans.len().div_ceil(MAX_VIEW_POINTS).max(1);
-    spans.iter().step_by(step).map(|&s| grid.span_position(s as usize).to_array()).collect()
+    spans
+        .iter()
+        .step_by(step)
+        .map(|&s| grid.span_position(s as usize).to_array())
+        .collect()
 }
 
 /// The goal sets of a scene for the task: one per category (ObjectGoal) or room class (RoomGoal).
@@ -158,7 +170,11 @@ fn goal_sets(grid: &NavGrid, cfg: &SampleConfig) -> Vec<GoalSet> {
             .categories
             .iter()
             .filter_map(|cat| {
-                let mut set = GoalSet { name: cat.clone(), targets: Vec::new(), spans: Vec::new() };
+                let mut set = GoalSet {
+                    name: cat.clone(),
+                    targets: Vec::new(),
+                    spans: Vec::new(),
+                };
                 for (i, o) in grid.objects.iter().enumerate() {
                     if !o.category.eq_ignore_ascii_case(cat) {
                         continue;
@@ -167,19 +183,34 @@ fn goal_sets(grid: &NavGrid, cfg: &SampleConfig) -> Vec<GoalSet> {
                     if spans.is_empty() {
                         continue;
                     }
-                    let centre = [(o.min[0] + o.max[0]) / 2.0, (o.min[1] + o.max[1]) / 2.0, (o.min[2] + o.max[2]) / 2.0];
-                    set.targets.push(GoalTarget { id: o.id.clone(), position: centre, view_points: view_points(grid, &spans) });
+                    let centre = [
+                        (o.min[0] + o.max[0]) / 2.0,
+                        (o.min[1] + o.max[1]) / 2.0,
+                        (o.min[2] + o.max[2]) / 2.0,
+                    ];
+                    set.targets.push(GoalTarget {
+                        id: o.id.clone(),
+                        position: centre,
+                        view_points: view_points(grid, &spans),
+                    });
                     set.spans.push(spans);
                 }
                 (!set.targets.is_empty()).then_some(set)
             })
             .collect(),
         Task::RoomGoal => {
-            let classes: Vec<RoomClass> = cfg.room_classes.clone().unwrap_or_else(|| RoomClass::ALL.to_vec());
+            let classes: Vec<RoomClass> = cfg
+                .room_classes
+                .clone()
+                .unwrap_or_else(|| RoomClass::ALL.to_vec());
             classes
                 .iter()
                 .filter_map(|class| {
-                    let mut set = GoalSet { name: class.name().to_string(), targets: Vec::new(), spans: Vec::new() };
+                    let mut set = GoalSet {
+                        name: class.name().to_string(),
+                        targets: Vec::new(),
+                        spans: Vec::new(),
+                    };
                     for (i, r) in grid.rooms.iter().enumerate() {
                         if r.class != class.index() {
                             continue;
@@ -188,7 +219,11 @@ fn goal_sets(grid: &NavGrid, cfg: &SampleConfig) -> Vec<GoalSet> {
                         if spans.is_empty() {
                             continue;
                         }
-                        set.targets.push(GoalTarget { id: r.id.clone(), position: position_of(grid, &spans), view_points: Vec::new() });
+                        set.targets.push(GoalTarget {
+                            id: r.id.clone(),
+                            position: position_of(grid, &spans),
+                            view_points: Vec::new(),
+                        });
                         set.spans.push(spans);
                     }
                     (!set.targets.is_empty()).then_some(set)
@@ -218,46 +253,85 @@ impl<'g> FieldCache<'g> {
 }
 
 /// Samples the episodes of one scene (`scene_id` names it in ids; `split` is written as is).
-pub fn sample_scene(grid: &NavGrid, scene_id: &str, split: &str, cfg: &SampleConfig) -> SceneEpisodes {
+pub fn sample_scene(
+    grid: &NavGrid,
+    scene_id: &str,
+    split: &str,
+    cfg: &SampleConfig,
+) -> SceneEpisodes {
     let seed = derive_seed(cfg.seed, &[scene_id, cfg.task.name(), "episodes"]);
     let mut rng = Rng::new(seed);
     let mut out = SceneEpisodes::default();
-    let islands: Vec<bool> = grid.islands.iter().map(|i| i.radius >= cfg.min_island_radius).collect();
-    let starts: Vec<u32> = grid.walkable_spans(None).into_iter().filter(|&s| islands[grid.spans[s as usize].island as usize]).collect();
+    let islands: Vec<bool> = grid
+        .islands
+        .iter()
+        .map(|i| i.radius >= cfg.min_island_radius)
+        .collect();
+    let starts: Vec<u32> = grid
+        .walkable_spans(None)
+        .into_iter()
+        .filter(|&s| islands[grid.spans[s as usize].island as usize])
+        .collect();
     if starts.is_empty() {
-        out.unusable = Some(format!("no island of radius >= {} m", cfg.min_island_radius));
+        out.unusable = Some(format!(
+            "no island of radius >= {} m",
+            cfg.min_island_radius
+        ));
         return out;
     }
     let by_island: BTreeMap<u32, Vec<u32>> = starts.iter().fold(BTreeMap::new(), |mut m, &s| {
-        m.entry(grid.spans[s as usize].island).or_insert_with(Vec::new).push(s);
+        m.entry(grid.spans[s as usize].island)
+            .or_insert_with(Vec::new)
+            .push(s);
         m
     });
     let sets = goal_sets(grid, cfg);
     if cfg.task != Task::PointGoal && sets.is_empty() {
         out.unusable = Some(match cfg.task {
-            Task::ObjectGoal => format!("no reachable object of categories {}", cfg.categories.join(",")),
+            Task::ObjectGoal => format!(
+                "no reachable object of categories {}",
+                cfg.categories.join(",")
+            ),
             _ => "no room of the requested classes with walkable floor".into(),
         });
         return out;
     }
     let geo = Geodesic::new(grid);
-    let mut fields = FieldCache { geo: &geo, fields: BTreeMap::new() };
+    let mut fields = FieldCache {
+        geo: &geo,
+        fields: BTreeMap::new(),
+    };
     let per_bin = cfg.per_scene.div_ceil(3);
     let mut bin_counts = [0usize; 3];
-    let attempts = cfg.per_scene.saturating_mul(cfg.attempts_per_episode).max(1);
-    let mut reject = |out: &mut SceneEpisodes, why: &'static str| *out.rejected.entry(why).or_insert(0) += 1;
+    let attempts = cfg
+        .per_scene
+        .saturating_mul(cfg.attempts_per_episode)
+        .max(1);
+    let reject =
+        |out: &mut SceneEpisodes, why: &'static str| *out.rejected.entry(why).or_insert(0) += 1;
     for _ in 0..attempts {
         if out.episodes.len() >= cfg.per_scene {
             break;
         }
-        let Some((start_span, start)) = grid.random_point_from(&mut rng, &starts) else { break };
+        let Some((start_span, start)) = grid.random_point_from(&mut rng, &starts) else {
+            break;
+        };
         let yaw = rng.range_f64(0.0, std::f64::consts::TAU) as f32;
         let island = grid.spans[start_span as usize].island;
         let (goal, path, goal_point) = match cfg.task {
             Task::PointGoal => {
-                let Some((goal_span, goal)) = grid.random_point_from(&mut rng, &by_island[&island]) else { continue };
+                let Some((goal_span, goal)) = grid.random_point_from(&mut rng, &by_island[&island])
+                else {
+                    continue;
+                };
                 match shortest_path_in(&geo, start_span, goal_span) {
-                    PathResult::Found(p) => (Goal::Point { position: goal.to_array() }, p, goal),
+                    PathResult::Found(p) => (
+                        Goal::Point {
+                            position: goal.to_array(),
+                        },
+                        p,
+                        goal,
+                    ),
                     PathResult::Unreachable => {
                         reject(&mut out, "unreachable");
                         continue;
@@ -283,19 +357,33 @@ pub fn sample_scene(grid: &NavGrid, scene_id: &str, split: &str, cfg: &SampleCon
                 let targets: Vec<GoalTarget> = match target {
                     Some(t) => vec![sets[set].targets[t].clone()],
                     None if cfg.select == Select::Closest => {
-                        let t = sets[set].spans.iter().position(|s| s.contains(&end)).unwrap_or(0);
+                        let t = sets[set]
+                            .spans
+                            .iter()
+                            .position(|s| s.contains(&end))
+                            .unwrap_or(0);
                         vec![sets[set].targets[t].clone()]
                     }
                     None => sets[set].targets.clone(),
                 };
                 let goal = match cfg.task {
-                    Task::ObjectGoal => Goal::Object { category: sets[set].name.clone(), targets },
-                    _ => Goal::Room { class: sets[set].name.clone(), targets },
+                    Task::ObjectGoal => Goal::Object {
+                        category: sets[set].name.clone(),
+                        targets,
+                    },
+                    _ => Goal::Room {
+                        class: sets[set].name.clone(),
+                        targets,
+                    },
                 };
                 (goal, p, grid.span_position(end as usize))
             }
         };
-        let Some(ep) = check(grid, cfg, &mut rng, &path, start, goal_point, &mut |why| reject(&mut out, why)) else { continue };
+        let Some(ep) = check(grid, cfg, &mut rng, &path, start, goal_point, &mut |why| {
+            reject(&mut out, why)
+        }) else {
+            continue;
+        };
         let difficulty = bin(cfg, ep.0);
         if cfg.stratified && bin_counts[difficulty as usize] >= per_bin {
             reject(&mut out, "distance bin full");

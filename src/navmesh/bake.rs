@@ -110,11 +110,12 @@ pub fn bake_scenes(cfg: &BakeConfig, progress: &dyn Progress) -> BakeReport {
 /// Parameters from a TOML file: an optional `preset = "minos" | "habitat" | "default"` and any
 /// [`NavParams`] field overriding it, e.g. `cell_size = 0.1`.
 pub fn params_from_toml(text: &str, base: NavParams) -> Result<NavParams, String> {
-    let mut table: toml::Table = text.parse().map_err(|e: toml::de::Error| e.message().to_string())?;
+    let mut table: toml::Table = text
+        .parse()
+        .map_err(|e: toml::de::Error| e.message().to_string())?;
     let base = match table.remove("preset") {
-        Some(toml::Value::String(name)) => {
-            NavParams::preset(&name).ok_or_else(|| format!("unknown preset `{name}` (default, minos, habitat)"))?
-        }
+        Some(toml::Value::String(name)) => NavParams::preset(&name)
+            .ok_or_else(|| format!("unknown preset `{name}` (default, minos, habitat)"))?,
         Some(other) => return Err(format!("preset = {other}: expected a string")),
         None => base,
     };
@@ -135,7 +136,11 @@ mod tests {
 
     #[test]
     fn toml_config_overrides_a_preset() {
-        let p = params_from_toml("preset = \"habitat\"\ncell_size = 0.1\n", NavParams::default()).unwrap();
+        let p = params_from_toml(
+            "preset = \"habitat\"\ncell_size = 0.1\n",
+            NavParams::default(),
+        )
+        .unwrap();
         assert_eq!(p.agent_height, 1.5);
         assert_eq!(p.cell_size, 0.1);
         assert_eq!(p.agent_radius, 0.1);

@@ -59,7 +59,13 @@ pub fn build(scene: &Scene, params: &NavParams) -> Result<NavGrid, BuildError> {
             message: format!("{nx}x{nz} cells at {cell} m is too large"),
         });
     }
-    let raster = RasterGrid { x0, z0, cell, nx: nx as u32, nz: nz as u32 };
+    let raster = RasterGrid {
+        x0,
+        z0,
+        cell,
+        nx: nx as u32,
+        nz: nz as u32,
+    };
     let (solids, object_solids) = rasterise(scene, &raster, params);
     let columns = (nx * nz) as usize;
     let (column_start, mut spans) = open_spans(solids, columns, params);
@@ -96,21 +102,40 @@ pub fn build(scene: &Scene, params: &NavParams) -> Result<NavGrid, BuildError> {
 ///
 /// Furniture tops are not floors (the agent does not climb onto tables); stairs and objects
 /// no thicker than the climb limit (rugs, mats) are.
-fn rasterise(scene: &Scene, raster: &RasterGrid, params: &NavParams) -> (Vec<Solid>, Vec<(Solid, u32)>) {
+fn rasterise(
+    scene: &Scene,
+    raster: &RasterGrid,
+    params: &NavParams,
+) -> (Vec<Solid>, Vec<(Solid, u32)>) {
     let cos_slope = params.max_slope_deg.to_radians().cos();
     let mut out = Vec::new();
     let surface = |mesh: &WorldMesh, may_be_floor: bool, out: &mut Vec<Solid>| {
         for t in mesh.indices.chunks_exact(3) {
-            let tri = [mesh.positions[t[0] as usize], mesh.positions[t[1] as usize], mesh.positions[t[2] as usize]];
+            let tri = [
+                mesh.positions[t[0] as usize],
+                mesh.positions[t[1] as usize],
+                mesh.positions[t[2] as usize],
+            ];
             let floor = may_be_floor && is_floor(tri, cos_slope);
-            raster.triangle(tri, |column, ymin, ymax| out.push(Solid { column, ymin, ymax, floor }));
+            raster.triangle(tri, |column, ymin, ymax| {
+                out.push(Solid {
+                    column,
+                    ymin,
+                    ymax,
+                    floor,
+                })
+            });
         }
     };
     for level in &scene.levels {
         for room in &level.rooms {
             for s in &room.surfaces {
                 // Only floors are floors: the top of a ceiling slab or of a wall is not.
-                surface(&scene.surface_world_mesh(s.mesh), s.kind == SurfaceKind::Floor, &mut out);
+                surface(
+                    &scene.surface_world_mesh(s.mesh),
+                    s.kind == SurfaceKind::Floor,
+                    &mut out,
+                );
             }
         }
         for &g in &level.ground {
@@ -134,14 +159,27 @@ fn rasterise(scene: &Scene, raster: &RasterGrid, params: &NavParams) -> (Vec<Sol
         })
     });
     for (index, (object, base)) in placed.enumerate() {
-        let Some(mesh) = scene.object_world_mesh(object) else { continue };
+        let Some(mesh) = scene.object_world_mesh(object) else {
+            continue;
+        };
         // Stairs are walked on; so are objects lying on the floor no higher than a step.
         let walk_on = object.flags.stairs || object.bbox.max.y <= base + params.max_climb;
         pieces.clear();
         for t in mesh.indices.chunks_exact(3) {
-            let tri = [mesh.positions[t[0] as usize], mesh.positions[t[1] as usize], mesh.positions[t[2] as usize]];
+            let tri = [
+                mesh.positions[t[0] as usize],
+                mesh.positions[t[1] as usize],
+                mesh.positions[t[2] as usize],
+            ];
             let floor = is_floor(tri, cos_slope);
-            raster.triangle(tri, |column, ymin, ymax| pieces.push(Solid { column, ymin, ymax, floor }));
+            raster.triangle(tri, |column, ymin, ymax| {
+                pieces.push(Solid {
+                    column,
+                    ymin,
+                    ymax,
+                    floor,
+                })
+            });
         }
         pieces.sort_by(|a, b| a.column.cmp(&b.column).then(a.ymax.total_cmp(&b.ymax)));
         let mut i = 0;
@@ -155,8 +193,16 @@ fn rasterise(scene: &Scene, raster: &RasterGrid, params: &NavParams) -> (Vec<Sol
             }
             let top = pieces[j - 1];
             // Several triangles may share the top (a box's top face and its sides' edges).
-            let floor = walk_on && pieces[i..j].iter().any(|p| p.floor && (top.ymax - p.ymax).abs() <= FLAG_MERGE);
-            let solid = Solid { column: c, ymin, ymax: top.ymax, floor };
+            let floor = walk_on
+                && pieces[i..j]
+                    .iter()
+                    .any(|p| p.floor && (top.ymax - p.ymax).abs() <= FLAG_MERGE);
+            let solid = Solid {
+                column: c,
+                ymin,
+                ymax: top.ymax,
+                floor,
+            };
             out.push(solid);
             by_object.push((solid, index as u32));
             i = j;
@@ -176,7 +222,15 @@ fn open_spans(mut solids: Vec<Solid>, columns: usize, params: &NavParams) -> (Ve
     for c in 0..columns {
         start[c + 1] += start[c];
     }
-    let mut sorted = vec![Solid { column: 0, ymin: 0.0, ymax: 0.0, floor: false }; solids.len()];
+    let mut sorted = vec![
+        Solid {
+            column: 0,
+            ymin: 0.0,
+            ymax: 0.0,
+            floor: false
+        };
+        solids.len()
+    ];
     let mut next = start.clone();
     for s in solids.drain(..) {
         let k = &mut next[s.column as usize];
@@ -232,11 +286,23 @@ fn open_spans(mut solids: Vec<Solid>, columns: usize, params: &NavParams) -> (Ve
 }
 
 /// The span of column `c` the agent can step to from a floor at `y` with `top` above it.
-fn step_target(column_start: &[u32], spans: &[Span], c: usize, y: f32, top: f32, params: &NavParams, walkable_only: bool) -> u32 {
+fn step_target(
+    column_start: &[u32],
+    spans: &[Span],
+    c: usize,
+    y: f32,
+    top: f32,
+    params: &NavParams,
+    walkable_only: bool,
+) -> u32 {
     let mut best = NONE;
     let mut best_dy = f32::INFINITY;
-    for t in column_start[c] as usize..column_start[c + 1] as usize {
-        let s = &spans[t];
+    let range = column_start[c] as usize..column_start[c + 1] as usize;
+    for (t, s) in spans[range.clone()]
+        .iter()
+        .enumerate()
+        .map(|(k, s)| (range.start + k, s))
+    {
         if walkable_only && !s.walkable {
             continue;
         }
@@ -252,7 +318,13 @@ fn step_target(column_start: &[u32], spans: &[Span], c: usize, y: f32, top: f32,
 
 /// Links every span to its neighbours (axis directions, then diagonals without corner
 /// cutting). With `walkable_only`, links join walkable spans only.
-fn link(raster: &RasterGrid, column_start: &[u32], spans: &mut [Span], params: &NavParams, walkable_only: bool) {
+fn link(
+    raster: &RasterGrid,
+    column_start: &[u32],
+    spans: &mut [Span],
+    params: &NavParams,
+    walkable_only: bool,
+) {
     let (nx, nz) = (raster.nx as i64, raster.nz as i64);
     for c in 0..(nx * nz) as usize {
         let (ix, iz) = ((c as i64) % nx, (c as i64) / nx);
@@ -263,7 +335,15 @@ fn link(raster: &RasterGrid, column_start: &[u32], spans: &mut [Span], params: &
                 for (d, (dx, dz)) in DIRS.iter().enumerate().take(4) {
                     let (jx, jz) = (ix + *dx as i64, iz + *dz as i64);
                     if jx >= 0 && jz >= 0 && jx < nx && jz < nz {
-                        links[d] = step_target(column_start, spans, (jz * nx + jx) as usize, y, top, params, walkable_only);
+                        links[d] = step_target(
+                            column_start,
+                            spans,
+                            (jz * nx + jx) as usize,
+                            y,
+                            top,
+                            params,
+                            walkable_only,
+                        );
                     }
                 }
             }
@@ -272,14 +352,16 @@ fn link(raster: &RasterGrid, column_start: &[u32], spans: &mut [Span], params: &
     }
     // Diagonals: s → a → t and s → b → t must both exist and reach the same span t.
     for s in 0..spans.len() {
-        for d in 4..8 {
-            let (dx, dz) = DIRS[d];
+        for (d, &(dx, dz)) in DIRS.iter().enumerate().skip(4) {
             let ax = DIRS.iter().position(|&v| v == (dx, 0)).unwrap_or(0);
             let az = DIRS.iter().position(|&v| v == (0, dz)).unwrap_or(1);
             let (a, b) = (spans[s].links[ax], spans[s].links[az]);
             let t = if a != NONE && b != NONE {
                 let (t1, t2) = (spans[a as usize].links[az], spans[b as usize].links[ax]);
-                if t1 == t2 && t1 != NONE && (spans[t1 as usize].y - spans[s].y).abs() <= params.max_climb + 1e-4 {
+                if t1 == t2
+                    && t1 != NONE
+                    && (spans[t1 as usize].y - spans[s].y).abs() <= params.max_climb + 1e-4
+                {
                     t1
                 } else {
                     NONE
@@ -315,7 +397,11 @@ fn erode(_column_start: &[u32], spans: &mut [Span], params: &NavParams, raster: 
             if n == NONE {
                 continue;
             }
-            let step = if k < 4 { cell } else { cell * std::f32::consts::SQRT_2 };
+            let step = if k < 4 {
+                cell
+            } else {
+                cell * std::f32::consts::SQRT_2
+            };
             let nd = d + step;
             if nd < dist[n as usize] {
                 dist[n as usize] = nd;
@@ -343,7 +429,11 @@ fn assign_rooms(scene: &Scene, raster: &RasterGrid, grid: &mut NavGrid) {
     for (li, level) in scene.levels.iter().enumerate() {
         for room in &level.rooms {
             let index = grid.rooms.len() as u32;
-            grid.rooms.push(NavRoom { id: room.id.clone(), class: room.class.index(), level: li as u16 });
+            grid.rooms.push(NavRoom {
+                id: room.id.clone(),
+                class: room.class.index(),
+                level: li as u16,
+            });
             let floors: Vec<WorldMesh> = room
                 .surfaces
                 .iter()
@@ -362,8 +452,14 @@ fn assign_rooms(scene: &Scene, raster: &RasterGrid, grid: &mut NavGrid) {
             }
             for mesh in floors {
                 for t in mesh.indices.chunks_exact(3) {
-                    let tri = [mesh.positions[t[0] as usize], mesh.positions[t[1] as usize], mesh.positions[t[2] as usize]];
-                    cover_centres(raster, tri, |column| cover.push((column, index, room.floor_height, room.area)));
+                    let tri = [
+                        mesh.positions[t[0] as usize],
+                        mesh.positions[t[1] as usize],
+                        mesh.positions[t[2] as usize],
+                    ];
+                    cover_centres(raster, tri, |column| {
+                        cover.push((column, index, room.floor_height, room.area))
+                    });
                 }
             }
         }
@@ -385,7 +481,11 @@ fn assign_rooms(scene: &Scene, raster: &RasterGrid, grid: &mut NavGrid) {
             let best = cover[k..end]
                 .iter()
                 .filter(|(_, _, fh, _)| *fh <= y + climb)
-                .max_by(|a, b| a.2.total_cmp(&b.2).then(b.3.total_cmp(&a.3)).then(b.1.cmp(&a.1)));
+                .max_by(|a, b| {
+                    a.2.total_cmp(&b.2)
+                        .then(b.3.total_cmp(&a.3))
+                        .then(b.1.cmp(&a.1))
+                });
             let span = &mut grid.spans[s];
             match best {
                 Some(&(_, room, _, _)) => {
@@ -405,14 +505,21 @@ fn assign_rooms(scene: &Scene, raster: &RasterGrid, grid: &mut NavGrid) {
 }
 
 fn cell_range_start(raster: &RasterGrid, x: f32, z: f32) -> (u32, u32) {
-    let ix = ((x - raster.x0) / raster.cell).floor().clamp(0.0, (raster.nx - 1) as f32) as u32;
-    let iz = ((z - raster.z0) / raster.cell).floor().clamp(0.0, (raster.nz - 1) as f32) as u32;
+    let ix = ((x - raster.x0) / raster.cell)
+        .floor()
+        .clamp(0.0, (raster.nx - 1) as f32) as u32;
+    let iz = ((z - raster.z0) / raster.cell)
+        .floor()
+        .clamp(0.0, (raster.nz - 1) as f32) as u32;
     (ix, iz)
 }
 
 /// Calls `f` for every column whose cell centre lies inside the triangle (in XZ).
 fn cover_centres(raster: &RasterGrid, tri: [Vec3; 3], mut f: impl FnMut(u32)) {
-    let (min, max) = (tri[0].min(tri[1]).min(tri[2]), tri[0].max(tri[1]).max(tri[2]));
+    let (min, max) = (
+        tri[0].min(tri[1]).min(tri[2]),
+        tri[0].max(tri[1]).max(tri[2]),
+    );
     let (cx0, cz0) = cell_range_start(raster, min.x, min.z);
     let (cx1, cz1) = cell_range_start(raster, max.x, max.z);
     let edge = |a: Vec3, b: Vec3, x: f32, z: f32| (b.x - a.x) * (z - a.z) - (b.z - a.z) * (x - a.x);
@@ -424,8 +531,16 @@ fn cover_centres(raster: &RasterGrid, tri: [Vec3; 3], mut f: impl FnMut(u32)) {
         let z = raster.z0 + (iz as f32 + 0.5) * raster.cell;
         for ix in cx0..=cx1 {
             let x = raster.x0 + (ix as f32 + 0.5) * raster.cell;
-            let w = [edge(tri[0], tri[1], x, z), edge(tri[1], tri[2], x, z), edge(tri[2], tri[0], x, z)];
-            let inside = if area > 0.0 { w.iter().all(|v| *v >= 0.0) } else { w.iter().all(|v| *v <= 0.0) };
+            let w = [
+                edge(tri[0], tri[1], x, z),
+                edge(tri[1], tri[2], x, z),
+                edge(tri[2], tri[0], x, z),
+            ];
+            let inside = if area > 0.0 {
+                w.iter().all(|v| *v >= 0.0)
+            } else {
+                w.iter().all(|v| *v <= 0.0)
+            };
             if inside {
                 f(iz * raster.nx + ix);
             }
@@ -451,7 +566,10 @@ fn assign_objects(scene: &Scene, object_solids: &[(Solid, u32)], grid: &mut NavG
     for (solid, object) in object_solids {
         for s in grid.column_spans(solid.column as usize) {
             let span = &grid.spans[s];
-            if span.walkable && solid.ymin >= span.y - eps && solid.ymin <= span.y + span.headroom + eps {
+            if span.walkable
+                && solid.ymin >= span.y - eps
+                && solid.ymin <= span.y + span.headroom + eps
+            {
                 grid.span_objects.push((s as u32, *object));
             }
         }

@@ -15,7 +15,16 @@ use super::params::NavParams;
 pub const NONE: u32 = u32::MAX;
 
 /// The 8 neighbour directions as (dx, dz): 4 axis directions first, then diagonals.
-pub const DIRS: [(i32, i32); 8] = [(1, 0), (0, 1), (-1, 0), (0, -1), (1, 1), (-1, 1), (-1, -1), (1, -1)];
+pub const DIRS: [(i32, i32); 8] = [
+    (1, 0),
+    (0, 1),
+    (-1, 0),
+    (0, -1),
+    (1, 1),
+    (-1, 1),
+    (-1, -1),
+    (1, -1),
+];
 
 /// One walkable-floor candidate in a column.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]

@@ -26,7 +26,10 @@ pub fn label_islands(grid: &mut NavGrid) {
         while let Some(s) = stack.pop() {
             members.push(s);
             for n in grid.spans[s as usize].links {
-                if n != NONE && grid.spans[n as usize].island == NONE && grid.spans[n as usize].walkable {
+                if n != NONE
+                    && grid.spans[n as usize].island == NONE
+                    && grid.spans[n as usize].walkable
+                {
                     grid.spans[n as usize].island = id;
                     stack.push(n);
                 }

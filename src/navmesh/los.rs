@@ -1,1 +1,794 @@
-//! (being written)
+//! Line of sight over the span grid: can the agent walk a straight line between two spans?
+//!
+//! The segment in XZ between two span centres is traversed column by column with an exact
+//! integer supercover DDA (Amanatides–Woo on cell centres, so no floating point decides which
+//! cell comes next): every cell boundary the segment crosses is one step along the current
+//! span's link in that direction, and a segment through a cell corner takes the diagonal link
+//! (which the builder only creates when both orthogonal paths exist). The walk must end on the
+//! target span itself, not on another layer of the same column.
+//!
+//! [`SightIndex`] answers the same question faster for repeated queries. It keeps a compact
+//! copy of what a walk reads (16 bytes per span instead of the whole [`Span`]), and per span
+//! and quadrant the size of the square of floor ahead in which every span is walkable, linked
+//! forwards, flat and on the same layer, so that a walk jumps across open floor instead of
+//! stepping cell by cell. Both the plain walk and the index also offer a `straight_line`
+//! variant, which additionally requires the floor heights along the walk to follow the
+//! straight 3D line between the two spans, so that the straight-line distance between them is
+//! a fair length of the walk.
+//!
+//! Where this module's job ends: it answers "is this straight walk possible" and visits the
+//! spans it covers; costs and distance fields are `geodesic`, paths are `path`.
+//!
+//! [`Span`]: super::grid::Span
+
+use super::grid::{NavGrid, DIRS, NONE};
+
+/// [`DIRS`] index of the step `(sx, sz)`, indexed `[sx + 1][sz + 1]` (the centre entry is
+/// never used).
+const DIR_OF: [[usize; 3]; 3] = [[6, 2, 5], [3, 8, 1], [7, 0, 4]];
+
+/// Largest height change between linked spans inside a jumped square, as a fraction of
+/// `max_climb`: steeper ground (stairs) is walked cell by cell.
+const FLAT_FRACTION: f32 = 0.25;
+
+/// How far (m) the floor along a straight walk may leave the straight 3D line between its
+/// ends for [`straight_line`]: half of `max_climb` plus one cell (at least 2 cm). Treads of
+/// real stairs (risers up to `max_climb`) stay within half a riser of the line through them,
+/// and a cell straddling a riser takes the upper tread's height, which adds up to one cell of
+/// slope (≤ 45°): so stairs count as straight ramps, while a line from a floor onto a ramp
+/// must still bend where the slope changes.
+pub fn profile_tolerance(grid: &NavGrid) -> f32 {
+    (0.5 * grid.params.max_climb + grid.params.cell_size).max(0.02)
+}
+
+/// Exact integer DDA over the cells a segment between two cell centres passes.
+///
+/// The segment from the centre of cell `a` to the centre of cell `b` crosses `|dx|` vertical
+/// and `|dz|` horizontal cell boundaries; the `k`-th vertical crossing happens at parameter
+/// `(2k + 1) / (2|dx|)`, so which comes first is decided by comparing integers.
+#[derive(Debug, Clone, Copy)]
+struct Dda {
+    nx: u64,
+    nz: u64,
+    kx: u64,
+    kz: u64,
+    x_dir: usize,
+    z_dir: usize,
+    d_dir: usize,
+}
+
+impl Dda {
+    fn new(dx: i64, dz: i64) -> Self {
+        let (sx, sz) = (dx.signum(), dz.signum());
+        Dda {
+            nx: dx.unsigned_abs(),
+            nz: dz.unsigned_abs(),
+            kx: 0,
+            kz: 0,
+            x_dir: DIR_OF[(sx + 1) as usize][1],
+            z_dir: DIR_OF[1][(sz + 1) as usize],
+            d_dir: DIR_OF[(sx + 1) as usize][(sz + 1) as usize],
+        }
+    }
+
+    #[inline]
+    fn done(&self) -> bool {
+        self.kx == self.nx && self.kz == self.nz
+    }
+
+    /// The direction of the next crossing, advancing past it. Only call when not `done`.
+    #[inline]
+    fn step(&mut self) -> usize {
+        if self.kx < self.nx {
+            if self.kz < self.nz {
+                let lhs = u128::from(2 * self.kx + 1) * u128::from(self.nz);
+                let rhs = u128::from(2 * self.kz + 1) * u128::from(self.nx);
+                match lhs.cmp(&rhs) {
+                    std::cmp::Ordering::Less => {
+                        self.kx += 1;
+                        self.x_dir
+                    }
+                    std::cmp::Ordering::Greater => {
+                        self.kz += 1;
+                        self.z_dir
+                    }
+                    std::cmp::Ordering::Equal => {
+                        self.kx += 1;
+                        self.kz += 1;
+                        self.d_dir
+                    }
+                }
+            } else {
+                self.kx += 1;
+                self.x_dir
+            }
+        } else {
+            self.kz += 1;
+            self.z_dir
+        }
+    }
+
+    /// Counters `(kx, kz)` just before the segment leaves the square that extends `r` cells
+    /// ahead of the current cell on both axes (only when it does leave it, i.e. more than `r`
+    /// crossings remain on some axis).
+    #[inline]
+    fn before_leaving(&self, r: u64) -> (u64, u64) {
+        let x_lim = (self.nx - self.kx > r).then_some(self.kx + r);
+        let z_lim = (self.nz - self.kz > r).then_some(self.kz + r);
+        match (x_lim, z_lim) {
+            (Some(kx), Some(kz)) => {
+                let lhs = u128::from(2 * kx + 1) * u128::from(self.nz);
+                let rhs = u128::from(2 * kz + 1) * u128::from(self.nx);
+                if lhs <= rhs {
+                    (kx, crossings_before(kx, self.nx, self.nz))
+                } else {
+                    (crossings_before(kz, self.nz, self.nx), kz)
+                }
+            }
+            (Some(kx), None) => (kx, crossings_before(kx, self.nx, self.nz)),
+            (None, Some(kz)) => (crossings_before(kz, self.nz, self.nx), kz),
+            (None, None) => (self.kx, self.kz),
+        }
+    }
+}
+
+/// Number of crossings of the other axis (`n_other` in all) that come strictly before the
+/// `k`-th crossing of this axis (`n_this` in all).
+#[inline]
+fn crossings_before(k: u64, n_this: u64, n_other: u64) -> u64 {
+    // Crossing m of the other axis is before when (2m + 1) n_this < (2k + 1) n_other, so
+    // the count is the number of odd numbers up to ((2k + 1) n_other - 1) / n_this.
+    if n_this == 0 || n_other == 0 {
+        return 0;
+    }
+    let count = match (2 * k + 1).checked_mul(n_other) {
+        Some(num) => ((num - 1) / n_this).div_ceil(2),
+        None => {
+            let num = u128::from(2 * k + 1) * u128::from(n_other);
+            ((num - 1) / u128::from(n_this))
+                .div_ceil(2)
+                .min(u128::from(n_other)) as u64
+        }
+    };
+    count.min(n_other)
+}
+
+/// One straight walk: endpoints, their cells, and the optional height profile.
+#[derive(Debug, Clone, Copy)]
+struct Walk {
+    from: u32,
+    to: u32,
+    a: (i64, i64),
+    b: (i64, i64),
+    /// Check the height profile.
+    profile: bool,
+    ya: f32,
+    dy: f32,
+    tolerance: f32,
+    /// `(dx, dz) / (dx² + dz²)`: projecting a cell offset on it gives the parameter.
+    proj: (f32, f32),
+}
+
+impl Walk {
+    fn new(
+        grid: &NavGrid,
+        from: u32,
+        to: u32,
+        a: (i64, i64),
+        b: (i64, i64),
+        profile: bool,
+    ) -> Self {
+        let (ya, yb) = (grid.spans[from as usize].y, grid.spans[to as usize].y);
+        Walk::with_heights(from, to, (a, b), (ya, yb), profile, profile_tolerance(grid))
+    }
+
+    #[inline]
+    fn with_heights(
+        from: u32,
+        to: u32,
+        (a, b): ((i64, i64), (i64, i64)),
+        (ya, yb): (f32, f32),
+        profile: bool,
+        tolerance: f32,
+    ) -> Self {
+        let (dx, dz) = (b.0 - a.0, b.1 - a.1);
+        let len2 = ((dx * dx + dz * dz) as f32).max(1.0);
+        Walk {
+            from,
+            to,
+            a,
+            b,
+            profile,
+            ya,
+            dy: yb - ya,
+            tolerance,
+            proj: (dx as f32 / len2, dz as f32 / len2),
+        }
+    }
+
+    /// Does a span of height `y` at cell offset `(ox, oz)` from `a` lie on the profile?
+    #[inline]
+    fn on_profile(&self, ox: i64, oz: i64, y: f32) -> bool {
+        if !self.profile {
+            return true;
+        }
+        let t = (ox as f32 * self.proj.0 + oz as f32 * self.proj.1).clamp(0.0, 1.0);
+        (y - (self.ya + t * self.dy)).abs() <= self.tolerance
+    }
+}
+
+/// Walks `walk` over the links of `grid`, calling `visit` on every span stepped on
+/// (including both ends).
+fn trace_links<V: FnMut(u32)>(grid: &NavGrid, walk: &Walk, visit: &mut V) -> bool {
+    let spans = &grid.spans;
+    visit(walk.from);
+    if walk.from == walk.to {
+        return true;
+    }
+    let (dx, dz) = (walk.b.0 - walk.a.0, walk.b.1 - walk.a.1);
+    if dx == 0 && dz == 0 {
+        // Another layer of the same column: not reachable by a straight walk.
+        return false;
+    }
+    let (sx, sz) = (dx.signum(), dz.signum());
+    let mut dda = Dda::new(dx, dz);
+    let mut cur = walk.from;
+    while !dda.done() {
+        cur = spans[cur as usize].links[dda.step()];
+        if cur == NONE {
+            return false;
+        }
+        visit(cur);
+        let (ox, oz) = (sx * dda.kx as i64, sz * dda.kz as i64);
+        if !walk.on_profile(ox, oz, spans[cur as usize].y) {
+            return false;
+        }
+    }
+    cur == walk.to
+}
+
+/// Cell coordinates of a span by binary search over the columns.
+fn cell_of_span(grid: &NavGrid, span: u32) -> (i64, i64) {
+    let c = grid.column_of_span(span as usize) as i64;
+    let nx = i64::from(grid.nx.max(1));
+    (c % nx, c / nx)
+}
+
+/// Both spans exist and are walkable.
+fn walkable_pair(grid: &NavGrid, from: u32, to: u32) -> bool {
+    let ok = |s: u32| grid.spans.get(s as usize).is_some_and(|s| s.walkable);
+    ok(from) && ok(to)
+}
+
+fn plain_walk(grid: &NavGrid, from: u32, to: u32, profile: bool) -> Walk {
+    let (a, b) = (cell_of_span(grid, from), cell_of_span(grid, to));
+    Walk::new(grid, from, to, a, b, profile)
+}
+
+/// True when the agent can walk the straight XZ segment between the centres of spans `from`
+/// and `to` by following links, ending on `to` itself (not on another layer of its column).
+///
+/// Both spans must be walkable; invalid indices give `false`. Allocation-free; costs one
+/// binary search per end plus one step per cell crossed (see [`SightIndex`] for a faster
+/// repeated query).
+pub fn line_of_sight(grid: &NavGrid, from: u32, to: u32) -> bool {
+    walkable_pair(grid, from, to)
+        && trace_links(grid, &plain_walk(grid, from, to, false), &mut |_| {})
+}
+
+/// Like [`line_of_sight`], and the floor heights along the walk stay within
+/// [`profile_tolerance`] of the straight 3D line between the two span positions (so a
+/// straight line from a floor up a ramp is refused where the slope changes).
+pub fn straight_line(grid: &NavGrid, from: u32, to: u32) -> bool {
+    walkable_pair(grid, from, to)
+        && trace_links(grid, &plain_walk(grid, from, to, true), &mut |_| {})
+}
+
+/// Walks the straight XZ segment from span `from` to span `to` like [`line_of_sight`],
+/// calling `visit` on every span stepped on in order, `from` first; returns whether the walk
+/// ended on `to` (when it did not, the spans visited are those up to where it stopped).
+pub fn walk_line(grid: &NavGrid, from: u32, to: u32, mut visit: impl FnMut(u32)) -> bool {
+    walkable_pair(grid, from, to)
+        && trace_links(grid, &plain_walk(grid, from, to, false), &mut visit)
+}
+
+/// What a walk reads of one span, packed.
+#[derive(Debug, Clone, Copy, Default)]
+struct SightSpan {
+    /// Floor height.
+    y: f32,
+    /// Column index.
+    column: u32,
+    /// Per quadrant (see [`quadrant`]): side of the clear square ahead, in cells.
+    ahead: [u8; 4],
+    /// Bit `d`: link `d` exists and leads to the span of the same rank in its column.
+    same_rank: u8,
+    /// Bit `d`: link `d` exists.
+    linked: u8,
+}
+
+/// Precomputed data for fast repeated line-of-sight queries on one grid.
+///
+/// Per span: its height, column, which links stay on the same layer (rank in the column),
+/// and, per quadrant of directions, the side `L` of the square of columns ahead of it (the
+/// span at one corner, up to 255 cells) in which every span is walkable, has the same rank,
+/// and has its three forward links (the two axis steps and the diagonal of the quadrant) to
+/// spans at most a quarter of `max_climb` higher or lower. A walk heading into that quadrant
+/// cannot fail inside the square, so it is jumped in one go.
+#[derive(Debug, Clone)]
+pub struct SightIndex<'g> {
+    grid: &'g NavGrid,
+    spans: Vec<SightSpan>,
+    /// Column index offset of one step in each direction.
+    offsets: [i64; 8],
+    /// [`profile_tolerance`] of the grid.
+    tolerance: f32,
+}
+
+impl<'g> SightIndex<'g> {
+    /// Builds the index: one pass over the columns and one breadth-first pass over the links.
+    pub fn new(grid: &'g NavGrid) -> Self {
+        let n = grid.spans.len();
+        let mut spans = vec![SightSpan::default(); n];
+        let columns = grid.column_start.len().saturating_sub(1);
+        for c in 0..columns {
+            for s in grid.column_spans(c) {
+                if let Some(slot) = spans.get_mut(s) {
+                    slot.column = c as u32;
+                    slot.y = grid.spans[s].y;
+                }
+            }
+        }
+        let rank = |s: usize| s as u32 - grid.column_start[spans[s].column as usize];
+        let mut masks = vec![(0u8, 0u8); n];
+        for (s, span) in grid.spans.iter().enumerate() {
+            for (d, &l) in span.links.iter().enumerate() {
+                if l != NONE && (l as usize) < n {
+                    masks[s].1 |= 1 << d;
+                    if rank(l as usize) == rank(s) {
+                        masks[s].0 |= 1 << d;
+                    }
+                }
+            }
+        }
+        for (slot, &(same, linked)) in spans.iter_mut().zip(&masks) {
+            slot.same_rank = same;
+            slot.linked = linked;
+        }
+        for q in 0..4 {
+            squares_ahead(grid, q, &mut spans);
+        }
+        let nx = i64::from(grid.nx);
+        let offsets = DIRS.map(|(dx, dz)| i64::from(dx) + i64::from(dz) * nx);
+        SightIndex {
+            grid,
+            spans,
+            offsets,
+            tolerance: profile_tolerance(grid),
+        }
+    }
+
+    /// The grid this index was built for.
+    pub fn grid(&self) -> &'g NavGrid {
+        self.grid
+    }
+
+    /// Column index of a span (`span` must be a valid index).
+    #[inline]
+    pub fn column(&self, span: u32) -> usize {
+        self.spans[span as usize].column as usize
+    }
+
+    /// Cell coordinates `(ix, iz)` of a span (`span` must be a valid index).
+    #[inline]
+    pub fn cell(&self, span: u32) -> (i64, i64) {
+        let c = i64::from(self.spans[span as usize].column);
+        let nx = i64::from(self.grid.nx.max(1));
+        (c % nx, c / nx)
+    }
+
+    /// Calls `f` with every linked neighbour of `span` (a valid index), reading the packed
+    /// copy: links on the same layer are found from the column offsets, only links to
+    /// another layer read the grid's span. Same-layer links come first, each group in
+    /// [`DIRS`] order.
+    #[inline]
+    pub(crate) fn for_each_link(&self, span: u32, mut f: impl FnMut(u32)) {
+        let info = self.spans[span as usize];
+        let start = &self.grid.column_start;
+        let mut same = info.same_rank;
+        if same != 0 {
+            let rank = span - start[info.column as usize];
+            while same != 0 {
+                let d = same.trailing_zeros() as usize;
+                same &= same - 1;
+                let col = (i64::from(info.column) + self.offsets[d]) as usize;
+                f(start[col] + rank);
+            }
+        }
+        let mut other = info.linked & !info.same_rank;
+        if other != 0 {
+            let links = &self.grid.spans[span as usize].links;
+            while other != 0 {
+                let d = other.trailing_zeros() as usize;
+                other &= other - 1;
+                f(links[d]);
+            }
+        }
+    }
+
+    /// Reads the packed record of a span and returns its column: issued early, the load
+    /// brings the record into cache before it is needed.
+    #[inline]
+    pub(crate) fn touch(&self, span: u32) -> u32 {
+        self.spans.get(span as usize).map_or(0, |s| s.column)
+    }
+
+    /// How many cells a walk from this span can jump at most, over all directions (0: it
+    /// steps cell by cell whatever the direction).
+    pub fn jump_reach(&self, span: u32) -> u16 {
+        self.spans.get(span as usize).map_or(0, |s| {
+            u16::from(s.ahead.iter().max().copied().unwrap_or(0).saturating_sub(1))
+        })
+    }
+
+    /// Same answer as [`line_of_sight`], jumping across open floor.
+    pub fn line_of_sight(&self, from: u32, to: u32) -> bool {
+        self.query(from, to, false)
+    }
+
+    /// Same answer as [`straight_line`] except that heights are not checked inside jumped
+    /// flat blocks (only where the walk enters and leaves them), jumping across open floor.
+    pub fn straight_line(&self, from: u32, to: u32) -> bool {
+        self.query(from, to, true)
+    }
+
+    #[inline]
+    fn query(&self, from: u32, to: u32, profile: bool) -> bool {
+        walkable_pair(self.grid, from, to) && self.trace(from, to, profile)
+    }
+
+    /// [`SightIndex::straight_line`] for two spans the caller knows to be walkable (reads
+    /// only the packed copy, not the grid's spans).
+    #[inline]
+    pub(crate) fn straight_line_unchecked(&self, from: u32, to: u32) -> bool {
+        self.trace(from, to, true)
+    }
+
+    /// The walk over the packed spans, with jumps.
+    fn trace(&self, from: u32, to: u32, profile: bool) -> bool {
+        let start = &self.grid.column_start;
+        if from == to {
+            return true;
+        }
+        let (fi, ti) = (self.spans[from as usize], self.spans[to as usize]);
+        let w = self.grid.nx.max(1);
+        let a = (i64::from(fi.column % w), i64::from(fi.column / w));
+        let b = (i64::from(ti.column % w), i64::from(ti.column / w));
+        let walk = Walk::with_heights(from, to, (a, b), (fi.y, ti.y), profile, self.tolerance);
+        let (dx, dz) = (b.0 - a.0, b.1 - a.1);
+        if dx == 0 && dz == 0 {
+            return false;
+        }
+        let (sx, sz) = (dx.signum(), dz.signum());
+        let nx = i64::from(w);
+        let mut dda = Dda::new(dx, dz);
+        let q = quadrant(sx, sz);
+        let mut cur = from;
+        let mut info = fi;
+        let mut rank = cur - start[info.column as usize];
+        loop {
+            if dda.done() {
+                return cur == to;
+            }
+            let r = u64::from(info.ahead[q]).saturating_sub(1);
+            if r > 0 {
+                if dda.nx - dda.kx <= r && dda.nz - dda.kz <= r {
+                    // The target column lies inside the clear square: the walk reaches the
+                    // span of the same rank there.
+                    return start[(walk.b.1 * nx + walk.b.0) as usize] + rank == to;
+                }
+                let (kx, kz) = dda.before_leaving(r);
+                let (ox, oz) = (sx * kx as i64, sz * kz as i64);
+                let col = ((walk.a.1 + oz) * nx + walk.a.0 + ox) as usize;
+                let land = start[col] + rank;
+                if land < start[col + 1] {
+                    let land_info = self.spans[land as usize];
+                    if !walk.on_profile(ox, oz, land_info.y) {
+                        return false;
+                    }
+                    dda.kx = kx;
+                    dda.kz = kz;
+                    cur = land;
+                    info = land_info;
+                }
+            }
+            let d = dda.step();
+            if info.same_rank & (1 << d) != 0 {
+                let col = (i64::from(info.column) + self.offsets[d]) as usize;
+                cur = start[col] + rank;
+                info = self.spans[cur as usize];
+            } else {
+                cur = self.grid.spans[cur as usize].links[d];
+                if cur == NONE {
+                    return false;
+                }
+                info = self.spans[cur as usize];
+                rank = cur - start[info.column as usize];
+            }
+            if !walk.on_profile(sx * dda.kx as i64, sz * dda.kz as i64, info.y) {
+                return false;
+            }
+        }
+    }
+}
+
+/// Quadrant index of a walk direction: bit 0 set when heading to -x, bit 1 when heading to
+/// -z (a walk along an axis uses the quadrant on the positive side of the other axis).
+#[inline]
+fn quadrant(sx: i64, sz: i64) -> usize {
+    usize::from(sx < 0) | (usize::from(sz < 0) << 1)
+}
+
+/// Fills `ahead[q]` of every packed span: the largest-square recurrence
+/// `L(s) = 1 + min(L(x), L(z), L(diagonal))` over the forward links of quadrant `q`, with
+/// columns visited from the far corner of the grid so that forward neighbours come first.
+fn squares_ahead(grid: &NavGrid, q: usize, packed: &mut [SightSpan]) {
+    let (sx, sz): (i32, i32) = (
+        if q & 1 == 0 { 1 } else { -1 },
+        if q & 2 == 0 { 1 } else { -1 },
+    );
+    let dir = |dx: i32, dz: i32| DIRS.iter().position(|&d| d == (dx, dz)).unwrap_or(0);
+    let (xd, zd, dd) = (dir(sx, 0), dir(0, sz), dir(sx, sz));
+    let forward = (1u8 << xd) | (1u8 << zd) | (1u8 << dd);
+    let flat = FLAT_FRACTION * grid.params.max_climb;
+    let (nx, nz) = (grid.nx as usize, grid.nz as usize);
+    for step_z in 0..nz {
+        let iz = if sz > 0 { nz - 1 - step_z } else { step_z };
+        for step_x in 0..nx {
+            let ix = if sx > 0 { nx - 1 - step_x } else { step_x };
+            let c = iz * nx + ix;
+            if c + 1 >= grid.column_start.len() {
+                continue;
+            }
+            for s in grid.column_spans(c) {
+                let span = &grid.spans[s];
+                let size = if !span.walkable {
+                    0
+                } else if packed[s].same_rank & forward != forward {
+                    1
+                } else {
+                    let links = [span.links[xd], span.links[zd], span.links[dd]];
+                    if links
+                        .iter()
+                        .all(|&l| (packed[l as usize].y - span.y).abs() <= flat)
+                    {
+                        let min = links
+                            .iter()
+                            .map(|&l| packed[l as usize].ahead[q])
+                            .min()
+                            .unwrap_or(0);
+                        min.saturating_add(1)
+                    } else {
+                        1
+                    }
+                };
+                packed[s].ahead[q] = size;
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::navmesh::testmaps::{segment_hits_closed_cell, MapSpec};
+    use crate::navmesh::NavParams;
+    use crate::seed::Rng;
+
+    fn span_at(grid: &NavGrid, ix: usize, iz: usize) -> u32 {
+        let c = iz * grid.nx as usize + ix;
+        grid.column_start[c]
+    }
+
+    #[test]
+    fn open_floor_is_visible_and_walls_block() {
+        let rows = [
+            "##########",
+            "#........#",
+            "#........#",
+            "#...#....#",
+            "#........#",
+            "##########",
+        ];
+        let grid = MapSpec::ascii(&rows, 0.1).build(NavParams::default());
+        let a = span_at(&grid, 1, 3);
+        let b = span_at(&grid, 8, 3);
+        assert!(!line_of_sight(&grid, a, b), "wall cell in between");
+        let c = span_at(&grid, 8, 1);
+        assert!(line_of_sight(&grid, span_at(&grid, 1, 1), c));
+        // Non-walkable endpoint and bad indices.
+        assert!(!line_of_sight(&grid, a, span_at(&grid, 4, 3)));
+        assert!(!line_of_sight(&grid, a, u32::MAX));
+        assert!(line_of_sight(&grid, a, a));
+    }
+
+    #[test]
+    fn passing_exactly_through_a_corner_needs_the_diagonal() {
+        // The segment from (1,1) to (3,3) passes the cell corners (2,2) and (3,3). A wall
+        // cell touching the first corner from either side removes the diagonal link, even
+        // though a path around it on the other side exists.
+        let x_side = ["######", "#.#..#", "#....#", "#....#", "######"];
+        let z_side = ["######", "#....#", "##...#", "#....#", "######"];
+        for rows in [x_side, z_side] {
+            let grid = MapSpec::ascii(&rows, 0.1).build(NavParams::default());
+            let (a, b) = (span_at(&grid, 1, 1), span_at(&grid, 3, 3));
+            assert!(!line_of_sight(&grid, a, b), "{rows:?}");
+            assert!(!SightIndex::new(&grid).line_of_sight(a, b), "{rows:?}");
+            // Just off the corner the segment is clear.
+            assert!(line_of_sight(
+                &grid,
+                span_at(&grid, 2, 2),
+                span_at(&grid, 4, 3)
+            ));
+        }
+        let rows = ["######", "#....#", "#....#", "#....#", "######"];
+        let open = MapSpec::ascii(&rows, 0.1).build(NavParams::default());
+        assert!(line_of_sight(
+            &open,
+            span_at(&open, 1, 1),
+            span_at(&open, 3, 3)
+        ));
+    }
+
+    #[test]
+    fn agrees_with_exact_segment_geometry_on_random_maps() {
+        // Sight on a flat single-layer map holds exactly when the segment between the two
+        // centres touches no blocked closed cell (corner touches included: the corner rule).
+        let (nx, nz) = (64usize, 48usize);
+        let mut rng = Rng::new(11);
+        let mut rows: Vec<String> = Vec::new();
+        for iz in 0..nz {
+            let row: String = (0..nx)
+                .map(|ix| {
+                    let border = ix == 0 || iz == 0 || ix == nx - 1 || iz == nz - 1;
+                    if border || rng.chance(0.02) {
+                        '#'
+                    } else {
+                        '.'
+                    }
+                })
+                .collect();
+            rows.push(row);
+        }
+        // A few solid blocks so that long jumps happen next to walls.
+        for (x0, z0, w, h) in [(10, 10, 6, 3), (30, 20, 2, 15), (45, 5, 10, 10)] {
+            for row in rows.iter_mut().skip(z0).take(h) {
+                let mut chars: Vec<char> = row.chars().collect();
+                for ch in chars.iter_mut().skip(x0).take(w) {
+                    *ch = '#';
+                }
+                *row = chars.into_iter().collect();
+            }
+        }
+        let refs: Vec<&str> = rows.iter().map(String::as_str).collect();
+        let spec = MapSpec::ascii(&refs, 0.05);
+        let grid = spec.build(NavParams::default());
+        let index = SightIndex::new(&grid);
+        let blocked: Vec<(i64, i64)> = (0..nz)
+            .flat_map(|iz| (0..nx).map(move |ix| (ix, iz)))
+            .filter(|&(ix, iz)| refs[iz].as_bytes()[ix] == b'#')
+            .map(|(ix, iz)| (ix as i64, iz as i64))
+            .collect();
+        let free: Vec<(usize, usize)> = (0..nz)
+            .flat_map(|iz| (0..nx).map(move |ix| (ix, iz)))
+            .filter(|&(ix, iz)| refs[iz].as_bytes()[ix] == b'.')
+            .collect();
+        let (mut visible, mut jumped) = (0, 0);
+        for _ in 0..3000 {
+            let &(ax, az) = rng.pick(&free).unwrap();
+            let &(bx, bz) = rng.pick(&free).unwrap();
+            let (a, b) = (span_at(&grid, ax, az), span_at(&grid, bx, bz));
+            let expect = !blocked.iter().any(|&cell| {
+                segment_hits_closed_cell((ax as i64, az as i64), (bx as i64, bz as i64), cell)
+            });
+            assert_eq!(
+                line_of_sight(&grid, a, b),
+                expect,
+                "({ax},{az})->({bx},{bz})"
+            );
+            assert_eq!(
+                index.line_of_sight(a, b),
+                expect,
+                "indexed ({ax},{az})->({bx},{bz})"
+            );
+            assert_eq!(index.straight_line(a, b), expect, "flat floor is straight");
+            visible += usize::from(expect);
+            jumped += usize::from(index.jump_reach(a) > 0);
+        }
+        assert!(
+            visible > 300 && visible < 2700,
+            "both outcomes tested: {visible}"
+        );
+        assert!(jumped > 600, "the jump path is exercised: {jumped}");
+    }
+
+    #[test]
+    fn sight_ends_on_the_same_layer_only() {
+        // Ground floor everywhere, an upper floor at 3 m over x >= 6 joined by nothing.
+        let rows = [
+            "############",
+            "#..........#",
+            "#..........#",
+            "############",
+        ];
+        let mut spec = MapSpec::ascii(&rows, 0.1);
+        for ix in 6..11 {
+            for iz in 1..3 {
+                spec.add(ix, iz, 3.0, '.');
+            }
+        }
+        let grid = spec.build(NavParams::default());
+        let a = span_at(&grid, 1, 1);
+        let ground = span_at(&grid, 9, 2);
+        let upper = ground + 1;
+        assert!((grid.spans[upper as usize].y - 3.0).abs() < 1e-6);
+        assert!(line_of_sight(&grid, a, ground));
+        assert!(!line_of_sight(&grid, a, upper));
+        let index = SightIndex::new(&grid);
+        assert!(index.line_of_sight(a, ground));
+        assert!(!index.line_of_sight(a, upper));
+        assert!(
+            !line_of_sight(&grid, ground, upper),
+            "same column, other layer"
+        );
+    }
+
+    #[test]
+    fn walk_line_visits_every_span_in_order() {
+        let rows = ["#######", "#.....#", "#.....#", "#######"];
+        let grid = MapSpec::ascii(&rows, 0.1).build(NavParams::default());
+        let mut seen = Vec::new();
+        let ok = walk_line(&grid, span_at(&grid, 1, 1), span_at(&grid, 5, 2), |s| {
+            seen.push(s)
+        });
+        assert!(ok);
+        // (1,1) -> (5,2): crossings x at t = 1/8, 3/8, 5/8, 7/8 and z at 1/2.
+        let expect: Vec<u32> = [(1, 1), (2, 1), (3, 1), (3, 2), (4, 2), (5, 2)]
+            .iter()
+            .map(|&(x, z)| span_at(&grid, x, z))
+            .collect();
+        assert_eq!(seen, expect);
+    }
+
+    #[test]
+    fn straight_line_refuses_bending_floors() {
+        // Floor at 0, a ramp rising 0.1 m per cell from x = 4 to x = 13, a floor at 1 m after.
+        let mut row_floor = String::from("#");
+        row_floor.push_str(&".".repeat(18));
+        row_floor.push('#');
+        let wall = "#".repeat(20);
+        let rows = [
+            wall.as_str(),
+            row_floor.as_str(),
+            row_floor.as_str(),
+            wall.as_str(),
+        ];
+        let mut spec = MapSpec::ascii(&rows, 0.1);
+        for ix in 4..19 {
+            let y = ((ix as f32 - 3.0) * 0.1).min(1.0);
+            for iz in 1..3 {
+                spec.set_height(ix, iz, y);
+            }
+        }
+        let grid = spec.build(NavParams::default());
+        let low = span_at(&grid, 1, 1);
+        let ramp_foot = span_at(&grid, 3, 1);
+        let top = span_at(&grid, 13, 1);
+        let far = span_at(&grid, 18, 1);
+        assert!(line_of_sight(&grid, low, far));
+        assert!(!straight_line(&grid, low, far), "floor bends twice");
+        assert!(straight_line(&grid, ramp_foot, top), "a ramp is straight");
+        assert!(SightIndex::new(&grid).straight_line(ramp_foot, top));
+        assert!(!SightIndex::new(&grid).straight_line(low, far));
+    }
+}

@@ -19,6 +19,8 @@ pub mod preview;
 pub mod query;
 pub mod raster;
 pub mod route;
+#[cfg(test)]
+pub(crate) mod testmaps;
 
 pub use grid::{NavGrid, Span, NONE};
 pub use params::NavParams;

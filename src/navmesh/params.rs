@@ -82,13 +82,22 @@ impl NavParams {
             return Err(format!("max_climb = {}: must be >= 0", self.max_climb));
         }
         if !(0.0..90.0).contains(&self.max_slope_deg) {
-            return Err(format!("max_slope_deg = {}: must be in [0, 90)", self.max_slope_deg));
+            return Err(format!(
+                "max_slope_deg = {}: must be in [0, 90)",
+                self.max_slope_deg
+            ));
         }
         if !(self.clearance_weight.is_finite() && self.clearance_weight >= 1.0) {
-            return Err(format!("clearance_weight = {}: must be >= 1", self.clearance_weight));
+            return Err(format!(
+                "clearance_weight = {}: must be >= 1",
+                self.clearance_weight
+            ));
         }
         if !(self.clearance_margin.is_finite() && self.clearance_margin >= 0.0) {
-            return Err(format!("clearance_margin = {}: must be >= 0", self.clearance_margin));
+            return Err(format!(
+                "clearance_margin = {}: must be >= 0",
+                self.clearance_margin
+            ));
         }
         if self.cell_size > 1.0 {
             return Err(format!("cell_size = {}: larger than 1 m", self.cell_size));

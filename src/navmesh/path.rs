@@ -1,1 +1,453 @@
-//! (being written)
+//! Shortest paths between two spans, as string-pulled polylines with the rooms and doors
+//! they pass.
+//!
+//! A path is the anchor chain of a geodesic search (see `geodesic`): a single-pair Lazy
+//! Theta* search started at the goal with the straight-line heuristic towards the start, or
+//! the anchors of a precomputed [`DistanceField`]. The chain is string-pulled once more
+//! (consecutive segments merge wherever a straight walk allows), and its segments are walked
+//! span by span to list the rooms and door objects on the way. In MINOS's weighted mode the
+//! chain is the grid path; only collinear steps are merged.
+//!
+//! Where this module's job ends: it answers one pair (or follows one field); choosing
+//! endpoints, snapping positions to spans and episodes are other modules' jobs.
+
+use glam::Vec3;
+
+use super::geodesic::{DistanceField, Geodesic};
+use super::grid::{NavGrid, NONE};
+use super::los::{self, SightIndex};
+
+/// A walkable path from one span to another.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Path {
+    /// The spans where the polyline bends, from the start span to the goal span (a
+    /// sub-sequence of the anchor chain).
+    pub spans: Vec<u32>,
+    /// Positions of `spans` (cell centres at floor height): the polyline, no grid zig-zag.
+    pub points: Vec<Vec3>,
+    /// Length of the polyline (m, 3D).
+    pub length: f32,
+    /// Room indices (into [`NavGrid::rooms`]) passed in order; consecutive duplicates and
+    /// spans outside rooms removed.
+    pub rooms: Vec<u32>,
+    /// Door object indices (into [`NavGrid::objects`]) whose spans the path passes, in order
+    /// of first passage, without duplicates.
+    pub doors: Vec<u32>,
+}
+
+/// The answer to a path query.
+#[derive(Debug, Clone, PartialEq)]
+pub enum PathResult {
+    /// No path: an endpoint is not a walkable span, or the two lie on different islands.
+    Unreachable,
+    /// The shortest path found.
+    Found(Path),
+}
+
+impl PathResult {
+    /// The path, if one was found.
+    pub fn path(&self) -> Option<&Path> {
+        match self {
+            PathResult::Found(p) => Some(p),
+            PathResult::Unreachable => None,
+        }
+    }
+
+    /// The path's length, if one was found.
+    pub fn length(&self) -> Option<f32> {
+        self.path().map(|p| p.length)
+    }
+}
+
+/// Is `s` a walkable span of `grid`?
+fn walkable(grid: &NavGrid, s: u32) -> bool {
+    grid.spans.get(s as usize).is_some_and(|s| s.walkable)
+}
+
+/// Both endpoints walkable and not known to lie on different islands.
+fn may_connect(grid: &NavGrid, from: u32, to: u32) -> bool {
+    if !walkable(grid, from) || !walkable(grid, to) {
+        return false;
+    }
+    let (a, b) = (
+        grid.spans[from as usize].island,
+        grid.spans[to as usize].island,
+    );
+    a == NONE || b == NONE || a == b
+}
+
+/// The shortest path from span `from` to span `to` (see the module documentation).
+/// Builds a [`Geodesic`] first; use [`shortest_path_in`] for repeated queries on one grid.
+pub fn shortest_path(grid: &NavGrid, from: u32, to: u32) -> PathResult {
+    if !may_connect(grid, from, to) {
+        return PathResult::Unreachable;
+    }
+    shortest_path_in(&Geodesic::new(grid), from, to)
+}
+
+/// [`shortest_path`] with precomputed geodesic data.
+pub fn shortest_path_in(geo: &Geodesic<'_>, from: u32, to: u32) -> PathResult {
+    let grid = geo.grid();
+    if !may_connect(grid, from, to) {
+        return PathResult::Unreachable;
+    }
+    let field = geo.search(to, from);
+    finish(grid, Some(geo.sight()), &field, from)
+}
+
+/// The path from span `from` to the nearest goal of a precomputed field, following its
+/// anchors. `Unreachable` when `from` cannot reach a goal or the field does not belong to
+/// this grid.
+pub fn path_from_field(grid: &NavGrid, field: &DistanceField, from: u32) -> PathResult {
+    finish(grid, None, field, from)
+}
+
+/// Follows anchors from `from`, string-pulls, and collects rooms and doors.
+fn finish(
+    grid: &NavGrid,
+    sight: Option<&SightIndex<'_>>,
+    field: &DistanceField,
+    from: u32,
+) -> PathResult {
+    let n = grid.spans.len();
+    if field.dist.len() != n || field.anchor.len() != n || !walkable(grid, from) {
+        return PathResult::Unreachable;
+    }
+    if !field.reachable(from) {
+        return PathResult::Unreachable;
+    }
+    let mut chain = vec![from];
+    let mut s = from;
+    loop {
+        let a = field.anchor[s as usize];
+        if a == s {
+            break;
+        }
+        if a == NONE || a as usize >= n || chain.len() > n {
+            return PathResult::Unreachable;
+        }
+        chain.push(a);
+        s = a;
+    }
+    let chain = if grid.params.clearance_weight <= 1.0 {
+        let straight = |a: u32, b: u32| match sight {
+            Some(index) => index.straight_line(a, b),
+            None => los::straight_line(grid, a, b),
+        };
+        let pulled = string_pull(&chain, &straight);
+        refine(grid, pulled, &straight)
+    } else {
+        merge_collinear(grid, &chain)
+    };
+    let points: Vec<Vec3> = chain
+        .iter()
+        .map(|&s| grid.span_position(s as usize))
+        .collect();
+    let length = points.windows(2).map(|w| w[0].distance(w[1])).sum();
+    let (rooms, doors) = rooms_and_doors(grid, &chain);
+    PathResult::Found(Path {
+        spans: chain,
+        points,
+        length,
+        rooms,
+        doors,
+    })
+}
+
+/// Greedy string pulling: from each kept span, skip ahead while a straight walk reaches the
+/// span after next.
+fn string_pull(chain: &[u32], straight: &impl Fn(u32, u32) -> bool) -> Vec<u32> {
+    let mut out = vec![chain[0]];
+    let mut i = 0;
+    while i + 1 < chain.len() {
+        let mut j = i + 1;
+        while j + 1 < chain.len() && straight(chain[i], chain[j + 1]) {
+            j += 1;
+        }
+        out.push(chain[j]);
+        i = j;
+    }
+    out
+}
+
+/// Local improvement of a string-pulled chain: drops corners that became unnecessary and
+/// moves each corner to the neighbouring span that shortens its two segments while both stay
+/// straight walks, until nothing changes. Anchors sit on cell centres, so corners found by
+/// the search can be up to a cell from the best one; this brings paths within a fraction of
+/// a cell per corner of the optimum and makes A→B and B→A agree.
+fn refine(grid: &NavGrid, mut chain: Vec<u32>, straight: &impl Fn(u32, u32) -> bool) -> Vec<u32> {
+    let pos = |s: u32| grid.span_position(s as usize);
+    for _ in 0..32 {
+        let mut changed = false;
+        let mut i = 1;
+        while i + 1 < chain.len() {
+            let (p, q) = (chain[i - 1], chain[i + 1]);
+            if straight(p, q) {
+                chain.remove(i);
+                changed = true;
+                continue;
+            }
+            let cost = |s: u32| pos(p).distance(pos(s)) + pos(s).distance(pos(q));
+            let mut best = (cost(chain[i]), chain[i]);
+            for n in grid.spans[chain[i] as usize].links {
+                if n == NONE {
+                    continue;
+                }
+                let c = cost(n);
+                if c < best.0 - 1e-5 && straight(p, n) && straight(n, q) {
+                    best = (c, n);
+                }
+            }
+            if best.1 != chain[i] {
+                chain[i] = best.1;
+                changed = true;
+            }
+            i += 1;
+        }
+        if !changed {
+            break;
+        }
+    }
+    chain
+}
+
+/// Drops chain spans that lie on the straight 3D line between their neighbours.
+fn merge_collinear(grid: &NavGrid, chain: &[u32]) -> Vec<u32> {
+    let mut out = vec![chain[0]];
+    for k in 1..chain.len() {
+        let last = k + 1 == chain.len();
+        if !last {
+            let p = grid.span_position(out[out.len() - 1] as usize);
+            let q = grid.span_position(chain[k] as usize);
+            let r = grid.span_position(chain[k + 1] as usize);
+            let (u, v) = (q - p, r - q);
+            if u.cross(v).length() <= 1e-4 * u.length() * v.length() && u.dot(v) > 0.0 {
+                continue;
+            }
+        }
+        out.push(chain[k]);
+    }
+    out
+}
+
+/// Rooms and doors met walking the chain's segments span by span.
+fn rooms_and_doors(grid: &NavGrid, chain: &[u32]) -> (Vec<u32>, Vec<u32>) {
+    let mut rooms: Vec<u32> = Vec::new();
+    let mut doors: Vec<u32> = Vec::new();
+    let mut visit = |s: u32| {
+        let room = grid.spans[s as usize].room;
+        if room != NONE && rooms.last() != Some(&room) {
+            rooms.push(room);
+        }
+        let start = grid.span_objects.partition_point(|&(t, _)| t < s);
+        for &(t, o) in &grid.span_objects[start..] {
+            if t != s {
+                break;
+            }
+            let is_door = grid.objects.get(o as usize).is_some_and(|obj| obj.door);
+            if is_door && !doors.contains(&o) {
+                doors.push(o);
+            }
+        }
+    };
+    if chain.len() == 1 {
+        visit(chain[0]);
+    }
+    for w in chain.windows(2) {
+        if !los::walk_line(grid, w[0], w[1], &mut visit) {
+            visit(w[1]);
+        }
+    }
+    (rooms, doors)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::navmesh::geodesic::distance_field;
+    use crate::navmesh::testmaps::{
+        reference_geodesic, rows_from, stairs, stairs_reference, MapSpec,
+    };
+    use crate::navmesh::NavParams;
+
+    fn span_at(grid: &NavGrid, ix: usize, iz: usize) -> u32 {
+        grid.column_start[iz * grid.nx as usize + ix]
+    }
+
+    fn found(r: PathResult) -> Path {
+        match r {
+            PathResult::Found(p) => p,
+            PathResult::Unreachable => panic!("expected a path"),
+        }
+    }
+
+    #[test]
+    fn empty_room_path_is_one_straight_segment() {
+        let rows = rows_from(80, 60, |x, z| x > 0 && z > 0 && x < 79 && z < 59);
+        let refs: Vec<&str> = rows.iter().map(String::as_str).collect();
+        let grid = MapSpec::ascii(&refs, 0.05).build(NavParams::default());
+        let (a, b) = (span_at(&grid, 3, 50), span_at(&grid, 70, 4));
+        let path = found(shortest_path(&grid, a, b));
+        assert_eq!(path.spans, vec![a, b]);
+        assert_eq!(path.points.len(), 2);
+        let euclid = grid
+            .span_position(a as usize)
+            .distance(grid.span_position(b as usize));
+        assert!((path.length - euclid).abs() < 1e-4);
+        assert!(path.rooms.is_empty() && path.doors.is_empty());
+        let same = found(shortest_path(&grid, a, a));
+        assert_eq!((same.spans.len(), same.length), (1, 0.0));
+    }
+
+    #[test]
+    fn corridor_path_bends_only_at_the_corner() {
+        let rows = rows_from(200, 200, |x, z| {
+            ((2..40).contains(&x) && (2..198).contains(&z))
+                || ((2..198).contains(&x) && (160..198).contains(&z))
+        });
+        let refs: Vec<&str> = rows.iter().map(String::as_str).collect();
+        let spec = MapSpec::ascii(&refs, 0.05);
+        let grid = spec.build(NavParams::default());
+        let (a, b) = (span_at(&grid, 20, 10), span_at(&grid, 190, 175));
+        let path = found(shortest_path(&grid, a, b));
+        assert_eq!(path.spans.first(), Some(&a));
+        assert_eq!(path.spans.last(), Some(&b));
+        assert!((3..=4).contains(&path.points.len()), "{:?}", path.points);
+        for w in path.spans.windows(2) {
+            assert!(los::line_of_sight(&grid, w[0], w[1]));
+        }
+        let want = reference_geodesic(|x, z| spec.free(x, z), 200, 200, (20, 10), (190, 175))
+            .unwrap()
+            * 0.05;
+        let err = (f64::from(path.length) - want).abs() / want;
+        assert!(err < 0.01, "{} vs {want}", path.length);
+        // The same path from a precomputed field.
+        let field = distance_field(&grid, &[b]);
+        let again = found(path_from_field(&grid, &field, a));
+        assert!((again.length - path.length).abs() / path.length < 0.005);
+        assert!(again.length <= field.distance(a).unwrap() + 1e-3);
+    }
+
+    #[test]
+    fn unreachable_pairs_say_so() {
+        let rows = [
+            "############",
+            "#....#.....#",
+            "#....#.###.#",
+            "#....#.#.#.#",
+            "#....#.###.#",
+            "############",
+        ];
+        let grid = MapSpec::ascii(&rows, 0.1).build(NavParams::default());
+        let a = span_at(&grid, 1, 1);
+        assert_eq!(
+            shortest_path(&grid, a, span_at(&grid, 8, 3)),
+            PathResult::Unreachable
+        );
+        assert_eq!(
+            shortest_path(&grid, a, span_at(&grid, 10, 1)),
+            PathResult::Unreachable
+        );
+        assert_eq!(
+            shortest_path(&grid, a, span_at(&grid, 5, 1)),
+            PathResult::Unreachable
+        );
+        assert_eq!(shortest_path(&grid, a, u32::MAX), PathResult::Unreachable);
+        let field = distance_field(&grid, &[a]);
+        assert_eq!(
+            path_from_field(&grid, &field, span_at(&grid, 8, 3)),
+            PathResult::Unreachable
+        );
+        assert!(path_from_field(&grid, &field, span_at(&grid, 4, 4))
+            .path()
+            .is_some());
+        // Islands unknown to the grid: the search itself finds no path.
+        let mut unlabelled = grid.clone();
+        unlabelled.spans.iter_mut().for_each(|s| s.island = NONE);
+        let to = span_at(&unlabelled, 10, 1);
+        assert_eq!(shortest_path(&unlabelled, a, to), PathResult::Unreachable);
+    }
+
+    #[test]
+    fn rooms_and_doors_are_listed_in_passing_order() {
+        // Rooms a | b | c joined by doors D (a-b) and E (b-c); a table in room a; another
+        // door F off the path.
+        let rows = [
+            "##################################",
+            "#aaaaaaaaa#bbbbbbbbbbb#ccccccccccc#",
+            "#aaaaaaaaa#bbbbbbbbbbb#ccccccccccc#",
+            "#aaaa*aaaaDbbbbbbbbbbbEccccccccccc#",
+            "#aaaaaaaaaDbbbbbbbbbbbEccccccccccc#",
+            "#aaaaaaaaa#bbbbbbbbbbb#ccccccccccc#",
+            "#aaaaaaaaa#bbbbbbbbbbb#ccccccccccc#",
+            "######FF##########################",
+        ];
+        let grid = MapSpec::ascii(&rows, 0.1).build(NavParams::default());
+        let (d, e, f, table) = (0u32, 1u32, 2u32, 3u32);
+        assert!(grid.objects[d as usize].door && grid.objects[f as usize].door);
+        assert!(!grid.objects[table as usize].door);
+        let from = span_at(&grid, 30, 3);
+        let to = span_at(&grid, 2, 3);
+        let path = found(shortest_path(&grid, from, to));
+        assert_eq!(path.rooms, vec![2, 1, 0]);
+        assert_eq!(path.doors, vec![e, d]);
+        let back = found(shortest_path(&grid, to, from));
+        assert_eq!(back.rooms, vec![0, 1, 2]);
+        assert_eq!(back.doors, vec![d, e]);
+        // Through the table's span: it is recorded, but is not a door.
+        let via_table = found(shortest_path(
+            &grid,
+            span_at(&grid, 5, 1),
+            span_at(&grid, 5, 6),
+        ));
+        assert_eq!(via_table.rooms, vec![0]);
+        assert!(via_table.doors.is_empty());
+    }
+
+    #[test]
+    fn weighted_paths_keep_away_from_walls() {
+        // A 1.5 m wide hall; both ends next to the lower wall. The exact path hugs the wall,
+        // MINOS's weighting pulls it into the middle where clearance is high.
+        let rows = rows_from(100, 32, |x, z| x > 0 && z > 0 && x < 99 && z < 31);
+        let refs: Vec<&str> = rows.iter().map(String::as_str).collect();
+        let spec = MapSpec::ascii(&refs, 0.05);
+        let weighted = spec.build(NavParams {
+            clearance_weight: 10.0,
+            ..NavParams::default()
+        });
+        let exact = spec.build(NavParams::default());
+        let (a, b) = (span_at(&exact, 2, 1), span_at(&exact, 97, 1));
+        let p1 = found(shortest_path(&exact, a, b));
+        assert_eq!(p1.points.len(), 2);
+        let p10 = found(shortest_path(&weighted, a, b));
+        let max_z = p10.points.iter().map(|p| p.z).fold(0.0f32, f32::max);
+        assert!(max_z > 0.05 + 0.3, "weighted path stays at z <= {max_z}");
+        assert!(p10.length > p1.length);
+        // Collinear steps are merged: far fewer points than spans walked.
+        assert!(p10.points.len() < 12, "{} points", p10.points.len());
+        let from_field = found(path_from_field(
+            &weighted,
+            &distance_field(&weighted, &[b]),
+            a,
+        ));
+        assert!((from_field.length - p10.length).abs() < 0.05);
+    }
+
+    #[test]
+    fn stairs_path_climbs_between_floors() {
+        let grid = stairs().build(NavParams::default());
+        let low = span_at(&grid, 3, 2);
+        let high = span_at(&grid, 75, 5) + 1;
+        let path = found(shortest_path(&grid, low, high));
+        let want = stairs_reference((0.35, 0.25), (7.55, 0.55));
+        assert!(
+            (f64::from(path.length) - want).abs() / want < 0.015,
+            "{} vs {want} (chords may cut slope changes by the profile tolerance)",
+            path.length
+        );
+        assert_eq!(path.points.first().map(|p| p.y), Some(0.0));
+        assert_eq!(path.points.last().map(|p| p.y), Some(3.0));
+        // Bends at the foot and the top of the ramp, not a chord through the air.
+        assert!(path.points.len() >= 4, "{:?}", path.points);
+    }
+}

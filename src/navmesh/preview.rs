@@ -33,7 +33,9 @@ pub fn render_level(grid: &NavGrid, level: u16, scale: u32) -> RgbImage {
     let mut img = RgbImage::from_pixel(nx * scale, nz * scale, Rgb(OBSTACLE));
     // The level's walkable span of the column if any (the lowest), else its lowest span.
     let span_of = |c: usize| {
-        let mut on_level = grid.column_spans(c).filter(|&s| grid.spans[s].level == level);
+        let mut on_level = grid
+            .column_spans(c)
+            .filter(|&s| grid.spans[s].level == level);
         let first = on_level.clone().next();
         on_level.find(|&s| grid.spans[s].walkable).or(first)
     };

@@ -19,14 +19,19 @@ impl NavGrid {
         let c = self.column(ix, iz)?;
         self.column_spans(c)
             .filter(|&s| self.spans[s].walkable)
-            .min_by(|&a, &b| (self.spans[a].y - p.y).abs().total_cmp(&(self.spans[b].y - p.y).abs()))
+            .min_by(|&a, &b| {
+                (self.spans[a].y - p.y)
+                    .abs()
+                    .total_cmp(&(self.spans[b].y - p.y).abs())
+            })
             .filter(|&s| (self.spans[s].y - p.y).abs() <= self.params.agent_height)
             .map(|s| s as u32)
     }
 
     /// True when an agent standing at `p` (y = floor height) is on walkable floor.
     pub fn is_walkable(&self, p: Vec3) -> bool {
-        self.span_at(p).is_some_and(|s| (self.spans[s as usize].y - p.y).abs() <= self.params.max_climb)
+        self.span_at(p)
+            .is_some_and(|s| (self.spans[s as usize].y - p.y).abs() <= self.params.max_climb)
     }
 
     /// The nearest walkable span to `p` within [`SNAP_RADIUS`] (3D distance between `p` and
@@ -47,13 +52,17 @@ impl NavGrid {
                     if (iz - cz).abs() != r && (ix - cx).abs() != r {
                         continue;
                     }
-                    let Some(c) = self.column(ix, iz) else { continue };
+                    let Some(c) = self.column(ix, iz) else {
+                        continue;
+                    };
                     for s in self.column_spans(c) {
                         if !self.spans[s].walkable {
                             continue;
                         }
                         let d = self.span_position(s).distance(p);
-                        if d <= SNAP_RADIUS && best.is_none_or(|(bd, bs)| d < bd || (d == bd && (s as u32) < bs)) {
+                        if d <= SNAP_RADIUS
+                            && best.is_none_or(|(bd, bs)| d < bd || (d == bd && (s as u32) < bs))
+                        {
                             best = Some((d, s as u32));
                         }
                     }
@@ -65,7 +74,9 @@ impl NavGrid {
 
     /// Island of the walkable span nearest to `p`.
     pub fn island_of(&self, p: Vec3) -> Option<u32> {
-        self.snap(p).map(|s| self.spans[s as usize].island).filter(|&i| i != NONE)
+        self.snap(p)
+            .map(|s| self.spans[s as usize].island)
+            .filter(|&i| i != NONE)
     }
 
     /// Walkable spans of a room (goal set of a RoomGoal).
@@ -78,16 +89,23 @@ impl NavGrid {
     /// Walkable spans within `radius` (m, in XZ) of an object's box and within the agent's
     /// height of it vertically: where an agent can stand "at" the object.
     pub fn object_spans(&self, object: u32, radius: f32) -> Vec<u32> {
-        let Some(o) = self.objects.get(object as usize) else { return Vec::new() };
+        let Some(o) = self.objects.get(object as usize) else {
+            return Vec::new();
+        };
         let (ix0, iz0) = self.cell_of(o.min[0] - radius, o.min[2] - radius);
         let (ix1, iz1) = self.cell_of(o.max[0] + radius, o.max[2] + radius);
         let mut out = Vec::new();
         for iz in iz0..=iz1 {
             for ix in ix0..=ix1 {
-                let Some(c) = self.column(ix, iz) else { continue };
+                let Some(c) = self.column(ix, iz) else {
+                    continue;
+                };
                 for s in self.column_spans(c) {
                     let span = &self.spans[s];
-                    if !span.walkable || span.y > o.max[1] + self.params.max_climb || span.y + self.params.agent_height < o.min[1] {
+                    if !span.walkable
+                        || span.y > o.max[1] + self.params.max_climb
+                        || span.y + self.params.agent_height < o.min[1]
+                    {
                         continue;
                     }
                     let p = self.span_position(s);

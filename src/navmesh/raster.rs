@@ -46,7 +46,10 @@ struct Poly {
 
 impl Poly {
     fn empty() -> Self {
-        Poly { v: [Vec3::ZERO; MAX_VERTS], n: 0 }
+        Poly {
+            v: [Vec3::ZERO; MAX_VERTS],
+            n: 0,
+        }
     }
     fn push(&mut self, p: Vec3) {
         if self.n < MAX_VERTS {
@@ -90,7 +93,10 @@ fn split(poly: &Poly, axis: usize, value: f32) -> (Poly, Poly) {
 impl RasterGrid {
     /// Rasterises one triangle, calling `emit(column, ymin, ymax)` per overlapped column.
     pub fn triangle(&self, tri: [Vec3; 3], mut emit: impl FnMut(u32, f32, f32)) {
-        let (min, max) = (tri[0].min(tri[1]).min(tri[2]), tri[0].max(tri[1]).max(tri[2]));
+        let (min, max) = (
+            tri[0].min(tri[1]).min(tri[2]),
+            tri[0].max(tri[1]).max(tri[2]),
+        );
         let cell = self.cell;
         let ix0 = (((min.x - self.x0) / cell).floor() as i64).max(0);
         let ix1 = (((max.x - self.x0) / cell).floor() as i64).min(self.nx as i64 - 1);
@@ -115,7 +121,9 @@ impl RasterGrid {
             let (rmin, rmax) = row
                 .verts()
                 .iter()
-                .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), p| (lo.min(p.x), hi.max(p.x)));
+                .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), p| {
+                    (lo.min(p.x), hi.max(p.x))
+                });
             let cx0 = (((rmin - self.x0) / cell).floor() as i64).max(ix0);
             let cx1 = (((rmax - self.x0) / cell).floor() as i64).min(ix1);
             let (_, mut col_rest) = split(&row, 0, self.x0 + cx0 as f32 * cell);
@@ -128,7 +136,9 @@ impl RasterGrid {
                 let (ylo, yhi) = piece
                     .verts()
                     .iter()
-                    .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), p| (lo.min(p.y), hi.max(p.y)));
+                    .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), p| {
+                        (lo.min(p.y), hi.max(p.y))
+                    });
                 emit((iz as u32) * self.nx + ix as u32, ylo, yhi);
             }
         }
@@ -147,13 +157,23 @@ mod tests {
     use super::*;
 
     fn grid() -> RasterGrid {
-        RasterGrid { x0: 0.0, z0: 0.0, cell: 1.0, nx: 4, nz: 4 }
+        RasterGrid {
+            x0: 0.0,
+            z0: 0.0,
+            cell: 1.0,
+            nx: 4,
+            nz: 4,
+        }
     }
 
     #[test]
     fn a_flat_triangle_covers_the_cells_under_it() {
         let mut cols = Vec::new();
-        let tri = [Vec3::new(0.0, 1.0, 0.0), Vec3::new(0.0, 1.0, 2.0), Vec3::new(2.0, 1.0, 0.0)];
+        let tri = [
+            Vec3::new(0.0, 1.0, 0.0),
+            Vec3::new(0.0, 1.0, 2.0),
+            Vec3::new(2.0, 1.0, 0.0),
+        ];
         grid().triangle(tri, |c, lo, hi| {
             assert_eq!((lo, hi), (1.0, 1.0));
             cols.push(c);
@@ -167,7 +187,11 @@ mod tests {
     #[test]
     fn a_vertical_wall_spans_its_height_in_the_cells_it_crosses() {
         let mut seen = Vec::new();
-        let tri = [Vec3::new(0.5, 0.0, 0.5), Vec3::new(3.5, 0.0, 0.5), Vec3::new(3.5, 2.0, 0.5)];
+        let tri = [
+            Vec3::new(0.5, 0.0, 0.5),
+            Vec3::new(3.5, 0.0, 0.5),
+            Vec3::new(3.5, 2.0, 0.5),
+        ];
         grid().triangle(tri, |c, lo, hi| seen.push((c, lo, hi)));
         assert_eq!(seen.len(), 4);
         let (_, lo, hi) = seen[3];

@@ -33,10 +33,22 @@ pub struct NotWalkable {
 
 /// The shortest route from `from` to `to` (y = floor height under the agent).
 pub fn route(grid: &NavGrid, from: Vec3, to: Vec3) -> Result<Route, NotWalkable> {
-    let a = grid.snap(from).ok_or(NotWalkable { which: "start", point: from })?;
-    let b = grid.snap(to).ok_or(NotWalkable { which: "goal", point: to })?;
+    let a = grid.snap(from).ok_or(NotWalkable {
+        which: "start",
+        point: from,
+    })?;
+    let b = grid.snap(to).ok_or(NotWalkable {
+        which: "goal",
+        point: to,
+    })?;
     match shortest_path(grid, a, b) {
-        PathResult::Unreachable => Ok(Route { reachable: false, geodesic: None, rooms: vec![], doors: vec![], points: vec![] }),
+        PathResult::Unreachable => Ok(Route {
+            reachable: false,
+            geodesic: None,
+            rooms: vec![],
+            doors: vec![],
+            points: vec![],
+        }),
         PathResult::Found(p) => {
             let mut points = p.points.clone();
             // Start and end at the points themselves, on the floor of their spans.
@@ -51,7 +63,13 @@ pub fn route(grid: &NavGrid, from: Vec3, to: Vec3) -> Result<Route, NotWalkable>
                 *last = Vec3::new(to.x, yb, to.z);
             }
             let length = points.windows(2).map(|w| w[0].distance(w[1])).sum();
-            Ok(Route { reachable: true, geodesic: Some(length), rooms: p.rooms, doors: p.doors, points })
+            Ok(Route {
+                reachable: true,
+                geodesic: Some(length),
+                rooms: p.rooms,
+                doors: p.doors,
+                points,
+            })
         }
     }
 }

@@ -2,6 +2,8 @@
 
 #![allow(dead_code)]
 
+pub mod scenes;
+
 use std::path::{Path, PathBuf};
 
 use minos::generate::{generate, plan_house, GenerateConfig, HousePlan, OutputFormat};

@@ -8,7 +8,11 @@ use minos::scene::{
 
 /// A closed box mesh (CCW faces seen from outside).
 pub fn box_mesh(min: [f32; 3], max: [f32; 3]) -> Mesh {
-    let mut m = Mesh { name: "box".into(), materials: vec![Material::solid("m", [0.5, 0.5, 0.5])], ..Default::default() };
+    let mut m = Mesh {
+        name: "box".into(),
+        materials: vec![Material::solid("m", [0.5, 0.5, 0.5])],
+        ..Default::default()
+    };
     add_box(&mut m, min, max);
     m
 }
@@ -23,8 +27,16 @@ pub fn add_box(m: &mut Mesh, min: [f32; 3], max: [f32; 3]) {
             if i & 4 == 0 { min[2] } else { max[2] },
         ]);
     }
-    for q in [[0, 4, 6, 2], [1, 3, 7, 5], [0, 1, 5, 4], [2, 6, 7, 3], [0, 2, 3, 1], [4, 5, 7, 6]] {
-        m.indices.extend([o + q[0], o + q[1], o + q[2], o + q[0], o + q[2], o + q[3]]);
+    for q in [
+        [0, 4, 6, 2],
+        [1, 3, 7, 5],
+        [0, 1, 5, 4],
+        [2, 6, 7, 3],
+        [0, 2, 3, 1],
+        [4, 5, 7, 6],
+    ] {
+        m.indices
+            .extend([o + q[0], o + q[1], o + q[2], o + q[0], o + q[2], o + q[3]]);
         m.face_materials.extend([0, 0]);
     }
     m.compute_normals();
@@ -56,7 +68,14 @@ impl SceneBuilder {
             scene: Scene {
                 id: id.into(),
                 dataset: Dataset::Suncg,
-                levels: vec![Level { index: 0, bbox: Aabb::EMPTY, floor_heights: vec![0.0], rooms: vec![], objects: vec![], ground: vec![] }],
+                levels: vec![Level {
+                    index: 0,
+                    bbox: Aabb::EMPTY,
+                    floor_heights: vec![0.0],
+                    rooms: vec![],
+                    objects: vec![],
+                    ground: vec![],
+                }],
                 meshes: vec![],
             },
         }
@@ -68,20 +87,43 @@ impl SceneBuilder {
     }
 
     /// A room with a floor rectangle at `y` and optional wall boxes (world space).
-    pub fn room(mut self, id: &str, class: RoomClass, rect: [f32; 4], y: f32, walls: &[([f32; 3], [f32; 3])]) -> Self {
+    pub fn room(
+        mut self,
+        id: &str,
+        class: RoomClass,
+        rect: [f32; 4],
+        y: f32,
+        walls: &[([f32; 3], [f32; 3])],
+    ) -> Self {
         let floor = self.mesh(floor_mesh(rect[0], rect[1], rect[2], rect[3], y));
-        let mut surfaces = vec![Surface { kind: SurfaceKind::Floor, mesh: floor }];
+        let mut surfaces = vec![Surface {
+            kind: SurfaceKind::Floor,
+            mesh: floor,
+        }];
         if !walls.is_empty() {
-            let mut w = Mesh { name: "walls".into(), materials: vec![Material::solid("w", [0.8, 0.8, 0.8])], ..Default::default() };
+            let mut w = Mesh {
+                name: "walls".into(),
+                materials: vec![Material::solid("w", [0.8, 0.8, 0.8])],
+                ..Default::default()
+            };
             for (a, b) in walls {
                 add_box(&mut w, *a, *b);
             }
             let wm = self.mesh(w);
-            surfaces.push(Surface { kind: SurfaceKind::Wall, mesh: wm });
+            surfaces.push(Surface {
+                kind: SurfaceKind::Wall,
+                mesh: wm,
+            });
         }
-        let mut bbox = Aabb::from_corners(Vec3::new(rect[0], y, rect[1]), Vec3::new(rect[2], y + 2.7, rect[3]));
+        let mut bbox = Aabb::from_corners(
+            Vec3::new(rect[0], y, rect[1]),
+            Vec3::new(rect[2], y + 2.7, rect[3]),
+        );
         for (a, b) in walls {
-            bbox = bbox.union(&Aabb::from_corners(Vec3::from_array(*a), Vec3::from_array(*b)));
+            bbox = bbox.union(&Aabb::from_corners(
+                Vec3::from_array(*a),
+                Vec3::from_array(*b),
+            ));
         }
         let level = &mut self.scene.levels[0];
         level.rooms.push(Room {
@@ -99,8 +141,19 @@ impl SceneBuilder {
     }
 
     /// An object made of boxes (world space), with a category and flags.
-    pub fn object(mut self, id: &str, category: &str, flags: ObjectFlags, boxes: &[([f32; 3], [f32; 3])], rooms: Vec<u32>) -> Self {
-        let mut m = Mesh { name: id.into(), materials: vec![Material::solid("o", [0.3, 0.3, 0.3])], ..Default::default() };
+    pub fn object(
+        mut self,
+        id: &str,
+        category: &str,
+        flags: ObjectFlags,
+        boxes: &[([f32; 3], [f32; 3])],
+        rooms: Vec<u32>,
+    ) -> Self {
+        let mut m = Mesh {
+            name: id.into(),
+            materials: vec![Material::solid("o", [0.3, 0.3, 0.3])],
+            ..Default::default()
+        };
         for (a, b) in boxes {
             add_box(&mut m, *a, *b);
         }
@@ -110,7 +163,12 @@ impl SceneBuilder {
         level.objects.push(Object {
             id: id.into(),
             model_id: id.into(),
-            categories: Categories { fine: Some(category.into()), coarse: Some(category.into()), nyu40: None, mpcat40: None },
+            categories: Categories {
+                fine: Some(category.into()),
+                coarse: Some(category.into()),
+                nyu40: None,
+                mpcat40: None,
+            },
             transform: Mat4::IDENTITY,
             bbox,
             mesh: Some(mesh),
@@ -124,7 +182,11 @@ impl SceneBuilder {
 
     /// The scene.
     pub fn build(mut self) -> Scene {
-        let mut heights: Vec<f32> = self.scene.levels[0].rooms.iter().map(|r| r.floor_height).collect();
+        let mut heights: Vec<f32> = self.scene.levels[0]
+            .rooms
+            .iter()
+            .map(|r| r.floor_height)
+            .collect();
         heights.sort_by(f32::total_cmp);
         heights.dedup();
         self.scene.levels[0].floor_heights = heights;
