@@ -118,6 +118,19 @@ struct GoalSet {
     spans: Vec<Vec<u32>>,
 }
 
+impl GoalSet {
+    /// Targets with a goal span on `island`.
+    fn targets_on(&self, grid: &NavGrid, island: u32) -> Vec<usize> {
+        (0..self.targets.len())
+            .filter(|&t| {
+                self.spans[t]
+                    .iter()
+                    .any(|&s| grid.spans[s as usize].island == island)
+            })
+            .collect()
+    }
+}
+
 /// Up to this many view points are stored per target.
 const MAX_VIEW_POINTS: usize = 16;
 
@@ -270,11 +283,13 @@ pub fn sample_scene(
     let starts: Vec<u32> = grid
         .walkable_spans(None)
         .into_iter()
-        .filter(|&s| islands[grid.spans[s as usize].island as usize])
+        .filter(|&s| {
+            islands[grid.spans[s as usize].island as usize] && grid.spans[s as usize].room != NONE
+        })
         .collect();
     if starts.is_empty() {
         out.unusable = Some(format!(
-            "no island of radius >= {} m",
+            "no walkable floor inside a room on an island of radius >= {} m",
             cfg.min_island_radius
         ));
         return out;
@@ -339,9 +354,17 @@ pub fn sample_scene(
                 }
             }
             Task::ObjectGoal | Task::RoomGoal => {
-                let set = rng.below(sets.len());
+                // Goals reachable from the start's island: a category or class is drawn among
+                // those with an instance there, and a random instance among those.
+                let reachable: Vec<usize> = (0..sets.len())
+                    .filter(|&k| !sets[k].targets_on(grid, island).is_empty())
+                    .collect();
+                let Some(&set) = rng.pick(&reachable) else {
+                    reject(&mut out, "no goal on the start's island");
+                    continue;
+                };
                 let target = match cfg.select {
-                    Select::Random => Some(rng.below(sets[set].targets.len())),
+                    Select::Random => rng.pick(&sets[set].targets_on(grid, island)).copied(),
                     Select::Any | Select::Closest => None,
                 };
                 let field = fields.get(&sets, set, target);
@@ -474,6 +497,5 @@ fn check(
             return None;
         }
     }
-    let _ = NONE;
     Some((geodesic, euclidean))
 }

@@ -1,0 +1,307 @@
+//! Episodes on generated houses: every episode is reachable and its stored geodesic equals a
+//! fresh path query; filters act; output is identical across threads and shards; Habitat
+//! export round-trips.
+
+mod common;
+
+use std::path::Path;
+
+use common::{generate_into, ingest_into};
+use minos::episode::batch::{sample_scenes, EpisodeBatch, Shard};
+use minos::episode::format::write_episodes;
+use minos::episode::habitat::{export_habitat, import_habitat};
+use minos::episode::sample::{path_length_between, SampleConfig, Select};
+use minos::episode::{Goal, Task};
+use minos::generate::GenerateConfig;
+use minos::io::manifest::read_manifest;
+use minos::navmesh::bake::{bake_scenes, BakeConfig};
+use minos::navmesh::file::{nav_path, read_nav};
+use minos::navmesh::geodesic::distance_field;
+use minos::navmesh::path::{path_from_field, PathResult};
+use minos::navmesh::route::route;
+use minos::navmesh::{NavGrid, NavParams};
+use minos::progress::NoProgress;
+
+/// A baked DATA folder of generated houses, shared by the tests of this file.
+fn data() -> &'static (tempfile::TempDir, Vec<(String, String)>) {
+    static DATA: std::sync::OnceLock<(tempfile::TempDir, Vec<(String, String)>)> =
+        std::sync::OnceLock::new();
+    DATA.get_or_init(|| {
+        let dir = tempfile::tempdir().unwrap();
+        let (root, data) = (dir.path().join("suncg"), dir.path().join("DATA"));
+        let cfg = GenerateConfig {
+            houses: 10,
+            seed: 9,
+            rooms: (3, 8),
+            levels: (1, 2),
+            closed_door_prob: 0.25,
+        };
+        generate_into(&cfg, &root);
+        ingest_into(&root, &data);
+        let ids: Vec<String> = read_manifest(&data.join("houses.parquet"))
+            .unwrap()
+            .into_iter()
+            .map(|r| r.id)
+            .collect();
+        let bake = BakeConfig {
+            data: data.clone(),
+            ids: ids.clone(),
+            params: NavParams::default(),
+            force: false,
+            previews: false,
+        };
+        let report = bake_scenes(&bake, &NoProgress);
+        assert_eq!(report.failures().count(), 0);
+        let scenes = ids
+            .into_iter()
+            .enumerate()
+            .map(|(i, id)| (id, ["train", "val", "test"][i % 3].to_string()))
+            .collect();
+        (dir, scenes)
+    })
+}
+
+fn run(cfg: &SampleConfig, shard: Shard) -> EpisodeBatch {
+    let (dir, scenes) = data();
+    sample_scenes(&dir.path().join("DATA"), scenes, cfg, shard, &NoProgress)
+}
+
+fn grid(scene: &str) -> NavGrid {
+    read_nav(&nav_path(&data().0.path().join("DATA"), scene)).unwrap()
+}
+
+/// The goal spans of an object or room goal, recomputed from the grid.
+fn goal_spans(grid: &NavGrid, goal: &Goal, radius: f32) -> Vec<u32> {
+    match goal {
+        Goal::Point { .. } => unreachable!(),
+        Goal::Object { targets, .. } => targets
+            .iter()
+            .flat_map(|t| {
+                let i = grid.objects.iter().position(|o| o.id == t.id).unwrap() as u32;
+                grid.object_spans(i, radius)
+            })
+            .collect(),
+        Goal::Room { targets, .. } => targets
+            .iter()
+            .flat_map(|t| {
+                let i = grid.rooms.iter().position(|r| r.id == t.id).unwrap() as u32;
+                grid.room_spans(i)
+            })
+            .collect(),
+    }
+}
+
+#[test]
+fn every_episode_is_reachable_and_its_geodesic_matches_a_fresh_query() {
+    for task in [Task::PointGoal, Task::ObjectGoal, Task::RoomGoal] {
+        for select in [Select::Any, Select::Closest, Select::Random] {
+            if task == Task::PointGoal && select != Select::Any {
+                continue;
+            }
+            let cfg = SampleConfig {
+                task,
+                select,
+                per_scene: 6,
+                seed: 3,
+                ..SampleConfig::default()
+            };
+            let batch = run(&cfg, Shard::ALL);
+            assert!(
+                batch.total >= 30,
+                "{task:?} {select:?}: only {} episodes",
+                batch.total
+            );
+            for e in &batch.episodes {
+                let g = grid(&e.scene_id);
+                let start = glam::Vec3::from_array(e.start_position);
+                let fresh = match &e.goal {
+                    Goal::Point { position } => route(&g, start, glam::Vec3::from_array(*position))
+                        .unwrap()
+                        .geodesic
+                        .expect("reachable"),
+                    goal => {
+                        let spans = goal_spans(&g, goal, e.success_radius);
+                        let field = distance_field(&g, &spans);
+                        let PathResult::Found(p) =
+                            path_from_field(&g, &field, g.snap(start).unwrap())
+                        else {
+                            panic!("{} unreachable", e.episode_id)
+                        };
+                        path_length_between(&p, start, *p.points.last().unwrap())
+                    }
+                };
+                assert!(
+                    (fresh - e.geodesic_distance).abs() < 1e-3,
+                    "{}: stored {} vs fresh {fresh}",
+                    e.episode_id,
+                    e.geodesic_distance
+                );
+                assert!(
+                    e.geodesic_distance >= cfg.min_geodesic
+                        && e.geodesic_distance <= cfg.max_geodesic
+                );
+                assert!(
+                    e.geodesic_distance + 1e-3 >= e.euclidean_distance,
+                    "{}",
+                    e.episode_id
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn the_ratio_door_and_room_filters_act() {
+    let base = SampleConfig {
+        per_scene: 20,
+        seed: 5,
+        ..SampleConfig::default()
+    };
+    let straight = |b: &EpisodeBatch| {
+        b.episodes
+            .iter()
+            .filter(|e| e.geodesic_distance / e.euclidean_distance < 1.1)
+            .count() as f64
+            / b.total as f64
+    };
+    let without = run(
+        &SampleConfig {
+            ratio_rule: false,
+            ..base.clone()
+        },
+        Shard::ALL,
+    );
+    let with = run(&base, Shard::ALL);
+    assert!(
+        straight(&with) < 0.5 * straight(&without),
+        "ratio < 1.1: {} with the rule, {} without",
+        straight(&with),
+        straight(&without)
+    );
+    assert!(with.rejected.contains_key("geodesic/euclidean ratio rule"));
+    assert!(without.episodes.iter().any(|e| e.path_num_doors == 0));
+    let doors = run(
+        &SampleConfig {
+            min_doors: 1,
+            ..base.clone()
+        },
+        Shard::ALL,
+    );
+    assert!(doors.total > 0 && doors.episodes.iter().all(|e| e.path_num_doors >= 1));
+    let rooms = run(
+        &SampleConfig {
+            min_rooms: 3,
+            ..base.clone()
+        },
+        Shard::ALL,
+    );
+    assert!(rooms.total > 0 && rooms.episodes.iter().all(|e| e.path_num_rooms >= 3));
+    assert!(rooms.rejected["fewer rooms than --min-rooms"] > 0);
+}
+
+#[test]
+fn shards_union_to_the_unsharded_run_and_threads_do_not_matter() {
+    let cfg = SampleConfig {
+        task: Task::ObjectGoal,
+        per_scene: 5,
+        seed: 8,
+        ..SampleConfig::default()
+    };
+    let all = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap()
+        .install(|| run(&cfg, Shard::ALL));
+    let two = rayon::ThreadPoolBuilder::new()
+        .num_threads(2)
+        .build()
+        .unwrap()
+        .install(|| run(&cfg, Shard::ALL));
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b) = (dir.path().join("a.parquet"), dir.path().join("b.parquet"));
+    write_episodes(&a, &all.episodes).unwrap();
+    write_episodes(&b, &two.episodes).unwrap();
+    assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
+    let mut union: Vec<_> = (0..3)
+        .flat_map(|i| run(&cfg, Shard { index: i, count: 3 }).episodes)
+        .collect();
+    union.sort_by(|x, y| x.episode_id.cmp(&y.episode_id));
+    let mut expected = all.episodes.clone();
+    expected.sort_by(|x, y| x.episode_id.cmp(&y.episode_id));
+    assert_eq!(union, expected);
+    // Another seed gives other episodes.
+    let other = run(&SampleConfig { seed: 9, ..cfg }, Shard::ALL);
+    assert_ne!(
+        other.episodes[0].start_position,
+        all.episodes[0].start_position
+    );
+}
+
+#[test]
+fn habitat_export_and_import_round_trip() {
+    let dir = tempfile::tempdir().unwrap();
+    for task in [Task::PointGoal, Task::ObjectGoal] {
+        let batch = run(
+            &SampleConfig {
+                task,
+                per_scene: 4,
+                seed: 1,
+                ..SampleConfig::default()
+            },
+            Shard::ALL,
+        );
+        let val: Vec<_> = batch
+            .episodes
+            .iter()
+            .filter(|e| e.split == "val")
+            .cloned()
+            .collect();
+        let out = dir.path().join(task.name());
+        export_habitat(&out, "val", "", &val).unwrap();
+        let mut back = Vec::new();
+        for f in std::fs::read_dir(out.join("val/content"))
+            .unwrap()
+            .flatten()
+        {
+            back.extend(import_habitat(&f.path()).unwrap());
+        }
+        assert_eq!(back.len(), val.len());
+        for e in &val {
+            let b = back
+                .iter()
+                .find(|b| b.start_position == e.start_position)
+                .unwrap_or_else(|| panic!("{} lost", e.episode_id));
+            assert!((b.geodesic_distance - e.geodesic_distance).abs() < 1e-4);
+            let dyaw = (b.start_yaw - e.start_yaw).rem_euclid(std::f32::consts::TAU);
+            assert!(
+                dyaw < 1e-4 || dyaw > std::f32::consts::TAU - 1e-4,
+                "{} vs {}",
+                b.start_yaw,
+                e.start_yaw
+            );
+            match (&b.goal, &e.goal) {
+                (Goal::Point { position: p }, Goal::Point { position: q }) => assert_eq!(p, q),
+                (
+                    Goal::Object {
+                        category: c,
+                        targets: t,
+                    },
+                    Goal::Object {
+                        category: d,
+                        targets: u,
+                    },
+                ) => {
+                    assert_eq!(c, d);
+                    let ids = |t: &[minos::episode::GoalTarget]| {
+                        t.iter()
+                            .map(|x| x.id.clone())
+                            .collect::<std::collections::BTreeSet<_>>()
+                    };
+                    assert!(ids(u).is_subset(&ids(t)));
+                }
+                other => panic!("goal changed: {other:?}"),
+            }
+        }
+    }
+    assert!(Path::new(&dir.path().join("pointgoal/val/val.json.gz")).is_file());
+}
