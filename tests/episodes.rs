@@ -274,7 +274,7 @@ fn habitat_export_and_import_round_trip() {
             assert!((b.geodesic_distance - e.geodesic_distance).abs() < 1e-4);
             let dyaw = (b.start_yaw - e.start_yaw).rem_euclid(std::f32::consts::TAU);
             assert!(
-                dyaw < 1e-4 || dyaw > std::f32::consts::TAU - 1e-4,
+                !(1e-4..=std::f32::consts::TAU - 1e-4).contains(&dyaw),
                 "{} vs {}",
                 b.start_yaw,
                 e.start_yaw
