@@ -175,8 +175,19 @@ fn rerun_skips_up_to_date_scenes_and_rebuilds_changed_ones() {
 
 #[test]
 fn every_subcommand_documents_its_flags_with_examples() {
-    for cmd in ["generate", "ingest", "split", "stats", "export", "demo"] {
-        let out = minos().args([cmd, "--help"]).output().unwrap();
+    for cmd in [
+        "generate",
+        "ingest",
+        "split",
+        "stats",
+        "export",
+        "demo",
+        "bake",
+        "episodes",
+        "nav query",
+        "episodes import",
+    ] {
+        let out = minos().args(cmd.split(' ')).arg("--help").output().unwrap();
         let help = String::from_utf8_lossy(&out.stdout);
         assert!(out.status.success());
         assert!(
@@ -227,4 +238,132 @@ fn demo_leaves_a_manifest_splits_and_statistics() {
         stdout.contains("houses") && stdout.contains("living_room"),
         "{stdout}"
     );
+}
+
+#[test]
+fn bake_nav_query_and_episodes_from_the_command_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let (root, data) = (dir.path().join("suncg"), dir.path().join("DATA"));
+    let cfg = gen(&root, 3);
+    let ok = |args: &[&str]| {
+        let out = minos().args(args).output().unwrap();
+        assert!(
+            out.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        String::from_utf8_lossy(&out.stdout).to_string()
+    };
+    let d = data.to_str().unwrap();
+    ok(&["ingest", "--root", root.to_str().unwrap(), "--out", d]);
+    ok(&[
+        "split",
+        "--data",
+        d,
+        "--name",
+        "s",
+        "--ratios",
+        "0.4,0.3,0.3",
+    ]);
+    assert!(ok(&["bake", "--data", d]).contains("3 baked"));
+    assert!(ok(&["bake", "--data", d]).contains("3 up to date"));
+    let id = house_id(&cfg, 0);
+    assert!(data.join("nav").join(format!("{id}.L0.png")).is_file());
+    // Two walkable points of the main island, from the grid itself.
+    let grid = minos::navmesh::file::read_nav(&data.join("nav").join(format!("{id}.nav"))).unwrap();
+    let indoor = |i: u32| {
+        grid.walkable_spans(Some(i))
+            .into_iter()
+            .filter(|&s| grid.spans[s as usize].room != minos::navmesh::NONE)
+            .collect::<Vec<_>>()
+    };
+    let main = (0..grid.islands.len() as u32)
+        .max_by_key(|&i| indoor(i).len())
+        .unwrap();
+    let spans = indoor(main);
+    let (a, b) = (
+        grid.span_position(spans[0] as usize),
+        grid.span_position(spans[spans.len() - 1] as usize),
+    );
+    let p = |v: glam::Vec3| format!("{},{},{}", v.x, v.y, v.z);
+    let json = ok(&[
+        "nav",
+        "query",
+        "--data",
+        d,
+        "--scene",
+        &id,
+        "--from",
+        &p(a),
+        "--to",
+        &p(b),
+        "--json",
+    ]);
+    let v: serde_json::Value = serde_json::from_str(json.trim()).unwrap();
+    assert_eq!(v["reachable"], true);
+    let (geo, euc) = (
+        v["geodesic"].as_f64().unwrap(),
+        v["euclidean"].as_f64().unwrap(),
+    );
+    assert!(geo + 1e-4 >= euc && geo < 4.0 * euc + 1.0, "{geo} vs {euc}");
+    assert!((v["path"][0][0].as_f64().unwrap() - f64::from(a.x)).abs() < 1e-4);
+    assert!(v["rooms"].as_array().is_some_and(|r| !r.is_empty()));
+    let far = minos()
+        .args([
+            "nav",
+            "query",
+            "--data",
+            d,
+            "--scene",
+            &id,
+            "--from",
+            "500,0,500",
+            "--to",
+            &p(b),
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(far.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&far.stderr).contains("not within 2 m"));
+    // Episodes, their statistics, a Habitat export and its import.
+    let eps = dir.path().join("eps/point.parquet");
+    let hab = dir.path().join("hab");
+    ok(&[
+        "episodes",
+        "--data",
+        d,
+        "--task",
+        "pointgoal",
+        "--split",
+        "s",
+        "--per-scene",
+        "3",
+        "--out",
+        eps.to_str().unwrap(),
+        "--export",
+        "habitat",
+        hab.to_str().unwrap(),
+    ]);
+    let episodes = minos::episode::format::read_episodes(&eps).unwrap();
+    assert!(!episodes.is_empty());
+    let stats: serde_json::Value = serde_json::from_slice(
+        &std::fs::read(dir.path().join("eps/point.parquet.stats.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(stats["total"].as_u64(), Some(episodes.len() as u64));
+    let subset = &episodes[0].split;
+    let content = std::fs::read_dir(hab.join(subset).join("content"))
+        .unwrap()
+        .flatten()
+        .next()
+        .unwrap()
+        .path();
+    let said = ok(&[
+        "episodes",
+        "import",
+        "--from",
+        "habitat",
+        content.to_str().unwrap(),
+    ]);
+    assert!(said.starts_with("read "), "{said}");
 }

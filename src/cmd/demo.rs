@@ -6,9 +6,15 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use anyhow::Context as _;
+use minos::episode::batch::{sample_scenes, Shard};
+use minos::episode::format::write_episodes;
+use minos::episode::sample::SampleConfig;
+use minos::episode::Task;
 use minos::generate::{generate, GenerateConfig, OutputFormat};
 use minos::ingest::{ingest, IngestConfig, Outcome};
 use minos::io::manifest::read_manifest;
+use minos::navmesh::bake::{bake_scenes, BakeConfig};
+use minos::navmesh::NavParams;
 use minos::split::{self, Expr, Ratios};
 use minos::stats;
 
@@ -18,7 +24,8 @@ use super::Context;
 ///
 /// Generates houses in SUNCG's layout, ingests them into a DATA folder (compiled scenes and
 /// a Parquet manifest), writes a seeded 60/20/20 split and MINOS's multi-room split
-/// (3 to 5 rooms), and prints environment statistics. Re-running resumes.
+/// (3 to 5 rooms), prints environment statistics, bakes navigation grids with previews, and
+/// samples PointGoal, ObjectGoal (doors) and RoomGoal episodes. Re-running resumes.
 #[derive(Debug, clap::Args)]
 #[command(
     after_help = "Examples:\n  minos demo\n  minos demo --houses 200 --seed 3 --out /tmp/demo"
@@ -50,7 +57,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         generate(&cfg, OutputFormat::Suncg, &root, false, &bar).context("generate")?;
     }
     ctx.say(format!(
-        "1/4 generated {} houses      -> {}",
+        "1/6 generated {} houses      -> {}",
         cfg.houses,
         root.display()
     ));
@@ -60,7 +67,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     };
     let failed = report.count(Outcome::Failed);
     ctx.say(format!(
-        "2/4 ingested {} scenes ({failed} failed) -> {}",
+        "2/6 ingested {} scenes ({failed} failed) -> {}",
         report.scenes.len(),
         report.manifest.display()
     ));
@@ -72,7 +79,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     let mr = split::split_by_ratios(&rows, Some(&multiroom), ratios, args.seed);
     let mr_dir = split::write_split(&data, "multiroom", &mr.lists)?;
     ctx.say(format!(
-        "3/4 splits: all {}/{}/{} -> {}, multiroom (3-5 rooms) {}/{}/{} -> {}",
+        "3/6 splits: all {}/{}/{} -> {}, multiroom (3-5 rooms) {}/{}/{} -> {}",
         all.lists.train.len(),
         all.lists.val.len(),
         all.lists.test.len(),
@@ -82,20 +89,78 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         mr.lists.test.len(),
         mr_dir.display()
     ));
-    ctx.say("4/4 statistics of split `all`:");
+    ctx.say("4/6 statistics of split `all`:");
     ctx.say(stats::render_table(&stats::compute_split(
         &rows, &all.lists,
     )));
+    let ids: Vec<String> = rows
+        .iter()
+        .filter(|r| r.error.is_none())
+        .map(|r| r.id.clone())
+        .collect();
+    let bake = {
+        let bar = ctx.progress(ids.len() as u64, "bake");
+        let cfg = BakeConfig {
+            data: data.clone(),
+            ids: ids.clone(),
+            params: NavParams::default(),
+            force: false,
+            previews: true,
+        };
+        bake_scenes(&cfg, &bar)
+    };
+    let bake_failed = bake.failures().count();
+    for (id, e) in bake.failures() {
+        eprintln!("error: scene {id}: {e}");
+    }
     ctx.say(format!(
-        "done in {:.1} s. Next:\n  minos stats --data {d} --split multiroom\n  \
-         minos export --data {d} --scene {id} --out house.glb   (open in Blender)\n  \
-         python: pandas.read_parquet(\"{m}\")",
-        start.elapsed().as_secs_f64(),
-        d = data.display(),
-        id = rows.first().map(|r| r.id.as_str()).unwrap_or("ID"),
-        m = report.manifest.display(),
+        "5/6 baked {} navigation grids ({bake_failed} failed) -> {}",
+        ids.len(),
+        data.join("nav").display()
     ));
-    Ok(if failed == 0 {
+    let scenes: Vec<(String, String)> = [
+        ("train", &all.lists.train),
+        ("val", &all.lists.val),
+        ("test", &all.lists.test),
+    ]
+    .iter()
+    .flat_map(|(subset, ids)| ids.iter().map(move |id| (id.clone(), subset.to_string())))
+    .collect();
+    let episodes_dir = args.out.join("episodes");
+    let mut written = Vec::new();
+    for task in [Task::PointGoal, Task::ObjectGoal, Task::RoomGoal] {
+        let cfg = SampleConfig {
+            task,
+            per_scene: 10,
+            seed: args.seed,
+            ..SampleConfig::default()
+        };
+        let batch = {
+            let bar = ctx.progress(scenes.len() as u64, task.name());
+            sample_scenes(&data, &scenes, &cfg, Shard::ALL, &bar)
+        };
+        let file = episodes_dir.join(format!("{}.parquet", task.name()));
+        write_episodes(&file, &batch.episodes).with_context(|| file.display().to_string())?;
+        written.push(format!("{} {}", batch.total, task.name()));
+    }
+    ctx.say(format!(
+        "6/6 episodes: {} -> {}",
+        written.join(", "),
+        episodes_dir.display()
+    ));
+    ctx.say(format!(
+        "done in {:.1} s. Next:\n  open {nav}/<scene>.L0.png to see a navigation grid\n  \
+         minos nav query --data {d} --scene {id} --from X,0,Z --to X,0,Z\n  \
+         minos stats --data {d} --split multiroom\n  \
+         minos export --data {d} --scene {id} --out house.glb   (open in Blender)\n  \
+         python: pandas.read_parquet(\"{e}\")",
+        start.elapsed().as_secs_f64(),
+        nav = data.join("nav").display(),
+        d = data.display(),
+        id = ids.first().map(String::as_str).unwrap_or("ID"),
+        e = episodes_dir.join("pointgoal.parquet").display(),
+    ));
+    Ok(if failed == 0 && bake_failed == 0 {
         ExitCode::SUCCESS
     } else {
         ExitCode::FAILURE
