@@ -14,14 +14,25 @@ use rayon::prelude::*;
 use crate::io::manifest::{read_manifest, write_manifest, ManifestError, ManifestRow};
 use crate::io::scene_file::{read_header, read_scene, scene_path, write_scene, SceneHeader};
 use crate::progress::Progress;
-use crate::scene::formats::suncg::{HouseEntry, SuncgLoader};
-use crate::scene::formats::LoadError;
+use crate::scene::formats::suncg::SuncgLoader;
+use crate::scene::formats::{DatasetLoader, LoadError, SceneEntry};
 
 /// Dataset formats ingest reads.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum DatasetFormat {
     /// SUNCG `house.json` houses.
     Suncg,
+}
+
+impl DatasetFormat {
+    /// The loader of this format for `cfg.root`.
+    pub fn loader(self, cfg: &IngestConfig) -> Result<Box<dyn DatasetLoader>, LoadError> {
+        Ok(match self {
+            DatasetFormat::Suncg => {
+                Box::new(SuncgLoader::open(&cfg.root, cfg.categories.as_deref())?)
+            }
+        })
+    }
 }
 
 /// What to ingest.
@@ -133,18 +144,19 @@ fn up_to_date(compiled: &Path, source: &Path) -> bool {
 }
 
 fn ingest_one(
-    loader: &SuncgLoader,
-    house: &HouseEntry,
+    loader: &dyn DatasetLoader,
+    house: &SceneEntry,
     data: &Path,
     force: bool,
 ) -> (ManifestRow, Outcome, Vec<String>) {
+    let dataset = loader.dataset().name();
     let compiled = scene_path(data, &house.id);
     let source = house.path.display().to_string();
     let fail = |e: String| {
         // A stale compiled scene must not outlive a source that no longer loads.
         let _ = std::fs::remove_file(&compiled);
         (
-            ManifestRow::failed(&house.id, "suncg", &source, e),
+            ManifestRow::failed(&house.id, dataset, &source, e),
             Outcome::Failed,
             Vec::new(),
         )
@@ -183,18 +195,13 @@ fn ingest_one(
 
 /// Ingests every selected scene of the root into the DATA folder.
 pub fn ingest(cfg: &IngestConfig, progress: &dyn Progress) -> Result<IngestReport, IngestError> {
-    let DatasetFormat::Suncg = cfg.format;
-    let loader = SuncgLoader::open(&cfg.root, cfg.categories.as_deref())?;
+    let loader = cfg.format.loader(cfg)?;
+    let loader = loader.as_ref();
     let mut report = IngestReport {
         manifest: cfg.data.join("houses.parquet"),
         ..Default::default()
     };
-    if loader.mapping_path().is_none() {
-        report.warnings.push(format!(
-            "{}: no metadata/ModelCategoryMapping.csv: objects will have no categories (pass --categories FILE)",
-            cfg.root.display()
-        ));
-    }
+    report.warnings.extend(loader.root_warning());
     let mut houses = loader.discover()?;
     if let Some(ids) = &cfg.ids {
         let wanted: BTreeSet<&str> = ids.iter().map(String::as_str).collect();
@@ -210,7 +217,7 @@ pub fn ingest(cfg: &IngestConfig, progress: &dyn Progress) -> Result<IngestRepor
     let results: Vec<(ManifestRow, Outcome, Vec<String>)> = houses
         .par_iter()
         .map(|h| {
-            let r = ingest_one(&loader, h, &cfg.data, cfg.force);
+            let r = ingest_one(loader, h, &cfg.data, cfg.force);
             progress.advance(1);
             r
         })

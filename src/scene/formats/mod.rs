@@ -10,6 +10,41 @@ pub mod suncg;
 use std::path::{Path, PathBuf};
 
 use super::mesh::Mesh;
+use super::model::{Dataset, Scene};
+
+/// One scene found under a dataset root.
+#[derive(Debug, Clone, PartialEq, Eq, PartialOrd, Ord)]
+pub struct SceneEntry {
+    /// Scene id (SUNCG house id, scan id, file stem).
+    pub id: String,
+    /// The scene's main source file.
+    pub path: PathBuf,
+}
+
+/// A loaded scene with the files it was built from.
+#[derive(Debug)]
+pub struct LoadedScene {
+    /// The canonical scene.
+    pub scene: Scene,
+    /// Every file read (for freshness checks).
+    pub sources: Vec<PathBuf>,
+    /// Non-fatal remarks, one line each.
+    pub warnings: Vec<String>,
+}
+
+/// What every dataset loader offers `ingest`: find the scenes under a root, load one.
+pub trait DatasetLoader: Sync {
+    /// The dataset this loader reads.
+    fn dataset(&self) -> Dataset;
+    /// Every scene under the root, sorted by id.
+    fn discover(&self) -> Result<Vec<SceneEntry>, LoadError>;
+    /// Loads one scene; every failure names the file and the record.
+    fn load(&self, entry: &SceneEntry) -> Result<LoadedScene, LoadError>;
+    /// A remark about the whole root (e.g. a missing category table), if any.
+    fn root_warning(&self) -> Option<String> {
+        None
+    }
+}
 
 /// A failure to load a scene or one of its files.
 #[derive(Debug, thiserror::Error)]

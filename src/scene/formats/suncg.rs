@@ -20,7 +20,7 @@ use crate::scene::model::{
 };
 use crate::scene::taxonomy::{FlagTable, ModelCategories, RoomTypeTable};
 
-use super::{load_mesh_file, LoadError};
+use super::{load_mesh_file, DatasetLoader, LoadError, LoadedScene, SceneEntry};
 
 /// Mesh file extensions tried, in order.
 const MESH_EXTENSIONS: [&str; 3] = ["obj", "gltf", "glb"];
@@ -77,25 +77,8 @@ struct MaterialJson {
     texture: Option<String>,
 }
 
-/// One house found under a SUNCG root.
-#[derive(Debug, Clone, PartialEq, Eq, PartialOrd, Ord)]
-pub struct HouseEntry {
-    /// House id (the folder name).
-    pub id: String,
-    /// Path of its `house.json`.
-    pub path: PathBuf,
-}
-
-/// A loaded house with the files it was built from.
-#[derive(Debug)]
-pub struct LoadedScene {
-    /// The canonical scene.
-    pub scene: Scene,
-    /// Every file read (house.json and meshes), for freshness checks.
-    pub sources: Vec<PathBuf>,
-    /// Non-fatal remarks (e.g. models missing from the category table).
-    pub warnings: Vec<String>,
-}
+/// One house found under a SUNCG root (its `house.json`).
+pub type HouseEntry = SceneEntry;
 
 /// Loads SUNCG houses from one dataset root.
 pub struct SuncgLoader {
@@ -234,6 +217,26 @@ impl SuncgLoader {
             })
             .collect();
         candidates.into_iter().find(|p| p.is_file())
+    }
+}
+
+impl DatasetLoader for SuncgLoader {
+    fn dataset(&self) -> Dataset {
+        Dataset::Suncg
+    }
+    fn discover(&self) -> Result<Vec<SceneEntry>, LoadError> {
+        SuncgLoader::discover(self)
+    }
+    fn load(&self, entry: &SceneEntry) -> Result<LoadedScene, LoadError> {
+        SuncgLoader::load(self, entry)
+    }
+    fn root_warning(&self) -> Option<String> {
+        self.mapping_path.is_none().then(|| {
+            format!(
+                "{}: no metadata/ModelCategoryMapping.csv: objects will have no categories (pass --categories FILE)",
+                self.root.display()
+            )
+        })
     }
 }
 
