@@ -15,6 +15,7 @@ mod generate;
 mod ingest;
 mod nav;
 mod range;
+mod render;
 mod split;
 mod stats;
 
@@ -57,6 +58,8 @@ enum Command {
     Nav(nav::Args),
     /// Sample navigable PointGoal / ObjectGoal / RoomGoal episodes (or import episode files).
     Episodes(Box<episodes::Args>),
+    /// Render what an agent's sensors see at a pose (one PNG per sensor).
+    Render(render::Args),
     /// Export a compiled scene's world-space geometry as OBJ or GLB.
     Export(export::Args),
     /// Run the whole pipeline on generated houses into ./minos-demo/.
@@ -84,6 +87,7 @@ pub fn main() -> ExitCode {
         Command::Bake(a) => bake::run(a, &ctx),
         Command::Nav(a) => nav::run(a, &ctx),
         Command::Episodes(a) => episodes::run(*a, &ctx),
+        Command::Render(a) => render::run(a, &ctx),
         Command::Export(a) => export::run(a, &ctx),
         Command::Demo(a) => demo::run(a, &ctx),
     };

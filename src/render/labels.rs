@@ -1,0 +1,130 @@
+//! Semantic label taxonomies for per-pixel class images: NYU-40 and Matterport3D's mpcat40,
+//! with fixed indices (tables in `data/taxonomy/`), so labels mean the same in every scene.
+
+use std::collections::HashMap;
+use std::sync::OnceLock;
+
+use serde::{Deserialize, Serialize};
+
+use crate::scene::{Categories, SurfaceKind};
+
+/// A taxonomy of semantic classes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum Taxonomy {
+    /// NYU-40 (0 = void).
+    #[default]
+    Nyu40,
+    /// Matterport3D mpcat40 (0 = void).
+    Mpcat40,
+}
+
+struct Tables {
+    nyu40: HashMap<String, u16>,
+    mpcat40: HashMap<String, u16>,
+    nyu_to_mp: HashMap<String, String>,
+    nyu40_names: Vec<String>,
+    mpcat40_names: Vec<String>,
+}
+
+fn rows(text: &str) -> impl Iterator<Item = (String, String)> + '_ {
+    text.lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty() && !l.starts_with('#'))
+        .skip(1)
+        .filter_map(|l| l.split_once(',').map(|(a, b)| (a.trim().to_string(), b.trim().to_string())))
+}
+
+fn tables() -> &'static Tables {
+    static T: OnceLock<Tables> = OnceLock::new();
+    T.get_or_init(|| {
+        let indexed = |text: &str| -> (HashMap<String, u16>, Vec<String>) {
+            let mut map = HashMap::new();
+            let mut names = Vec::new();
+            for (i, name) in rows(text) {
+                if let Ok(i) = i.parse::<u16>() {
+                    map.insert(name.clone(), i);
+                    if names.len() <= i as usize {
+                        names.resize(i as usize + 1, String::new());
+                    }
+                    names[i as usize] = name;
+                }
+            }
+            (map, names)
+        };
+        let (nyu40, nyu40_names) = indexed(include_str!("../../data/taxonomy/nyu40.csv"));
+        let (mpcat40, mpcat40_names) = indexed(include_str!("../../data/taxonomy/mpcat40.csv"));
+        let nyu_to_mp = rows(include_str!("../../data/taxonomy/nyu40_to_mpcat40.csv")).collect();
+        Tables { nyu40, mpcat40, nyu_to_mp, nyu40_names, mpcat40_names }
+    })
+}
+
+impl Taxonomy {
+    /// Parses `nyu40` or `mpcat40`.
+    pub fn from_name(s: &str) -> Option<Taxonomy> {
+        match s {
+            "nyu40" => Some(Taxonomy::Nyu40),
+            "mpcat40" => Some(Taxonomy::Mpcat40),
+            _ => None,
+        }
+    }
+
+    /// Class names by index.
+    pub fn names(self) -> &'static [String] {
+        match self {
+            Taxonomy::Nyu40 => &tables().nyu40_names,
+            Taxonomy::Mpcat40 => &tables().mpcat40_names,
+        }
+    }
+
+    /// The class of an object (0 when unknown).
+    pub fn object_class(self, c: &Categories) -> u16 {
+        let t = tables();
+        match self {
+            Taxonomy::Nyu40 => c.nyu40.as_deref().and_then(|n| t.nyu40.get(n)).copied().unwrap_or(0),
+            Taxonomy::Mpcat40 => {
+                let direct = c.mpcat40.as_deref().and_then(|n| t.mpcat40.get(n));
+                let stairs = c.matches("stairs").then(|| t.mpcat40.get("stairs")).flatten();
+                let via_nyu = c
+                    .nyu40
+                    .as_deref()
+                    .and_then(|n| t.nyu_to_mp.get(n))
+                    .and_then(|m| t.mpcat40.get(m));
+                direct.or(stairs).or(via_nyu).copied().unwrap_or(0)
+            }
+        }
+    }
+
+    /// The class of a room surface.
+    pub fn surface_class(self, kind: SurfaceKind) -> u16 {
+        let name = match kind {
+            SurfaceKind::Floor => "floor",
+            SurfaceKind::Wall => "wall",
+            SurfaceKind::Ceiling => "ceiling",
+        };
+        let t = tables();
+        let map = match self {
+            Taxonomy::Nyu40 => &t.nyu40,
+            Taxonomy::Mpcat40 => &t.mpcat40,
+        };
+        map.get(name).copied().unwrap_or(0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fixed_indices_of_both_taxonomies() {
+        assert_eq!(Taxonomy::Nyu40.surface_class(SurfaceKind::Ceiling), 22);
+        assert_eq!(Taxonomy::Mpcat40.surface_class(SurfaceKind::Ceiling), 17);
+        let bed = Categories { fine: Some("double_bed".into()), coarse: Some("bed".into()), nyu40: Some("bed".into()), mpcat40: None };
+        assert_eq!(Taxonomy::Nyu40.object_class(&bed), 4);
+        assert_eq!(Taxonomy::Mpcat40.object_class(&bed), 11);
+        let stairs = Categories { fine: Some("stairs".into()), nyu40: Some("floor".into()), ..Default::default() };
+        assert_eq!(Taxonomy::Mpcat40.object_class(&stairs), 16);
+        assert_eq!(Taxonomy::Nyu40.names()[40], "otherprop");
+        assert_eq!(Taxonomy::Mpcat40.names().len(), 42);
+    }
+}

@@ -1,0 +1,17 @@
+//! Rendering: the scene as a triangle soup with per-triangle attributes (`scene`), the camera
+//! model (`camera`), frames and the images derived from them (`frame`), label taxonomies
+//! (`labels`), and two renderers producing the same frames: the CPU rasteriser (`cpu`, always
+//! available) and wgpu (`gpu`, when an adapter exists).
+
+pub mod camera;
+pub mod cpu;
+pub mod frame;
+pub mod gpu;
+pub mod labels;
+pub mod scene;
+pub mod visualize;
+
+pub use camera::Camera;
+pub use frame::{Frame, NO_HIT};
+pub use labels::Taxonomy;
+pub use scene::RenderScene;

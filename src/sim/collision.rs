@@ -1,0 +1,86 @@
+//! Collisions of the agent's cylinder with the scene's triangles (parry3d): the body is tested
+//! from a step's height above its floor to its full height, so steps and stairs below the
+//! climb limit pass under it while walls, furniture and closed doors stop it. Contact probes
+//! are small balls around the body.
+
+use glam::Vec3;
+use parry3d::math::{Pose, Vector};
+use parry3d::query;
+use parry3d::shape::{Ball, Cylinder, TriMesh};
+
+use crate::scene::Scene;
+
+/// Gap left between the climb height and the bottom of the collision cylinder (m).
+const CLEARANCE: f32 = 0.01;
+
+/// The scene's triangles as one collision mesh, and the agent's collision shape.
+pub struct CollisionWorld {
+    mesh: TriMesh,
+    body: Cylinder,
+    body_offset: f32,
+}
+
+fn v(p: Vec3) -> Vector {
+    Vector::new(p.x, p.y, p.z)
+}
+
+impl CollisionWorld {
+    /// Builds the collision mesh of every triangle of the scene (rooms, ground, objects) and the
+    /// body cylinder from `max_climb` to `height` above the floor.
+    pub fn new(scene: &Scene, radius: f32, height: f32, max_climb: f32) -> Result<Self, String> {
+        let mut vertices: Vec<Vector> = Vec::new();
+        let mut indices: Vec<[u32; 3]> = Vec::new();
+        let mut add = |m: &crate::scene::WorldMesh| {
+            let base = vertices.len() as u32;
+            vertices.extend(m.positions.iter().map(|p| v(*p)));
+            indices.extend(m.indices.chunks_exact(3).map(|t| [base + t[0], base + t[1], base + t[2]]));
+        };
+        for level in &scene.levels {
+            for room in &level.rooms {
+                for s in &room.surfaces {
+                    add(&scene.surface_world_mesh(s.mesh));
+                }
+            }
+            for &g in &level.ground {
+                add(&scene.surface_world_mesh(g));
+            }
+            for o in &level.objects {
+                if let Some(m) = scene.object_world_mesh(o) {
+                    add(&m);
+                }
+            }
+        }
+        // Drop degenerate triangles, which the mesh builder rejects.
+        indices.retain(|t| {
+            let [a, b, c] = t.map(|i| vertices[i as usize]);
+            (b - a).cross(c - a).length() > 1e-12
+        });
+        if indices.is_empty() {
+            return Err(format!("scene {}: no triangles to collide with", scene.id));
+        }
+        let mesh = TriMesh::new(vertices, indices).map_err(|e| format!("scene {}: collision mesh: {e:?}", scene.id))?;
+        let bottom = max_climb + CLEARANCE;
+        let half = ((height - bottom) / 2.0).max(0.01);
+        Ok(CollisionWorld { mesh, body: Cylinder::new(half, radius), body_offset: bottom + half })
+    }
+
+    /// True when the body standing on `base` (x, floor height, z) overlaps the scene.
+    pub fn blocked(&self, base: Vec3) -> bool {
+        let pose = Pose::from_translation(v(base + Vec3::Y * self.body_offset));
+        query::intersection_test(&pose, &self.body, &Pose::IDENTITY, &self.mesh).is_ok_and(|r| r.intersecting)
+    }
+
+    /// The horizontal direction pushing the body at `base` out of what it touches, if any.
+    pub fn push_out(&self, base: Vec3) -> Option<Vec3> {
+        let pose = Pose::from_translation(v(base + Vec3::Y * self.body_offset));
+        let c = query::contact(&pose, &self.body, &Pose::IDENTITY, &self.mesh, 0.0).ok()??;
+        let n = Vec3::new(-c.normal1.x, 0.0, -c.normal1.z);
+        n.try_normalize()
+    }
+
+    /// True when a ball of `radius` at `center` touches the scene.
+    pub fn probe(&self, center: Vec3, radius: f32) -> bool {
+        let pose = Pose::from_translation(v(center));
+        query::intersection_test(&pose, &Ball::new(radius), &Pose::IDENTITY, &self.mesh).is_ok_and(|r| r.intersecting)
+    }
+}

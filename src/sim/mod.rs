@@ -1,0 +1,12 @@
+//! Simulation: the agent's body and dynamics (`agent`), collisions with the scene (`collision`),
+//! sensors (`sensors`) and the [`Simulator`](simulator::Simulator) that steps an agent and
+//! observes through a renderer.
+
+pub mod agent;
+pub mod collision;
+pub mod sensors;
+pub mod simulator;
+
+pub use agent::{Actions, AgentConfig, AgentState};
+pub use sensors::SensorSuite;
+pub use simulator::{GoalSpec, Observation, RendererChoice, SceneAssets, Simulator};

@@ -1,0 +1,340 @@
+//! Sensor configuration (TOML or JSON, with MINOS presets) and the images a camera sensor
+//! produces from a rendered frame: colour or grey, depth (float metres or quantised, optional
+//! Gaussian or Kinect-like noise), normals, semantic class, instance, room.
+
+use serde::{Deserialize, Serialize};
+
+use crate::render::{Frame, RenderScene, Taxonomy};
+use crate::seed::Rng;
+
+/// What a camera sensor records.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Modality {
+    /// RGB, 3 × u8 per pixel.
+    Color,
+    /// Grey, 1 × u8 per pixel.
+    Gray,
+    /// Depth along the viewing axis (see [`DepthEncoding`]).
+    Depth,
+    /// World-space unit normals, 3 × f32 per pixel.
+    Normal,
+    /// Semantic class per pixel (u16) in the sensor's taxonomy.
+    Semantic,
+    /// Object instance per pixel (u32, object index + 1, 0 = none).
+    Instance,
+    /// Room per pixel (u32, room index + 1, 0 = none).
+    Room,
+    /// MINOS room class per pixel (u8).
+    RoomClass,
+}
+
+/// How depth is stored.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum DepthEncoding {
+    /// f32 metres (0 = no hit).
+    #[default]
+    Float,
+    /// u8 over `depth_range` (MINOS's byte depth over 0–10 m).
+    U8,
+    /// u16 over `depth_range`.
+    U16,
+}
+
+/// Depth noise.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "lowercase")]
+pub enum DepthNoise {
+    /// Additive Gaussian noise of standard deviation `sigma` (m).
+    Gaussian {
+        /// Standard deviation (m).
+        sigma: f32,
+    },
+    /// Kinect-like: values outside [min, max] become 0, others get noise growing with the
+    /// square of the distance (σ = 0.0012 + 0.0019·(d − 0.4)²).
+    Kinect {
+        /// Closest measurable depth (m).
+        min: f32,
+        /// Farthest measurable depth (m).
+        max: f32,
+    },
+}
+
+/// One camera sensor.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraSensor {
+    /// Name (column name in datasets, file name in `minos render`).
+    pub name: String,
+    /// What it records.
+    pub modality: Modality,
+    /// Position relative to the agent's base (x right, y up, z back), metres; default: the eye.
+    #[serde(default)]
+    pub position: Option<[f32; 3]>,
+    /// Yaw and tilt relative to the agent (degrees).
+    #[serde(default)]
+    pub orientation: [f32; 2],
+    /// Width and height (pixels).
+    pub resolution: [u32; 2],
+    /// Vertical field of view (degrees).
+    #[serde(default = "default_vfov")]
+    pub vfov: f32,
+    /// Near plane (m).
+    #[serde(default = "default_near")]
+    pub near: f32,
+    /// Far plane (m).
+    #[serde(default = "default_far")]
+    pub far: f32,
+    /// Semantic taxonomy (semantic modality).
+    #[serde(default)]
+    pub taxonomy: Taxonomy,
+    /// Depth storage (depth modality).
+    #[serde(default)]
+    pub depth_encoding: DepthEncoding,
+    /// Range quantised depth covers (m).
+    #[serde(default = "default_depth_range")]
+    pub depth_range: [f32; 2],
+    /// Depth noise.
+    #[serde(default)]
+    pub noise: Option<DepthNoise>,
+}
+
+fn default_vfov() -> f32 {
+    45.0
+}
+fn default_near() -> f32 {
+    0.01
+}
+fn default_far() -> f32 {
+    50.0
+}
+fn default_depth_range() -> [f32; 2] {
+    [0.0, 10.0]
+}
+
+/// Contact sensors around the body.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ContactSensors {
+    /// Number of sensors, evenly spaced starting straight ahead (MINOS: 4, cardinal).
+    pub count: u32,
+    /// Height above the floor (m).
+    pub height: f32,
+}
+
+/// The sensor suite of an agent.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SensorSuite {
+    /// Camera sensors.
+    #[serde(default, rename = "camera")]
+    pub cameras: Vec<CameraSensor>,
+    /// Contact sensors (`None`: none).
+    #[serde(default)]
+    pub contact: Option<ContactSensors>,
+}
+
+/// A sensor image.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Image {
+    /// Interleaved u8 channels (colour: 3, grey/depth-u8/room class: 1).
+    U8 {
+        /// Channels per pixel.
+        channels: u32,
+        /// Pixels.
+        data: Vec<u8>,
+    },
+    /// u16 per pixel (depth-u16, semantic).
+    U16(Vec<u16>),
+    /// u32 per pixel (instance, room).
+    U32(Vec<u32>),
+    /// Interleaved f32 channels (depth: 1, normals: 3).
+    F32 {
+        /// Channels per pixel.
+        channels: u32,
+        /// Pixels.
+        data: Vec<f32>,
+    },
+}
+
+impl Image {
+    /// `(dtype, channels)` as a NumPy dtype name.
+    pub fn dtype(&self) -> (&'static str, u32) {
+        match self {
+            Image::U8 { channels, .. } => ("uint8", *channels),
+            Image::U16(_) => ("uint16", 1),
+            Image::U32(_) => ("uint32", 1),
+            Image::F32 { channels, .. } => ("float32", *channels),
+        }
+    }
+
+    /// Raw little-endian bytes.
+    pub fn to_le_bytes(&self) -> Vec<u8> {
+        match self {
+            Image::U8 { data, .. } => data.clone(),
+            Image::U16(d) => d.iter().flat_map(|v| v.to_le_bytes()).collect(),
+            Image::U32(d) => d.iter().flat_map(|v| v.to_le_bytes()).collect(),
+            Image::F32 { data, .. } => data.iter().flat_map(|v| v.to_le_bytes()).collect(),
+        }
+    }
+}
+
+impl SensorSuite {
+    /// MINOS's default suite at `size`²: RGB, depth (float m), semantic (NYU-40), and 4
+    /// contact sensors at 0.3 m.
+    pub fn minos(size: u32) -> Self {
+        let cam = |name: &str, modality| CameraSensor {
+            name: name.into(),
+            modality,
+            position: None,
+            orientation: [0.0, 0.0],
+            resolution: [size, size],
+            vfov: default_vfov(),
+            near: default_near(),
+            far: default_far(),
+            taxonomy: Taxonomy::Nyu40,
+            depth_encoding: DepthEncoding::Float,
+            depth_range: default_depth_range(),
+            noise: None,
+        };
+        SensorSuite {
+            cameras: vec![cam("color", Modality::Color), cam("depth", Modality::Depth), cam("semantic", Modality::Semantic)],
+            contact: Some(ContactSensors { count: 4, height: 0.3 }),
+        }
+    }
+
+    /// Every image modality at `size`² (for looking at a scene).
+    pub fn all(size: u32) -> Self {
+        let mut s = Self::minos(size);
+        for (name, m) in [("normal", Modality::Normal), ("instance", Modality::Instance), ("room", Modality::Room), ("room_class", Modality::RoomClass)] {
+            let mut c = s.cameras[0].clone();
+            c.name = name.into();
+            c.modality = m;
+            s.cameras.push(c);
+        }
+        s
+    }
+
+    /// Parses a TOML (or, when it starts with `{`, JSON) sensor file; `source` names it in errors.
+    pub fn parse(text: &str, source: &str) -> Result<Self, String> {
+        let suite: SensorSuite = if text.trim_start().starts_with('{') {
+            serde_json::from_str(text).map_err(|e| format!("{source}: {e}"))?
+        } else {
+            toml::from_str(text).map_err(|e| format!("{source}: {}", e.to_string().replace('\n', " ")))?
+        };
+        suite.validate().map_err(|e| format!("{source}: {e}"))?;
+        Ok(suite)
+    }
+
+    /// Checks names are unique and numbers usable.
+    pub fn validate(&self) -> Result<(), String> {
+        let mut names = std::collections::BTreeSet::new();
+        for c in &self.cameras {
+            if !names.insert(c.name.as_str()) {
+                return Err(format!("camera `{}` is defined twice", c.name));
+            }
+            if c.resolution[0] == 0 || c.resolution[1] == 0 || c.resolution[0] > 8192 || c.resolution[1] > 8192 {
+                return Err(format!("camera `{}`: resolution {:?} must be 1..=8192", c.name, c.resolution));
+            }
+            if !(c.vfov > 0.0 && c.vfov < 180.0) {
+                return Err(format!("camera `{}`: vfov {} must be in (0, 180)", c.name, c.vfov));
+            }
+            if !(c.near > 0.0 && c.far > c.near) {
+                return Err(format!("camera `{}`: need 0 < near < far", c.name));
+            }
+            if c.depth_range[1] <= c.depth_range[0] {
+                return Err(format!("camera `{}`: depth_range must increase", c.name));
+            }
+        }
+        Ok(())
+    }
+}
+
+impl CameraSensor {
+    /// The image this sensor makes of a frame; `rng` drives depth noise.
+    pub fn image(&self, frame: &Frame, scene: &RenderScene, camera: &crate::render::Camera, rng: &mut Rng) -> Image {
+        match self.modality {
+            Modality::Color => Image::U8 { channels: 3, data: frame.color(scene).into_iter().flatten().collect() },
+            Modality::Gray => Image::U8 {
+                channels: 1,
+                data: frame
+                    .color(scene)
+                    .into_iter()
+                    .map(|[r, g, b]| (0.299 * f32::from(r) + 0.587 * f32::from(g) + 0.114 * f32::from(b)).round() as u8)
+                    .collect(),
+            },
+            Modality::Depth => {
+                let mut d = frame.linear_depth(camera);
+                if let Some(noise) = self.noise {
+                    apply_noise(&mut d, noise, rng);
+                }
+                let [lo, hi] = self.depth_range;
+                let q = |v: f32, max: f32| if v <= 0.0 { 0.0 } else { ((v - lo) / (hi - lo)).clamp(0.0, 1.0) * max };
+                match self.depth_encoding {
+                    DepthEncoding::Float => Image::F32 { channels: 1, data: d },
+                    DepthEncoding::U8 => Image::U8 { channels: 1, data: d.iter().map(|&v| q(v, 255.0).round() as u8).collect() },
+                    DepthEncoding::U16 => Image::U16(d.iter().map(|&v| q(v, 65535.0).round() as u16).collect()),
+                }
+            }
+            Modality::Normal => Image::F32 { channels: 3, data: frame.normals(scene).into_iter().flatten().collect() },
+            Modality::Semantic => Image::U16(frame.semantic(scene, self.taxonomy)),
+            Modality::Instance => Image::U32(frame.instance(scene)),
+            Modality::Room => Image::U32(frame.room(scene)),
+            Modality::RoomClass => Image::U8 { channels: 1, data: frame.room_class(scene) },
+        }
+    }
+}
+
+/// A standard normal sample (Box–Muller).
+fn gaussian(rng: &mut Rng) -> f32 {
+    let u1 = rng.unit_f64().max(1e-12);
+    let u2 = rng.unit_f64();
+    ((-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()) as f32
+}
+
+fn apply_noise(depth: &mut [f32], noise: DepthNoise, rng: &mut Rng) {
+    for d in depth.iter_mut().filter(|d| **d > 0.0) {
+        match noise {
+            DepthNoise::Gaussian { sigma } => *d = (*d + sigma * gaussian(rng)).max(0.0),
+            DepthNoise::Kinect { min, max } => {
+                if *d < min || *d > max {
+                    *d = 0.0;
+                } else {
+                    let sigma = 0.0012 + 0.0019 * (*d - 0.4).powi(2);
+                    *d = (*d + sigma * gaussian(rng)).max(0.0);
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sensor_files_parse_and_bad_ones_say_why() {
+        let toml = "[[camera]]\nname = \"rgb\"\nmodality = \"color\"\nresolution = [84, 84]\n\n\
+                    [[camera]]\nname = \"d\"\nmodality = \"depth\"\nresolution = [64, 48]\ndepth_encoding = \"u8\"\n\
+                    noise = { kind = \"kinect\", min = 0.4, max = 4.0 }\n\n[contact]\ncount = 4\nheight = 0.3\n";
+        let s = SensorSuite::parse(toml, "s.toml").unwrap();
+        assert_eq!(s.cameras.len(), 2);
+        assert_eq!(s.cameras[1].depth_encoding, DepthEncoding::U8);
+        assert_eq!(s.contact.unwrap().count, 4);
+        let json = r#"{"camera": [{"name": "x", "modality": "semantic", "resolution": [8, 8], "taxonomy": "mpcat40"}]}"#;
+        assert_eq!(SensorSuite::parse(json, "s.json").unwrap().cameras[0].taxonomy, Taxonomy::Mpcat40);
+        let dup = "[[camera]]\nname = \"a\"\nmodality = \"color\"\nresolution = [8, 8]\n[[camera]]\nname = \"a\"\nmodality = \"depth\"\nresolution = [8, 8]\n";
+        assert!(SensorSuite::parse(dup, "s.toml").unwrap_err().contains("defined twice"));
+        assert!(SensorSuite::parse("[[camera]]\nname = \"a\"\nmodality = \"smell\"\nresolution = [8, 8]\n", "s.toml").unwrap_err().starts_with("s.toml"));
+    }
+
+    #[test]
+    fn kinect_noise_zeroes_out_of_range_depth() {
+        let mut d = vec![0.2, 1.0, 6.0, 0.0];
+        apply_noise(&mut d, DepthNoise::Kinect { min: 0.4, max: 4.0 }, &mut Rng::new(1));
+        assert_eq!(d[0], 0.0);
+        assert!((d[1] - 1.0).abs() < 0.05);
+        assert_eq!(d[2], 0.0);
+        assert_eq!(d[3], 0.0);
+    }
+}

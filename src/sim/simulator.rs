@@ -1,0 +1,398 @@
+//! The simulator: a scene, its navigation grid, an agent with a body and sensors, and a
+//! renderer. `reset` places the agent (and its goal), `step` applies actions with collisions
+//! and returns an [`Observation`]: the sensors' images and the measurements.
+
+use std::sync::Arc;
+
+use glam::Vec3;
+
+use crate::navmesh::geodesic::{DistanceField, Geodesic};
+use crate::navmesh::path::{path_from_field, PathResult};
+use crate::navmesh::NavGrid;
+use crate::render::gpu::{GpuError, GpuRenderer};
+use crate::render::{cpu, Camera, Frame, RenderScene};
+use crate::scene::Scene;
+use crate::seed::{derive_seed, Rng};
+
+use super::agent::{intended_motion, Actions, AgentConfig, AgentState};
+use super::collision::CollisionWorld;
+use super::sensors::{Image, SensorSuite};
+
+/// Which renderer to use.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum RendererChoice {
+    /// The CPU rasteriser.
+    Cpu,
+    /// wgpu (fails when no adapter exists).
+    Wgpu,
+    /// wgpu when an adapter exists, else the CPU rasteriser.
+    #[default]
+    Auto,
+}
+
+/// A renderer instance.
+pub enum Renderer {
+    /// The CPU rasteriser.
+    Cpu,
+    /// wgpu, with the scene uploaded.
+    Gpu(Box<GpuRenderer>),
+}
+
+impl Renderer {
+    /// Creates the chosen renderer for `scene`.
+    pub fn new(choice: RendererChoice, scene: &RenderScene) -> Result<Renderer, GpuError> {
+        let gpu = || -> Result<Renderer, GpuError> {
+            let mut g = GpuRenderer::new()?;
+            g.upload(scene);
+            Ok(Renderer::Gpu(Box::new(g)))
+        };
+        match choice {
+            RendererChoice::Cpu => Ok(Renderer::Cpu),
+            RendererChoice::Wgpu => gpu(),
+            RendererChoice::Auto => Ok(gpu().unwrap_or(Renderer::Cpu)),
+        }
+    }
+
+    /// `cpu` or the adapter's name.
+    pub fn name(&self) -> String {
+        match self {
+            Renderer::Cpu => "cpu".into(),
+            Renderer::Gpu(g) => format!("wgpu: {}", g.adapter_name()),
+        }
+    }
+
+    /// Renders cameras (any resolutions) in order.
+    pub fn render(&self, scene: &RenderScene, cameras: &[Camera]) -> Result<Vec<Frame>, GpuError> {
+        match self {
+            Renderer::Cpu => Ok(cameras.iter().map(|c| cpu::render(scene, c)).collect()),
+            Renderer::Gpu(g) => {
+                // Batch cameras of equal resolution.
+                let mut frames: Vec<Option<Frame>> = vec![None; cameras.len()];
+                let mut done = vec![false; cameras.len()];
+                for i in 0..cameras.len() {
+                    if done[i] {
+                        continue;
+                    }
+                    let group: Vec<usize> = (i..cameras.len())
+                        .filter(|&j| !done[j] && cameras[j].width == cameras[i].width && cameras[j].height == cameras[i].height)
+                        .collect();
+                    let cams: Vec<Camera> = group.iter().map(|&j| cameras[j]).collect();
+                    for (j, f) in group.iter().zip(g.render_batch(&cams)?) {
+                        frames[*j] = Some(f);
+                        done[*j] = true;
+                    }
+                }
+                Ok(frames.into_iter().flatten().collect())
+            }
+        }
+    }
+}
+
+/// Errors building a simulator.
+#[derive(Debug, thiserror::Error)]
+pub enum SimError {
+    /// The scene has nothing to collide with, or a similar problem.
+    #[error("{0}")]
+    Scene(String),
+    /// The renderer could not be created.
+    #[error(transparent)]
+    Render(#[from] GpuError),
+}
+
+/// Everything that does not change between simulators of one scene (share it with `Arc`).
+pub struct SceneAssets {
+    /// Scene id.
+    pub id: String,
+    /// Renderable triangles.
+    pub render: RenderScene,
+    /// Collision mesh.
+    pub collision: CollisionWorld,
+    /// Navigation grid.
+    pub grid: NavGrid,
+}
+
+impl SceneAssets {
+    /// Prepares a scene for agents of `agent`'s body.
+    pub fn new(scene: &Scene, grid: NavGrid, agent: &AgentConfig) -> Result<Self, SimError> {
+        Ok(SceneAssets {
+            id: scene.id.clone(),
+            render: RenderScene::new(scene),
+            collision: CollisionWorld::new(scene, agent.radius, agent.height, agent.max_climb).map_err(SimError::Scene)?,
+            grid,
+        })
+    }
+}
+
+/// What the agent is asked to reach, for goal measurements.
+#[derive(Debug, Clone, PartialEq)]
+pub enum GoalSpec {
+    /// A point.
+    Point(Vec3),
+    /// Any of these walkable spans (an object's view points, a room's floor).
+    Spans(Vec<u32>),
+}
+
+/// Measurements of one step.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Measurements {
+    /// Step index (0 after reset).
+    pub step: u32,
+    /// Base position.
+    pub position: [f32; 3],
+    /// Yaw (rad).
+    pub yaw: f32,
+    /// Tilt (rad).
+    pub tilt: f32,
+    /// Horizontal velocity (x, z) in m/s.
+    pub velocity: [f32; 2],
+    /// `step / max_steps`.
+    pub time_fraction: f32,
+    /// The body hit something during the step.
+    pub collision: bool,
+    /// Contact per contact sensor.
+    pub contacts: Vec<bool>,
+    /// Impulse per contact sensor (N·s).
+    pub contact_impulses: Vec<f32>,
+    /// Straight-line distance to the goal (m).
+    pub goal_euclidean: Option<f32>,
+    /// Unit direction to the goal in the agent frame `[right, forward]`.
+    pub goal_direction: Option<[f32; 2]>,
+    /// Shortest-path distance to the goal (m); `None` when unreachable or no goal.
+    pub goal_geodesic: Option<f32>,
+    /// Unit direction to the next waypoint of the shortest path, agent frame `[right, forward]`.
+    pub waypoint_direction: Option<[f32; 2]>,
+}
+
+/// Sensor images and measurements.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Observation {
+    /// `(sensor name, image)` in the suite's order.
+    pub images: Vec<(String, Image)>,
+    /// Measurements.
+    pub measurements: Measurements,
+}
+
+struct GoalState {
+    point: Vec3,
+    field: DistanceField,
+}
+
+/// One agent in one scene.
+pub struct Simulator {
+    assets: Arc<SceneAssets>,
+    renderer: Arc<Renderer>,
+    agent: AgentConfig,
+    sensors: SensorSuite,
+    max_steps: u32,
+    seed: u64,
+    rng: Rng,
+    state: AgentState,
+    step: u32,
+    goal: Option<GoalState>,
+    last_collision: bool,
+    last_velocity: [f32; 2],
+}
+
+/// Length (m) of sub-steps, as a fraction of the body radius: small enough never to tunnel.
+const SUBSTEP: f32 = 0.5;
+
+impl Simulator {
+    /// A simulator on shared scene assets and renderer.
+    pub fn new(assets: Arc<SceneAssets>, renderer: Arc<Renderer>, agent: AgentConfig, sensors: SensorSuite, max_steps: u32, seed: u64) -> Self {
+        Simulator {
+            assets,
+            renderer,
+            agent,
+            sensors,
+            max_steps: max_steps.max(1),
+            seed,
+            rng: Rng::new(seed),
+            state: AgentState::default(),
+            step: 0,
+            goal: None,
+            last_collision: false,
+            last_velocity: [0.0; 2],
+        }
+    }
+
+    /// The agent's state.
+    pub fn state(&self) -> AgentState {
+        self.state
+    }
+
+    /// Sets the tilt (clamped to ±90°), e.g. to render a pose.
+    pub fn set_tilt(&mut self, tilt: f32) {
+        self.state.tilt = tilt.clamp(-std::f32::consts::FRAC_PI_2, std::f32::consts::FRAC_PI_2);
+    }
+
+    /// The scene assets.
+    pub fn assets(&self) -> &SceneAssets {
+        &self.assets
+    }
+
+    /// Places the agent at `start` (y = floor height) facing `yaw`, with an optional goal;
+    /// the noise generator restarts from `(seed, episode)`.
+    pub fn reset(&mut self, start: Vec3, yaw: f32, goal: Option<GoalSpec>, episode: &str) {
+        self.state = AgentState { position: start.to_array(), yaw, ..Default::default() };
+        self.step = 0;
+        self.last_collision = false;
+        self.last_velocity = [0.0; 2];
+        self.rng = Rng::new(derive_seed(self.seed, &[&self.assets.id, episode, "sensors"]));
+        let grid = &self.assets.grid;
+        self.goal = goal.map(|g| {
+            let (point, spans) = match g {
+                GoalSpec::Point(p) => (p, grid.snap(p).into_iter().collect::<Vec<_>>()),
+                GoalSpec::Spans(s) => {
+                    let p = s.first().map_or(start, |&s| grid.span_position(s as usize));
+                    (p, s)
+                }
+            };
+            let field = Geodesic::new(grid).field(&spans);
+            GoalState { point, field }
+        });
+    }
+
+    /// Floor height at `p` reachable from height `y` (within the climb), from the grid.
+    fn floor_at(&self, x: f32, z: f32, y: f32) -> Option<f32> {
+        let grid = &self.assets.grid;
+        let (ix, iz) = grid.cell_of(x, z);
+        let c = grid.column(ix, iz)?;
+        grid.column_spans(c)
+            .map(|s| grid.spans[s].y)
+            .filter(|h| (h - y).abs() <= self.agent.max_climb + 1e-4)
+            .min_by(|a, b| (a - y).abs().total_cmp(&(b - y).abs()))
+    }
+
+    /// Tries to move the base by `d` (x, z); returns the new base or `None` when blocked.
+    fn try_move(&self, base: Vec3, d: Vec3) -> Option<Vec3> {
+        let target = base + d;
+        let y = self.floor_at(target.x, target.z, base.y)?;
+        let target = Vec3::new(target.x, y, target.z);
+        (!self.assets.collision.blocked(target)).then_some(target)
+    }
+
+    /// Applies `actions` for one time step and observes.
+    pub fn step(&mut self, actions: Actions) -> Result<Observation, GpuError> {
+        let (disp, rot) = intended_motion(&self.agent, &mut self.state, actions);
+        self.state.yaw = (self.state.yaw + rot).rem_euclid(std::f32::consts::TAU);
+        let mut base = Vec3::from_array(self.state.position);
+        let total = Vec3::new(disp[0], 0.0, disp[1]);
+        let n = (total.length() / (SUBSTEP * self.agent.radius)).ceil().max(1.0) as usize;
+        let mut step = total / n as f32;
+        let mut collided = false;
+        let start = base;
+        for _ in 0..n {
+            if step.length_squared() == 0.0 {
+                break;
+            }
+            if let Some(next) = self.try_move(base, step) {
+                base = next;
+                continue;
+            }
+            collided = true;
+            // Slide: drop the part of the motion going into what was hit.
+            let slid = self.assets.collision.push_out(base + step).and_then(|n| {
+                let s = step - n * step.dot(n).min(0.0);
+                (s.length_squared() > 1e-12).then_some(s)
+            });
+            match slid.and_then(|s| self.try_move(base, s).map(|b| (b, s))) {
+                Some((b, s)) => {
+                    base = b;
+                    step = s;
+                }
+                None => break,
+            }
+        }
+        let moved = base - start;
+        let dt = self.agent.dt;
+        self.last_velocity = [total.x / dt, total.z / dt];
+        if collided {
+            self.state.velocity = [moved.x / dt, moved.z / dt];
+        }
+        self.state.position = base.to_array();
+        self.last_collision = collided;
+        self.step += 1;
+        self.observe()
+    }
+
+    /// The cameras of the sensor suite at the current pose.
+    pub fn cameras(&self) -> Vec<Camera> {
+        let base = Vec3::from_array(self.state.position);
+        let (sin, cos) = self.state.yaw.sin_cos();
+        self.sensors
+            .cameras
+            .iter()
+            .map(|c| {
+                let off = c.position.unwrap_or([0.0, self.agent.eye_height, 0.0]);
+                // Agent frame (x right, y up, z back) to world.
+                let world = Vec3::new(cos * off[0] + sin * off[2], off[1], -sin * off[0] + cos * off[2]);
+                Camera {
+                    position: base + world,
+                    yaw: self.state.yaw + c.orientation[0].to_radians(),
+                    tilt: (self.state.tilt + c.orientation[1].to_radians()).clamp(-std::f32::consts::FRAC_PI_2, std::f32::consts::FRAC_PI_2),
+                    vfov_deg: c.vfov,
+                    width: c.resolution[0],
+                    height: c.resolution[1],
+                    near: c.near,
+                    far: c.far,
+                }
+            })
+            .collect()
+    }
+
+    /// Agent-frame `[right, forward]` of a world direction (x, z), normalised.
+    fn agent_frame(&self, d: Vec3) -> Option<[f32; 2]> {
+        let (sin, cos) = self.state.yaw.sin_cos();
+        let v = glam::Vec2::new(d.x * cos - d.z * sin, -d.x * sin - d.z * cos);
+        v.try_normalize().map(|v| v.to_array())
+    }
+
+    /// Observes the current state (sensors and measurements) without stepping.
+    pub fn observe(&mut self) -> Result<Observation, GpuError> {
+        let cams = self.cameras();
+        let frames = self.renderer.render(&self.assets.render, &cams)?;
+        let mut images = Vec::with_capacity(frames.len());
+        for ((sensor, frame), cam) in self.sensors.cameras.iter().zip(&frames).zip(&cams) {
+            images.push((sensor.name.clone(), sensor.image(frame, &self.assets.render, cam, &mut self.rng)));
+        }
+        let base = Vec3::from_array(self.state.position);
+        let mut m = Measurements {
+            step: self.step,
+            position: self.state.position,
+            yaw: self.state.yaw,
+            tilt: self.state.tilt,
+            velocity: self.state.velocity,
+            time_fraction: self.step as f32 / self.max_steps as f32,
+            collision: self.last_collision,
+            ..Default::default()
+        };
+        if let Some(contact) = self.sensors.contact {
+            for k in 0..contact.count {
+                let a = self.state.yaw + k as f32 * std::f32::consts::TAU / contact.count as f32;
+                let dir = Vec3::new(-a.sin(), 0.0, -a.cos());
+                let probe = 0.03;
+                let center = base + Vec3::Y * contact.height + dir * (self.agent.radius + probe);
+                let hit = self.assets.collision.probe(center, probe);
+                let v = Vec3::new(self.last_velocity[0], 0.0, self.last_velocity[1]);
+                m.contacts.push(hit);
+                m.contact_impulses.push(if hit { self.agent.mass * v.dot(dir).max(0.0) } else { 0.0 });
+            }
+        }
+        if let Some(goal) = &self.goal {
+            m.goal_euclidean = Some(base.distance(goal.point));
+            m.goal_direction = self.agent_frame(goal.point - base);
+            let grid = &self.assets.grid;
+            if let Some(span) = grid.snap(base) {
+                if let PathResult::Found(p) = path_from_field(grid, &goal.field, span) {
+                    let mut pts = p.points.clone();
+                    if let Some(first) = pts.first_mut() {
+                        *first = base;
+                    }
+                    m.goal_geodesic = Some(pts.windows(2).map(|w| w[0].distance(w[1])).sum());
+                    m.waypoint_direction = pts.get(1).and_then(|&w| self.agent_frame(w - base));
+                }
+            }
+        }
+        Ok(Observation { images, measurements: m })
+    }
+}
