@@ -28,13 +28,15 @@ enum RendererArg {
 /// Render what an agent's sensors see at a pose, one PNG per sensor (colour; depth as 16-bit
 /// millimetres; normals as (n+1)/2; labels with a fixed colour per id).
 #[derive(Debug, clap::Args)]
-#[command(after_help = "Examples:\n  minos render --data DATA --scene ID --pose 3.2,0,4.5,1.57 --out frames/\n  \
+#[command(
+    after_help = "Examples:\n  minos render --data DATA --scene ID --pose 3.2,0,4.5,1.57 --out frames/\n  \
     minos render --data DATA --scene ID --pose 3.2,0,4.5,0 --renderer cpu --sensors sensors.toml --out frames/\n\n\
     Sensor files are TOML (or JSON): [[camera]] tables with name, modality (color, gray, depth,\n\
     normal, semantic, instance, room, room_class), resolution = [W, H], vfov, near, far,\n\
     position = [x, y, z] relative to the agent, orientation = [yaw, tilt] in degrees, taxonomy\n\
     (nyu40, mpcat40), depth_encoding (float, u8, u16), depth_range, noise = { kind = \"gaussian\",\n\
-    sigma = 0.01 } or { kind = \"kinect\", min = 0.4, max = 4.0 }; and [contact] count, height.")]
+    sigma = 0.01 } or { kind = \"kinect\", min = 0.4, max = 4.0 }; and [contact] count, height."
+)]
 pub struct Args {
     /// DATA folder (ingested and baked).
     #[arg(long)]
@@ -67,9 +69,15 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     let v: Vec<f32> = args
         .pose
         .split(',')
-        .map(|t| t.trim().parse::<f32>().with_context(|| format!("--pose: `{t}` is not a number")))
+        .map(|t| {
+            t.trim()
+                .parse::<f32>()
+                .with_context(|| format!("--pose: `{t}` is not a number"))
+        })
         .collect::<anyhow::Result<_>>()?;
-    let [x, y, z, yaw] = v[..] else { anyhow::bail!("--pose: expected x,y,z,yaw") };
+    let [x, y, z, yaw] = v[..] else {
+        anyhow::bail!("--pose: expected x,y,z,yaw")
+    };
     let sensors = match &args.sensors {
         Some(p) => {
             let text = std::fs::read_to_string(p).with_context(|| p.display().to_string())?;
@@ -77,7 +85,8 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         }
         None => SensorSuite::all(args.size),
     };
-    let (_, scene) = read_scene(&scene_path(&args.data, &args.scene)).context("run `minos ingest` first")?;
+    let (_, scene) =
+        read_scene(&scene_path(&args.data, &args.scene)).context("run `minos ingest` first")?;
     let grid = read_nav(&nav_path(&args.data, &args.scene)).context("run `minos bake` first")?;
     let agent = AgentConfig::minos_continuous();
     let assets = Arc::new(SceneAssets::new(&scene, grid, &agent)?);
@@ -93,8 +102,20 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     let obs = sim.observe()?;
     for ((name, image), sensor) in obs.images.iter().zip(&sensors.cameras) {
         let path = args.out.join(format!("{name}.png"));
-        write_png(&path, sensor.modality, image, sensor.resolution[0], sensor.resolution[1]).with_context(|| path.display().to_string())?;
+        write_png(
+            &path,
+            sensor.modality,
+            image,
+            sensor.resolution[0],
+            sensor.resolution[1],
+        )
+        .with_context(|| path.display().to_string())?;
     }
-    ctx.say(format!("rendered {} images with {} -> {}", obs.images.len(), renderer.name(), args.out.display()));
+    ctx.say(format!(
+        "rendered {} images with {} -> {}",
+        obs.images.len(),
+        renderer.name(),
+        args.out.display()
+    ));
     Ok(ExitCode::SUCCESS)
 }

@@ -79,10 +79,22 @@ mod tests {
 
     #[test]
     fn yaw_zero_looks_down_minus_z_and_tilt_looks_up() {
-        let mut c = Camera { position: Vec3::ZERO, yaw: 0.0, tilt: 0.0, vfov_deg: 90.0, width: 64, height: 64, near: 0.1, far: 10.0 };
+        let mut c = Camera {
+            position: Vec3::ZERO,
+            yaw: 0.0,
+            tilt: 0.0,
+            vfov_deg: 90.0,
+            width: 64,
+            height: 64,
+            near: 0.1,
+            far: 10.0,
+        };
         assert!((c.forward() - Vec3::NEG_Z).length() < 1e-6);
         c.yaw = std::f32::consts::FRAC_PI_2;
-        assert!((c.forward() - Vec3::NEG_X).length() < 1e-6, "CCW yaw turns left");
+        assert!(
+            (c.forward() - Vec3::NEG_X).length() < 1e-6,
+            "CCW yaw turns left"
+        );
         c.tilt = 0.3;
         assert!(c.forward().y > 0.29);
         // A point straight ahead projects to the image centre.

@@ -76,20 +76,32 @@ fn project(scene: &RenderScene, camera: &Camera) -> Vec<ScreenTri> {
             let [a, b, c] = scene.triangle(t as usize);
             let clip = [vp * a.extend(1.0), vp * b.extend(1.0), vp * c.extend(1.0)];
             // Trivially outside one of the side planes?
-            if clip.iter().all(|v| v.x < -v.w) || clip.iter().all(|v| v.x > v.w) || clip.iter().all(|v| v.y < -v.w) || clip.iter().all(|v| v.y > v.w) || clip.iter().all(|v| v.z > v.w) {
+            if clip.iter().all(|v| v.x < -v.w)
+                || clip.iter().all(|v| v.x > v.w)
+                || clip.iter().all(|v| v.y < -v.w)
+                || clip.iter().all(|v| v.y > v.w)
+                || clip.iter().all(|v| v.z > v.w)
+            {
                 continue;
             }
             let mut poly: [Vec4; 4] = [Vec4::ZERO; 4];
             let n = clip_near(&clip, &mut poly);
             let to_screen = |v: Vec4| {
                 let inv = 1.0 / v.w;
-                ([(v.x * inv + 1.0) * 0.5 * w, (1.0 - v.y * inv) * 0.5 * h], v.z * inv)
+                (
+                    [(v.x * inv + 1.0) * 0.5 * w, (1.0 - v.y * inv) * 0.5 * h],
+                    v.z * inv,
+                )
             };
             for k in 1..n.saturating_sub(1) {
                 let (p0, z0) = to_screen(poly[0]);
                 let (p1, z1) = to_screen(poly[k]);
                 let (p2, z2) = to_screen(poly[k + 1]);
-                out.push(ScreenTri { p: [p0, p1, p2], z: [z0, z1, z2], id: t });
+                out.push(ScreenTri {
+                    p: [p0, p1, p2],
+                    z: [z0, z1, z2],
+                    id: t,
+                });
             }
         }
     }
@@ -142,14 +154,34 @@ fn raster(tris: &[ScreenTri], width: u32, y0: u32, y1: u32, ids: &mut [u32], dep
             z.swap(1, 2);
             area = -area;
         }
-        let minx = p.iter().map(|v| v[0]).fold(f32::INFINITY, f32::min).floor().max(0.0) as i64;
-        let maxx = (p.iter().map(|v| v[0]).fold(f32::NEG_INFINITY, f32::max).ceil() as i64).min(width as i64 - 1);
-        let miny = (p.iter().map(|v| v[1]).fold(f32::INFINITY, f32::min).floor() as i64).max(y0 as i64);
-        let maxy = (p.iter().map(|v| v[1]).fold(f32::NEG_INFINITY, f32::max).ceil() as i64).min(y1 as i64 - 1);
+        let minx = p
+            .iter()
+            .map(|v| v[0])
+            .fold(f32::INFINITY, f32::min)
+            .floor()
+            .max(0.0) as i64;
+        let maxx = (p
+            .iter()
+            .map(|v| v[0])
+            .fold(f32::NEG_INFINITY, f32::max)
+            .ceil() as i64)
+            .min(width as i64 - 1);
+        let miny =
+            (p.iter().map(|v| v[1]).fold(f32::INFINITY, f32::min).floor() as i64).max(y0 as i64);
+        let maxy = (p
+            .iter()
+            .map(|v| v[1])
+            .fold(f32::NEG_INFINITY, f32::max)
+            .ceil() as i64)
+            .min(y1 as i64 - 1);
         if minx > maxx || miny > maxy {
             continue;
         }
-        let tl = [top_left(p[1], p[2]), top_left(p[2], p[0]), top_left(p[0], p[1])];
+        let tl = [
+            top_left(p[1], p[2]),
+            top_left(p[2], p[0]),
+            top_left(p[0], p[1]),
+        ];
         let inv_area = 1.0 / area;
         for y in miny..=maxy {
             let py = y as f32 + 0.5;
@@ -159,7 +191,9 @@ fn raster(tris: &[ScreenTri], width: u32, y0: u32, y1: u32, ids: &mut [u32], dep
                 let w0 = edge(p[1], p[2], q);
                 let w1 = edge(p[2], p[0], q);
                 let w2 = edge(p[0], p[1], q);
-                let inside = (w0 > 0.0 || (w0 == 0.0 && tl[0])) && (w1 > 0.0 || (w1 == 0.0 && tl[1])) && (w2 > 0.0 || (w2 == 0.0 && tl[2]));
+                let inside = (w0 > 0.0 || (w0 == 0.0 && tl[0]))
+                    && (w1 > 0.0 || (w1 == 0.0 && tl[1]))
+                    && (w2 > 0.0 || (w2 == 0.0 && tl[2]));
                 if !inside {
                     continue;
                 }

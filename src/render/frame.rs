@@ -33,7 +33,12 @@ impl Frame {
     /// An empty frame.
     pub fn new(width: u32, height: u32) -> Self {
         let n = (width * height) as usize;
-        Frame { width, height, tri: vec![NO_HIT; n], depth: vec![1.0; n] }
+        Frame {
+            width,
+            height,
+            tri: vec![NO_HIT; n],
+            depth: vec![1.0; n],
+        }
     }
 
     /// Shaded RGB colour (flat material colour, one directional light plus ambient; both
@@ -47,8 +52,10 @@ impl Frame {
                     return [0, 0, 0];
                 }
                 let info = &scene.tris[t as usize];
-                let shade = AMBIENT + (1.0 - AMBIENT) * Vec3::from_array(info.normal).dot(light).abs();
-                info.color.map(|c| ((c * shade).clamp(0.0, 1.0) * 255.0).round() as u8)
+                let shade =
+                    AMBIENT + (1.0 - AMBIENT) * Vec3::from_array(info.normal).dot(light).abs();
+                info.color
+                    .map(|c| ((c * shade).clamp(0.0, 1.0) * 255.0).round() as u8)
             })
             .collect()
     }
@@ -58,13 +65,28 @@ impl Frame {
         self.tri
             .iter()
             .zip(&self.depth)
-            .map(|(&t, &z)| if t == NO_HIT { 0.0 } else { camera.linear_depth(z) })
+            .map(|(&t, &z)| {
+                if t == NO_HIT {
+                    0.0
+                } else {
+                    camera.linear_depth(z)
+                }
+            })
             .collect()
     }
 
     /// World-space unit normals (zero where nothing is hit).
     pub fn normals(&self, scene: &RenderScene) -> Vec<[f32; 3]> {
-        self.tri.iter().map(|&t| if t == NO_HIT { [0.0; 3] } else { scene.tris[t as usize].normal }).collect()
+        self.tri
+            .iter()
+            .map(|&t| {
+                if t == NO_HIT {
+                    [0.0; 3]
+                } else {
+                    scene.tris[t as usize].normal
+                }
+            })
+            .collect()
     }
 
     /// Semantic class per pixel in `taxonomy` (0 = void).
@@ -81,16 +103,43 @@ impl Frame {
 
     /// Object instance per pixel (object index + 1; 0 for architecture and background).
     pub fn instance(&self, scene: &RenderScene) -> Vec<u32> {
-        self.tri.iter().map(|&t| if t == NO_HIT { 0 } else { scene.tris[t as usize].object }).collect()
+        self.tri
+            .iter()
+            .map(|&t| {
+                if t == NO_HIT {
+                    0
+                } else {
+                    scene.tris[t as usize].object
+                }
+            })
+            .collect()
     }
 
     /// Room per pixel (room index + 1; 0 outside rooms).
     pub fn room(&self, scene: &RenderScene) -> Vec<u32> {
-        self.tri.iter().map(|&t| if t == NO_HIT { 0 } else { scene.tris[t as usize].room }).collect()
+        self.tri
+            .iter()
+            .map(|&t| {
+                if t == NO_HIT {
+                    0
+                } else {
+                    scene.tris[t as usize].room
+                }
+            })
+            .collect()
     }
 
     /// MINOS room class per pixel (0 also for none).
     pub fn room_class(&self, scene: &RenderScene) -> Vec<u8> {
-        self.tri.iter().map(|&t| if t == NO_HIT { 0 } else { scene.tris[t as usize].room_class }).collect()
+        self.tri
+            .iter()
+            .map(|&t| {
+                if t == NO_HIT {
+                    0
+                } else {
+                    scene.tris[t as usize].room_class
+                }
+            })
+            .collect()
     }
 }

@@ -122,7 +122,13 @@ impl GpuRenderer {
             bind_group_layouts: &[Some(&layout)],
             immediate_size: 0,
         });
-        let target = |format| Some(wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL });
+        let target = |format| {
+            Some(wgpu::ColorTargetState {
+                format,
+                blend: None,
+                write_mask: wgpu::ColorWrites::ALL,
+            })
+        };
         let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some("minos id/depth"),
             layout: Some(&pipeline_layout),
@@ -133,7 +139,11 @@ impl GpuRenderer {
                 buffers: &[Some(wgpu::VertexBufferLayout {
                     array_stride: 12,
                     step_mode: wgpu::VertexStepMode::Vertex,
-                    attributes: &[wgpu::VertexAttribute { format: wgpu::VertexFormat::Float32x3, offset: 0, shader_location: 0 }],
+                    attributes: &[wgpu::VertexAttribute {
+                        format: wgpu::VertexFormat::Float32x3,
+                        offset: 0,
+                        shader_location: 0,
+                    }],
                 })],
             },
             primitive: wgpu::PrimitiveState {
@@ -153,27 +163,46 @@ impl GpuRenderer {
                 module: &module,
                 entry_point: Some("fs"),
                 compilation_options: Default::default(),
-                targets: &[target(wgpu::TextureFormat::R32Uint), target(wgpu::TextureFormat::R32Uint)],
+                targets: &[
+                    target(wgpu::TextureFormat::R32Uint),
+                    target(wgpu::TextureFormat::R32Uint),
+                ],
             }),
             multiview_mask: None,
             cache: None,
         });
-        Ok(GpuRenderer { device, queue, pipeline, layout, adapter: info, vertices: None })
+        Ok(GpuRenderer {
+            device,
+            queue,
+            pipeline,
+            layout,
+            adapter: info,
+            vertices: None,
+        })
     }
 
     /// "name (backend, device type)" of the adapter in use.
     pub fn adapter_name(&self) -> String {
-        format!("{} ({:?}, {:?})", self.adapter.name, self.adapter.backend, self.adapter.device_type)
+        format!(
+            "{} ({:?}, {:?})",
+            self.adapter.name, self.adapter.backend, self.adapter.device_type
+        )
     }
 
     /// Uploads the scene's triangles (replacing any previous scene).
     pub fn upload(&mut self, scene: &RenderScene) {
         let data: Vec<[f32; 3]> = scene.positions.iter().map(|p| p.to_array()).collect();
-        let buffer = self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("scene vertices"),
-            contents: bytemuck::cast_slice(if data.is_empty() { &[[0.0f32; 3]] } else { &data[..] }),
-            usage: wgpu::BufferUsages::VERTEX,
-        });
+        let buffer = self
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("scene vertices"),
+                contents: bytemuck::cast_slice(if data.is_empty() {
+                    &[[0.0f32; 3]]
+                } else {
+                    &data[..]
+                }),
+                usage: wgpu::BufferUsages::VERTEX,
+            });
         self.vertices = Some((buffer, data.len() as u32));
     }
 
@@ -183,17 +212,27 @@ impl GpuRenderer {
         let Some((vertices, count)) = &self.vertices else {
             return Err(GpuError::Render("no scene uploaded".into()));
         };
-        let Some(first) = cameras.first() else { return Ok(Vec::new()) };
+        let Some(first) = cameras.first() else {
+            return Ok(Vec::new());
+        };
         let (w, h) = (first.width, first.height);
         if cameras.iter().any(|c| c.width != w || c.height != h) {
-            return Err(GpuError::Render("all cameras of a batch need the same resolution".into()));
+            return Err(GpuError::Render(
+                "all cameras of a batch need the same resolution".into(),
+            ));
         }
         let n = cameras.len() as u32;
         let max_dim = self.device.limits().max_texture_dimension_2d;
         if w > max_dim || h * n > max_dim {
-            return Err(GpuError::Render(format!("batch of {n} images {w}x{h} exceeds the texture limit {max_dim}")));
+            return Err(GpuError::Render(format!(
+                "batch of {n} images {w}x{h} exceeds the texture limit {max_dim}"
+            )));
         }
-        let atlas = wgpu::Extent3d { width: w, height: h * n, depth_or_array_layers: 1 };
+        let atlas = wgpu::Extent3d {
+            width: w,
+            height: h * n,
+            depth_or_array_layers: 1,
+        };
         let texture = |format, usage, label| {
             self.device.create_texture(&wgpu::TextureDescriptor {
                 label: Some(label),
@@ -209,41 +248,79 @@ impl GpuRenderer {
         let copy = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC;
         let ids = texture(wgpu::TextureFormat::R32Uint, copy, "ids");
         let depth_bits = texture(wgpu::TextureFormat::R32Uint, copy, "depth bits");
-        let depth = texture(wgpu::TextureFormat::Depth32Float, wgpu::TextureUsages::RENDER_ATTACHMENT, "depth");
+        let depth = texture(
+            wgpu::TextureFormat::Depth32Float,
+            wgpu::TextureUsages::RENDER_ATTACHMENT,
+            "depth",
+        );
         let mut uniforms = vec![0u8; (UNIFORM_STRIDE * u64::from(n)) as usize];
         for (i, c) in cameras.iter().enumerate() {
             let m = c.view_projection().to_cols_array();
             let at = i * UNIFORM_STRIDE as usize;
             uniforms[at..at + 64].copy_from_slice(bytemuck::cast_slice(&m));
         }
-        let uniform = self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("cameras"),
-            contents: &uniforms,
-            usage: wgpu::BufferUsages::UNIFORM,
-        });
+        let uniform = self
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("cameras"),
+                contents: &uniforms,
+                usage: wgpu::BufferUsages::UNIFORM,
+            });
         let bind = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("cameras"),
             layout: &self.layout,
             entries: &[wgpu::BindGroupEntry {
                 binding: 0,
-                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding { buffer: &uniform, offset: 0, size: wgpu::BufferSize::new(64) }),
+                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                    buffer: &uniform,
+                    offset: 0,
+                    size: wgpu::BufferSize::new(64),
+                }),
             }],
         });
-        let views = [ids.create_view(&Default::default()), depth_bits.create_view(&Default::default())];
+        let views = [
+            ids.create_view(&Default::default()),
+            depth_bits.create_view(&Default::default()),
+        ];
         let depth_view = depth.create_view(&Default::default());
-        let mut encoder = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("render") });
+        let mut encoder = self
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("render"),
+            });
         {
-            let clear = |v: f64| wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color { r: v, g: 0.0, b: 0.0, a: 0.0 }), store: wgpu::StoreOp::Store };
+            let clear = |v: f64| wgpu::Operations {
+                load: wgpu::LoadOp::Clear(wgpu::Color {
+                    r: v,
+                    g: 0.0,
+                    b: 0.0,
+                    a: 0.0,
+                }),
+                store: wgpu::StoreOp::Store,
+            };
             let color = [
-                Some(wgpu::RenderPassColorAttachment { view: &views[0], depth_slice: None, resolve_target: None, ops: clear(f64::from(u32::MAX)) }),
-                Some(wgpu::RenderPassColorAttachment { view: &views[1], depth_slice: None, resolve_target: None, ops: clear(f64::from(1.0f32.to_bits())) }),
+                Some(wgpu::RenderPassColorAttachment {
+                    view: &views[0],
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: clear(f64::from(u32::MAX)),
+                }),
+                Some(wgpu::RenderPassColorAttachment {
+                    view: &views[1],
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: clear(f64::from(1.0f32.to_bits())),
+                }),
             ];
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("ids"),
                 color_attachments: &color,
                 depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
                     view: &depth_view,
-                    depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Discard }),
+                    depth_ops: Some(wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(1.0),
+                        store: wgpu::StoreOp::Discard,
+                    }),
                     stencil_ops: None,
                 }),
                 timestamp_writes: None,
@@ -271,10 +348,19 @@ impl GpuRenderer {
         let (id_buf, depth_buf) = (readback("ids read-back"), readback("depth read-back"));
         for (tex, buf) in [(&ids, &id_buf), (&depth_bits, &depth_buf)] {
             encoder.copy_texture_to_buffer(
-                wgpu::TexelCopyTextureInfo { texture: tex, mip_level: 0, origin: wgpu::Origin3d::ZERO, aspect: wgpu::TextureAspect::All },
+                wgpu::TexelCopyTextureInfo {
+                    texture: tex,
+                    mip_level: 0,
+                    origin: wgpu::Origin3d::ZERO,
+                    aspect: wgpu::TextureAspect::All,
+                },
                 wgpu::TexelCopyBufferInfo {
                     buffer: buf,
-                    layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(row), rows_per_image: Some(h * n) },
+                    layout: wgpu::TexelCopyBufferLayout {
+                        offset: 0,
+                        bytes_per_row: Some(row),
+                        rows_per_image: Some(h * n),
+                    },
                 },
                 atlas,
             );
@@ -292,7 +378,9 @@ impl GpuRenderer {
             rx.recv()
                 .map_err(|e| GpuError::Render(e.to_string()))?
                 .map_err(|e| GpuError::Render(e.to_string()))?;
-            let view = slice.get_mapped_range().map_err(|e| GpuError::Render(e.to_string()))?;
+            let view = slice
+                .get_mapped_range()
+                .map_err(|e| GpuError::Render(e.to_string()))?;
             let mut out = Vec::with_capacity((w * h * n) as usize);
             for y in 0..(h * n) as usize {
                 let start = y * row as usize;
@@ -309,7 +397,10 @@ impl GpuRenderer {
                 width: w,
                 height: h,
                 tri: tri[i * per..(i + 1) * per].to_vec(),
-                depth: bits[i * per..(i + 1) * per].iter().map(|b| f32::from_bits(*b)).collect(),
+                depth: bits[i * per..(i + 1) * per]
+                    .iter()
+                    .map(|b| f32::from_bits(*b))
+                    .collect(),
             })
             .collect())
     }

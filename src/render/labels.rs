@@ -32,7 +32,10 @@ fn rows(text: &str) -> impl Iterator<Item = (String, String)> + '_ {
         .map(str::trim)
         .filter(|l| !l.is_empty() && !l.starts_with('#'))
         .skip(1)
-        .filter_map(|l| l.split_once(',').map(|(a, b)| (a.trim().to_string(), b.trim().to_string())))
+        .filter_map(|l| {
+            l.split_once(',')
+                .map(|(a, b)| (a.trim().to_string(), b.trim().to_string()))
+        })
 }
 
 fn tables() -> &'static Tables {
@@ -55,7 +58,13 @@ fn tables() -> &'static Tables {
         let (nyu40, nyu40_names) = indexed(include_str!("../../data/taxonomy/nyu40.csv"));
         let (mpcat40, mpcat40_names) = indexed(include_str!("../../data/taxonomy/mpcat40.csv"));
         let nyu_to_mp = rows(include_str!("../../data/taxonomy/nyu40_to_mpcat40.csv")).collect();
-        Tables { nyu40, mpcat40, nyu_to_mp, nyu40_names, mpcat40_names }
+        Tables {
+            nyu40,
+            mpcat40,
+            nyu_to_mp,
+            nyu40_names,
+            mpcat40_names,
+        }
     })
 }
 
@@ -81,10 +90,18 @@ impl Taxonomy {
     pub fn object_class(self, c: &Categories) -> u16 {
         let t = tables();
         match self {
-            Taxonomy::Nyu40 => c.nyu40.as_deref().and_then(|n| t.nyu40.get(n)).copied().unwrap_or(0),
+            Taxonomy::Nyu40 => c
+                .nyu40
+                .as_deref()
+                .and_then(|n| t.nyu40.get(n))
+                .copied()
+                .unwrap_or(0),
             Taxonomy::Mpcat40 => {
                 let direct = c.mpcat40.as_deref().and_then(|n| t.mpcat40.get(n));
-                let stairs = c.matches("stairs").then(|| t.mpcat40.get("stairs")).flatten();
+                let stairs = c
+                    .matches("stairs")
+                    .then(|| t.mpcat40.get("stairs"))
+                    .flatten();
                 let via_nyu = c
                     .nyu40
                     .as_deref()
@@ -119,10 +136,19 @@ mod tests {
     fn fixed_indices_of_both_taxonomies() {
         assert_eq!(Taxonomy::Nyu40.surface_class(SurfaceKind::Ceiling), 22);
         assert_eq!(Taxonomy::Mpcat40.surface_class(SurfaceKind::Ceiling), 17);
-        let bed = Categories { fine: Some("double_bed".into()), coarse: Some("bed".into()), nyu40: Some("bed".into()), mpcat40: None };
+        let bed = Categories {
+            fine: Some("double_bed".into()),
+            coarse: Some("bed".into()),
+            nyu40: Some("bed".into()),
+            mpcat40: None,
+        };
         assert_eq!(Taxonomy::Nyu40.object_class(&bed), 4);
         assert_eq!(Taxonomy::Mpcat40.object_class(&bed), 11);
-        let stairs = Categories { fine: Some("stairs".into()), nyu40: Some("floor".into()), ..Default::default() };
+        let stairs = Categories {
+            fine: Some("stairs".into()),
+            nyu40: Some("floor".into()),
+            ..Default::default()
+        };
         assert_eq!(Taxonomy::Mpcat40.object_class(&stairs), 16);
         assert_eq!(Taxonomy::Nyu40.names()[40], "otherprop");
         assert_eq!(Taxonomy::Mpcat40.names().len(), 42);

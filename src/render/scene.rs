@@ -77,7 +77,13 @@ impl RenderScene {
                         nyu40: Taxonomy::Nyu40.surface_class(s.kind),
                         mpcat40: Taxonomy::Mpcat40.surface_class(s.kind),
                     };
-                    push_mesh(&mut soup, mesh, &scene.surface_world_mesh(s.mesh), info, &[]);
+                    push_mesh(
+                        &mut soup,
+                        mesh,
+                        &scene.surface_world_mesh(s.mesh),
+                        info,
+                        &[],
+                    );
                 }
             }
             for &g in &level.ground {
@@ -90,24 +96,41 @@ impl RenderScene {
                     nyu40: Taxonomy::Nyu40.surface_class(SurfaceKind::Floor),
                     mpcat40: Taxonomy::Mpcat40.surface_class(SurfaceKind::Floor),
                 };
-                push_mesh(&mut soup, &scene.meshes[g as usize], &scene.surface_world_mesh(g), info, &[]);
+                push_mesh(
+                    &mut soup,
+                    &scene.meshes[g as usize],
+                    &scene.surface_world_mesh(g),
+                    info,
+                    &[],
+                );
             }
             for object in &level.objects {
                 object_index += 1;
-                let Some(world) = scene.object_world_mesh(object) else { continue };
-                let Some(mesh) = object.mesh.map(|m| &scene.meshes[m as usize]) else { continue };
+                let Some(world) = scene.object_world_mesh(object) else {
+                    continue;
+                };
+                let Some(mesh) = object.mesh.map(|m| &scene.meshes[m as usize]) else {
+                    continue;
+                };
                 let room = object.rooms.first().map_or(NO_ID, |&r| room_base + r + 1);
                 let info = TriInfo {
                     normal: [0.0; 3],
                     color: [0.0; 3],
                     object: object_index,
                     room,
-                    room_class: object.rooms.first().and_then(|&r| level.rooms.get(r as usize)).map_or(0, |r| r.class.index()),
+                    room_class: object
+                        .rooms
+                        .first()
+                        .and_then(|&r| level.rooms.get(r as usize))
+                        .map_or(0, |r| r.class.index()),
                     nyu40: Taxonomy::Nyu40.object_class(&object.categories),
                     mpcat40: Taxonomy::Mpcat40.object_class(&object.categories),
                 };
-                let overrides: Vec<(u32, [f32; 4])> =
-                    object.materials.iter().filter_map(|m| m.diffuse.map(|d| (m.slot, d))).collect();
+                let overrides: Vec<(u32, [f32; 4])> = object
+                    .materials
+                    .iter()
+                    .filter_map(|m| m.diffuse.map(|d| (m.slot, d)))
+                    .collect();
                 push_mesh(&mut soup, mesh, &world, info, &overrides);
             }
             room_base += level.rooms.len() as u32;
@@ -134,7 +157,11 @@ impl RenderScene {
                 out.tris.push(soup[i].1);
                 i += 1;
             }
-            out.clusters.push(Cluster { bbox, start, end: out.tris.len() as u32 });
+            out.clusters.push(Cluster {
+                bbox,
+                start,
+                end: out.tris.len() as u32,
+            });
         }
         out
     }
@@ -146,22 +173,48 @@ impl RenderScene {
 
     /// The triangle's three world positions.
     pub fn triangle(&self, t: usize) -> [Vec3; 3] {
-        [self.positions[3 * t], self.positions[3 * t + 1], self.positions[3 * t + 2]]
+        [
+            self.positions[3 * t],
+            self.positions[3 * t + 1],
+            self.positions[3 * t + 2],
+        ]
     }
 }
 
-fn push_mesh(soup: &mut Vec<([Vec3; 3], TriInfo)>, mesh: &Mesh, world: &WorldMesh, info: TriInfo, overrides: &[(u32, [f32; 4])]) {
+fn push_mesh(
+    soup: &mut Vec<([Vec3; 3], TriInfo)>,
+    mesh: &Mesh,
+    world: &WorldMesh,
+    info: TriInfo,
+    overrides: &[(u32, [f32; 4])],
+) {
     for (t, idx) in world.indices.chunks_exact(3).enumerate() {
         let slot = world.face_materials.get(t).copied().unwrap_or(0) as u32;
-        let mut diffuse = mesh.materials.get(slot as usize).map_or([0.7, 0.7, 0.7, 1.0], |m| m.diffuse);
+        let mut diffuse = mesh
+            .materials
+            .get(slot as usize)
+            .map_or([0.7, 0.7, 0.7, 1.0], |m| m.diffuse);
         if let Some((_, d)) = overrides.iter().find(|(s, _)| *s == slot) {
             diffuse = *d;
         }
         if diffuse[3] < MIN_ALPHA {
             continue;
         }
-        let p = [world.positions[idx[0] as usize], world.positions[idx[1] as usize], world.positions[idx[2] as usize]];
-        let Some(n) = (p[1] - p[0]).cross(p[2] - p[0]).try_normalize() else { continue };
-        soup.push((p, TriInfo { normal: n.to_array(), color: [diffuse[0], diffuse[1], diffuse[2]], ..info }));
+        let p = [
+            world.positions[idx[0] as usize],
+            world.positions[idx[1] as usize],
+            world.positions[idx[2] as usize],
+        ];
+        let Some(n) = (p[1] - p[0]).cross(p[2] - p[0]).try_normalize() else {
+            continue;
+        };
+        soup.push((
+            p,
+            TriInfo {
+                normal: n.to_array(),
+                color: [diffuse[0], diffuse[1], diffuse[2]],
+                ..info
+            },
+        ));
     }
 }

@@ -78,7 +78,13 @@ impl AgentConfig {
 
     /// MINOS's gridworld agent: 0.4 m steps, 90° turns.
     pub fn minos_gridworld() -> Self {
-        AgentConfig { motion: Motion::Discrete { step: 0.4, turn_deg: 90.0 }, ..Self::minos_continuous() }
+        AgentConfig {
+            motion: Motion::Discrete {
+                step: 0.4,
+                turn_deg: 90.0,
+            },
+            ..Self::minos_continuous()
+        }
     }
 
     /// Habitat's discrete agent: 0.25 m steps, 10° turns, height 1.5 m.
@@ -86,7 +92,10 @@ impl AgentConfig {
         AgentConfig {
             height: 1.5,
             eye_height: 1.25,
-            motion: Motion::Discrete { step: 0.25, turn_deg: 10.0 },
+            motion: Motion::Discrete {
+                step: 0.25,
+                turn_deg: 10.0,
+            },
             ..Self::minos_continuous()
         }
     }
@@ -138,8 +147,17 @@ impl Actions {
     };
 
     /// Names of the single actions, in a fixed order.
-    pub const NAMES: [&'static str; 9] =
-        ["forward", "backward", "strafe_left", "strafe_right", "turn_left", "turn_right", "look_up", "look_down", "idle"];
+    pub const NAMES: [&'static str; 9] = [
+        "forward",
+        "backward",
+        "strafe_left",
+        "strafe_right",
+        "turn_left",
+        "turn_right",
+        "look_up",
+        "look_down",
+        "idle",
+    ];
 
     /// One action at full strength, by name (`idle` for nothing).
     pub fn single(name: &str) -> Option<Actions> {
@@ -191,7 +209,11 @@ pub struct AgentState {
 }
 
 /// The desired displacement (world x, z) and rotation of one step, before collisions.
-pub fn intended_motion(cfg: &AgentConfig, state: &mut AgentState, actions: Actions) -> ([f32; 2], f32) {
+pub fn intended_motion(
+    cfg: &AgentConfig,
+    state: &mut AgentState,
+    actions: Actions,
+) -> ([f32; 2], f32) {
     let a = actions.clamped();
     let fwd = a.forward - a.backward;
     let side = a.strafe_right - a.strafe_left;
@@ -200,7 +222,8 @@ pub fn intended_motion(cfg: &AgentConfig, state: &mut AgentState, actions: Actio
     // Agent frame: forward = (−sin, −cos), right = (cos, −sin) in (x, z).
     let dir = |f: f32, s: f32| [-sin * f + cos * s, -cos * f - sin * s];
     let look = (a.look_up - a.look_down) * cfg.look_step_deg.to_radians();
-    state.tilt = (state.tilt + look).clamp(-std::f32::consts::FRAC_PI_2, std::f32::consts::FRAC_PI_2);
+    state.tilt =
+        (state.tilt + look).clamp(-std::f32::consts::FRAC_PI_2, std::f32::consts::FRAC_PI_2);
     match cfg.motion {
         Motion::Discrete { step, turn_deg } => {
             state.velocity = [0.0, 0.0];
@@ -208,7 +231,14 @@ pub fn intended_motion(cfg: &AgentConfig, state: &mut AgentState, actions: Actio
             let d = dir(fwd, side);
             ([d[0] * step, d[1] * step], turn * turn_deg.to_radians())
         }
-        Motion::Continuous { step_acceleration, max_speed, linear_friction, turn_acceleration, max_angular_speed, angular_friction } => {
+        Motion::Continuous {
+            step_acceleration,
+            max_speed,
+            linear_friction,
+            turn_acceleration,
+            max_angular_speed,
+            angular_friction,
+        } => {
             let acc = dir(fwd, side);
             let k = linear_friction.clamp(0.0, 1.0);
             let mut v = [
@@ -220,7 +250,8 @@ pub fn intended_motion(cfg: &AgentConfig, state: &mut AgentState, actions: Actio
                 v = [v[0] * max_speed / speed, v[1] * max_speed / speed];
             }
             let ka = angular_friction.clamp(0.0, 1.0);
-            let w = ((1.0 - ka) * state.angular_velocity + turn * turn_acceleration * cfg.dt).clamp(-max_angular_speed, max_angular_speed);
+            let w = ((1.0 - ka) * state.angular_velocity + turn * turn_acceleration * cfg.dt)
+                .clamp(-max_angular_speed, max_angular_speed);
             state.velocity = v;
             state.angular_velocity = w;
             ([v[0] * cfg.dt, v[1] * cfg.dt], w * cfg.dt)

@@ -33,7 +33,11 @@ impl CollisionWorld {
         let mut add = |m: &crate::scene::WorldMesh| {
             let base = vertices.len() as u32;
             vertices.extend(m.positions.iter().map(|p| v(*p)));
-            indices.extend(m.indices.chunks_exact(3).map(|t| [base + t[0], base + t[1], base + t[2]]));
+            indices.extend(
+                m.indices
+                    .chunks_exact(3)
+                    .map(|t| [base + t[0], base + t[1], base + t[2]]),
+            );
         };
         for level in &scene.levels {
             for room in &level.rooms {
@@ -58,16 +62,22 @@ impl CollisionWorld {
         if indices.is_empty() {
             return Err(format!("scene {}: no triangles to collide with", scene.id));
         }
-        let mesh = TriMesh::new(vertices, indices).map_err(|e| format!("scene {}: collision mesh: {e:?}", scene.id))?;
+        let mesh = TriMesh::new(vertices, indices)
+            .map_err(|e| format!("scene {}: collision mesh: {e:?}", scene.id))?;
         let bottom = max_climb + CLEARANCE;
         let half = ((height - bottom) / 2.0).max(0.01);
-        Ok(CollisionWorld { mesh, body: Cylinder::new(half, radius), body_offset: bottom + half })
+        Ok(CollisionWorld {
+            mesh,
+            body: Cylinder::new(half, radius),
+            body_offset: bottom + half,
+        })
     }
 
     /// True when the body standing on `base` (x, floor height, z) overlaps the scene.
     pub fn blocked(&self, base: Vec3) -> bool {
         let pose = Pose::from_translation(v(base + Vec3::Y * self.body_offset));
-        query::intersection_test(&pose, &self.body, &Pose::IDENTITY, &self.mesh).is_ok_and(|r| r.intersecting)
+        query::intersection_test(&pose, &self.body, &Pose::IDENTITY, &self.mesh)
+            .is_ok_and(|r| r.intersecting)
     }
 
     /// The horizontal direction pushing the body at `base` out of what it touches, if any.
@@ -81,6 +91,7 @@ impl CollisionWorld {
     /// True when a ball of `radius` at `center` touches the scene.
     pub fn probe(&self, center: Vec3, radius: f32) -> bool {
         let pose = Pose::from_translation(v(center));
-        query::intersection_test(&pose, &Ball::new(radius), &Pose::IDENTITY, &self.mesh).is_ok_and(|r| r.intersecting)
+        query::intersection_test(&pose, &Ball::new(radius), &Pose::IDENTITY, &self.mesh)
+            .is_ok_and(|r| r.intersecting)
     }
 }

@@ -198,15 +198,27 @@ impl SensorSuite {
             noise: None,
         };
         SensorSuite {
-            cameras: vec![cam("color", Modality::Color), cam("depth", Modality::Depth), cam("semantic", Modality::Semantic)],
-            contact: Some(ContactSensors { count: 4, height: 0.3 }),
+            cameras: vec![
+                cam("color", Modality::Color),
+                cam("depth", Modality::Depth),
+                cam("semantic", Modality::Semantic),
+            ],
+            contact: Some(ContactSensors {
+                count: 4,
+                height: 0.3,
+            }),
         }
     }
 
     /// Every image modality at `size`² (for looking at a scene).
     pub fn all(size: u32) -> Self {
         let mut s = Self::minos(size);
-        for (name, m) in [("normal", Modality::Normal), ("instance", Modality::Instance), ("room", Modality::Room), ("room_class", Modality::RoomClass)] {
+        for (name, m) in [
+            ("normal", Modality::Normal),
+            ("instance", Modality::Instance),
+            ("room", Modality::Room),
+            ("room_class", Modality::RoomClass),
+        ] {
             let mut c = s.cameras[0].clone();
             c.name = name.into();
             c.modality = m;
@@ -220,7 +232,8 @@ impl SensorSuite {
         let suite: SensorSuite = if text.trim_start().starts_with('{') {
             serde_json::from_str(text).map_err(|e| format!("{source}: {e}"))?
         } else {
-            toml::from_str(text).map_err(|e| format!("{source}: {}", e.to_string().replace('\n', " ")))?
+            toml::from_str(text)
+                .map_err(|e| format!("{source}: {}", e.to_string().replace('\n', " ")))?
         };
         suite.validate().map_err(|e| format!("{source}: {e}"))?;
         Ok(suite)
@@ -233,11 +246,21 @@ impl SensorSuite {
             if !names.insert(c.name.as_str()) {
                 return Err(format!("camera `{}` is defined twice", c.name));
             }
-            if c.resolution[0] == 0 || c.resolution[1] == 0 || c.resolution[0] > 8192 || c.resolution[1] > 8192 {
-                return Err(format!("camera `{}`: resolution {:?} must be 1..=8192", c.name, c.resolution));
+            if c.resolution[0] == 0
+                || c.resolution[1] == 0
+                || c.resolution[0] > 8192
+                || c.resolution[1] > 8192
+            {
+                return Err(format!(
+                    "camera `{}`: resolution {:?} must be 1..=8192",
+                    c.name, c.resolution
+                ));
             }
             if !(c.vfov > 0.0 && c.vfov < 180.0) {
-                return Err(format!("camera `{}`: vfov {} must be in (0, 180)", c.name, c.vfov));
+                return Err(format!(
+                    "camera `{}`: vfov {} must be in (0, 180)",
+                    c.name, c.vfov
+                ));
             }
             if !(c.near > 0.0 && c.far > c.near) {
                 return Err(format!("camera `{}`: need 0 < near < far", c.name));
@@ -252,15 +275,27 @@ impl SensorSuite {
 
 impl CameraSensor {
     /// The image this sensor makes of a frame; `rng` drives depth noise.
-    pub fn image(&self, frame: &Frame, scene: &RenderScene, camera: &crate::render::Camera, rng: &mut Rng) -> Image {
+    pub fn image(
+        &self,
+        frame: &Frame,
+        scene: &RenderScene,
+        camera: &crate::render::Camera,
+        rng: &mut Rng,
+    ) -> Image {
         match self.modality {
-            Modality::Color => Image::U8 { channels: 3, data: frame.color(scene).into_iter().flatten().collect() },
+            Modality::Color => Image::U8 {
+                channels: 3,
+                data: frame.color(scene).into_iter().flatten().collect(),
+            },
             Modality::Gray => Image::U8 {
                 channels: 1,
                 data: frame
                     .color(scene)
                     .into_iter()
-                    .map(|[r, g, b]| (0.299 * f32::from(r) + 0.587 * f32::from(g) + 0.114 * f32::from(b)).round() as u8)
+                    .map(|[r, g, b]| {
+                        (0.299 * f32::from(r) + 0.587 * f32::from(g) + 0.114 * f32::from(b)).round()
+                            as u8
+                    })
                     .collect(),
             },
             Modality::Depth => {
@@ -269,18 +304,38 @@ impl CameraSensor {
                     apply_noise(&mut d, noise, rng);
                 }
                 let [lo, hi] = self.depth_range;
-                let q = |v: f32, max: f32| if v <= 0.0 { 0.0 } else { ((v - lo) / (hi - lo)).clamp(0.0, 1.0) * max };
+                let q = |v: f32, max: f32| {
+                    if v <= 0.0 {
+                        0.0
+                    } else {
+                        ((v - lo) / (hi - lo)).clamp(0.0, 1.0) * max
+                    }
+                };
                 match self.depth_encoding {
-                    DepthEncoding::Float => Image::F32 { channels: 1, data: d },
-                    DepthEncoding::U8 => Image::U8 { channels: 1, data: d.iter().map(|&v| q(v, 255.0).round() as u8).collect() },
-                    DepthEncoding::U16 => Image::U16(d.iter().map(|&v| q(v, 65535.0).round() as u16).collect()),
+                    DepthEncoding::Float => Image::F32 {
+                        channels: 1,
+                        data: d,
+                    },
+                    DepthEncoding::U8 => Image::U8 {
+                        channels: 1,
+                        data: d.iter().map(|&v| q(v, 255.0).round() as u8).collect(),
+                    },
+                    DepthEncoding::U16 => {
+                        Image::U16(d.iter().map(|&v| q(v, 65535.0).round() as u16).collect())
+                    }
                 }
             }
-            Modality::Normal => Image::F32 { channels: 3, data: frame.normals(scene).into_iter().flatten().collect() },
+            Modality::Normal => Image::F32 {
+                channels: 3,
+                data: frame.normals(scene).into_iter().flatten().collect(),
+            },
             Modality::Semantic => Image::U16(frame.semantic(scene, self.taxonomy)),
             Modality::Instance => Image::U32(frame.instance(scene)),
             Modality::Room => Image::U32(frame.room(scene)),
-            Modality::RoomClass => Image::U8 { channels: 1, data: frame.room_class(scene) },
+            Modality::RoomClass => Image::U8 {
+                channels: 1,
+                data: frame.room_class(scene),
+            },
         }
     }
 }
@@ -322,16 +377,30 @@ mod tests {
         assert_eq!(s.cameras[1].depth_encoding, DepthEncoding::U8);
         assert_eq!(s.contact.unwrap().count, 4);
         let json = r#"{"camera": [{"name": "x", "modality": "semantic", "resolution": [8, 8], "taxonomy": "mpcat40"}]}"#;
-        assert_eq!(SensorSuite::parse(json, "s.json").unwrap().cameras[0].taxonomy, Taxonomy::Mpcat40);
+        assert_eq!(
+            SensorSuite::parse(json, "s.json").unwrap().cameras[0].taxonomy,
+            Taxonomy::Mpcat40
+        );
         let dup = "[[camera]]\nname = \"a\"\nmodality = \"color\"\nresolution = [8, 8]\n[[camera]]\nname = \"a\"\nmodality = \"depth\"\nresolution = [8, 8]\n";
-        assert!(SensorSuite::parse(dup, "s.toml").unwrap_err().contains("defined twice"));
-        assert!(SensorSuite::parse("[[camera]]\nname = \"a\"\nmodality = \"smell\"\nresolution = [8, 8]\n", "s.toml").unwrap_err().starts_with("s.toml"));
+        assert!(SensorSuite::parse(dup, "s.toml")
+            .unwrap_err()
+            .contains("defined twice"));
+        assert!(SensorSuite::parse(
+            "[[camera]]\nname = \"a\"\nmodality = \"smell\"\nresolution = [8, 8]\n",
+            "s.toml"
+        )
+        .unwrap_err()
+        .starts_with("s.toml"));
     }
 
     #[test]
     fn kinect_noise_zeroes_out_of_range_depth() {
         let mut d = vec![0.2, 1.0, 6.0, 0.0];
-        apply_noise(&mut d, DepthNoise::Kinect { min: 0.4, max: 4.0 }, &mut Rng::new(1));
+        apply_noise(
+            &mut d,
+            DepthNoise::Kinect { min: 0.4, max: 4.0 },
+            &mut Rng::new(1),
+        );
         assert_eq!(d[0], 0.0);
         assert!((d[1] - 1.0).abs() < 0.05);
         assert_eq!(d[2], 0.0);

@@ -74,7 +74,11 @@ impl Renderer {
                         continue;
                     }
                     let group: Vec<usize> = (i..cameras.len())
-                        .filter(|&j| !done[j] && cameras[j].width == cameras[i].width && cameras[j].height == cameras[i].height)
+                        .filter(|&j| {
+                            !done[j]
+                                && cameras[j].width == cameras[i].width
+                                && cameras[j].height == cameras[i].height
+                        })
                         .collect();
                     let cams: Vec<Camera> = group.iter().map(|&j| cameras[j]).collect();
                     for (j, f) in group.iter().zip(g.render_batch(&cams)?) {
@@ -117,7 +121,8 @@ impl SceneAssets {
         Ok(SceneAssets {
             id: scene.id.clone(),
             render: RenderScene::new(scene),
-            collision: CollisionWorld::new(scene, agent.radius, agent.height, agent.max_climb).map_err(SimError::Scene)?,
+            collision: CollisionWorld::new(scene, agent.radius, agent.height, agent.max_climb)
+                .map_err(SimError::Scene)?,
             grid,
         })
     }
@@ -198,7 +203,14 @@ const SUBSTEP: f32 = 0.5;
 
 impl Simulator {
     /// A simulator on shared scene assets and renderer.
-    pub fn new(assets: Arc<SceneAssets>, renderer: Arc<Renderer>, agent: AgentConfig, sensors: SensorSuite, max_steps: u32, seed: u64) -> Self {
+    pub fn new(
+        assets: Arc<SceneAssets>,
+        renderer: Arc<Renderer>,
+        agent: AgentConfig,
+        sensors: SensorSuite,
+        max_steps: u32,
+        seed: u64,
+    ) -> Self {
         Simulator {
             assets,
             renderer,
@@ -233,11 +245,18 @@ impl Simulator {
     /// Places the agent at `start` (y = floor height) facing `yaw`, with an optional goal;
     /// the noise generator restarts from `(seed, episode)`.
     pub fn reset(&mut self, start: Vec3, yaw: f32, goal: Option<GoalSpec>, episode: &str) {
-        self.state = AgentState { position: start.to_array(), yaw, ..Default::default() };
+        self.state = AgentState {
+            position: start.to_array(),
+            yaw,
+            ..Default::default()
+        };
         self.step = 0;
         self.last_collision = false;
         self.last_velocity = [0.0; 2];
-        self.rng = Rng::new(derive_seed(self.seed, &[&self.assets.id, episode, "sensors"]));
+        self.rng = Rng::new(derive_seed(
+            self.seed,
+            &[&self.assets.id, episode, "sensors"],
+        ));
         let grid = &self.assets.grid;
         self.goal = goal.map(|g| {
             let (point, spans) = match g {
@@ -277,7 +296,9 @@ impl Simulator {
         self.state.yaw = (self.state.yaw + rot).rem_euclid(std::f32::consts::TAU);
         let mut base = Vec3::from_array(self.state.position);
         let total = Vec3::new(disp[0], 0.0, disp[1]);
-        let n = (total.length() / (SUBSTEP * self.agent.radius)).ceil().max(1.0) as usize;
+        let n = (total.length() / (SUBSTEP * self.agent.radius))
+            .ceil()
+            .max(1.0) as usize;
         let mut step = total / n as f32;
         let mut collided = false;
         let start = base;
@@ -325,11 +346,16 @@ impl Simulator {
             .map(|c| {
                 let off = c.position.unwrap_or([0.0, self.agent.eye_height, 0.0]);
                 // Agent frame (x right, y up, z back) to world.
-                let world = Vec3::new(cos * off[0] + sin * off[2], off[1], -sin * off[0] + cos * off[2]);
+                let world = Vec3::new(
+                    cos * off[0] + sin * off[2],
+                    off[1],
+                    -sin * off[0] + cos * off[2],
+                );
                 Camera {
                     position: base + world,
                     yaw: self.state.yaw + c.orientation[0].to_radians(),
-                    tilt: (self.state.tilt + c.orientation[1].to_radians()).clamp(-std::f32::consts::FRAC_PI_2, std::f32::consts::FRAC_PI_2),
+                    tilt: (self.state.tilt + c.orientation[1].to_radians())
+                        .clamp(-std::f32::consts::FRAC_PI_2, std::f32::consts::FRAC_PI_2),
                     vfov_deg: c.vfov,
                     width: c.resolution[0],
                     height: c.resolution[1],
@@ -353,7 +379,10 @@ impl Simulator {
         let frames = self.renderer.render(&self.assets.render, &cams)?;
         let mut images = Vec::with_capacity(frames.len());
         for ((sensor, frame), cam) in self.sensors.cameras.iter().zip(&frames).zip(&cams) {
-            images.push((sensor.name.clone(), sensor.image(frame, &self.assets.render, cam, &mut self.rng)));
+            images.push((
+                sensor.name.clone(),
+                sensor.image(frame, &self.assets.render, cam, &mut self.rng),
+            ));
         }
         let base = Vec3::from_array(self.state.position);
         let mut m = Measurements {
@@ -375,7 +404,11 @@ impl Simulator {
                 let hit = self.assets.collision.probe(center, probe);
                 let v = Vec3::new(self.last_velocity[0], 0.0, self.last_velocity[1]);
                 m.contacts.push(hit);
-                m.contact_impulses.push(if hit { self.agent.mass * v.dot(dir).max(0.0) } else { 0.0 });
+                m.contact_impulses.push(if hit {
+                    self.agent.mass * v.dot(dir).max(0.0)
+                } else {
+                    0.0
+                });
             }
         }
         if let Some(goal) = &self.goal {
@@ -393,6 +426,9 @@ impl Simulator {
                 }
             }
         }
-        Ok(Observation { images, measurements: m })
+        Ok(Observation {
+            images,
+            measurements: m,
+        })
     }
 }

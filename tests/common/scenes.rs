@@ -166,7 +166,7 @@ impl SceneBuilder {
             categories: Categories {
                 fine: Some(category.into()),
                 coarse: Some(category.into()),
-                nyu40: None,
+                nyu40: Some(category.into()),
                 mpcat40: None,
             },
             transform: Mat4::IDENTITY,

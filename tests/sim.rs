@@ -1,0 +1,432 @@
+//! The simulator with answers known in advance: MINOS's motion per step, walls, sliding, doors,
+//! tilt limits; depth, normals, labels, contacts and the geodesic measurement; and CPU/wgpu
+//! renderer parity on a generated house.
+
+mod common;
+
+use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI};
+use std::sync::Arc;
+
+use common::scenes::SceneBuilder;
+use glam::Vec3;
+use minos::navmesh::build::build;
+use minos::navmesh::route::route;
+use minos::navmesh::NavParams;
+use minos::render::{cpu, Camera, RenderScene};
+use minos::scene::{ObjectFlags, RoomClass, Scene};
+use minos::sim::sensors::{Image, Modality};
+use minos::sim::simulator::Renderer;
+use minos::sim::{
+    Actions, AgentConfig, GoalSpec, RendererChoice, SceneAssets, SensorSuite, Simulator,
+};
+
+fn sim_with(scene: &Scene, agent: AgentConfig, sensors: SensorSuite) -> Simulator {
+    let grid = build(scene, &NavParams::default()).unwrap();
+    let assets = Arc::new(SceneAssets::new(scene, grid, &agent).unwrap());
+    let renderer = Arc::new(Renderer::new(RendererChoice::Cpu, &assets.render).unwrap());
+    Simulator::new(assets, renderer, agent, sensors, 500, 0)
+}
+
+fn blind() -> SensorSuite {
+    SensorSuite {
+        cameras: vec![],
+        contact: None,
+    }
+}
+
+fn open_room() -> Scene {
+    SceneBuilder::new("open")
+        .room("r", RoomClass::LivingRoom, [0.0, 0.0, 10.0, 10.0], 0.0, &[])
+        .build()
+}
+
+fn act(name: &str) -> Actions {
+    Actions::single(name).unwrap()
+}
+
+#[test]
+fn one_forward_step_moves_each_agent_its_distance_and_turns_match() {
+    for (agent, dist, turn) in [
+        (AgentConfig::minos_continuous(), 0.2, 4.0 * PI * 0.1 * 0.1),
+        (AgentConfig::minos_gridworld(), 0.4, FRAC_PI_2),
+        (AgentConfig::habitat(), 0.25, 10f32.to_radians()),
+    ] {
+        let mut sim = sim_with(&open_room(), agent, blind());
+        sim.reset(Vec3::new(5.0, 0.0, 5.0), 0.0, None, "e");
+        let m = sim.step(act("forward")).unwrap().measurements;
+        assert!(
+            (Vec3::from_array(m.position) - Vec3::new(5.0, 0.0, 5.0 - dist)).length() < 1e-4,
+            "{agent:?}: {:?}",
+            m.position
+        );
+        assert!(!m.collision);
+        let m = sim.step(act("turn_left")).unwrap().measurements;
+        assert!((m.yaw - turn).abs() < 1e-4, "turn {} vs {turn}", m.yaw);
+    }
+    let mut sim = sim_with(&open_room(), AgentConfig::minos_continuous(), blind());
+    sim.reset(Vec3::new(5.0, 0.0, 9.0), 0.0, None, "e");
+    for _ in 0..10 {
+        let m = sim.step(act("forward")).unwrap().measurements;
+        assert!(Vec3::new(m.velocity[0], 0.0, m.velocity[1]).length() <= 2.0 + 1e-4);
+    }
+}
+
+fn walled_room(wall_z: f32, thickness: f32) -> Scene {
+    SceneBuilder::new("wall")
+        .room(
+            "r",
+            RoomClass::Hallway,
+            [0.0, 0.0, 10.0, 10.0],
+            0.0,
+            &[([0.0, 0.0, wall_z - thickness], [10.0, 2.7, wall_z])],
+        )
+        .build()
+}
+
+#[test]
+fn walking_into_a_thin_wall_stops_at_it_with_the_collision_flag() {
+    let wall = 3.0;
+    let mut sim = sim_with(
+        &walled_room(wall, 0.01),
+        AgentConfig::minos_continuous(),
+        blind(),
+    );
+    sim.reset(Vec3::new(5.0, 0.0, 6.0), 0.0, None, "e");
+    let mut hit = false;
+    for _ in 0..30 {
+        let m = sim.step(act("forward")).unwrap().measurements;
+        hit |= m.collision;
+        assert!(
+            m.position[2] >= wall + 0.1 - 1e-3,
+            "went through the wall: {:?}",
+            m.position
+        );
+    }
+    assert!(hit);
+    assert!(
+        sim.state().position[2] < wall + 0.2,
+        "stopped short: {:?}",
+        sim.state().position
+    );
+}
+
+#[test]
+fn sliding_along_a_wall_at_45_degrees_keeps_moving() {
+    let wall = 3.0;
+    let mut sim = sim_with(
+        &walled_room(wall, 0.1),
+        AgentConfig::minos_continuous(),
+        blind(),
+    );
+    sim.reset(Vec3::new(8.0, 0.0, 3.6), FRAC_PI_4, None, "e");
+    for _ in 0..5 {
+        sim.step(act("forward")).unwrap();
+    }
+    let before = sim.state().position;
+    let mut collided = false;
+    for _ in 0..10 {
+        collided |= sim.step(act("forward")).unwrap().measurements.collision;
+    }
+    let after = sim.state().position;
+    assert!(collided);
+    assert!(
+        before[0] - after[0] > 0.5,
+        "stuck at the wall: {before:?} -> {after:?}"
+    );
+    assert!(after[2] >= wall + 0.1 - 1e-3);
+}
+
+fn doorway(closed: bool) -> Scene {
+    let w = |x0: f32, x1: f32| ([x0, 0.0, 2.95], [x1, 2.7, 3.05]);
+    let b = SceneBuilder::new("door").room(
+        "r",
+        RoomClass::Hallway,
+        [0.0, 0.0, 10.0, 10.0],
+        0.0,
+        &[
+            w(0.0, 4.5),
+            w(5.5, 10.0),
+            ([4.5, 2.1, 2.95], [5.5, 2.7, 3.05]),
+        ],
+    );
+    let b = if closed {
+        b.object(
+            "door",
+            "door",
+            ObjectFlags {
+                door: true,
+                ..Default::default()
+            },
+            &[([4.5, 0.0, 2.98], [5.5, 2.1, 3.02])],
+            vec![0],
+        )
+    } else {
+        b
+    };
+    b.build()
+}
+
+#[test]
+fn a_closed_door_stops_the_agent_and_an_open_one_does_not() {
+    for closed in [true, false] {
+        let mut sim = sim_with(&doorway(closed), AgentConfig::minos_continuous(), blind());
+        sim.reset(Vec3::new(5.0, 0.0, 5.0), 0.0, None, "e");
+        for _ in 0..20 {
+            sim.step(act("forward")).unwrap();
+        }
+        let z = sim.state().position[2];
+        if closed {
+            assert!(z > 3.0, "passed a closed door: z = {z}");
+        } else {
+            assert!(z < 2.0, "an open doorway blocked: z = {z}");
+        }
+    }
+}
+
+#[test]
+fn tilt_clamps_at_straight_up_and_down() {
+    let mut sim = sim_with(&open_room(), AgentConfig::minos_continuous(), blind());
+    sim.reset(Vec3::new(5.0, 0.0, 5.0), 0.0, None, "e");
+    for _ in 0..20 {
+        sim.step(act("look_up")).unwrap();
+    }
+    assert_eq!(sim.state().tilt, FRAC_PI_2);
+    for _ in 0..40 {
+        sim.step(act("look_down")).unwrap();
+    }
+    assert_eq!(sim.state().tilt, -FRAC_PI_2);
+}
+
+fn camera_suite(modalities: &[(&str, Modality)], size: u32, tilt_deg: f32) -> SensorSuite {
+    let mut s = SensorSuite::minos(size);
+    let template = s.cameras[0].clone();
+    s.cameras = modalities
+        .iter()
+        .map(|(n, m)| {
+            let mut c = template.clone();
+            c.name = n.to_string();
+            c.modality = *m;
+            c.orientation = [0.0, tilt_deg];
+            c
+        })
+        .collect();
+    s.contact = None;
+    s
+}
+
+fn centre<T: Copy>(data: &[T], size: u32, channels: usize) -> &[T] {
+    let i = ((size / 2) * size + size / 2) as usize * channels;
+    &data[i..i + channels]
+}
+
+#[test]
+fn depth_of_a_wall_normals_of_the_floor_and_the_label_of_an_object() {
+    let size = 64;
+    let scene = SceneBuilder::new("s")
+        .room(
+            "r",
+            RoomClass::Bedroom,
+            [0.0, 0.0, 10.0, 10.0],
+            0.0,
+            &[([0.0, 0.0, -0.1], [10.0, 2.7, 0.0])],
+        )
+        .build();
+    let mut sim = sim_with(
+        &scene,
+        AgentConfig::minos_continuous(),
+        camera_suite(&[("d", Modality::Depth)], size, 0.0),
+    );
+    sim.reset(Vec3::new(5.0, 0.0, 3.0), 0.0, None, "e");
+    let obs = sim.observe().unwrap();
+    let Image::F32 { data, .. } = &obs.images[0].1 else {
+        panic!("float depth")
+    };
+    assert!(
+        (centre(data, size, 1)[0] - 3.0).abs() < 0.01,
+        "{}",
+        centre(data, size, 1)[0]
+    );
+    let mut sim = sim_with(
+        &scene,
+        AgentConfig::minos_continuous(),
+        camera_suite(&[("n", Modality::Normal)], size, -60.0),
+    );
+    sim.reset(Vec3::new(5.0, 0.0, 5.0), 0.0, None, "e");
+    let Image::F32 { data, .. } = &sim.observe().unwrap().images[0].1 else {
+        panic!("normals")
+    };
+    let n = &data[((size - 2) * size + size / 2) as usize * 3..][..3];
+    assert!((n[1] - 1.0).abs() < 1e-5 && n[0].abs() < 1e-5, "{n:?}");
+    let scene = SceneBuilder::new("bed")
+        .room("r", RoomClass::Bedroom, [0.0, 0.0, 10.0, 10.0], 0.0, &[])
+        .object(
+            "b",
+            "bed",
+            ObjectFlags::default(),
+            &[([4.0, 0.0, 1.0], [6.0, 2.0, 2.0])],
+            vec![0],
+        )
+        .build();
+    let mut sim = sim_with(
+        &scene,
+        AgentConfig::minos_continuous(),
+        camera_suite(
+            &[("s", Modality::Semantic), ("i", Modality::Instance)],
+            size,
+            0.0,
+        ),
+    );
+    sim.reset(Vec3::new(5.0, 0.0, 5.0), 0.0, None, "e");
+    let obs = sim.observe().unwrap();
+    let (Image::U16(sem), Image::U32(inst)) = (&obs.images[0].1, &obs.images[1].1) else {
+        panic!("labels")
+    };
+    assert_eq!(centre(sem, size, 1)[0], 4);
+    assert_eq!(centre(inst, size, 1)[0], 1);
+    sim.reset(Vec3::new(5.0, 0.0, 5.0), PI, None, "e");
+    let obs = sim.observe().unwrap();
+    let Image::U16(sem) = &obs.images[0].1 else {
+        panic!()
+    };
+    assert!(!sem.contains(&4));
+}
+
+#[test]
+fn contact_fires_only_on_the_touching_side() {
+    let mut sensors = blind();
+    sensors.contact = Some(minos::sim::sensors::ContactSensors {
+        count: 4,
+        height: 0.3,
+    });
+    let mut sim = sim_with(
+        &walled_room(3.0, 0.1),
+        AgentConfig::minos_continuous(),
+        sensors,
+    );
+    sim.reset(Vec3::new(5.0, 0.0, 5.0), 0.0, None, "e");
+    let mut m = sim.step(act("idle")).unwrap().measurements;
+    assert_eq!(m.contacts, vec![false; 4]);
+    for _ in 0..20 {
+        m = sim.step(act("forward")).unwrap().measurements;
+    }
+    assert_eq!(m.contacts, vec![true, false, false, false], "front only");
+    assert!(m.contact_impulses[0] > 0.0 && m.contact_impulses[1..].iter().all(|i| *i == 0.0));
+}
+
+#[test]
+fn the_geodesic_measurement_equals_the_navigation_query() {
+    let scene = SceneBuilder::new("partial")
+        .room(
+            "r",
+            RoomClass::Hallway,
+            [0.0, 0.0, 10.0, 10.0],
+            0.0,
+            &[([0.0, 0.0, 4.9], [7.0, 2.7, 5.0])],
+        )
+        .build();
+    let mut sim = sim_with(&scene, AgentConfig::minos_continuous(), blind());
+    let (start, goal) = (Vec3::new(2.0, 0.0, 8.0), Vec3::new(2.0, 0.0, 2.0));
+    sim.reset(start, 0.0, Some(GoalSpec::Point(goal)), "e");
+    let m = sim.observe().unwrap().measurements;
+    let want = route(&sim.assets().grid, start, goal)
+        .unwrap()
+        .geodesic
+        .unwrap();
+    let got = m.goal_geodesic.unwrap();
+    assert!((got - want).abs() < 0.01 * want, "{got} vs {want}");
+    assert!(got > 6.0 + 2.0, "must go around the wall: {got}");
+    assert!((m.goal_euclidean.unwrap() - 6.0).abs() < 1e-4);
+    assert!((m.goal_direction.unwrap()[1] - 1.0).abs() < 1e-4);
+    assert!(
+        m.waypoint_direction.unwrap()[0] > 0.3,
+        "{:?}",
+        m.waypoint_direction
+    );
+}
+
+#[test]
+fn cpu_and_wgpu_renderers_agree() {
+    let mut gpu = match minos::render::gpu::GpuRenderer::new() {
+        Ok(g) => g,
+        Err(e) => {
+            eprintln!("skipped: {e}");
+            return;
+        }
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let (root, data) = (dir.path().join("suncg"), dir.path().join("DATA"));
+    let cfg = minos::generate::GenerateConfig {
+        houses: 2,
+        seed: 4,
+        rooms: (4, 6),
+        levels: (1, 1),
+        closed_door_prob: 0.25,
+    };
+    let plans = common::generate_into(&cfg, &root);
+    common::ingest_into(&root, &data);
+    let (mut depth_se, mut depth_n, mut label_eq, mut label_n, mut color_ae, mut color_n) =
+        (0f64, 0usize, 0usize, 0usize, 0f64, 0usize);
+    for plan in &plans {
+        let (_, scene) =
+            minos::io::scene_file::read_scene(&minos::io::scene_file::scene_path(&data, &plan.id))
+                .unwrap();
+        let rs = RenderScene::new(&scene);
+        gpu.upload(&rs);
+        for size in [84u32, 128] {
+            let cams: Vec<Camera> = plan.levels[0]
+                .rooms
+                .iter()
+                .flat_map(|r| {
+                    let c = [
+                        (r.rect.x0 + r.rect.x1) as f32 / 2.0,
+                        (r.rect.z0 + r.rect.z1) as f32 / 2.0,
+                    ];
+                    (0..4).map(move |k| Camera {
+                        position: Vec3::new(c[0], 1.09, c[1]),
+                        yaw: k as f32 * FRAC_PI_2 + 0.3,
+                        tilt: -0.2,
+                        vfov_deg: 60.0,
+                        width: size,
+                        height: size,
+                        near: 0.01,
+                        far: 50.0,
+                    })
+                })
+                .collect();
+            let gpu_frames = gpu.render_batch(&cams).unwrap();
+            for (cam, g) in cams.iter().zip(&gpu_frames) {
+                let c = cpu::render(&rs, cam);
+                let (dc, dg) = (c.linear_depth(cam), g.linear_depth(cam));
+                let (sc, sg) = (
+                    c.semantic(&rs, minos::render::Taxonomy::Nyu40),
+                    g.semantic(&rs, minos::render::Taxonomy::Nyu40),
+                );
+                let (ic, ig) = (c.instance(&rs), g.instance(&rs));
+                let (cc, cg) = (c.color(&rs), g.color(&rs));
+                for p in 0..dc.len() {
+                    if dc[p] > 0.0 && dg[p] > 0.0 {
+                        depth_se += f64::from(dc[p] - dg[p]).powi(2);
+                        depth_n += 1;
+                    }
+                    label_eq += usize::from(sc[p] == sg[p] && ic[p] == ig[p]);
+                    label_n += 1;
+                    for k in 0..3 {
+                        color_ae += f64::from((i16::from(cc[p][k]) - i16::from(cg[p][k])).abs());
+                        color_n += 1;
+                    }
+                }
+            }
+        }
+    }
+    let rmse = (depth_se / depth_n as f64).sqrt();
+    let labels = label_eq as f64 / label_n as f64;
+    let mae = color_ae / color_n as f64;
+    eprintln!(
+        "parity: depth RMSE {rmse:.5} m, labels equal {:.3}%, colour MAE {mae:.3}/255 ({})",
+        100.0 * labels,
+        gpu.adapter_name()
+    );
+    assert!(rmse < 0.01, "depth RMSE {rmse}");
+    assert!(labels >= 0.995, "labels {labels}");
+    assert!(mae < 3.0, "colour MAE {mae}");
+}
