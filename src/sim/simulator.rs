@@ -375,13 +375,26 @@ impl Simulator {
 
     /// Observes the current state (sensors and measurements) without stepping.
     pub fn observe(&mut self) -> Result<Observation, GpuError> {
+        // Sensors that share a camera (colour, depth and labels of one eye) share one frame:
+        // every modality comes from the same rasterisation pass.
         let cams = self.cameras();
-        let frames = self.renderer.render(&self.assets.render, &cams)?;
-        let mut images = Vec::with_capacity(frames.len());
-        for ((sensor, frame), cam) in self.sensors.cameras.iter().zip(&frames).zip(&cams) {
+        let mut unique: Vec<Camera> = Vec::new();
+        let which: Vec<usize> = cams
+            .iter()
+            .map(|c| match unique.iter().position(|u| u == c) {
+                Some(i) => i,
+                None => {
+                    unique.push(*c);
+                    unique.len() - 1
+                }
+            })
+            .collect();
+        let frames = self.renderer.render(&self.assets.render, &unique)?;
+        let mut images = Vec::with_capacity(cams.len());
+        for ((sensor, &k), cam) in self.sensors.cameras.iter().zip(&which).zip(&cams) {
             images.push((
                 sensor.name.clone(),
-                sensor.image(frame, &self.assets.render, cam, &mut self.rng),
+                sensor.image(&frames[k], &self.assets.render, cam, &mut self.rng),
             ));
         }
         let base = Vec3::from_array(self.state.position);
