@@ -271,6 +271,33 @@ impl Simulator {
         });
     }
 
+    /// Resets to an episode's start, with its goal for the measurements (object goals: the
+    /// walkable spans within the success radius of each target; room goals: the rooms' floor).
+    pub fn reset_episode(&mut self, episode: &crate::episode::Episode) {
+        use crate::episode::Goal;
+        let grid = &self.assets.grid;
+        let goal = match &episode.goal {
+            Goal::Point { position } => GoalSpec::Point(Vec3::from_array(*position)),
+            Goal::Object { targets, .. } => GoalSpec::Spans(
+                targets
+                    .iter()
+                    .filter_map(|t| grid.objects.iter().position(|o| o.id == t.id))
+                    .flat_map(|o| grid.object_spans(o as u32, episode.success_radius))
+                    .collect(),
+            ),
+            Goal::Room { targets, .. } => GoalSpec::Spans(
+                targets
+                    .iter()
+                    .filter_map(|t| grid.rooms.iter().position(|r| r.id == t.id))
+                    .flat_map(|r| grid.room_spans(r as u32))
+                    .collect(),
+            ),
+        };
+        let start = Vec3::from_array(episode.start_position);
+        let id = episode.episode_id.clone();
+        self.reset(start, episode.start_yaw, Some(goal), &id);
+    }
+
     /// Floor height at `p` reachable from height `y` (within the climb), from the grid.
     fn floor_at(&self, x: f32, z: f32, y: f32) -> Option<f32> {
         let grid = &self.assets.grid;
