@@ -305,3 +305,48 @@ fn habitat_export_and_import_round_trip() {
     }
     assert!(Path::new(&dir.path().join("pointgoal/val/val.json.gz")).is_file());
 }
+
+#[test]
+fn a_simulator_reset_to_an_episode_measures_its_stored_geodesic() {
+    use std::sync::Arc;
+    for task in [Task::PointGoal, Task::ObjectGoal, Task::RoomGoal] {
+        let batch = run(
+            &SampleConfig {
+                task,
+                per_scene: 2,
+                seed: 12,
+                ..SampleConfig::default()
+            },
+            Shard::ALL,
+        );
+        let e = &batch.episodes[0];
+        let (dir, _) = data();
+        let data = dir.path().join("DATA");
+        let (_, scene) = minos::io::scene_file::read_scene(&minos::io::scene_file::scene_path(
+            &data,
+            &e.scene_id,
+        ))
+        .unwrap();
+        let agent = minos::sim::AgentConfig::minos_continuous();
+        let assets =
+            Arc::new(minos::sim::SceneAssets::new(&scene, grid(&e.scene_id), &agent).unwrap());
+        let renderer = Arc::new(minos::sim::simulator::Renderer::Cpu);
+        let sensors = minos::sim::SensorSuite {
+            cameras: vec![],
+            contact: None,
+        };
+        let mut sim = minos::sim::Simulator::new(assets, renderer, agent, sensors, e.max_steps, 0);
+        sim.reset_episode(e);
+        let m = sim.observe().unwrap().measurements;
+        let got = m.goal_geodesic.expect("reachable");
+        // Object and room goals use the same distance field either way; a point goal's episode
+        // comes from a single-pair search, the measurement from a field: equal within 1%.
+        let tol = if task == Task::PointGoal { 0.01 } else { 1e-3 };
+        assert!(
+            (got - e.geodesic_distance).abs() < tol * e.geodesic_distance.max(1.0),
+            "{task:?}: {got} vs {}",
+            e.geodesic_distance
+        );
+        assert_eq!(m.position, e.start_position);
+    }
+}
