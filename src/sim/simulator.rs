@@ -168,6 +168,17 @@ pub struct Measurements {
     pub waypoint_direction: Option<[f32; 2]>,
 }
 
+/// The outcome of one step's motion.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Transition {
+    /// The state after the step.
+    pub state: AgentState,
+    /// The body hit something.
+    pub collided: bool,
+    /// Velocity the actions asked for (x, z), before collisions.
+    pub intended_velocity: [f32; 2],
+}
+
 /// Sensor images and measurements.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Observation {
@@ -319,13 +330,22 @@ impl Simulator {
 
     /// Applies `actions` for one time step and observes.
     pub fn step(&mut self, actions: Actions) -> Result<Observation, GpuError> {
-        let (disp, rot) = intended_motion(&self.agent, &mut self.state, actions);
-        self.state.yaw = (self.state.yaw + rot).rem_euclid(std::f32::consts::TAU);
-        let mut base = Vec3::from_array(self.state.position);
+        let t = self.transition(&self.state, actions);
+        self.state = t.state;
+        self.last_velocity = t.intended_velocity;
+        self.last_collision = t.collided;
+        self.step += 1;
+        self.observe()
+    }
+
+    /// What `actions` would do from `state`, without changing the simulator (planners use it).
+    pub fn transition(&self, state: &AgentState, actions: Actions) -> Transition {
+        let mut state = *state;
+        let (disp, rot) = intended_motion(&self.agent, &mut state, actions);
+        state.yaw = (state.yaw + rot).rem_euclid(std::f32::consts::TAU);
+        let mut base = Vec3::from_array(state.position);
         let total = Vec3::new(disp[0], 0.0, disp[1]);
-        let n = (total.length() / (SUBSTEP * self.agent.radius))
-            .ceil()
-            .max(1.0) as usize;
+        let n = (total.length() / (SUBSTEP * self.agent.radius)).ceil().max(1.0) as usize;
         let mut step = total / n as f32;
         let mut collided = false;
         let start = base;
@@ -353,14 +373,32 @@ impl Simulator {
         }
         let moved = base - start;
         let dt = self.agent.dt;
-        self.last_velocity = [total.x / dt, total.z / dt];
         if collided {
-            self.state.velocity = [moved.x / dt, moved.z / dt];
+            state.velocity = [moved.x / dt, moved.z / dt];
         }
-        self.state.position = base.to_array();
-        self.last_collision = collided;
-        self.step += 1;
-        self.observe()
+        state.position = base.to_array();
+        Transition { state, collided, intended_velocity: [total.x / dt, total.z / dt] }
+    }
+
+    /// The agent's body and motion model.
+    pub fn agent(&self) -> &AgentConfig {
+        &self.agent
+    }
+
+    /// Steps taken since the last reset.
+    pub fn steps(&self) -> u32 {
+        self.step
+    }
+
+    /// Geodesic distance (m) from a base position to the goal, from the goal's distance field
+    /// (the field's value at the nearest span plus the way to it); `None` without a goal or
+    /// when unreachable.
+    pub fn goal_field_distance(&self, p: Vec3) -> Option<f32> {
+        let goal = self.goal.as_ref()?;
+        let grid = &self.assets.grid;
+        let s = grid.snap(p)?;
+        let d = goal.field.distance(s)?;
+        Some(d + grid.span_position(s as usize).distance(p))
     }
 
     /// The cameras of the sensor suite at the current pose.
