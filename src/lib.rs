@@ -13,6 +13,7 @@ pub mod io;
 pub mod navmesh;
 pub mod progress;
 pub mod render;
+pub mod run;
 pub mod scene;
 pub mod seed;
 pub mod sim;

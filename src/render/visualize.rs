@@ -5,7 +5,6 @@ use std::path::Path;
 
 use image::{ImageBuffer, Luma, Rgb, RgbImage};
 
-use crate::io::atomic::write_atomic;
 use crate::sim::sensors::{Image, Modality};
 
 /// A fixed, well-spread colour for a label id (0 is black).
@@ -22,23 +21,28 @@ pub fn label_color(id: u32) -> [u8; 3] {
 }
 
 /// Writes `image` (of a sensor with `modality`, `width` × `height`) as a PNG.
-pub fn write_png(
-    path: &Path,
-    modality: Modality,
-    image: &Image,
-    width: u32,
-    height: u32,
-) -> std::io::Result<()> {
-    let err = |e: image::ImageError| std::io::Error::other(e.to_string());
+pub fn write_png(path: &Path, modality: Modality, image: &Image, width: u32, height: u32) -> std::io::Result<()> {
+    let bytes = encode_png(modality, image, width, height)?;
+    crate::io::atomic::write_bytes_atomic(path, &bytes)
+}
+
+/// Encodes `image` (of a sensor with `modality`, `width` × `height`) as PNG bytes.
+pub fn encode_png(modality: Modality, image: &Image, width: u32, height: u32) -> std::io::Result<Vec<u8>> {
     let n = (width * height) as usize;
-    let save_rgb = |pixels: Vec<[u8; 3]>| -> std::io::Result<()> {
+    fn encode<P: image::PixelWithColorType, C: std::ops::Deref<Target = [P::Subpixel]>>(img: &ImageBuffer<P, C>) -> std::io::Result<Vec<u8>>
+    where
+        [P::Subpixel]: image::EncodableLayout,
+    {
+        let mut out = std::io::Cursor::new(Vec::new());
+        img.write_to(&mut out, image::ImageFormat::Png).map_err(|e| std::io::Error::other(e.to_string()))?;
+        Ok(out.into_inner())
+    }
+    let save_rgb = |pixels: Vec<[u8; 3]>| -> std::io::Result<Vec<u8>> {
         let mut img = RgbImage::new(width, height);
         for (i, p) in pixels.into_iter().enumerate().take(n) {
             img.put_pixel(i as u32 % width, i as u32 / width, Rgb(p));
         }
-        write_atomic(path, |w| {
-            img.write_to(w, image::ImageFormat::Png).map_err(err)
-        })
+        encode(&img)
     };
     match (modality, image) {
         (Modality::Color, Image::U8 { data, .. }) => {
@@ -48,9 +52,7 @@ pub fn write_png(
             let img: ImageBuffer<Luma<u8>, Vec<u8>> =
                 ImageBuffer::from_raw(width, height, data.clone())
                     .ok_or_else(|| std::io::Error::other("size"))?;
-            write_atomic(path, |w| {
-                img.write_to(w, image::ImageFormat::Png).map_err(err)
-            })
+            encode(&img)
         }
         (Modality::Depth, Image::F32 { data, .. }) => {
             let mm: Vec<u16> = data
@@ -59,17 +61,13 @@ pub fn write_png(
                 .collect();
             let img: ImageBuffer<Luma<u16>, Vec<u16>> = ImageBuffer::from_raw(width, height, mm)
                 .ok_or_else(|| std::io::Error::other("size"))?;
-            write_atomic(path, |w| {
-                img.write_to(w, image::ImageFormat::Png).map_err(err)
-            })
+            encode(&img)
         }
         (Modality::Depth, Image::U16(data)) => {
             let img: ImageBuffer<Luma<u16>, Vec<u16>> =
                 ImageBuffer::from_raw(width, height, data.clone())
                     .ok_or_else(|| std::io::Error::other("size"))?;
-            write_atomic(path, |w| {
-                img.write_to(w, image::ImageFormat::Png).map_err(err)
-            })
+            encode(&img)
         }
         (Modality::Normal, Image::F32 { data, .. }) => save_rgb(
             data.chunks_exact(3)

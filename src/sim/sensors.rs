@@ -340,6 +340,22 @@ impl CameraSensor {
     }
 }
 
+/// `(dtype, channels)` of the images a camera sensor produces.
+pub fn dtype_of(c: &CameraSensor) -> (&'static str, u32) {
+    match c.modality {
+        Modality::Color => ("uint8", 3),
+        Modality::Gray | Modality::RoomClass => ("uint8", 1),
+        Modality::Depth => match c.depth_encoding {
+            DepthEncoding::Float => ("float32", 1),
+            DepthEncoding::U8 => ("uint8", 1),
+            DepthEncoding::U16 => ("uint16", 1),
+        },
+        Modality::Normal => ("float32", 3),
+        Modality::Semantic => ("uint16", 1),
+        Modality::Instance | Modality::Room => ("uint32", 1),
+    }
+}
+
 /// A standard normal sample (Box–Muller).
 fn gaussian(rng: &mut Rng) -> f32 {
     let u1 = rng.unit_f64().max(1e-12);

@@ -1,0 +1,191 @@
+//! Agents that drive a simulator: `random` (uniform over the action set), `forward` (forward,
+//! turning on collision), `oracle` (plans over reachable states, see `oracle.rs`), `replay`
+//! (actions from a trajectory file) and `external` (a process speaking JSON lines, see
+//! `external.rs`). An agent returns the actions of the next step or `stop`.
+
+use crate::episode::Episode;
+use crate::seed::{derive_seed, Rng};
+use crate::sim::agent::Motion;
+use crate::sim::{Actions, Observation, Simulator};
+
+/// What an agent does next.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Decision {
+    /// Apply these actions for one step.
+    Act(Actions),
+    /// Declare the goal reached.
+    Stop,
+}
+
+impl Decision {
+    /// A name for the trajectory table: `stop`, `idle`, or the non-zero actions joined by `+`.
+    pub fn name(&self) -> String {
+        match self {
+            Decision::Stop => "stop".into(),
+            Decision::Act(a) => {
+                let parts: Vec<&str> = [
+                    (a.forward, "forward"),
+                    (a.backward, "backward"),
+                    (a.strafe_left, "strafe_left"),
+                    (a.strafe_right, "strafe_right"),
+                    (a.turn_left, "turn_left"),
+                    (a.turn_right, "turn_right"),
+                    (a.look_up, "look_up"),
+                    (a.look_down, "look_down"),
+                ]
+                .iter()
+                .filter(|(v, _)| *v > 0.0)
+                .map(|(_, n)| *n)
+                .collect();
+                if parts.is_empty() {
+                    "idle".into()
+                } else {
+                    parts.join("+")
+                }
+            }
+        }
+    }
+
+    /// The 8 action strengths (zeros for stop).
+    pub fn strengths(&self) -> [f32; 8] {
+        match self {
+            Decision::Stop => [0.0; 8],
+            Decision::Act(a) => [a.forward, a.backward, a.strafe_left, a.strafe_right, a.turn_left, a.turn_right, a.look_up, a.look_down],
+        }
+    }
+
+    /// Rebuilds a decision from its name (`stop`, `idle`, `forward+turn_left`, …).
+    pub fn from_name(name: &str) -> Option<Decision> {
+        if name == "stop" {
+            return Some(Decision::Stop);
+        }
+        let mut a = Actions::IDLE;
+        for part in name.split('+') {
+            let one = Actions::single(part)?;
+            a.forward += one.forward;
+            a.backward += one.backward;
+            a.strafe_left += one.strafe_left;
+            a.strafe_right += one.strafe_right;
+            a.turn_left += one.turn_left;
+            a.turn_right += one.turn_right;
+            a.look_up += one.look_up;
+            a.look_down += one.look_down;
+        }
+        Some(Decision::Act(a))
+    }
+}
+
+/// An agent.
+pub trait Agent: Send {
+    /// Prepares for an episode (the simulator has been reset to it).
+    fn reset(&mut self, episode: &Episode, sim: &Simulator) -> Result<(), String>;
+    /// The next decision given the latest observation.
+    fn decide(&mut self, obs: &Observation, sim: &Simulator) -> Result<Decision, String>;
+    /// Whether success needs an explicit `stop` from this agent.
+    fn stops(&self) -> bool {
+        false
+    }
+}
+
+/// The single actions an agent of this motion model chooses among.
+pub fn action_set(sim: &Simulator) -> &'static [&'static str] {
+    match sim.agent().motion {
+        Motion::Discrete { .. } => &["forward", "turn_left", "turn_right"],
+        Motion::Continuous { .. } => &["forward", "backward", "strafe_left", "strafe_right", "turn_left", "turn_right"],
+    }
+}
+
+/// Uniformly random actions, seeded per episode.
+pub struct RandomAgent {
+    seed: u64,
+    rng: Rng,
+}
+
+impl RandomAgent {
+    /// A random agent for the run's seed.
+    pub fn new(seed: u64) -> Self {
+        RandomAgent { seed, rng: Rng::new(seed) }
+    }
+}
+
+impl Agent for RandomAgent {
+    fn reset(&mut self, episode: &Episode, _sim: &Simulator) -> Result<(), String> {
+        self.rng = Rng::new(derive_seed(self.seed, &[&episode.episode_id, "random-agent"]));
+        Ok(())
+    }
+    fn decide(&mut self, _obs: &Observation, sim: &Simulator) -> Result<Decision, String> {
+        let set = action_set(sim);
+        let name = set[self.rng.below(set.len())];
+        Ok(Decision::Act(Actions::single(name).unwrap_or(Actions::IDLE)))
+    }
+}
+
+/// Forward until a collision, then a few turns in a random direction.
+pub struct ForwardAgent {
+    seed: u64,
+    rng: Rng,
+    turning: u32,
+    turn: &'static str,
+}
+
+impl ForwardAgent {
+    /// A forward agent for the run's seed.
+    pub fn new(seed: u64) -> Self {
+        ForwardAgent { seed, rng: Rng::new(seed), turning: 0, turn: "turn_left" }
+    }
+}
+
+impl Agent for ForwardAgent {
+    fn reset(&mut self, episode: &Episode, _sim: &Simulator) -> Result<(), String> {
+        self.rng = Rng::new(derive_seed(self.seed, &[&episode.episode_id, "forward-agent"]));
+        self.turning = 0;
+        Ok(())
+    }
+    fn decide(&mut self, obs: &Observation, _sim: &Simulator) -> Result<Decision, String> {
+        if obs.measurements.collision && self.turning == 0 {
+            self.turning = 1 + self.rng.below(4) as u32;
+            self.turn = if self.rng.chance(0.5) { "turn_left" } else { "turn_right" };
+        }
+        let name = if self.turning > 0 {
+            self.turning -= 1;
+            self.turn
+        } else {
+            "forward"
+        };
+        Ok(Decision::Act(Actions::single(name).unwrap_or(Actions::IDLE)))
+    }
+}
+
+/// Replays recorded decisions (from a trajectory table) per episode.
+pub struct ReplayAgent {
+    by_episode: std::collections::HashMap<String, Vec<Decision>>,
+    current: Vec<Decision>,
+    next: usize,
+}
+
+impl ReplayAgent {
+    /// An agent replaying `(episode id, decisions in step order)`.
+    pub fn new(by_episode: std::collections::HashMap<String, Vec<Decision>>) -> Self {
+        ReplayAgent { by_episode, current: Vec::new(), next: 0 }
+    }
+}
+
+impl Agent for ReplayAgent {
+    fn reset(&mut self, episode: &Episode, _sim: &Simulator) -> Result<(), String> {
+        self.current = self
+            .by_episode
+            .get(&episode.episode_id)
+            .cloned()
+            .ok_or_else(|| format!("the replay file has no episode `{}`", episode.episode_id))?;
+        self.next = 0;
+        Ok(())
+    }
+    fn decide(&mut self, _obs: &Observation, _sim: &Simulator) -> Result<Decision, String> {
+        let d = self.current.get(self.next).copied().unwrap_or(Decision::Stop);
+        self.next += 1;
+        Ok(d)
+    }
+    fn stops(&self) -> bool {
+        true
+    }
+}

@@ -1,0 +1,299 @@
+//! The Parquet tables a run writes: trajectories (one row per step), observations (one row
+//! per step, one binary column per sensor, streamed in row groups so an episode is never held
+//! whole in memory) and episodes with their metrics. Each episode is written to its own part
+//! files; `merge` concatenates parts in episode order into the final tables.
+
+use std::collections::HashMap;
+use std::fs::File;
+use std::path::Path;
+use std::sync::Arc;
+
+use arrow::array::{
+    ArrayRef, BinaryBuilder, BooleanArray, BooleanBuilder, Float32Array, Float32Builder, ListBuilder, RecordBatch, StringArray, UInt32Array,
+};
+use arrow::datatypes::{DataType, Field, Schema, SchemaRef};
+use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
+use parquet::arrow::ArrowWriter;
+use parquet::basic::{Compression, ZstdLevel};
+use parquet::file::properties::WriterProperties;
+
+use crate::io::atomic::temp_path;
+use crate::sim::sensors::{CameraSensor, Image};
+
+/// Observation rows per row group.
+pub const ROW_GROUP: usize = 32;
+
+/// A table failure (the message names the file).
+pub type TableError = String;
+
+fn props() -> WriterProperties {
+    WriterProperties::builder()
+        .set_compression(Compression::ZSTD(ZstdLevel::try_new(1).unwrap_or_default()))
+        .set_max_row_group_row_count(Some(ROW_GROUP * 8))
+        .build()
+}
+
+/// Schema of the trajectory table.
+pub fn trajectory_schema() -> SchemaRef {
+    let f32_list = DataType::List(Arc::new(Field::new("item", DataType::Float32, true)));
+    let bool_list = DataType::List(Arc::new(Field::new("item", DataType::Boolean, true)));
+    Arc::new(Schema::new(vec![
+        Field::new("episode_id", DataType::Utf8, false),
+        Field::new("step", DataType::UInt32, false),
+        Field::new("x", DataType::Float32, false),
+        Field::new("y", DataType::Float32, false),
+        Field::new("z", DataType::Float32, false),
+        Field::new("yaw", DataType::Float32, false),
+        Field::new("tilt", DataType::Float32, false),
+        Field::new("action", DataType::Utf8, false),
+        Field::new("action_strengths", f32_list, false),
+        Field::new("reward", DataType::Float32, false),
+        Field::new("collision", DataType::Boolean, false),
+        Field::new("contacts", bool_list, false),
+        Field::new("euclidean_distance", DataType::Float32, true),
+        Field::new("geodesic_distance", DataType::Float32, true),
+        Field::new("done", DataType::Boolean, false),
+        Field::new("success", DataType::Boolean, false),
+    ]))
+}
+
+/// One trajectory row.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StepRow {
+    /// Step index.
+    pub step: u32,
+    /// Pose before the action: x, y, z, yaw, tilt.
+    pub pose: [f32; 5],
+    /// Action name.
+    pub action: String,
+    /// Action strengths.
+    pub strengths: [f32; 8],
+    /// Reward received.
+    pub reward: f32,
+    /// The action's motion collided.
+    pub collision: bool,
+    /// Contacts after the action.
+    pub contacts: Vec<bool>,
+    /// Distances to the goal before the action.
+    pub euclidean: Option<f32>,
+    /// Geodesic distance to the goal before the action.
+    pub geodesic: Option<f32>,
+    /// The episode ended after this action.
+    pub done: bool,
+    /// The episode succeeded (set on its last row).
+    pub success: bool,
+}
+
+/// Writes an episode's trajectory rows.
+pub fn write_trajectory(path: &Path, episode: &str, rows: &[StepRow]) -> Result<(), TableError> {
+    let n = rows.len();
+    let f = |g: &dyn Fn(&StepRow) -> f32| -> ArrayRef { Arc::new(rows.iter().map(g).collect::<Float32Array>()) };
+    let mut strengths = ListBuilder::new(Float32Builder::new());
+    let mut contacts = ListBuilder::new(BooleanBuilder::new());
+    for r in rows {
+        strengths.values().append_slice(&r.strengths);
+        strengths.append(true);
+        for c in &r.contacts {
+            contacts.values().append_value(*c);
+        }
+        contacts.append(true);
+    }
+    let columns: Vec<ArrayRef> = vec![
+        Arc::new(StringArray::from_iter_values(std::iter::repeat_n(episode, n))),
+        Arc::new(rows.iter().map(|r| r.step).collect::<UInt32Array>()),
+        f(&|r| r.pose[0]),
+        f(&|r| r.pose[1]),
+        f(&|r| r.pose[2]),
+        f(&|r| r.pose[3]),
+        f(&|r| r.pose[4]),
+        Arc::new(StringArray::from_iter_values(rows.iter().map(|r| r.action.as_str()))),
+        Arc::new(strengths.finish()),
+        f(&|r| r.reward),
+        Arc::new(rows.iter().map(|r| Some(r.collision)).collect::<BooleanArray>()),
+        Arc::new(contacts.finish()),
+        Arc::new(rows.iter().map(|r| r.euclidean).collect::<Float32Array>()),
+        Arc::new(rows.iter().map(|r| r.geodesic).collect::<Float32Array>()),
+        Arc::new(rows.iter().map(|r| Some(r.done)).collect::<BooleanArray>()),
+        Arc::new(rows.iter().map(|r| Some(r.success)).collect::<BooleanArray>()),
+    ];
+    let batch = RecordBatch::try_new(trajectory_schema(), columns).map_err(|e| format!("{}: {e}", path.display()))?;
+    write_batches(path, trajectory_schema(), std::iter::once(batch))
+}
+
+fn write_batches(path: &Path, schema: SchemaRef, batches: impl Iterator<Item = RecordBatch>) -> Result<(), TableError> {
+    let tmp = temp_path(path);
+    let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
+    if let Some(dir) = path.parent() {
+        std::fs::create_dir_all(dir).map_err(|e| err(&e))?;
+    }
+    let file = File::create(&tmp).map_err(|e| err(&e))?;
+    let mut w = ArrowWriter::try_new(file, schema, Some(props())).map_err(|e| err(&e))?;
+    for b in batches {
+        w.write(&b).map_err(|e| err(&e))?;
+    }
+    w.close().map_err(|e| err(&e))?;
+    std::fs::rename(&tmp, path).map_err(|e| err(&e))
+}
+
+/// How images are stored.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ImageEncoding {
+    /// Raw little-endian pixels; shape and dtype in the column metadata.
+    #[default]
+    Raw,
+    /// PNG files (8- or 16-bit; float depth as 16-bit millimetres).
+    Png,
+}
+
+/// Schema of the observation table for a sensor suite.
+pub fn observation_schema(cameras: &[CameraSensor], encoding: ImageEncoding) -> SchemaRef {
+    let mut fields = vec![Field::new("episode_id", DataType::Utf8, false), Field::new("step", DataType::UInt32, false)];
+    for c in cameras {
+        let (dtype, channels) = crate::sim::sensors::dtype_of(c);
+        let mut meta = HashMap::new();
+        meta.insert("shape".to_string(), format!("[{}, {}, {}]", c.resolution[1], c.resolution[0], channels));
+        meta.insert("dtype".to_string(), dtype.to_string());
+        meta.insert("modality".to_string(), format!("{:?}", c.modality).to_lowercase());
+        meta.insert("encoding".to_string(), match encoding { ImageEncoding::Raw => "raw-le", ImageEncoding::Png => "png" }.to_string());
+        fields.push(Field::new(&c.name, DataType::Binary, false).with_metadata(meta));
+    }
+    Arc::new(Schema::new(fields))
+}
+
+/// Streams one episode's observations into a part file, a row group at a time.
+pub struct ObservationWriter {
+    path: std::path::PathBuf,
+    tmp: std::path::PathBuf,
+    writer: ArrowWriter<File>,
+    schema: SchemaRef,
+    encoding: ImageEncoding,
+    cameras: Vec<CameraSensor>,
+    episode: String,
+    pending: Vec<(u32, Vec<Vec<u8>>)>,
+}
+
+impl ObservationWriter {
+    /// Starts the part file of `episode`.
+    pub fn create(path: &Path, episode: &str, cameras: &[CameraSensor], encoding: ImageEncoding) -> Result<Self, TableError> {
+        let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
+        if let Some(dir) = path.parent() {
+            std::fs::create_dir_all(dir).map_err(|e| err(&e))?;
+        }
+        let tmp = temp_path(path);
+        let schema = observation_schema(cameras, encoding);
+        let writer = ArrowWriter::try_new(File::create(&tmp).map_err(|e| err(&e))?, schema.clone(), Some(props())).map_err(|e| err(&e))?;
+        Ok(ObservationWriter { path: path.to_path_buf(), tmp, writer, schema, encoding, cameras: cameras.to_vec(), episode: episode.to_string(), pending: Vec::new() })
+    }
+
+    /// Adds the images of one step.
+    pub fn push(&mut self, step: u32, images: &[(String, Image)]) -> Result<(), TableError> {
+        let mut cols = Vec::with_capacity(images.len());
+        for ((_, img), cam) in images.iter().zip(&self.cameras) {
+            cols.push(match self.encoding {
+                ImageEncoding::Raw => img.to_le_bytes(),
+                ImageEncoding::Png => crate::render::visualize::encode_png(cam.modality, img, cam.resolution[0], cam.resolution[1])
+                    .map_err(|e| format!("{}: sensor {}: {e}", self.path.display(), cam.name))?,
+            });
+        }
+        self.pending.push((step, cols));
+        if self.pending.len() >= ROW_GROUP {
+            self.flush()?;
+        }
+        Ok(())
+    }
+
+    fn flush(&mut self) -> Result<(), TableError> {
+        if self.pending.is_empty() {
+            return Ok(());
+        }
+        let n = self.pending.len();
+        let mut columns: Vec<ArrayRef> = vec![
+            Arc::new(StringArray::from_iter_values(std::iter::repeat_n(self.episode.as_str(), n))),
+            Arc::new(self.pending.iter().map(|(s, _)| *s).collect::<UInt32Array>()),
+        ];
+        for k in 0..self.cameras.len() {
+            let mut b = BinaryBuilder::new();
+            for (_, cols) in &self.pending {
+                b.append_value(&cols[k]);
+            }
+            columns.push(Arc::new(b.finish()));
+        }
+        let batch = RecordBatch::try_new(self.schema.clone(), columns).map_err(|e| format!("{}: {e}", self.path.display()))?;
+        self.writer.write(&batch).map_err(|e| format!("{}: {e}", self.path.display()))?;
+        self.writer.flush().map_err(|e| format!("{}: {e}", self.path.display()))?;
+        self.pending.clear();
+        Ok(())
+    }
+
+    /// Finishes the part file (renamed into place).
+    pub fn finish(mut self) -> Result<(), TableError> {
+        self.flush()?;
+        let path = self.path.clone();
+        self.writer.close().map_err(|e| format!("{}: {e}", path.display()))?;
+        std::fs::rename(&self.tmp, &path).map_err(|e| format!("{}: {e}", path.display()))
+    }
+}
+
+/// Concatenates part files (in the order given) into `out`, batch by batch.
+pub fn merge(parts: &[std::path::PathBuf], schema: SchemaRef, out: &Path) -> Result<(), TableError> {
+    let mut readers = Vec::new();
+    for p in parts {
+        let f = File::open(p).map_err(|e| format!("{}: {e}", p.display()))?;
+        let r = ParquetRecordBatchReaderBuilder::try_new(f).and_then(|b| b.with_batch_size(ROW_GROUP).build()).map_err(|e| format!("{}: {e}", p.display()))?;
+        readers.push(r);
+    }
+    let mut failure = None;
+    let batches = readers.into_iter().flatten().map_while(|b| match b {
+        Ok(b) => Some(b),
+        Err(e) => {
+            failure = Some(e.to_string());
+            None
+        }
+    });
+    let result = write_batches(out, schema, batches);
+    match failure {
+        Some(e) => Err(format!("{}: {e}", out.display())),
+        None => result,
+    }
+}
+
+/// Writes the episode table: the episodes' own columns that matter for analysis and their
+/// metrics.
+pub fn write_episode_table(path: &Path, rows: &[(crate::episode::Episode, super::metrics::EpisodeMetrics)]) -> Result<(), TableError> {
+    let schema = Arc::new(Schema::new(vec![
+        Field::new("episode_id", DataType::Utf8, false),
+        Field::new("scene_id", DataType::Utf8, false),
+        Field::new("task", DataType::Utf8, false),
+        Field::new("split", DataType::Utf8, false),
+        Field::new("difficulty", DataType::Utf8, false),
+        Field::new("geodesic_distance", DataType::Float32, false),
+        Field::new("success", DataType::Boolean, false),
+        Field::new("spl", DataType::Float32, false),
+        Field::new("soft_spl", DataType::Float32, false),
+        Field::new("speed", DataType::Float32, false),
+        Field::new("path_length", DataType::Float32, false),
+        Field::new("steps", DataType::UInt32, false),
+        Field::new("collisions", DataType::UInt32, false),
+        Field::new("final_geodesic", DataType::Float32, true),
+    ]));
+    let s = |f: &dyn Fn(&crate::episode::Episode) -> String| -> ArrayRef { Arc::new(StringArray::from_iter_values(rows.iter().map(|(e, _)| f(e)))) };
+    let m = |f: &dyn Fn(&super::metrics::EpisodeMetrics) -> f32| -> ArrayRef { Arc::new(rows.iter().map(|(_, m)| f(m)).collect::<Float32Array>()) };
+    let columns: Vec<ArrayRef> = vec![
+        s(&|e| e.episode_id.clone()),
+        s(&|e| e.scene_id.clone()),
+        s(&|e| e.task.name().to_string()),
+        s(&|e| e.split.clone()),
+        s(&|e| e.difficulty.name().to_string()),
+        Arc::new(rows.iter().map(|(e, _)| e.geodesic_distance).collect::<Float32Array>()),
+        Arc::new(rows.iter().map(|(_, m)| Some(m.success)).collect::<BooleanArray>()),
+        m(&|m| m.spl),
+        m(&|m| m.soft_spl),
+        m(&|m| m.speed),
+        m(&|m| m.path_length),
+        Arc::new(rows.iter().map(|(_, m)| m.steps).collect::<UInt32Array>()),
+        Arc::new(rows.iter().map(|(_, m)| m.collisions).collect::<UInt32Array>()),
+        Arc::new(rows.iter().map(|(_, m)| m.final_geodesic.is_finite().then_some(m.final_geodesic)).collect::<Float32Array>()),
+    ];
+    let batch = RecordBatch::try_new(schema.clone(), columns).map_err(|e| format!("{}: {e}", path.display()))?;
+    write_batches(path, schema, std::iter::once(batch))
+}
