@@ -16,6 +16,7 @@ mod ingest;
 mod nav;
 mod range;
 mod render;
+mod run;
 mod split;
 mod stats;
 
@@ -60,6 +61,8 @@ enum Command {
     Episodes(Box<episodes::Args>),
     /// Render what an agent's sensors see at a pose (one PNG per sensor).
     Render(render::Args),
+    /// Roll out episodes with an agent into Parquet datasets and metrics.
+    Run(run::Args),
     /// Export a compiled scene's world-space geometry as OBJ or GLB.
     Export(export::Args),
     /// Run the whole pipeline on generated houses into ./minos-demo/.
@@ -88,6 +91,7 @@ pub fn main() -> ExitCode {
         Command::Nav(a) => nav::run(a, &ctx),
         Command::Episodes(a) => episodes::run(*a, &ctx),
         Command::Render(a) => render::run(a, &ctx),
+        Command::Run(a) => run::run(a, &ctx),
         Command::Export(a) => export::run(a, &ctx),
         Command::Demo(a) => demo::run(a, &ctx),
     };

@@ -16,7 +16,9 @@ use crate::sim::{Actions, Observation, Simulator};
 use super::agents::{action_set, Agent, Decision};
 
 /// Largest number of states one plan may expand.
-const MAX_EXPANSIONS: usize = 400_000;
+const MAX_EXPANSIONS: usize = 40_000;
+/// Weight of the heuristic (weighted A*: plans within a small factor of the fewest steps).
+const WEIGHT: f32 = 1.5;
 
 /// The oracle agent.
 #[derive(Default)]
@@ -48,45 +50,98 @@ pub fn reached(sim: &Simulator, episode: &Episode, state: &AgentState) -> bool {
 
 fn key(s: &AgentState, continuous: bool) -> (i32, i32, i32, i32, i32, i32) {
     let q = |v: f32, step: f32| (v / step).round() as i32;
-    let yaw = q(s.yaw.rem_euclid(std::f32::consts::TAU), 0.002) % q(std::f32::consts::TAU, 0.002);
+    let yaw = q(s.yaw.rem_euclid(std::f32::consts::TAU), 0.01) % q(std::f32::consts::TAU, 0.01);
     if continuous {
-        (q(s.position[0], 0.01), q(s.position[2], 0.01), yaw, q(s.velocity[0], 0.05), q(s.velocity[1], 0.05), q(s.angular_velocity, 0.05))
+        (q(s.position[0], 0.02), q(s.position[2], 0.02), yaw, q(s.velocity[0], 0.1), q(s.velocity[1], 0.1), q(s.angular_velocity, 0.1))
     } else {
-        (q(s.position[0], 0.01), q(s.position[2], 0.01), yaw, q(s.position[1], 0.01), 0, 0)
+        (q(s.position[0], 0.02), q(s.position[2], 0.02), yaw, q(s.position[1], 0.02), 0, 0)
     }
 }
 
-/// A* over simulated states; returns the action names of a shortest plan.
+/// Progress (m of geodesic distance) each planning segment must make.
+const SEGMENT: f32 = 3.0;
+
+/// The geodesic distance that counts for planning: to the goal field, minus the success radius
+/// of a point goal.
+fn remaining(sim: &Simulator, episode: &Episode, s: &AgentState) -> f32 {
+    let p = Vec3::from_array(s.position);
+    match &episode.goal {
+        Goal::Point { position } => {
+            sim.goal_field_distance(p).unwrap_or_else(|| p.distance(Vec3::from_array(*position))) - episode.success_radius
+        }
+        _ => sim.goal_field_distance(p).unwrap_or(f32::INFINITY),
+    }
+}
+
+/// Plans in segments: each a weighted A* over simulated states until the remaining geodesic
+/// distance has dropped by [`SEGMENT`] (or the goal is reached), so every search stays small.
 fn plan(sim: &Simulator, episode: &Episode, start: AgentState) -> Option<Vec<&'static str>> {
+    let mut out = Vec::new();
+    let mut state = start;
+    for _ in 0..10_000 {
+        if reached(sim, episode, &state) {
+            return Some(out);
+        }
+        let now = remaining(sim, episode, &state);
+        if !now.is_finite() {
+            return None;
+        }
+        let attempt = [SEGMENT, 1.0, 0.3].iter().find_map(|seg| search(sim, episode, state, (now - seg).max(-1.0)));
+        let (actions, end) = attempt?;
+        if actions.is_empty() {
+            return None;
+        }
+        out.extend(actions);
+        state = end;
+    }
+    None
+}
+
+/// Weighted A* from `start` to a state that reaches the goal or whose remaining distance is at
+/// most `target`; returns the actions and the end state.
+fn search(sim: &Simulator, episode: &Episode, start: AgentState, target: f32) -> Option<(Vec<&'static str>, AgentState)> {
     let continuous = matches!(sim.agent().motion, Motion::Continuous { .. });
     let max_move = match sim.agent().motion {
         Motion::Discrete { step, .. } => step,
         Motion::Continuous { max_speed, .. } => max_speed * sim.agent().dt,
     };
-    let h = |s: &AgentState| -> f32 {
-        let p = Vec3::from_array(s.position);
-        let d = match &episode.goal {
-            Goal::Point { position } => sim
-                .goal_field_distance(p)
-                .unwrap_or_else(|| p.distance(Vec3::from_array(*position)))
-                - episode.success_radius,
-            _ => sim.goal_field_distance(p).unwrap_or(f32::INFINITY),
-        };
-        (d.max(0.0) / max_move).floor()
+    let turn_step = match sim.agent().motion {
+        Motion::Discrete { turn_deg, .. } => turn_deg.to_radians(),
+        Motion::Continuous { turn_acceleration, max_angular_speed, .. } => {
+            (turn_acceleration * sim.agent().dt).min(max_angular_speed) * sim.agent().dt
+        }
     };
+    let grid = &sim.assets().grid;
+    // Steps still needed: the distance left to the target over the longest move, plus the
+    // turns needed to face the next corner of the shortest path (the field's anchor).
+    let h = |s: &AgentState, d: f32| -> f32 {
+        let p = Vec3::from_array(s.position);
+        let mut turns = 0.0;
+        if let Some(anchor) = grid.snap(p).and_then(|sp| sim.goal_anchor(sp)) {
+            let a = grid.span_position(anchor as usize) - p;
+            if a.x * a.x + a.z * a.z > max_move * max_move {
+                let want = (-a.x).atan2(-a.z);
+                let diff = (want - s.yaw + std::f32::consts::PI).rem_euclid(std::f32::consts::TAU) - std::f32::consts::PI;
+                turns = ((diff.abs() - 0.5 * turn_step) / turn_step).ceil().max(0.0);
+            }
+        }
+        WEIGHT * (((d - target).max(0.0) / max_move).floor() + turns)
+    };
+    let done = |s: &AgentState, d: f32| d <= target || reached(sim, episode, s);
     let actions = action_set(sim);
     let mut states: Vec<(AgentState, u32, Option<(u32, u8)>)> = vec![(start, 0, None)];
     let mut best: HashMap<(i32, i32, i32, i32, i32, i32), u32> = HashMap::new();
     best.insert(key(&start, continuous), 0);
     let mut open = BinaryHeap::new();
-    open.push(Reverse(((h(&start) * 1000.0) as u64, 0u32, 0u32)));
+    let d0 = remaining(sim, episode, &start);
+    open.push(Reverse(((h(&start, d0) * 1000.0) as u64, 0u32, 0u32)));
     let mut expansions = 0;
-    while let Some(Reverse((_, g, id))) = open.pop() {
+    while let Some(Reverse((_, _, id))) = open.pop() {
         let (state, cost, _) = states[id as usize];
-        if cost != g {
-            continue;
+        if best.get(&key(&state, continuous)) != Some(&cost) {
+            continue; // a cheaper way to this state was found after this entry was queued
         }
-        if reached(sim, episode, &state) {
+        if id != 0 && done(&state, remaining(sim, episode, &state)) {
             let mut out = Vec::new();
             let mut cur = id;
             while let Some((parent, a)) = states[cur as usize].2 {
@@ -94,7 +149,7 @@ fn plan(sim: &Simulator, episode: &Episode, start: AgentState) -> Option<Vec<&'s
                 cur = parent;
             }
             out.reverse();
-            return Some(out);
+            return Some((out, state));
         }
         expansions += 1;
         if expansions > MAX_EXPANSIONS {
@@ -108,15 +163,15 @@ fn plan(sim: &Simulator, episode: &Episode, start: AgentState) -> Option<Vec<&'s
             if best.get(&k).is_some_and(|&b| b <= ng) {
                 continue;
             }
-            let hv = h(&t.state);
-            if !hv.is_finite() {
+            let d = remaining(sim, episode, &t.state);
+            if !d.is_finite() {
                 continue;
             }
             best.insert(k, ng);
             states.push((t.state, ng, Some((id, ai as u8))));
-            let f = ng as f32 + hv;
+            let f = ng as f32 + h(&t.state, d);
             // Ties go to the deeper state, then to the first created: deterministic.
-            open.push(Reverse(((f * 1000.0) as u64, ng, (states.len() - 1) as u32)));
+            open.push(Reverse(((f * 1000.0) as u64, u32::MAX - ng, (states.len() - 1) as u32)));
         }
     }
     None

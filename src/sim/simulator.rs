@@ -390,6 +390,11 @@ impl Simulator {
         self.step
     }
 
+    /// The goal field's anchor of a span (the next corner of its shortest path), if any.
+    pub fn goal_anchor(&self, span: u32) -> Option<u32> {
+        self.goal.as_ref()?.field.anchor(span)
+    }
+
     /// Geodesic distance (m) from a base position to the goal, from the goal's distance field
     /// (the field's value at the nearest span plus the way to it); `None` without a goal or
     /// when unreachable.
