@@ -16,6 +16,11 @@ pub enum Dataset {
     /// SUNCG: <root>/house/<id>/house.json (or <root>/<id>/house.json) with room/, object/,
     /// metadata/ModelCategoryMapping.csv; meshes as .obj or .gltf/.glb.
     Suncg,
+    /// 3D-FRONT: <root>/<scene uid>.json; furniture meshes from --models (3D-FUTURE
+    /// <jid>/raw_model.obj) or boxes; categories from --categories, else a model_info.json or
+    /// *ModelCategoryMapping.csv in --models, <root>, <root>/metadata or <root>/../metadata.
+    #[value(name = "3dfront")]
+    ThreeDFront,
 }
 
 /// Load scenes into compiled scenes (DATA/scenes/) and a Parquet manifest (DATA/houses.parquet).
@@ -49,6 +54,9 @@ pub struct Args {
     /// SUNCG category table, if not <root>/metadata/ModelCategoryMapping.csv.
     #[arg(long, value_name = "FILE")]
     categories: Option<PathBuf>,
+    /// 3D-FRONT: 3D-FUTURE model folder (<jid>/raw_model.obj); furniture are boxes without it.
+    #[arg(long, value_name = "DIR")]
+    models: Option<PathBuf>,
     /// Rebuild every compiled scene.
     #[arg(long)]
     force: bool,
@@ -63,12 +71,14 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     let cfg = IngestConfig {
         format: match args.dataset {
             Dataset::Suncg => DatasetFormat::Suncg,
+            Dataset::ThreeDFront => DatasetFormat::ThreeDFront,
         },
         root: args.root.clone(),
         data: args.out.clone(),
         ids,
         force: args.force,
         categories: args.categories.clone(),
+        models: args.models.clone(),
     };
     let start = Instant::now();
     let report = {

@@ -15,6 +15,7 @@ use crate::io::manifest::{read_manifest, write_manifest, ManifestError, Manifest
 use crate::io::scene_file::{read_header, read_scene, scene_path, write_scene, SceneHeader};
 use crate::progress::Progress;
 use crate::scene::formats::suncg::SuncgLoader;
+use crate::scene::formats::threedfront::ThreeDFrontLoader;
 use crate::scene::formats::{DatasetLoader, LoadError, SceneEntry};
 
 /// Dataset formats ingest reads.
@@ -22,6 +23,8 @@ use crate::scene::formats::{DatasetLoader, LoadError, SceneEntry};
 pub enum DatasetFormat {
     /// SUNCG `house.json` houses.
     Suncg,
+    /// 3D-FRONT scene JSON files (furniture meshes from `models` when given).
+    ThreeDFront,
 }
 
 impl DatasetFormat {
@@ -31,6 +34,11 @@ impl DatasetFormat {
             DatasetFormat::Suncg => {
                 Box::new(SuncgLoader::open(&cfg.root, cfg.categories.as_deref())?)
             }
+            DatasetFormat::ThreeDFront => Box::new(ThreeDFrontLoader::open(
+                &cfg.root,
+                cfg.models.as_deref(),
+                cfg.categories.as_deref(),
+            )?),
         })
     }
 }
@@ -50,6 +58,9 @@ pub struct IngestConfig {
     pub force: bool,
     /// Category table overriding the one found under the root.
     pub categories: Option<PathBuf>,
+    /// 3D-FRONT: the 3D-FUTURE model folder (`<jid>/raw_model.obj`); furniture are boxes
+    /// without it.
+    pub models: Option<PathBuf>,
 }
 
 impl IngestConfig {
@@ -62,6 +73,7 @@ impl IngestConfig {
             ids: None,
             force: false,
             categories: None,
+            models: None,
         }
     }
 }

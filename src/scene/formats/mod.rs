@@ -6,6 +6,7 @@
 pub mod gltf_mesh;
 pub mod obj_mesh;
 pub mod suncg;
+pub mod threedfront;
 
 use std::path::{Path, PathBuf};
 
