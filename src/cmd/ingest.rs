@@ -16,6 +16,10 @@ pub enum Dataset {
     /// SUNCG: <root>/house/<id>/house.json (or <root>/<id>/house.json) with room/, object/,
     /// metadata/ModelCategoryMapping.csv; meshes as .obj or .gltf/.glb.
     Suncg,
+    /// glTF: every .glb/.gltf (id = file stem) and *.scene_instance.json under <root>, with
+    /// Habitat stage/object/dataset configs and HM3D .semantic.txt beside them; --categories
+    /// takes a Habitat category-mapping TSV (raw_category, category, mpcat40).
+    Gltf,
 }
 
 /// Load scenes into compiled scenes (DATA/scenes/) and a Parquet manifest (DATA/houses.parquet).
@@ -63,6 +67,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     let cfg = IngestConfig {
         format: match args.dataset {
             Dataset::Suncg => DatasetFormat::Suncg,
+            Dataset::Gltf => DatasetFormat::Gltf,
         },
         root: args.root.clone(),
         data: args.out.clone(),

@@ -14,6 +14,7 @@ use rayon::prelude::*;
 use crate::io::manifest::{read_manifest, write_manifest, ManifestError, ManifestRow};
 use crate::io::scene_file::{read_header, read_scene, scene_path, write_scene, SceneHeader};
 use crate::progress::Progress;
+use crate::scene::formats::gltf_scene::GltfLoader;
 use crate::scene::formats::suncg::SuncgLoader;
 use crate::scene::formats::{DatasetLoader, LoadError, SceneEntry};
 
@@ -22,6 +23,8 @@ use crate::scene::formats::{DatasetLoader, LoadError, SceneEntry};
 pub enum DatasetFormat {
     /// SUNCG `house.json` houses.
     Suncg,
+    /// glTF / GLB scenes, with optional Habitat configs.
+    Gltf,
 }
 
 impl DatasetFormat {
@@ -30,6 +33,9 @@ impl DatasetFormat {
         Ok(match self {
             DatasetFormat::Suncg => {
                 Box::new(SuncgLoader::open(&cfg.root, cfg.categories.as_deref())?)
+            }
+            DatasetFormat::Gltf => {
+                Box::new(GltfLoader::open(&cfg.root, cfg.categories.as_deref())?)
             }
         })
     }
