@@ -21,6 +21,10 @@ pub enum Dataset {
     /// *ModelCategoryMapping.csv in --models, <root>, <root>/metadata or <root>/../metadata.
     #[value(name = "3dfront")]
     ThreeDFront,
+    /// glTF: every .glb/.gltf (id = file stem) and *.scene_instance.json under <root>, with
+    /// Habitat stage/object/dataset configs and HM3D .semantic.txt beside them; --categories
+    /// takes a Habitat category-mapping TSV (raw_category, category, mpcat40).
+    Gltf,
 }
 
 /// Load scenes into compiled scenes (DATA/scenes/) and a Parquet manifest (DATA/houses.parquet).
@@ -72,6 +76,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         format: match args.dataset {
             Dataset::Suncg => DatasetFormat::Suncg,
             Dataset::ThreeDFront => DatasetFormat::ThreeDFront,
+            Dataset::Gltf => DatasetFormat::Gltf,
         },
         root: args.root.clone(),
         data: args.out.clone(),

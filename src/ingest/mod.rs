@@ -14,6 +14,7 @@ use rayon::prelude::*;
 use crate::io::manifest::{read_manifest, write_manifest, ManifestError, ManifestRow};
 use crate::io::scene_file::{read_header, read_scene, scene_path, write_scene, SceneHeader};
 use crate::progress::Progress;
+use crate::scene::formats::gltf_scene::GltfLoader;
 use crate::scene::formats::suncg::SuncgLoader;
 use crate::scene::formats::threedfront::ThreeDFrontLoader;
 use crate::scene::formats::{DatasetLoader, LoadError, SceneEntry};
@@ -25,6 +26,8 @@ pub enum DatasetFormat {
     Suncg,
     /// 3D-FRONT scene JSON files (furniture meshes from `models` when given).
     ThreeDFront,
+    /// glTF / GLB scenes, with optional Habitat configs.
+    Gltf,
 }
 
 impl DatasetFormat {
@@ -39,6 +42,9 @@ impl DatasetFormat {
                 cfg.models.as_deref(),
                 cfg.categories.as_deref(),
             )?),
+            DatasetFormat::Gltf => {
+                Box::new(GltfLoader::open(&cfg.root, cfg.categories.as_deref())?)
+            }
         })
     }
 }
