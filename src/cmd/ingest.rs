@@ -16,6 +16,9 @@ pub enum Dataset {
     /// SUNCG: <root>/house/<id>/house.json (or <root>/<id>/house.json) with room/, object/,
     /// metadata/ModelCategoryMapping.csv; meshes as .obj or .gltf/.glb.
     Suncg,
+    /// Matterport3D: <root>/<scan>/house_segmentations/<scan>.house (+ .ply, matterport_mesh/)
+    /// or bare <root>/<scan>.house files; category_mapping.tsv and mpcat40.tsv from the root.
+    Mp3d,
 }
 
 /// Load scenes into compiled scenes (DATA/scenes/) and a Parquet manifest (DATA/houses.parquet).
@@ -46,7 +49,8 @@ pub struct Args {
     /// Parallel jobs (same as the global --threads).
     #[arg(long, value_name = "N")]
     jobs: Option<usize>,
-    /// SUNCG category table, if not <root>/metadata/ModelCategoryMapping.csv.
+    /// Category table: SUNCG's if not <root>/metadata/ModelCategoryMapping.csv; Matterport3D's
+    /// category_mapping.tsv if not in <root> or <root>/metadata.
     #[arg(long, value_name = "FILE")]
     categories: Option<PathBuf>,
     /// Rebuild every compiled scene.
@@ -63,6 +67,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     let cfg = IngestConfig {
         format: match args.dataset {
             Dataset::Suncg => DatasetFormat::Suncg,
+            Dataset::Mp3d => DatasetFormat::Mp3d,
         },
         root: args.root.clone(),
         data: args.out.clone(),

@@ -14,6 +14,7 @@ use rayon::prelude::*;
 use crate::io::manifest::{read_manifest, write_manifest, ManifestError, ManifestRow};
 use crate::io::scene_file::{read_header, read_scene, scene_path, write_scene, SceneHeader};
 use crate::progress::Progress;
+use crate::scene::formats::mp3d::Mp3dLoader;
 use crate::scene::formats::suncg::SuncgLoader;
 use crate::scene::formats::{DatasetLoader, LoadError, SceneEntry};
 
@@ -22,6 +23,8 @@ use crate::scene::formats::{DatasetLoader, LoadError, SceneEntry};
 pub enum DatasetFormat {
     /// SUNCG `house.json` houses.
     Suncg,
+    /// Matterport3D `.house` scans (with their `.ply` house mesh when present).
+    Mp3d,
 }
 
 impl DatasetFormat {
@@ -30,6 +33,9 @@ impl DatasetFormat {
         Ok(match self {
             DatasetFormat::Suncg => {
                 Box::new(SuncgLoader::open(&cfg.root, cfg.categories.as_deref())?)
+            }
+            DatasetFormat::Mp3d => {
+                Box::new(Mp3dLoader::open(&cfg.root, cfg.categories.as_deref())?)
             }
         })
     }

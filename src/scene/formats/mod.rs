@@ -4,6 +4,7 @@
 //! names the file, the record (node id, line) and what is wrong.
 
 pub mod gltf_mesh;
+pub mod mp3d;
 pub mod obj_mesh;
 pub mod suncg;
 
