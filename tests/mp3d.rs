@@ -405,3 +405,88 @@ fn same_seed_gives_identical_bytes_and_an_interrupted_run_resumes() {
     assert_eq!(report.skipped.len(), 4);
     assert!(tree_bytes(&a) == before);
 }
+
+#[test]
+fn textured_obj_without_labels_has_floors_guessed_from_height() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path().join("mp3d");
+    let cfg = GenerateConfig {
+        levels: (1, 1),
+        ..config(3, 17, 0.0)
+    };
+    let plans = generate_mp3d(&cfg, &root);
+    // Replace each house mesh by an unlabelled OBJ in matterport_mesh/<uuid>/, z-up like
+    // Matterport's.
+    for plan in &plans {
+        let ply_path = house_path(&root, &plan.id).with_extension("ply");
+        let mesh =
+            minos::scene::formats::mp3d::ply::read_ply(&std::fs::read(&ply_path).unwrap()).unwrap();
+        std::fs::remove_file(&ply_path).unwrap();
+        let mut obj = String::new();
+        for p in &mesh.positions {
+            obj.push_str(&format!("v {} {} {}\n", p[0], p[1], p[2]));
+        }
+        for t in &mesh.triangles {
+            obj.push_str(&format!("f {} {} {}\n", t[0] + 1, t[1] + 1, t[2] + 1));
+        }
+        let uuid = root.join(&plan.id).join("matterport_mesh").join("a1b2c3");
+        std::fs::create_dir_all(&uuid).unwrap();
+        std::fs::write(uuid.join("a1b2c3.obj"), obj).unwrap();
+    }
+    let loader = Mp3dLoader::open(&root, None).unwrap();
+    for plan in &plans {
+        let e = entry(&root, &plan.id);
+        assert!(matches!(
+            loader.mesh_files(&e),
+            minos::scene::formats::mp3d::MeshFiles::Obj(ref f) if f.len() == 1
+        ));
+        let loaded = loader.load(&e).unwrap();
+        assert!(loaded
+            .warnings
+            .iter()
+            .any(|w| w.contains("OBJ without labels")));
+        let scene = &loaded.scene;
+        // Each room's floor surface covers its rectangle and holds nothing higher than a
+        // step (shower trays, thresholds); furniture tops stay in the non-walkable surface.
+        for (room, rp) in scene.levels[0].rooms.iter().zip(&plan.levels[0].rooms) {
+            let floor = room
+                .surfaces
+                .iter()
+                .find(|s| s.kind == SurfaceKind::Floor)
+                .expect("floor");
+            let m = &scene.meshes[floor.mesh as usize];
+            assert!(
+                m.bounds().max.y <= 0.15 + 1e-4,
+                "{}: {}",
+                room.id,
+                m.bounds().max.y
+            );
+            let area = minos::scene::formats::suncg::floor_area_and_height(m).0;
+            assert!(area >= rp.rect.area() * (1.0 - 1e-3), "{area}");
+        }
+        let high_tops = scene
+            .rooms()
+            .flat_map(|r| &r.surfaces)
+            .filter(|s| s.kind == SurfaceKind::Wall)
+            .map(|s| scene.surface_world_mesh(s.mesh))
+            .map(|w| {
+                (0..w.indices.len() / 3)
+                    .filter(|&t| {
+                        let n = w.face_normal(t);
+                        n.y > 0.9 * n.length() && w.positions[w.indices[3 * t] as usize].y > 0.3
+                    })
+                    .count()
+            })
+            .sum::<usize>();
+        assert!(high_tops > 10, "{high_tops} furniture tops");
+        let grid = build(scene, &NavParams::default()).unwrap();
+        let islands: BTreeSet<u32> = panorama_feet(&root, &plan.id, scene)
+            .iter()
+            .map(|(_, p)| {
+                assert!(grid.is_walkable(*p), "{}: {p}", plan.id);
+                grid.spans[grid.span_at(*p).unwrap() as usize].island
+            })
+            .collect();
+        assert_eq!(islands.len(), 1, "{}: {islands:?}", plan.id);
+    }
+}

@@ -412,6 +412,18 @@ enum FaceKind {
     Other,
 }
 
+/// What proxy geometry needs to know of an object.
+#[derive(Debug, Clone)]
+struct ObjectInfo {
+    obb: Obb,
+    /// Level, and position in that level's objects.
+    level: usize,
+    slot: usize,
+    mpcat40: Option<String>,
+    /// A door or an arch: walls leave an opening where it stands.
+    opening: bool,
+}
+
 /// State while one house is assembled.
 struct Build<'a> {
     loader: &'a Mp3dLoader,
@@ -424,8 +436,8 @@ struct Build<'a> {
     room_of: Vec<(usize, usize)>,
     /// Floor outlines (one per `F` surface).
     outlines: Vec<Outline>,
-    /// Per object: its box, level, mpcat40 index and name.
-    boxes: Vec<(Obb, usize, Option<usize>, Option<String>)>,
+    /// Per `O` record, in file order.
+    boxes: Vec<ObjectInfo>,
 }
 
 impl<'a> Build<'a> {
@@ -577,9 +589,9 @@ impl<'a> Build<'a> {
     }
 
     /// Categories of a category index, from the tables when present, else the `C` record.
-    fn categories(&self, category: Option<usize>) -> (Categories, Option<usize>) {
+    fn categories(&self, category: Option<usize>) -> Categories {
         let Some(c) = category.and_then(|c| self.house.categories.get(c)) else {
-            return (Categories::default(), None);
+            return Categories::default();
         };
         let tables = &self.loader.tables;
         let row = c.mapping_index.and_then(|i| tables.row(i));
@@ -588,15 +600,14 @@ impl<'a> Build<'a> {
             .and_then(|r| r.mpcat40.clone())
             .or_else(|| c.mpcat40_name.clone())
             .or_else(|| mpcat40_index.and_then(|i| tables.mpcat40_name(i).map(str::to_string)));
-        let cats = Categories {
+        Categories {
             fine: row
                 .map(|r| r.raw.clone())
                 .or_else(|| c.mapping_name.clone()),
             coarse: row.and_then(|r| r.category.clone()),
             nyu40: row.and_then(|r| r.nyu40.clone()),
             mpcat40,
-        };
-        (cats, mpcat40_index)
+        }
     }
 
     /// One object per `O` record (no mesh yet).
@@ -612,7 +623,7 @@ impl<'a> Build<'a> {
             .map_err(|m| {
                 LoadError::parse(&self.entry.path, format!("line {}: O record: {m}", o.line))
             })?;
-            let (categories, mpcat40_index) = self.categories(o.category);
+            let categories = self.categories(o.category);
             let mut flags = self.loader.flags.flags_of(&categories);
             let implied = mpcat40_flags(categories.mpcat40.as_deref());
             flags.door |= implied.door;
@@ -625,8 +636,13 @@ impl<'a> Build<'a> {
                 }
                 None => (self.level_at(obb.center.y), Vec::new()),
             };
-            self.boxes
-                .push((obb, level, mpcat40_index, categories.mpcat40.clone()));
+            self.boxes.push(ObjectInfo {
+                obb,
+                level,
+                slot: self.scene.levels[level].objects.len(),
+                mpcat40: categories.mpcat40.clone(),
+                opening: flags.door || flags.arch,
+            });
             self.scene.levels[level].objects.push(Object {
                 id: oi.to_string(),
                 model_id: String::new(),
@@ -677,9 +693,8 @@ impl<'a> Build<'a> {
         let mut openings: Vec<Obb> = self
             .boxes
             .iter()
-            .zip(self.scene.objects())
-            .filter(|(_, o)| o.flags.door || o.flags.arch)
-            .map(|((b, ..), _)| *b)
+            .filter(|b| b.opening)
+            .map(|b| b.obb)
             .collect();
         openings.extend(house.portals.iter().map(|p| {
             Obb::from_aabb(&Aabb::from_corners(
@@ -706,13 +721,13 @@ impl<'a> Build<'a> {
             .iter()
             .map(|&(l, r)| self.scene.levels[l].rooms[r].area)
             .collect();
-        for (oi, o) in house.objects.iter().enumerate() {
-            let (obb, level, _, ref mpcat40) = self.boxes[oi];
-            let structural = mpcat40
+        for (o, info) in house.objects.iter().zip(self.boxes.clone()) {
+            let structural = info
+                .mpcat40
                 .as_deref()
                 .is_some_and(|m| NOT_OBSTACLES.contains(&m));
             let footprint = {
-                let s = obb.aabb().size();
+                let s = info.obb.aabb().size();
                 s.x * s.z
             };
             let region_scale = o
@@ -729,12 +744,8 @@ impl<'a> Build<'a> {
                     id
                 }
             };
-            let k = self.scene.levels[level]
-                .objects
-                .iter()
-                .position(|x| x.id == oi.to_string());
-            if let Some(k) = k {
-                self.scene.levels[level].objects[k].mesh = Some(id);
+            if let Some(object) = self.scene.levels[info.level].objects.get_mut(info.slot) {
+                object.mesh = Some(id);
             }
         }
     }
@@ -997,5 +1008,202 @@ fn mpcat40_flags(name: Option<&str>) -> ObjectFlags {
         window: name == Some("window"),
         arch: false,
         stairs: name == Some("stairs"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Two levels, one region each (level 1 is 3 m up); the O records alternate levels: a
+    /// door on level 1 first, then a table on level 0, then a wall on level 0.
+    fn two_level_house() -> String {
+        [
+            "ASCII 1.1",
+            "H  -  -  0 1 8 2 0 3 3 2 0  2  0 0 0 0 0  0 0 0  4 4 6  0 0 0 0 0",
+            "L  0  1  -  2 2 0  0 0 0  4 4 3  0 0 0 0 0",
+            "L  1  1  -  2 2 3  0 0 3  4 4 6  0 0 0 0 0",
+            "R  0 0  0 0  k  2 2 0  0 0 0  4 4 2.5  2.5  0 0 0 0",
+            "R  1 1  0 0  S  2 2 3  0 0 3  4 4 5.5  2.5  0 0 0 0",
+            "S  0 0  0  F  2 2 0  0 0 1  0 0 0  4 4 0  0 0 0 0 0",
+            "S  1 1  0  F  2 2 3  0 0 1  0 0 3  4 4 3  0 0 0 0 0",
+            "V  0 0  F  0 0 0  0 0 1  0 0 0",
+            "V  1 0  F  4 0 0  0 0 1  0 0 0",
+            "V  2 0  F  4 4 0  0 0 1  0 0 0",
+            "V  3 0  F  0 4 0  0 0 1  0 0 0",
+            "V  4 1  F  0 0 3  0 0 1  0 0 0",
+            "V  5 1  F  0 4 3  0 0 1  0 0 0",
+            "V  6 1  F  4 4 3  0 0 1  0 0 0",
+            "V  7 1  F  4 0 3  0 0 1  0 0 0",
+            "P  pano  0 0  0  1 1 1.5  0 0 0 0 0",
+            "C  0  2 door  4 door  0 0 0 0 0",
+            "C  1  15 dining#table  5 table  0 0 0 0 0",
+            "C  2  1 wall  1 wall  0 0 0 0 0",
+            "O  0 1 0  0 2 4  0 1 0  0 0 1  0.5 1 0.1  0 0 0 0 0 0 0 0",
+            "O  1 0 1  2 3 0.4  1 0 0  0 1 0  0.5 0.3 0.4  0 0 0 0 0 0 0 0",
+            "O  2 0 2  2 0 1.2  1 0 0  0 0 1  2 1.2 0.05  0 0 0 0 0 0 0 0",
+        ]
+        .join("\n")
+    }
+
+    fn load(text: &str, options: Mp3dOptions) -> LoadedScene {
+        let house = house_file::parse_str(text).unwrap();
+        let loader = Mp3dLoader::with_tables(Path::new("root"), CategoryTables::default())
+            .with_options(options);
+        let entry = SceneEntry {
+            id: "two".into(),
+            path: PathBuf::from("two.house"),
+        };
+        loader.build(&entry, &house).unwrap()
+    }
+
+    #[test]
+    fn z_up_converts_to_y_up() {
+        assert_eq!(zup_to_yup([1.0, 2.0, 3.0]), Vec3::new(1.0, 3.0, -2.0));
+        assert_eq!(yup_to_zup(Vec3::new(1.0, 3.0, -2.0)), [1.0, 2.0, 3.0]);
+    }
+
+    #[test]
+    fn proxy_scene_of_a_two_level_house() {
+        let loaded = load(
+            &two_level_house(),
+            Mp3dOptions {
+                geometry: GeometrySource::Proxy,
+                proxy_walls: true,
+            },
+        );
+        assert!(loaded.warnings.is_empty(), "{:?}", loaded.warnings);
+        let scene = &loaded.scene;
+        assert_eq!(scene.levels.len(), 2);
+        let (l0, l1) = (&scene.levels[0], &scene.levels[1]);
+        assert_eq!((l0.rooms.len(), l1.rooms.len()), (1, 1));
+        assert_eq!(l0.rooms[0].class, RoomClass::Kitchen);
+        assert_eq!(l1.rooms[0].class, RoomClass::Bathroom, "S is spa");
+        assert_eq!(l1.rooms[0].id, "region1");
+        assert!((l1.rooms[0].floor_height - 3.0).abs() < 1e-6);
+        assert!((l0.rooms[0].area - 16.0).abs() < 1e-4);
+        // The outline, z-up (0..4, 0..4) → x 0..4, z -4..0, counter-clockwise from above
+        // whatever the file's order (region 1's vertices run the other way).
+        for room in [&l0.rooms[0], &l1.rooms[0]] {
+            let poly = room.floor_polygon.as_ref().unwrap();
+            assert_eq!(poly.len(), 4);
+            assert!(poly
+                .iter()
+                .all(|p| (0.0..=4.0).contains(&p[0]) && (-4.0..=0.0).contains(&p[1])));
+            assert!(proxy::signed_area(poly) < 0.0);
+        }
+        // Objects land on their region's level, ids are the O indices.
+        let ids = |l: &Level| l.objects.iter().map(|o| o.id.clone()).collect::<Vec<_>>();
+        assert_eq!(ids(l0), vec!["1", "2"]);
+        assert_eq!(ids(l1), vec!["0"]);
+        let door = &l1.objects[0];
+        assert!(
+            door.flags.door && door.mesh.is_none(),
+            "doors are not obstacles"
+        );
+        assert_eq!(door.categories.fine.as_deref(), Some("door"));
+        let table = &l0.objects[0];
+        assert!(table.mesh.is_some(), "the table is an obstacle");
+        assert_eq!(table.categories.fine.as_deref(), Some("dining table"));
+        assert_eq!(table.categories.mpcat40.as_deref(), Some("table"));
+        assert_eq!(table.categories.nyu40, None);
+        assert_eq!(table.rooms, vec![0]);
+        // Its box: centre (2, 3, 0.4) z-up → (2, 0.4, -3); radii 0.5 (x), 0.3 (y_zup → z),
+        // 0.4 (up).
+        let b = table.bbox;
+        assert!((b.center() - Vec3::new(2.0, 0.4, -3.0)).length() < 1e-5);
+        assert!(
+            (b.size() - Vec3::new(1.0, 0.8, 0.6)).length() < 1e-5,
+            "{}",
+            b.size()
+        );
+        assert!(l0.objects[1].mesh.is_none(), "walls are not obstacles");
+        // Level 1's walls leave an opening where the door stands (x = 0, z_zup 1..3): four
+        // sides, one split in two.
+        let walls = l1.rooms[0]
+            .surfaces
+            .iter()
+            .find(|s| s.kind == SurfaceKind::Wall)
+            .unwrap();
+        assert_eq!(scene.meshes[walls.mesh as usize].triangle_count(), 5 * 12);
+        let l0_walls = l0.rooms[0]
+            .surfaces
+            .iter()
+            .find(|s| s.kind == SurfaceKind::Wall)
+            .unwrap();
+        assert_eq!(
+            scene.meshes[l0_walls.mesh as usize].triangle_count(),
+            4 * 12
+        );
+        assert_eq!(l0.floor_heights, vec![0.0]);
+        assert!(scene.validate().is_ok());
+    }
+
+    #[test]
+    fn proxy_without_walls_has_floors_only() {
+        let loaded = load(
+            &two_level_house(),
+            Mp3dOptions {
+                geometry: GeometrySource::Proxy,
+                proxy_walls: false,
+            },
+        );
+        assert!(loaded
+            .scene
+            .rooms()
+            .all(|r| r.surfaces.len() == 1 && r.surfaces[0].kind == SurfaceKind::Floor));
+    }
+
+    #[test]
+    fn house_mesh_faces_go_to_regions_and_kinds() {
+        let house = house_file::parse_str(&two_level_house()).unwrap();
+        let loader = Mp3dLoader::with_tables(Path::new("root"), CategoryTables::default());
+        let entry = SceneEntry {
+            id: "two".into(),
+            path: PathBuf::from("two.house"),
+        };
+        // z-up triangles: a floor at 0 (labelled floor), a table top at 0.8 without label, a
+        // floor-height face without label upstairs, and a ceiling face at 2.5.
+        let positions = [
+            [0.5, 0.5, 0.0],
+            [3.5, 0.5, 0.0],
+            [3.5, 3.5, 0.0],
+            [1.0, 1.0, 0.8],
+            [2.0, 1.0, 0.8],
+            [2.0, 2.0, 0.8],
+            [1.0, 1.0, 3.05],
+            [2.0, 1.0, 3.05],
+            [2.0, 2.0, 3.05],
+            [1.0, 1.0, 2.5],
+            [2.0, 2.0, 2.5],
+            [2.0, 1.0, 2.5],
+        ];
+        let tris = [[0, 1, 2], [3, 4, 5], [6, 7, 8], [9, 10, 11]];
+        // category_id is the C record's mapping index: 4 is not one (→ geometry), 2 is door.
+        let labels = [[0, -1, 4], [0, -1, -1], [0, -1, 0], [0, 7, -1]];
+        let bytes = ply::write_ply(&positions, &tris, &labels);
+        let loaded = loader
+            .build_with_ply(&entry, &house, Path::new("two.ply"), &bytes)
+            .unwrap();
+        let scene = &loaded.scene;
+        let kinds = |l: usize| {
+            let mut k: Vec<(SurfaceKind, usize)> = scene.levels[l].rooms[0]
+                .surfaces
+                .iter()
+                .map(|s| (s.kind, scene.meshes[s.mesh as usize].triangle_count()))
+                .collect();
+            k.sort_by_key(|(kind, _)| *kind as u8);
+            k
+        };
+        // Level 0: the floor (up-facing at floor height), the table top (too high) as wall,
+        // the ceiling face (down-facing, no label) as wall too.
+        assert_eq!(
+            kinds(0),
+            vec![(SurfaceKind::Floor, 1), (SurfaceKind::Wall, 2)]
+        );
+        // Level 1: the face 5 cm above its floor is floor.
+        assert_eq!(kinds(1), vec![(SurfaceKind::Floor, 1)]);
+        assert!(scene.objects().all(|o| o.mesh.is_none()));
+        assert!(loaded.sources.iter().any(|p| p == Path::new("two.ply")));
     }
 }
