@@ -257,6 +257,11 @@ fn linked_panoramas_stand_on_mutually_reachable_floor() {
             eprintln!("not reachable: {a} ({:?}) - {b} ({:?})", feet[a], feet[b]);
         }
     }
+    let direct = feet.values().filter(|p| grid.is_walkable(**p)).count();
+    println!(
+        "{HOUSE}: {direct} of {} panoramas stand on a walkable span directly (the others count when one lies within {STAND_RADIUS} m)",
+        feet.len()
+    );
     let fraction = good as f64 / pairs.len() as f64;
     println!(
         "{HOUSE}: {good} of {} unobstructed panorama pairs on walkable, mutually reachable spans ({:.1}%)",
