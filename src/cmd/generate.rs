@@ -15,6 +15,9 @@ use super::Context;
 pub enum Format {
     /// SUNCG: house/<id>/house.json, room/, object/, metadata/ModelCategoryMapping.csv.
     Suncg,
+    /// Matterport3D: <id>/house_segmentations/<id>.house and <id>.ply (read with
+    /// `ingest --dataset mp3d`).
+    Mp3d,
 }
 
 /// Generate procedural houses in a real dataset's on-disk format.
@@ -66,6 +69,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     };
     let format = match args.format {
         Format::Suncg => OutputFormat::Suncg,
+        Format::Mp3d => OutputFormat::Mp3d,
     };
     let start = Instant::now();
     let bar = ctx.progress(cfg.houses as u64, "generate");

@@ -25,6 +25,9 @@ pub enum Dataset {
     /// Habitat stage/object/dataset configs and HM3D .semantic.txt beside them; --categories
     /// takes a Habitat category-mapping TSV (raw_category, category, mpcat40).
     Gltf,
+    /// Matterport3D: <root>/<scan>/house_segmentations/<scan>.house (+ .ply, matterport_mesh/)
+    /// or bare <root>/<scan>.house files; category_mapping.tsv and mpcat40.tsv from the root.
+    Mp3d,
 }
 
 /// Load scenes into compiled scenes (DATA/scenes/) and a Parquet manifest (DATA/houses.parquet).
@@ -55,7 +58,8 @@ pub struct Args {
     /// Parallel jobs (same as the global --threads).
     #[arg(long, value_name = "N")]
     jobs: Option<usize>,
-    /// SUNCG category table, if not <root>/metadata/ModelCategoryMapping.csv.
+    /// Category table: SUNCG's if not <root>/metadata/ModelCategoryMapping.csv; Matterport3D's
+    /// category_mapping.tsv if not in <root> or <root>/metadata.
     #[arg(long, value_name = "FILE")]
     categories: Option<PathBuf>,
     /// 3D-FRONT: 3D-FUTURE model folder (<jid>/raw_model.obj); furniture are boxes without it.
@@ -77,6 +81,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
             Dataset::Suncg => DatasetFormat::Suncg,
             Dataset::ThreeDFront => DatasetFormat::ThreeDFront,
             Dataset::Gltf => DatasetFormat::Gltf,
+            Dataset::Mp3d => DatasetFormat::Mp3d,
         },
         root: args.root.clone(),
         data: args.out.clone(),

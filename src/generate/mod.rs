@@ -9,6 +9,7 @@
 pub mod catalog;
 mod furnish;
 pub mod layout;
+pub mod mp3d_writer;
 mod objwrite;
 pub mod plan;
 pub mod suncg_writer;
@@ -30,6 +31,8 @@ pub const GENERATOR_VERSION: u32 = 1;
 pub enum OutputFormat {
     /// SUNCG: `house/`, `room/`, `object/`, `metadata/`.
     Suncg,
+    /// Matterport3D: `<id>/house_segmentations/<id>.house` and `.ply`.
+    Mp3d,
 }
 
 /// What to generate.
@@ -176,25 +179,34 @@ pub fn generate(
     progress: &dyn Progress,
 ) -> Result<GenerateReport, GenerateError> {
     cfg.validate()?;
-    let OutputFormat::Suncg = format;
     let io_err = |path: &Path| {
         let path = path.display().to_string();
         move |source| GenerateError::Io { path, source }
     };
-    suncg_writer::write_library(out).map_err(io_err(out))?;
+    if format == OutputFormat::Suncg {
+        suncg_writer::write_library(out).map_err(io_err(out))?;
+    }
     progress.set_total(cfg.houses as u64);
     let results: Vec<Result<(String, bool), GenerateError>> = (0..cfg.houses)
         .into_par_iter()
         .map(|i| {
             let id = house_id(cfg, i);
-            let done = out.join("house").join(&id).join("house.json");
+            let done = match format {
+                OutputFormat::Suncg => out.join("house").join(&id).join("house.json"),
+                OutputFormat::Mp3d => mp3d_writer::house_path(out, &id),
+            };
             let r = if !force && done.is_file() {
                 Ok((id, false))
             } else {
                 let plan = plan_house(cfg, i);
-                suncg_writer::write_house(out, &plan)
-                    .map(|()| (id, true))
-                    .map_err(io_err(&out.join("house").join(&plan.id)))
+                match format {
+                    OutputFormat::Suncg => suncg_writer::write_house(out, &plan)
+                        .map_err(io_err(&out.join("house").join(&plan.id))),
+                    OutputFormat::Mp3d => {
+                        mp3d_writer::write_house(out, &plan).map_err(io_err(&out.join(&plan.id)))
+                    }
+                }
+                .map(|()| (id, true))
             };
             progress.advance(1);
             r

@@ -15,6 +15,7 @@ use crate::io::manifest::{read_manifest, write_manifest, ManifestError, Manifest
 use crate::io::scene_file::{read_header, read_scene, scene_path, write_scene, SceneHeader};
 use crate::progress::Progress;
 use crate::scene::formats::gltf_scene::GltfLoader;
+use crate::scene::formats::mp3d::Mp3dLoader;
 use crate::scene::formats::suncg::SuncgLoader;
 use crate::scene::formats::threedfront::ThreeDFrontLoader;
 use crate::scene::formats::{DatasetLoader, LoadError, SceneEntry};
@@ -28,6 +29,8 @@ pub enum DatasetFormat {
     ThreeDFront,
     /// glTF / GLB scenes, with optional Habitat configs.
     Gltf,
+    /// Matterport3D `.house` scans (with their `.ply` house mesh when present).
+    Mp3d,
 }
 
 impl DatasetFormat {
@@ -44,6 +47,9 @@ impl DatasetFormat {
             )?),
             DatasetFormat::Gltf => {
                 Box::new(GltfLoader::open(&cfg.root, cfg.categories.as_deref())?)
+            }
+            DatasetFormat::Mp3d => {
+                Box::new(Mp3dLoader::open(&cfg.root, cfg.categories.as_deref())?)
             }
         })
     }

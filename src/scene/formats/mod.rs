@@ -5,6 +5,7 @@
 
 pub mod gltf_mesh;
 pub mod gltf_scene;
+pub mod mp3d;
 pub mod obj_mesh;
 pub mod suncg;
 pub mod threedfront;

@@ -1,0 +1,649 @@
+//! Writes plans in Matterport3D's layout: `<id>/house_segmentations/<id>.house` and the house
+//! mesh `<id>/house_segmentations/<id>.ply`, so the whole Matterport3D path is exercised
+//! without licensed data.
+//!
+//! A plan's rooms become regions (letter labels from their types, rectangle floor outlines,
+//! heights), its doors and arches between two rooms also portals, its placed objects `O`
+//! records (oriented boxes from the models' boxes and orientations) with mpcat40-like
+//! categories (`C` records; no `category_mapping.tsv` is written, so loaders fall back to the
+//! `C` records). One panorama stands at the free spot nearest to each room's centre, 1.5 m up.
+//! The PLY holds floors, ceilings, walls with their openings, and every model part, each face
+//! labelled with a `category_id` (the `C` record's mapping index) and a `segment_id` (`E`
+//! records: one segment per object, and per room one each for floor, ceiling and walls with
+//! no object). Everything is written z-up (`(x, y, z)_y-up → (x, −z, y)`), the `.house` file
+//! last so that a house whose `.house` exists is complete. Random choices are the plan's: the
+//! writer adds none.
+
+use std::collections::HashMap;
+use std::fmt::Write as _;
+use std::io;
+use std::path::{Path, PathBuf};
+
+use crate::io::atomic::write_bytes_atomic;
+use crate::scene::formats::mp3d::ply::write_ply;
+use crate::scene::RoomClass;
+
+use super::catalog::catalog;
+use super::plan::{HousePlan, PlacedObject, Rect, RoomPlan, Side, WALL_T};
+
+/// Camera height of written panoramas above their room's floor (m).
+pub const PANORAMA_HEIGHT: f64 = 1.5;
+/// Clearance (m) kept between a panorama and furniture footprints or walls.
+const PANORAMA_CLEARANCE: f64 = 0.35;
+
+/// The `.house` file of house `id` under `root`.
+pub fn house_path(root: &Path, id: &str) -> PathBuf {
+    root.join(id)
+        .join("house_segmentations")
+        .join(format!("{id}.house"))
+}
+
+/// The Matterport3D region letter of a generated room: by its SUNCG type where Matterport3D
+/// has the same room, else by its MINOS class.
+pub fn region_letter(raw_type: &str, class: RoomClass) -> &'static str {
+    match raw_type {
+        "Toilet" => "t",
+        "Storage" => "c",
+        "Balcony" => "y",
+        _ => match class {
+            RoomClass::Other => "z",
+            RoomClass::Bedroom => "b",
+            RoomClass::LivingRoom => "l",
+            RoomClass::Bathroom => "a",
+            RoomClass::Kitchen => "k",
+            RoomClass::DiningRoom => "d",
+            RoomClass::Office => "o",
+            RoomClass::Hallway => "h",
+            RoomClass::Outdoor => "p",
+        },
+    }
+}
+
+/// The mpcat40 class `(index, name)` of a generated model's fine category.
+pub fn mpcat40_of(fine: &str) -> (usize, &'static str) {
+    match fine {
+        "double_bed" | "single_bed" => (11, "bed"),
+        "stand" | "dresser" => (13, "chest_of_drawers"),
+        "wardrobe_cabinet" | "tv_stand" | "shoes_cabinet" => (7, "cabinet"),
+        "desk" | "coffee_table" | "dining_table" => (5, "table"),
+        "office_chair" | "chair" | "armchair" => (3, "chair"),
+        "sofa" => (10, "sofa"),
+        "television" => (22, "tv_monitor"),
+        "bookshelf" => (31, "shelving"),
+        "kitchen_cabinet" => (26, "counter"),
+        "refrigerator" | "range_oven" => (37, "appliances"),
+        "sink" => (15, "sink"),
+        "toilet" => (18, "toilet"),
+        "bathtub" => (25, "bathtub"),
+        "shower" => (23, "shower"),
+        "plant" => (14, "plant"),
+        "floor_lamp" | "table_lamp" => (28, "lighting"),
+        "outdoor_seating" => (34, "seating"),
+        "door" | "arch" => (4, "door"),
+        "window" => (9, "window"),
+        "stairs" => (16, "stairs"),
+        "wall" => (1, "wall"),
+        "floor" => (2, "floor"),
+        "ceiling" => (17, "ceiling"),
+        _ => (39, "objects"),
+    }
+}
+
+/// The raw category name written for a fine category (`double_bed` → `double bed`).
+pub fn raw_name(fine: &str) -> String {
+    fine.replace('_', " ")
+}
+
+/// The categories every generated house lists: wall, floor, ceiling, then each fine category
+/// of the model library in library order. Position `k` is `C` record `k`, mapping index `k+1`.
+fn category_names() -> Vec<&'static str> {
+    let mut out = vec!["wall", "floor", "ceiling"];
+    for m in &catalog().models {
+        if !out.contains(&m.fine) {
+            out.push(m.fine);
+        }
+    }
+    out
+}
+
+/// Formats a number with at most 6 decimals and no negative zero.
+fn num(v: f64) -> String {
+    let r = (v * 1e6).round() / 1e6;
+    let r = if r == 0.0 { 0.0 } else { r };
+    format!("{r}")
+}
+
+fn nums(vals: &[f64]) -> String {
+    vals.iter().map(|v| num(*v)).collect::<Vec<_>>().join(" ")
+}
+
+/// y-up → z-up.
+fn zup(p: [f64; 3]) -> [f64; 3] {
+    [p[0], -p[2], p[1]]
+}
+
+/// A z-up box from two y-up corners.
+fn zbox(a: [f64; 3], b: [f64; 3]) -> [f64; 6] {
+    let (a, b) = (zup(a), zup(b));
+    [
+        a[0].min(b[0]),
+        a[1].min(b[1]),
+        a[2].min(b[2]),
+        a[0].max(b[0]),
+        a[1].max(b[1]),
+        a[2].max(b[2]),
+    ]
+}
+
+/// The mesh being written, with per-segment areas and boxes.
+#[derive(Default)]
+struct MeshOut {
+    positions: Vec<[f32; 3]>,
+    triangles: Vec<[u32; 3]>,
+    labels: Vec<[i32; 3]>,
+    /// Per segment id: area and z-up box.
+    segments: HashMap<i32, (f64, [f64; 6])>,
+}
+
+impl MeshOut {
+    /// A quad given counter-clockwise seen from its front, in y-up coordinates.
+    fn quad(&mut self, c: [[f64; 3]; 4], category: i32, segment: i32) {
+        let base = self.positions.len() as u32;
+        for p in c {
+            let z = zup(p);
+            self.positions.push([z[0] as f32, z[1] as f32, z[2] as f32]);
+        }
+        for t in [[0, 1, 2], [0, 2, 3]] {
+            self.triangles.push([base + t[0], base + t[1], base + t[2]]);
+            self.labels.push([0, segment, category]);
+        }
+        let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+        let cross = |u: [f64; 3], v: [f64; 3]| {
+            [
+                u[1] * v[2] - u[2] * v[1],
+                u[2] * v[0] - u[0] * v[2],
+                u[0] * v[1] - u[1] * v[0],
+            ]
+        };
+        let len = |v: [f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+        let area = 0.5
+            * (len(cross(sub(c[1], c[0]), sub(c[2], c[0])))
+                + len(cross(sub(c[2], c[0]), sub(c[3], c[0]))));
+        let e = self.segments.entry(segment).or_insert((
+            0.0,
+            [
+                f64::INFINITY,
+                f64::INFINITY,
+                f64::INFINITY,
+                f64::NEG_INFINITY,
+                f64::NEG_INFINITY,
+                f64::NEG_INFINITY,
+            ],
+        ));
+        e.0 += area;
+        for p in c {
+            for (k, v) in zup(p).into_iter().enumerate() {
+                e.1[k] = e.1[k].min(v);
+                e.1[k + 3] = e.1[k + 3].max(v);
+            }
+        }
+    }
+
+    /// A closed axis-aligned box (y-up), faces counter-clockwise seen from outside.
+    fn aabox(&mut self, min: [f64; 3], max: [f64; 3], category: i32, segment: i32) {
+        let v = |k: usize| {
+            [
+                if k & 1 == 0 { min[0] } else { max[0] },
+                if k & 2 == 0 { min[1] } else { max[1] },
+                if k & 4 == 0 { min[2] } else { max[2] },
+            ]
+        };
+        for f in [
+            [0, 4, 6, 2],
+            [1, 3, 7, 5],
+            [0, 1, 5, 4],
+            [2, 6, 7, 3],
+            [0, 2, 3, 1],
+            [4, 5, 7, 6],
+        ] {
+            self.quad([v(f[0]), v(f[1]), v(f[2]), v(f[3])], category, segment);
+        }
+    }
+
+    /// A horizontal rectangle at height `y`, facing up or down.
+    fn flat(&mut self, r: &Rect, y: f64, up: bool, category: i32, segment: i32) {
+        let c = [
+            [r.x0, y, r.z0],
+            [r.x0, y, r.z1],
+            [r.x1, y, r.z1],
+            [r.x1, y, r.z0],
+        ];
+        if up {
+            self.quad(c, category, segment);
+        } else {
+            self.quad([c[0], c[3], c[2], c[1]], category, segment);
+        }
+    }
+}
+
+fn minus_all(r: Rect, holes: &[Rect]) -> Vec<Rect> {
+    let mut parts = vec![r];
+    for h in holes {
+        parts = parts.iter().flat_map(|p| p.minus(h)).collect();
+    }
+    parts
+}
+
+/// Wall boxes of one side of a room with its openings cut out (as the SUNCG writer builds
+/// them: each room owns the half of a wall on its side).
+fn walls(room: &RoomPlan, side: Side, base: f64, out: &mut MeshOut, category: i32, segment: i32) {
+    let r = room.rect;
+    let h = room.wall_height;
+    let (u_start, u_end) = if side.along_x() {
+        (r.x0, r.x1)
+    } else {
+        (r.z0, r.z1)
+    };
+    let openings: Vec<_> = room.openings.iter().filter(|o| o.side == side).collect();
+    let mut cuts = vec![u_start, u_end];
+    for o in &openings {
+        cuts.push(o.u0.clamp(u_start, u_end));
+        cuts.push(o.u1.clamp(u_start, u_end));
+    }
+    cuts.sort_by(f64::total_cmp);
+    cuts.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
+    for w in cuts.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        let mut holes: Vec<(f64, f64)> = openings
+            .iter()
+            .filter(|o| o.u0 <= a + 1e-9 && o.u1 >= b - 1e-9)
+            .map(|o| (o.y0.max(0.0), o.y1.min(h)))
+            .filter(|(y0, y1)| y1 > y0)
+            .collect();
+        holes.sort_by(|x, y| x.0.total_cmp(&y.0));
+        let mut y = 0.0;
+        let mut solid = Vec::new();
+        for (y0, y1) in holes {
+            if y0 > y {
+                solid.push((y, y0));
+            }
+            y = y.max(y1);
+        }
+        if y < h {
+            solid.push((y, h));
+        }
+        for (y0, y1) in solid {
+            let (min, max) = match side {
+                Side::MinX => ([r.x0, base + y0, a], [r.x0 + WALL_T, base + y1, b]),
+                Side::MaxX => ([r.x1 - WALL_T, base + y0, a], [r.x1, base + y1, b]),
+                Side::MinZ => ([a, base + y0, r.z0], [b, base + y1, r.z0 + WALL_T]),
+                Side::MaxZ => ([a, base + y0, r.z1 - WALL_T], [b, base + y1, r.z1]),
+            };
+            out.aabox(min, max, category, segment);
+        }
+    }
+}
+
+/// The model-space box `(min, max)` of an object's model.
+fn model_box(o: &PlacedObject) -> ([f64; 3], [f64; 3]) {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for p in &o.spec().parts {
+        for k in 0..3 {
+            lo[k] = lo[k].min(p.min[k]);
+            hi[k] = hi[k].max(p.max[k]);
+        }
+    }
+    (lo, hi)
+}
+
+/// The free spot nearest to a room's centre (outside furniture footprints and floor holes,
+/// away from walls), if any.
+fn panorama_spot(room: &RoomPlan, objects: &[&PlacedObject]) -> Option<(f64, f64)> {
+    let inner = room.rect.inflate(-(WALL_T + PANORAMA_CLEARANCE));
+    if inner.w() <= 0.0 || inner.d() <= 0.0 {
+        return None;
+    }
+    let blocked: Vec<Rect> = objects
+        .iter()
+        .map(|o| o.footprint().inflate(PANORAMA_CLEARANCE))
+        .chain(
+            room.floor_holes
+                .iter()
+                .map(|h| h.inflate(PANORAMA_CLEARANCE)),
+        )
+        .collect();
+    let (cx, cz) = ((inner.x0 + inner.x1) / 2.0, (inner.z0 + inner.z1) / 2.0);
+    let step = 0.1;
+    let (nx, nz) = ((inner.w() / step) as i64, (inner.d() / step) as i64);
+    let mut best: Option<(f64, (f64, f64))> = None;
+    for i in 0..=nx {
+        for j in 0..=nz {
+            let (x, z) = (inner.x0 + i as f64 * step, inner.z0 + j as f64 * step);
+            if blocked.iter().any(|b| b.contains_point(x, z)) {
+                continue;
+            }
+            let d = (x - cx).powi(2) + (z - cz).powi(2);
+            if best.is_none_or(|(bd, _)| d < bd - 1e-12) {
+                best = Some((d, (x, z)));
+            }
+        }
+    }
+    best.map(|(_, p)| p)
+}
+
+/// Writes one house (mesh first, `.house` last).
+pub fn write_house(root: &Path, plan: &HousePlan) -> io::Result<()> {
+    let cats = category_names();
+    let cat_index: HashMap<&str, usize> = cats.iter().enumerate().map(|(i, c)| (*c, i)).collect();
+    // category_id in the mesh: the C record's mapping index (index + 1).
+    let cat_id = |fine: &str| cat_index.get(fine).map_or(-1, |&i| i as i32 + 1);
+    let mut mesh = MeshOut::default();
+    let mut regions = Vec::new(); // (level, room, global index)
+    let mut region_base = Vec::new();
+    for (li, level) in plan.levels.iter().enumerate() {
+        region_base.push(regions.len());
+        for (k, _) in level.rooms.iter().enumerate() {
+            regions.push((li, k));
+        }
+    }
+    // Segments: per region floor/ceiling/walls (ids 3r+1..3r+3, no object), then one per
+    // object (ids 100000 + object index).
+    let mut objects: Vec<(usize, &PlacedObject)> = Vec::new();
+    for (li, level) in plan.levels.iter().enumerate() {
+        for o in &level.objects {
+            objects.push((li, o));
+        }
+    }
+    for (g, &(li, k)) in regions.iter().enumerate() {
+        let level = &plan.levels[li];
+        let room = &level.rooms[k];
+        let base = level.base_y;
+        let seg = 3 * g as i32;
+        for part in minus_all(room.rect, &room.floor_holes) {
+            mesh.flat(&part, base, true, cat_id("floor"), seg + 1);
+        }
+        if !room.hide_ceiling {
+            for part in minus_all(room.rect, &room.ceiling_holes) {
+                mesh.flat(
+                    &part,
+                    base + room.wall_height,
+                    false,
+                    cat_id("ceiling"),
+                    seg + 2,
+                );
+            }
+        }
+        for side in Side::ALL {
+            walls(room, side, base, &mut mesh, cat_id("wall"), seg + 3);
+        }
+    }
+    for (oi, (_, o)) in objects.iter().enumerate() {
+        let seg = 100_000 + oi as i32;
+        for p in &o.spec().parts {
+            let a = o.apply(p.min);
+            let b = o.apply(p.max);
+            let min = [a[0].min(b[0]), a[1].min(b[1]), a[2].min(b[2])];
+            let max = [a[0].max(b[0]), a[1].max(b[1]), a[2].max(b[2])];
+            mesh.aabox(min, max, cat_id(o.spec().fine), seg);
+        }
+    }
+    let dir = root.join(&plan.id).join("house_segmentations");
+    write_bytes_atomic(
+        &dir.join(format!("{}.ply", plan.id)),
+        &write_ply(&mesh.positions, &mesh.triangles, &mesh.labels),
+    )?;
+
+    let mut body = String::new();
+    // Levels.
+    let mut house_lo = [f64::INFINITY; 3];
+    let mut house_hi = [f64::NEG_INFINITY; 3];
+    let mut level_lines = Vec::new();
+    for (li, level) in plan.levels.iter().enumerate() {
+        let mut lo = [f64::INFINITY; 3];
+        let mut hi = [f64::NEG_INFINITY; 3];
+        for r in &level.rooms {
+            let b = zbox(
+                [r.rect.x0, level.base_y, r.rect.z0],
+                [r.rect.x1, level.base_y + r.wall_height, r.rect.z1],
+            );
+            for k in 0..3 {
+                lo[k] = lo[k].min(b[k]);
+                hi[k] = hi[k].max(b[k + 3]);
+            }
+        }
+        for k in 0..3 {
+            house_lo[k] = house_lo[k].min(lo[k]);
+            house_hi[k] = house_hi[k].max(hi[k]);
+        }
+        let centre = [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0, lo[2]];
+        level_lines.push(format!(
+            "L  {li}  {}  -  {}  {}  0 0 0 0 0",
+            level.rooms.len(),
+            nums(&centre),
+            nums(&[lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]])
+        ));
+    }
+    // Regions.
+    let mut region_lines = Vec::new();
+    let mut surface_lines = Vec::new();
+    let mut vertex_lines = Vec::new();
+    let mut panorama_lines = Vec::new();
+    for (g, &(li, k)) in regions.iter().enumerate() {
+        let level = &plan.levels[li];
+        let room = &level.rooms[k];
+        let r = room.rect;
+        let base = level.base_y;
+        let b = zbox([r.x0, base, r.z0], [r.x1, base + room.wall_height, r.z1]);
+        let centre = zup([(r.x0 + r.x1) / 2.0, base, (r.z0 + r.z1) / 2.0]);
+        region_lines.push(format!(
+            "R  {g} {li}  0 0  {}  {}  {}  {}  0 0 0 0",
+            region_letter(room.raw_type, room.class),
+            nums(&centre),
+            nums(&b),
+            num(room.wall_height)
+        ));
+        let floor_box = [b[0], b[1], b[2], b[3], b[4], b[2]];
+        surface_lines.push(format!(
+            "S  {g} {g}  0  F  {}  0 0 1  {}  0 0 0 0 0",
+            nums(&centre),
+            nums(&floor_box)
+        ));
+        // Counter-clockwise seen from +Z (z-up).
+        for (x, y) in [(b[0], b[1]), (b[3], b[1]), (b[3], b[4]), (b[0], b[4])] {
+            vertex_lines.push((g, nums(&[x, y, b[2]])));
+        }
+        let in_room: Vec<&PlacedObject> = level
+            .objects
+            .iter()
+            .filter(|o| o.rooms.contains(&k))
+            .collect();
+        if let Some((x, z)) = panorama_spot(room, &in_room) {
+            panorama_lines.push((
+                format!("pano_{}_{g}", &plan.id[..8.min(plan.id.len())]),
+                g,
+                zup([x, base + PANORAMA_HEIGHT, z]),
+            ));
+        }
+    }
+    // Portals: doors and arches between two rooms.
+    let mut portal_lines = Vec::new();
+    for (li, o) in &objects {
+        let fine = o.spec().fine;
+        if (fine == "door" || fine == "arch") && o.rooms.len() == 2 {
+            let base = region_base[*li];
+            let (a, b) = o.world_box();
+            portal_lines.push(format!(
+                "P  {}  {} {}  {}  {}  0 0 0 0",
+                portal_lines.len(),
+                base + o.rooms[0],
+                base + o.rooms[1],
+                fine,
+                nums(&zbox(a, b))
+            ));
+        }
+    }
+    // Objects.
+    let mut object_lines = Vec::new();
+    for (oi, (li, o)) in objects.iter().enumerate() {
+        let (lo, hi) = model_box(o);
+        let c = o.apply([
+            (lo[0] + hi[0]) / 2.0,
+            (lo[1] + hi[1]) / 2.0,
+            (lo[2] + hi[2]) / 2.0,
+        ]);
+        let origin = o.apply([0.0; 3]);
+        let xdir = o.apply([1.0, 0.0, 0.0]);
+        let a0 = [
+            xdir[0] - origin[0],
+            xdir[1] - origin[1],
+            xdir[2] - origin[2],
+        ];
+        let region = o
+            .rooms
+            .first()
+            .map_or(-1, |&k| (region_base[*li] + k) as i64);
+        object_lines.push(format!(
+            "O  {oi} {region} {}  {}  {}  0 0 1  {}  0 0 0 0 0 0 0 0",
+            cat_index.get(o.spec().fine).map_or(-1, |&i| i as i64),
+            nums(&zup(c)),
+            nums(&zup(a0)),
+            nums(&[
+                (hi[0] - lo[0]) / 2.0,
+                (hi[1] - lo[1]) / 2.0,
+                (hi[2] - lo[2]) / 2.0
+            ])
+        ));
+    }
+    // Segments, sorted by id.
+    let mut seg_ids: Vec<i32> = mesh.segments.keys().copied().collect();
+    seg_ids.sort_unstable();
+    let mut segment_lines = Vec::new();
+    for (si, id) in seg_ids.iter().enumerate() {
+        let (area, b) = mesh.segments[id];
+        let object = if *id >= 100_000 {
+            i64::from(*id - 100_000)
+        } else {
+            -1
+        };
+        segment_lines.push(format!(
+            "E  {si} {object} {id}  {}  {}  {}  0 0 0 0 0",
+            num(area),
+            nums(&[
+                (b[0] + b[3]) / 2.0,
+                (b[1] + b[4]) / 2.0,
+                (b[2] + b[5]) / 2.0
+            ]),
+            nums(&b)
+        ));
+    }
+    let _ = writeln!(body, "ASCII 1.1");
+    let _ = writeln!(
+        body,
+        "H  -  -  0 {} {} {} {} {} {} {} {}  {}  0 0 0 0 0  {}  0 0 0 0 0",
+        panorama_lines.len(),
+        vertex_lines.len(),
+        surface_lines.len(),
+        segment_lines.len(),
+        object_lines.len(),
+        cats.len(),
+        region_lines.len(),
+        portal_lines.len(),
+        level_lines.len(),
+        nums(&[
+            house_lo[0],
+            house_lo[1],
+            house_lo[2],
+            house_hi[0],
+            house_hi[1],
+            house_hi[2]
+        ])
+    );
+    for l in level_lines
+        .iter()
+        .chain(&region_lines)
+        .chain(&portal_lines)
+        .chain(&surface_lines)
+    {
+        let _ = writeln!(body, "{l}");
+    }
+    for (vi, (s, p)) in vertex_lines.iter().enumerate() {
+        let _ = writeln!(body, "V  {vi} {s}  F  {p}  0 0 1  0 0 0");
+    }
+    for (pi, (name, region, p)) in panorama_lines.iter().enumerate() {
+        let _ = writeln!(body, "P  {name}  {pi} {region}  0  {}  0 0 0 0 0", nums(p));
+    }
+    for (ci, fine) in cats.iter().enumerate() {
+        let (mi, mname) = mpcat40_of(fine);
+        let _ = writeln!(
+            body,
+            "C  {ci}  {} {}  {mi} {mname}  0 0 0 0 0",
+            ci + 1,
+            raw_name(fine).replace(' ', "#")
+        );
+    }
+    for l in object_lines.iter().chain(&segment_lines) {
+        let _ = writeln!(body, "{l}");
+    }
+    write_bytes_atomic(&house_path(root, &plan.id), body.as_bytes())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::formats::mp3d::house_file;
+    use crate::scene::formats::mp3d::ply::read_ply;
+
+    #[test]
+    fn every_library_category_gets_a_distinct_record_and_an_mpcat40_class() {
+        let cats = category_names();
+        assert_eq!(&cats[..3], &["wall", "floor", "ceiling"]);
+        let distinct: std::collections::BTreeSet<_> = cats.iter().collect();
+        assert_eq!(distinct.len(), cats.len());
+        assert_eq!(mpcat40_of("double_bed"), (11, "bed"));
+        assert_eq!(mpcat40_of("stairs"), (16, "stairs"));
+        assert_eq!(mpcat40_of("candle"), (39, "objects"));
+        assert_eq!(raw_name("dining_table"), "dining table");
+    }
+
+    #[test]
+    fn written_house_parses_with_consistent_counts_and_mesh_labels() {
+        let cfg = crate::generate::GenerateConfig {
+            houses: 1,
+            seed: 5,
+            rooms: (4, 6),
+            levels: (2, 2),
+            closed_door_prob: 0.5,
+        };
+        let plan = crate::generate::plan_house(&cfg, 0);
+        let dir = tempfile::tempdir().unwrap();
+        write_house(dir.path(), &plan).unwrap();
+        let bytes = std::fs::read(house_path(dir.path(), &plan.id)).unwrap();
+        let house = house_file::parse(&bytes).expect("writer output parses");
+        assert_eq!(house.regions.len(), plan.room_count());
+        assert_eq!(house.objects.len(), plan.object_count());
+        assert_eq!(house.levels.len(), plan.levels.len());
+        assert!(!house.panoramas.is_empty());
+        assert!(!house.portals.is_empty());
+        let ply = std::fs::read(
+            dir.path()
+                .join(&plan.id)
+                .join("house_segmentations")
+                .join(format!("{}.ply", plan.id)),
+        )
+        .unwrap();
+        let mesh = read_ply(&ply).unwrap();
+        // Every face's segment is an E record and its category a C mapping index.
+        let ids: std::collections::HashSet<i64> = house.segments.iter().map(|e| e.id).collect();
+        assert!(mesh.segment.iter().all(|s| ids.contains(&i64::from(*s))));
+        let n = house.categories.len() as i32;
+        assert!(mesh.category.iter().all(|&c| c >= 1 && c <= n));
+        // Region 0's outline: 4 vertices, counter-clockwise seen from +Z.
+        let outline = &house.surface_outlines()[0];
+        let p: Vec<[f64; 3]> = outline.iter().map(|v| v.position).collect();
+        let area2: f64 = (0..4)
+            .map(|i| p[i][0] * p[(i + 1) % 4][1] - p[(i + 1) % 4][0] * p[i][1])
+            .sum();
+        assert!(area2 > 0.0);
+    }
+}
