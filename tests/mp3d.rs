@@ -45,6 +45,7 @@ fn ingest_mp3d(root: &Path, data: &Path) -> IngestReport {
         ids: None,
         force: false,
         categories: None,
+        models: None,
     };
     ingest(&cfg, &NoProgress).expect("ingest")
 }

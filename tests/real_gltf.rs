@@ -108,6 +108,7 @@ fn ingest_compiles_every_test_asset_scene() {
         ids: None,
         force: false,
         categories: Some(data.join("gltf_habitat/hm3d_semantics/hm3dsem_category_mappings.tsv")),
+        models: None,
     };
     let report = ingest(&cfg, &NoProgress).unwrap();
     let ids: Vec<&str> = report.scenes.iter().map(|(r, _)| r.id.as_str()).collect();

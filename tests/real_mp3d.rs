@@ -160,6 +160,7 @@ fn truncated_house_fails_with_a_line_numbered_error_and_the_batch_goes_on() {
         ids: None,
         force: false,
         categories: Some(mp3d.join("category_mapping.tsv")),
+        models: None,
     };
     let start = Instant::now();
     let report = ingest(&cfg, &NoProgress).expect("ingest runs");

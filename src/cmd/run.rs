@@ -25,12 +25,14 @@ use super::Context;
 /// Episodes end on success (and, for oracle and replay, a stop), at --max-steps, or on an
 /// agent error. Interrupted runs continue with --resume and end with the same bytes.
 #[derive(Debug, clap::Args)]
-#[command(after_help = "Examples:\n  minos run --data DATA --episodes eps/point.parquet --agent oracle --out runs/oracle\n  \
+#[command(
+    after_help = "Examples:\n  minos run --data DATA --episodes eps/point.parquet --agent oracle --out runs/oracle\n  \
     minos run --data DATA --episodes eps/point.parquet --agent random --preset habitat --out runs/random\n  \
     minos run --data DATA --episodes eps/point.parquet --agent replay:runs/oracle/trajectories.parquet --out runs/replay\n\n\
     Python:\n  import pyarrow.parquet as pq, numpy as np, json\n  t = pq.read_table(\"runs/oracle/observations.parquet\")\n  \
     f = t.schema.field(\"color\"); shape = json.loads(f.metadata[b\"shape\"]); dtype = f.metadata[b\"dtype\"].decode()\n  \
-    img = np.frombuffer(t.column(\"color\")[0].as_py(), dtype=dtype).reshape(shape)")]
+    img = np.frombuffer(t.column(\"color\")[0].as_py(), dtype=dtype).reshape(shape)"
+)]
 pub struct Args {
     /// DATA folder (ingested and baked).
     #[arg(long)]
@@ -84,13 +86,37 @@ fn read_replay(path: &std::path::Path) -> anyhow::Result<HashMap<String, Vec<Dec
     let mut rows: HashMap<String, Vec<(u32, Decision)>> = HashMap::new();
     for batch in reader {
         let batch = batch?;
-        let col = |n: &str| batch.column_by_name(n).with_context(|| format!("{}: no column `{n}`", path.display()));
-        let ids = col("episode_id")?.as_any().downcast_ref::<StringArray>().context("episode_id: not text")?.clone();
-        let steps = col("step")?.as_any().downcast_ref::<UInt32Array>().context("step: not uint32")?.clone();
-        let actions = col("action")?.as_any().downcast_ref::<StringArray>().context("action: not text")?.clone();
+        let col = |n: &str| {
+            batch
+                .column_by_name(n)
+                .with_context(|| format!("{}: no column `{n}`", path.display()))
+        };
+        let ids = col("episode_id")?
+            .as_any()
+            .downcast_ref::<StringArray>()
+            .context("episode_id: not text")?
+            .clone();
+        let steps = col("step")?
+            .as_any()
+            .downcast_ref::<UInt32Array>()
+            .context("step: not uint32")?
+            .clone();
+        let actions = col("action")?
+            .as_any()
+            .downcast_ref::<StringArray>()
+            .context("action: not text")?
+            .clone();
         for i in 0..batch.num_rows() {
-            let d = Decision::from_name(actions.value(i)).with_context(|| format!("{}: row {i}: unknown action `{}`", path.display(), actions.value(i)))?;
-            rows.entry(ids.value(i).to_string()).or_default().push((steps.value(i), d));
+            let d = Decision::from_name(actions.value(i)).with_context(|| {
+                format!(
+                    "{}: row {i}: unknown action `{}`",
+                    path.display(),
+                    actions.value(i)
+                )
+            })?;
+            rows.entry(ids.value(i).to_string())
+                .or_default()
+                .push((steps.value(i), d));
         }
     }
     Ok(rows
@@ -110,12 +136,19 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         "oracle" => AgentKind::Oracle,
         other => match other.strip_prefix("replay:") {
             Some(file) => AgentKind::Replay(read_replay(std::path::Path::new(file))?),
-            None => bail!("--agent: unknown agent `{other}` (random, forward, oracle, replay:FILE)"),
+            None => {
+                bail!("--agent: unknown agent `{other}` (random, forward, oracle, replay:FILE)")
+            }
         },
     };
-    let body = AgentConfig::preset(&args.preset).with_context(|| format!("--preset: unknown `{}`", args.preset))?;
+    let body = AgentConfig::preset(&args.preset)
+        .with_context(|| format!("--preset: unknown `{}`", args.preset))?;
     let sensors = match &args.sensors {
-        Some(p) => SensorSuite::parse(&std::fs::read_to_string(p).with_context(|| p.display().to_string())?, &p.display().to_string()).map_err(anyhow::Error::msg)?,
+        Some(p) => SensorSuite::parse(
+            &std::fs::read_to_string(p).with_context(|| p.display().to_string())?,
+            &p.display().to_string(),
+        )
+        .map_err(anyhow::Error::msg)?,
         None => SensorSuite::minos(args.size),
     };
     let episodes = read_episodes(&args.episodes)?;
@@ -135,7 +168,11 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         shard: args.shard,
         resume: args.resume,
         reward: Reward::from_name(&args.reward).unwrap_or_default(),
-        encoding: if args.image_encoding == "png" { ImageEncoding::Png } else { ImageEncoding::Raw },
+        encoding: if args.image_encoding == "png" {
+            ImageEncoding::Png
+        } else {
+            ImageEncoding::Raw
+        },
     };
     let start = std::time::Instant::now();
     let report = {
@@ -155,7 +192,10 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         "reward": args.reward,
         "image_encoding": args.image_encoding,
     });
-    write_bytes_atomic(&args.out.join("manifest.json"), &serde_json::to_vec_pretty(&manifest)?)?;
+    write_bytes_atomic(
+        &args.out.join("manifest.json"),
+        &serde_json::to_vec_pretty(&manifest)?,
+    )?;
     for (id, e) in &report.failures {
         eprintln!("error: episode {id}: {e}");
     }
@@ -170,5 +210,9 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         f64::from(steps) / start.elapsed().as_secs_f64(),
         args.out.display()
     ));
-    Ok(if report.failures.is_empty() { ExitCode::SUCCESS } else { ExitCode::FAILURE })
+    Ok(if report.failures.is_empty() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    })
 }

@@ -21,20 +21,34 @@ pub fn label_color(id: u32) -> [u8; 3] {
 }
 
 /// Writes `image` (of a sensor with `modality`, `width` × `height`) as a PNG.
-pub fn write_png(path: &Path, modality: Modality, image: &Image, width: u32, height: u32) -> std::io::Result<()> {
+pub fn write_png(
+    path: &Path,
+    modality: Modality,
+    image: &Image,
+    width: u32,
+    height: u32,
+) -> std::io::Result<()> {
     let bytes = encode_png(modality, image, width, height)?;
     crate::io::atomic::write_bytes_atomic(path, &bytes)
 }
 
 /// Encodes `image` (of a sensor with `modality`, `width` × `height`) as PNG bytes.
-pub fn encode_png(modality: Modality, image: &Image, width: u32, height: u32) -> std::io::Result<Vec<u8>> {
+pub fn encode_png(
+    modality: Modality,
+    image: &Image,
+    width: u32,
+    height: u32,
+) -> std::io::Result<Vec<u8>> {
     let n = (width * height) as usize;
-    fn encode<P: image::PixelWithColorType, C: std::ops::Deref<Target = [P::Subpixel]>>(img: &ImageBuffer<P, C>) -> std::io::Result<Vec<u8>>
+    fn encode<P: image::PixelWithColorType, C: std::ops::Deref<Target = [P::Subpixel]>>(
+        img: &ImageBuffer<P, C>,
+    ) -> std::io::Result<Vec<u8>>
     where
         [P::Subpixel]: image::EncodableLayout,
     {
         let mut out = std::io::Cursor::new(Vec::new());
-        img.write_to(&mut out, image::ImageFormat::Png).map_err(|e| std::io::Error::other(e.to_string()))?;
+        img.write_to(&mut out, image::ImageFormat::Png)
+            .map_err(|e| std::io::Error::other(e.to_string()))?;
         Ok(out.into_inner())
     }
     let save_rgb = |pixels: Vec<[u8; 3]>| -> std::io::Result<Vec<u8>> {

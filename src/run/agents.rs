@@ -50,7 +50,16 @@ impl Decision {
     pub fn strengths(&self) -> [f32; 8] {
         match self {
             Decision::Stop => [0.0; 8],
-            Decision::Act(a) => [a.forward, a.backward, a.strafe_left, a.strafe_right, a.turn_left, a.turn_right, a.look_up, a.look_down],
+            Decision::Act(a) => [
+                a.forward,
+                a.backward,
+                a.strafe_left,
+                a.strafe_right,
+                a.turn_left,
+                a.turn_right,
+                a.look_up,
+                a.look_down,
+            ],
         }
     }
 
@@ -91,7 +100,14 @@ pub trait Agent: Send {
 pub fn action_set(sim: &Simulator) -> &'static [&'static str] {
     match sim.agent().motion {
         Motion::Discrete { .. } => &["forward", "turn_left", "turn_right"],
-        Motion::Continuous { .. } => &["forward", "backward", "strafe_left", "strafe_right", "turn_left", "turn_right"],
+        Motion::Continuous { .. } => &[
+            "forward",
+            "backward",
+            "strafe_left",
+            "strafe_right",
+            "turn_left",
+            "turn_right",
+        ],
     }
 }
 
@@ -104,19 +120,27 @@ pub struct RandomAgent {
 impl RandomAgent {
     /// A random agent for the run's seed.
     pub fn new(seed: u64) -> Self {
-        RandomAgent { seed, rng: Rng::new(seed) }
+        RandomAgent {
+            seed,
+            rng: Rng::new(seed),
+        }
     }
 }
 
 impl Agent for RandomAgent {
     fn reset(&mut self, episode: &Episode, _sim: &Simulator) -> Result<(), String> {
-        self.rng = Rng::new(derive_seed(self.seed, &[&episode.episode_id, "random-agent"]));
+        self.rng = Rng::new(derive_seed(
+            self.seed,
+            &[&episode.episode_id, "random-agent"],
+        ));
         Ok(())
     }
     fn decide(&mut self, _obs: &Observation, sim: &Simulator) -> Result<Decision, String> {
         let set = action_set(sim);
         let name = set[self.rng.below(set.len())];
-        Ok(Decision::Act(Actions::single(name).unwrap_or(Actions::IDLE)))
+        Ok(Decision::Act(
+            Actions::single(name).unwrap_or(Actions::IDLE),
+        ))
     }
 }
 
@@ -131,20 +155,32 @@ pub struct ForwardAgent {
 impl ForwardAgent {
     /// A forward agent for the run's seed.
     pub fn new(seed: u64) -> Self {
-        ForwardAgent { seed, rng: Rng::new(seed), turning: 0, turn: "turn_left" }
+        ForwardAgent {
+            seed,
+            rng: Rng::new(seed),
+            turning: 0,
+            turn: "turn_left",
+        }
     }
 }
 
 impl Agent for ForwardAgent {
     fn reset(&mut self, episode: &Episode, _sim: &Simulator) -> Result<(), String> {
-        self.rng = Rng::new(derive_seed(self.seed, &[&episode.episode_id, "forward-agent"]));
+        self.rng = Rng::new(derive_seed(
+            self.seed,
+            &[&episode.episode_id, "forward-agent"],
+        ));
         self.turning = 0;
         Ok(())
     }
     fn decide(&mut self, obs: &Observation, _sim: &Simulator) -> Result<Decision, String> {
         if obs.measurements.collision && self.turning == 0 {
             self.turning = 1 + self.rng.below(4) as u32;
-            self.turn = if self.rng.chance(0.5) { "turn_left" } else { "turn_right" };
+            self.turn = if self.rng.chance(0.5) {
+                "turn_left"
+            } else {
+                "turn_right"
+            };
         }
         let name = if self.turning > 0 {
             self.turning -= 1;
@@ -152,7 +188,9 @@ impl Agent for ForwardAgent {
         } else {
             "forward"
         };
-        Ok(Decision::Act(Actions::single(name).unwrap_or(Actions::IDLE)))
+        Ok(Decision::Act(
+            Actions::single(name).unwrap_or(Actions::IDLE),
+        ))
     }
 }
 
@@ -166,7 +204,11 @@ pub struct ReplayAgent {
 impl ReplayAgent {
     /// An agent replaying `(episode id, decisions in step order)`.
     pub fn new(by_episode: std::collections::HashMap<String, Vec<Decision>>) -> Self {
-        ReplayAgent { by_episode, current: Vec::new(), next: 0 }
+        ReplayAgent {
+            by_episode,
+            current: Vec::new(),
+            next: 0,
+        }
     }
 }
 
@@ -181,7 +223,11 @@ impl Agent for ReplayAgent {
         Ok(())
     }
     fn decide(&mut self, _obs: &Observation, _sim: &Simulator) -> Result<Decision, String> {
-        let d = self.current.get(self.next).copied().unwrap_or(Decision::Stop);
+        let d = self
+            .current
+            .get(self.next)
+            .copied()
+            .unwrap_or(Decision::Stop);
         self.next += 1;
         Ok(d)
     }

@@ -30,7 +30,13 @@ impl Reward {
     }
 
     /// The reward of a step from `before` to `after` (Euclidean, geodesic distances).
-    pub fn of_step(self, before: (f32, Option<f32>), after: (f32, Option<f32>), max_steps: u32, success: bool) -> f32 {
+    pub fn of_step(
+        self,
+        before: (f32, Option<f32>),
+        after: (f32, Option<f32>),
+        max_steps: u32,
+        success: bool,
+    ) -> f32 {
         let geo = |b: Option<f32>, a: Option<f32>| match (b, a) {
             (Some(b), Some(a)) => b - a,
             _ => 0.0,
@@ -66,12 +72,32 @@ pub struct EpisodeMetrics {
 
 impl EpisodeMetrics {
     /// Computes the derived fields from the raw ones.
-    pub fn finish(success: bool, steps: u32, max_steps: u32, path_length: f32, collisions: u32, start_geodesic: f32, final_geodesic: f32) -> Self {
-        let weight = if path_length.max(start_geodesic) > 0.0 { start_geodesic / path_length.max(start_geodesic) } else { 1.0 };
-        let progress = if start_geodesic > 0.0 && final_geodesic.is_finite() { (1.0 - final_geodesic / start_geodesic).clamp(0.0, 1.0) } else { 0.0 };
+    pub fn finish(
+        success: bool,
+        steps: u32,
+        max_steps: u32,
+        path_length: f32,
+        collisions: u32,
+        start_geodesic: f32,
+        final_geodesic: f32,
+    ) -> Self {
+        let weight = if path_length.max(start_geodesic) > 0.0 {
+            start_geodesic / path_length.max(start_geodesic)
+        } else {
+            1.0
+        };
+        let progress = if start_geodesic > 0.0 && final_geodesic.is_finite() {
+            (1.0 - final_geodesic / start_geodesic).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
         EpisodeMetrics {
             success,
-            speed: if success { 1.0 - steps as f32 / max_steps.max(1) as f32 } else { 0.0 },
+            speed: if success {
+                1.0 - steps as f32 / max_steps.max(1) as f32
+            } else {
+                0.0
+            },
             spl: if success { weight } else { 0.0 },
             soft_spl: if success { weight } else { progress * weight },
             path_length,
@@ -118,7 +144,15 @@ impl Aggregate {
             a.collisions += f64::from(m.collisions);
         }
         let n = a.episodes.max(1) as f64;
-        for v in [&mut a.success, &mut a.speed, &mut a.spl, &mut a.soft_spl, &mut a.path_length, &mut a.steps, &mut a.collisions] {
+        for v in [
+            &mut a.success,
+            &mut a.speed,
+            &mut a.spl,
+            &mut a.soft_spl,
+            &mut a.path_length,
+            &mut a.steps,
+            &mut a.collisions,
+        ] {
             *v /= n;
         }
         a
@@ -134,7 +168,14 @@ pub fn aggregate(rows: &[(String, String, String, EpisodeMetrics)]) -> BTreeMap<
         values.sort();
         values.dedup();
         for v in values {
-            out.insert(format!("{k}={v}"), Aggregate::of(rows.iter().filter(|r| [&r.0, &r.1, &r.2][f] == v).map(|r| &r.3)));
+            out.insert(
+                format!("{k}={v}"),
+                Aggregate::of(
+                    rows.iter()
+                        .filter(|r| [&r.0, &r.1, &r.2][f] == v)
+                        .map(|r| &r.3),
+                ),
+            );
         }
     }
     out
@@ -142,11 +183,21 @@ pub fn aggregate(rows: &[(String, String, String, EpisodeMetrics)]) -> BTreeMap<
 
 /// The printed table of aggregates.
 pub fn render_table(groups: &BTreeMap<String, Aggregate>) -> String {
-    let mut s = format!("{:<24}{:>9}{:>9}{:>8}{:>8}{:>9}{:>9}{:>8}\n", "group", "episodes", "success", "SPL", "SoftSPL", "speed", "path m", "coll.");
+    let mut s = format!(
+        "{:<24}{:>9}{:>9}{:>8}{:>8}{:>9}{:>9}{:>8}\n",
+        "group", "episodes", "success", "SPL", "SoftSPL", "speed", "path m", "coll."
+    );
     for (k, a) in groups {
         s.push_str(&format!(
             "{:<24}{:>9}{:>8.1}%{:>8.3}{:>8.3}{:>9.3}{:>9.2}{:>8.1}\n",
-            k, a.episodes, 100.0 * a.success, a.spl, a.soft_spl, a.speed, a.path_length, a.collisions
+            k,
+            a.episodes,
+            100.0 * a.success,
+            a.spl,
+            a.soft_spl,
+            a.speed,
+            a.path_length,
+            a.collisions
         ));
     }
     s
@@ -163,7 +214,15 @@ mod tests {
         let f = EpisodeMetrics::finish(false, 500, 500, 4.0, 0, 8.0, 6.0);
         assert_eq!(f.spl, 0.0);
         assert!((f.soft_spl - 0.25).abs() < 1e-6, "{}", f.soft_spl);
-        assert_eq!(Reward::DistTime.of_step((5.0, None), (4.8, None), 100, false), 0.2 - 0.01);
-        assert!((Reward::Geodesic.of_step((5.0, Some(6.0)), (4.8, Some(5.7)), 100, true) - (0.3 - 0.01 + 2.5)).abs() < 1e-5);
+        assert_eq!(
+            Reward::DistTime.of_step((5.0, None), (4.8, None), 100, false),
+            0.2 - 0.01
+        );
+        assert!(
+            (Reward::Geodesic.of_step((5.0, Some(6.0)), (4.8, Some(5.7)), 100, true)
+                - (0.3 - 0.01 + 2.5))
+                .abs()
+                < 1e-5
+        );
     }
 }

@@ -40,7 +40,9 @@ impl OracleAgent {
 pub fn reached(sim: &Simulator, episode: &Episode, state: &AgentState) -> bool {
     let p = Vec3::from_array(state.position);
     match &episode.goal {
-        Goal::Point { position } => p.distance(Vec3::from_array(*position)) <= episode.success_radius,
+        Goal::Point { position } => {
+            p.distance(Vec3::from_array(*position)) <= episode.success_radius
+        }
         Goal::Object { .. } | Goal::Room { .. } => sim.goal_field_distance(p).is_some_and(|d| {
             // On a goal span: the field is 0 there; allow the offset within the cell.
             d <= sim.assets().grid.cell() * 0.75
@@ -52,11 +54,28 @@ fn key(s: &AgentState, continuous: bool) -> (i32, i32, i32, i32, i32, i32) {
     let q = |v: f32, step: f32| (v / step).round() as i32;
     let yaw = q(s.yaw.rem_euclid(std::f32::consts::TAU), 0.01) % q(std::f32::consts::TAU, 0.01);
     if continuous {
-        (q(s.position[0], 0.02), q(s.position[2], 0.02), yaw, q(s.velocity[0], 0.1), q(s.velocity[1], 0.1), q(s.angular_velocity, 0.1))
+        (
+            q(s.position[0], 0.02),
+            q(s.position[2], 0.02),
+            yaw,
+            q(s.velocity[0], 0.1),
+            q(s.velocity[1], 0.1),
+            q(s.angular_velocity, 0.1),
+        )
     } else {
-        (q(s.position[0], 0.02), q(s.position[2], 0.02), yaw, q(s.position[1], 0.02), 0, 0)
+        (
+            q(s.position[0], 0.02),
+            q(s.position[2], 0.02),
+            yaw,
+            q(s.position[1], 0.02),
+            0,
+            0,
+        )
     }
 }
+
+/// A search node: state, steps from the start, and (parent node, action index).
+type Node = (AgentState, u32, Option<(u32, u8)>);
 
 /// Progress (m of geodesic distance) each planning segment must make.
 const SEGMENT: f32 = 3.0;
@@ -67,7 +86,9 @@ fn remaining(sim: &Simulator, episode: &Episode, s: &AgentState) -> f32 {
     let p = Vec3::from_array(s.position);
     match &episode.goal {
         Goal::Point { position } => {
-            sim.goal_field_distance(p).unwrap_or_else(|| p.distance(Vec3::from_array(*position))) - episode.success_radius
+            sim.goal_field_distance(p)
+                .unwrap_or_else(|| p.distance(Vec3::from_array(*position)))
+                - episode.success_radius
         }
         _ => sim.goal_field_distance(p).unwrap_or(f32::INFINITY),
     }
@@ -86,7 +107,9 @@ fn plan(sim: &Simulator, episode: &Episode, start: AgentState) -> Option<Vec<&'s
         if !now.is_finite() {
             return None;
         }
-        let attempt = [SEGMENT, 1.0, 0.3].iter().find_map(|seg| search(sim, episode, state, (now - seg).max(-1.0)));
+        let attempt = [SEGMENT, 1.0, 0.3]
+            .iter()
+            .find_map(|seg| search(sim, episode, state, (now - seg).max(-1.0)));
         let (actions, end) = attempt?;
         if actions.is_empty() {
             return None;
@@ -99,7 +122,12 @@ fn plan(sim: &Simulator, episode: &Episode, start: AgentState) -> Option<Vec<&'s
 
 /// Weighted A* from `start` to a state that reaches the goal or whose remaining distance is at
 /// most `target`; returns the actions and the end state.
-fn search(sim: &Simulator, episode: &Episode, start: AgentState, target: f32) -> Option<(Vec<&'static str>, AgentState)> {
+fn search(
+    sim: &Simulator,
+    episode: &Episode,
+    start: AgentState,
+    target: f32,
+) -> Option<(Vec<&'static str>, AgentState)> {
     let continuous = matches!(sim.agent().motion, Motion::Continuous { .. });
     let max_move = match sim.agent().motion {
         Motion::Discrete { step, .. } => step,
@@ -107,9 +135,11 @@ fn search(sim: &Simulator, episode: &Episode, start: AgentState, target: f32) ->
     };
     let turn_step = match sim.agent().motion {
         Motion::Discrete { turn_deg, .. } => turn_deg.to_radians(),
-        Motion::Continuous { turn_acceleration, max_angular_speed, .. } => {
-            (turn_acceleration * sim.agent().dt).min(max_angular_speed) * sim.agent().dt
-        }
+        Motion::Continuous {
+            turn_acceleration,
+            max_angular_speed,
+            ..
+        } => (turn_acceleration * sim.agent().dt).min(max_angular_speed) * sim.agent().dt,
     };
     let grid = &sim.assets().grid;
     // Steps still needed: the distance left to the target over the longest move, plus the
@@ -121,7 +151,8 @@ fn search(sim: &Simulator, episode: &Episode, start: AgentState, target: f32) ->
             let a = grid.span_position(anchor as usize) - p;
             if a.x * a.x + a.z * a.z > max_move * max_move {
                 let want = (-a.x).atan2(-a.z);
-                let diff = (want - s.yaw + std::f32::consts::PI).rem_euclid(std::f32::consts::TAU) - std::f32::consts::PI;
+                let diff = (want - s.yaw + std::f32::consts::PI).rem_euclid(std::f32::consts::TAU)
+                    - std::f32::consts::PI;
                 turns = ((diff.abs() - 0.5 * turn_step) / turn_step).ceil().max(0.0);
             }
         }
@@ -129,7 +160,7 @@ fn search(sim: &Simulator, episode: &Episode, start: AgentState, target: f32) ->
     };
     let done = |s: &AgentState, d: f32| d <= target || reached(sim, episode, s);
     let actions = action_set(sim);
-    let mut states: Vec<(AgentState, u32, Option<(u32, u8)>)> = vec![(start, 0, None)];
+    let mut states: Vec<Node> = vec![(start, 0, None)];
     let mut best: HashMap<(i32, i32, i32, i32, i32, i32), u32> = HashMap::new();
     best.insert(key(&start, continuous), 0);
     let mut open = BinaryHeap::new();
@@ -156,7 +187,9 @@ fn search(sim: &Simulator, episode: &Episode, start: AgentState, target: f32) ->
             return None;
         }
         for (ai, name) in actions.iter().enumerate() {
-            let Some(a) = Actions::single(name) else { continue };
+            let Some(a) = Actions::single(name) else {
+                continue;
+            };
             let t = sim.transition(&state, a);
             let k = key(&t.state, continuous);
             let ng = cost + 1;
@@ -171,7 +204,11 @@ fn search(sim: &Simulator, episode: &Episode, start: AgentState, target: f32) ->
             states.push((t.state, ng, Some((id, ai as u8))));
             let f = ng as f32 + h(&t.state, d);
             // Ties go to the deeper state, then to the first created: deterministic.
-            open.push(Reverse(((f * 1000.0) as u64, u32::MAX - ng, (states.len() - 1) as u32)));
+            open.push(Reverse((
+                (f * 1000.0) as u64,
+                u32::MAX - ng,
+                (states.len() - 1) as u32,
+            )));
         }
     }
     None
@@ -181,7 +218,8 @@ impl Agent for OracleAgent {
     fn reset(&mut self, episode: &Episode, sim: &Simulator) -> Result<(), String> {
         self.episode = Some(episode.clone());
         self.next = 0;
-        self.plan = plan(sim, episode, sim.state()).ok_or_else(|| format!("episode {}: no plan found", episode.episode_id))?;
+        self.plan = plan(sim, episode, sim.state())
+            .ok_or_else(|| format!("episode {}: no plan found", episode.episode_id))?;
         self.expected = None;
         Ok(())
     }
@@ -191,7 +229,8 @@ impl Agent for OracleAgent {
         // Re-plan if the world did not do what the plan expected (it is deterministic, so this
         // only happens when the plan came from another state).
         if self.expected.is_some_and(|e| e != sim.state()) {
-            self.plan = plan(sim, episode, sim.state()).ok_or_else(|| format!("episode {}: lost the plan", episode.episode_id))?;
+            self.plan = plan(sim, episode, sim.state())
+                .ok_or_else(|| format!("episode {}: lost the plan", episode.episode_id))?;
             self.next = 0;
         }
         let Some(name) = self.plan.get(self.next).copied() else {

@@ -24,7 +24,10 @@ use crate::sim::{AgentConfig, RendererChoice, SceneAssets, SensorSuite, Simulato
 use super::agents::{Agent, Decision, ForwardAgent, RandomAgent, ReplayAgent};
 use super::metrics::{aggregate, Aggregate, EpisodeMetrics, Reward};
 use super::oracle::{reached, OracleAgent};
-use super::tables::{merge, observation_schema, trajectory_schema, write_trajectory, ImageEncoding, ObservationWriter, StepRow};
+use super::tables::{
+    merge, observation_schema, trajectory_schema, write_trajectory, ImageEncoding,
+    ObservationWriter, StepRow,
+};
 
 /// Which agent drives.
 #[derive(Debug, Clone, PartialEq)]
@@ -124,12 +127,24 @@ fn make_agent(kind: &AgentKind, seed: u64) -> Box<dyn Agent> {
 }
 
 /// Runs one episode into its part files and returns its metrics.
-fn run_episode(sim: &mut Simulator, agent: &mut dyn Agent, ep: &Episode, cfg: &RunConfig, parts: &Path, index: usize) -> Result<EpisodeMetrics, String> {
+fn run_episode(
+    sim: &mut Simulator,
+    agent: &mut dyn Agent,
+    ep: &Episode,
+    cfg: &RunConfig,
+    parts: &Path,
+    index: usize,
+) -> Result<EpisodeMetrics, String> {
     sim.reset_episode(ep);
     agent.reset(ep, sim)?;
     let max_steps = cfg.max_steps.unwrap_or(ep.max_steps).max(1);
     let mut obs = sim.observe().map_err(|e| e.to_string())?;
-    let mut writer = ObservationWriter::create(&part(parts, index, "obs.parquet"), &ep.episode_id, &cfg.sensors.cameras, cfg.encoding)?;
+    let mut writer = ObservationWriter::create(
+        &part(parts, index, "obs.parquet"),
+        &ep.episode_id,
+        &cfg.sensors.cameras,
+        cfg.encoding,
+    )?;
     let mut rows: Vec<StepRow> = Vec::new();
     let (mut path_length, mut collisions, mut success) = (0.0f32, 0u32, false);
     for t in 0..max_steps {
@@ -137,7 +152,13 @@ fn run_episode(sim: &mut Simulator, agent: &mut dyn Agent, ep: &Episode, cfg: &R
         let m = &obs.measurements;
         let before = (m.goal_euclidean.unwrap_or(f32::NAN), m.goal_geodesic);
         let state = sim.state();
-        let pose = [state.position[0], state.position[1], state.position[2], state.yaw, state.tilt];
+        let pose = [
+            state.position[0],
+            state.position[1],
+            state.position[2],
+            state.yaw,
+            state.tilt,
+        ];
         let decision = agent.decide(&obs, sim)?;
         let mut row = StepRow {
             step: t,
@@ -164,10 +185,14 @@ fn run_episode(sim: &mut Simulator, agent: &mut dyn Agent, ep: &Episode, cfg: &R
             Decision::Act(actions) => {
                 obs = sim.step(actions).map_err(|e| e.to_string())?;
                 let after_state = sim.state();
-                path_length += Vec3::from_array(state.position).distance(Vec3::from_array(after_state.position));
+                path_length += Vec3::from_array(state.position)
+                    .distance(Vec3::from_array(after_state.position));
                 collisions += u32::from(obs.measurements.collision);
                 let arrived = !agent.stops() && reached(sim, ep, &after_state);
-                let after = (obs.measurements.goal_euclidean.unwrap_or(f32::NAN), obs.measurements.goal_geodesic);
+                let after = (
+                    obs.measurements.goal_euclidean.unwrap_or(f32::NAN),
+                    obs.measurements.goal_geodesic,
+                );
                 row.collision = obs.measurements.collision;
                 row.contacts = obs.measurements.contacts.clone();
                 row.done = arrived || t + 1 == max_steps;
@@ -184,7 +209,15 @@ fn run_episode(sim: &mut Simulator, agent: &mut dyn Agent, ep: &Episode, cfg: &R
     writer.finish()?;
     write_trajectory(&part(parts, index, "traj.parquet"), &ep.episode_id, &rows)?;
     let final_geodesic = obs.measurements.goal_geodesic.unwrap_or(f32::NAN);
-    let m = EpisodeMetrics::finish(success, rows.len() as u32, max_steps, path_length, collisions, ep.geodesic_distance, final_geodesic);
+    let m = EpisodeMetrics::finish(
+        success,
+        rows.len() as u32,
+        max_steps,
+        path_length,
+        collisions,
+        ep.geodesic_distance,
+        final_geodesic,
+    );
     let done = PartDone {
         episode_id: ep.episode_id.clone(),
         success: m.success,
@@ -201,15 +234,27 @@ fn run_episode(sim: &mut Simulator, agent: &mut dyn Agent, ep: &Episode, cfg: &R
     Ok(m)
 }
 
+/// An episode's index and its metrics (and whether they were kept from an earlier run).
+type Outcome = (usize, Result<(EpisodeMetrics, bool), String>);
+
 /// The episodes of this shard, in episode-id order, with their global index.
 pub fn select(episodes: &[Episode], shard: Shard) -> Vec<(usize, Episode)> {
     let mut sorted: Vec<&Episode> = episodes.iter().collect();
     sorted.sort_by(|a, b| a.episode_id.cmp(&b.episode_id));
-    sorted.into_iter().enumerate().filter(|(i, _)| i % shard.count == shard.index).map(|(i, e)| (i, e.clone())).collect()
+    sorted
+        .into_iter()
+        .enumerate()
+        .filter(|(i, _)| i % shard.count == shard.index)
+        .map(|(i, e)| (i, e.clone()))
+        .collect()
 }
 
 /// Runs the episodes and writes the tables into `cfg.out`.
-pub fn run(cfg: &RunConfig, episodes: &[Episode], progress: &dyn Progress) -> Result<RunReport, String> {
+pub fn run(
+    cfg: &RunConfig,
+    episodes: &[Episode],
+    progress: &dyn Progress,
+) -> Result<RunReport, String> {
     let parts = cfg.out.join(".parts");
     if !cfg.resume && parts.exists() {
         std::fs::remove_dir_all(&parts).map_err(|e| format!("{}: {e}", parts.display()))?;
@@ -219,15 +264,24 @@ pub fn run(cfg: &RunConfig, episodes: &[Episode], progress: &dyn Progress) -> Re
     progress.set_total(mine.len() as u64);
     let mut by_scene: BTreeMap<String, Vec<(usize, Episode)>> = BTreeMap::new();
     for (i, e) in &mine {
-        by_scene.entry(e.scene_id.clone()).or_default().push((*i, e.clone()));
+        by_scene
+            .entry(e.scene_id.clone())
+            .or_default()
+            .push((*i, e.clone()));
     }
     let scenes: Vec<(String, Vec<(usize, Episode)>)> = by_scene.into_iter().collect();
-    let results: Vec<Vec<(usize, Result<(EpisodeMetrics, bool), String>)>> = scenes
+    let results: Vec<Vec<Outcome>> = scenes
         .par_iter()
         .map(|(scene_id, eps)| {
-            let pending: Vec<&(usize, Episode)> = eps.iter().filter(|(i, _)| !(cfg.resume && part(&parts, *i, "json").is_file())).collect();
-            let mut out: Vec<(usize, Result<(EpisodeMetrics, bool), String>)> = Vec::new();
-            for (i, _) in eps.iter().filter(|(i, _)| cfg.resume && part(&parts, *i, "json").is_file()) {
+            let pending: Vec<&(usize, Episode)> = eps
+                .iter()
+                .filter(|(i, _)| !(cfg.resume && part(&parts, *i, "json").is_file()))
+                .collect();
+            let mut out: Vec<Outcome> = Vec::new();
+            for (i, _) in eps
+                .iter()
+                .filter(|(i, _)| cfg.resume && part(&parts, *i, "json").is_file())
+            {
                 let kept = std::fs::read(part(&parts, *i, "json"))
                     .map_err(|e| e.to_string())
                     .and_then(|b| serde_json::from_slice::<PartDone>(&b).map_err(|e| e.to_string()))
@@ -239,11 +293,23 @@ pub fn run(cfg: &RunConfig, episodes: &[Episode], progress: &dyn Progress) -> Re
                 return out;
             }
             let setup = (|| -> Result<Simulator, String> {
-                let (_, scene) = read_scene(&scene_path(&cfg.data, scene_id)).map_err(|e| format!("{e} (run `minos ingest`)"))?;
-                let grid = read_nav(&nav_path(&cfg.data, scene_id)).map_err(|e| format!("{e} (run `minos bake`)"))?;
-                let assets = Arc::new(SceneAssets::new(&scene, grid, &cfg.body).map_err(|e| e.to_string())?);
-                let renderer = Arc::new(Renderer::new(cfg.renderer, &assets.render).map_err(|e| e.to_string())?);
-                Ok(Simulator::new(assets, renderer, cfg.body, cfg.sensors.clone(), cfg.max_steps.unwrap_or(500), cfg.seed))
+                let (_, scene) = read_scene(&scene_path(&cfg.data, scene_id))
+                    .map_err(|e| format!("{e} (run `minos ingest`)"))?;
+                let grid = read_nav(&nav_path(&cfg.data, scene_id))
+                    .map_err(|e| format!("{e} (run `minos bake`)"))?;
+                let assets =
+                    Arc::new(SceneAssets::new(&scene, grid, &cfg.body).map_err(|e| e.to_string())?);
+                let renderer = Arc::new(
+                    Renderer::new(cfg.renderer, &assets.render).map_err(|e| e.to_string())?,
+                );
+                Ok(Simulator::new(
+                    assets,
+                    renderer,
+                    cfg.body,
+                    cfg.sensors.clone(),
+                    cfg.max_steps.unwrap_or(500),
+                    cfg.seed,
+                ))
             })();
             match setup {
                 Err(e) => {
@@ -255,7 +321,11 @@ pub fn run(cfg: &RunConfig, episodes: &[Episode], progress: &dyn Progress) -> Re
                 Ok(mut sim) => {
                     let mut agent = make_agent(&cfg.agent, cfg.seed);
                     for (i, ep) in pending {
-                        out.push((*i, run_episode(&mut sim, agent.as_mut(), ep, cfg, &parts, *i).map(|m| (m, false))));
+                        out.push((
+                            *i,
+                            run_episode(&mut sim, agent.as_mut(), ep, cfg, &parts, *i)
+                                .map(|m| (m, false)),
+                        ));
                         progress.advance(1);
                     }
                 }
@@ -263,7 +333,8 @@ pub fn run(cfg: &RunConfig, episodes: &[Episode], progress: &dyn Progress) -> Re
             out
         })
         .collect();
-    let mut by_index: BTreeMap<usize, Result<(EpisodeMetrics, bool), String>> = results.into_iter().flatten().collect();
+    let mut by_index: BTreeMap<usize, Result<(EpisodeMetrics, bool), String>> =
+        results.into_iter().flatten().collect();
     let mut report = RunReport::default();
     let mut traj_parts = Vec::new();
     let mut obs_parts = Vec::new();
@@ -276,15 +347,32 @@ pub fn run(cfg: &RunConfig, episodes: &[Episode], progress: &dyn Progress) -> Re
                 obs_parts.push(part(&parts, *i, "obs.parquet"));
             }
             Some(Err(e)) => report.failures.push((ep.episode_id.clone(), e)),
-            None => report.failures.push((ep.episode_id.clone(), "not run".into())),
+            None => report
+                .failures
+                .push((ep.episode_id.clone(), "not run".into())),
         }
     }
-    merge(&traj_parts, trajectory_schema(), &cfg.out.join("trajectories.parquet"))?;
-    merge(&obs_parts, observation_schema(&cfg.sensors.cameras, cfg.encoding), &cfg.out.join("observations.parquet"))?;
+    merge(
+        &traj_parts,
+        trajectory_schema(),
+        &cfg.out.join("trajectories.parquet"),
+    )?;
+    merge(
+        &obs_parts,
+        observation_schema(&cfg.sensors.cameras, cfg.encoding),
+        &cfg.out.join("observations.parquet"),
+    )?;
     let rows: Vec<(String, String, String, EpisodeMetrics)> = report
         .episodes
         .iter()
-        .map(|(e, m)| (e.task.name().to_string(), e.split.clone(), e.difficulty.name().to_string(), *m))
+        .map(|(e, m)| {
+            (
+                e.task.name().to_string(),
+                e.split.clone(),
+                e.difficulty.name().to_string(),
+                *m,
+            )
+        })
         .collect();
     report.groups = aggregate(&rows);
     super::tables::write_episode_table(&cfg.out.join("episodes.parquet"), &report.episodes)?;
@@ -293,7 +381,11 @@ pub fn run(cfg: &RunConfig, episodes: &[Episode], progress: &dyn Progress) -> Re
         "episodes": report.episodes.iter().map(|(e, m)| serde_json::json!({"episode_id": e.episode_id, "metrics": m})).collect::<Vec<_>>(),
         "failures": report.failures.iter().map(|(id, e)| serde_json::json!({"episode_id": id, "error": e})).collect::<Vec<_>>(),
     });
-    write_bytes_atomic(&cfg.out.join("metrics.json"), &serde_json::to_vec_pretty(&metrics).map_err(|e| e.to_string())?).map_err(|e| e.to_string())?;
+    write_bytes_atomic(
+        &cfg.out.join("metrics.json"),
+        &serde_json::to_vec_pretty(&metrics).map_err(|e| e.to_string())?,
+    )
+    .map_err(|e| e.to_string())?;
     if report.failures.is_empty() {
         let _ = std::fs::remove_dir_all(&parts);
     }

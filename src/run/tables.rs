@@ -9,7 +9,8 @@ use std::path::Path;
 use std::sync::Arc;
 
 use arrow::array::{
-    ArrayRef, BinaryBuilder, BooleanArray, BooleanBuilder, Float32Array, Float32Builder, ListBuilder, RecordBatch, StringArray, UInt32Array,
+    ArrayRef, BinaryBuilder, BooleanArray, BooleanBuilder, Float32Array, Float32Builder,
+    ListBuilder, RecordBatch, StringArray, UInt32Array,
 };
 use arrow::datatypes::{DataType, Field, Schema, SchemaRef};
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
@@ -87,7 +88,9 @@ pub struct StepRow {
 /// Writes an episode's trajectory rows.
 pub fn write_trajectory(path: &Path, episode: &str, rows: &[StepRow]) -> Result<(), TableError> {
     let n = rows.len();
-    let f = |g: &dyn Fn(&StepRow) -> f32| -> ArrayRef { Arc::new(rows.iter().map(g).collect::<Float32Array>()) };
+    let f = |g: &dyn Fn(&StepRow) -> f32| -> ArrayRef {
+        Arc::new(rows.iter().map(g).collect::<Float32Array>())
+    };
     let mut strengths = ListBuilder::new(Float32Builder::new());
     let mut contacts = ListBuilder::new(BooleanBuilder::new());
     for r in rows {
@@ -99,28 +102,45 @@ pub fn write_trajectory(path: &Path, episode: &str, rows: &[StepRow]) -> Result<
         contacts.append(true);
     }
     let columns: Vec<ArrayRef> = vec![
-        Arc::new(StringArray::from_iter_values(std::iter::repeat_n(episode, n))),
+        Arc::new(StringArray::from_iter_values(std::iter::repeat_n(
+            episode, n,
+        ))),
         Arc::new(rows.iter().map(|r| r.step).collect::<UInt32Array>()),
         f(&|r| r.pose[0]),
         f(&|r| r.pose[1]),
         f(&|r| r.pose[2]),
         f(&|r| r.pose[3]),
         f(&|r| r.pose[4]),
-        Arc::new(StringArray::from_iter_values(rows.iter().map(|r| r.action.as_str()))),
+        Arc::new(StringArray::from_iter_values(
+            rows.iter().map(|r| r.action.as_str()),
+        )),
         Arc::new(strengths.finish()),
         f(&|r| r.reward),
-        Arc::new(rows.iter().map(|r| Some(r.collision)).collect::<BooleanArray>()),
+        Arc::new(
+            rows.iter()
+                .map(|r| Some(r.collision))
+                .collect::<BooleanArray>(),
+        ),
         Arc::new(contacts.finish()),
         Arc::new(rows.iter().map(|r| r.euclidean).collect::<Float32Array>()),
         Arc::new(rows.iter().map(|r| r.geodesic).collect::<Float32Array>()),
         Arc::new(rows.iter().map(|r| Some(r.done)).collect::<BooleanArray>()),
-        Arc::new(rows.iter().map(|r| Some(r.success)).collect::<BooleanArray>()),
+        Arc::new(
+            rows.iter()
+                .map(|r| Some(r.success))
+                .collect::<BooleanArray>(),
+        ),
     ];
-    let batch = RecordBatch::try_new(trajectory_schema(), columns).map_err(|e| format!("{}: {e}", path.display()))?;
+    let batch = RecordBatch::try_new(trajectory_schema(), columns)
+        .map_err(|e| format!("{}: {e}", path.display()))?;
     write_batches(path, trajectory_schema(), std::iter::once(batch))
 }
 
-fn write_batches(path: &Path, schema: SchemaRef, batches: impl Iterator<Item = RecordBatch>) -> Result<(), TableError> {
+fn write_batches(
+    path: &Path,
+    schema: SchemaRef,
+    batches: impl Iterator<Item = RecordBatch>,
+) -> Result<(), TableError> {
     let tmp = temp_path(path);
     let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
     if let Some(dir) = path.parent() {
@@ -147,14 +167,30 @@ pub enum ImageEncoding {
 
 /// Schema of the observation table for a sensor suite.
 pub fn observation_schema(cameras: &[CameraSensor], encoding: ImageEncoding) -> SchemaRef {
-    let mut fields = vec![Field::new("episode_id", DataType::Utf8, false), Field::new("step", DataType::UInt32, false)];
+    let mut fields = vec![
+        Field::new("episode_id", DataType::Utf8, false),
+        Field::new("step", DataType::UInt32, false),
+    ];
     for c in cameras {
         let (dtype, channels) = crate::sim::sensors::dtype_of(c);
         let mut meta = HashMap::new();
-        meta.insert("shape".to_string(), format!("[{}, {}, {}]", c.resolution[1], c.resolution[0], channels));
+        meta.insert(
+            "shape".to_string(),
+            format!("[{}, {}, {}]", c.resolution[1], c.resolution[0], channels),
+        );
         meta.insert("dtype".to_string(), dtype.to_string());
-        meta.insert("modality".to_string(), format!("{:?}", c.modality).to_lowercase());
-        meta.insert("encoding".to_string(), match encoding { ImageEncoding::Raw => "raw-le", ImageEncoding::Png => "png" }.to_string());
+        meta.insert(
+            "modality".to_string(),
+            format!("{:?}", c.modality).to_lowercase(),
+        );
+        meta.insert(
+            "encoding".to_string(),
+            match encoding {
+                ImageEncoding::Raw => "raw-le",
+                ImageEncoding::Png => "png",
+            }
+            .to_string(),
+        );
         fields.push(Field::new(&c.name, DataType::Binary, false).with_metadata(meta));
     }
     Arc::new(Schema::new(fields))
@@ -174,15 +210,34 @@ pub struct ObservationWriter {
 
 impl ObservationWriter {
     /// Starts the part file of `episode`.
-    pub fn create(path: &Path, episode: &str, cameras: &[CameraSensor], encoding: ImageEncoding) -> Result<Self, TableError> {
+    pub fn create(
+        path: &Path,
+        episode: &str,
+        cameras: &[CameraSensor],
+        encoding: ImageEncoding,
+    ) -> Result<Self, TableError> {
         let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
         if let Some(dir) = path.parent() {
             std::fs::create_dir_all(dir).map_err(|e| err(&e))?;
         }
         let tmp = temp_path(path);
         let schema = observation_schema(cameras, encoding);
-        let writer = ArrowWriter::try_new(File::create(&tmp).map_err(|e| err(&e))?, schema.clone(), Some(props())).map_err(|e| err(&e))?;
-        Ok(ObservationWriter { path: path.to_path_buf(), tmp, writer, schema, encoding, cameras: cameras.to_vec(), episode: episode.to_string(), pending: Vec::new() })
+        let writer = ArrowWriter::try_new(
+            File::create(&tmp).map_err(|e| err(&e))?,
+            schema.clone(),
+            Some(props()),
+        )
+        .map_err(|e| err(&e))?;
+        Ok(ObservationWriter {
+            path: path.to_path_buf(),
+            tmp,
+            writer,
+            schema,
+            encoding,
+            cameras: cameras.to_vec(),
+            episode: episode.to_string(),
+            pending: Vec::new(),
+        })
     }
 
     /// Adds the images of one step.
@@ -191,8 +246,13 @@ impl ObservationWriter {
         for ((_, img), cam) in images.iter().zip(&self.cameras) {
             cols.push(match self.encoding {
                 ImageEncoding::Raw => img.to_le_bytes(),
-                ImageEncoding::Png => crate::render::visualize::encode_png(cam.modality, img, cam.resolution[0], cam.resolution[1])
-                    .map_err(|e| format!("{}: sensor {}: {e}", self.path.display(), cam.name))?,
+                ImageEncoding::Png => crate::render::visualize::encode_png(
+                    cam.modality,
+                    img,
+                    cam.resolution[0],
+                    cam.resolution[1],
+                )
+                .map_err(|e| format!("{}: sensor {}: {e}", self.path.display(), cam.name))?,
             });
         }
         self.pending.push((step, cols));
@@ -208,8 +268,16 @@ impl ObservationWriter {
         }
         let n = self.pending.len();
         let mut columns: Vec<ArrayRef> = vec![
-            Arc::new(StringArray::from_iter_values(std::iter::repeat_n(self.episode.as_str(), n))),
-            Arc::new(self.pending.iter().map(|(s, _)| *s).collect::<UInt32Array>()),
+            Arc::new(StringArray::from_iter_values(std::iter::repeat_n(
+                self.episode.as_str(),
+                n,
+            ))),
+            Arc::new(
+                self.pending
+                    .iter()
+                    .map(|(s, _)| *s)
+                    .collect::<UInt32Array>(),
+            ),
         ];
         for k in 0..self.cameras.len() {
             let mut b = BinaryBuilder::new();
@@ -218,9 +286,14 @@ impl ObservationWriter {
             }
             columns.push(Arc::new(b.finish()));
         }
-        let batch = RecordBatch::try_new(self.schema.clone(), columns).map_err(|e| format!("{}: {e}", self.path.display()))?;
-        self.writer.write(&batch).map_err(|e| format!("{}: {e}", self.path.display()))?;
-        self.writer.flush().map_err(|e| format!("{}: {e}", self.path.display()))?;
+        let batch = RecordBatch::try_new(self.schema.clone(), columns)
+            .map_err(|e| format!("{}: {e}", self.path.display()))?;
+        self.writer
+            .write(&batch)
+            .map_err(|e| format!("{}: {e}", self.path.display()))?;
+        self.writer
+            .flush()
+            .map_err(|e| format!("{}: {e}", self.path.display()))?;
         self.pending.clear();
         Ok(())
     }
@@ -229,17 +302,25 @@ impl ObservationWriter {
     pub fn finish(mut self) -> Result<(), TableError> {
         self.flush()?;
         let path = self.path.clone();
-        self.writer.close().map_err(|e| format!("{}: {e}", path.display()))?;
+        self.writer
+            .close()
+            .map_err(|e| format!("{}: {e}", path.display()))?;
         std::fs::rename(&self.tmp, &path).map_err(|e| format!("{}: {e}", path.display()))
     }
 }
 
 /// Concatenates part files (in the order given) into `out`, batch by batch.
-pub fn merge(parts: &[std::path::PathBuf], schema: SchemaRef, out: &Path) -> Result<(), TableError> {
+pub fn merge(
+    parts: &[std::path::PathBuf],
+    schema: SchemaRef,
+    out: &Path,
+) -> Result<(), TableError> {
     let mut readers = Vec::new();
     for p in parts {
         let f = File::open(p).map_err(|e| format!("{}: {e}", p.display()))?;
-        let r = ParquetRecordBatchReaderBuilder::try_new(f).and_then(|b| b.with_batch_size(ROW_GROUP).build()).map_err(|e| format!("{}: {e}", p.display()))?;
+        let r = ParquetRecordBatchReaderBuilder::try_new(f)
+            .and_then(|b| b.with_batch_size(ROW_GROUP).build())
+            .map_err(|e| format!("{}: {e}", p.display()))?;
         readers.push(r);
     }
     let mut failure = None;
@@ -259,7 +340,10 @@ pub fn merge(parts: &[std::path::PathBuf], schema: SchemaRef, out: &Path) -> Res
 
 /// Writes the episode table: the episodes' own columns that matter for analysis and their
 /// metrics.
-pub fn write_episode_table(path: &Path, rows: &[(crate::episode::Episode, super::metrics::EpisodeMetrics)]) -> Result<(), TableError> {
+pub fn write_episode_table(
+    path: &Path,
+    rows: &[(crate::episode::Episode, super::metrics::EpisodeMetrics)],
+) -> Result<(), TableError> {
     let schema = Arc::new(Schema::new(vec![
         Field::new("episode_id", DataType::Utf8, false),
         Field::new("scene_id", DataType::Utf8, false),
@@ -276,24 +360,47 @@ pub fn write_episode_table(path: &Path, rows: &[(crate::episode::Episode, super:
         Field::new("collisions", DataType::UInt32, false),
         Field::new("final_geodesic", DataType::Float32, true),
     ]));
-    let s = |f: &dyn Fn(&crate::episode::Episode) -> String| -> ArrayRef { Arc::new(StringArray::from_iter_values(rows.iter().map(|(e, _)| f(e)))) };
-    let m = |f: &dyn Fn(&super::metrics::EpisodeMetrics) -> f32| -> ArrayRef { Arc::new(rows.iter().map(|(_, m)| f(m)).collect::<Float32Array>()) };
+    let s = |f: &dyn Fn(&crate::episode::Episode) -> String| -> ArrayRef {
+        Arc::new(StringArray::from_iter_values(
+            rows.iter().map(|(e, _)| f(e)),
+        ))
+    };
+    let m = |f: &dyn Fn(&super::metrics::EpisodeMetrics) -> f32| -> ArrayRef {
+        Arc::new(rows.iter().map(|(_, m)| f(m)).collect::<Float32Array>())
+    };
     let columns: Vec<ArrayRef> = vec![
         s(&|e| e.episode_id.clone()),
         s(&|e| e.scene_id.clone()),
         s(&|e| e.task.name().to_string()),
         s(&|e| e.split.clone()),
         s(&|e| e.difficulty.name().to_string()),
-        Arc::new(rows.iter().map(|(e, _)| e.geodesic_distance).collect::<Float32Array>()),
-        Arc::new(rows.iter().map(|(_, m)| Some(m.success)).collect::<BooleanArray>()),
+        Arc::new(
+            rows.iter()
+                .map(|(e, _)| e.geodesic_distance)
+                .collect::<Float32Array>(),
+        ),
+        Arc::new(
+            rows.iter()
+                .map(|(_, m)| Some(m.success))
+                .collect::<BooleanArray>(),
+        ),
         m(&|m| m.spl),
         m(&|m| m.soft_spl),
         m(&|m| m.speed),
         m(&|m| m.path_length),
         Arc::new(rows.iter().map(|(_, m)| m.steps).collect::<UInt32Array>()),
-        Arc::new(rows.iter().map(|(_, m)| m.collisions).collect::<UInt32Array>()),
-        Arc::new(rows.iter().map(|(_, m)| m.final_geodesic.is_finite().then_some(m.final_geodesic)).collect::<Float32Array>()),
+        Arc::new(
+            rows.iter()
+                .map(|(_, m)| m.collisions)
+                .collect::<UInt32Array>(),
+        ),
+        Arc::new(
+            rows.iter()
+                .map(|(_, m)| m.final_geodesic.is_finite().then_some(m.final_geodesic))
+                .collect::<Float32Array>(),
+        ),
     ];
-    let batch = RecordBatch::try_new(schema.clone(), columns).map_err(|e| format!("{}: {e}", path.display()))?;
+    let batch = RecordBatch::try_new(schema.clone(), columns)
+        .map_err(|e| format!("{}: {e}", path.display()))?;
     write_batches(path, schema, std::iter::once(batch))
 }

@@ -345,7 +345,9 @@ impl Simulator {
         state.yaw = (state.yaw + rot).rem_euclid(std::f32::consts::TAU);
         let mut base = Vec3::from_array(state.position);
         let total = Vec3::new(disp[0], 0.0, disp[1]);
-        let n = (total.length() / (SUBSTEP * self.agent.radius)).ceil().max(1.0) as usize;
+        let n = (total.length() / (SUBSTEP * self.agent.radius))
+            .ceil()
+            .max(1.0) as usize;
         let mut step = total / n as f32;
         let mut collided = false;
         let start = base;
@@ -377,7 +379,11 @@ impl Simulator {
             state.velocity = [moved.x / dt, moved.z / dt];
         }
         state.position = base.to_array();
-        Transition { state, collided, intended_velocity: [total.x / dt, total.z / dt] }
+        Transition {
+            state,
+            collided,
+            intended_velocity: [total.x / dt, total.z / dt],
+        }
     }
 
     /// The agent's body and motion model.
