@@ -15,6 +15,10 @@ use minos::ingest::{ingest, IngestConfig, Outcome};
 use minos::io::manifest::read_manifest;
 use minos::navmesh::bake::{bake_scenes, BakeConfig};
 use minos::navmesh::NavParams;
+use minos::run::metrics::{render_table, Reward};
+use minos::run::rollout::{run as rollout, AgentKind, RunConfig};
+use minos::run::tables::ImageEncoding;
+use minos::sim::{AgentConfig, RendererChoice, SensorSuite};
 use minos::split::{self, Expr, Ratios};
 use minos::stats;
 
@@ -25,7 +29,8 @@ use super::Context;
 /// Generates houses in SUNCG's layout, ingests them into a DATA folder (compiled scenes and
 /// a Parquet manifest), writes a seeded 60/20/20 split and MINOS's multi-room split
 /// (3 to 5 rooms), prints environment statistics, bakes navigation grids with previews, and
-/// samples PointGoal, ObjectGoal (doors) and RoomGoal episodes. Re-running resumes.
+/// samples PointGoal, ObjectGoal (doors) and RoomGoal episodes, and rolls out the oracle on
+/// the validation episodes into Parquet datasets with metrics. Re-running resumes.
 #[derive(Debug, clap::Args)]
 #[command(
     after_help = "Examples:\n  minos demo\n  minos demo --houses 200 --seed 3 --out /tmp/demo"
@@ -57,7 +62,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         generate(&cfg, OutputFormat::Suncg, &root, false, &bar).context("generate")?;
     }
     ctx.say(format!(
-        "1/6 generated {} houses      -> {}",
+        "1/7 generated {} houses      -> {}",
         cfg.houses,
         root.display()
     ));
@@ -67,7 +72,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     };
     let failed = report.count(Outcome::Failed);
     ctx.say(format!(
-        "2/6 ingested {} scenes ({failed} failed) -> {}",
+        "2/7 ingested {} scenes ({failed} failed) -> {}",
         report.scenes.len(),
         report.manifest.display()
     ));
@@ -79,7 +84,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     let mr = split::split_by_ratios(&rows, Some(&multiroom), ratios, args.seed);
     let mr_dir = split::write_split(&data, "multiroom", &mr.lists)?;
     ctx.say(format!(
-        "3/6 splits: all {}/{}/{} -> {}, multiroom (3-5 rooms) {}/{}/{} -> {}",
+        "3/7 splits: all {}/{}/{} -> {}, multiroom (3-5 rooms) {}/{}/{} -> {}",
         all.lists.train.len(),
         all.lists.val.len(),
         all.lists.test.len(),
@@ -89,7 +94,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         mr.lists.test.len(),
         mr_dir.display()
     ));
-    ctx.say("4/6 statistics of split `all`:");
+    ctx.say("4/7 statistics of split `all`:");
     ctx.say(stats::render_table(&stats::compute_split(
         &rows, &all.lists,
     )));
@@ -114,7 +119,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         eprintln!("error: scene {id}: {e}");
     }
     ctx.say(format!(
-        "5/6 baked {} navigation grids ({bake_failed} failed) -> {}",
+        "5/7 baked {} navigation grids ({bake_failed} failed) -> {}",
         ids.len(),
         data.join("nav").display()
     ));
@@ -128,6 +133,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     .collect();
     let episodes_dir = args.out.join("episodes");
     let mut written = Vec::new();
+    let mut validation = Vec::new();
     for task in [Task::PointGoal, Task::ObjectGoal, Task::RoomGoal] {
         let cfg = SampleConfig {
             task,
@@ -142,23 +148,56 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         let file = episodes_dir.join(format!("{}.parquet", task.name()));
         write_episodes(&file, &batch.episodes).with_context(|| file.display().to_string())?;
         written.push(format!("{} {}", batch.total, task.name()));
+        // The oracle demonstrates the validation episodes (3 per scene and task).
+        validation.extend(
+            batch
+                .episodes
+                .into_iter()
+                .filter(|e| e.split == "val" && e.episode_id.ends_with(|c: char| c < '3')),
+        );
     }
     ctx.say(format!(
-        "6/6 episodes: {} -> {}",
+        "6/7 episodes: {} -> {}",
         written.join(", "),
         episodes_dir.display()
     ));
+    let run_dir = args.out.join("runs").join("oracle");
+    let run_cfg = RunConfig {
+        data: data.clone(),
+        out: run_dir.clone(),
+        agent: AgentKind::Oracle,
+        body: AgentConfig::habitat(),
+        sensors: SensorSuite::minos(84),
+        renderer: RendererChoice::Cpu,
+        max_steps: None,
+        seed: args.seed,
+        shard: Shard::ALL,
+        resume: true,
+        reward: Reward::Geodesic,
+        encoding: ImageEncoding::Raw,
+    };
+    let report = {
+        let bar = ctx.progress(validation.len() as u64, "oracle");
+        rollout(&run_cfg, &validation, &bar).map_err(anyhow::Error::msg)?
+    };
+    ctx.say(format!(
+        "7/7 oracle rollouts (RGB-D-semantic 84², Habitat agent) of {} validation episodes -> {}",
+        report.episodes.len(),
+        run_dir.display()
+    ));
+    ctx.say(render_table(&report.groups));
     ctx.say(format!(
         "done in {:.1} s. Next:\n  open {nav}/<scene>.L0.png to see a navigation grid\n  \
          minos nav query --data {d} --scene {id} --from X,0,Z --to X,0,Z\n  \
          minos stats --data {d} --split multiroom\n  \
          minos export --data {d} --scene {id} --out house.glb   (open in Blender)\n  \
-         python: pandas.read_parquet(\"{e}\")",
+         python: pandas.read_parquet(\"{e}\"), pyarrow.parquet.read_table(\"{r}\")",
         start.elapsed().as_secs_f64(),
         nav = data.join("nav").display(),
         d = data.display(),
         id = ids.first().map(String::as_str).unwrap_or("ID"),
         e = episodes_dir.join("pointgoal.parquet").display(),
+        r = run_dir.join("observations.parquet").display(),
     ));
     Ok(if failed == 0 && bake_failed == 0 {
         ExitCode::SUCCESS
