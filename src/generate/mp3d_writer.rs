@@ -234,56 +234,6 @@ fn minus_all(r: Rect, holes: &[Rect]) -> Vec<Rect> {
     parts
 }
 
-/// Wall boxes of one side of a room with its openings cut out (as the SUNCG writer builds
-/// them: each room owns the half of a wall on its side).
-fn walls(room: &RoomPlan, side: Side, base: f64, out: &mut MeshOut, category: i32, segment: i32) {
-    let r = room.rect;
-    let h = room.wall_height;
-    let (u_start, u_end) = if side.along_x() {
-        (r.x0, r.x1)
-    } else {
-        (r.z0, r.z1)
-    };
-    let openings: Vec<_> = room.openings.iter().filter(|o| o.side == side).collect();
-    let mut cuts = vec![u_start, u_end];
-    for o in &openings {
-        cuts.push(o.u0.clamp(u_start, u_end));
-        cuts.push(o.u1.clamp(u_start, u_end));
-    }
-    cuts.sort_by(f64::total_cmp);
-    cuts.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
-    for w in cuts.windows(2) {
-        let (a, b) = (w[0], w[1]);
-        let mut holes: Vec<(f64, f64)> = openings
-            .iter()
-            .filter(|o| o.u0 <= a + 1e-9 && o.u1 >= b - 1e-9)
-            .map(|o| (o.y0.max(0.0), o.y1.min(h)))
-            .filter(|(y0, y1)| y1 > y0)
-            .collect();
-        holes.sort_by(|x, y| x.0.total_cmp(&y.0));
-        let mut y = 0.0;
-        let mut solid = Vec::new();
-        for (y0, y1) in holes {
-            if y0 > y {
-                solid.push((y, y0));
-            }
-            y = y.max(y1);
-        }
-        if y < h {
-            solid.push((y, h));
-        }
-        for (y0, y1) in solid {
-            let (min, max) = match side {
-                Side::MinX => ([r.x0, base + y0, a], [r.x0 + WALL_T, base + y1, b]),
-                Side::MaxX => ([r.x1 - WALL_T, base + y0, a], [r.x1, base + y1, b]),
-                Side::MinZ => ([a, base + y0, r.z0], [b, base + y1, r.z0 + WALL_T]),
-                Side::MaxZ => ([a, base + y0, r.z1 - WALL_T], [b, base + y1, r.z1]),
-            };
-            out.aabox(min, max, category, segment);
-        }
-    }
-}
-
 /// The model-space box `(min, max)` of an object's model.
 fn model_box(o: &PlacedObject) -> ([f64; 3], [f64; 3]) {
     let mut lo = [f64::INFINITY; 3];
@@ -375,7 +325,9 @@ pub fn write_house(root: &Path, plan: &HousePlan) -> io::Result<()> {
             }
         }
         for side in Side::ALL {
-            walls(room, side, base, &mut mesh, cat_id("wall"), seg + 3);
+            for (min, max) in room.wall_boxes(side, base) {
+                mesh.aabox(min, max, cat_id("wall"), seg + 3);
+            }
         }
     }
     for (oi, (_, o)) in objects.iter().enumerate() {

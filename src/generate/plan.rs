@@ -174,6 +174,59 @@ pub struct RoomPlan {
     pub ceiling_holes: Vec<Rect>,
 }
 
+impl RoomPlan {
+    /// The boxes `(min, max)` of the wall on one side, with the openings cut out: each room owns
+    /// the half of a wall (thickness [`WALL_T`]) on its side of the boundary.
+    pub fn wall_boxes(&self, side: Side, base: f64) -> Vec<([f64; 3], [f64; 3])> {
+        let r = self.rect;
+        let h = self.wall_height;
+        let (u_start, u_end) = if side.along_x() {
+            (r.x0, r.x1)
+        } else {
+            (r.z0, r.z1)
+        };
+        let openings: Vec<_> = self.openings.iter().filter(|o| o.side == side).collect();
+        let mut cuts = vec![u_start, u_end];
+        for o in &openings {
+            cuts.push(o.u0.clamp(u_start, u_end));
+            cuts.push(o.u1.clamp(u_start, u_end));
+        }
+        cuts.sort_by(f64::total_cmp);
+        cuts.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
+        let mut out = Vec::new();
+        for w in cuts.windows(2) {
+            let (a, b) = (w[0], w[1]);
+            let mut holes: Vec<(f64, f64)> = openings
+                .iter()
+                .filter(|o| o.u0 <= a + 1e-9 && o.u1 >= b - 1e-9)
+                .map(|o| (o.y0.max(0.0), o.y1.min(h)))
+                .filter(|(y0, y1)| y1 > y0)
+                .collect();
+            holes.sort_by(|x, y| x.0.total_cmp(&y.0));
+            let mut y = 0.0;
+            let mut solid = Vec::new();
+            for (y0, y1) in holes {
+                if y0 > y {
+                    solid.push((y, y0));
+                }
+                y = y.max(y1);
+            }
+            if y < h {
+                solid.push((y, h));
+            }
+            for (y0, y1) in solid {
+                out.push(match side {
+                    Side::MinX => ([r.x0, base + y0, a], [r.x0 + WALL_T, base + y1, b]),
+                    Side::MaxX => ([r.x1 - WALL_T, base + y0, a], [r.x1, base + y1, b]),
+                    Side::MinZ => ([a, base + y0, r.z0], [b, base + y1, r.z0 + WALL_T]),
+                    Side::MaxZ => ([a, base + y0, r.z1 - WALL_T], [b, base + y1, r.z1]),
+                });
+            }
+        }
+        out
+    }
+}
+
 /// An object placed in a level.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PlacedObject {

@@ -15,7 +15,7 @@ use crate::io::atomic::write_bytes_atomic;
 
 use super::catalog::catalog;
 use super::objwrite::{mtl_text, ObjText};
-use super::plan::{HousePlan, LevelPlan, Rect, RoomPlan, Side, WALL_T};
+use super::plan::{HousePlan, LevelPlan, Rect, RoomPlan, Side};
 
 /// Writes the model library (`object/`) and its category table (`metadata/`).
 pub fn write_library(root: &Path) -> io::Result<()> {
@@ -100,55 +100,6 @@ fn write_obj_mtl(dir: &Path, stem: &str, obj: ObjText, material: usize) -> io::R
     )
 }
 
-/// Wall boxes of one side of a room, with its openings cut out.
-fn wall_boxes(room: &RoomPlan, side: Side, base: f64, out: &mut ObjText) {
-    let r = room.rect;
-    let h = room.wall_height;
-    let (u_start, u_end) = if side.along_x() {
-        (r.x0, r.x1)
-    } else {
-        (r.z0, r.z1)
-    };
-    let openings: Vec<_> = room.openings.iter().filter(|o| o.side == side).collect();
-    let mut cuts = vec![u_start, u_end];
-    for o in &openings {
-        cuts.push(o.u0.clamp(u_start, u_end));
-        cuts.push(o.u1.clamp(u_start, u_end));
-    }
-    cuts.sort_by(f64::total_cmp);
-    cuts.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
-    for w in cuts.windows(2) {
-        let (a, b) = (w[0], w[1]);
-        let mut holes: Vec<(f64, f64)> = openings
-            .iter()
-            .filter(|o| o.u0 <= a + 1e-9 && o.u1 >= b - 1e-9)
-            .map(|o| (o.y0.max(0.0), o.y1.min(h)))
-            .filter(|(y0, y1)| y1 > y0)
-            .collect();
-        holes.sort_by(|x, y| x.0.total_cmp(&y.0));
-        let mut y = 0.0;
-        let mut solid = Vec::new();
-        for (y0, y1) in holes {
-            if y0 > y {
-                solid.push((y, y0));
-            }
-            y = y.max(y1);
-        }
-        if y < h {
-            solid.push((y, h));
-        }
-        for (y0, y1) in solid {
-            let (min, max) = match side {
-                Side::MinX => ([r.x0, base + y0, a], [r.x0 + WALL_T, base + y1, b]),
-                Side::MaxX => ([r.x1 - WALL_T, base + y0, a], [r.x1, base + y1, b]),
-                Side::MinZ => ([a, base + y0, r.z0], [b, base + y1, r.z0 + WALL_T]),
-                Side::MaxZ => ([a, base + y0, r.z1 - WALL_T], [b, base + y1, r.z1]),
-            };
-            out.add_box(min, max, 2);
-        }
-    }
-}
-
 fn minus_all(r: Rect, holes: &[Rect]) -> Vec<Rect> {
     let mut parts = vec![r];
     for h in holes {
@@ -170,7 +121,9 @@ fn write_room(dir: &Path, model: &str, room: &RoomPlan, base: f64) -> io::Result
     write_obj_mtl(dir, &format!("{model}c"), ceiling, 1)?;
     let mut walls = ObjText::new(&format!("{model}w.mtl"));
     for side in Side::ALL {
-        wall_boxes(room, side, base, &mut walls);
+        for (min, max) in room.wall_boxes(side, base) {
+            walls.add_box(min, max, 2);
+        }
     }
     write_obj_mtl(dir, &format!("{model}w"), walls, 2)
 }

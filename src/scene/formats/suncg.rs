@@ -20,7 +20,9 @@ use crate::scene::model::{
 };
 use crate::scene::taxonomy::{FlagTable, ModelCategories, RoomTypeTable};
 
-use super::{load_mesh_file, DatasetLoader, LoadError, LoadedScene, SceneEntry};
+use super::{
+    load_mesh_file, nan_tokens_to_null, DatasetLoader, LoadError, LoadedScene, SceneEntry,
+};
 
 /// Mesh file extensions tried, in order.
 const MESH_EXTENSIONS: [&str; 3] = ["obj", "gltf", "glb"];
@@ -593,63 +595,9 @@ fn strip_position(e: &serde_json::Error) -> String {
     }
 }
 
-/// Replaces the bare tokens `NaN`, `Infinity` and `-Infinity` (which Python's json module
-/// writes but JSON forbids) by `null` outside strings, so that the loader can report the node
-/// holding them instead of a bare syntax error. Lines and columns before them are unchanged.
-fn nan_tokens_to_null(bytes: &[u8]) -> std::borrow::Cow<'_, [u8]> {
-    if !bytes.windows(3).any(|w| w == b"NaN") && !bytes.windows(8).any(|w| w == b"Infinity") {
-        return std::borrow::Cow::Borrowed(bytes);
-    }
-    let mut out = Vec::with_capacity(bytes.len());
-    let mut in_string = false;
-    let mut i = 0;
-    while i < bytes.len() {
-        let b = bytes[i];
-        if in_string {
-            out.push(b);
-            if b == b'\\' && i + 1 < bytes.len() {
-                out.push(bytes[i + 1]);
-                i += 2;
-                continue;
-            }
-            if b == b'"' {
-                in_string = false;
-            }
-            i += 1;
-            continue;
-        }
-        if b == b'"' {
-            in_string = true;
-            out.push(b);
-            i += 1;
-            continue;
-        }
-        let rest = &bytes[i..];
-        if let Some(len) = [&b"-Infinity"[..], b"Infinity", b"NaN"]
-            .iter()
-            .find(|t| rest.starts_with(t))
-            .map(|t| t.len())
-        {
-            out.extend_from_slice(b"null");
-            i += len;
-            continue;
-        }
-        out.push(b);
-        i += 1;
-    }
-    std::borrow::Cow::Owned(out)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn nan_tokens_become_null_outside_strings_only() {
-        let s = br#"{"a": [1, NaN, -Infinity], "b": "NaN"}"#;
-        let out = nan_tokens_to_null(s);
-        assert_eq!(&out[..], br#"{"a": [1, null, null], "b": "NaN"}"#);
-    }
 
     #[test]
     fn hex_colours_parse() {

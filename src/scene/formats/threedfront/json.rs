@@ -5,8 +5,6 @@
 //! indices in range, a rotation that is a rotation) is checked by `geometry` and `assemble`,
 //! which know the record a value belongs to and can name it in the error.
 
-use std::borrow::Cow;
-
 use serde::Deserialize;
 
 /// A whole scene file (`<scene uid>.json`).
@@ -132,7 +130,7 @@ impl FrontJson {
     /// Parses the file's bytes; the error is `line L column C: what` (one line).
     pub fn parse(bytes: &[u8]) -> Result<FrontJson, String> {
         let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
-        serde_json::from_slice(&nan_tokens_to_null(bytes)).map_err(|e| {
+        serde_json::from_slice(&crate::scene::formats::nan_tokens_to_null(bytes)).map_err(|e| {
             format!(
                 "line {} column {}: {}",
                 e.line(),
@@ -174,65 +172,9 @@ fn strip_position(e: &serde_json::Error) -> String {
     }
 }
 
-/// Replaces the bare tokens `NaN`, `Infinity` and `-Infinity` (which Python's json module
-/// writes but JSON forbids) by `null` outside strings, so that the loader can name the record
-/// and field holding them instead of reporting a bare syntax error.
-pub(super) fn nan_tokens_to_null(bytes: &[u8]) -> Cow<'_, [u8]> {
-    if !bytes.windows(3).any(|w| w == b"NaN") && !bytes.windows(8).any(|w| w == b"Infinity") {
-        return Cow::Borrowed(bytes);
-    }
-    let mut out = Vec::with_capacity(bytes.len());
-    let mut in_string = false;
-    let mut i = 0;
-    while i < bytes.len() {
-        let b = bytes[i];
-        if in_string {
-            out.push(b);
-            if b == b'\\' && i + 1 < bytes.len() {
-                out.push(bytes[i + 1]);
-                i += 2;
-                continue;
-            }
-            if b == b'"' {
-                in_string = false;
-            }
-            i += 1;
-            continue;
-        }
-        if b == b'"' {
-            in_string = true;
-            out.push(b);
-            i += 1;
-            continue;
-        }
-        let rest = &bytes[i..];
-        if let Some(len) = [&b"-Infinity"[..], b"Infinity", b"NaN"]
-            .iter()
-            .find(|t| rest.starts_with(t))
-            .map(|t| t.len())
-        {
-            out.extend_from_slice(b"null");
-            i += len;
-            continue;
-        }
-        out.push(b);
-        i += 1;
-    }
-    Cow::Owned(out)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn nan_tokens_become_null_outside_strings_only() {
-        let s = br#"{"a": [1, NaN, -Infinity], "b": "NaN"}"#;
-        assert_eq!(
-            &nan_tokens_to_null(s)[..],
-            br#"{"a": [1, null, null], "b": "NaN"}"#
-        );
-    }
 
     #[test]
     fn door_refs_read_strings_and_lists_and_ignore_other_shapes() {
