@@ -348,3 +348,58 @@ fn a_killed_run_resumed_gives_identical_bytes() {
         "the run finished before it could be killed; the resume was not exercised"
     );
 }
+
+#[test]
+fn an_external_process_drives_the_agent_over_json_lines() {
+    let dir = tempfile::tempdir().unwrap();
+    let episodes: Vec<Episode> = data()
+        .1
+        .iter()
+        .filter(|e| e.task == Task::PointGoal)
+        .take(2)
+        .cloned()
+        .collect();
+    // A policy in plain sh: read a line, answer forward, stop after 5 steps of an episode.
+    let script = dir.path().join("policy.sh");
+    std::fs::write(
+        &script,
+        "n=0\nwhile read -r line; do\n  case \"$line\" in\n    *'\"type\":\"reset\"'*) n=0; continue;;\n  esac\n  \
+         n=$((n+1))\n  if [ $n -gt 5 ]; then echo '{\"stop\": true}'; else echo '{\"action\": \"forward\"}'; fi\ndone\n",
+    )
+    .unwrap();
+    let cmd = format!("sh {}", script.display());
+    let out = dir.path().join("ext");
+    let report = run(
+        &config(&out, AgentKind::External(cmd), SensorSuite::minos(8)),
+        &episodes,
+        &NoProgress,
+    )
+    .unwrap();
+    assert!(report.failures.is_empty(), "{:?}", report.failures);
+    assert!(
+        report.episodes.iter().all(|(_, m)| m.steps == 6),
+        "{:?}",
+        report
+            .episodes
+            .iter()
+            .map(|(_, m)| m.steps)
+            .collect::<Vec<_>>()
+    );
+    // A policy that answers garbage fails its episodes with a message naming the step.
+    let bad = run(
+        &config(
+            &dir.path().join("bad"),
+            AgentKind::External("while read l; do echo nope; done".into()),
+            blind(),
+        ),
+        &episodes,
+        &NoProgress,
+    )
+    .unwrap();
+    assert_eq!(bad.failures.len(), 2);
+    assert!(
+        bad.failures[0].1.contains("not JSON"),
+        "{}",
+        bad.failures[0].1
+    );
+}

@@ -21,14 +21,16 @@ use super::Context;
 ///
 /// Agents: random (uniform over the action set), forward (forward, turning on collision),
 /// oracle (plans over the agent's reachable states with the goal's geodesic field; reaches
-/// and stops on every reachable episode), replay:FILE (the actions of a trajectories.parquet).
+/// and stops on every reachable episode), replay:FILE (the actions of a trajectories.parquet),
+/// external:CMD (your policy in any language, one JSON line per step; docs/EXTERNAL_AGENT.md).
 /// Episodes end on success (and, for oracle and replay, a stop), at --max-steps, or on an
 /// agent error. Interrupted runs continue with --resume and end with the same bytes.
 #[derive(Debug, clap::Args)]
 #[command(
     after_help = "Examples:\n  minos run --data DATA --episodes eps/point.parquet --agent oracle --out runs/oracle\n  \
     minos run --data DATA --episodes eps/point.parquet --agent random --preset habitat --out runs/random\n  \
-    minos run --data DATA --episodes eps/point.parquet --agent replay:runs/oracle/trajectories.parquet --out runs/replay\n\n\
+    minos run --data DATA --episodes eps/point.parquet --agent replay:runs/oracle/trajectories.parquet --out runs/replay\n  \
+    minos run --data DATA --episodes eps/point.parquet --agent 'external:python3 my_policy.py' --out runs/mine\n\n\
     Python:\n  import pyarrow.parquet as pq, numpy as np, json\n  t = pq.read_table(\"runs/oracle/observations.parquet\")\n  \
     f = t.schema.field(\"color\"); shape = json.loads(f.metadata[b\"shape\"]); dtype = f.metadata[b\"dtype\"].decode()\n  \
     img = np.frombuffer(t.column(\"color\")[0].as_py(), dtype=dtype).reshape(shape)"
@@ -40,7 +42,8 @@ pub struct Args {
     /// Episode file from `minos episodes`.
     #[arg(long)]
     episodes: PathBuf,
-    /// Agent: random, forward, oracle or replay:FILE.
+    /// Agent: random, forward, oracle, replay:FILE or external:CMD (a process speaking JSON
+    /// lines on stdin/stdout, see docs/EXTERNAL_AGENT.md).
     #[arg(long)]
     agent: String,
     /// Agent preset: minos-continuous, minos-gridworld or habitat.
@@ -134,11 +137,10 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         "random" => AgentKind::Random,
         "forward" => AgentKind::Forward,
         "oracle" => AgentKind::Oracle,
-        other => match other.strip_prefix("replay:") {
-            Some(file) => AgentKind::Replay(read_replay(std::path::Path::new(file))?),
-            None => {
-                bail!("--agent: unknown agent `{other}` (random, forward, oracle, replay:FILE)")
-            }
+        other => match (other.strip_prefix("replay:"), other.strip_prefix("external:")) {
+            (Some(file), _) => AgentKind::Replay(read_replay(std::path::Path::new(file))?),
+            (_, Some(cmd)) if !cmd.trim().is_empty() => AgentKind::External(cmd.to_string()),
+            _ => bail!("--agent: unknown agent `{other}` (random, forward, oracle, replay:FILE, external:CMD)"),
         },
     };
     let body = AgentConfig::preset(&args.preset)

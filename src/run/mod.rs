@@ -3,6 +3,7 @@
 //! with resumable, per-episode part files.
 
 pub mod agents;
+pub mod external;
 pub mod metrics;
 pub mod oracle;
 pub mod rollout;

@@ -40,6 +40,8 @@ pub enum AgentKind {
     Oracle,
     /// Decisions from a trajectory table, per episode.
     Replay(std::collections::HashMap<String, Vec<Decision>>),
+    /// A process speaking JSON lines (one per scene thread).
+    External(String),
 }
 
 /// What a run does.
@@ -117,13 +119,14 @@ fn part(dir: &Path, index: usize, ext: &str) -> PathBuf {
     dir.join(format!("{index:06}.{ext}"))
 }
 
-fn make_agent(kind: &AgentKind, seed: u64) -> Box<dyn Agent> {
-    match kind {
+fn make_agent(kind: &AgentKind, seed: u64) -> Result<Box<dyn Agent>, String> {
+    Ok(match kind {
         AgentKind::Random => Box::new(RandomAgent::new(seed)),
         AgentKind::Forward => Box::new(ForwardAgent::new(seed)),
         AgentKind::Oracle => Box::new(OracleAgent::new()),
         AgentKind::Replay(m) => Box::new(ReplayAgent::new(m.clone())),
-    }
+        AgentKind::External(cmd) => Box::new(super::external::ExternalAgent::spawn(cmd)?),
+    })
 }
 
 /// Runs one episode into its part files and returns its metrics.
@@ -318,17 +321,24 @@ pub fn run(
                         progress.advance(1);
                     }
                 }
-                Ok(mut sim) => {
-                    let mut agent = make_agent(&cfg.agent, cfg.seed);
-                    for (i, ep) in pending {
-                        out.push((
-                            *i,
-                            run_episode(&mut sim, agent.as_mut(), ep, cfg, &parts, *i)
-                                .map(|m| (m, false)),
-                        ));
-                        progress.advance(1);
+                Ok(mut sim) => match make_agent(&cfg.agent, cfg.seed) {
+                    Ok(mut agent) => {
+                        for (i, ep) in pending {
+                            out.push((
+                                *i,
+                                run_episode(&mut sim, agent.as_mut(), ep, cfg, &parts, *i)
+                                    .map(|m| (m, false)),
+                            ));
+                            progress.advance(1);
+                        }
                     }
-                }
+                    Err(e) => {
+                        for (i, _) in pending {
+                            out.push((*i, Err(e.clone())));
+                            progress.advance(1);
+                        }
+                    }
+                },
             }
             out
         })

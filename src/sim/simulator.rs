@@ -386,6 +386,11 @@ impl Simulator {
         }
     }
 
+    /// The sensor suite.
+    pub fn sensor_suite(&self) -> &SensorSuite {
+        &self.sensors
+    }
+
     /// The agent's body and motion model.
     pub fn agent(&self) -> &AgentConfig {
         &self.agent
