@@ -94,6 +94,7 @@ fn config(out: &Path, agent: AgentKind, sensors: SensorSuite) -> RunConfig {
         resume: false,
         reward: Reward::Geodesic,
         encoding: ImageEncoding::Raw,
+        lerobot: false,
     }
 }
 
@@ -402,4 +403,59 @@ fn an_external_process_drives_the_agent_over_json_lines() {
         "{}",
         bad.failures[0].1
     );
+}
+
+#[test]
+fn the_lerobot_layout_has_one_file_per_episode_and_consistent_meta() {
+    let dir = tempfile::tempdir().unwrap();
+    let episodes: Vec<Episode> = data()
+        .1
+        .iter()
+        .filter(|e| e.task == Task::ObjectGoal)
+        .take(3)
+        .cloned()
+        .collect();
+    let out = dir.path().join("lr");
+    let mut cfg = config(&out, AgentKind::Oracle, SensorSuite::minos(16));
+    cfg.lerobot = true;
+    let report = run(&cfg, &episodes, &NoProgress).unwrap();
+    let info: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("lerobot/meta/info.json")).unwrap())
+            .unwrap();
+    let frames: u32 = report.episodes.iter().map(|(_, m)| m.steps).sum();
+    assert_eq!(info["total_episodes"], 3);
+    assert_eq!(info["total_frames"].as_u64(), Some(u64::from(frames)));
+    assert_eq!(
+        info["features"]["observation.images.color"]["shape"],
+        serde_json::json!([16, 16, 3])
+    );
+    let lines = std::fs::read_to_string(out.join("lerobot/meta/episodes.jsonl")).unwrap();
+    assert_eq!(lines.lines().count(), 3);
+    for i in 0..3 {
+        let f = out.join(format!("lerobot/data/chunk-000/episode_{i:06}.parquet"));
+        let b = ParquetRecordBatchReaderBuilder::try_new(std::fs::File::open(&f).unwrap())
+            .unwrap()
+            .build()
+            .unwrap()
+            .next()
+            .unwrap()
+            .unwrap();
+        let idx = b
+            .column_by_name("episode_index")
+            .unwrap()
+            .as_any()
+            .downcast_ref::<arrow::array::Int64Array>()
+            .unwrap();
+        assert!((0..b.num_rows()).all(|r| idx.value(r) == i as i64));
+        assert_eq!(
+            b.column_by_name("observation.images.color")
+                .unwrap()
+                .as_any()
+                .downcast_ref::<BinaryArray>()
+                .unwrap()
+                .value(0)
+                .len(),
+            16 * 16 * 3
+        );
+    }
 }

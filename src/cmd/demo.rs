@@ -175,6 +175,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         resume: true,
         reward: Reward::Geodesic,
         encoding: ImageEncoding::Raw,
+        lerobot: false,
     };
     let report = {
         let bar = ctx.progress(validation.len() as u64, "oracle");

@@ -76,6 +76,9 @@ pub struct Args {
     /// Image storage: raw little-endian pixels (shape/dtype in the column metadata) or png.
     #[arg(long, default_value = "raw", value_parser = ["raw", "png"])]
     image_encoding: String,
+    /// Also write a LeRobot-style layout into DIR/lerobot (`--format lerobot`).
+    #[arg(long, value_parser = ["parquet", "lerobot"], default_value = "parquet")]
+    format: String,
     /// Renderer: auto, cpu or wgpu.
     #[arg(long, default_value = "cpu", value_parser = ["auto", "cpu", "wgpu"])]
     renderer: String,
@@ -175,6 +178,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         } else {
             ImageEncoding::Raw
         },
+        lerobot: args.format == "lerobot",
     };
     let start = std::time::Instant::now();
     let report = {

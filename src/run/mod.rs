@@ -4,6 +4,7 @@
 
 pub mod agents;
 pub mod external;
+pub mod lerobot;
 pub mod metrics;
 pub mod oracle;
 pub mod rollout;

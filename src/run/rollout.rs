@@ -71,6 +71,8 @@ pub struct RunConfig {
     pub reward: Reward,
     /// Image storage.
     pub encoding: ImageEncoding,
+    /// Also lay the dataset out LeRobot-style in `out/lerobot/`.
+    pub lerobot: bool,
 }
 
 /// Metrics of a finished episode as stored in its part file.
@@ -396,6 +398,30 @@ pub fn run(
         &serde_json::to_vec_pretty(&metrics).map_err(|e| e.to_string())?,
     )
     .map_err(|e| e.to_string())?;
+    if cfg.lerobot {
+        let sources: Vec<(Episode, PathBuf, PathBuf)> = mine
+            .iter()
+            .filter(|(_, e)| {
+                report
+                    .episodes
+                    .iter()
+                    .any(|(r, _)| r.episode_id == e.episode_id)
+            })
+            .map(|(i, e)| {
+                (
+                    e.clone(),
+                    part(&parts, *i, "traj.parquet"),
+                    part(&parts, *i, "obs.parquet"),
+                )
+            })
+            .collect();
+        super::lerobot::write(
+            &cfg.out.join("lerobot"),
+            &sources,
+            &cfg.sensors.cameras,
+            1.0 / cfg.body.dt,
+        )?;
+    }
     if report.failures.is_empty() {
         let _ = std::fs::remove_dir_all(&parts);
     }
