@@ -8,7 +8,7 @@ use std::sync::Arc;
 
 use arrow::array::{
     Array, ArrayRef, BinaryArray, BooleanArray, Float32Array, Float32Builder, Int64Array,
-    ListArray, ListBuilder, RecordBatch, StringArray, UInt32Array,
+    ListArray, ListBuilder, RecordBatch, UInt32Array,
 };
 use arrow::datatypes::{DataType, Field, Schema};
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
