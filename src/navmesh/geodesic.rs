@@ -1,45 +1,15 @@
 //! Geodesic distance fields over the span grid: the walking distance from every span to the
 //! nearest of a set of goal spans.
 //!
-//! Distances approximate the true shortest path through free space, not the octile metric of
-//! an 8-connected grid search (which overestimates by up to 8 %). The propagation is Lazy
-//! Theta*: each span keeps a distance `g` and an *anchor*, the span its path heads to in a
-//! straight line. Relaxing neighbour `n` of a popped span `s` proposes `s`'s anchor, at cost
-//! `g(anchor) + |anchor − n|` (3D distance between span positions, so stairs count their
-//! rise). When a span is popped its anchor is verified with
-//! [`SightIndex::straight_line`]; if the straight walk fails, the span is repaired from the
-//! best settled linked neighbour `k` (`g(k) + |k − n|`, anchor `k`). Following anchors from
-//! any span therefore gives a string-pulled polyline to the goal whose length is the field's
-//! distance.
-//!
-//! With `clearance_weight > 1` the field uses MINOS's weighting instead: a plain 8-connected
-//! Dijkstra in which entering a span whose clearance is below `agent_radius +
-//! clearance_margin` costs the step length times the weight (in the direction of propagation,
-//! away from the goals). Those values are weighted costs, not metres, and paths follow the
-//! grid; that mode is not an exact geodesic. The default weight 1 keeps the exact mode.
-//!
-//! The priority queue orders by `f32::total_cmp` and then by span index, and repairs prefer
-//! the lower span index on ties, so results depend on nothing but the grid and the goals (not
-//! on their order).
-//!
-//! Cost: one line-of-sight walk per settled span, made cheap by the [`SightIndex`] (jumps
-//! across open floor: about two jumps and two single steps per walk on a house-like grid),
-//! neighbours enumerated from its packed copy of the spans, and the next span's record loaded
-//! one iteration early. Measured on the 2-core build box, 1000 x 1000 cells of 5 cm with 100
-//! rooms (935k walkable spans): [`Geodesic::new`] 40 ms, a full field about 195 ms, a
-//! single-pair search across the whole grid about 28 ms. Accuracy against exact shortest
-//! paths: within 0.6 % on the tests' corridors and doorways (the anchors are cell centres, so
-//! a path passes about half a cell off each corner it turns).
-//!
-//! Where this module's job ends: it produces fields and single-pair searches; turning anchors
-//! into paths with rooms and doors is `path`.
+//! (module documentation rewritten at the end)
 
-use std::cmp::Ordering;
+use std::cmp::Reverse;
 use std::collections::BinaryHeap;
+use std::sync::{Mutex, PoisonError};
 
 use glam::Vec3;
 
-use super::grid::{NavGrid, NONE};
+use super::grid::{NavGrid, Span, DIRS, NONE};
 use super::los::SightIndex;
 
 /// Distances from every span to the nearest goal, with the anchor chain to follow there.
@@ -77,62 +47,206 @@ impl DistanceField {
     }
 }
 
-/// A heap entry: min-heap on `key` by `f32::total_cmp`, ties broken by the smaller span.
+/// Per-span search state, 16 bytes: what relaxing a neighbour reads and writes (four
+/// records per cache line).
+#[derive(Debug, Clone, Copy, Default)]
+#[repr(C, align(16))]
+struct State {
+    /// Floor height (a copy of the span's).
+    y: f32,
+    /// Distance to the nearest goal (valid while `mark` is the search's open or closed mark).
+    g: f32,
+    /// Anchor (valid like `g`).
+    anchor: u32,
+    /// The search's open mark, its closed mark (open + 1), or older: not reached.
+    mark: u32,
+}
+
+/// Where a settled span is and how to find its linked spans (from the [`SightIndex`]'s packed
+/// record).
 #[derive(Debug, Clone, Copy)]
-struct Entry {
-    key: f32,
+struct Here {
+    /// Cell.
+    xz: (i64, i64),
+    /// Column index.
+    column: u32,
+    /// Rank of the span in its column: same-layer links land on the same rank.
+    rank: u32,
+    /// Bit `d`: link `d` leads to the same rank of the neighbouring column.
+    same: u8,
+    /// Bit `d`: link `d` leads to another rank (read from the grid's span).
+    other: u8,
+}
+
+/// Maps cells to world positions: the centre of the cell at floor height, computed exactly
+/// as [`NavGrid::span_position`] does.
+#[derive(Debug, Clone, Copy)]
+struct Frame {
+    x0: f32,
+    z0: f32,
+    size: f32,
+}
+
+impl Frame {
+    /// Position of cell `(ix, iz)` at height `y`.
+    #[inline(always)]
+    fn pos(&self, (ix, iz): (i64, i64), y: f32) -> Vec3 {
+        Vec3::new(
+            self.x0 + (ix as f32 + 0.5) * self.size,
+            y,
+            self.z0 + (iz as f32 + 0.5) * self.size,
+        )
+    }
+}
+
+/// Distance between two points (the arithmetic of [`Vec3::distance`]).
+#[inline(always)]
+fn dist(p: Vec3, q: Vec3) -> f32 {
+    let (dx, dy, dz) = (p.x - q.x, p.y - q.y, p.z - q.z);
+    (dx * dx + dy * dy + dz * dz).sqrt()
+}
+
+/// Priority queue of spans: a binary min-heap of 64-bit words `(f32 bits of the key) << 32 |
+/// span`. For the non-negative keys of a search the bit pattern orders like the value, so
+/// spans pop by key and then by index whatever the order of pushes, and a comparison is one
+/// integer compare. (A 4-ary heap and a bucketed queue with the same order measured no
+/// faster.)
+#[derive(Debug, Default)]
+struct Queue {
+    heap: BinaryHeap<Reverse<u64>>,
+}
+
+impl Queue {
+    fn clear(&mut self) {
+        self.heap.clear();
+    }
+
+    #[inline(always)]
+    fn push(&mut self, key: f32, span: u32) {
+        self.heap
+            .push(Reverse((u64::from(key.to_bits()) << 32) | u64::from(span)));
+    }
+
+    #[inline(always)]
+    fn pop(&mut self) -> Option<u32> {
+        self.heap.pop().map(|Reverse(k)| k as u32)
+    }
+
+    /// The span that pops next.
+    #[inline(always)]
+    fn peek(&self) -> Option<u32> {
+        self.heap.peek().map(|Reverse(k)| *k as u32)
+    }
+}
+
+/// Reusable state of one search: the per-span records and the queue.
+#[derive(Debug)]
+struct Scratch {
+    nodes: Vec<State>,
+    /// Open mark of the current search (its closed mark is `open + 1`).
+    open: u32,
+    queue: Queue,
+}
+
+impl Scratch {
+    /// Starts a new search: new marks (older marks read as "not reached"), empty queue.
+    fn begin(&mut self) {
+        if self.open >= u32::MAX - 4 {
+            self.nodes.iter_mut().for_each(|n| n.mark = 0);
+            self.open = 0;
+        }
+        self.open += 2;
+        self.queue.clear();
+    }
+}
+
+/// The linked spans of one span: same-layer links from the column offsets, then links to
+/// other layers from the grid.
+struct Links<'a> {
+    start: &'a [u32],
+    offsets: &'a [i64; 8],
+    spans: &'a [Span],
     span: u32,
+    column: i64,
+    rank: u32,
+    same: u8,
+    other: u8,
 }
 
-impl Ord for Entry {
-    fn cmp(&self, other: &Self) -> Ordering {
-        // Reversed: `BinaryHeap` is a max-heap.
-        other
-            .key
-            .total_cmp(&self.key)
-            .then_with(|| other.span.cmp(&self.span))
+impl Iterator for Links<'_> {
+    /// The linked span and the [`DIRS`] index of the step to it.
+    type Item = (u32, usize);
+
+    #[inline(always)]
+    fn next(&mut self) -> Option<(u32, usize)> {
+        if self.same != 0 {
+            let d = self.same.trailing_zeros() as usize;
+            self.same &= self.same - 1;
+            let col = (self.column + self.offsets[d]) as usize;
+            return Some((self.start[col] + self.rank, d));
+        }
+        if self.other != 0 {
+            let d = self.other.trailing_zeros() as usize;
+            self.other &= self.other - 1;
+            return Some((self.spans[self.span as usize].links[d], d));
+        }
+        None
     }
 }
 
-impl PartialOrd for Entry {
-    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
-        Some(self.cmp(other))
-    }
-}
-
-impl PartialEq for Entry {
-    fn eq(&self, other: &Self) -> bool {
-        self.cmp(other) == Ordering::Equal
-    }
-}
-
-impl Eq for Entry {}
-
-/// Everything repeated geodesic queries on one grid need, computed once: span positions and
-/// the line-of-sight index.
-#[derive(Debug, Clone)]
+/// Everything repeated geodesic queries on one grid need, computed once: the line-of-sight
+/// index and the per-span search records (kept in a small pool, one per concurrent query).
 pub struct Geodesic<'g> {
     sight: SightIndex<'g>,
-    pos: Vec<Vec3>,
+    frame: Frame,
+    /// Column index offset of one step in each direction.
+    offsets: [i64; 8],
+    pool: Mutex<Vec<Scratch>>,
+}
+
+impl std::fmt::Debug for Geodesic<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Geodesic")
+            .field("scene", &self.grid().scene)
+            .field("spans", &self.grid().spans.len())
+            .finish_non_exhaustive()
+    }
+}
+
+impl Clone for Geodesic<'_> {
+    fn clone(&self) -> Self {
+        Geodesic {
+            sight: self.sight.clone(),
+            frame: self.frame,
+            offsets: self.offsets,
+            pool: Mutex::new(Vec::new()),
+        }
+    }
 }
 
 impl<'g> Geodesic<'g> {
-    /// Precomputes span positions and the [`SightIndex`] (linear in the number of spans).
+    /// Precomputes the [`SightIndex`] and the per-span search records (linear in the number
+    /// of spans).
     pub fn new(grid: &'g NavGrid) -> Self {
+        let nx = i64::from(grid.nx);
+        let offsets = DIRS.map(|(dx, dz)| i64::from(dx) + i64::from(dz) * nx);
         let sight = SightIndex::new(grid);
-        let size = grid.cell();
-        let pos = (0..grid.spans.len() as u32)
-            .zip(&grid.spans)
-            .map(|(s, span)| {
-                let (ix, iz) = sight.cell(s);
-                Vec3::new(
-                    grid.x0 + (ix as f32 + 0.5) * size,
-                    span.y,
-                    grid.z0 + (iz as f32 + 0.5) * size,
-                )
-            })
-            .collect();
-        Geodesic { sight, pos }
+        let geo = Geodesic {
+            sight,
+            frame: Frame {
+                x0: grid.x0,
+                z0: grid.z0,
+                size: grid.cell(),
+            },
+            offsets,
+            pool: Mutex::new(Vec::new()),
+        };
+        let first = geo.new_scratch();
+        geo.pool
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .push(first);
+        geo
     }
 
     /// The grid.
@@ -147,7 +261,8 @@ impl<'g> Geodesic<'g> {
 
     /// World position of a span (as [`NavGrid::span_position`]); `None` when out of range.
     pub fn position(&self, span: u32) -> Option<Vec3> {
-        self.pos.get(span as usize).copied()
+        let y = self.grid().spans.get(span as usize)?.y;
+        Some(self.frame.pos(self.cell_xz(span), y))
     }
 
     /// True when fields are exact geodesics (`clearance_weight <= 1`), false in MINOS's
@@ -156,168 +271,314 @@ impl<'g> Geodesic<'g> {
         self.grid().params.clearance_weight <= 1.0
     }
 
+    fn new_scratch(&self) -> Scratch {
+        let nodes = (0..self.grid().spans.len() as u32)
+            .map(|s| State {
+                y: self.sight.column_height(s).1,
+                g: f32::INFINITY,
+                anchor: NONE,
+                mark: 0,
+            })
+            .collect();
+        Scratch {
+            nodes,
+            open: 0,
+            queue: Queue::default(),
+        }
+    }
+
+    /// Runs `f` with a scratch from the pool (a new one when all are in use).
+    fn with_scratch<R>(&self, f: impl FnOnce(&mut Scratch) -> R) -> R {
+        let taken = self
+            .pool
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .pop();
+        let mut scratch = taken.unwrap_or_else(|| self.new_scratch());
+        let out = f(&mut scratch);
+        self.pool
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .push(scratch);
+        out
+    }
+
+    #[inline(always)]
+    fn links(&self, here: &Here, span: u32) -> Links<'_> {
+        let grid = self.grid();
+        Links {
+            start: &grid.column_start,
+            offsets: &self.offsets,
+            spans: &grid.spans,
+            span,
+            column: i64::from(here.column),
+            rank: here.rank,
+            same: here.same,
+            other: here.other,
+        }
+    }
+
+    /// Cell of a span (a valid index).
+    #[inline(always)]
+    fn cell_xz(&self, span: u32) -> (i64, i64) {
+        let (column, _) = self.sight.column_height(span);
+        let nx = self.grid().nx.max(1);
+        (i64::from(column % nx), i64::from(column / nx))
+    }
+
+    /// Cell, column, rank and links of a span (a valid index).
+    #[inline(always)]
+    fn here(&self, span: u32) -> Here {
+        let grid = self.grid();
+        let (column, _) = self.sight.column_height(span);
+        let (same, linked) = self.sight.link_masks(span);
+        let nx = grid.nx.max(1);
+        let first = grid
+            .column_start
+            .get(column as usize)
+            .copied()
+            .unwrap_or(span);
+        Here {
+            xz: (i64::from(column % nx), i64::from(column / nx)),
+            column,
+            rank: span.wrapping_sub(first),
+            same,
+            other: linked & !same,
+        }
+    }
+
     /// The full distance field to the nearest of `goals` (non-walkable or out-of-range goals
     /// are ignored; with none left every span is unreachable).
     pub fn field(&self, goals: &[u32]) -> DistanceField {
-        self.run(goals, None)
+        self.with_scratch(|sc| {
+            self.run(sc, goals, None);
+            export(sc)
+        })
     }
 
     /// A single-pair search from `goal` that stops once `start` is settled (A* with the
     /// admissible straight-line heuristic). Only settled spans have values (the others are
     /// `INFINITY`/`NONE`), enough to follow anchors from `start` to `goal`.
     pub fn search(&self, goal: u32, start: u32) -> DistanceField {
-        self.run(&[goal], Some(start))
+        self.with_scratch(|sc| {
+            self.run(sc, &[goal], Some(start));
+            export(sc)
+        })
     }
 
-    fn run(&self, goals: &[u32], target: Option<u32>) -> DistanceField {
+    /// The anchor chain from `start` to `goal` of [`Geodesic::search`] (`start` first,
+    /// `goal` last), without building a whole field; `None` when `start` is not reached.
+    pub(crate) fn search_chain(&self, goal: u32, start: u32) -> Option<Vec<u32>> {
+        self.with_scratch(|sc| {
+            self.run(sc, &[goal], Some(start));
+            let closed = sc.open + 1;
+            let nodes = &sc.nodes;
+            let mut chain = vec![start];
+            let mut s = start;
+            loop {
+                let node = nodes.get(s as usize).filter(|n| n.mark == closed)?;
+                let a = node.anchor;
+                if a == s {
+                    return Some(chain);
+                }
+                if a == NONE || chain.len() > nodes.len() {
+                    return None;
+                }
+                chain.push(a);
+                s = a;
+            }
+        })
+    }
+
+    fn run(&self, sc: &mut Scratch, goals: &[u32], target: Option<u32>) {
+        sc.begin();
         let grid = self.grid();
-        let n = grid.spans.len();
-        let mut field = DistanceField {
-            dist: vec![f32::INFINITY; n],
-            anchor: vec![NONE; n],
-        };
         let valid = |s: u32| grid.spans.get(s as usize).is_some_and(|s| s.walkable);
         if target.is_some_and(|t| !valid(t)) {
-            return field;
+            return;
         }
-        let mut closed = vec![false; n];
-        let mut heap = BinaryHeap::with_capacity(1024);
-        let target_pos = target.map(|t| self.pos[t as usize]);
+        let open = sc.open;
+        let target_pos = target.and_then(|t| self.position(t));
         for &goal in goals {
-            if valid(goal) && field.dist[goal as usize] != 0.0 {
-                field.dist[goal as usize] = 0.0;
-                field.anchor[goal as usize] = goal;
-                let key = target_pos.map_or(0.0, |p| p.distance(self.pos[goal as usize]));
-                heap.push(Entry { key, span: goal });
+            if !valid(goal) {
+                continue;
             }
+            let node = &mut sc.nodes[goal as usize];
+            if node.mark == open && node.g == 0.0 {
+                continue;
+            }
+            node.g = 0.0;
+            node.anchor = goal;
+            node.mark = open;
+            let key = match (target_pos, self.position(goal)) {
+                (Some(p), Some(q)) => dist(p, q),
+                _ => 0.0,
+            };
+            sc.queue.push(key, goal);
         }
         if self.exact() {
-            self.lazy_theta(&mut field, &mut closed, &mut heap, target);
+            self.lazy_theta(sc, target);
         } else {
-            self.weighted(&mut field, &mut closed, &mut heap, target);
+            self.weighted(sc, target);
         }
-        if target.is_some() {
-            for (s, &done) in closed.iter().enumerate() {
-                if !done {
-                    field.dist[s] = f32::INFINITY;
-                    field.anchor[s] = NONE;
-                }
-            }
-        }
-        field
     }
 
     /// Lazy Theta* (see the module documentation).
-    fn lazy_theta(
-        &self,
-        field: &mut DistanceField,
-        closed: &mut [bool],
-        heap: &mut BinaryHeap<Entry>,
-        target: Option<u32>,
-    ) {
+    fn lazy_theta(&self, sc: &mut Scratch, target: Option<u32>) {
         let sight = &self.sight;
-        let pos = &self.pos;
-        let g = &mut field.dist;
-        let anchor = &mut field.anchor;
-        let target_pos = target.map(|t| pos[t as usize]);
-        while let Some(Entry { span: s, .. }) = heap.pop() {
+        let fr = self.frame;
+        let (open, closed) = (sc.open, sc.open + 1);
+        let nodes = &mut sc.nodes[..];
+        let queue = &mut sc.queue;
+        let tp = target.and_then(|t| self.position(t));
+        while let Some(s) = queue.pop() {
             let su = s as usize;
-            if closed[su] {
+            let node = nodes[su];
+            if node.mark == closed {
                 continue;
             }
-            // Start loading the next span's record now: the load overlaps with this
-            // iteration's work instead of stalling the next one.
-            if let Some(next) = heap.peek() {
-                std::hint::black_box(sight.touch(next.span));
+            if let Some(next) = queue.peek() {
+                prefetch(nodes, next);
+                sight.prefetch(next);
             }
-            let a = anchor[su];
-            if a != s && !sight.straight_line_unchecked(a, s) {
+            let cell = self.here(s);
+            let mut a = node.anchor;
+            let mut na = nodes[a as usize];
+            let mut ca = self.cell_xz(a);
+            let (ix, iz) = cell.xz;
+            if a != s && !sight.straight_line_between((a, ca, na.y), (s, (ix, iz), node.y)) {
                 // Repair from the best settled neighbour (the one that proposed the anchor is
                 // among them, so there is one).
-                let ps = pos[su];
+                let ps = fr.pos((ix, iz), node.y);
                 let (mut best, mut best_k) = (f32::INFINITY, NONE);
-                sight.for_each_link(s, |k| {
-                    if closed[k as usize] {
-                        let c = g[k as usize] + pos[k as usize].distance(ps);
+                for (k, d) in self.links(&cell, s) {
+                    let nk = &nodes[k as usize];
+                    if nk.mark == closed {
+                        let (dx, dz) = DIRS[d];
+                        let pk = fr.pos((ix + i64::from(dx), iz + i64::from(dz)), nk.y);
+                        let c = nk.g + dist(pk, ps);
                         if c < best || (c == best && k < best_k) {
                             best = c;
                             best_k = k;
                         }
                     }
-                });
-                g[su] = best;
-                anchor[su] = best_k;
+                }
+                let slot = &mut nodes[su];
+                slot.g = best;
+                slot.anchor = best_k;
+                slot.mark = closed;
                 if best_k == NONE {
-                    closed[su] = true;
                     continue;
                 }
+                a = best_k;
+                na = nodes[a as usize];
+                ca = self.cell_xz(a);
+            } else {
+                nodes[su].mark = closed;
             }
-            closed[su] = true;
             if target == Some(s) {
                 return;
             }
-            let a = anchor[su];
-            let (ga, pa) = (g[a as usize], pos[a as usize]);
-            sight.for_each_link(s, |nb| {
-                if closed[nb as usize] {
-                    return;
+            let (ga, pa) = (na.g, fr.pos(ca, na.y));
+            for (nb, d) in self.links(&cell, s) {
+                let m = &mut nodes[nb as usize];
+                if m.mark == closed {
+                    continue;
                 }
-                let pn = pos[nb as usize];
-                let c = ga + pa.distance(pn);
-                if c < g[nb as usize] {
-                    g[nb as usize] = c;
-                    anchor[nb as usize] = a;
-                    let key = target_pos.map_or(c, |p| c + p.distance(pn));
-                    heap.push(Entry { key, span: nb });
+                let (dx, dz) = DIRS[d];
+                let pn = fr.pos((ix + i64::from(dx), iz + i64::from(dz)), m.y);
+                let c = ga + dist(pa, pn);
+                if m.mark != open || c < m.g {
+                    m.g = c;
+                    m.anchor = a;
+                    m.mark = open;
+                    let key = tp.map_or(c, |p| c + dist(p, pn));
+                    queue.push(key, nb);
                 }
-            });
+            }
         }
     }
 
     /// MINOS's clearance-weighted 8-connected Dijkstra (A* towards `target` if given).
-    fn weighted(
-        &self,
-        field: &mut DistanceField,
-        closed: &mut [bool],
-        heap: &mut BinaryHeap<Entry>,
-        target: Option<u32>,
-    ) {
+    fn weighted(&self, sc: &mut Scratch, target: Option<u32>) {
         let grid = self.grid();
         let spans = &grid.spans;
-        let pos = &self.pos;
         let threshold = grid.params.agent_radius + grid.params.clearance_margin;
         let weight = grid.params.clearance_weight;
-        let target_pos = target.map(|t| pos[t as usize]);
-        while let Some(Entry { span: s, .. }) = heap.pop() {
+        let fr = self.frame;
+        let (open, closed) = (sc.open, sc.open + 1);
+        let nodes = &mut sc.nodes[..];
+        let queue = &mut sc.queue;
+        let tp = target.and_then(|t| self.position(t));
+        while let Some(s) = queue.pop() {
             let su = s as usize;
-            if closed[su] {
+            let node = nodes[su];
+            if node.mark == closed {
                 continue;
             }
-            closed[su] = true;
+            nodes[su].mark = closed;
             if target == Some(s) {
                 return;
             }
-            let (gs, ps) = (field.dist[su], pos[su]);
-            self.sight.for_each_link(s, |nb| {
-                if closed[nb as usize] {
-                    return;
+            let cell = self.here(s);
+            let (ix, iz) = cell.xz;
+            let ps = fr.pos((ix, iz), node.y);
+            for (nb, d) in self.links(&cell, s) {
+                let m = &mut nodes[nb as usize];
+                if m.mark == closed {
+                    continue;
                 }
-                let pn = pos[nb as usize];
                 let w = if spans[nb as usize].clearance < threshold {
                     weight
                 } else {
                     1.0
                 };
-                let c = gs + ps.distance(pn) * w;
-                if c < field.dist[nb as usize] {
-                    field.dist[nb as usize] = c;
-                    field.anchor[nb as usize] = s;
-                    let key = target_pos.map_or(c, |p| c + p.distance(pn));
-                    heap.push(Entry { key, span: nb });
+                let (dx, dz) = DIRS[d];
+                let pn = fr.pos((ix + i64::from(dx), iz + i64::from(dz)), m.y);
+                let c = node.g + dist(ps, pn) * w;
+                if m.mark != open || c < m.g {
+                    m.g = c;
+                    m.anchor = s;
+                    m.mark = open;
+                    let key = tp.map_or(c, |p| c + dist(p, pn));
+                    queue.push(key, nb);
                 }
-            });
+            }
         }
     }
+}
+
+/// Asks the CPU to start loading a span's record (a hint; no effect on results).
+#[inline(always)]
+fn prefetch<T>(records: &[T], span: u32) {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(n) = records.get(span as usize) {
+        // SAFETY: prefetching is a hint that never faults; the pointer is to a live record.
+        unsafe {
+            std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
+                (n as *const T).cast::<i8>(),
+            );
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (records, span);
+}
+
+/// The settled spans of the last search as a field.
+fn export(sc: &Scratch) -> DistanceField {
+    let closed = sc.open + 1;
+    let (dist, anchor) = sc
+        .nodes
+        .iter()
+        .map(|n| {
+            if n.mark == closed {
+                (n.g, n.anchor)
+            } else {
+                (f32::INFINITY, NONE)
+            }
+        })
+        .unzip();
+    DistanceField { dist, anchor }
 }
 
 /// The distance field from every span to the nearest of `goals` (see the module

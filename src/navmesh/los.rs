@@ -329,35 +329,49 @@ impl<'g> SightIndex<'g> {
     /// Builds the index: one pass over the columns and one breadth-first pass over the links.
     pub fn new(grid: &'g NavGrid) -> Self {
         let n = grid.spans.len();
-        let mut spans = vec![SightSpan::default(); n];
-        let columns = grid.column_start.len().saturating_sub(1);
+        let start = &grid.column_start;
+        let (nx, nz) = (grid.nx as usize, grid.nz as usize);
+        let columns = start.len().saturating_sub(1).min(nx * nz);
+        let mut spans = Vec::with_capacity(n);
         for c in 0..columns {
-            for s in grid.column_spans(c) {
-                if let Some(slot) = spans.get_mut(s) {
-                    slot.column = c as u32;
-                    slot.y = grid.spans[s].y;
+            let (ix, iz) = ((c % nx) as i64, (c / nx) as i64);
+            let (s0, s1) = (start[c] as usize, (start[c + 1] as usize).min(n));
+            for s in s0.min(s1)..s1 {
+                if spans.len() != s {
+                    // Malformed column ranges: give up on the fast paths for the rest.
+                    break;
                 }
-            }
-        }
-        let rank = |s: usize| s as u32 - grid.column_start[spans[s].column as usize];
-        let mut masks = vec![(0u8, 0u8); n];
-        for (s, span) in grid.spans.iter().enumerate() {
-            for (d, &l) in span.links.iter().enumerate() {
-                if l != NONE && (l as usize) < n {
-                    masks[s].1 |= 1 << d;
-                    if rank(l as usize) == rank(s) {
-                        masks[s].0 |= 1 << d;
+                let span = &grid.spans[s];
+                let rank = (s - s0) as u32;
+                let (mut same, mut linked) = (0u8, 0u8);
+                for (d, &l) in span.links.iter().enumerate() {
+                    if l == NONE || l as usize >= n {
+                        continue;
+                    }
+                    linked |= 1 << d;
+                    let (jx, jz) = (ix + i64::from(DIRS[d].0), iz + i64::from(DIRS[d].1));
+                    if jx >= 0 && jz >= 0 && (jx as usize) < nx && (jz as usize) < nz {
+                        let cc = jz as usize * nx + jx as usize;
+                        if cc + 1 < start.len() && start[cc] + rank == l && l < start[cc + 1] {
+                            same |= 1 << d;
+                        }
                     }
                 }
+                spans.push(SightSpan {
+                    y: span.y,
+                    column: c as u32,
+                    ahead: [0; 4],
+                    same_rank: same,
+                    linked,
+                });
             }
         }
-        for (slot, &(same, linked)) in spans.iter_mut().zip(&masks) {
-            slot.same_rank = same;
-            slot.linked = linked;
-        }
-        for q in 0..4 {
-            squares_ahead(grid, q, &mut spans);
-        }
+        // Spans outside every column range (malformed grids) get no links.
+        spans.extend(grid.spans[spans.len()..].iter().map(|s| SightSpan {
+            y: s.y,
+            ..SightSpan::default()
+        }));
+        squares_ahead(grid, &mut spans);
         let nx = i64::from(grid.nx);
         let offsets = DIRS.map(|(dx, dz)| i64::from(dx) + i64::from(dz) * nx);
         SightIndex {
@@ -387,40 +401,36 @@ impl<'g> SightIndex<'g> {
         (c % nx, c / nx)
     }
 
-    /// Calls `f` with every linked neighbour of `span` (a valid index), reading the packed
-    /// copy: links on the same layer are found from the column offsets, only links to
-    /// another layer read the grid's span. Same-layer links come first, each group in
-    /// [`DIRS`] order.
+    /// Asks the CPU to start loading a span's packed record (a hint; no effect on results).
     #[inline]
-    pub(crate) fn for_each_link(&self, span: u32, mut f: impl FnMut(u32)) {
-        let info = self.spans[span as usize];
-        let start = &self.grid.column_start;
-        let mut same = info.same_rank;
-        if same != 0 {
-            let rank = span - start[info.column as usize];
-            while same != 0 {
-                let d = same.trailing_zeros() as usize;
-                same &= same - 1;
-                let col = (i64::from(info.column) + self.offsets[d]) as usize;
-                f(start[col] + rank);
+    pub(crate) fn prefetch(&self, span: u32) {
+        #[cfg(target_arch = "x86_64")]
+        if let Some(s) = self.spans.get(span as usize) {
+            // SAFETY: prefetching is a hint that never faults; the pointer is to a live record.
+            unsafe {
+                std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
+                    (s as *const SightSpan).cast::<i8>(),
+                );
             }
         }
-        let mut other = info.linked & !info.same_rank;
-        if other != 0 {
-            let links = &self.grid.spans[span as usize].links;
-            while other != 0 {
-                let d = other.trailing_zeros() as usize;
-                other &= other - 1;
-                f(links[d]);
-            }
-        }
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = span;
     }
 
-    /// Reads the packed record of a span and returns its column: issued early, the load
-    /// brings the record into cache before it is needed.
+    /// Column and floor height of a span (a valid index).
     #[inline]
-    pub(crate) fn touch(&self, span: u32) -> u32 {
-        self.spans.get(span as usize).map_or(0, |s| s.column)
+    pub(crate) fn column_height(&self, span: u32) -> (u32, f32) {
+        let s = &self.spans[span as usize];
+        (s.column, s.y)
+    }
+
+    /// Link masks of a span (a valid index): bit `d` of the first is set when link `d`
+    /// leads to the span of the same rank in the neighbouring column, bit `d` of the second
+    /// when link `d` exists.
+    #[inline]
+    pub(crate) fn link_masks(&self, span: u32) -> (u8, u8) {
+        let s = &self.spans[span as usize];
+        (s.same_rank, s.linked)
     }
 
     /// How many cells a walk from this span can jump at most, over all directions (0: it
@@ -447,16 +457,20 @@ impl<'g> SightIndex<'g> {
         walkable_pair(self.grid, from, to) && self.trace(from, to, profile)
     }
 
-    /// [`SightIndex::straight_line`] for two spans the caller knows to be walkable (reads
-    /// only the packed copy, not the grid's spans).
+    /// [`SightIndex::straight_line`] for two spans the caller knows to be walkable, given
+    /// their cells `a`, `b` and floor heights `ya`, `yb` (reads only the packed copy of the
+    /// spans the walk lands on, starting with `from`'s).
     #[inline]
-    pub(crate) fn straight_line_unchecked(&self, from: u32, to: u32) -> bool {
-        self.trace(from, to, true)
+    pub(crate) fn straight_line_between(
+        &self,
+        (from, a, ya): (u32, (i64, i64), f32),
+        (to, b, yb): (u32, (i64, i64), f32),
+    ) -> bool {
+        from == to || self.trace_cells(from, to, (a, b), (ya, yb), true)
     }
 
     /// The walk over the packed spans, with jumps.
     fn trace(&self, from: u32, to: u32, profile: bool) -> bool {
-        let start = &self.grid.column_start;
         if from == to {
             return true;
         }
@@ -464,17 +478,30 @@ impl<'g> SightIndex<'g> {
         let w = self.grid.nx.max(1);
         let a = (i64::from(fi.column % w), i64::from(fi.column / w));
         let b = (i64::from(ti.column % w), i64::from(ti.column / w));
-        let walk = Walk::with_heights(from, to, (a, b), (fi.y, ti.y), profile, self.tolerance);
+        self.trace_cells(from, to, (a, b), (fi.y, ti.y), profile)
+    }
+
+    /// [`SightIndex::trace`] with the cells and heights of both ends known (`from != to`).
+    fn trace_cells(
+        &self,
+        from: u32,
+        to: u32,
+        (a, b): ((i64, i64), (i64, i64)),
+        (ya, yb): (f32, f32),
+        profile: bool,
+    ) -> bool {
+        let start = &self.grid.column_start;
+        let walk = Walk::with_heights(from, to, (a, b), (ya, yb), profile, self.tolerance);
         let (dx, dz) = (b.0 - a.0, b.1 - a.1);
         if dx == 0 && dz == 0 {
             return false;
         }
         let (sx, sz) = (dx.signum(), dz.signum());
-        let nx = i64::from(w);
+        let nx = i64::from(self.grid.nx.max(1));
         let mut dda = Dda::new(dx, dz);
         let q = quadrant(sx, sz);
         let mut cur = from;
-        let mut info = fi;
+        let mut info = self.spans[from as usize];
         let mut rank = cur - start[info.column as usize];
         loop {
             if dda.done() {
@@ -529,50 +556,60 @@ fn quadrant(sx: i64, sz: i64) -> usize {
     usize::from(sx < 0) | (usize::from(sz < 0) << 1)
 }
 
-/// Fills `ahead[q]` of every packed span: the largest-square recurrence
-/// `L(s) = 1 + min(L(x), L(z), L(diagonal))` over the forward links of quadrant `q`, with
-/// columns visited from the far corner of the grid so that forward neighbours come first.
-fn squares_ahead(grid: &NavGrid, q: usize, packed: &mut [SightSpan]) {
-    let (sx, sz): (i32, i32) = (
-        if q & 1 == 0 { 1 } else { -1 },
-        if q & 2 == 0 { 1 } else { -1 },
-    );
-    let dir = |dx: i32, dz: i32| DIRS.iter().position(|&d| d == (dx, dz)).unwrap_or(0);
-    let (xd, zd, dd) = (dir(sx, 0), dir(0, sz), dir(sx, sz));
-    let forward = (1u8 << xd) | (1u8 << zd) | (1u8 << dd);
+/// Fills `ahead` of every packed span: per quadrant `q`, the largest-square recurrence
+/// `L(s) = 1 + min(L(x), L(z), L(diagonal))` over the three forward links of the quadrant
+/// (all to the same rank, within the flat limit; otherwise `L(s) = 1`), with columns visited
+/// from the far corner so that forward neighbours come first. Two sweeps over the rows (from
+/// the last row for the quadrants heading to +z, from the first for those heading to -z),
+/// each row visited in both x orders while it is in cache. Walkability is not read for spans
+/// with all three forward links: the builder links walkable spans only, and what a walk
+/// needs is the links.
+fn squares_ahead(grid: &NavGrid, packed: &mut [SightSpan]) {
     let flat = FLAT_FRACTION * grid.params.max_climb;
     let (nx, nz) = (grid.nx as usize, grid.nz as usize);
-    for step_z in 0..nz {
-        let iz = if sz > 0 { nz - 1 - step_z } else { step_z };
-        for step_x in 0..nx {
-            let ix = if sx > 0 { nx - 1 - step_x } else { step_x };
-            let c = iz * nx + ix;
-            if c + 1 >= grid.column_start.len() {
-                continue;
-            }
-            for s in grid.column_spans(c) {
-                let span = &grid.spans[s];
-                let size = if !span.walkable {
-                    0
-                } else if packed[s].same_rank & forward != forward {
-                    1
-                } else {
-                    let links = [span.links[xd], span.links[zd], span.links[dd]];
-                    if links
-                        .iter()
-                        .all(|&l| (packed[l as usize].y - span.y).abs() <= flat)
-                    {
-                        let min = links
-                            .iter()
-                            .map(|&l| packed[l as usize].ahead[q])
-                            .min()
-                            .unwrap_or(0);
-                        min.saturating_add(1)
-                    } else {
-                        1
+    let start = &grid.column_start;
+    if nx == 0 || start.len() < nx * nz + 1 {
+        return;
+    }
+    let n = packed.len();
+    for sz in [1i32, -1] {
+        for step_z in 0..nz {
+            let iz = if sz > 0 { nz - 1 - step_z } else { step_z };
+            for sx in [1i32, -1] {
+                let q = usize::from(sx < 0) | (usize::from(sz < 0) << 1);
+                let dir = |dx: i32, dz: i32| DIRS.iter().position(|&d| d == (dx, dz)).unwrap_or(0);
+                let (xd, zd, dd) = (dir(sx, 0), dir(0, sz), dir(sx, sz));
+                let forward = (1u8 << xd) | (1u8 << zd) | (1u8 << dd);
+                let offs =
+                    [xd, zd, dd].map(|d| i64::from(DIRS[d].0) + i64::from(DIRS[d].1) * nx as i64);
+                for step_x in 0..nx {
+                    let ix = if sx > 0 { nx - 1 - step_x } else { step_x };
+                    let c = iz * nx + ix;
+                    let (s0, s1) = (start[c] as usize, (start[c + 1] as usize).min(n));
+                    for s in s0.min(s1)..s1 {
+                        let (y, same_rank) = (packed[s].y, packed[s].same_rank);
+                        let size = if same_rank & forward != forward {
+                            u8::from(grid.spans[s].walkable)
+                        } else {
+                            let rank = (s - s0) as u32;
+                            let mut min = u8::MAX;
+                            let mut ok = true;
+                            for off in offs {
+                                let l = (start[(c as i64 + off) as usize] + rank) as usize;
+                                // Field by field: the square size of the previous column
+                                // was just stored, and a whole-record load would stall.
+                                ok &= (packed[l].y - y).abs() <= flat;
+                                min = min.min(packed[l].ahead[q]);
+                            }
+                            if ok {
+                                min.saturating_add(1)
+                            } else {
+                                1
+                            }
+                        };
+                        packed[s].ahead[q] = size;
                     }
-                };
-                packed[s].ahead[q] = size;
+                }
             }
         }
     }

@@ -15,7 +15,7 @@ use glam::Vec3;
 
 use super::geodesic::{DistanceField, Geodesic};
 use super::grid::{NavGrid, NONE};
-use super::los::{self, SightIndex};
+use super::los;
 
 /// A walkable path from one span to another.
 #[derive(Debug, Clone, PartialEq)]
@@ -91,24 +91,16 @@ pub fn shortest_path_in(geo: &Geodesic<'_>, from: u32, to: u32) -> PathResult {
     if !may_connect(grid, from, to) {
         return PathResult::Unreachable;
     }
-    let field = geo.search(to, from);
-    finish(grid, Some(geo.sight()), &field, from)
+    match geo.search_chain(to, from) {
+        Some(chain) => finish(grid, Some(geo), chain),
+        None => PathResult::Unreachable,
+    }
 }
 
 /// The path from span `from` to the nearest goal of a precomputed field, following its
 /// anchors. `Unreachable` when `from` cannot reach a goal or the field does not belong to
 /// this grid.
 pub fn path_from_field(grid: &NavGrid, field: &DistanceField, from: u32) -> PathResult {
-    finish(grid, None, field, from)
-}
-
-/// Follows anchors from `from`, string-pulls, and collects rooms and doors.
-fn finish(
-    grid: &NavGrid,
-    sight: Option<&SightIndex<'_>>,
-    field: &DistanceField,
-    from: u32,
-) -> PathResult {
     let n = grid.spans.len();
     if field.dist.len() != n || field.anchor.len() != n || !walkable(grid, from) {
         return PathResult::Unreachable;
@@ -129,20 +121,26 @@ fn finish(
         chain.push(a);
         s = a;
     }
+    finish(grid, None, chain)
+}
+
+/// String-pulls and refines an anchor chain (start first), and collects rooms and doors.
+fn finish(grid: &NavGrid, geo: Option<&Geodesic<'_>>, chain: Vec<u32>) -> PathResult {
+    let pos = |s: u32| match geo.and_then(|g| g.position(s)) {
+        Some(p) => p,
+        None => grid.span_position(s as usize),
+    };
     let chain = if grid.params.clearance_weight <= 1.0 {
-        let straight = |a: u32, b: u32| match sight {
-            Some(index) => index.straight_line(a, b),
+        let straight = |a: u32, b: u32| match geo {
+            Some(g) => g.sight().straight_line(a, b),
             None => los::straight_line(grid, a, b),
         };
         let pulled = string_pull(&chain, &straight);
-        refine(grid, pulled, &straight)
+        refine(grid, pulled, &pos, &straight)
     } else {
-        merge_collinear(grid, &chain)
+        merge_collinear(&chain, &pos)
     };
-    let points: Vec<Vec3> = chain
-        .iter()
-        .map(|&s| grid.span_position(s as usize))
-        .collect();
+    let points: Vec<Vec3> = chain.iter().map(|&s| pos(s)).collect();
     let length = points.windows(2).map(|w| w[0].distance(w[1])).sum();
     let (rooms, doors) = rooms_and_doors(grid, &chain);
     PathResult::Found(Path {
@@ -175,8 +173,12 @@ fn string_pull(chain: &[u32], straight: &impl Fn(u32, u32) -> bool) -> Vec<u32> 
 /// straight walks, until nothing changes. Anchors sit on cell centres, so corners found by
 /// the search can be up to a cell from the best one; this brings paths within a fraction of
 /// a cell per corner of the optimum and makes A→B and B→A agree.
-fn refine(grid: &NavGrid, mut chain: Vec<u32>, straight: &impl Fn(u32, u32) -> bool) -> Vec<u32> {
-    let pos = |s: u32| grid.span_position(s as usize);
+fn refine(
+    grid: &NavGrid,
+    mut chain: Vec<u32>,
+    pos: &impl Fn(u32) -> Vec3,
+    straight: &impl Fn(u32, u32) -> bool,
+) -> Vec<u32> {
     for _ in 0..32 {
         let mut changed = false;
         let mut i = 1;
@@ -212,14 +214,14 @@ fn refine(grid: &NavGrid, mut chain: Vec<u32>, straight: &impl Fn(u32, u32) -> b
 }
 
 /// Drops chain spans that lie on the straight 3D line between their neighbours.
-fn merge_collinear(grid: &NavGrid, chain: &[u32]) -> Vec<u32> {
+fn merge_collinear(chain: &[u32], pos: &impl Fn(u32) -> Vec3) -> Vec<u32> {
     let mut out = vec![chain[0]];
     for k in 1..chain.len() {
         let last = k + 1 == chain.len();
         if !last {
-            let p = grid.span_position(out[out.len() - 1] as usize);
-            let q = grid.span_position(chain[k] as usize);
-            let r = grid.span_position(chain[k + 1] as usize);
+            let p = pos(out[out.len() - 1]);
+            let q = pos(chain[k]);
+            let r = pos(chain[k + 1]);
             let (u, v) = (q - p, r - q);
             if u.cross(v).length() <= 1e-4 * u.length() * v.length() && u.dot(v) > 0.0 {
                 continue;
