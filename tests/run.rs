@@ -138,6 +138,17 @@ fn the_oracle_succeeds_on_every_episode_and_random_is_reported() {
     assert!(metrics["groups"]["task=pointgoal"]["success"].is_number());
 }
 
+/// The first record batch of a Parquet file.
+fn first_batch(path: &Path) -> arrow::array::RecordBatch {
+    ParquetRecordBatchReaderBuilder::try_new(std::fs::File::open(path).unwrap())
+        .unwrap()
+        .build()
+        .unwrap()
+        .next()
+        .unwrap()
+        .unwrap()
+}
+
 fn column<'a, T: 'static>(batch: &'a arrow::array::RecordBatch, name: &str) -> &'a T {
     batch
         .column_by_name(name)
@@ -166,15 +177,7 @@ fn observations_read_back_bit_for_bit_and_replays_reproduce_poses() {
     )
     .unwrap();
     // Re-simulate the first episode step by step and compare with the stored images and poses.
-    let traj = ParquetRecordBatchReaderBuilder::try_new(
-        std::fs::File::open(out.join("trajectories.parquet")).unwrap(),
-    )
-    .unwrap()
-    .build()
-    .unwrap()
-    .next()
-    .unwrap()
-    .unwrap();
+    let traj = first_batch(&out.join("trajectories.parquet"));
     let obs_reader = ParquetRecordBatchReaderBuilder::try_new(
         std::fs::File::open(out.join("observations.parquet")).unwrap(),
     )
@@ -268,15 +271,7 @@ fn observations_read_back_bit_for_bit_and_replays_reproduce_poses() {
         &NoProgress,
     )
     .unwrap();
-    let replayed = ParquetRecordBatchReaderBuilder::try_new(
-        std::fs::File::open(replay_out.join("trajectories.parquet")).unwrap(),
-    )
-    .unwrap()
-    .build()
-    .unwrap()
-    .next()
-    .unwrap()
-    .unwrap();
+    let replayed = first_batch(&replay_out.join("trajectories.parquet"));
     for c in ["x", "z", "yaw"] {
         let (a, b) = (
             column::<Float32Array>(&traj, c),
@@ -433,13 +428,7 @@ fn the_lerobot_layout_has_one_file_per_episode_and_consistent_meta() {
     assert_eq!(lines.lines().count(), 3);
     for i in 0..3 {
         let f = out.join(format!("lerobot/data/chunk-000/episode_{i:06}.parquet"));
-        let b = ParquetRecordBatchReaderBuilder::try_new(std::fs::File::open(&f).unwrap())
-            .unwrap()
-            .build()
-            .unwrap()
-            .next()
-            .unwrap()
-            .unwrap();
+        let b = first_batch(&f);
         let idx = b
             .column_by_name("episode_index")
             .unwrap()
