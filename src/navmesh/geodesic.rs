@@ -29,8 +29,15 @@
 //! prefer the lower span index on ties, so results depend on nothing but the grid and the
 //! goals (not on their order, nor on which pooled records a query used).
 //!
+//! A field from a single goal starts with a flood: breadth first over links from the goal,
+//! every span the goal sees by a straight walk is settled at once with the straight-line
+//! distance and the goal as anchor (no path is shorter), without the queue and with the
+//! records of spans about to be expanded loaded ahead; the spans the flood reaches but the
+//! goal does not see are repaired from their best settled neighbour and queued, and Lazy
+//! Theta* settles the rest. On open floor the whole field is the flood.
+//!
 //! [`Geodesic::search`] is the same propagation from one goal as an A* towards one start
-//! (admissible straight-line heuristic), stopping once the start is settled.
+//! (admissible straight-line heuristic, no flood), stopping once the start is settled.
 //!
 //! # Point-to-point paths: a sparse graph
 //!
@@ -210,6 +217,11 @@ impl Queue {
     fn peek(&self) -> Option<u32> {
         self.heap.peek().map(|Reverse(k)| *k as u32)
     }
+
+    /// Number of queued entries.
+    fn len(&self) -> usize {
+        self.heap.len()
+    }
 }
 
 /// Reusable state of one search: the per-span records and the queue.
@@ -226,6 +238,8 @@ struct Scratch {
     sees: Vec<u32>,
     /// Candidate vertices of the goal, by distance.
     near: Vec<(u32, u32)>,
+    /// Breadth-first queue of the flood from a single goal.
+    fifo: Vec<u32>,
 }
 
 impl Scratch {
@@ -487,6 +501,7 @@ impl<'g> Geodesic<'g> {
             entries: BinaryHeap::new(),
             sees: Vec::new(),
             near: Vec::new(),
+            fifo: Vec::new(),
         }
     }
 
@@ -1046,9 +1061,103 @@ impl<'g> Geodesic<'g> {
             sc.queue.push(key, goal);
         }
         if self.exact() {
+            if target.is_none() && sc.queue.len() == 1 {
+                self.flood(sc);
+            }
             self.lazy_theta(sc, target);
         } else {
             self.weighted(sc, target);
+        }
+    }
+
+    /// The first step of a field from a single goal: every span the goal sees by a straight
+    /// walk gets the straight-line distance and the goal as anchor (no path is shorter), in
+    /// a breadth-first flood over links from the goal, without the queue. Spans the flood
+    /// reaches but the goal does not see are repaired from their best settled neighbour and
+    /// queued for Lazy Theta*, which settles the rest.
+    fn flood(&self, sc: &mut Scratch) {
+        let Some(goal) = sc.queue.pop() else {
+            return;
+        };
+        let sight = &self.sight;
+        let fr = self.frame;
+        let (open, closed) = (sc.open, sc.open + 1);
+        let nodes = &mut sc.nodes[..];
+        let fifo = &mut sc.fifo;
+        fifo.clear();
+        let cg = self.cell_xz(goal);
+        let yg = nodes[goal as usize].y;
+        let pg = fr.pos(cg, yg);
+        nodes[goal as usize].mark = closed;
+        fifo.push(goal);
+        let mut head = 0;
+        let mut hidden = Vec::new();
+        let start = &self.grid().column_start[..];
+        let nx = self.grid().nx as usize;
+        while let Some(&s) = fifo.get(head) {
+            head += 1;
+            // The queue knows the order: load records well ahead.
+            if let Some(&ahead) = fifo.get(head + 16) {
+                prefetch(nodes, ahead);
+                sight.prefetch(ahead);
+            }
+            if let Some(&ahead) = fifo.get(head + 8) {
+                let c = sight.column_height(ahead).0 as usize;
+                prefetch(start, c.wrapping_sub(nx) as u32);
+                prefetch(start, (c + nx) as u32);
+            }
+            if let Some(&ahead) = fifo.get(head + 4) {
+                let c = sight.column_height(ahead).0 as usize;
+                for cc in [c.wrapping_sub(nx), c + nx] {
+                    if let Some(&t) = start.get(cc) {
+                        prefetch(nodes, t);
+                    }
+                }
+            }
+            let here = self.here(s);
+            for (m, d) in self.links(&here, s) {
+                let node = &mut nodes[m as usize];
+                if node.mark == closed || node.mark == open {
+                    continue;
+                }
+                let (dx, dz) = DIRS[d];
+                let cm = (here.xz.0 + i64::from(dx), here.xz.1 + i64::from(dz));
+                if sight.straight_line_between((goal, cg, yg), (m, cm, node.y)) {
+                    node.g = dist(pg, fr.pos(cm, node.y));
+                    node.anchor = goal;
+                    node.mark = closed;
+                    fifo.push(m);
+                } else {
+                    node.g = f32::INFINITY;
+                    node.anchor = NONE;
+                    node.mark = open;
+                    hidden.push(m);
+                }
+            }
+        }
+        // Repair the hidden spans next to the seen ones, as Lazy Theta* would.
+        for m in hidden {
+            let here = self.here(m);
+            let pm = fr.pos(here.xz, nodes[m as usize].y);
+            let (mut best, mut best_k) = (f32::INFINITY, NONE);
+            for (k, d) in self.links(&here, m) {
+                let nk = &nodes[k as usize];
+                if nk.mark == closed {
+                    let (dx, dz) = DIRS[d];
+                    let pk = fr.pos((here.xz.0 + i64::from(dx), here.xz.1 + i64::from(dz)), nk.y);
+                    let c = nk.g + dist(pk, pm);
+                    if c < best || (c == best && k < best_k) {
+                        best = c;
+                        best_k = k;
+                    }
+                }
+            }
+            if best_k != NONE {
+                let node = &mut nodes[m as usize];
+                node.g = best;
+                node.anchor = best_k;
+                sc.queue.push(best, m);
+            }
         }
     }
 
@@ -1111,7 +1220,8 @@ impl<'g> Geodesic<'g> {
             let (ga, pa) = (na.g, fr.pos(ca, na.y));
             for (nb, d) in self.links(&cell, s) {
                 let m = &mut nodes[nb as usize];
-                if m.mark == closed {
+                // Closed, or already proposed this anchor (the same distance again).
+                if m.mark == closed || (m.mark == open && m.anchor == a) {
                     continue;
                 }
                 let (dx, dz) = DIRS[d];
