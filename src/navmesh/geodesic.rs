@@ -536,6 +536,29 @@ impl<'g> Geodesic<'g> {
         }
     }
 
+    /// The linked spans of a span (a valid index), without working out its cell.
+    #[inline(always)]
+    fn links_of(&self, span: u32) -> Links<'_> {
+        let grid = self.grid();
+        let (column, _) = self.sight.column_height(span);
+        let (same, linked) = self.sight.link_masks(span);
+        let first = grid
+            .column_start
+            .get(column as usize)
+            .copied()
+            .unwrap_or(span);
+        Links {
+            start: &grid.column_start,
+            offsets: &self.offsets,
+            spans: &grid.spans,
+            span,
+            column: i64::from(column),
+            rank: span.wrapping_sub(first),
+            same,
+            other: linked & !same,
+        }
+    }
+
     /// Cell of a span (a valid index).
     #[inline(always)]
     fn cell_xz(&self, span: u32) -> (i64, i64) {
@@ -639,72 +662,80 @@ impl<'g> Geodesic<'g> {
     /// two vertices of one island whenever a shortest path could bend at both ends and the
     /// straight walk between them exists.
     fn build_sparse(&self) -> Option<Sparse> {
-        let grid = self.grid();
-        let spans = &grid.spans;
+        let spans = &self.grid().spans;
         let n = spans.len();
+        let sight = &self.sight;
+        // Reads only the packed spans: links from masks and column offsets, heights. Spans
+        // without links (the builder links walkable spans only) are on no plateau and in no
+        // zone.
+        let linked = |s: u32| sight.link_masks(s).1 != 0;
+        let height = |s: u32| sight.column_height(s).1;
         let mut comp = vec![NONE; n];
         let mut flat = Vec::new();
         let mut stack = Vec::new();
-        for seed in 0..n {
-            if comp[seed] != NONE || !spans[seed].walkable {
+        for seed in 0..n as u32 {
+            if comp[seed as usize] != NONE || !linked(seed) {
                 continue;
             }
             let id = flat.len() as u32;
-            comp[seed] = id;
-            stack.push(seed as u32);
-            let (mut size, mut lo, mut hi) = (0u32, spans[seed].y, spans[seed].y);
+            comp[seed as usize] = id;
+            stack.push(seed);
+            let (mut size, mut lo, mut hi) = (0u32, height(seed), height(seed));
             while let Some(s) = stack.pop() {
-                let span = &spans[s as usize];
+                let y = height(s);
                 size += 1;
-                lo = lo.min(span.y);
-                hi = hi.max(span.y);
-                for &l in &span.links {
-                    if let Some(t) = spans.get(l as usize) {
-                        if comp[l as usize] == NONE
-                            && t.walkable
-                            && (t.y - span.y).abs() <= PLATEAU_STEP
-                        {
-                            comp[l as usize] = id;
-                            stack.push(l);
-                        }
+                lo = lo.min(y);
+                hi = hi.max(y);
+                for (l, _) in self.links_of(s) {
+                    if comp[l as usize] == NONE && (height(l) - y).abs() <= PLATEAU_STEP {
+                        comp[l as usize] = id;
+                        stack.push(l);
                     }
                 }
             }
             flat.push(size >= PLATEAU_MIN && hi - lo <= PLATEAU_RANGE);
         }
-        let on_plateau = |s: usize| comp[s] != NONE && flat[comp[s] as usize];
-        let mut role: Vec<u32> = (0..n)
+        let on_plateau = |s: u32| comp[s as usize] != NONE && flat[comp[s as usize] as usize];
+        let mut role: Vec<u32> = (0..n as u32)
             .map(|s| {
-                if spans[s].walkable && !on_plateau(s) {
+                if comp[s as usize] != NONE && !on_plateau(s) {
                     ZONE
                 } else {
                     PLAIN
                 }
             })
             .collect();
-        // Regions (plateau spans joined by links) and zones (zone spans joined by links).
+        // Zones (zone spans joined by links), then regions (plateau spans joined by links),
+        // gathering vertices and portals on the way.
         let mut area = vec![NONE; n];
-        let (mut regions, mut zone_count) = (0u32, 0u32);
-        for seed in 0..n {
-            if area[seed] != NONE || !spans[seed].walkable {
+        let mut zones = 0u32;
+        let mut corner_spans: Vec<(u32, u8, bool)> = Vec::new();
+        let corners_of = |s: u32| {
+            let linked = sight.link_masks(s).1;
+            let mut corners = 0u8;
+            for (k, (ax, az)) in [(0, 1), (2, 1), (2, 3), (0, 3)].into_iter().enumerate() {
+                // DIRS[4 + k] is the diagonal between the axis directions ax and az.
+                if linked & (1 << ax) != 0 && linked & (1 << az) != 0 && linked & (16 << k) == 0 {
+                    corners |= 1 << k;
+                }
+            }
+            corners
+        };
+        for seed in 0..n as u32 {
+            if area[seed as usize] != NONE || role[seed as usize] != ZONE {
                 continue;
             }
-            let zone = role[seed] == ZONE;
-            let id = if zone {
-                zone_count += 1;
-                IN_ZONE | (zone_count - 1)
-            } else {
-                regions += 1;
-                regions - 1
-            };
-            area[seed] = id;
-            stack.push(seed as u32);
+            let id = IN_ZONE | zones;
+            zones += 1;
+            area[seed as usize] = id;
+            stack.push(seed);
             while let Some(s) = stack.pop() {
-                for &l in &spans[s as usize].links {
-                    if spans.get(l as usize).is_some_and(|t| t.walkable)
-                        && (role[l as usize] == ZONE) == zone
-                        && area[l as usize] == NONE
-                    {
+                let corners = corners_of(s);
+                if corners != 0 {
+                    corner_spans.push((s, corners, false));
+                }
+                for (l, _) in self.links_of(s) {
+                    if area[l as usize] == NONE && role[l as usize] == ZONE {
                         area[l as usize] = id;
                         stack.push(l);
                     }
@@ -713,63 +744,60 @@ impl<'g> Geodesic<'g> {
         }
         let mut portals: Vec<Portal> = Vec::new();
         let mut portal_of = std::collections::BTreeMap::new();
-        for s in 0..n {
-            if role[s] == ZONE || area[s] == NONE {
+        let mut regions = 0u32;
+        for seed in 0..n as u32 {
+            if area[seed as usize] != NONE || !on_plateau(seed) {
                 continue;
             }
-            for &l in &spans[s].links {
-                let Some(&zone) = area.get(l as usize) else {
-                    continue;
-                };
-                if zone == NONE || zone & IN_ZONE == 0 {
-                    continue;
+            let id = regions;
+            regions += 1;
+            area[seed as usize] = id;
+            stack.push(seed);
+            while let Some(s) = stack.pop() {
+                let mut gate = false;
+                for (l, _) in self.links_of(s) {
+                    let a = area[l as usize];
+                    if role[l as usize] == ZONE {
+                        gate = true;
+                        let p = self.position(s).unwrap_or(Vec3::ZERO);
+                        let k = *portal_of.entry((a, id)).or_insert_with(|| {
+                            portals.push(Portal {
+                                zone: a,
+                                region: id,
+                                lo: p,
+                                hi: p,
+                            });
+                            portals.len() - 1
+                        });
+                        portals[k].lo = portals[k].lo.min(p);
+                        portals[k].hi = portals[k].hi.max(p);
+                    } else if a == NONE && on_plateau(l) {
+                        area[l as usize] = id;
+                        stack.push(l);
+                    }
                 }
-                let p = self.position(s as u32).unwrap_or(Vec3::ZERO);
-                let k = *portal_of.entry((zone, area[s])).or_insert_with(|| {
-                    portals.push(Portal {
-                        zone,
-                        region: area[s],
-                        lo: p,
-                        hi: p,
-                    });
-                    portals.len() - 1
-                });
-                portals[k].lo = portals[k].lo.min(p);
-                portals[k].hi = portals[k].hi.max(p);
+                let corners = corners_of(s);
+                if gate || corners != 0 {
+                    corner_spans.push((s, corners, gate));
+                }
             }
         }
-        let mut verts = Vec::new();
-        for s in 0..n {
-            if !spans[s].walkable {
-                continue;
-            }
-            let links = &spans[s].links;
-            let gate = on_plateau(s)
-                && links
-                    .iter()
-                    .any(|&l| role.get(l as usize).is_some_and(|&r| r == ZONE));
-            let mut corners = 0u8;
-            for k in 0..4 {
-                let (dx, dz) = DIRS[4 + k];
-                let ax = DIRS.iter().position(|&d| d == (dx, 0)).unwrap_or(0);
-                let az = DIRS.iter().position(|&d| d == (0, dz)).unwrap_or(0);
-                if links[ax] != NONE && links[az] != NONE && links[4 + k] == NONE {
-                    corners |= 1 << k;
-                }
-            }
-            if gate || corners != 0 {
-                role[s] = verts.len() as u32;
-                verts.push(Vertex {
-                    span: s as u32,
-                    xz: self.cell_xz(s as u32),
-                    pos: self.position(s as u32).unwrap_or(Vec3::ZERO),
-                    corners,
-                    gate,
-                });
-            }
-            if verts.len() > SPARSE_MAX_VERTICES {
-                return None;
-            }
+        if corner_spans.len() > SPARSE_MAX_VERTICES {
+            return None;
+        }
+        corner_spans.sort_unstable_by_key(|v| v.0);
+        let verts: Vec<Vertex> = corner_spans
+            .iter()
+            .map(|&(s, corners, gate)| Vertex {
+                span: s,
+                xz: self.cell_xz(s),
+                pos: self.position(s).unwrap_or(Vec3::ZERO),
+                corners,
+                gate,
+            })
+            .collect();
+        for (i, v) in verts.iter().enumerate() {
+            role[v.span as usize] = i as u32;
         }
         let mut lists: Vec<Vec<(u32, f32)>> = vec![Vec::new(); verts.len()];
         for (i, u) in verts.iter().enumerate() {

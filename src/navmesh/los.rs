@@ -549,6 +549,10 @@ impl<'g> SightIndex<'g> {
                 cur = start[col] + rank;
                 info = self.spans[cur as usize];
             } else {
+                if info.linked & (1 << d) == 0 {
+                    // Blocked: known from the packed record, without reading the span.
+                    return false;
+                }
                 cur = self.grid.spans[cur as usize].links[d];
                 if cur == NONE {
                     return false;
