@@ -240,6 +240,8 @@ struct Scratch {
     near: Vec<(u32, u32)>,
     /// Breadth-first queue of the flood from a single goal.
     fifo: Vec<u32>,
+    /// Per sparse vertex: (open mark of the search, its heuristic).
+    hcache: Vec<(u32, f32)>,
 }
 
 impl Scratch {
@@ -502,6 +504,7 @@ impl<'g> Geodesic<'g> {
             sees: Vec::new(),
             near: Vec::new(),
             fifo: Vec::new(),
+            hcache: Vec::new(),
         }
     }
 
@@ -670,14 +673,19 @@ impl<'g> Geodesic<'g> {
         // zone.
         let linked = |s: u32| sight.link_masks(s).1 != 0;
         let height = |s: u32| sight.column_height(s).1;
+        // Plateau components by a depth-first flood over links with small steps, noting the
+        // links between components (seen from the side labelled last) and the spans that
+        // have such links (the only ones that can be gates).
         let mut comp = vec![NONE; n];
-        let mut flat = Vec::new();
+        let mut stats: Vec<(u32, f32, f32)> = Vec::new();
+        let mut between: Vec<(u32, u32)> = Vec::new();
+        let mut edge_spans: Vec<u32> = Vec::new();
         let mut stack = Vec::new();
         for seed in 0..n as u32 {
             if comp[seed as usize] != NONE || !linked(seed) {
                 continue;
             }
-            let id = flat.len() as u32;
+            let id = stats.len() as u32;
             comp[seed as usize] = id;
             stack.push(seed);
             let (mut size, mut lo, mut hi) = (0u32, height(seed), height(seed));
@@ -686,100 +694,116 @@ impl<'g> Geodesic<'g> {
                 size += 1;
                 lo = lo.min(y);
                 hi = hi.max(y);
+                let mut edge = false;
                 for (l, _) in self.links_of(s) {
-                    if comp[l as usize] == NONE && (height(l) - y).abs() <= PLATEAU_STEP {
-                        comp[l as usize] = id;
-                        stack.push(l);
+                    let c = comp[l as usize];
+                    if (height(l) - y).abs() <= PLATEAU_STEP {
+                        if c == NONE {
+                            comp[l as usize] = id;
+                            stack.push(l);
+                        }
+                    } else {
+                        edge = true;
+                        if c != NONE && c != id {
+                            between.push((c, id));
+                        }
                     }
                 }
+                if edge {
+                    edge_spans.push(s);
+                }
             }
-            flat.push(size >= PLATEAU_MIN && hi - lo <= PLATEAU_RANGE);
+            stats.push((size, lo, hi));
         }
-        let on_plateau = |s: u32| comp[s as usize] != NONE && flat[comp[s as usize] as usize];
-        let mut role: Vec<u32> = (0..n as u32)
-            .map(|s| {
-                if comp[s as usize] != NONE && !on_plateau(s) {
-                    ZONE
+        let is_zone: Vec<bool> = stats
+            .iter()
+            .map(|&(size, lo, hi)| !(size >= PLATEAU_MIN && hi - lo <= PLATEAU_RANGE))
+            .collect();
+        let zone_span = |s: u32| comp[s as usize] != NONE && is_zone[comp[s as usize] as usize];
+        // Regions join linked plateaus, zones join linked zone components; numbered in the
+        // order of their first span.
+        let mut parts = Forest::new(stats.len());
+        for &(a, b) in &between {
+            if is_zone[a as usize] == is_zone[b as usize] {
+                parts.union(a, b);
+            }
+        }
+        let mut part_area = vec![NONE; stats.len()];
+        let (mut regions, mut zones) = (0u32, 0u32);
+        for c in 0..stats.len() as u32 {
+            let r = parts.find(c) as usize;
+            if part_area[r] == NONE {
+                part_area[r] = if is_zone[c as usize] {
+                    zones += 1;
+                    IN_ZONE | (zones - 1)
                 } else {
-                    PLAIN
+                    regions += 1;
+                    regions - 1
+                };
+            }
+            part_area[c as usize] = part_area[r];
+        }
+        let area: Vec<u32> = comp
+            .iter()
+            .map(|&c| {
+                if c == NONE {
+                    NONE
+                } else {
+                    part_area[c as usize]
                 }
             })
             .collect();
-        // Zones (zone spans joined by links), then regions (plateau spans joined by links),
-        // gathering vertices and portals on the way.
-        let mut area = vec![NONE; n];
-        let mut zones = 0u32;
+        let mut role: Vec<u32> = (0..n as u32)
+            .map(|s| if zone_span(s) { ZONE } else { PLAIN })
+            .collect();
+        // Gates (plateau spans linked to a zone) and the portals they form.
+        let mut gates: Vec<u32> = Vec::new();
+        let mut portals: Vec<Portal> = Vec::new();
+        let mut portal_of = std::collections::BTreeMap::new();
+        for &s in &edge_spans {
+            if zone_span(s) {
+                continue;
+            }
+            let mut gate = false;
+            for (l, _) in self.links_of(s) {
+                if !zone_span(l) {
+                    continue;
+                }
+                gate = true;
+                let (zone, region) = (area[l as usize], area[s as usize]);
+                let p = self.position(s).unwrap_or(Vec3::ZERO);
+                let k = *portal_of.entry((zone, region)).or_insert_with(|| {
+                    portals.push(Portal {
+                        zone,
+                        region,
+                        lo: p,
+                        hi: p,
+                    });
+                    portals.len() - 1
+                });
+                portals[k].lo = portals[k].lo.min(p);
+                portals[k].hi = portals[k].hi.max(p);
+            }
+            if gate {
+                gates.push(s);
+            }
+        }
+        gates.sort_unstable();
+        // Vertices: corners (from the link masks) and gates, in span order.
         let mut corner_spans: Vec<(u32, u8, bool)> = Vec::new();
-        let corners_of = |s: u32| {
-            let linked = sight.link_masks(s).1;
+        let mut next_gate = gates.iter().peekable();
+        for s in 0..n as u32 {
+            let mask = sight.link_masks(s).1;
             let mut corners = 0u8;
             for (k, (ax, az)) in [(0, 1), (2, 1), (2, 3), (0, 3)].into_iter().enumerate() {
                 // DIRS[4 + k] is the diagonal between the axis directions ax and az.
-                if linked & (1 << ax) != 0 && linked & (1 << az) != 0 && linked & (16 << k) == 0 {
+                if mask & (1 << ax) != 0 && mask & (1 << az) != 0 && mask & (16 << k) == 0 {
                     corners |= 1 << k;
                 }
             }
-            corners
-        };
-        for seed in 0..n as u32 {
-            if area[seed as usize] != NONE || role[seed as usize] != ZONE {
-                continue;
-            }
-            let id = IN_ZONE | zones;
-            zones += 1;
-            area[seed as usize] = id;
-            stack.push(seed);
-            while let Some(s) = stack.pop() {
-                let corners = corners_of(s);
-                if corners != 0 {
-                    corner_spans.push((s, corners, false));
-                }
-                for (l, _) in self.links_of(s) {
-                    if area[l as usize] == NONE && role[l as usize] == ZONE {
-                        area[l as usize] = id;
-                        stack.push(l);
-                    }
-                }
-            }
-        }
-        let mut portals: Vec<Portal> = Vec::new();
-        let mut portal_of = std::collections::BTreeMap::new();
-        let mut regions = 0u32;
-        for seed in 0..n as u32 {
-            if area[seed as usize] != NONE || !on_plateau(seed) {
-                continue;
-            }
-            let id = regions;
-            regions += 1;
-            area[seed as usize] = id;
-            stack.push(seed);
-            while let Some(s) = stack.pop() {
-                let mut gate = false;
-                for (l, _) in self.links_of(s) {
-                    let a = area[l as usize];
-                    if role[l as usize] == ZONE {
-                        gate = true;
-                        let p = self.position(s).unwrap_or(Vec3::ZERO);
-                        let k = *portal_of.entry((a, id)).or_insert_with(|| {
-                            portals.push(Portal {
-                                zone: a,
-                                region: id,
-                                lo: p,
-                                hi: p,
-                            });
-                            portals.len() - 1
-                        });
-                        portals[k].lo = portals[k].lo.min(p);
-                        portals[k].hi = portals[k].hi.max(p);
-                    } else if a == NONE && on_plateau(l) {
-                        area[l as usize] = id;
-                        stack.push(l);
-                    }
-                }
-                let corners = corners_of(s);
-                if gate || corners != 0 {
-                    corner_spans.push((s, corners, gate));
-                }
+            let gate = next_gate.next_if(|&&g| g == s).is_some();
+            if gate || corners != 0 {
+                corner_spans.push((s, corners, gate));
             }
         }
         if corner_spans.len() > SPARSE_MAX_VERTICES {
@@ -908,11 +932,23 @@ impl<'g> Geodesic<'g> {
             // Straight walks to the goal from vertices the landmark bound has not counted
             // would undercut it.
             let may_see_goal = |s: u32| zones || vertex(s).is_some_and(|v| v.allows(ct));
+            // The heuristic of a vertex, once per search.
+            sc.hcache.resize(sp.verts.len(), (0, 0.0));
+            let hcache = std::cell::Cell::from_mut(&mut sc.hcache[..]).as_slice_of_cells();
+            let h_of = |s: u32| match hcache.get(sp.role[s as usize] as usize) {
+                Some(c) if c.get().0 == open => c.get().1,
+                Some(c) => {
+                    let v = h(s, pos(s));
+                    c.set((open, v));
+                    v
+                }
+                None => h(s, pos(s)),
+            };
             let sees = &sc.sees;
             let nodes = &mut sc.nodes[..];
             let entries = &mut sc.entries;
             let push = |entries: &mut BinaryHeap<Entry>, node: u32, parent: u32, g: f32, lazy| {
-                let f = g + h(node, pos(node));
+                let f = g + h_of(node);
                 entries.push(Entry {
                     key: (u64::from(f.to_bits()) << 32) | u64::from(node),
                     parent,
@@ -1390,6 +1426,38 @@ fn landmarks(first: &[u32], edges: &[(u32, f32)]) -> Vec<[f32; LANDMARKS]> {
         }
     }
     marks
+}
+
+/// Disjoint sets over indices (the root of a set is its smallest member; path halving).
+#[derive(Debug)]
+struct Forest {
+    parent: Vec<u32>,
+}
+
+impl Forest {
+    fn new(n: usize) -> Self {
+        Forest {
+            parent: (0..n as u32).collect(),
+        }
+    }
+
+    fn find(&mut self, mut x: u32) -> u32 {
+        while self.parent[x as usize] != x {
+            let up = self.parent[self.parent[x as usize] as usize];
+            self.parent[x as usize] = up;
+            x = up;
+        }
+        x
+    }
+
+    fn union(&mut self, a: u32, b: u32) {
+        let (ra, rb) = (self.find(a), self.find(b));
+        if ra < rb {
+            self.parent[rb as usize] = ra;
+        } else if rb < ra {
+            self.parent[ra as usize] = rb;
+        }
+    }
 }
 
 /// Distance from `p` to the box `[lo, hi]` (0 inside).
