@@ -55,30 +55,35 @@
 //!   and a shortest path could bend at both ends: around a corner, only towards the two
 //!   quadrants beside the obstacle's. Zones are crossed by the edges between their gates.
 //!
-//! A query is an A* over this graph from the start to the goal. The start is joined lazily to
-//! every vertex that could bend towards it, and the goal to the vertices that see it: each
-//! straight walk is checked when its entry pops. The spans of the zones holding the start or
-//! the goal are nodes too, joined by their links (with Theta*'s shortcut to the parent,
-//! checked lazily), as bends inside a zone are not all at vertices. The heuristic is the
-//! largest of the straight-line distance, a bound through the portals between regions and
-//! zones (reaching the goal's region means entering it by one of its portals), and eight
-//! landmarks: graph distances to landmarks chosen farthest-first, of which only the bound
-//! `d(landmark, goal) − d(landmark, vertex)` is used (the other direction could be undercut
-//! by a shortcut through the goal), and only when no zone spans are nodes. When the graph
-//! does not join the pair (or has more than 4096 vertices), the query falls back to
-//! [`Geodesic::search`]; so does the weighted mode.
+//! A query is an A* over this graph from the start to the goal (a straight walk between them
+//! answers at once). The start is joined to every vertex that could bend towards it, lazily:
+//! the straight walk is checked when the entry pops. The goal is joined to the vertices that
+//! could bend towards it and see it; those needed for the landmark bound below (nearest
+//! first, skipping any that cannot lower a landmark's distance) are checked up front, the
+//! others when their entry pops. The spans of the zones holding the start or the goal are
+//! nodes too, joined by their links (with Theta*'s shortcut to the parent, checked lazily),
+//! as bends inside a zone are not all at vertices. The heuristic is the largest of the
+//! straight-line distance, a bound through the portals between regions and zones (reaching
+//! the goal's region means entering it by one of its portals; leaving a region, leaving by
+//! one of its own), and eight landmarks: graph distances to landmarks chosen farthest-first,
+//! of which only the bound `d(landmark, goal) − d(landmark, vertex)` is used (the other
+//! direction could be undercut by a shortcut through the goal), and only when no zone spans
+//! are nodes. When the graph does not join the pair (or has more than 4096 vertices), the
+//! query falls back to [`Geodesic::search`]; so does the weighted mode.
 //!
 //! # Costs
 //!
-//! Measured on the 2-core build box with `cargo bench --bench navigation`: a full field over
-//! the open 50 × 50 m floor (992k walkable spans, [`distance_field`] including
-//! [`Geodesic::new`]) about 130 ms; on the largest generated house (135k walkable spans, two
-//! levels) about 20 ms; point-to-point paths there about 0.12 ms per query with a shared
-//! [`Geodesic`] (the sparse graph takes about 8 ms to build on the first query). Accuracy:
-//! fields within 0.6 % of exact shortest paths on the tests' corridors and doorways (the
-//! anchors are cell centres, so a path passes about half a cell off each corner it turns);
-//! sparse paths as short as the cell-level search's within 0.4 % on 3600 random pairs of 12
-//! generated houses (shorter as often as not).
+//! Measured on the 2-core build box with `cargo bench --bench navigation` (one core, best of
+//! 2–3 runs on a shared, noisy box): a full field over the open 50 × 50 m floor (992k
+//! walkable spans, [`distance_field`] including [`Geodesic::new`], of which the
+//! [`SightIndex`] takes about 30 ms) about 70 ms; on the largest generated house (135k
+//! walkable spans, two levels) about 15 ms; point-to-point paths there about 0.13 ms per
+//! query with a shared [`Geodesic`] (building the sparse graph on the first query: about
+//! 7 ms), and 0.016 ms on a furnished 100 m² level (about 2 ms to build). Accuracy: fields
+//! within 0.6 % of exact shortest paths on the tests' corridors and doorways (the anchors are
+//! cell centres, so a path passes about half a cell off each corner it turns); sparse paths
+//! as short as the cell-level search's within 0.4 % on 3600 random pairs of 12 generated
+//! houses (shorter as often as not).
 //!
 //! Where this module's job ends: it produces fields and anchor chains; turning them into
 //! paths with rooms and doors is `path`.
@@ -249,6 +254,8 @@ impl Scratch {
     fn begin(&mut self) {
         if self.open >= u32::MAX - 4 {
             self.nodes.iter_mut().for_each(|n| n.mark = 0);
+            self.sees.clear();
+            self.hcache.clear();
             self.open = 0;
         }
         self.open += 2;
@@ -406,7 +413,9 @@ impl PartialOrd for Entry {
 }
 
 /// Everything repeated geodesic queries on one grid need, computed once: the line-of-sight
-/// index and the per-span search records (kept in a small pool, one per concurrent query).
+/// index, the per-span search records (kept in a small pool, one per concurrent query), and
+/// the sparse graph of point-to-point queries (built by the first). Shared between threads,
+/// it gives every query the same answer whichever records it used.
 pub struct Geodesic<'g> {
     sight: SightIndex<'g>,
     frame: Frame,
@@ -487,6 +496,7 @@ impl<'g> Geodesic<'g> {
         self.grid().params.clearance_weight <= 1.0
     }
 
+    /// Fresh search records: heights copied, every span unreached.
     fn new_scratch(&self) -> Scratch {
         let nodes = (0..self.grid().spans.len() as u32)
             .map(|s| State {
@@ -524,6 +534,7 @@ impl<'g> Geodesic<'g> {
         out
     }
 
+    /// The linked spans of `span`, whose [`Here`] is known.
     #[inline(always)]
     fn links(&self, here: &Here, span: u32) -> Links<'_> {
         let grid = self.grid();
@@ -660,10 +671,11 @@ impl<'g> Geodesic<'g> {
 
     /// Builds the sparse graph: plateaus (spans joined by links with a height step of at most
     /// [`PLATEAU_STEP`]; at least [`PLATEAU_MIN`] spans within [`PLATEAU_RANGE`]), the uneven
-    /// zones (the walkable spans of no plateau), the vertices (plateau spans touching an
-    /// obstacle corner diagonally, and plateau spans linked to a zone), and an edge between
-    /// two vertices of one island whenever a shortest path could bend at both ends and the
-    /// straight walk between them exists.
+    /// zones (the linked spans of no plateau), regions and zones as areas with the portals
+    /// between them, the vertices (spans touching an obstacle corner diagonally, and plateau
+    /// spans linked to a zone), an edge between two vertices of one island whenever a
+    /// shortest path could bend at both ends and the straight walk between them exists, and
+    /// the landmark distances. `None` beyond [`SPARSE_MAX_VERTICES`] vertices.
     fn build_sparse(&self) -> Option<Sparse> {
         let spans = &self.grid().spans;
         let n = spans.len();

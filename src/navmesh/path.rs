@@ -563,6 +563,46 @@ mod tests {
     }
 
     #[test]
+    fn a_shared_geodesic_answers_threads_like_one_thread() {
+        let grid = stairs().build(NavParams::default());
+        let geo = Geodesic::new(&grid);
+        let spans = grid.walkable_spans(None);
+        let mut rng = crate::seed::Rng::new(31);
+        let pairs: Vec<(u32, u32)> = (0..40)
+            .map(|_| (*rng.pick(&spans).unwrap(), *rng.pick(&spans).unwrap()))
+            .collect();
+        let alone: Vec<PathResult> = pairs
+            .iter()
+            .map(|&(a, b)| shortest_path_in(&geo, a, b))
+            .collect();
+        let field = geo.field(&[pairs[0].1]);
+        std::thread::scope(|scope| {
+            let workers: Vec<_> = (0..3)
+                .map(|k| {
+                    let (geo, pairs) = (&geo, &pairs);
+                    scope.spawn(move || {
+                        let paths: Vec<PathResult> = pairs
+                            .iter()
+                            .cycle()
+                            .skip(k * 7)
+                            .take(pairs.len())
+                            .map(|&(a, b)| shortest_path_in(geo, a, b))
+                            .collect();
+                        (paths, geo.field(&[pairs[0].1]))
+                    })
+                })
+                .collect();
+            for (k, worker) in workers.into_iter().enumerate() {
+                let (paths, f) = worker.join().expect("worker");
+                assert_eq!(f, field);
+                for (i, p) in paths.iter().enumerate() {
+                    assert_eq!(p, &alone[(i + k * 7) % pairs.len()]);
+                }
+            }
+        });
+    }
+
+    #[test]
     fn stairs_path_climbs_between_floors() {
         let grid = stairs().build(NavParams::default());
         let low = span_at(&grid, 3, 2);
