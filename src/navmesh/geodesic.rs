@@ -68,8 +68,9 @@
 //! one of its own), and eight landmarks: graph distances to landmarks chosen farthest-first,
 //! of which only the bound `d(landmark, goal) − d(landmark, vertex)` is used (the other
 //! direction could be undercut by a shortcut through the goal), and only when no zone spans
-//! are nodes. When the graph does not join the pair (or has more than 4096 vertices), the
-//! query falls back to [`Geodesic::search`]; so does the weighted mode.
+//! are nodes. When the graph does not join the pair (or has more than 4096 vertices, or the
+//! start or goal lies in a zone of more than 20,000 spans), the query falls back to
+//! [`Geodesic::search`]; so does the weighted mode.
 //!
 //! # Costs
 //!
@@ -307,6 +308,9 @@ const PLATEAU_MIN: u32 = 256;
 /// Most vertices (corners and gates) the sparse graph is built for; beyond, point-to-point
 /// queries use the cell-level search.
 const SPARSE_MAX_VERTICES: usize = 4096;
+/// Largest zone whose spans a point-to-point query takes as nodes; beyond, the query uses the
+/// cell-level search.
+const ZONE_NODES_MAX: u32 = 20_000;
 /// Landmarks of the sparse graph's A* heuristic.
 const LANDMARKS: usize = 8;
 /// Role of a span that is not a node of the sparse graph.
@@ -376,6 +380,8 @@ struct Sparse {
     /// Per walkable span: its region (plateau spans joined by links; zones cut regions
     /// apart), or [`IN_ZONE`] plus its zone; `NONE` when not walkable.
     area: Vec<u32>,
+    /// Number of spans of each zone.
+    zone_spans: Vec<u32>,
     /// Portals: per (zone, region) next to each other, the zone, the region and the
     /// bounding box (min, max) of the region's spans linked to the zone.
     portals: Vec<Portal>,
@@ -765,6 +771,12 @@ impl<'g> Geodesic<'g> {
                 }
             })
             .collect();
+        let mut zone_spans = vec![0u32; zones as usize];
+        for &a in &area {
+            if a != NONE && a & IN_ZONE != 0 {
+                zone_spans[(a & !IN_ZONE) as usize] += 1;
+            }
+        }
         let mut role: Vec<u32> = (0..n as u32)
             .map(|s| if zone_span(s) { ZONE } else { PLAIN })
             .collect();
@@ -860,6 +872,7 @@ impl<'g> Geodesic<'g> {
         Some(Sparse {
             role,
             area,
+            zone_spans,
             portals,
             verts,
             first,
@@ -891,6 +904,15 @@ impl<'g> Geodesic<'g> {
         let zone_of = |s: u32| Some(sp.area[s as usize]).filter(|&a| a != NONE && a & IN_ZONE != 0);
         let (zs, zg) = (zone_of(start), zone_of(goal));
         let zones = zs.is_some() || zg.is_some();
+        // A zone that is most of the grid (a sloped or noisy floor): the cell-level search
+        // does better.
+        let big = |z: Option<u32>| {
+            z.and_then(|z| sp.zone_spans.get((z & !IN_ZONE) as usize))
+                .is_some_and(|&size| size > ZONE_NODES_MAX)
+        };
+        if big(zs) || big(zg) {
+            return None;
+        }
         let active = |s: u32| zones && zone_of(s).is_some_and(|a| Some(a) == zs || Some(a) == zg);
         let is_node = |s: u32| active(s) || vertex(s).is_some_and(|v| v.gate);
         let portal_bound = self.portal_bound(sp, goal, pt);

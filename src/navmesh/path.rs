@@ -549,6 +549,26 @@ mod tests {
     }
 
     #[test]
+    fn a_floor_that_is_one_big_zone_uses_the_cell_level_search() {
+        // 160 x 160 cells rising 6 mm per cell along x: no plateau, one zone of 25k spans.
+        let rows = rows_from(160, 160, |x, z| x > 0 && z > 0 && x < 159 && z < 159);
+        let refs: Vec<&str> = rows.iter().map(String::as_str).collect();
+        let mut spec = MapSpec::ascii(&refs, 0.05);
+        for x in 0..160 {
+            for z in 0..160 {
+                spec.set_height(x, z, x as f32 * 0.006);
+            }
+        }
+        spec.fill(60, 20, 64, 140, '#');
+        let grid = spec.build(NavParams::default());
+        let geo = Geodesic::new(&grid);
+        let (a, b) = (span_at(&grid, 20, 80), span_at(&grid, 120, 30));
+        let path = found(shortest_path_in(&geo, a, b));
+        assert_eq!(Some(path.length), cell_level(&geo, a, b));
+        assert!(path.points.len() >= 3, "around the wall: {:?}", path.points);
+    }
+
+    #[test]
     fn every_entry_point_gives_the_same_path() {
         let grid = stairs().build(NavParams::default());
         let geo = Geodesic::new(&grid);
