@@ -2,7 +2,8 @@
 //!
 //! Bake time of a ~100 m² furnished level and of the largest generated multi-level house at
 //! 5 cm cells (one core); one full distance field over ~1M spans; point-to-point path queries
-//! on a furnished house. Prints Markdown rows for `docs/PERFORMANCE.md`.
+//! on the largest house and on the furnished level, and the per-scene setup of the latter.
+//! Prints Markdown rows for `docs/PERFORMANCE.md`.
 
 use std::hint::black_box;
 use std::time::Instant;
@@ -183,4 +184,34 @@ fn main() {
         black_box(shortest_path(&grid, pairs[0].0, pairs[0].1));
     });
     println!("| one path query from scratch (`shortest_path`) | largest house | {one:.2} ms |");
+    // A typical furnished single-level house (the ~100 m² level above): episode sampling
+    // builds one `Geodesic` per scene and runs a few dozen queries on it.
+    let small = build(level, &params).expect("bake");
+    let island = (0..small.islands.len())
+        .max_by_key(|&i| small.islands[i].spans)
+        .expect("island") as u32;
+    let spans = small.walkable_spans(Some(island));
+    let pairs: Vec<(u32, u32)> = (0..queries)
+        .map(|_| (*rng.pick(&spans).unwrap(), *rng.pick(&spans).unwrap()))
+        .collect();
+    let setup = best_ms(3, || {
+        let geo = Geodesic::new(&small);
+        black_box(shortest_path_in(&geo, pairs[0].0, pairs[0].1));
+    });
+    let geo = Geodesic::new(&small);
+    let ms = best_ms(2, || {
+        for &(a, b) in &pairs {
+            black_box(shortest_path_in(&geo, a, b));
+        }
+    });
+    println!(
+        "| point-to-point paths (shared `Geodesic`) | furnished level, {:.0} m² | {:.3} ms/query ({:.1} s per 100k) |",
+        level.floor_area(),
+        ms / queries as f64,
+        ms / queries as f64 * 100.0
+    );
+    println!(
+        "| per-scene setup (`Geodesic::new` + first path) | furnished level, {:.0} m² | {setup:.2} ms |",
+        level.floor_area()
+    );
 }

@@ -333,37 +333,51 @@ impl<'g> SightIndex<'g> {
         let (nx, nz) = (grid.nx as usize, grid.nz as usize);
         let columns = start.len().saturating_sub(1).min(nx * nz);
         let mut spans = Vec::with_capacity(n);
-        for c in 0..columns {
-            let (ix, iz) = ((c % nx) as i64, (c / nx) as i64);
-            let (s0, s1) = (start[c] as usize, (start[c + 1] as usize).min(n));
-            for s in s0.min(s1)..s1 {
-                if spans.len() != s {
-                    // Malformed column ranges: give up on the fast paths for the rest.
-                    break;
+        let mut c = 0;
+        'rows: for iz in 0..nz {
+            for ix in 0..nx {
+                if c >= columns {
+                    break 'rows;
                 }
-                let span = &grid.spans[s];
-                let rank = (s - s0) as u32;
-                let (mut same, mut linked) = (0u8, 0u8);
-                for (d, &l) in span.links.iter().enumerate() {
-                    if l == NONE || l as usize >= n {
-                        continue;
-                    }
-                    linked |= 1 << d;
-                    let (jx, jz) = (ix + i64::from(DIRS[d].0), iz + i64::from(DIRS[d].1));
-                    if jx >= 0 && jz >= 0 && (jx as usize) < nx && (jz as usize) < nz {
-                        let cc = jz as usize * nx + jx as usize;
-                        if cc + 1 < start.len() && start[cc] + rank == l && l < start[cc + 1] {
-                            same |= 1 << d;
+                let (s0, s1) = (start[c] as usize, (start[c + 1] as usize).min(n));
+                if s0 < s1 {
+                    // Span index range of the neighbouring column in each direction (empty
+                    // outside the grid): a link to the same rank lands at `lo + rank`.
+                    let (mut lo, mut hi) = ([1u32; 8], [0u32; 8]);
+                    for (d, &(dx, dz)) in DIRS.iter().enumerate() {
+                        let (jx, jz) = (ix as i64 + i64::from(dx), iz as i64 + i64::from(dz));
+                        if jx >= 0 && jz >= 0 && (jx as usize) < nx && (jz as usize) < nz {
+                            let cc = jz as usize * nx + jx as usize;
+                            if cc + 1 < start.len() {
+                                (lo[d], hi[d]) = (start[cc], start[cc + 1]);
+                            }
                         }
                     }
+                    for s in s0..s1 {
+                        if spans.len() != s {
+                            // Malformed column ranges: no fast paths for the rest.
+                            break 'rows;
+                        }
+                        let span = &grid.spans[s];
+                        let rank = (s - s0) as u32;
+                        let (mut same, mut linked) = (0u8, 0u8);
+                        for d in 0..8 {
+                            let l = span.links[d];
+                            let ok = l != NONE && (l as usize) < n;
+                            linked |= u8::from(ok) << d;
+                            let on_rank = l.wrapping_sub(lo[d]) == rank && l < hi[d];
+                            same |= u8::from(ok && on_rank) << d;
+                        }
+                        spans.push(SightSpan {
+                            y: span.y,
+                            column: c as u32,
+                            ahead: [0; 4],
+                            same_rank: same,
+                            linked,
+                        });
+                    }
                 }
-                spans.push(SightSpan {
-                    y: span.y,
-                    column: c as u32,
-                    ahead: [0; 4],
-                    same_rank: same,
-                    linked,
-                });
+                c += 1;
             }
         }
         // Spans outside every column range (malformed grids) get no links.
@@ -535,6 +549,10 @@ impl<'g> SightIndex<'g> {
                 cur = start[col] + rank;
                 info = self.spans[cur as usize];
             } else {
+                if info.linked & (1 << d) == 0 {
+                    // Blocked: known from the packed record, without reading the span.
+                    return false;
+                }
                 cur = self.grid.spans[cur as usize].links[d];
                 if cur == NONE {
                     return false;
@@ -561,9 +579,9 @@ fn quadrant(sx: i64, sz: i64) -> usize {
 /// (all to the same rank, within the flat limit; otherwise `L(s) = 1`), with columns visited
 /// from the far corner so that forward neighbours come first. Two sweeps over the rows (from
 /// the last row for the quadrants heading to +z, from the first for those heading to -z),
-/// each row visited in both x orders while it is in cache. Walkability is not read for spans
-/// with all three forward links: the builder links walkable spans only, and what a walk
-/// needs is the links.
+/// each row visited in both x orders while it is in cache. Walkability is not read: the
+/// builder links walkable spans only, what a walk needs is the links, and a span without its
+/// forward links (size 1) is never jumped over.
 fn squares_ahead(grid: &NavGrid, packed: &mut [SightSpan]) {
     let flat = FLAT_FRACTION * grid.params.max_climb;
     let (nx, nz) = (grid.nx as usize, grid.nz as usize);
@@ -589,7 +607,7 @@ fn squares_ahead(grid: &NavGrid, packed: &mut [SightSpan]) {
                     for s in s0.min(s1)..s1 {
                         let (y, same_rank) = (packed[s].y, packed[s].same_rank);
                         let size = if same_rank & forward != forward {
-                            u8::from(grid.spans[s].walkable)
+                            1
                         } else {
                             let rank = (s - s0) as u32;
                             let mut min = u8::MAX;

@@ -1,12 +1,14 @@
 //! Shortest paths between two spans, as string-pulled polylines with the rooms and doors
 //! they pass.
 //!
-//! A path is the anchor chain of a geodesic search (see `geodesic`): a single-pair Lazy
-//! Theta* search started at the goal with the straight-line heuristic towards the start, or
-//! the anchors of a precomputed [`DistanceField`]. The chain is string-pulled once more
-//! (consecutive segments merge wherever a straight walk allows), and its segments are walked
-//! span by span to list the rooms and door objects on the way. In MINOS's weighted mode the
-//! chain is the grid path; only collinear steps are merged.
+//! A path is the chain of a geodesic search (see `geodesic`): the A* over the sparse graph
+//! of obstacle corners and zone gates (falling back to the cell-level Lazy Theta* search where
+//! that graph does not join the pair), or the anchors of a precomputed [`DistanceField`].
+//! [`shortest_path`] and [`shortest_path_in`] run the same search, so they return the same
+//! path. The chain is string-pulled once more (consecutive segments merge wherever a
+//! straight walk allows), its corners are refined, and its segments are walked span by span
+//! to list the rooms and door objects on the way. In MINOS's weighted mode the chain is the
+//! grid path of the cell-level search; only collinear steps are merged.
 //!
 //! Where this module's job ends: it answers one pair (or follows one field); choosing
 //! endpoints, snapping positions to spans and episodes are other modules' jobs.
@@ -91,7 +93,7 @@ pub fn shortest_path_in(geo: &Geodesic<'_>, from: u32, to: u32) -> PathResult {
     if !may_connect(grid, from, to) {
         return PathResult::Unreachable;
     }
-    match geo.search_chain(to, from) {
+    match geo.path_chain(from, to) {
         Some(chain) => finish(grid, Some(geo), chain),
         None => PathResult::Unreachable,
     }
@@ -433,6 +435,191 @@ mod tests {
             a,
         ));
         assert!((from_field.length - p10.length).abs() < 0.05);
+    }
+
+    /// The path of the cell-level search (what point-to-point queries fall back to).
+    fn cell_level(geo: &Geodesic<'_>, a: u32, b: u32) -> Option<f32> {
+        let chain = geo.search_chain(b, a)?;
+        finish(geo.grid(), Some(geo), chain).length()
+    }
+
+    #[test]
+    fn sparse_paths_are_as_short_as_cell_level_paths_on_cluttered_maps() {
+        // Two rooms and a corridor joined by doorways, with scattered boxes. Many short paths
+        // bend around several boxes here, each bend half a cell off the exact corner, so both
+        // searches stay up to ~12 % above the exact length on this map; the sparse search
+        // must not be worse than the cell-level one, nor shorter than exact.
+        let (nx, nz) = (90usize, 64usize);
+        let mut rng = crate::seed::Rng::new(21);
+        let mut blocked: Vec<bool> = (0..nx * nz)
+            .map(|i| {
+                let (x, z) = (i % nx, i / nx);
+                let border = x == 0 || z == 0 || x == nx - 1 || z == nz - 1;
+                let wall_x = x == 40 && !(20..26).contains(&z);
+                let wall_z = z == 34 && x > 40 && !(60..66).contains(&x);
+                border || wall_x || wall_z
+            })
+            .collect();
+        // Boxes keep a free cell to everything else, so that no two blocked cells touch at a
+        // corner only (the exact reference would squeeze through such a gap, the grid not).
+        let mut placed = 0;
+        while placed < 30 {
+            let (x0, z0) = (rng.range_usize(2, nx - 6), rng.range_usize(2, nz - 6));
+            let (w, h) = (rng.range_usize(1, 5), rng.range_usize(1, 5));
+            let clear =
+                (z0 - 1..z0 + h + 1).all(|z| (x0 - 1..x0 + w + 1).all(|x| !blocked[z * nx + x]));
+            if !clear {
+                continue;
+            }
+            for z in z0..z0 + h {
+                for x in x0..x0 + w {
+                    blocked[z * nx + x] = true;
+                }
+            }
+            placed += 1;
+        }
+        let rows = rows_from(nx, nz, |x, z| !blocked[z * nx + x]);
+        let refs: Vec<&str> = rows.iter().map(String::as_str).collect();
+        let spec = MapSpec::ascii(&refs, 0.05);
+        let grid = spec.build(NavParams::default());
+        let geo = Geodesic::new(&grid);
+        let free: Vec<(usize, usize)> = (0..nx * nz)
+            .filter(|&i| !blocked[i])
+            .map(|i| (i % nx, i / nx))
+            .collect();
+        let mut checked = 0;
+        for _ in 0..60 {
+            let (&a, &b) = (rng.pick(&free).unwrap(), rng.pick(&free).unwrap());
+            let (sa, sb) = (span_at(&grid, a.0, a.1), span_at(&grid, b.0, b.1));
+            let got = shortest_path_in(&geo, sa, sb).length();
+            let cell = cell_level(&geo, sa, sb);
+            let Some(want) = reference_geodesic(
+                |x, z| spec.free(x, z),
+                nx,
+                nz,
+                (a.0 as i64, a.1 as i64),
+                (b.0 as i64, b.1 as i64),
+            ) else {
+                assert_eq!((got, cell), (None, None), "{a:?}->{b:?} is unreachable");
+                continue;
+            };
+            let want = want * 0.05;
+            let (got, cell) = (got.unwrap(), cell.unwrap());
+            let err = (f64::from(got) - want) / want.max(1e-9);
+            assert!(
+                err > -1e-4,
+                "{a:?}->{b:?}: shorter than exact: {got} vs {want}"
+            );
+            assert!(
+                got <= cell * 1.002 + 1e-4,
+                "{a:?}->{b:?}: {got} vs cell-level {cell}"
+            );
+            checked += 1;
+        }
+        assert!(checked > 40);
+    }
+
+    #[test]
+    fn sparse_paths_cross_ramps_like_the_cell_level_search() {
+        // The ramp is an uneven zone: crossed between its gates, walked span by span when an
+        // end lies on it.
+        let grid = stairs().build(NavParams::default());
+        let geo = Geodesic::new(&grid);
+        let spans = grid.walkable_spans(None);
+        let mut rng = crate::seed::Rng::new(4);
+        for _ in 0..150 {
+            let (&a, &b) = (rng.pick(&spans).unwrap(), rng.pick(&spans).unwrap());
+            let (Some(got), Some(cell)) = (
+                shortest_path_in(&geo, a, b).length(),
+                cell_level(&geo, a, b),
+            ) else {
+                panic!("{a}->{b} unreachable");
+            };
+            assert!(
+                got <= cell * 1.005 + 1e-4,
+                "{a}->{b}: {got} vs cell-level {cell}"
+            );
+            assert!(got >= cell * 0.98, "{a}->{b}: {got} vs cell-level {cell}");
+            let back = shortest_path_in(&geo, b, a).length().unwrap();
+            assert!(
+                (got - back).abs() <= 0.01 * got.max(0.05),
+                "{a}<->{b}: {got} vs {back}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_floor_that_is_one_big_zone_uses_the_cell_level_search() {
+        // 160 x 160 cells rising 6 mm per cell along x: no plateau, one zone of 25k spans.
+        let rows = rows_from(160, 160, |x, z| x > 0 && z > 0 && x < 159 && z < 159);
+        let refs: Vec<&str> = rows.iter().map(String::as_str).collect();
+        let mut spec = MapSpec::ascii(&refs, 0.05);
+        for x in 0..160 {
+            for z in 0..160 {
+                spec.set_height(x, z, x as f32 * 0.006);
+            }
+        }
+        spec.fill(60, 20, 64, 140, '#');
+        let grid = spec.build(NavParams::default());
+        let geo = Geodesic::new(&grid);
+        let (a, b) = (span_at(&grid, 20, 80), span_at(&grid, 120, 30));
+        let path = found(shortest_path_in(&geo, a, b));
+        assert_eq!(Some(path.length), cell_level(&geo, a, b));
+        assert!(path.points.len() >= 3, "around the wall: {:?}", path.points);
+    }
+
+    #[test]
+    fn every_entry_point_gives_the_same_path() {
+        let grid = stairs().build(NavParams::default());
+        let geo = Geodesic::new(&grid);
+        let spans = grid.walkable_spans(None);
+        let mut rng = crate::seed::Rng::new(12);
+        for _ in 0..20 {
+            let (&a, &b) = (rng.pick(&spans).unwrap(), rng.pick(&spans).unwrap());
+            let shared = shortest_path_in(&geo, a, b);
+            assert_eq!(shortest_path(&grid, a, b), shared, "{a}->{b}");
+            assert_eq!(shortest_path_in(&geo, a, b), shared, "{a}->{b} again");
+        }
+    }
+
+    #[test]
+    fn a_shared_geodesic_answers_threads_like_one_thread() {
+        let grid = stairs().build(NavParams::default());
+        let geo = Geodesic::new(&grid);
+        let spans = grid.walkable_spans(None);
+        let mut rng = crate::seed::Rng::new(31);
+        let pairs: Vec<(u32, u32)> = (0..40)
+            .map(|_| (*rng.pick(&spans).unwrap(), *rng.pick(&spans).unwrap()))
+            .collect();
+        let alone: Vec<PathResult> = pairs
+            .iter()
+            .map(|&(a, b)| shortest_path_in(&geo, a, b))
+            .collect();
+        let field = geo.field(&[pairs[0].1]);
+        std::thread::scope(|scope| {
+            let workers: Vec<_> = (0..3)
+                .map(|k| {
+                    let (geo, pairs) = (&geo, &pairs);
+                    scope.spawn(move || {
+                        let paths: Vec<PathResult> = pairs
+                            .iter()
+                            .cycle()
+                            .skip(k * 7)
+                            .take(pairs.len())
+                            .map(|&(a, b)| shortest_path_in(geo, a, b))
+                            .collect();
+                        (paths, geo.field(&[pairs[0].1]))
+                    })
+                })
+                .collect();
+            for (k, worker) in workers.into_iter().enumerate() {
+                let (paths, f) = worker.join().expect("worker");
+                assert_eq!(f, field);
+                for (i, p) in paths.iter().enumerate() {
+                    assert_eq!(p, &alone[(i + k * 7) % pairs.len()]);
+                }
+            }
+        });
     }
 
     #[test]
