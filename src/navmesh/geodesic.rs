@@ -1622,15 +1622,13 @@ mod tests {
         MapSpec::ascii(&refs, 0.05)
     }
 
-    #[test]
-    fn l_shaped_corridor_matches_the_exact_shortest_path() {
-        let spec = l_corridor();
-        for (a, b) in [
-            ((20, 10), (190, 175)),
-            ((3, 5), (195, 196)),
-            ((38, 30), (150, 162)),
-        ] {
-            let (got, want) = compare_with_reference(&spec, a, b);
+    /// Each pair's geodesic is within 1 % of the exact shortest path and never shorter.
+    fn assert_within_one_percent_of_exact(
+        spec: &MapSpec,
+        pairs: &[((usize, usize), (usize, usize))],
+    ) {
+        for &(a, b) in pairs {
+            let (got, want) = compare_with_reference(spec, a, b);
             let err = rel(got, want);
             assert!(err < 0.01, "{a:?}->{b:?}: {got} vs exact {want} ({err})");
             assert!(
@@ -1638,6 +1636,16 @@ mod tests {
                 "shorter than exact: {got} vs {want}"
             );
         }
+    }
+
+    #[test]
+    fn l_shaped_corridor_matches_the_exact_shortest_path() {
+        let pairs = [
+            ((20, 10), (190, 175)),
+            ((3, 5), (195, 196)),
+            ((38, 30), (150, 162)),
+        ];
+        assert_within_one_percent_of_exact(&l_corridor(), &pairs);
     }
 
     #[test]
@@ -1649,19 +1657,12 @@ mod tests {
         });
         let refs: Vec<&str> = rows.iter().map(String::as_str).collect();
         let spec = MapSpec::ascii(&refs, 0.05);
-        for (a, b) in [
+        let pairs = [
             ((20, 20), (30, 120)),
             ((230, 10), (5, 135)),
             ((160, 30), (100, 100)),
-        ] {
-            let (got, want) = compare_with_reference(&spec, a, b);
-            let err = rel(got, want);
-            assert!(err < 0.01, "{a:?}->{b:?}: {got} vs exact {want} ({err})");
-            assert!(
-                f64::from(got) > want * 0.9999,
-                "shorter than exact: {got} vs {want}"
-            );
-        }
+        ];
+        assert_within_one_percent_of_exact(&spec, &pairs);
     }
 
     #[test]
