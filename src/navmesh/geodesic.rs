@@ -1622,11 +1622,11 @@ mod tests {
         MapSpec::ascii(&refs, 0.05)
     }
 
+    /// A map cell (x, z).
+    type Cell = (usize, usize);
+
     /// Each pair's geodesic is within 1 % of the exact shortest path and never shorter.
-    fn assert_within_one_percent_of_exact(
-        spec: &MapSpec,
-        pairs: &[((usize, usize), (usize, usize))],
-    ) {
+    fn assert_within_one_percent_of_exact(spec: &MapSpec, pairs: &[(Cell, Cell)]) {
         for &(a, b) in pairs {
             let (got, want) = compare_with_reference(spec, a, b);
             let err = rel(got, want);
