@@ -88,6 +88,8 @@ pub fn with_variant(
         .map_err(|e| anyhow::anyhow!("--variant {name}: {e}"))?;
     Ok(ids
         .into_iter()
-        .map(|id| minos::scene::variants::join_ref(minos::scene::variants::split_ref(&id).0, Some(name)))
+        .map(|id| {
+            minos::scene::variants::join_ref(minos::scene::variants::split_ref(&id).0, Some(name))
+        })
         .collect())
 }

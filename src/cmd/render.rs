@@ -90,8 +90,12 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         }
         None => SensorSuite::all(args.size),
     };
-    let scene_ref = with_variant(&args.data, vec![args.scene.clone()], args.variant.as_deref())?
-        .remove(0);
+    let scene_ref = with_variant(
+        &args.data,
+        vec![args.scene.clone()],
+        args.variant.as_deref(),
+    )?
+    .remove(0);
     let (scene, _) = load_scene(&args.data, &scene_ref).context("run `minos ingest` first")?;
     let grid = read_nav(&nav_path(&args.data, &grid_ref(&args.data, &scene_ref)))
         .context("run `minos bake` first")?;

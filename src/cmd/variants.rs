@@ -125,8 +125,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     }
     let variants: Vec<(String, VariantSpec)> = match (&args.spec, &args.name) {
         (Some(path), _) => {
-            let text =
-                std::fs::read_to_string(path).with_context(|| path.display().to_string())?;
+            let text = std::fs::read_to_string(path).with_context(|| path.display().to_string())?;
             parse_spec_file(&text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?
         }
         (None, Some(name)) => vec![(name.clone(), from_flags(&args, name)?)],
@@ -151,7 +150,13 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
             None => {
                 let (stats, failures) = {
                     let bar = ctx.progress(ids.len() as u64, "material stats");
-                    collect_stats(&args.data, &ids, args.partition_seed, DEFAULT_FRACTIONS, &bar)
+                    collect_stats(
+                        &args.data,
+                        &ids,
+                        args.partition_seed,
+                        DEFAULT_FRACTIONS,
+                        &bar,
+                    )
                 };
                 for (id, e) in &failures {
                     eprintln!("warning: scene {id}: left out of the material statistics: {e}");
@@ -215,7 +220,10 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
             what += &format!(", {redrawn} material slots redrawn, {kept} kept (no material of their category in the set)");
         }
         let bake = if spec.changes_geometry() {
-            format!("; bake it with `minos bake --data {} --variant {name}`", args.data.display())
+            format!(
+                "; bake it with `minos bake --data {} --variant {name}`",
+                args.data.display()
+            )
         } else {
             "; it keeps the geometry and shares its scenes' grids".to_string()
         };

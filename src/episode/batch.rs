@@ -135,9 +135,16 @@ pub fn sample_scenes(
     if batch.total > 0 {
         let n = batch.total as f64;
         let eps = &batch.episodes;
-        batch.mean_geodesic = eps.iter().map(|e| f64::from(e.geodesic_distance)).sum::<f64>() / n;
-        batch.mean_euclidean =
-            eps.iter().map(|e| f64::from(e.euclidean_distance)).sum::<f64>() / n;
+        batch.mean_geodesic = eps
+            .iter()
+            .map(|e| f64::from(e.geodesic_distance))
+            .sum::<f64>()
+            / n;
+        batch.mean_euclidean = eps
+            .iter()
+            .map(|e| f64::from(e.euclidean_distance))
+            .sum::<f64>()
+            / n;
         batch.mean_ratio = eps
             .iter()
             .map(|e| f64::from(e.geodesic_distance) / f64::from(e.euclidean_distance).max(1e-6))

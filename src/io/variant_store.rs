@@ -10,8 +10,7 @@ use crate::io::atomic::write_bytes_atomic;
 use crate::io::scene_file::{read_scene, scene_path, SceneFileError};
 use crate::scene::variants::{
     apply_variant, split_ref, validate_name, MaterialStats, MaterialStatsBuilder, VariantError,
-    VariantReport,
-    VariantSpec,
+    VariantReport, VariantSpec,
 };
 use crate::scene::Scene;
 
@@ -63,7 +62,11 @@ fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> VariantStoreError + '_ 
 }
 
 /// Writes variant `name` atomically.
-pub fn write_variant(data: &Path, name: &str, spec: &VariantSpec) -> Result<PathBuf, VariantStoreError> {
+pub fn write_variant(
+    data: &Path,
+    name: &str,
+    spec: &VariantSpec,
+) -> Result<PathBuf, VariantStoreError> {
     validate_name(name).map_err(VariantStoreError::Name)?;
     let path = variant_path(data, name);
     let text = format!(
@@ -134,7 +137,10 @@ pub fn read_stats(data: &Path) -> Result<MaterialStats, VariantStoreError> {
 }
 
 /// Loads scene `scene_ref` (`<scene>` or `<scene>@<variant>`) from `data`, applying the variant.
-pub fn load_scene(data: &Path, scene_ref: &str) -> Result<(Scene, Option<VariantReport>), VariantStoreError> {
+pub fn load_scene(
+    data: &Path,
+    scene_ref: &str,
+) -> Result<(Scene, Option<VariantReport>), VariantStoreError> {
     let (id, variant) = split_ref(scene_ref);
     let (_, mut scene) = read_scene(&scene_path(data, id))?;
     let Some(name) = variant else {

@@ -15,7 +15,11 @@ pub const ARCH_CATEGORIES: [&str; 4] = ["column", "pillar", "beam", "railing"];
 /// stairs and structural categories.
 pub fn is_architecture(object: &Object) -> bool {
     let f = object.flags;
-    f.door || f.window || f.arch || f.stairs || ARCH_CATEGORIES.iter().any(|c| object.categories.matches(c))
+    f.door
+        || f.window
+        || f.arch
+        || f.stairs
+        || ARCH_CATEGORIES.iter().any(|c| object.categories.matches(c))
 }
 
 /// True when `object` survives `empty = true`: doors, arches and windows only.

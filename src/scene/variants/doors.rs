@@ -81,9 +81,10 @@ pub fn apply_doors(scene: &mut Scene, spec: &VariantSpec) -> DoorReport {
             let Some(wanted) = wanted else { continue };
             if state_of(&object.model_id) == Some(wanted) || state_of(&object.model_id).is_none() {
                 if state_of(&object.model_id).is_none() && spec.doors.contains_key(&object.id) {
-                    report
-                        .unmatched
-                        .push(format!("door {}: model {} has no known state", object.id, object.model_id));
+                    report.unmatched.push(format!(
+                        "door {}: model {} has no known state",
+                        object.id, object.model_id
+                    ));
                 }
                 continue;
             }

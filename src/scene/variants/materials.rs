@@ -147,10 +147,11 @@ impl MaterialStatsBuilder {
             return;
         }
         for level in &scene.levels {
-            let surfaces = level
-                .rooms
-                .iter()
-                .flat_map(|r| r.surfaces.iter().map(|s| (surface_category(s.kind), s.mesh)));
+            let surfaces = level.rooms.iter().flat_map(|r| {
+                r.surfaces
+                    .iter()
+                    .map(|s| (surface_category(s.kind), s.mesh))
+            });
             let ground = level.ground.iter().map(|&g| (GROUND_CATEGORY, g));
             let placed: Vec<(&str, u32)> = surfaces.chain(ground).collect();
             for (category, mesh) in placed {
@@ -262,7 +263,9 @@ impl MaterialStats {
         let n = self.materials.len() as u32;
         for (c, list) in &self.categories {
             if let Some((i, _)) = list.iter().find(|(i, _)| *i >= n) {
-                return Err(format!("categories.{c}: material {i} out of range ({n} materials)"));
+                return Err(format!(
+                    "categories.{c}: material {i} out of range ({n} materials)"
+                ));
             }
         }
         Ok(())

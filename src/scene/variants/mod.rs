@@ -17,7 +17,9 @@ pub use clutter::{apply_clutter, is_architecture, survives_empty};
 pub use doors::{apply_doors, DoorReport};
 pub use materials::{MaterialEntry, MaterialStats, MaterialStatsBuilder};
 pub use retexture::{apply_retexture, RetextureReport};
-pub use spec::{parse_spec_file, validate_name, DoorState, KeepOnly, Retexture, TextureSet, VariantSpec};
+pub use spec::{
+    parse_spec_file, validate_name, DoorState, KeepOnly, Retexture, TextureSet, VariantSpec,
+};
 
 use crate::scene::Scene;
 

@@ -57,7 +57,12 @@ pub fn apply_retexture(
     // placed more than once is copied first so each placement draws on its own.
     let mut uses = vec![0u32; scene.meshes.len()];
     for l in &scene.levels {
-        for m in l.rooms.iter().flat_map(|r| r.surfaces.iter().map(|s| s.mesh)).chain(l.ground.iter().copied()) {
+        for m in l
+            .rooms
+            .iter()
+            .flat_map(|r| r.surfaces.iter().map(|s| s.mesh))
+            .chain(l.ground.iter().copied())
+        {
             uses[m as usize] += 1;
         }
         for m in l.objects.iter().filter_map(|o| o.mesh) {

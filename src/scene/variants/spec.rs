@@ -129,7 +129,7 @@ pub struct VariantSpec {
 impl VariantSpec {
     /// Parses one variant's table (the format of `DATA/variants/<name>.toml`).
     pub fn from_toml(text: &str) -> Result<Self, String> {
-        let spec: VariantSpec = toml::from_str(text).map_err(|e| one_line(&e))?;
+        let spec: VariantSpec = toml::from_str(text).map_err(|e| one_line(&e, text))?;
         spec.validate()?;
         Ok(spec)
     }
@@ -172,23 +172,29 @@ impl VariantSpec {
 
 /// Parses a spec file of named variants: one top-level table per variant.
 pub fn parse_spec_file(text: &str) -> Result<Vec<(String, VariantSpec)>, String> {
-    let table: toml::Table = text.parse().map_err(|e: toml::de::Error| one_line(&e))?;
-    let mut out = Vec::new();
-    for (name, value) in table {
-        validate_name(&name)?;
-        let toml::Value::Table(t) = value else {
-            return Err(format!("{name}: expected a table `[{name}]` of variant fields"));
-        };
-        let spec: VariantSpec = toml::Value::Table(t)
-            .try_into()
-            .map_err(|e: toml::de::Error| format!("[{name}]: {}", one_line(&e)))?;
-        spec.validate().map_err(|e| format!("[{name}]: {e}"))?;
-        out.push((name, spec));
+    let table: toml::Table = text
+        .parse()
+        .map_err(|e: toml::de::Error| one_line(&e, text))?;
+    for (name, value) in &table {
+        validate_name(name)?;
+        if !value.is_table() {
+            return Err(format!(
+                "{name}: expected a table `[{name}]` of variant fields"
+            ));
+        }
     }
-    if out.is_empty() {
+    if table.is_empty() {
         return Err("no variants defined (expected tables such as `[empty]`)".into());
     }
-    Ok(out)
+    let specs: std::collections::BTreeMap<String, VariantSpec> =
+        toml::from_str(text).map_err(|e| one_line(&e, text))?;
+    specs
+        .into_iter()
+        .map(|(name, spec)| match spec.validate() {
+            Ok(()) => Ok((name, spec)),
+            Err(e) => Err(format!("[{name}]: {e}")),
+        })
+        .collect()
 }
 
 /// Checks a variant name: letters, digits, `-` and `_` (it becomes part of file names and ids).
@@ -207,12 +213,16 @@ pub fn validate_name(name: &str) -> Result<(), String> {
     }
 }
 
-fn one_line(e: &toml::de::Error) -> String {
+/// A TOML error on one line, naming the line and quoting it (so the field is visible).
+fn one_line(e: &toml::de::Error, text: &str) -> String {
     let msg = e.message().replace('\n', " ");
-    match e.span() {
-        Some(span) => format!("{msg} (at byte {})", span.start),
-        None => msg,
-    }
+    let Some(span) = e.span() else {
+        return msg;
+    };
+    let start = span.start.min(text.len());
+    let line_no = text[..start].matches('\n').count() + 1;
+    let line = text.lines().nth(line_no - 1).unwrap_or("").trim();
+    format!("line {line_no}: {msg} (`{line}`)")
 }
 
 #[cfg(test)]
@@ -257,11 +267,15 @@ mod tests {
     #[test]
     fn bad_specs_say_what_is_wrong() {
         let e = parse_spec_file("[a]\nremove = 3\n").unwrap_err();
-        assert!(e.starts_with("[a]:") && e.contains("remove"), "{e}");
+        assert!(e.starts_with("line 2:") && e.contains("remove = 3"), "{e}");
         let e = parse_spec_file("[a]\nempty = true\nkeep_only = \"arch\"\n").unwrap_err();
         assert!(e.contains("exclude"), "{e}");
-        let e = parse_spec_file("[a]\nretexture = { seed = 1, texture_set = \"x\" }\n").unwrap_err();
-        assert!(e.contains("texture_set") || e.contains("unknown variant"), "{e}");
+        let e =
+            parse_spec_file("[a]\nretexture = { seed = 1, texture_set = \"x\" }\n").unwrap_err();
+        assert!(
+            e.contains("texture_set") || e.contains("unknown variant"),
+            "{e}"
+        );
         let e = parse_spec_file("[a]\nclutter = 1\n").unwrap_err();
         assert!(e.contains("clutter"), "{e}");
         assert!(parse_spec_file("[\"a@b\"]\nempty = true\n")
