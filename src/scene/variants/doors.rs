@@ -6,12 +6,60 @@
 //! generated houses, `g_door_closed_90` ↔ `g_door_open_90`; other datasets' door models can
 //! follow it through ingest). A door is swapped to its counterpart's mesh when some instance
 //! of the scene uses that model. When none does, an opened door keeps its record (id,
-//! category, box, so it still counts as a door for ObjectGoal and path door counts) but loses
-//! its geometry: the doorway becomes passable and renders as an opening.
+//! category, box) and only the top band of its geometry (the header, [`HEADER_BAND`] of its
+//! height): the doorway becomes passable, and the header still marks the doorway's spans, so
+//! the door still counts for ObjectGoal and for doors passed on a path.
 
 use std::collections::BTreeMap;
 
-use crate::scene::{MeshId, Scene};
+use glam::Vec3;
+
+use crate::scene::{Mesh, MeshId, Object, Scene};
+
+/// Share of a door's height (from the top) kept when it is opened without an open model.
+pub const HEADER_BAND: f32 = 0.12;
+
+/// The triangles of `object`'s mesh that lie entirely in the top [`HEADER_BAND`] of its
+/// world box, as a new model-space mesh (unused vertices dropped), or `None` if there are none.
+fn header_of(mesh: &Mesh, object: &Object) -> Option<Mesh> {
+    let top = object.bbox.max.y;
+    let cut = top - HEADER_BAND * (top - object.bbox.min.y);
+    let high: Vec<bool> = mesh
+        .positions
+        .iter()
+        .map(|p| object.transform.transform_point3(Vec3::from_array(*p)).y >= cut)
+        .collect();
+    let mut out = Mesh {
+        name: format!("{} (header)", mesh.name),
+        materials: mesh.materials.clone(),
+        ..Mesh::default()
+    };
+    let mut remap = vec![u32::MAX; mesh.positions.len()];
+    for (t, tri) in mesh.indices.chunks_exact(3).enumerate() {
+        if !tri
+            .iter()
+            .all(|&i| high.get(i as usize).copied().unwrap_or(false))
+        {
+            continue;
+        }
+        for &i in tri {
+            let i = i as usize;
+            if remap[i] == u32::MAX {
+                remap[i] = out.positions.len() as u32;
+                out.positions.push(mesh.positions[i]);
+                out.normals
+                    .push(mesh.normals.get(i).copied().unwrap_or([0.0, 1.0, 0.0]));
+                if !mesh.uvs.is_empty() {
+                    out.uvs.push(mesh.uvs.get(i).copied().unwrap_or([0.0, 0.0]));
+                }
+            }
+            out.indices.push(remap[i]);
+        }
+        out.face_materials
+            .push(mesh.face_materials.get(t).copied().unwrap_or(0));
+    }
+    (!out.indices.is_empty()).then_some(out)
+}
 
 use super::spec::{DoorState, VariantSpec};
 
@@ -20,7 +68,7 @@ use super::spec::{DoorState, VariantSpec};
 pub struct DoorReport {
     /// Doors swapped to their counterpart model.
     pub swapped: usize,
-    /// Doors opened by removing their geometry (no open model in the scene).
+    /// Doors opened by keeping only their header (no open model in the scene).
     pub cleared: usize,
     /// Per-door entries that name no door of the scene, or a door that cannot be put in the
     /// asked state.
@@ -103,10 +151,17 @@ pub fn apply_doors(scene: &mut Scene, spec: &VariantSpec) -> DoorReport {
                     report.swapped += 1;
                 }
                 None if wanted == DoorState::Open => {
+                    let header = object
+                        .mesh
+                        .and_then(|m| scene.meshes.get(m as usize))
+                        .and_then(|m| header_of(m, object));
+                    let mesh = header.map(|h| {
+                        scene.meshes.push(h);
+                        (scene.meshes.len() - 1) as MeshId
+                    });
                     let object = &mut scene.levels[li].objects[oi];
-                    object.mesh = None;
+                    object.mesh = mesh;
                     object.model_id = target;
-                    object.materials.clear();
                     report.cleared += 1;
                 }
                 None => report.unmatched.push(format!(
