@@ -5,3 +5,4 @@ pub mod atomic;
 pub mod export;
 pub mod manifest;
 pub mod scene_file;
+pub mod variant_store;
