@@ -402,7 +402,7 @@ fn cpu_and_wgpu_renderers_agree() {
                     g.semantic(&rs, minos::render::Taxonomy::Nyu40),
                 );
                 let (ic, ig) = (c.instance(&rs), g.instance(&rs));
-                let (cc, cg) = (c.color(&rs), g.color(&rs));
+                let (cc, cg) = (c.color(&rs, cam), g.color(&rs, cam));
                 for p in 0..dc.len() {
                     if dc[p] > 0.0 && dg[p] > 0.0 {
                         depth_se += f64::from(dc[p] - dg[p]).powi(2);
