@@ -314,7 +314,11 @@ fn the_coarse_taxonomy_labels_a_known_object_and_the_floor() {
     };
     // data/taxonomy/coarse.csv: 2 floor, 10 sofa.
     assert_eq!(centre(sem, size, 1)[0], 10);
-    assert_eq!(sem[(size * size - size / 2) as usize], 2, "bottom row: floor");
+    assert_eq!(
+        sem[(size * size - size / 2) as usize],
+        2,
+        "bottom row: floor"
+    );
 }
 
 #[test]
@@ -398,7 +402,9 @@ fn cpu_and_wgpu_renderers_agree() {
                 .unwrap();
         let rs = RenderScene::new(&scene);
         assert!(
-            rs.tris.iter().any(|t| t.texture != minos::render::scene::NO_TEXTURE),
+            rs.tris
+                .iter()
+                .any(|t| t.texture != minos::render::scene::NO_TEXTURE),
             "generated houses are textured, so parity covers textures"
         );
         gpu.upload(&rs);

@@ -135,7 +135,12 @@ impl ObjText {
         if up {
             self.face(material, [o, o + 1, o + 2, o + 3], p, 4);
         } else {
-            self.face(material, [o, o + 3, o + 2, o + 1], [p[0], p[3], p[2], p[1]], 3);
+            self.face(
+                material,
+                [o, o + 3, o + 2, o + 1],
+                [p[0], p[3], p[2], p[1]],
+                3,
+            );
         }
     }
 

@@ -17,8 +17,8 @@ use crate::io::atomic::write_bytes_atomic;
 
 use super::catalog::catalog;
 use super::objwrite::{mtl_text, MtlMaterial, ObjText};
-use super::textures::{self, ProceduralTexture};
 use super::plan::{HousePlan, LevelPlan, Rect, RoomPlan, Side};
+use super::textures::{self, ProceduralTexture};
 
 /// Metres per texture repeat on generated surfaces.
 const TEXTURE_METRES: f64 = 1.0;
@@ -151,7 +151,12 @@ fn floor_material(raw_type: &str) -> SurfaceMaterial {
 }
 
 /// Writes `stem.obj` (every face in material 0, `material`) and its `stem.mtl`.
-fn write_obj_mtl(dir: &Path, stem: &str, obj: ObjText, material: SurfaceMaterial) -> io::Result<()> {
+fn write_obj_mtl(
+    dir: &Path,
+    stem: &str,
+    obj: ObjText,
+    material: SurfaceMaterial,
+) -> io::Result<()> {
     write_bytes_atomic(
         &dir.join(format!("{stem}.obj")),
         obj.finish(&[material.name.to_string()]).as_bytes(),
@@ -162,7 +167,10 @@ fn write_obj_mtl(dir: &Path, stem: &str, obj: ObjText, material: SurfaceMaterial
         1.0,
         material.texture.map(|t| t.mtl_path()),
     );
-    write_bytes_atomic(&dir.join(format!("{stem}.mtl")), mtl_text(&[mtl]).as_bytes())
+    write_bytes_atomic(
+        &dir.join(format!("{stem}.mtl")),
+        mtl_text(&[mtl]).as_bytes(),
+    )
 }
 
 /// An OBJ for one surface material (texture coordinates when it has a texture).

@@ -135,8 +135,8 @@ mod tests {
             let a = t.png().unwrap();
             assert_eq!(a, t.png().unwrap(), "{} bytes differ between runs", t.name);
             let img = t.pixels();
-            let mean = img.pixels().map(|p| f64::from(p.0[0])).sum::<f64>()
-                / f64::from(t.size * t.size);
+            let mean =
+                img.pixels().map(|p| f64::from(p.0[0])).sum::<f64>() / f64::from(t.size * t.size);
             assert!((100.0..250.0).contains(&mean), "{}: mean {mean}", t.name);
             // Not a flat colour.
             assert!(img.pixels().any(|p| p != img.get_pixel(1, 1)), "{}", t.name);

@@ -81,28 +81,29 @@ impl Frame {
         let rays =
             (!scene.textures.is_empty()).then(|| PixelRays::new(camera, self.width, self.height));
         let width = self.width.max(1) as usize;
-        self.tri
-            .iter()
-            .enumerate()
-            .map(|(i, &t)| {
+        let mut out = Vec::with_capacity(self.tri.len());
+        for (y, row) in self.tri.chunks(width).enumerate() {
+            for (x, &t) in row.iter().enumerate() {
                 if t == NO_HIT {
-                    return [0, 0, 0];
+                    out.push([0, 0, 0]);
+                    continue;
                 }
                 let info = &scene.tris[t as usize];
                 let normal = Vec3::from_array(info.normal);
                 let shade = AMBIENT + (1.0 - AMBIENT) * normal.dot(light).abs();
                 let mut rgb = info.color;
-                if let (Some(tex), Some(rays)) =
-                    (scene.textures.get(info.texture as usize), &rays)
+                if let (Some(tex), Some(rays)) = (scene.textures.get(info.texture as usize), &rays)
                 {
-                    let dir = rays.dir(i % width, i / width);
+                    let dir = rays.dir(x, y);
                     let [u, v] = scene.uv_maps[t as usize].at(camera.position, dir, normal);
                     let s = tex.sample(u, v);
                     rgb = [rgb[0] * s[0], rgb[1] * s[1], rgb[2] * s[2]];
                 }
-                rgb.map(|c| ((c * shade).clamp(0.0, 1.0) * 255.0).round() as u8)
-            })
-            .collect()
+                // + 0.5 and truncate: rounding without a library call (values are ≥ 0).
+                out.push(rgb.map(|c| ((c * shade).clamp(0.0, 1.0) * 255.0 + 0.5) as u8));
+            }
+        }
+        out
     }
 
     /// Linear depth in metres along the viewing axis (0 where nothing is hit).

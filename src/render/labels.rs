@@ -210,7 +210,10 @@ mod tests {
             coarse("wardrobe", Some("wardrobe_cabinet"), None),
             id("cabinet")
         );
-        assert_eq!(coarse("fridge", Some("zzz"), Some("refridgerator")), id("appliance"));
+        assert_eq!(
+            coarse("fridge", Some("zzz"), Some("refridgerator")),
+            id("appliance")
+        );
         // 3D-FUTURE super-category, compared in lower case.
         assert_eq!(coarse("Lounge Chair", Some("Chair"), None), id("chair"));
         assert_eq!(coarse("vase", Some("vase"), None), id("other"));

@@ -195,13 +195,7 @@ impl RenderScene {
                 let mesh = &scene.meshes[g as usize];
                 let info = surface_info(SurfaceKind::Floor, NO_ID, 0);
                 let slots = slots(mesh, &[], library);
-                push_mesh(
-                    &mut soup,
-                    mesh,
-                    &scene.surface_world_mesh(g),
-                    info,
-                    &slots,
-                );
+                push_mesh(&mut soup, mesh, &scene.surface_world_mesh(g), info, &slots);
             }
             for object in &level.objects {
                 object_index += 1;
@@ -287,15 +281,14 @@ impl RenderScene {
 
 /// The drawn material of each slot of `mesh`: the mesh's material with the instance's
 /// overrides applied (a given colour replaces the colour, a given texture the texture).
-fn slots(
-    mesh: &Mesh,
-    overrides: &[MaterialOverride],
-    library: &mut TextureLibrary,
-) -> Vec<Slot> {
-    let count = mesh
-        .materials
-        .len()
-        .max(mesh.face_materials.iter().map(|&m| m as usize + 1).max().unwrap_or(0));
+fn slots(mesh: &Mesh, overrides: &[MaterialOverride], library: &mut TextureLibrary) -> Vec<Slot> {
+    let count = mesh.materials.len().max(
+        mesh.face_materials
+            .iter()
+            .map(|&m| m as usize + 1)
+            .max()
+            .unwrap_or(0),
+    );
     (0..count)
         .map(|slot| {
             let base = mesh.materials.get(slot);

@@ -96,18 +96,28 @@ impl Texture {
     /// Bilinear sample at `(u, v)` with repeat wrap, as RGB in [0, 1]; v = 0 is the bottom
     /// row of the image.
     pub fn sample(&self, u: f32, v: f32) -> [f32; 3] {
-        let (w, h) = (self.width as i64, self.height as i64);
-        // Continuous texel coordinates with texel centres at integers + 0.5.
-        let x = u * self.width as f32 - 0.5;
-        let y = (1.0 - v) * self.height as f32 - 0.5;
-        if !x.is_finite() || !y.is_finite() {
+        if !u.is_finite() || !v.is_finite() || u.abs() > 1e6 || v.abs() > 1e6 {
             return self.texel(0, 0);
         }
-        let (x0, y0) = (x.floor(), y.floor());
-        let (fx, fy) = (x - x0, y - y0);
-        let wrap = |i: f32, n: i64| (i as i64).rem_euclid(n) as u32;
-        let (xa, xb) = (wrap(x0, w), wrap(x0 + 1.0, w));
-        let (ya, yb) = (wrap(y0, h), wrap(y0 + 1.0, h));
+        let (w, h) = (self.width, self.height);
+        // Continuous texel coordinates of the wrapped coordinate, texel centres at i + 0.5
+        // (rows from the top, so v is flipped). Truncating casts instead of `floor`, which
+        // is a library call on baseline x86-64.
+        let x = wrap01(u) * w as f32 - 0.5;
+        let y = wrap01(1.0 - v) * h as f32 - 0.5;
+        let (xi, yi) = (floor_small(x), floor_small(y));
+        let (fx, fy) = (x - xi as f32, y - yi as f32);
+        let index = |i: i32, n: u32| {
+            if i < 0 {
+                n - 1
+            } else if i as u32 >= n {
+                0
+            } else {
+                i as u32
+            }
+        };
+        let (xa, xb) = (index(xi, w), index(xi + 1, w));
+        let (ya, yb) = (index(yi, h), index(yi + 1, h));
         let (a, b, c, d) = (
             self.texel(xa, ya),
             self.texel(xb, ya),
@@ -124,6 +134,27 @@ impl Texture {
     /// One texel as RGB in [0, 1].
     fn texel(&self, x: u32, y: u32) -> [f32; 3] {
         self.texels[(y * self.width + x) as usize].map(|c| f32::from(c) / 255.0)
+    }
+}
+
+/// `t` wrapped into [0, 1] (|t| ≤ 1e6).
+#[inline]
+fn wrap01(t: f32) -> f32 {
+    let f = t - (t as i32) as f32;
+    if f < 0.0 {
+        f + 1.0
+    } else {
+        f
+    }
+}
+
+/// ⌊x⌋ for x ≥ −1 (texel coordinates of a wrapped coordinate).
+#[inline]
+fn floor_small(x: f32) -> i32 {
+    if x < 0.0 {
+        -1
+    } else {
+        x as i32
     }
 }
 

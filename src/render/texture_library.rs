@@ -58,6 +58,8 @@ impl TextureLibrary {
             );
             return None;
         };
+        // One file reached by several relative paths is loaded once.
+        let file = std::fs::canonicalize(&file).unwrap_or(file);
         if let Some(&id) = self.by_file.get(&file) {
             return Some(id);
         }
@@ -124,10 +126,15 @@ mod tests {
         let mut lib = TextureLibrary::new();
         let local = lib.resolve("local.png", &mesh).expect("beside the mesh");
         assert_eq!(lib.textures[local as usize].texels[0], [1, 2, 3]);
-        let wood = lib.resolve("wood_1", &mesh).expect("SUNCG name without extension");
+        let wood = lib
+            .resolve("wood_1", &mesh)
+            .expect("SUNCG name without extension");
         assert_ne!(local, wood);
         let again = lib.resolve("../../texture/wood_1.jpg", &mesh);
         assert_eq!(again, Some(wood), "one file is loaded once");
+        std::fs::create_dir_all(root.join("room/h")).unwrap();
+        let other_mesh = root.join("room/h/f.obj").display().to_string();
+        assert_eq!(lib.resolve("wood_1", &other_mesh), Some(wood), "whichever mesh names it");
         assert_eq!(lib.textures.len(), 2);
         assert_eq!(lib.resolve("nope", &mesh), None);
         assert_eq!(lib.resolve("nope", &mesh), None);
