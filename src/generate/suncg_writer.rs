@@ -191,7 +191,7 @@ fn minus_all(r: Rect, holes: &[Rect]) -> Vec<Rect> {
 }
 
 fn write_room(dir: &Path, model: &str, room: &RoomPlan, base: f64) -> io::Result<()> {
-    let floor_mat = floor_material(&room.raw_type);
+    let floor_mat = floor_material(room.raw_type);
     let mut floor = surface_obj(&format!("{model}f.mtl"), floor_mat);
     for part in minus_all(room.rect, &room.floor_holes) {
         floor.add_flat(&part, base, true, 0);

@@ -96,7 +96,7 @@ fn wood(x: u32, y: u32) -> [u8; 3] {
     let plank = x / 32;
     // Planks are staggered: each has a seam at its own offset along v.
     let seam_at = (noise(plank, 7) * 128.0) as u32;
-    if x % 32 == 0 || (y + 128 - seam_at) % 128 == 0 {
+    if x.is_multiple_of(32) || (y + 128 - seam_at).is_multiple_of(128) {
         return grey(0.55);
     }
     let tone = 0.82 + 0.14 * noise(plank, 1);
@@ -110,7 +110,7 @@ fn wood(x: u32, y: u32) -> [u8; 3] {
 }
 
 fn tiles(x: u32, y: u32) -> [u8; 3] {
-    if x % 16 == 0 || y % 16 == 0 {
+    if x.is_multiple_of(16) || y.is_multiple_of(16) {
         return grey(0.62);
     }
     let tile = (x / 16) + 4 * (y / 16);
@@ -118,7 +118,7 @@ fn tiles(x: u32, y: u32) -> [u8; 3] {
 }
 
 fn checker(x: u32, y: u32) -> [u8; 3] {
-    if ((x / 8) + (y / 8)) % 2 == 0 {
+    if ((x / 8) + (y / 8)).is_multiple_of(2) {
         grey(0.95)
     } else {
         grey(0.45)

@@ -134,7 +134,11 @@ mod tests {
         assert_eq!(again, Some(wood), "one file is loaded once");
         std::fs::create_dir_all(root.join("room/h")).unwrap();
         let other_mesh = root.join("room/h/f.obj").display().to_string();
-        assert_eq!(lib.resolve("wood_1", &other_mesh), Some(wood), "whichever mesh names it");
+        assert_eq!(
+            lib.resolve("wood_1", &other_mesh),
+            Some(wood),
+            "whichever mesh names it"
+        );
         assert_eq!(lib.textures.len(), 2);
         assert_eq!(lib.resolve("nope", &mesh), None);
         assert_eq!(lib.resolve("nope", &mesh), None);
