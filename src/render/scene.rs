@@ -280,7 +280,8 @@ impl RenderScene {
 }
 
 /// The drawn material of each slot of `mesh`: the mesh's material with the instance's
-/// overrides applied (a given colour replaces the colour, a given texture the texture).
+/// overrides applied (a given colour replaces the colour, a given texture the texture; an
+/// empty texture name removes it).
 fn slots(mesh: &Mesh, overrides: &[MaterialOverride], library: &mut TextureLibrary) -> Vec<Slot> {
     let count = mesh.materials.len().max(
         mesh.face_materials
@@ -300,7 +301,7 @@ fn slots(mesh: &Mesh, overrides: &[MaterialOverride], library: &mut TextureLibra
             let texture = o
                 .and_then(|o| o.texture.as_deref())
                 .or(base.and_then(|m| m.texture.as_deref()))
-                .filter(|_| !mesh.uvs.is_empty())
+                .filter(|name| !name.is_empty() && !mesh.uvs.is_empty())
                 .and_then(|name| library.resolve(name, &mesh.name))
                 .unwrap_or(NO_TEXTURE);
             Slot { diffuse, texture }
