@@ -103,8 +103,10 @@ pub fn effective_material(
         if let Some(d) = o.diffuse {
             out.1 = d;
         }
-        if o.texture.is_some() {
-            out.2 = o.texture.clone();
+        match o.texture.as_deref() {
+            Some("") => out.2 = None,
+            Some(t) => out.2 = Some(t.to_string()),
+            None => {}
         }
     }
     Some(out)

@@ -133,7 +133,8 @@ pub fn apply_retexture(
                             slot,
                             name: entry.name.clone(),
                             diffuse: Some([entry.rgb[0], entry.rgb[1], entry.rgb[2], rgba[3]]),
-                            texture: entry.texture.clone(),
+                            // An untextured draw must also drop the model's texture.
+                            texture: Some(entry.texture.clone().unwrap_or_default()),
                         });
                         report.redrawn += 1;
                     }
