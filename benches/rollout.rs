@@ -1,0 +1,208 @@
+//! End-to-end rollout throughput: `cargo bench --bench rollout`.
+//!
+//! Generated furnished houses (default configuration) baked at 5 cm; PointGoal, ObjectGoal
+//! and RoomGoal episodes; the oracle with the Habitat agent and MINOS's RGB-D-semantic
+//! sensors at 84² on the CPU renderer, writing Parquet, on one thread. Prints steps per
+//! second per task, then a breakdown of one pass (planning, simulation steps, writing).
+//!
+//! `MINOS_BENCH_HOUSES` (default 8) and `MINOS_BENCH_PER_SCENE` (default 4) size the run.
+
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use minos::episode::batch::{sample_scenes, Shard};
+use minos::episode::sample::SampleConfig;
+use minos::episode::{Episode, Task};
+use minos::generate::{generate, GenerateConfig, OutputFormat};
+use minos::ingest::{ingest, IngestConfig};
+use minos::io::scene_file::{read_scene, scene_path};
+use minos::navmesh::bake::{bake_scenes, BakeConfig};
+use minos::navmesh::file::{nav_path, read_nav};
+use minos::navmesh::NavParams;
+use minos::progress::NoProgress;
+use minos::run::agents::{Agent, Decision};
+use minos::run::metrics::Reward;
+use minos::run::oracle::OracleAgent;
+use minos::run::rollout::{run, AgentKind, RunConfig};
+use minos::run::tables::{ImageEncoding, ObservationWriter};
+use minos::sim::simulator::Renderer;
+use minos::sim::{AgentConfig, RendererChoice, SceneAssets, SensorSuite, Simulator};
+
+fn env(name: &str, default: usize) -> usize {
+    std::env::var(name)
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(default)
+}
+
+fn main() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let (root, data) = (dir.path().join("suncg"), dir.path().join("DATA"));
+    let cfg = GenerateConfig {
+        houses: env("MINOS_BENCH_HOUSES", 8),
+        seed: 5,
+        ..GenerateConfig::default()
+    };
+    generate(&cfg, OutputFormat::Suncg, &root, false, &NoProgress).expect("generate");
+    let report = ingest(&IngestConfig::suncg(&root, &data), &NoProgress).expect("ingest");
+    let ids: Vec<String> = report.scenes.iter().map(|(r, _)| r.id.clone()).collect();
+    let bake = BakeConfig {
+        data: data.clone(),
+        ids: ids.clone(),
+        params: NavParams::default(),
+        force: false,
+        previews: false,
+    };
+    bake_scenes(&bake, &NoProgress);
+    let scenes: Vec<(String, String)> = ids
+        .iter()
+        .map(|id| (id.clone(), "val".to_string()))
+        .collect();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .expect("pool");
+    let per_scene = env("MINOS_BENCH_PER_SCENE", 4);
+    let tasks: Vec<(Task, Vec<Episode>)> = [Task::PointGoal, Task::ObjectGoal, Task::RoomGoal]
+        .into_iter()
+        .map(|task| {
+            let cfg = SampleConfig {
+                task,
+                per_scene,
+                seed: 2,
+                ..SampleConfig::default()
+            };
+            let batch = sample_scenes(&data, &scenes, &cfg, Shard::ALL, &NoProgress);
+            (task, batch.episodes)
+        })
+        .collect();
+    println!("| task | episodes | success | SPL | steps | time (1 core) | steps/s |");
+    println!("|---|---|---|---|---|---|---|");
+    for (task, episodes) in &tasks {
+        let cfg = RunConfig {
+            data: data.clone(),
+            out: dir.path().join(format!("run-{}", task.name())),
+            agent: AgentKind::Oracle,
+            body: AgentConfig::habitat(),
+            sensors: SensorSuite::minos(84),
+            renderer: RendererChoice::Cpu,
+            max_steps: None,
+            seed: 0,
+            shard: Shard::ALL,
+            resume: false,
+            reward: Reward::Geodesic,
+            encoding: ImageEncoding::Raw,
+            lerobot: false,
+        };
+        let t = Instant::now();
+        let report = pool
+            .install(|| run(&cfg, episodes, &NoProgress))
+            .expect("run");
+        let s = t.elapsed().as_secs_f64();
+        let steps: u64 = report.episodes.iter().map(|(_, m)| m.steps as u64).sum();
+        let n = report.episodes.len().max(1) as f64;
+        let success = report.episodes.iter().filter(|(_, m)| m.success).count() as f64 / n;
+        let spl = report
+            .episodes
+            .iter()
+            .map(|(_, m)| m.spl as f64)
+            .sum::<f64>()
+            / n;
+        println!(
+            "| {} | {} | {:.0} % | {:.3} | {} | {:.2} s | {:.0} |",
+            task.name(),
+            report.episodes.len(),
+            100.0 * success,
+            spl,
+            steps,
+            s,
+            steps as f64 / s
+        );
+    }
+    breakdown(&data, &tasks, dir.path());
+}
+
+/// Times the parts of a rollout on the same episodes: scene setup, simulator reset (goal
+/// field), oracle planning, simulation steps (motion, rendering, sensors, measurements) and
+/// observation writing.
+fn breakdown(data: &std::path::Path, tasks: &[(Task, Vec<Episode>)], dir: &std::path::Path) {
+    let sensors = SensorSuite::minos(84);
+    let (mut setup, mut reset, mut plan, mut decide, mut step, mut write) = (
+        Duration::ZERO,
+        Duration::ZERO,
+        Duration::ZERO,
+        Duration::ZERO,
+        Duration::ZERO,
+        Duration::ZERO,
+    );
+    let mut steps = 0u64;
+    let all: Vec<&Episode> = tasks.iter().flat_map(|(_, e)| e).collect();
+    let mut scene_ids: Vec<&str> = all.iter().map(|e| e.scene_id.as_str()).collect();
+    scene_ids.sort();
+    scene_ids.dedup();
+    for id in scene_ids {
+        let t = Instant::now();
+        let (_, scene) = read_scene(&scene_path(data, id)).expect("scene");
+        let grid = read_nav(&nav_path(data, id)).expect("nav");
+        let body = AgentConfig::habitat();
+        let assets = Arc::new(SceneAssets::new(&scene, grid, &body).expect("assets"));
+        let renderer =
+            Arc::new(Renderer::new(RendererChoice::Cpu, &assets.render).expect("renderer"));
+        let mut sim = Simulator::new(assets, renderer, body, sensors.clone(), 500, 0);
+        setup += t.elapsed();
+        for ep in all.iter().filter(|e| e.scene_id == id) {
+            let t = Instant::now();
+            sim.reset_episode(ep);
+            reset += t.elapsed();
+            let t = Instant::now();
+            let mut agent = OracleAgent::new();
+            agent.reset(ep, &sim).expect("plan");
+            plan += t.elapsed();
+            let mut obs = sim.observe().expect("observe");
+            let path = dir.join("breakdown.obs.parquet");
+            let mut writer = ObservationWriter::create(
+                &path,
+                &ep.episode_id,
+                &sensors.cameras,
+                ImageEncoding::Raw,
+            )
+            .expect("writer");
+            for k in 0..ep.max_steps {
+                let t = Instant::now();
+                writer.push(k, &obs.images).expect("push");
+                write += t.elapsed();
+                let t = Instant::now();
+                let d = agent.decide(&obs, &sim).expect("decide");
+                decide += t.elapsed();
+                let Decision::Act(a) = d else { break };
+                let t = Instant::now();
+                obs = sim.step(a).expect("step");
+                step += t.elapsed();
+                steps += 1;
+            }
+            let t = Instant::now();
+            writer.finish().expect("finish");
+            write += t.elapsed();
+        }
+    }
+    let total = setup + reset + plan + decide + step + write;
+    println!(
+        "\nbreakdown over {steps} steps ({:.2} s):",
+        total.as_secs_f64()
+    );
+    for (name, d) in [
+        ("scene setup", setup),
+        ("reset (goal field)", reset),
+        ("oracle plan", plan),
+        ("oracle decide", decide),
+        ("sim step (motion, render, sensors, measurements)", step),
+        ("observation writing", write),
+    ] {
+        println!(
+            "  {name:<50} {:>8.1} ms  {:>5.1} %  {:>7.1} µs/step",
+            d.as_secs_f64() * 1e3,
+            100.0 * d.as_secs_f64() / total.as_secs_f64(),
+            d.as_secs_f64() * 1e6 / steps.max(1) as f64
+        );
+    }
+}
