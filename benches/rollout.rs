@@ -18,6 +18,7 @@ use minos::ingest::{ingest, IngestConfig};
 use minos::io::scene_file::{read_scene, scene_path};
 use minos::navmesh::bake::{bake_scenes, BakeConfig};
 use minos::navmesh::file::{nav_path, read_nav};
+use minos::navmesh::geodesic::Geodesic;
 use minos::navmesh::NavParams;
 use minos::progress::NoProgress;
 use minos::run::agents::{Agent, Decision};
@@ -27,6 +28,44 @@ use minos::run::rollout::{run, AgentKind, RunConfig};
 use minos::run::tables::{ImageEncoding, ObservationWriter};
 use minos::sim::simulator::Renderer;
 use minos::sim::{AgentConfig, RendererChoice, SceneAssets, SensorSuite, Simulator};
+
+/// CPU time (s) of the whole process (all threads), from `/proc/self/stat` (Linux; `None`
+/// elsewhere). On a shared, busy box CPU time is steadier than wall time.
+fn process_cpu() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    let rest = stat.rsplit_once(')')?.1;
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let ticks: f64 = f.get(11)?.parse::<f64>().ok()? + f.get(12)?.parse::<f64>().ok()?;
+    Some(ticks / 100.0)
+}
+
+/// A clock of this thread's CPU time (`/proc/thread-self/schedstat`, ns), falling back to wall
+/// time.
+struct Clock(Instant);
+
+impl Clock {
+    fn now() -> Clock {
+        Clock(Instant::now())
+    }
+
+    fn thread_cpu() -> Option<Duration> {
+        let s = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
+        Some(Duration::from_nanos(
+            s.split_whitespace().next()?.parse().ok()?,
+        ))
+    }
+
+    /// Measures `f` in thread CPU time (wall time where that is unavailable).
+    fn time<R>(total: &mut Duration, f: impl FnOnce() -> R) -> R {
+        let (c0, w0) = (Self::thread_cpu(), Self::now());
+        let r = f();
+        *total += match (c0, Self::thread_cpu()) {
+            (Some(a), Some(b)) => b.saturating_sub(a),
+            _ => w0.0.elapsed(),
+        };
+        r
+    }
+}
 
 fn env(name: &str, default: usize) -> usize {
     std::env::var(name)
@@ -76,8 +115,8 @@ fn main() {
             (task, batch.episodes)
         })
         .collect();
-    println!("| task | episodes | success | SPL | steps | time (1 core) | steps/s |");
-    println!("|---|---|---|---|---|---|---|");
+    println!("| task | episodes | success | SPL | steps | wall (1 thread) | steps/s (wall) | steps/s (CPU) |");
+    println!("|---|---|---|---|---|---|---|---|");
     for (task, episodes) in &tasks {
         let cfg = RunConfig {
             data: data.clone(),
@@ -94,11 +133,12 @@ fn main() {
             encoding: ImageEncoding::Raw,
             lerobot: false,
         };
-        let t = Instant::now();
+        let (t, cpu0) = (Instant::now(), process_cpu());
         let report = pool
             .install(|| run(&cfg, episodes, &NoProgress))
             .expect("run");
         let s = t.elapsed().as_secs_f64();
+        let cpu = process_cpu().zip(cpu0).map_or(s, |(b, a)| b - a);
         let steps: u64 = report.episodes.iter().map(|(_, m)| m.steps as u64).sum();
         let n = report.episodes.len().max(1) as f64;
         let success = report.episodes.iter().filter(|(_, m)| m.success).count() as f64 / n;
@@ -109,14 +149,15 @@ fn main() {
             .sum::<f64>()
             / n;
         println!(
-            "| {} | {} | {:.0} % | {:.3} | {} | {:.2} s | {:.0} |",
+            "| {} | {} | {:.0} % | {:.3} | {} | {:.2} s | {:.0} | {:.0} |",
             task.name(),
             report.episodes.len(),
             100.0 * success,
             spl,
             steps,
             s,
-            steps as f64 / s
+            steps as f64 / s,
+            steps as f64 / cpu
         );
     }
     breakdown(&data, &tasks, dir.path());
@@ -141,23 +182,21 @@ fn breakdown(data: &std::path::Path, tasks: &[(Task, Vec<Episode>)], dir: &std::
     scene_ids.sort();
     scene_ids.dedup();
     for id in scene_ids {
-        let t = Instant::now();
-        let (_, scene) = read_scene(&scene_path(data, id)).expect("scene");
-        let grid = read_nav(&nav_path(data, id)).expect("nav");
-        let body = AgentConfig::habitat();
-        let assets = Arc::new(SceneAssets::new(&scene, grid, &body).expect("assets"));
-        let renderer =
-            Arc::new(Renderer::new(RendererChoice::Cpu, &assets.render).expect("renderer"));
-        let mut sim = Simulator::new(assets, renderer, body, sensors.clone(), 500, 0);
-        setup += t.elapsed();
+        let (mut sim, assets) = Clock::time(&mut setup, || {
+            let (_, scene) = read_scene(&scene_path(data, id)).expect("scene");
+            let grid = read_nav(&nav_path(data, id)).expect("nav");
+            let body = AgentConfig::habitat();
+            let assets = Arc::new(SceneAssets::new(&scene, grid, &body).expect("assets"));
+            let renderer =
+                Arc::new(Renderer::new(RendererChoice::Cpu, &assets.render).expect("renderer"));
+            let sim = Simulator::new(assets.clone(), renderer, body, sensors.clone(), 500, 0);
+            (sim, assets)
+        });
+        let geo = Clock::time(&mut setup, || Geodesic::new(&assets.grid));
         for ep in all.iter().filter(|e| e.scene_id == id) {
-            let t = Instant::now();
-            sim.reset_episode(ep);
-            reset += t.elapsed();
-            let t = Instant::now();
+            Clock::time(&mut reset, || sim.reset_episode_in(ep, Some(&geo)));
             let mut agent = OracleAgent::new();
-            agent.reset(ep, &sim).expect("plan");
-            plan += t.elapsed();
+            Clock::time(&mut plan, || agent.reset(ep, &sim).expect("plan"));
             let mut obs = sim.observe().expect("observe");
             let path = dir.join("breakdown.obs.parquet");
             let mut writer = ObservationWriter::create(
@@ -168,26 +207,18 @@ fn breakdown(data: &std::path::Path, tasks: &[(Task, Vec<Episode>)], dir: &std::
             )
             .expect("writer");
             for k in 0..ep.max_steps {
-                let t = Instant::now();
-                writer.push(k, &obs.images).expect("push");
-                write += t.elapsed();
-                let t = Instant::now();
-                let d = agent.decide(&obs, &sim).expect("decide");
-                decide += t.elapsed();
+                Clock::time(&mut write, || writer.push(k, &obs.images).expect("push"));
+                let d = Clock::time(&mut decide, || agent.decide(&obs, &sim).expect("decide"));
                 let Decision::Act(a) = d else { break };
-                let t = Instant::now();
-                obs = sim.step(a).expect("step");
-                step += t.elapsed();
+                obs = Clock::time(&mut step, || sim.step(a).expect("step"));
                 steps += 1;
             }
-            let t = Instant::now();
-            writer.finish().expect("finish");
-            write += t.elapsed();
+            Clock::time(&mut write, || writer.finish().expect("finish"));
         }
     }
     let total = setup + reset + plan + decide + step + write;
     println!(
-        "\nbreakdown over {steps} steps ({:.2} s):",
+        "\nbreakdown over {steps} steps ({:.2} s of thread CPU time):",
         total.as_secs_f64()
     );
     for (name, d) in [

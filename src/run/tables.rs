@@ -13,10 +13,12 @@ use arrow::array::{
     ListBuilder, RecordBatch, StringArray, UInt32Array,
 };
 use arrow::datatypes::{DataType, Field, Schema, SchemaRef};
-use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
-use parquet::arrow::ArrowWriter;
+use parquet::arrow::{add_encoded_arrow_schema_to_metadata, ArrowSchemaConverter, ArrowWriter};
 use parquet::basic::{Compression, ZstdLevel};
+use parquet::column::writer::ColumnCloseResult;
 use parquet::file::properties::{EnabledStatistics, WriterProperties};
+use parquet::file::reader::{FileReader, SerializedFileReader};
+use parquet::file::writer::SerializedFileWriter;
 use parquet::schema::types::ColumnPath;
 
 use crate::io::atomic::temp_path;
@@ -336,33 +338,53 @@ impl ObservationWriter {
     }
 }
 
-/// Concatenates part files (in the order given) into `out`, batch by batch.
+/// Concatenates part files (in the order given) into `out`: their row groups are copied as
+/// they are (compressed column chunks, no decoding), under `schema`'s Arrow metadata.
 pub fn merge(
     parts: &[std::path::PathBuf],
     schema: SchemaRef,
     out: &Path,
 ) -> Result<(), TableError> {
-    let mut readers = Vec::new();
+    let tmp = temp_path(out);
+    let err = |e: &dyn std::fmt::Display| format!("{}: {e}", out.display());
+    if let Some(dir) = out.parent() {
+        std::fs::create_dir_all(dir).map_err(|e| err(&e))?;
+    }
+    let mut props = props(&schema);
+    add_encoded_arrow_schema_to_metadata(&schema, &mut props);
+    let descr = ArrowSchemaConverter::new()
+        .convert(&schema)
+        .map_err(|e| err(&e))?;
+    let file = File::create(&tmp).map_err(|e| err(&e))?;
+    let mut w = SerializedFileWriter::new(file, descr.root_schema_ptr(), Arc::new(props))
+        .map_err(|e| err(&e))?;
     for p in parts {
-        let f = File::open(p).map_err(|e| format!("{}: {e}", p.display()))?;
-        let r = ParquetRecordBatchReaderBuilder::try_new(f)
-            .and_then(|b| b.with_batch_size(ROW_GROUP).build())
-            .map_err(|e| format!("{}: {e}", p.display()))?;
-        readers.push(r);
-    }
-    let mut failure = None;
-    let batches = readers.into_iter().flatten().map_while(|b| match b {
-        Ok(b) => Some(b),
-        Err(e) => {
-            failure = Some(e.to_string());
-            None
+        let perr = |e: &dyn std::fmt::Display| format!("{}: {e}", p.display());
+        let f = File::open(p).map_err(|e| perr(&e))?;
+        let reader = SerializedFileReader::new(f.try_clone().map_err(|e| perr(&e))?)
+            .map_err(|e| perr(&e))?;
+        let meta = reader.metadata();
+        if meta.file_metadata().schema_descr().root_schema() != descr.root_schema() {
+            return Err(perr(&"schema differs from the table's"));
         }
-    });
-    let result = write_batches(out, schema, batches);
-    match failure {
-        Some(e) => Err(format!("{}: {e}", out.display())),
-        None => result,
+        for rg in meta.row_groups() {
+            let mut g = w.next_row_group().map_err(|e| err(&e))?;
+            for col in rg.columns() {
+                let chunk = ColumnCloseResult {
+                    bytes_written: col.compressed_size().max(0) as u64,
+                    rows_written: rg.num_rows().max(0) as u64,
+                    metadata: col.clone(),
+                    bloom_filter: None,
+                    column_index: None,
+                    offset_index: None,
+                };
+                g.append_column(&f, chunk).map_err(|e| perr(&e))?;
+            }
+            g.close().map_err(|e| err(&e))?;
+        }
     }
+    w.close().map_err(|e| err(&e))?;
+    std::fs::rename(&tmp, out).map_err(|e| err(&e))
 }
 
 /// Writes the episode table: the episodes' own columns that matter for analysis and their
