@@ -13,6 +13,7 @@ use arrow::array::{
     ListBuilder, RecordBatch, StringArray, UInt32Array,
 };
 use arrow::datatypes::{DataType, Field, Schema, SchemaRef};
+use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 use parquet::arrow::{add_encoded_arrow_schema_to_metadata, ArrowSchemaConverter, ArrowWriter};
 use parquet::basic::{Compression, ZstdLevel};
 use parquet::column::writer::ColumnCloseResult;
@@ -338,9 +339,53 @@ impl ObservationWriter {
     }
 }
 
-/// Concatenates part files (in the order given) into `out`: their row groups are copied as
-/// they are (compressed column chunks, no decoding), under `schema`'s Arrow metadata.
+/// Concatenates part files (in the order given) into `out`. Tables with binary (image)
+/// columns have their row groups copied as they are (compressed column chunks, no decoding:
+/// re-encoding images would cost as much as writing them); small tables are re-batched into
+/// row groups of up to `ROW_GROUP * 8` rows.
 pub fn merge(
+    parts: &[std::path::PathBuf],
+    schema: SchemaRef,
+    out: &Path,
+) -> Result<(), TableError> {
+    if schema
+        .fields()
+        .iter()
+        .any(|f| f.data_type() == &DataType::Binary)
+    {
+        copy_row_groups(parts, schema, out)
+    } else {
+        rebatch(parts, schema, out)
+    }
+}
+
+/// [`merge`] batch by batch (decoding and re-encoding).
+fn rebatch(parts: &[std::path::PathBuf], schema: SchemaRef, out: &Path) -> Result<(), TableError> {
+    let mut readers = Vec::new();
+    for p in parts {
+        let f = File::open(p).map_err(|e| format!("{}: {e}", p.display()))?;
+        let r = ParquetRecordBatchReaderBuilder::try_new(f)
+            .and_then(|b| b.with_batch_size(ROW_GROUP).build())
+            .map_err(|e| format!("{}: {e}", p.display()))?;
+        readers.push(r);
+    }
+    let mut failure = None;
+    let batches = readers.into_iter().flatten().map_while(|b| match b {
+        Ok(b) => Some(b),
+        Err(e) => {
+            failure = Some(e.to_string());
+            None
+        }
+    });
+    let result = write_batches(out, schema, batches);
+    match failure {
+        Some(e) => Err(format!("{}: {e}", out.display())),
+        None => result,
+    }
+}
+
+/// [`merge`] by copying the parts' compressed row groups, under `schema`'s Arrow metadata.
+fn copy_row_groups(
     parts: &[std::path::PathBuf],
     schema: SchemaRef,
     out: &Path,
