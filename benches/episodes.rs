@@ -6,11 +6,14 @@
 use std::time::Instant;
 
 use minos::episode::batch::{sample_scenes, Shard};
-use minos::episode::sample::SampleConfig;
+use minos::episode::sample::{sample_scene, SampleConfig};
 use minos::episode::Task;
 use minos::generate::{generate, GenerateConfig, OutputFormat};
 use minos::ingest::{ingest, IngestConfig};
 use minos::navmesh::bake::{bake_scenes, BakeConfig};
+use minos::navmesh::file::{nav_path, read_nav};
+use minos::navmesh::geodesic::Geodesic;
+use minos::navmesh::path::shortest_path_in;
 use minos::navmesh::NavParams;
 use minos::progress::NoProgress;
 
@@ -60,4 +63,47 @@ fn main() {
             batch.total as f64 / s
         );
     }
+    breakdown(&data, &ids);
+}
+
+/// Where PointGoal sampling spends its time, scene by scene: reading the grid, building the
+/// geodesic data (line-of-sight index, search records), the first path query (which builds
+/// the sparse graph), and sampling 100 episodes with all of that reused.
+fn breakdown(data: &std::path::Path, ids: &[String]) {
+    let (mut read, mut geo_new, mut first, mut sample) = (0.0, 0.0, 0.0, 0.0);
+    let mut spans = 0usize;
+    for id in ids {
+        let t = Instant::now();
+        let grid = read_nav(&nav_path(data, id)).expect("nav");
+        read += t.elapsed().as_secs_f64();
+        spans += grid.spans.len();
+        let t = Instant::now();
+        let geo = Geodesic::new(&grid);
+        geo_new += t.elapsed().as_secs_f64();
+        let walkable = grid.walkable_spans(None);
+        let t = Instant::now();
+        let _ = shortest_path_in(&geo, walkable[0], walkable[walkable.len() / 2]);
+        first += t.elapsed().as_secs_f64();
+        let cfg = SampleConfig {
+            task: Task::PointGoal,
+            per_scene: 100,
+            seed: 1,
+            ..SampleConfig::default()
+        };
+        let t = Instant::now();
+        let _ = sample_scene(&grid, id, "train", &cfg);
+        sample += t.elapsed().as_secs_f64();
+    }
+    let n = ids.len().max(1) as f64;
+    println!(
+        "\npointgoal per scene ({} scenes, {:.0} spans on average): read grid {:.2} ms, \
+         Geodesic::new {:.2} ms, first path query {:.2} ms; sample_scene (100 episodes, \
+         including its own setup) {:.2} ms",
+        ids.len(),
+        spans as f64 / n,
+        1e3 * read / n,
+        1e3 * geo_new / n,
+        1e3 * first / n,
+        1e3 * sample / n
+    );
 }

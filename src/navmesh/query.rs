@@ -55,11 +55,17 @@ impl NavGrid {
                     let Some(c) = self.column(ix, iz) else {
                         continue;
                     };
+                    // The column's centre, as `span_position` computes it (without its
+                    // search for the column).
+                    let (x, z) = (
+                        self.x0 + (ix as f32 + 0.5) * self.cell(),
+                        self.z0 + (iz as f32 + 0.5) * self.cell(),
+                    );
                     for s in self.column_spans(c) {
                         if !self.spans[s].walkable {
                             continue;
                         }
-                        let d = self.span_position(s).distance(p);
+                        let d = Vec3::new(x, self.spans[s].y, z).distance(p);
                         if d <= SNAP_RADIUS
                             && best.is_none_or(|(bd, bs)| d < bd || (d == bd && (s as u32) < bs))
                         {

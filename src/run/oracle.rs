@@ -3,6 +3,15 @@
 //! velocities — by simulating each action with the simulator's own motion and collision model,
 //! with the goal's geodesic distance field as heuristic. The plan ends where the success test
 //! holds, followed by `stop`. Unlike a greedy follower it cannot get stuck at corners.
+//!
+//! For discrete agents most of a plan is straight walking towards the field's next corner, so
+//! each step of the plan first tries a *greedy step*: turn to the lattice heading closest to
+//! the next corner (or a neighbouring one) and move forward. It is kept only when the simulated
+//! forward move collides with nothing and lowers the remaining geodesic distance by at least
+//! half a step (or reaches the goal); otherwise a weighted A* segment plans from there. Every
+//! kept step makes progress, so the plan terminates; should the mixed plan fail, the plan is
+//! searched again with A* segments alone, so the oracle succeeds wherever the plain search
+//! does.
 
 use std::cmp::Reverse;
 use std::collections::{BinaryHeap, HashMap};
@@ -79,6 +88,8 @@ type Node = (AgentState, u32, Option<(u32, u8)>);
 
 /// Progress (m of geodesic distance) each planning segment must make.
 const SEGMENT: f32 = 3.0;
+/// Progress (m) of a planning segment between greedy steps.
+const SHORT_SEGMENT: f32 = 0.5;
 
 /// The geodesic distance that counts for planning: to the goal field, minus the success radius
 /// of a point goal.
@@ -94,9 +105,25 @@ fn remaining(sim: &Simulator, episode: &Episode, s: &AgentState) -> f32 {
     }
 }
 
-/// Plans in segments: each a weighted A* over simulated states until the remaining geodesic
-/// distance has dropped by [`SEGMENT`] (or the goal is reached), so every search stays small.
+/// Plans with greedy steps where they are safe (discrete agents) and A* segments elsewhere;
+/// falls back to A* segments alone when that fails.
 fn plan(sim: &Simulator, episode: &Episode, start: AgentState) -> Option<Vec<&'static str>> {
+    let discrete = matches!(sim.agent().motion, Motion::Discrete { .. });
+    (discrete)
+        .then(|| plan_with(sim, episode, start, true))
+        .flatten()
+        .or_else(|| plan_with(sim, episode, start, false))
+}
+
+/// Plans in segments: a greedy step when `greedy` and one is safe, else a weighted A* over
+/// simulated states until the remaining geodesic distance has dropped by [`SEGMENT`] (or the
+/// goal is reached), so every search stays small.
+fn plan_with(
+    sim: &Simulator,
+    episode: &Episode,
+    start: AgentState,
+    greedy: bool,
+) -> Option<Vec<&'static str>> {
     let mut out = Vec::new();
     let mut state = start;
     for _ in 0..10_000 {
@@ -107,7 +134,19 @@ fn plan(sim: &Simulator, episode: &Episode, start: AgentState) -> Option<Vec<&'s
         if !now.is_finite() {
             return None;
         }
-        let attempt = [SEGMENT, 1.0, 0.3]
+        if greedy {
+            if let Some(end) = greedy_step(sim, episode, &state, now, &mut out) {
+                state = end;
+                continue;
+            }
+        }
+        // After a greedy step failed, plan just past the obstacle and go greedy again.
+        let segments: &[f32] = if greedy {
+            &[SHORT_SEGMENT, SEGMENT, 1.0, 0.3]
+        } else {
+            &[SEGMENT, 1.0, 0.3]
+        };
+        let attempt = segments
             .iter()
             .find_map(|seg| search(sim, episode, state, (now - seg).max(-1.0)));
         let (actions, end) = attempt?;
@@ -116,6 +155,87 @@ fn plan(sim: &Simulator, episode: &Episode, start: AgentState) -> Option<Vec<&'s
         }
         out.extend(actions);
         state = end;
+    }
+    None
+}
+
+/// Signed angle (rad, in [−π, π)) to turn from yaw `from` to yaw `to`.
+fn angle_between(from: f32, to: f32) -> f32 {
+    (to - from + std::f32::consts::PI).rem_euclid(std::f32::consts::TAU) - std::f32::consts::PI
+}
+
+/// One greedy step of a discrete agent: turn towards the field's next corner (keeping the
+/// heading when it is within one turn of it, else the lattice heading closest to it, else the
+/// other heading beside it) and move forward. Returns the end
+/// state and appends the actions when the forward move collides with nothing and lowers the
+/// remaining distance `now` by at least half a step, or reaches the goal.
+fn greedy_step(
+    sim: &Simulator,
+    episode: &Episode,
+    state: &AgentState,
+    now: f32,
+    out: &mut Vec<&'static str>,
+) -> Option<AgentState> {
+    let Motion::Discrete { step, turn_deg } = sim.agent().motion else {
+        return None;
+    };
+    let turn = turn_deg.to_radians();
+    if !(step > 0.0 && turn > 0.0) {
+        return None;
+    }
+    let grid = &sim.assets().grid;
+    let p = Vec3::from_array(state.position);
+    // Aim at the first corner of the anchor chain at least a step away.
+    let mut corner = sim.goal_anchor(grid.snap(p)?)?;
+    for _ in 0..4 {
+        let c = grid.span_position(corner as usize);
+        if (c.x - p.x).hypot(c.z - p.z) >= step {
+            break;
+        }
+        match sim.goal_anchor(corner) {
+            Some(next) if next != corner => corner = next,
+            _ => break,
+        }
+    }
+    let c = grid.span_position(corner as usize);
+    let (ax, az) = (c.x - p.x, c.z - p.z);
+    if ax * ax + az * az < 1e-8 {
+        return None;
+    }
+    let diff = angle_between(state.yaw, (-ax).atan2(-az)) / turn;
+    let nearest = diff.round();
+    let other = if diff >= nearest {
+        nearest + 1.0
+    } else {
+        nearest - 1.0
+    };
+    let forward = Actions::single("forward")?;
+    // Keep the heading while it is within one turn of the corner (turning back and forth
+    // costs steps), else the closest heading, else the other one beside the corner.
+    let keep = if diff.abs() <= 1.0 { Some(0.0) } else { None };
+    for k in keep.into_iter().chain([nearest, other]) {
+        let k = k as i32;
+        let (name, count) = if k >= 0 {
+            ("turn_left", k)
+        } else {
+            ("turn_right", -k)
+        };
+        let a = Actions::single(name)?;
+        let mut s = *state;
+        for _ in 0..count {
+            s = sim.transition(&s, a).state;
+        }
+        let t = sim.transition(&s, forward);
+        if t.collided {
+            continue;
+        }
+        let ok = reached(sim, episode, &t.state)
+            || remaining(sim, episode, &t.state) <= now - 0.5 * step;
+        if ok {
+            out.extend(std::iter::repeat_n(name, count as usize));
+            out.push("forward");
+            return Some(t.state);
+        }
     }
     None
 }

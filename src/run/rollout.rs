@@ -17,6 +17,7 @@ use crate::episode::Episode;
 use crate::io::atomic::write_bytes_atomic;
 use crate::io::variant_store::{grid_ref, load_scene};
 use crate::navmesh::file::{nav_path, read_nav};
+use crate::navmesh::geodesic::Geodesic;
 use crate::progress::Progress;
 use crate::sim::simulator::Renderer;
 use crate::sim::{AgentConfig, RendererChoice, SceneAssets, SensorSuite, Simulator};
@@ -132,15 +133,17 @@ fn make_agent(kind: &AgentKind, seed: u64) -> Result<Box<dyn Agent>, String> {
 }
 
 /// Runs one episode into its part files and returns its metrics.
+#[allow(clippy::too_many_arguments)]
 fn run_episode(
     sim: &mut Simulator,
+    geo: &Geodesic<'_>,
     agent: &mut dyn Agent,
     ep: &Episode,
     cfg: &RunConfig,
     parts: &Path,
     index: usize,
 ) -> Result<EpisodeMetrics, String> {
-    sim.reset_episode(ep);
+    sim.reset_episode_in(ep, Some(geo));
     agent.reset(ep, sim)?;
     let max_steps = cfg.max_steps.unwrap_or(ep.max_steps).max(1);
     let mut obs = sim.observe().map_err(|e| e.to_string())?;
@@ -297,7 +300,7 @@ pub fn run(
             if pending.is_empty() {
                 return out;
             }
-            let setup = (|| -> Result<Simulator, String> {
+            let setup = (|| -> Result<(Simulator, Arc<SceneAssets>), String> {
                 let (scene, _) = load_scene(&cfg.data, scene_id)
                     .map_err(|e| format!("{e} (run `minos ingest`)"))?;
                 let grid = read_nav(&nav_path(&cfg.data, &grid_ref(&cfg.data, scene_id)))
@@ -307,14 +310,15 @@ pub fn run(
                 let renderer = Arc::new(
                     Renderer::new(cfg.renderer, &assets.render).map_err(|e| e.to_string())?,
                 );
-                Ok(Simulator::new(
-                    assets,
+                let sim = Simulator::new(
+                    assets.clone(),
                     renderer,
                     cfg.body,
                     cfg.sensors.clone(),
                     cfg.max_steps.unwrap_or(500),
                     cfg.seed,
-                ))
+                );
+                Ok((sim, assets))
             })();
             match setup {
                 Err(e) => {
@@ -323,12 +327,15 @@ pub fn run(
                         progress.advance(1);
                     }
                 }
-                Ok(mut sim) => match make_agent(&cfg.agent, cfg.seed) {
+                Ok((mut sim, assets)) => match make_agent(&cfg.agent, cfg.seed) {
                     Ok(mut agent) => {
+                        // One line-of-sight index and set of search records for every
+                        // episode's goal field in this scene.
+                        let geo = Geodesic::new(&assets.grid);
                         for (i, ep) in pending {
                             out.push((
                                 *i,
-                                run_episode(&mut sim, agent.as_mut(), ep, cfg, &parts, *i)
+                                run_episode(&mut sim, &geo, agent.as_mut(), ep, cfg, &parts, *i)
                                     .map(|m| (m, false)),
                             ));
                             progress.advance(1);

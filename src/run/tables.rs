@@ -14,9 +14,13 @@ use arrow::array::{
 };
 use arrow::datatypes::{DataType, Field, Schema, SchemaRef};
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
-use parquet::arrow::ArrowWriter;
+use parquet::arrow::{add_encoded_arrow_schema_to_metadata, ArrowSchemaConverter, ArrowWriter};
 use parquet::basic::{Compression, ZstdLevel};
-use parquet::file::properties::WriterProperties;
+use parquet::column::writer::ColumnCloseResult;
+use parquet::file::properties::{EnabledStatistics, WriterProperties};
+use parquet::file::reader::{FileReader, SerializedFileReader};
+use parquet::file::writer::SerializedFileWriter;
+use parquet::schema::types::ColumnPath;
 
 use crate::io::atomic::temp_path;
 use crate::sim::sensors::{CameraSensor, Image};
@@ -27,11 +31,34 @@ pub const ROW_GROUP: usize = 32;
 /// A table failure (the message names the file).
 pub type TableError = String;
 
-fn props() -> WriterProperties {
-    WriterProperties::builder()
+/// Writer settings for a table: zstd level 1; binary (image) columns without dictionary
+/// encoding or statistics, which cost time and buy nothing for unique multi-kilobyte values.
+fn props(schema: &Schema) -> WriterProperties {
+    let mut b = WriterProperties::builder()
         .set_compression(Compression::ZSTD(ZstdLevel::try_new(1).unwrap_or_default()))
-        .set_max_row_group_row_count(Some(ROW_GROUP * 8))
-        .build()
+        .set_max_row_group_row_count(Some(ROW_GROUP * 8));
+    for f in schema.fields() {
+        if f.data_type() == &DataType::Binary {
+            let col = ColumnPath::from(f.name().as_str());
+            b = b
+                .set_column_dictionary_enabled(col.clone(), false)
+                .set_column_statistics_enabled(col, EnabledStatistics::None);
+        }
+    }
+    b.build()
+}
+
+/// Appends an image's raw little-endian bytes to `out`.
+fn append_le_bytes(out: &mut Vec<u8>, img: &Image) {
+    #[cfg(target_endian = "little")]
+    match img {
+        Image::U8 { data, .. } => out.extend_from_slice(data),
+        Image::U16(d) => out.extend_from_slice(bytemuck::cast_slice(d)),
+        Image::U32(d) => out.extend_from_slice(bytemuck::cast_slice(d)),
+        Image::F32 { data, .. } => out.extend_from_slice(bytemuck::cast_slice(data)),
+    }
+    #[cfg(not(target_endian = "little"))]
+    out.extend_from_slice(&img.to_le_bytes());
 }
 
 /// Schema of the trajectory table.
@@ -147,7 +174,8 @@ fn write_batches(
         std::fs::create_dir_all(dir).map_err(|e| err(&e))?;
     }
     let file = File::create(&tmp).map_err(|e| err(&e))?;
-    let mut w = ArrowWriter::try_new(file, schema, Some(props())).map_err(|e| err(&e))?;
+    let props = props(&schema);
+    let mut w = ArrowWriter::try_new(file, schema, Some(props)).map_err(|e| err(&e))?;
     for b in batches {
         w.write(&b).map_err(|e| err(&e))?;
     }
@@ -205,7 +233,12 @@ pub struct ObservationWriter {
     encoding: ImageEncoding,
     cameras: Vec<CameraSensor>,
     episode: String,
-    pending: Vec<(u32, Vec<Vec<u8>>)>,
+    /// Steps of the pending rows.
+    steps: Vec<u32>,
+    /// Pending images, one builder per camera.
+    pending: Vec<BinaryBuilder>,
+    /// Reused buffer for one image's bytes.
+    buf: Vec<u8>,
 }
 
 impl ObservationWriter {
@@ -225,7 +258,7 @@ impl ObservationWriter {
         let writer = ArrowWriter::try_new(
             File::create(&tmp).map_err(|e| err(&e))?,
             schema.clone(),
-            Some(props()),
+            Some(props(&schema)),
         )
         .map_err(|e| err(&e))?;
         Ok(ObservationWriter {
@@ -236,54 +269,52 @@ impl ObservationWriter {
             encoding,
             cameras: cameras.to_vec(),
             episode: episode.to_string(),
-            pending: Vec::new(),
+            steps: Vec::with_capacity(ROW_GROUP),
+            pending: cameras.iter().map(|_| BinaryBuilder::new()).collect(),
+            buf: Vec::new(),
         })
     }
 
     /// Adds the images of one step.
     pub fn push(&mut self, step: u32, images: &[(String, Image)]) -> Result<(), TableError> {
-        let mut cols = Vec::with_capacity(images.len());
-        for ((_, img), cam) in images.iter().zip(&self.cameras) {
-            cols.push(match self.encoding {
-                ImageEncoding::Raw => img.to_le_bytes(),
-                ImageEncoding::Png => crate::render::visualize::encode_png(
-                    cam.modality,
-                    img,
-                    cam.resolution[0],
-                    cam.resolution[1],
-                )
-                .map_err(|e| format!("{}: sensor {}: {e}", self.path.display(), cam.name))?,
-            });
+        for (((_, img), cam), b) in images.iter().zip(&self.cameras).zip(&mut self.pending) {
+            match self.encoding {
+                ImageEncoding::Raw => {
+                    self.buf.clear();
+                    append_le_bytes(&mut self.buf, img);
+                    b.append_value(&self.buf);
+                }
+                ImageEncoding::Png => b.append_value(
+                    crate::render::visualize::encode_png(
+                        cam.modality,
+                        img,
+                        cam.resolution[0],
+                        cam.resolution[1],
+                    )
+                    .map_err(|e| format!("{}: sensor {}: {e}", self.path.display(), cam.name))?,
+                ),
+            }
         }
-        self.pending.push((step, cols));
-        if self.pending.len() >= ROW_GROUP {
+        self.steps.push(step);
+        if self.steps.len() >= ROW_GROUP {
             self.flush()?;
         }
         Ok(())
     }
 
     fn flush(&mut self) -> Result<(), TableError> {
-        if self.pending.is_empty() {
+        if self.steps.is_empty() {
             return Ok(());
         }
-        let n = self.pending.len();
+        let n = self.steps.len();
         let mut columns: Vec<ArrayRef> = vec![
             Arc::new(StringArray::from_iter_values(std::iter::repeat_n(
                 self.episode.as_str(),
                 n,
             ))),
-            Arc::new(
-                self.pending
-                    .iter()
-                    .map(|(s, _)| *s)
-                    .collect::<UInt32Array>(),
-            ),
+            Arc::new(UInt32Array::from(std::mem::take(&mut self.steps))),
         ];
-        for k in 0..self.cameras.len() {
-            let mut b = BinaryBuilder::new();
-            for (_, cols) in &self.pending {
-                b.append_value(&cols[k]);
-            }
+        for b in &mut self.pending {
             columns.push(Arc::new(b.finish()));
         }
         let batch = RecordBatch::try_new(self.schema.clone(), columns)
@@ -294,7 +325,6 @@ impl ObservationWriter {
         self.writer
             .flush()
             .map_err(|e| format!("{}: {e}", self.path.display()))?;
-        self.pending.clear();
         Ok(())
     }
 
@@ -309,12 +339,28 @@ impl ObservationWriter {
     }
 }
 
-/// Concatenates part files (in the order given) into `out`, batch by batch.
+/// Concatenates part files (in the order given) into `out`. Tables with binary (image)
+/// columns have their row groups copied as they are (compressed column chunks, no decoding:
+/// re-encoding images would cost as much as writing them); small tables are re-batched into
+/// row groups of up to `ROW_GROUP * 8` rows.
 pub fn merge(
     parts: &[std::path::PathBuf],
     schema: SchemaRef,
     out: &Path,
 ) -> Result<(), TableError> {
+    if schema
+        .fields()
+        .iter()
+        .any(|f| f.data_type() == &DataType::Binary)
+    {
+        copy_row_groups(parts, schema, out)
+    } else {
+        rebatch(parts, schema, out)
+    }
+}
+
+/// [`merge`] batch by batch (decoding and re-encoding).
+fn rebatch(parts: &[std::path::PathBuf], schema: SchemaRef, out: &Path) -> Result<(), TableError> {
     let mut readers = Vec::new();
     for p in parts {
         let f = File::open(p).map_err(|e| format!("{}: {e}", p.display()))?;
@@ -336,6 +382,54 @@ pub fn merge(
         Some(e) => Err(format!("{}: {e}", out.display())),
         None => result,
     }
+}
+
+/// [`merge`] by copying the parts' compressed row groups, under `schema`'s Arrow metadata.
+fn copy_row_groups(
+    parts: &[std::path::PathBuf],
+    schema: SchemaRef,
+    out: &Path,
+) -> Result<(), TableError> {
+    let tmp = temp_path(out);
+    let err = |e: &dyn std::fmt::Display| format!("{}: {e}", out.display());
+    if let Some(dir) = out.parent() {
+        std::fs::create_dir_all(dir).map_err(|e| err(&e))?;
+    }
+    let mut props = props(&schema);
+    add_encoded_arrow_schema_to_metadata(&schema, &mut props);
+    let descr = ArrowSchemaConverter::new()
+        .convert(&schema)
+        .map_err(|e| err(&e))?;
+    let file = File::create(&tmp).map_err(|e| err(&e))?;
+    let mut w = SerializedFileWriter::new(file, descr.root_schema_ptr(), Arc::new(props))
+        .map_err(|e| err(&e))?;
+    for p in parts {
+        let perr = |e: &dyn std::fmt::Display| format!("{}: {e}", p.display());
+        let f = File::open(p).map_err(|e| perr(&e))?;
+        let reader = SerializedFileReader::new(f.try_clone().map_err(|e| perr(&e))?)
+            .map_err(|e| perr(&e))?;
+        let meta = reader.metadata();
+        if meta.file_metadata().schema_descr().root_schema() != descr.root_schema() {
+            return Err(perr(&"schema differs from the table's"));
+        }
+        for rg in meta.row_groups() {
+            let mut g = w.next_row_group().map_err(|e| err(&e))?;
+            for col in rg.columns() {
+                let chunk = ColumnCloseResult {
+                    bytes_written: col.compressed_size().max(0) as u64,
+                    rows_written: rg.num_rows().max(0) as u64,
+                    metadata: col.clone(),
+                    bloom_filter: None,
+                    column_index: None,
+                    offset_index: None,
+                };
+                g.append_column(&f, chunk).map_err(|e| perr(&e))?;
+            }
+            g.close().map_err(|e| err(&e))?;
+        }
+    }
+    w.close().map_err(|e| err(&e))?;
+    std::fs::rename(&tmp, out).map_err(|e| err(&e))
 }
 
 /// Writes the episode table: the episodes' own columns that matter for analysis and their

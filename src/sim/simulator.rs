@@ -191,6 +191,9 @@ pub struct Observation {
 struct GoalState {
     point: Vec3,
     field: DistanceField,
+    /// The last measured span and its path's points (turning in place measures the same
+    /// span again).
+    last: Option<(u32, Option<Vec<Vec3>>)>,
 }
 
 /// One agent in one scene.
@@ -256,6 +259,20 @@ impl Simulator {
     /// Places the agent at `start` (y = floor height) facing `yaw`, with an optional goal;
     /// the noise generator restarts from `(seed, episode)`.
     pub fn reset(&mut self, start: Vec3, yaw: f32, goal: Option<GoalSpec>, episode: &str) {
+        self.reset_in(start, yaw, goal, episode, None);
+    }
+
+    /// [`Simulator::reset`] computing the goal's distance field with `geo`, precomputed
+    /// geodesic data of this simulator's grid (ignored when it belongs to another grid):
+    /// callers running many episodes in one scene save rebuilding it per episode.
+    pub fn reset_in(
+        &mut self,
+        start: Vec3,
+        yaw: f32,
+        goal: Option<GoalSpec>,
+        episode: &str,
+        geo: Option<&Geodesic<'_>>,
+    ) {
         self.state = AgentState {
             position: start.to_array(),
             yaw,
@@ -277,14 +294,31 @@ impl Simulator {
                     (p, s)
                 }
             };
-            let field = Geodesic::new(grid).field(&spans);
-            GoalState { point, field }
+            let field = match geo.filter(|g| std::ptr::eq(g.grid(), grid)) {
+                Some(g) => g.field(&spans),
+                None => Geodesic::new(grid).field(&spans),
+            };
+            GoalState {
+                point,
+                field,
+                last: None,
+            }
         });
     }
 
     /// Resets to an episode's start, with its goal for the measurements (object goals: the
     /// walkable spans within the success radius of each target; room goals: the rooms' floor).
     pub fn reset_episode(&mut self, episode: &crate::episode::Episode) {
+        self.reset_episode_in(episode, None);
+    }
+
+    /// [`Simulator::reset_episode`] with precomputed geodesic data of this simulator's grid
+    /// (see [`Simulator::reset_in`]).
+    pub fn reset_episode_in(
+        &mut self,
+        episode: &crate::episode::Episode,
+        geo: Option<&Geodesic<'_>>,
+    ) {
         use crate::episode::Goal;
         let grid = &self.assets.grid;
         let goal = match &episode.goal {
@@ -306,7 +340,7 @@ impl Simulator {
         };
         let start = Vec3::from_array(episode.start_position);
         let id = episode.episode_id.clone();
-        self.reset(start, episode.start_yaw, Some(goal), &id);
+        self.reset_in(start, episode.start_yaw, Some(goal), &id, geo);
     }
 
     /// Floor height at `p` reachable from height `y` (within the climb), from the grid.
@@ -505,19 +539,27 @@ impl Simulator {
                 });
             }
         }
+        let snapped = self.assets.grid.snap(base);
+        if let (Some(goal), Some(span)) = (self.goal.as_mut(), snapped) {
+            if goal.last.as_ref().is_none_or(|(s, _)| *s != span) {
+                let points = match path_from_field(&self.assets.grid, &goal.field, span) {
+                    PathResult::Found(p) => Some(p.points),
+                    PathResult::Unreachable => None,
+                };
+                goal.last = Some((span, points));
+            }
+        }
         if let Some(goal) = &self.goal {
             m.goal_euclidean = Some(base.distance(goal.point));
             m.goal_direction = self.agent_frame(goal.point - base);
-            let grid = &self.assets.grid;
-            if let Some(span) = grid.snap(base) {
-                if let PathResult::Found(p) = path_from_field(grid, &goal.field, span) {
-                    let mut pts = p.points.clone();
-                    if let Some(first) = pts.first_mut() {
-                        *first = base;
-                    }
-                    m.goal_geodesic = Some(pts.windows(2).map(|w| w[0].distance(w[1])).sum());
-                    m.waypoint_direction = pts.get(1).and_then(|&w| self.agent_frame(w - base));
+            if let Some((_, Some(points))) = goal.last.as_ref().filter(|(s, _)| Some(*s) == snapped)
+            {
+                let mut pts = points.clone();
+                if let Some(first) = pts.first_mut() {
+                    *first = base;
                 }
+                m.goal_geodesic = Some(pts.windows(2).map(|w| w[0].distance(w[1])).sum());
+                m.waypoint_direction = pts.get(1).and_then(|&w| self.agent_frame(w - base));
             }
         }
         Ok(Observation {

@@ -1,0 +1,241 @@
+//! End-to-end rollout throughput: `cargo bench --bench rollout`.
+//!
+//! Generated furnished houses (default configuration) baked at 5 cm; PointGoal, ObjectGoal
+//! and RoomGoal episodes; the oracle with the Habitat agent and MINOS's RGB-D-semantic
+//! sensors at 84² on the CPU renderer, writing Parquet, on one thread. Prints steps per
+//! second per task, then a breakdown of one pass (planning, simulation steps, writing).
+//!
+//! `MINOS_BENCH_HOUSES` (default 8) and `MINOS_BENCH_PER_SCENE` (default 4) size the run;
+//! `MINOS_BENCH_THREADS` (default 1) sets the rollout threads (one scene per thread).
+
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use minos::episode::batch::{sample_scenes, Shard};
+use minos::episode::sample::SampleConfig;
+use minos::episode::{Episode, Task};
+use minos::generate::{generate, GenerateConfig, OutputFormat};
+use minos::ingest::{ingest, IngestConfig};
+use minos::io::scene_file::{read_scene, scene_path};
+use minos::navmesh::bake::{bake_scenes, BakeConfig};
+use minos::navmesh::file::{nav_path, read_nav};
+use minos::navmesh::geodesic::Geodesic;
+use minos::navmesh::NavParams;
+use minos::progress::NoProgress;
+use minos::run::agents::{Agent, Decision};
+use minos::run::metrics::Reward;
+use minos::run::oracle::OracleAgent;
+use minos::run::rollout::{run, AgentKind, RunConfig};
+use minos::run::tables::{ImageEncoding, ObservationWriter};
+use minos::sim::simulator::Renderer;
+use minos::sim::{AgentConfig, RendererChoice, SceneAssets, SensorSuite, Simulator};
+
+/// CPU time (s) of the whole process (all threads), from `/proc/self/stat` (Linux; `None`
+/// elsewhere). On a shared, busy box CPU time is steadier than wall time.
+fn process_cpu() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    let rest = stat.rsplit_once(')')?.1;
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let ticks: f64 = f.get(11)?.parse::<f64>().ok()? + f.get(12)?.parse::<f64>().ok()?;
+    Some(ticks / 100.0)
+}
+
+/// A clock of this thread's CPU time (`/proc/thread-self/schedstat`, ns), falling back to wall
+/// time.
+struct Clock(Instant);
+
+impl Clock {
+    fn now() -> Clock {
+        Clock(Instant::now())
+    }
+
+    fn thread_cpu() -> Option<Duration> {
+        let s = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
+        Some(Duration::from_nanos(
+            s.split_whitespace().next()?.parse().ok()?,
+        ))
+    }
+
+    /// Measures `f` in thread CPU time (wall time where that is unavailable).
+    fn time<R>(total: &mut Duration, f: impl FnOnce() -> R) -> R {
+        let (c0, w0) = (Self::thread_cpu(), Self::now());
+        let r = f();
+        *total += match (c0, Self::thread_cpu()) {
+            (Some(a), Some(b)) => b.saturating_sub(a),
+            _ => w0.0.elapsed(),
+        };
+        r
+    }
+}
+
+fn env(name: &str, default: usize) -> usize {
+    std::env::var(name)
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(default)
+}
+
+fn main() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let (root, data) = (dir.path().join("suncg"), dir.path().join("DATA"));
+    let cfg = GenerateConfig {
+        houses: env("MINOS_BENCH_HOUSES", 8),
+        seed: 5,
+        ..GenerateConfig::default()
+    };
+    generate(&cfg, OutputFormat::Suncg, &root, false, &NoProgress).expect("generate");
+    let report = ingest(&IngestConfig::suncg(&root, &data), &NoProgress).expect("ingest");
+    let ids: Vec<String> = report.scenes.iter().map(|(r, _)| r.id.clone()).collect();
+    let bake = BakeConfig {
+        data: data.clone(),
+        ids: ids.clone(),
+        params: NavParams::default(),
+        force: false,
+        previews: false,
+    };
+    bake_scenes(&bake, &NoProgress);
+    let scenes: Vec<(String, String)> = ids
+        .iter()
+        .map(|id| (id.clone(), "val".to_string()))
+        .collect();
+    let threads = env("MINOS_BENCH_THREADS", 1);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .expect("pool");
+    let per_scene = env("MINOS_BENCH_PER_SCENE", 4);
+    let tasks: Vec<(Task, Vec<Episode>)> = [Task::PointGoal, Task::ObjectGoal, Task::RoomGoal]
+        .into_iter()
+        .map(|task| {
+            let cfg = SampleConfig {
+                task,
+                per_scene,
+                seed: 2,
+                ..SampleConfig::default()
+            };
+            let batch = sample_scenes(&data, &scenes, &cfg, Shard::ALL, &NoProgress);
+            (task, batch.episodes)
+        })
+        .collect();
+    println!("| task | episodes | success | SPL | steps | wall | steps/s (wall) | steps/s (CPU) |");
+    println!("|---|---|---|---|---|---|---|---|");
+    for (task, episodes) in &tasks {
+        let cfg = RunConfig {
+            data: data.clone(),
+            out: dir.path().join(format!("run-{}", task.name())),
+            agent: AgentKind::Oracle,
+            body: AgentConfig::habitat(),
+            sensors: SensorSuite::minos(84),
+            renderer: RendererChoice::Cpu,
+            max_steps: None,
+            seed: 0,
+            shard: Shard::ALL,
+            resume: false,
+            reward: Reward::Geodesic,
+            encoding: ImageEncoding::Raw,
+            lerobot: false,
+        };
+        let (t, cpu0) = (Instant::now(), process_cpu());
+        let report = pool
+            .install(|| run(&cfg, episodes, &NoProgress))
+            .expect("run");
+        let s = t.elapsed().as_secs_f64();
+        let cpu = process_cpu().zip(cpu0).map_or(s, |(b, a)| b - a);
+        let steps: u64 = report.episodes.iter().map(|(_, m)| m.steps as u64).sum();
+        let n = report.episodes.len().max(1) as f64;
+        let success = report.episodes.iter().filter(|(_, m)| m.success).count() as f64 / n;
+        let spl = report
+            .episodes
+            .iter()
+            .map(|(_, m)| m.spl as f64)
+            .sum::<f64>()
+            / n;
+        println!(
+            "| {} | {} | {:.0} % | {:.3} | {} | {:.2} s | {:.0} | {:.0} |",
+            task.name(),
+            report.episodes.len(),
+            100.0 * success,
+            spl,
+            steps,
+            s,
+            steps as f64 / s,
+            steps as f64 / cpu
+        );
+    }
+    breakdown(&data, &tasks, dir.path());
+}
+
+/// Times the parts of a rollout on the same episodes: scene setup, simulator reset (goal
+/// field), oracle planning, simulation steps (motion, rendering, sensors, measurements) and
+/// observation writing.
+fn breakdown(data: &std::path::Path, tasks: &[(Task, Vec<Episode>)], dir: &std::path::Path) {
+    let sensors = SensorSuite::minos(84);
+    let (mut setup, mut reset, mut plan, mut decide, mut step, mut write) = (
+        Duration::ZERO,
+        Duration::ZERO,
+        Duration::ZERO,
+        Duration::ZERO,
+        Duration::ZERO,
+        Duration::ZERO,
+    );
+    let mut steps = 0u64;
+    let all: Vec<&Episode> = tasks.iter().flat_map(|(_, e)| e).collect();
+    let mut scene_ids: Vec<&str> = all.iter().map(|e| e.scene_id.as_str()).collect();
+    scene_ids.sort();
+    scene_ids.dedup();
+    for id in scene_ids {
+        let (mut sim, assets) = Clock::time(&mut setup, || {
+            let (_, scene) = read_scene(&scene_path(data, id)).expect("scene");
+            let grid = read_nav(&nav_path(data, id)).expect("nav");
+            let body = AgentConfig::habitat();
+            let assets = Arc::new(SceneAssets::new(&scene, grid, &body).expect("assets"));
+            let renderer =
+                Arc::new(Renderer::new(RendererChoice::Cpu, &assets.render).expect("renderer"));
+            let sim = Simulator::new(assets.clone(), renderer, body, sensors.clone(), 500, 0);
+            (sim, assets)
+        });
+        let geo = Clock::time(&mut setup, || Geodesic::new(&assets.grid));
+        for ep in all.iter().filter(|e| e.scene_id == id) {
+            Clock::time(&mut reset, || sim.reset_episode_in(ep, Some(&geo)));
+            let mut agent = OracleAgent::new();
+            Clock::time(&mut plan, || agent.reset(ep, &sim).expect("plan"));
+            let mut obs = sim.observe().expect("observe");
+            let path = dir.join("breakdown.obs.parquet");
+            let mut writer = ObservationWriter::create(
+                &path,
+                &ep.episode_id,
+                &sensors.cameras,
+                ImageEncoding::Raw,
+            )
+            .expect("writer");
+            for k in 0..ep.max_steps {
+                Clock::time(&mut write, || writer.push(k, &obs.images).expect("push"));
+                let d = Clock::time(&mut decide, || agent.decide(&obs, &sim).expect("decide"));
+                let Decision::Act(a) = d else { break };
+                obs = Clock::time(&mut step, || sim.step(a).expect("step"));
+                steps += 1;
+            }
+            Clock::time(&mut write, || writer.finish().expect("finish"));
+        }
+    }
+    let total = setup + reset + plan + decide + step + write;
+    println!(
+        "\nbreakdown over {steps} steps ({:.2} s of thread CPU time):",
+        total.as_secs_f64()
+    );
+    for (name, d) in [
+        ("scene setup", setup),
+        ("reset (goal field)", reset),
+        ("oracle plan", plan),
+        ("oracle decide", decide),
+        ("sim step (motion, render, sensors, measurements)", step),
+        ("observation writing", write),
+    ] {
+        println!(
+            "  {name:<50} {:>8.1} ms  {:>5.1} %  {:>7.1} µs/step",
+            d.as_secs_f64() * 1e3,
+            100.0 * d.as_secs_f64() / total.as_secs_f64(),
+            d.as_secs_f64() * 1e6 / steps.max(1) as f64
+        );
+    }
+}
