@@ -6,7 +6,7 @@
 mod common;
 
 use std::collections::BTreeSet;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use common::{generate_into, ingest_into, minos};
@@ -32,15 +32,25 @@ use minos::sim::sensors::{Image, Modality};
 use minos::sim::simulator::Renderer;
 use minos::sim::{AgentConfig, RendererChoice, SceneAssets, SensorSuite, Simulator};
 
-/// Generated, ingested houses in a temporary DATA folder; returns the scene ids.
-fn houses(dir: &Path, cfg: &GenerateConfig) -> Vec<String> {
+/// Generated (`cfg`), ingested houses in `dir/data`; returns that DATA folder and the ids.
+fn houses_with(dir: &Path, cfg: &GenerateConfig) -> (PathBuf, Vec<String>) {
     let root = dir.join("raw");
     let data = dir.join("data");
     generate_into(cfg, &root);
     let report = ingest_into(&root, &data);
     let mut ids: Vec<String> = report.scenes.iter().map(|(r, _)| r.id.clone()).collect();
     ids.sort();
-    ids
+    (data, ids)
+}
+
+/// `count` default generated houses from `seed`, see [`houses_with`].
+fn houses(dir: &Path, count: usize, seed: u64) -> (PathBuf, Vec<String>) {
+    let cfg = GenerateConfig {
+        houses: count,
+        seed,
+        ..Default::default()
+    };
+    houses_with(dir, &cfg)
 }
 
 fn define(data: &Path, name: &str, spec: VariantSpec) {
@@ -110,13 +120,7 @@ fn poses(grid: &NavGrid, n: usize) -> Vec<(Vec3, f32)> {
 #[test]
 fn removing_a_category_removes_exactly_its_instances_from_model_grid_and_image() {
     let dir = tempfile::tempdir().unwrap();
-    let cfg = GenerateConfig {
-        houses: 3,
-        seed: 5,
-        ..Default::default()
-    };
-    let ids = houses(dir.path(), &cfg);
-    let data = dir.path().join("data");
+    let (data, ids) = houses(dir.path(), 3, 5);
     define(
         &data,
         "nochairs",
@@ -220,13 +224,7 @@ fn removing_a_category_removes_exactly_its_instances_from_model_grid_and_image()
 #[test]
 fn empty_keeps_doors_arches_windows_and_the_rooms() {
     let dir = tempfile::tempdir().unwrap();
-    let cfg = GenerateConfig {
-        houses: 2,
-        seed: 8,
-        ..Default::default()
-    };
-    let ids = houses(dir.path(), &cfg);
-    let data = dir.path().join("data");
+    let (data, ids) = houses(dir.path(), 2, 8);
     define(
         &data,
         "empty",
@@ -278,8 +276,7 @@ fn opening_doors_merges_the_islands_they_separated() {
         closed_door_prob: 1.0,
         ..Default::default()
     };
-    let ids = houses(dir.path(), &cfg);
-    let data = dir.path().join("data");
+    let (data, ids) = houses_with(dir.path(), &cfg);
     define(
         &data,
         "open",
@@ -373,13 +370,7 @@ fn slot_materials(scene: &Scene) -> Vec<(String, String)> {
 #[test]
 fn retexturing_is_seeded_changes_colours_only_and_follows_the_statistics() {
     let dir = tempfile::tempdir().unwrap();
-    let cfg = GenerateConfig {
-        houses: 4,
-        seed: 2,
-        ..Default::default()
-    };
-    let ids = houses(dir.path(), &cfg);
-    let data = dir.path().join("data");
+    let (data, ids) = houses(dir.path(), 4, 2);
     let stats = stats_for(&data, &ids);
     // The partition: every material in exactly one set, all three sets used.
     let keys: BTreeSet<&str> = stats.materials.iter().map(|m| m.key.as_str()).collect();
@@ -482,13 +473,7 @@ fn retexturing_is_seeded_changes_colours_only_and_follows_the_statistics() {
 #[test]
 fn furnished_houses_make_longer_detours_than_empty_ones() {
     let dir = tempfile::tempdir().unwrap();
-    let cfg = GenerateConfig {
-        houses: 6,
-        seed: 1,
-        ..Default::default()
-    };
-    let ids = houses(dir.path(), &cfg);
-    let data = dir.path().join("data");
+    let (data, ids) = houses(dir.path(), 6, 1);
     define(
         &data,
         "empty",
@@ -545,13 +530,7 @@ fn furnished_houses_make_longer_detours_than_empty_ones() {
 #[test]
 fn the_cli_defines_bakes_and_reports_variants() {
     let dir = tempfile::tempdir().unwrap();
-    let cfg = GenerateConfig {
-        houses: 2,
-        seed: 3,
-        ..Default::default()
-    };
-    let ids = houses(dir.path(), &cfg);
-    let data = dir.path().join("data");
+    let (data, ids) = houses(dir.path(), 2, 3);
     let spec = dir.path().join("variants.toml");
     std::fs::write(
         &spec,

@@ -6,12 +6,11 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use anyhow::Context as _;
-use minos::io::manifest::read_manifest;
 use minos::navmesh::bake::{bake_scenes, params_from_toml, BakeConfig, BakeOutcome};
 use minos::navmesh::NavParams;
 use minos::split::read_split;
 
-use super::common::with_variant;
+use super::common::{ingested_ids, with_variant};
 use super::Context;
 
 /// Bake navigation grids: walkable floor spans for a cylinder agent, islands, rooms and
@@ -78,12 +77,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
             ids.dedup();
             ids
         }
-        None => read_manifest(&args.data.join("houses.parquet"))
-            .context("cannot read the manifest (run `minos ingest` first)")?
-            .into_iter()
-            .filter(|r| r.error.is_none())
-            .map(|r| r.id)
-            .collect(),
+        None => ingested_ids(&args.data)?,
     };
     let ids = with_variant(&args.data, ids, args.variant.as_deref())?;
     let start = Instant::now();

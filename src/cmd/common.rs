@@ -93,3 +93,16 @@ pub fn with_variant(
         })
         .collect())
 }
+
+/// Ids of the scenes `minos ingest` compiled without error, in manifest order.
+pub fn ingested_ids(data: &std::path::Path) -> anyhow::Result<Vec<String>> {
+    use anyhow::Context as _;
+    Ok(
+        minos::io::manifest::read_manifest(&data.join("houses.parquet"))
+            .context("cannot read the manifest (run `minos ingest` first)")?
+            .into_iter()
+            .filter(|r| r.error.is_none())
+            .map(|r| r.id)
+            .collect(),
+    )
+}

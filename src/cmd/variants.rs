@@ -5,7 +5,6 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::{bail, Context as _};
-use minos::io::manifest::read_manifest;
 use minos::io::variant_store::{
     collect_stats, dry_run, list_variants, read_stats, read_variant, stats_path, write_stats,
     write_variant,
@@ -15,6 +14,7 @@ use minos::scene::variants::{
     parse_spec_file, validate_name, KeepOnly, Retexture, TextureSet, VariantSpec,
 };
 
+use super::common::ingested_ids;
 use super::Context;
 
 /// Define scene variants: clutter removal (remove, keep_only, empty, hide), open doors and
@@ -131,12 +131,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         (None, Some(name)) => vec![(name.clone(), from_flags(&args, name)?)],
         (None, None) => bail!("give --spec FILE or --name NAME with changes (see --help)"),
     };
-    let ids: Vec<String> = read_manifest(&args.data.join("houses.parquet"))
-        .context("cannot read the manifest (run `minos ingest` first)")?
-        .into_iter()
-        .filter(|r| r.error.is_none())
-        .map(|r| r.id)
-        .collect();
+    let ids = ingested_ids(&args.data)?;
 
     let needs_stats = variants.iter().any(|(_, s)| s.retexture.is_some());
     let stats = if needs_stats || args.refresh_stats {

@@ -98,8 +98,8 @@ pub fn apply_retexture(
             }
         }
         let m = &mut scene.meshes[mesh_id as usize];
+        let candidates = stats.candidates(category, r.texture_set);
         for slot in used_slots(m) {
-            let candidates = stats.candidates(category, r.texture_set);
             match draw(&candidates, seed_of(&owner, slot)) {
                 Some(entry) => {
                     let mat = &mut m.materials[slot as usize];
