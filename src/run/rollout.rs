@@ -3,6 +3,10 @@
 //! skips episodes whose metrics exist, and the final tables are merged from the parts in
 //! episode order, so an interrupted and resumed run ends with the same bytes as an
 //! uninterrupted one.
+//!
+//! With [`RunConfig::rerun`], the first episodes of the shard are also recorded for the
+//! rerun viewer while they roll out (`DIR/.parts/<index>.rrd`, finished before the metrics
+//! file) and concatenated into one `.rrd` at the end; recording never changes the tables.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -15,6 +19,7 @@ use serde::{Deserialize, Serialize};
 use crate::episode::batch::Shard;
 use crate::episode::Episode;
 use crate::io::atomic::write_bytes_atomic;
+use crate::io::rrd::episode::EpisodeRecorder;
 use crate::io::scene_file::{read_scene, scene_path};
 use crate::navmesh::file::{nav_path, read_nav};
 use crate::progress::Progress;
@@ -73,6 +78,17 @@ pub struct RunConfig {
     pub encoding: ImageEncoding,
     /// Also lay the dataset out LeRobot-style in `out/lerobot/`.
     pub lerobot: bool,
+    /// Also record episodes for the rerun viewer.
+    pub rerun: Option<RerunOutput>,
+}
+
+/// Which episodes a run records for the rerun viewer, and where.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RerunOutput {
+    /// The `.rrd` file (one recording per episode, in episode-id order).
+    pub path: PathBuf,
+    /// How many episodes to record: the first of this shard in episode-id order.
+    pub episodes: usize,
 }
 
 /// Metrics of a finished episode as stored in its part file.
@@ -115,6 +131,8 @@ pub struct RunReport {
     pub resumed: usize,
     /// Episodes that failed, with the reason.
     pub failures: Vec<(String, String)>,
+    /// Episodes in the rerun recording.
+    pub recorded: usize,
 }
 
 fn part(dir: &Path, index: usize, ext: &str) -> PathBuf {
@@ -131,7 +149,8 @@ fn make_agent(kind: &AgentKind, seed: u64) -> Result<Box<dyn Agent>, String> {
     })
 }
 
-/// Runs one episode into its part files and returns its metrics.
+/// Runs one episode into its part files (and, when `record`, its recording) and returns its
+/// metrics.
 fn run_episode(
     sim: &mut Simulator,
     agent: &mut dyn Agent,
@@ -139,9 +158,19 @@ fn run_episode(
     cfg: &RunConfig,
     parts: &Path,
     index: usize,
+    record: bool,
 ) -> Result<EpisodeMetrics, String> {
     sim.reset_episode(ep);
     agent.reset(ep, sim)?;
+    let mut recorder = if record {
+        let path = part(parts, index, "rrd");
+        Some(
+            EpisodeRecorder::create(&path, ep, sim.assets(), &cfg.sensors.cameras, &cfg.body)
+                .map_err(|e| e.to_string())?,
+        )
+    } else {
+        None
+    };
     let max_steps = cfg.max_steps.unwrap_or(ep.max_steps).max(1);
     let mut obs = sim.observe().map_err(|e| e.to_string())?;
     let mut writer = ObservationWriter::create(
@@ -152,6 +181,7 @@ fn run_episode(
     )?;
     let mut rows: Vec<StepRow> = Vec::new();
     let (mut path_length, mut collisions, mut success) = (0.0f32, 0u32, false);
+    let mut stopped = false;
     for t in 0..max_steps {
         writer.push(t, &obs.images)?;
         let m = &obs.measurements;
@@ -164,6 +194,10 @@ fn run_episode(
             state.yaw,
             state.tilt,
         ];
+        if let Some(r) = recorder.as_mut() {
+            r.observe(t, &state, &sim.cameras(), &obs)
+                .map_err(|e| e.to_string())?;
+        }
         let decision = agent.decide(&obs, sim)?;
         let mut row = StepRow {
             step: t,
@@ -184,6 +218,8 @@ fn run_episode(
                 row.done = true;
                 row.success = success;
                 row.reward = cfg.reward.of_step(before, before, max_steps, success);
+                stopped = true;
+                record_act(&mut recorder, &row)?;
                 rows.push(row);
                 break;
             }
@@ -204,6 +240,7 @@ fn run_episode(
                 row.success = arrived;
                 row.reward = cfg.reward.of_step(before, after, max_steps, arrived);
                 success = arrived;
+                record_act(&mut recorder, &row)?;
                 rows.push(row);
                 if arrived {
                     break;
@@ -213,6 +250,14 @@ fn run_episode(
     }
     writer.finish()?;
     write_trajectory(&part(parts, index, "traj.parquet"), &ep.episode_id, &rows)?;
+    if let Some(mut r) = recorder {
+        // Where the last action left the agent (a stop leaves it where it was).
+        if !stopped {
+            r.observe(rows.len() as u32, &sim.state(), &sim.cameras(), &obs)
+                .map_err(|e| e.to_string())?;
+        }
+        r.finish().map_err(|e| e.to_string())?;
+    }
     let final_geodesic = obs.measurements.goal_geodesic.unwrap_or(f32::NAN);
     let m = EpisodeMetrics::finish(
         success,
@@ -237,6 +282,16 @@ fn run_episode(
     let json = serde_json::to_vec(&done).map_err(|e| e.to_string())?;
     write_bytes_atomic(&part(parts, index, "json"), &json).map_err(|e| e.to_string())?;
     Ok(m)
+}
+
+/// Logs a step's action, reward and collision to the recording, if any.
+fn record_act(recorder: &mut Option<EpisodeRecorder>, row: &StepRow) -> Result<(), String> {
+    match recorder {
+        Some(r) => r
+            .act(row.step, &row.action, row.reward, row.collision)
+            .map_err(|e| e.to_string()),
+        None => Ok(()),
+    }
 }
 
 /// An episode's index and its metrics (and whether they were kept from an earlier run).
@@ -267,6 +322,18 @@ pub fn run(
     std::fs::create_dir_all(&parts).map_err(|e| format!("{}: {e}", parts.display()))?;
     let mine = select(episodes, cfg.shard);
     progress.set_total(mine.len() as u64);
+    // The episodes recorded for rerun: the first of the shard, in episode-id order.
+    let recorded: std::collections::BTreeSet<usize> = mine
+        .iter()
+        .take(cfg.rerun.as_ref().map_or(0, |r| r.episodes))
+        .map(|(i, _)| *i)
+        .collect();
+    // Finished earlier: metrics written and, when recorded, the recording too.
+    let done = |i: usize| {
+        cfg.resume
+            && part(&parts, i, "json").is_file()
+            && (!recorded.contains(&i) || part(&parts, i, "rrd").is_file())
+    };
     let mut by_scene: BTreeMap<String, Vec<(usize, Episode)>> = BTreeMap::new();
     for (i, e) in &mine {
         by_scene
@@ -280,12 +347,12 @@ pub fn run(
         .map(|(scene_id, eps)| {
             let pending: Vec<&(usize, Episode)> = eps
                 .iter()
-                .filter(|(i, _)| !(cfg.resume && part(&parts, *i, "json").is_file()))
+                .filter(|(i, _)| !done(*i))
                 .collect();
             let mut out: Vec<Outcome> = Vec::new();
             for (i, _) in eps
                 .iter()
-                .filter(|(i, _)| cfg.resume && part(&parts, *i, "json").is_file())
+                .filter(|(i, _)| done(*i))
             {
                 let kept = std::fs::read(part(&parts, *i, "json"))
                     .map_err(|e| e.to_string())
@@ -328,8 +395,16 @@ pub fn run(
                         for (i, ep) in pending {
                             out.push((
                                 *i,
-                                run_episode(&mut sim, agent.as_mut(), ep, cfg, &parts, *i)
-                                    .map(|m| (m, false)),
+                                run_episode(
+                                    &mut sim,
+                                    agent.as_mut(),
+                                    ep,
+                                    cfg,
+                                    &parts,
+                                    *i,
+                                    recorded.contains(i),
+                                )
+                                .map(|m| (m, false)),
                             ));
                             progress.advance(1);
                         }
@@ -398,6 +473,21 @@ pub fn run(
         &serde_json::to_vec_pretty(&metrics).map_err(|e| e.to_string())?,
     )
     .map_err(|e| e.to_string())?;
+    if let Some(rerun) = &cfg.rerun {
+        let recordings: Vec<PathBuf> = mine
+            .iter()
+            .filter(|(i, e)| {
+                recorded.contains(i)
+                    && report
+                        .episodes
+                        .iter()
+                        .any(|(r, _)| r.episode_id == e.episode_id)
+            })
+            .map(|(i, _)| part(&parts, *i, "rrd"))
+            .collect();
+        crate::io::rrd::concat(&recordings, &rerun.path).map_err(|e| e.to_string())?;
+        report.recorded = recordings.len();
+    }
     if cfg.lerobot {
         let sources: Vec<(Episode, PathBuf, PathBuf)> = mine
             .iter()
