@@ -3,7 +3,7 @@
 //! image, the goal distances, the reward and the action. Nothing is kept but the trajectory's
 //! points, so memory does not grow with images.
 
-use glam::{Quat, Vec3};
+use glam::Quat;
 use rerun::{
     Capsules3D, Color, DepthImage, Image, LineStrips3D, Pinhole, Quaternion, Scalars,
     SegmentationImage, TextLog, Transform3D,
@@ -33,7 +33,10 @@ pub const METRICS: &str = "metrics";
 /// The action taken at each step.
 pub const ACTION: &str = "agent/action";
 
-const TRAJECTORY_COLOR: [u8; 3] = [40, 120, 250];
+/// Colour of the agent and its trajectory.
+fn trajectory_color() -> Color {
+    Color::from_rgb(40, 120, 250)
+}
 
 /// Streams one episode into a recording.
 pub struct EpisodeRecorder {
@@ -86,7 +89,7 @@ impl EpisodeRecorder {
                 .with_quaternions([Quaternion::from_xyzw(
                     Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2).to_array(),
                 )])
-                .with_colors([Color::from_rgb(TRAJECTORY_COLOR[0], TRAJECTORY_COLOR[1], 250)]),
+                .with_colors([trajectory_color()]),
         )?;
         for c in cameras {
             let image = format!("{CAMERAS}/{}/image", c.name);
@@ -122,13 +125,13 @@ impl EpisodeRecorder {
         self.trail.push(state.position);
         f.log(
             TRAJECTORY,
-            &LineStrips3D::new([self.trail.iter().map(|p| [p[0], p[1] + 0.05, p[2]])])
-                .with_colors([Color::from_rgb(
-                    TRAJECTORY_COLOR[0],
-                    TRAJECTORY_COLOR[1],
-                    TRAJECTORY_COLOR[2],
-                )])
-                .with_radii([0.025]),
+            &LineStrips3D::new([self
+                .trail
+                .iter()
+                .map(|p| [p[0], p[1] + 0.05, p[2]])
+                .collect::<Vec<_>>()])
+            .with_colors([trajectory_color()])
+            .with_radii([0.025]),
         )?;
         for (sensor, cam) in self.cameras.iter().zip(cameras) {
             let entity = format!("{CAMERAS}/{}", sensor.name);

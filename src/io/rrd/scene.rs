@@ -89,7 +89,7 @@ pub fn log_scene_mesh(file: &RrdFile, scene: &RenderScene) -> Result<usize, Reco
         .collect();
     let positions: Vec<[f32; 3]> = kept
         .iter()
-        .flat_map(|&t| scene.triangle(t).map(Vec3::to_array))
+        .flat_map(|&t| scene.triangle(t).map(|v| v.to_array()))
         .collect();
     let per_vertex = |f: &dyn Fn(usize) -> Color| -> Vec<Color> {
         kept.iter().flat_map(|&t| [f(t); 3]).collect()
