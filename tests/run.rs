@@ -476,10 +476,16 @@ fn read_rrd(path: &Path) -> std::collections::BTreeMap<(String, String), Logged>
         let chunk = Chunk::from_arrow_msg(&arrow).unwrap();
         let key = (
             store.recording_id().to_string(),
-            chunk.entity_path().to_string().trim_start_matches('/').to_string(),
+            chunk
+                .entity_path()
+                .to_string()
+                .trim_start_matches('/')
+                .to_string(),
         );
         let logged = out.entry(key).or_default();
-        let names = chunk.component_descriptors().map(|d| d.component.to_string());
+        let names = chunk
+            .component_descriptors()
+            .map(|d| d.component.to_string());
         if chunk.is_static() {
             logged.statics.extend(names);
             continue;
@@ -490,13 +496,64 @@ fn read_rrd(path: &Path) -> std::collections::BTreeMap<(String, String), Logged>
         };
         logged.steps.extend(steps.times_raw());
         let translation = rerun::archetypes::Transform3D::descriptor_translation().component;
-        for (step, t) in steps.times_raw().iter().zip(
-            chunk.iter_component::<rerun::components::Translation3D>(translation),
-        ) {
+        for (step, t) in steps
+            .times_raw()
+            .iter()
+            .zip(chunk.iter_component::<rerun::components::Translation3D>(translation))
+        {
             if let Some(t) = t.first() {
                 logged.translations.insert(*step, [t.x(), t.y(), t.z()]);
             }
         }
+    }
+    out
+}
+
+/// Polls a future that never waits (rerun's file reads are blocking) to completion.
+fn block_on<F: std::future::Future>(f: F) -> F::Output {
+    let mut f = std::pin::pin!(f);
+    let mut cx = std::task::Context::from_waker(std::task::Waker::noop());
+    loop {
+        if let std::task::Poll::Ready(v) = f.as_mut().poll(&mut cx) {
+            return v;
+        }
+        std::thread::yield_now();
+    }
+}
+
+/// Loads every chunk the way the viewer does for random access — through the footer's
+/// per-recording manifest of byte offsets — and returns recording id → entity paths.
+fn entities_via_footer(
+    path: &Path,
+) -> std::collections::BTreeMap<String, std::collections::BTreeSet<String>> {
+    use re_log_encoding::{ChunkProvider, RrdChunkProvider};
+    let file = std::fs::File::open(path).unwrap();
+    let footer = block_on(re_log_encoding::read_rrd_footer(&file))
+        .unwrap()
+        .expect("a footer");
+    let mut out = std::collections::BTreeMap::new();
+    for (store, raw) in footer.manifests {
+        let provider = RrdChunkProvider::from_reader(
+            std::fs::File::open(path).unwrap(),
+            "test",
+            std::sync::Arc::new(raw),
+        )
+        .unwrap();
+        let ids = provider.manifest().col_chunk_ids().to_vec();
+        let chunks = block_on(provider.load_chunks(&ids)).unwrap();
+        assert_eq!(chunks.len(), ids.len());
+        out.insert(
+            store.recording_id().to_string(),
+            chunks
+                .iter()
+                .map(|c| {
+                    c.entity_path()
+                        .to_string()
+                        .trim_start_matches('/')
+                        .to_string()
+                })
+                .collect(),
+        );
     }
     out
 }
@@ -549,11 +606,26 @@ fn a_run_records_one_pose_and_image_per_step_and_leaves_the_tables_unchanged() {
     sorted.sort_by(|a, b| a.episode_id.cmp(&b.episode_id));
     let recordings: std::collections::BTreeSet<&str> =
         logged.keys().map(|(r, _)| r.as_str()).collect();
-    let expected: std::collections::BTreeSet<&str> = sorted[..2]
-        .iter()
-        .map(|e| e.episode_id.as_str())
-        .collect();
+    let expected: std::collections::BTreeSet<&str> =
+        sorted[..2].iter().map(|e| e.episode_id.as_str()).collect();
     assert_eq!(recordings, expected, "the first two episodes are recorded");
+    // The footer indexes both recordings at the right offsets (random access in the viewer).
+    let indexed = entities_via_footer(&rrd);
+    for (recording, entities) in &indexed {
+        let decoded: std::collections::BTreeSet<String> = logged
+            .keys()
+            .filter(|(r, _)| r == recording)
+            .map(|(_, e)| e.clone())
+            .collect();
+        assert_eq!(entities, &decoded, "{recording}");
+    }
+    assert_eq!(
+        indexed
+            .keys()
+            .map(String::as_str)
+            .collect::<std::collections::BTreeSet<_>>(),
+        expected
+    );
     let traj = first_batch(&out.join("trajectories.parquet"));
     let ids = column::<StringArray>(&traj, "episode_id");
     for ep in &sorted[..2] {
@@ -589,7 +661,10 @@ fn a_run_records_one_pose_and_image_per_step_and_leaves_the_tables_unchanged() {
             assert!(image.temporal.contains(archetype), "{camera}: {image:?}");
             assert!(image.statics.contains("Pinhole:image_from_camera"));
             assert_eq!(image.steps.iter().copied().collect::<Vec<_>>(), steps);
-            assert_eq!(at(&format!("world/cameras/{camera}")).steps.len() as i64, rows);
+            assert_eq!(
+                at(&format!("world/cameras/{camera}")).steps.len() as i64,
+                rows
+            );
         }
         assert_eq!(at("metrics/geodesic").steps.len() as i64, rows);
         assert_eq!(at("metrics/reward").steps.len() as i64, rows);
@@ -640,9 +715,15 @@ fn minos_view_records_a_scene_with_its_episodes_shortest_paths() {
     for e in &of_scene {
         let base = minos::io::rrd::scene::episode_entity(&e.episode_id).to_string();
         let base = base.trim_start_matches('/');
-        assert!(has(&format!("{base}/start"), "Points3D:positions"), "{base}");
+        assert!(
+            has(&format!("{base}/start"), "Points3D:positions"),
+            "{base}"
+        );
         assert!(has(&format!("{base}/goal"), "Points3D:positions"), "{base}");
-        assert!(has(&format!("{base}/shortest_path"), "LineStrips3D:strips"), "{base}");
+        assert!(
+            has(&format!("{base}/shortest_path"), "LineStrips3D:strips"),
+            "{base}"
+        );
     }
     let drawn = logged
         .keys()

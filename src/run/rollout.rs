@@ -345,15 +345,9 @@ pub fn run(
     let results: Vec<Vec<Outcome>> = scenes
         .par_iter()
         .map(|(scene_id, eps)| {
-            let pending: Vec<&(usize, Episode)> = eps
-                .iter()
-                .filter(|(i, _)| !done(*i))
-                .collect();
+            let pending: Vec<&(usize, Episode)> = eps.iter().filter(|(i, _)| !done(*i)).collect();
             let mut out: Vec<Outcome> = Vec::new();
-            for (i, _) in eps
-                .iter()
-                .filter(|(i, _)| done(*i))
-            {
+            for (i, _) in eps.iter().filter(|(i, _)| done(*i)) {
                 let kept = std::fs::read(part(&parts, *i, "json"))
                     .map_err(|e| e.to_string())
                     .and_then(|b| serde_json::from_slice::<PartDone>(&b).map_err(|e| e.to_string()))

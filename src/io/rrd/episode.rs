@@ -148,10 +148,16 @@ impl EpisodeRecorder {
         }
         let m = &obs.measurements;
         if let Some(g) = m.goal_geodesic {
-            f.log(format!("{METRICS}/geodesic"), &Scalars::single(f64::from(g)))?;
+            f.log(
+                format!("{METRICS}/geodesic"),
+                &Scalars::single(f64::from(g)),
+            )?;
         }
         if let Some(e) = m.goal_euclidean {
-            f.log(format!("{METRICS}/euclidean"), &Scalars::single(f64::from(e)))?;
+            f.log(
+                format!("{METRICS}/euclidean"),
+                &Scalars::single(f64::from(e)),
+            )?;
         }
         Ok(())
     }
@@ -168,7 +174,10 @@ impl EpisodeRecorder {
         let f = &self.file;
         f.set_step(step, self.dt)?;
         f.log(ACTION, &TextLog::new(action.to_string()))?;
-        f.log(format!("{METRICS}/reward"), &Scalars::single(f64::from(reward)))?;
+        f.log(
+            format!("{METRICS}/reward"),
+            &Scalars::single(f64::from(reward)),
+        )?;
         f.log(
             format!("{METRICS}/collision"),
             &Scalars::single(if collision { 1.0 } else { 0.0 }),

@@ -13,7 +13,6 @@ pub mod episode;
 pub mod scene;
 pub mod view;
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use rerun::RecordingStream;
@@ -81,7 +80,9 @@ impl RrdFile {
 
     /// The stream to log to (`None` only after `finish`).
     pub(crate) fn stream(&self) -> Result<&RecordingStream, RecordingError> {
-        self.rec.as_ref().ok_or_else(|| self.error("recording already finished"))
+        self.rec
+            .as_ref()
+            .ok_or_else(|| self.error("recording already finished"))
     }
 
     /// An error about this recording.
@@ -149,16 +150,29 @@ impl Drop for RrdFile {
     }
 }
 
-/// Writes the recordings `parts` one after another into `out` (atomically): rerun reads
-/// concatenated recordings as separate recordings of one file.
+/// Joins the recordings `parts` into one file `out` (atomically), in order: each part is
+/// decoded and its messages re-encoded, so the file gets one footer indexing every recording
+/// (byte-wise concatenation would leave each part's footer pointing at the wrong offsets).
+/// The viewer lists each recording on its own.
 pub fn concat(parts: &[PathBuf], out: &Path) -> Result<(), RecordingError> {
+    use re_log_encoding::{CrateVersion, DecoderApp, Encoder, EncodingOptions};
+    let fail = |path: &Path, e: &dyn std::fmt::Display| {
+        std::io::Error::other(format!("{}: {e}", path.display()))
+    };
     write_atomic(out, |w| {
+        let mut encoder =
+            Encoder::new_eager(CrateVersion::LOCAL, EncodingOptions::PROTOBUF_COMPRESSED, w)
+                .map_err(|e| fail(out, &e))?;
         for p in parts {
-            let mut f = std::fs::File::open(p)
-                .map_err(|e| std::io::Error::other(format!("{}: {e}", p.display())))?;
-            std::io::copy(&mut f, w)?;
+            let reader = std::io::BufReader::new(std::fs::File::open(p).map_err(|e| fail(p, &e))?);
+            for msg in DecoderApp::decode_eager(reader).map_err(|e| fail(p, &e))? {
+                let msg = msg.map_err(|e| fail(p, &e))?;
+                encoder.append(&msg).map_err(|e| fail(out, &e))?;
+            }
         }
-        w.flush()
+        encoder.finish().map_err(|e| fail(out, &e))?;
+        drop(encoder);
+        Ok(())
     })
     .map_err(|e: std::io::Error| RecordingError::File {
         path: out.to_path_buf(),

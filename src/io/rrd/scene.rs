@@ -68,7 +68,11 @@ pub fn class_color(class: u16) -> [u8; 3] {
 pub fn annotation(taxonomy: Taxonomy) -> AnnotationContext {
     AnnotationContext::new(taxonomy.names().iter().enumerate().map(|(i, name)| {
         let [r, g, b] = class_color(i as u16);
-        let label = if name.is_empty() { "void" } else { name.as_str() };
+        let label = if name.is_empty() {
+            "void"
+        } else {
+            name.as_str()
+        };
         (i as u16, label, rerun::Rgba32::from_rgb(r, g, b))
     }))
 }
@@ -94,9 +98,16 @@ pub fn log_scene_mesh(file: &RrdFile, scene: &RenderScene) -> Result<usize, Reco
     let per_vertex = |f: &dyn Fn(usize) -> Color| -> Vec<Color> {
         kept.iter().flat_map(|&t| [f(t); 3]).collect()
     };
-    let normals: Vec<[f32; 3]> = kept.iter().flat_map(|&t| [scene.tris[t].normal; 3]).collect();
+    let normals: Vec<[f32; 3]> = kept
+        .iter()
+        .flat_map(|&t| [scene.tris[t].normal; 3])
+        .collect();
     let material = per_vertex(&|t| {
-        color(scene.tris[t].color.map(|c| (c.clamp(0.0, 1.0) * 255.0).round() as u8))
+        color(
+            scene.tris[t]
+                .color
+                .map(|c| (c.clamp(0.0, 1.0) * 255.0).round() as u8),
+        )
     });
     file.log_static(
         SCENE_MESH,
