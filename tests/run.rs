@@ -300,7 +300,10 @@ fn a_killed_run_resumed_gives_identical_bytes() {
             .arg("--episodes")
             .arg(&eps_file)
             .arg("--out")
-            .arg(out);
+            .arg(out)
+            .arg("--rerun")
+            .arg(out.with_extension("rrd"))
+            .args(["--rerun-episodes", "2"]);
         if resume {
             c.arg("--resume");
         }
@@ -344,6 +347,11 @@ fn a_killed_run_resumed_gives_identical_bytes() {
         interrupted,
         "the run finished before it could be killed; the resume was not exercised"
     );
+    // The resumed run's recording holds the same two episodes, complete.
+    let recorded = |out: &Path| entities_via_footer(&out.with_extension("rrd"));
+    let (a, b) = (recorded(&full), recorded(&killed));
+    assert_eq!(a.len(), 2);
+    assert_eq!(a, b);
 }
 
 #[test]

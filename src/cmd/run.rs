@@ -88,8 +88,9 @@ pub struct Args {
     /// pose, camera images and measurements.
     #[arg(long, value_name = "FILE.rrd")]
     rerun: Option<PathBuf>,
-    /// How many episodes --rerun records: the first of this shard in episode-id order
-    /// (each is a recording of its own in the file; an 84² RGB-D-semantic step is ~30 kB).
+    /// How many episodes --rerun records: the first of this shard in episode-id order (each
+    /// is a recording of its own in the file; ~10 kB per 84² RGB-D-semantic step plus
+    /// ~0.5 MB per episode for its scene and grid).
     #[arg(long, default_value_t = 1, value_name = "N")]
     rerun_episodes: usize,
 }

@@ -179,3 +179,49 @@ pub fn concat(parts: &[PathBuf], out: &Path) -> Result<(), RecordingError> {
         message: e.to_string(),
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn files(dir: &Path) -> Vec<String> {
+        let mut names: Vec<String> = std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        names
+    }
+
+    #[test]
+    fn a_recording_appears_only_when_finished() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("a.rrd");
+        {
+            let f = RrdFile::create(&path, "one", "one").unwrap();
+            f.log_static("world", &rerun::ViewCoordinates::RIGHT_HAND_Y_UP())
+                .unwrap();
+            assert!(!path.exists());
+        }
+        assert!(files(dir.path()).is_empty(), "dropped unfinished: nothing left");
+        let f = RrdFile::create(&path, "one", "one").unwrap();
+        f.set_step(3, 0.1).unwrap();
+        f.log("world/x", &rerun::Scalars::single(1.0)).unwrap();
+        assert_eq!(f.finish().unwrap(), path);
+        assert_eq!(files(dir.path()), vec!["a.rrd".to_string()]);
+        let joined = dir.path().join("both.rrd");
+        concat(&[path.clone(), path.clone()], &joined).unwrap();
+        let data_messages = |p: &Path| {
+            let reader = std::io::BufReader::new(std::fs::File::open(p).unwrap());
+            re_log_encoding::DecoderApp::decode_eager(reader)
+                .unwrap()
+                .filter(|m| matches!(m, Ok(rerun::log::LogMsg::ArrowMsg(..))))
+                .count()
+        };
+        let one = data_messages(&path);
+        assert!(one >= 1);
+        assert_eq!(data_messages(&joined), 2 * one, "both copies decode");
+        let missing = concat(&[dir.path().join("missing.rrd")], &joined);
+        assert!(missing.unwrap_err().to_string().contains("missing.rrd"));
+    }
+}

@@ -49,7 +49,7 @@ pub fn class_color(class: u16) -> [u8; 3] {
         return [0, 0, 0];
     }
     let h = (f32::from(class) * 0.618_034).fract() * 6.0;
-    let (s, v) = (0.65, if class % 2 == 0 { 0.95 } else { 0.78 });
+    let (s, v) = (0.65, if class.is_multiple_of(2) { 0.95 } else { 0.78 });
     let c = v * s;
     let x = c * (1.0 - ((h % 2.0) - 1.0).abs());
     let (r, g, b) = match h as u32 {
