@@ -203,7 +203,10 @@ mod tests {
                 .unwrap();
             assert!(!path.exists());
         }
-        assert!(files(dir.path()).is_empty(), "dropped unfinished: nothing left");
+        assert!(
+            files(dir.path()).is_empty(),
+            "dropped unfinished: nothing left"
+        );
         let f = RrdFile::create(&path, "one", "one").unwrap();
         f.set_step(3, 0.1).unwrap();
         f.log("world/x", &rerun::Scalars::single(1.0)).unwrap();
