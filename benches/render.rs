@@ -72,9 +72,14 @@ fn main() {
             .collect()
     };
     println!(
-        "scene: {} triangles rendered ({} objects)\n",
+        "scene: {} triangles rendered ({} objects, {} textured triangles, {} textures)\n",
         rs.triangle_count(),
-        scene.objects().count()
+        scene.objects().count(),
+        rs.tris
+            .iter()
+            .filter(|t| t.texture != minos::render::scene::NO_TEXTURE)
+            .count(),
+        rs.textures.len()
     );
     println!("| renderer | size | one camera at a time | batch of 64 |\n|---|---|---|---|");
     let one = rayon::ThreadPoolBuilder::new()
@@ -93,6 +98,42 @@ fn main() {
         println!(
             "| cpu (1 core / all cores batched) | {size}² | {single:.0} fps | {batch:.0} fps |"
         );
+    }
+    // The images a colour + depth + semantic camera needs: rasterise once, then derive the
+    // (textured) colour, the linear depth and the labels from the frame.
+    println!(
+        "\n| cpu, 1 core, best of 5 | size | rasterise + colour + depth + semantic | the same, textures off |\n|---|---|---|---|"
+    );
+    let flat = {
+        let mut f = rs.clone();
+        for t in &mut f.tris {
+            t.texture = minos::render::scene::NO_TEXTURE;
+        }
+        f.textures.clear();
+        f
+    };
+    for size in [84, 128] {
+        let c = cams(size);
+        // Best of 5 passes, textured and untextured interleaved, so load from other
+        // processes on a shared machine affects both alike.
+        let images = |scene: &RenderScene| {
+            one.install(|| {
+                fps(c.len(), || {
+                    c.iter().for_each(|cam| {
+                        let f = cpu::render(scene, cam);
+                        black_box(f.color(scene, cam));
+                        black_box(f.linear_depth(cam));
+                        black_box(f.semantic(scene, minos::render::Taxonomy::Nyu40));
+                    })
+                })
+            })
+        };
+        let (mut textured, mut untextured) = (0f64, 0f64);
+        for _ in 0..5 {
+            textured = textured.max(images(&rs));
+            untextured = untextured.max(images(&flat));
+        }
+        println!("| textured house | {size}² | {textured:.0} fps | {untextured:.0} fps |");
     }
     match GpuRenderer::new() {
         Ok(mut gpu) => {

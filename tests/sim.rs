@@ -292,6 +292,36 @@ fn depth_of_a_wall_normals_of_the_floor_and_the_label_of_an_object() {
 }
 
 #[test]
+fn the_coarse_taxonomy_labels_a_known_object_and_the_floor() {
+    let size = 32;
+    let scene = SceneBuilder::new("sofa")
+        .room("r", RoomClass::LivingRoom, [0.0, 0.0, 10.0, 10.0], 0.0, &[])
+        .object(
+            "s",
+            "sofa",
+            ObjectFlags::default(),
+            &[([3.0, 0.0, 1.0], [7.0, 2.5, 2.0])],
+            vec![0],
+        )
+        .build();
+    let mut suite = camera_suite(&[("s", Modality::Semantic)], size, 0.0);
+    suite.cameras[0].taxonomy = minos::render::Taxonomy::Coarse;
+    let mut sim = sim_with(&scene, AgentConfig::minos_continuous(), suite);
+    sim.reset(Vec3::new(5.0, 0.0, 5.0), 0.0, None, "e");
+    let obs = sim.observe().unwrap();
+    let Image::U16(sem) = &obs.images[0].1 else {
+        panic!("labels")
+    };
+    // data/taxonomy/coarse.csv: 2 floor, 10 sofa.
+    assert_eq!(centre(sem, size, 1)[0], 10);
+    assert_eq!(
+        sem[(size * size - size / 2) as usize],
+        2,
+        "bottom row: floor"
+    );
+}
+
+#[test]
 fn contact_fires_only_on_the_touching_side() {
     let mut sensors = blind();
     sensors.contact = Some(minos::sim::sensors::ContactSensors {
@@ -371,6 +401,12 @@ fn cpu_and_wgpu_renderers_agree() {
             minos::io::scene_file::read_scene(&minos::io::scene_file::scene_path(&data, &plan.id))
                 .unwrap();
         let rs = RenderScene::new(&scene);
+        assert!(
+            rs.tris
+                .iter()
+                .any(|t| t.texture != minos::render::scene::NO_TEXTURE),
+            "generated houses are textured, so parity covers textures"
+        );
         gpu.upload(&rs);
         for size in [84u32, 128] {
             let cams: Vec<Camera> = plan.levels[0]
@@ -402,7 +438,7 @@ fn cpu_and_wgpu_renderers_agree() {
                     g.semantic(&rs, minos::render::Taxonomy::Nyu40),
                 );
                 let (ic, ig) = (c.instance(&rs), g.instance(&rs));
-                let (cc, cg) = (c.color(&rs), g.color(&rs));
+                let (cc, cg) = (c.color(&rs, cam), g.color(&rs, cam));
                 for p in 0..dc.len() {
                     if dc[p] > 0.0 && dg[p] > 0.0 {
                         depth_se += f64::from(dc[p] - dg[p]).powi(2);

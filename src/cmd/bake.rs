@@ -11,6 +11,7 @@ use minos::navmesh::bake::{bake_scenes, params_from_toml, BakeConfig, BakeOutcom
 use minos::navmesh::NavParams;
 use minos::split::read_split;
 
+use super::common::with_variant;
 use super::Context;
 
 /// Bake navigation grids: walkable floor spans for a cylinder agent, islands, rooms and
@@ -28,7 +29,7 @@ use super::Context;
     clearance_margin 0.2, clearance_weight 1 (MINOS used 10: paths keep off walls, geodesics\n  \
     are no longer exact). A config may start from a preset: preset = \"minos\".\n\n\
     Examples:\n  minos bake --data DATA\n  minos bake --data DATA --split multiroom --preset minos\n  \
-    minos bake --data DATA --config nav.toml --force"
+    minos bake --data DATA --config nav.toml --force\n  minos bake --data DATA --variant empty"
 )]
 pub struct Args {
     /// DATA folder made by `minos ingest`.
@@ -44,6 +45,10 @@ pub struct Args {
     /// TOML file of parameters (overrides the preset), e.g. `cell_size = 0.1`.
     #[arg(long, value_name = "FILE")]
     config: Option<PathBuf>,
+    /// Bake this variant of every selected scene (defined with `minos variants`); grids go to
+    /// DATA/nav/<scene>@<variant>.nav.
+    #[arg(long, value_name = "NAME")]
+    variant: Option<String>,
     /// Rebake every scene.
     #[arg(long)]
     force: bool,
@@ -80,6 +85,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
             .map(|r| r.id)
             .collect(),
     };
+    let ids = with_variant(&args.data, ids, args.variant.as_deref())?;
     let start = Instant::now();
     let cfg = BakeConfig {
         data: args.data.clone(),

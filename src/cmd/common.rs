@@ -73,3 +73,23 @@ impl Drop for Bar {
         self.0.finish_and_clear();
     }
 }
+
+/// Turns scene ids into references to `variant` (`<scene>@<variant>`), after checking that the
+/// variant is defined in `data`; without a variant the ids are returned unchanged.
+pub fn with_variant(
+    data: &std::path::Path,
+    ids: Vec<String>,
+    variant: Option<&str>,
+) -> anyhow::Result<Vec<String>> {
+    let Some(name) = variant else {
+        return Ok(ids);
+    };
+    minos::io::variant_store::read_variant(data, name)
+        .map_err(|e| anyhow::anyhow!("--variant {name}: {e}"))?;
+    Ok(ids
+        .into_iter()
+        .map(|id| {
+            minos::scene::variants::join_ref(minos::scene::variants::split_ref(&id).0, Some(name))
+        })
+        .collect())
+}

@@ -16,6 +16,7 @@ use minos::io::atomic::write_bytes_atomic;
 use minos::scene::RoomClass;
 use minos::split::read_split;
 
+use super::common::with_variant;
 use super::Context;
 
 /// Sample navigable PointGoal, ObjectGoal or RoomGoal episodes, or import episode files.
@@ -87,6 +88,10 @@ pub struct SampleArgs {
     /// Only this subset of the split (train, val or test); default: all three.
     #[arg(long, value_parser = ["train", "val", "test"])]
     subset: Option<String>,
+    /// Sample on this variant of every scene (needs `minos bake --variant NAME`); scene ids in
+    /// the output read `<scene>@NAME`.
+    #[arg(long, value_name = "NAME")]
+    variant: Option<String>,
     /// Episodes per scene.
     #[arg(long, default_value_t = 10)]
     per_scene: usize,
@@ -203,7 +208,8 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         ("test", &lists.test),
     ] {
         if a.subset.as_deref().is_none_or(|s| s == name) {
-            scenes.extend(ids.iter().map(|id| (id.clone(), name.to_string())));
+            let refs = with_variant(&data, ids.clone(), a.variant.as_deref())?;
+            scenes.extend(refs.into_iter().map(|id| (id, name.to_string())));
         }
     }
     let stratified = match a.stratify {
@@ -276,11 +282,14 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         r.iter().take(3).map(|(k, v)| format!("{k}: {v}")).collect()
     };
     ctx.say(format!(
-        "{} {} episodes from {} scenes -> {} (rejected draws: {}; details in {})",
+        "{} {} episodes from {} scenes -> {} (mean geodesic {:.2} m, geodesic/Euclidean {:.3}; \
+         rejected draws: {}; details in {})",
         batch.total,
         cfg.task.name(),
         batch.scenes.len(),
         out.display(),
+        batch.mean_geodesic,
+        batch.mean_ratio,
         if top.is_empty() {
             "none".to_string()
         } else {

@@ -5,7 +5,9 @@ use std::process::ExitCode;
 
 use anyhow::{bail, Context as _};
 use minos::io::export::{export_scene, ExportFormat};
-use minos::io::scene_file::{read_scene, scene_path};
+use minos::io::scene_file::scene_path;
+use minos::io::variant_store::load_scene;
+use minos::scene::variants::split_ref;
 
 use super::Context;
 
@@ -31,7 +33,8 @@ pub struct Args {
     /// DATA folder made by `minos ingest`; the scene is read from DATA/scenes/<ID>.mscene.
     #[arg(long, value_name = "DATA")]
     data: PathBuf,
-    /// Id of the scene to export (its compiled file's stem, e.g. a SUNCG house id).
+    /// Id of the scene to export (its compiled file's stem, e.g. a SUNCG house id), or
+    /// `<scene>@<variant>` for a variant.
     #[arg(long, value_name = "ID")]
     scene: String,
     /// Output format. When omitted it is taken from the --out extension (.obj or .glb).
@@ -79,7 +82,8 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
             args.out.display()
         );
     }
-    let path = scene_path(&args.data, &args.scene);
+    let (id, _) = split_ref(&args.scene);
+    let path = scene_path(&args.data, id);
     if !path.is_file() {
         bail!(
             "scene {} not found: {} does not exist (run `minos ingest` on {} first, or check --scene)",
@@ -88,7 +92,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
             args.data.display()
         );
     }
-    let (_, scene) = read_scene(&path)?;
+    let (scene, _) = load_scene(&args.data, &args.scene)?;
     let summary = export_scene(&scene, format, &args.out)
         .with_context(|| format!("exporting scene {}", args.scene))?;
     for name in &summary.skipped {

@@ -19,6 +19,7 @@ mod render;
 mod run;
 mod split;
 mod stats;
+mod variants;
 mod view;
 
 pub use common::Context;
@@ -54,6 +55,8 @@ enum Command {
     Split(split::Args),
     /// Print environment statistics of a DATA folder or one of its splits.
     Stats(stats::Args),
+    /// Define scene variants: clutter removal, empty houses, open doors, retexturing.
+    Variants(Box<variants::Args>),
     /// Bake navigation grids (walkable spans, islands, rooms) for ingested scenes.
     Bake(bake::Args),
     /// Navigation queries on baked grids (shortest paths, distances).
@@ -90,6 +93,7 @@ pub fn main() -> ExitCode {
         Command::Ingest(a) => ingest::run(a, &ctx),
         Command::Split(a) => split::run(a, &ctx),
         Command::Stats(a) => stats::run(a, &ctx),
+        Command::Variants(a) => variants::run(*a, &ctx),
         Command::Bake(a) => bake::run(a, &ctx),
         Command::Nav(a) => nav::run(a, &ctx),
         Command::Episodes(a) => episodes::run(*a, &ctx),

@@ -6,12 +6,13 @@ use std::sync::Arc;
 
 use anyhow::Context as _;
 use glam::Vec3;
-use minos::io::scene_file::{read_scene, scene_path};
+use minos::io::variant_store::{grid_ref, load_scene};
 use minos::navmesh::file::{nav_path, read_nav};
 use minos::render::visualize::write_png;
 use minos::sim::simulator::Renderer;
 use minos::sim::{AgentConfig, RendererChoice, SceneAssets, SensorSuite, Simulator};
 
+use super::common::with_variant;
 use super::Context;
 
 /// Renderers of `--renderer`.
@@ -30,7 +31,8 @@ enum RendererArg {
 #[derive(Debug, clap::Args)]
 #[command(
     after_help = "Examples:\n  minos render --data DATA --scene ID --pose 3.2,0,4.5,1.57 --out frames/\n  \
-    minos render --data DATA --scene ID --pose 3.2,0,4.5,0 --renderer cpu --sensors sensors.toml --out frames/\n\n\
+    minos render --data DATA --scene ID --pose 3.2,0,4.5,0 --renderer cpu --sensors sensors.toml --out frames/\n  \
+    minos render --data DATA --scene ID --variant empty --pose 3.2,0,4.5,0 --out frames/\n\n\
     Sensor files are TOML (or JSON): [[camera]] tables with name, modality (color, gray, depth,\n\
     normal, semantic, instance, room, room_class), resolution = [W, H], vfov, near, far,\n\
     position = [x, y, z] relative to the agent, orientation = [yaw, tilt] in degrees, taxonomy\n\
@@ -41,9 +43,12 @@ pub struct Args {
     /// DATA folder (ingested and baked).
     #[arg(long)]
     data: PathBuf,
-    /// Scene id.
+    /// Scene id (or `<scene>@<variant>`).
     #[arg(long)]
     scene: String,
+    /// Render this variant of the scene (same as `--scene <scene>@NAME`).
+    #[arg(long, value_name = "NAME")]
+    variant: Option<String>,
     /// Agent pose x,y,z,yaw: y is the floor height under the agent, yaw in radians.
     #[arg(long, allow_hyphen_values = true)]
     pose: String,
@@ -85,9 +90,15 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         }
         None => SensorSuite::all(args.size),
     };
-    let (_, scene) =
-        read_scene(&scene_path(&args.data, &args.scene)).context("run `minos ingest` first")?;
-    let grid = read_nav(&nav_path(&args.data, &args.scene)).context("run `minos bake` first")?;
+    let scene_ref = with_variant(
+        &args.data,
+        vec![args.scene.clone()],
+        args.variant.as_deref(),
+    )?
+    .remove(0);
+    let (scene, _) = load_scene(&args.data, &scene_ref).context("run `minos ingest` first")?;
+    let grid = read_nav(&nav_path(&args.data, &grid_ref(&args.data, &scene_ref)))
+        .context("run `minos bake` first")?;
     let agent = AgentConfig::minos_continuous();
     let assets = Arc::new(SceneAssets::new(&scene, grid, &agent)?);
     let choice = match args.renderer {

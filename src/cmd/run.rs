@@ -8,6 +8,7 @@ use anyhow::{bail, Context as _};
 use minos::episode::batch::Shard;
 use minos::episode::format::read_episodes;
 use minos::io::atomic::write_bytes_atomic;
+use minos::io::variant_store::read_variant;
 use minos::run::agents::Decision;
 use minos::run::metrics::{render_table, Reward};
 use minos::run::rollout::{run as run_episodes, AgentKind, RerunOutput, RunConfig};
@@ -43,6 +44,10 @@ pub struct Args {
     /// Episode file from `minos episodes`.
     #[arg(long)]
     episodes: PathBuf,
+    /// Run every episode on this variant of its scene (scene and episode ids in the outputs
+    /// read `<scene>@NAME`); a variant that changes geometry needs `minos bake --variant NAME`.
+    #[arg(long, value_name = "NAME")]
+    variant: Option<String>,
     /// Agent: random, forward, oracle, replay:FILE or external:CMD (a process speaking JSON
     /// lines on stdin/stdout, see docs/EXTERNAL_AGENT.md).
     #[arg(long)]
@@ -167,7 +172,11 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         .map_err(anyhow::Error::msg)?,
         None => SensorSuite::minos(args.size),
     };
-    let episodes = read_episodes(&args.episodes)?;
+    let mut episodes = read_episodes(&args.episodes)?;
+    if let Some(name) = &args.variant {
+        read_variant(&args.data, name).map_err(|e| anyhow::anyhow!("--variant {name}: {e}"))?;
+        episodes = episodes.into_iter().map(|e| e.on_variant(name)).collect();
+    }
     let cfg = RunConfig {
         data: args.data.clone(),
         out: args.out.clone(),
@@ -204,6 +213,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         "command": std::env::args().collect::<Vec<_>>(),
         "minos_version": env!("CARGO_PKG_VERSION"),
         "episodes_file": args.episodes,
+        "variant": args.variant,
         "agent": args.agent,
         "preset": args.preset,
         "body": body,

@@ -27,7 +27,7 @@ pub struct Args {
     /// DATA folder (ingested and baked).
     #[arg(long, value_name = "DATA")]
     data: PathBuf,
-    /// Id of the scene to record.
+    /// Id of the scene to record (`<scene>@<variant>` for a variant).
     #[arg(long, value_name = "ID")]
     scene: String,
     /// Episode file from `minos episodes`: draws the scene's episodes with their shortest

@@ -8,6 +8,7 @@ use std::path::Path;
 use rayon::prelude::*;
 use serde::Serialize;
 
+use crate::io::variant_store::grid_ref;
 use crate::navmesh::file::{nav_path, read_nav};
 use crate::progress::Progress;
 
@@ -66,6 +67,13 @@ pub struct EpisodeBatch {
     pub total: usize,
     /// Rejected draws by reason, over all scenes.
     pub rejected: BTreeMap<String, u64>,
+    /// Mean geodesic distance of the episodes (m).
+    pub mean_geodesic: f64,
+    /// Mean straight-line distance of the episodes (m).
+    pub mean_euclidean: f64,
+    /// Mean of each episode's geodesic / Euclidean distance ratio: how much the layout makes
+    /// the agent detour (MINOS compared it between empty and furnished houses).
+    pub mean_ratio: f64,
     /// Per scene.
     pub scenes: BTreeMap<String, SceneStats>,
 }
@@ -91,7 +99,7 @@ pub fn sample_scenes(
     let results: Vec<(String, Result<super::sample::SceneEpisodes, String>)> = mine
         .par_iter()
         .map(|(id, split)| {
-            let r = read_nav(&nav_path(data, id))
+            let r = read_nav(&nav_path(data, &grid_ref(data, id)))
                 .map_err(|e| format!("{e} (run `minos bake`)"))
                 .map(|grid| sample_scene(&grid, id, split, cfg));
             progress.advance(1);
@@ -124,6 +132,25 @@ pub fn sample_scenes(
         batch.scenes.insert(id, stats);
     }
     batch.total = batch.episodes.len();
+    if batch.total > 0 {
+        let n = batch.total as f64;
+        let eps = &batch.episodes;
+        batch.mean_geodesic = eps
+            .iter()
+            .map(|e| f64::from(e.geodesic_distance))
+            .sum::<f64>()
+            / n;
+        batch.mean_euclidean = eps
+            .iter()
+            .map(|e| f64::from(e.euclidean_distance))
+            .sum::<f64>()
+            / n;
+        batch.mean_ratio = eps
+            .iter()
+            .map(|e| f64::from(e.geodesic_distance) / f64::from(e.euclidean_distance).max(1e-6))
+            .sum::<f64>()
+            / n;
+    }
     batch
 }
 

@@ -145,3 +145,51 @@ pub struct Episode {
     /// Step limit.
     pub max_steps: u32,
 }
+
+impl Episode {
+    /// The same episode on variant `name` of its scene: the scene id becomes `<scene>@<name>`
+    /// (replacing any variant it had) and the episode id follows it. Positions stay: variants
+    /// that only remove clutter, open doors or retexture keep every start and goal walkable.
+    pub fn on_variant(mut self, name: &str) -> Self {
+        let base = crate::scene::variants::split_ref(&self.scene_id).0;
+        let scene = crate::scene::variants::join_ref(base, Some(name));
+        if let Some(rest) = self.episode_id.strip_prefix(&format!("{}:", self.scene_id)) {
+            self.episode_id = format!("{scene}:{rest}");
+        } else {
+            self.episode_id = format!("{scene}:{}", self.episode_id);
+        }
+        self.scene_id = scene;
+        self
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_episode_moves_to_a_variant_with_its_ids() {
+        let e = Episode {
+            episode_id: "h1@old:pointgoal:00003".into(),
+            scene_id: "h1@old".into(),
+            split: "val".into(),
+            task: Task::PointGoal,
+            seed: 1,
+            start_position: [0.0; 3],
+            start_yaw: 0.0,
+            goal: Goal::Point {
+                position: [1.0, 0.0, 1.0],
+            },
+            euclidean_distance: 1.0,
+            geodesic_distance: 1.0,
+            path_num_doors: 0,
+            path_num_rooms: 1,
+            difficulty: Difficulty::Easy,
+            success_radius: 0.2,
+            max_steps: 500,
+        }
+        .on_variant("empty");
+        assert_eq!(e.scene_id, "h1@empty");
+        assert_eq!(e.episode_id, "h1@empty:pointgoal:00003");
+    }
+}

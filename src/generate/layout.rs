@@ -333,6 +333,8 @@ fn connect_rooms(
         .filter(|s| s.u1 - s.u0 >= 1.0 + 2.0 * OPENING_MARGIN)
         .collect();
     rng.shuffle(&mut walls);
+    // Footprints of the open doors placed so far (frame and swung leaf).
+    let mut swings: Vec<Rect> = Vec::new();
     let mut parent: Vec<usize> = (0..n).collect();
     let mut chosen: Vec<Shared> = Vec::new();
     let mut extra: Vec<Shared> = Vec::new();
@@ -429,18 +431,40 @@ fn connect_rooms(
             kind,
         });
         let swing_positive = rng.chance(0.5);
-        level.objects.push(opening_object(
-            model,
-            s.side_a,
-            s.at,
-            u,
-            level.base_y,
-            swing_positive,
-            vec![s.a, s.b],
-        ));
+        let place = |positive: bool| {
+            opening_object(
+                model,
+                s.side_a,
+                s.at,
+                u,
+                level.base_y,
+                positive,
+                vec![s.a, s.b],
+            )
+        };
+        let mut object = place(swing_positive);
+        if matches!(kind, OpeningKind::Door { open: true }) {
+            // Two open leaves must never box in a corner between them: swing the other way
+            // when the preferred side comes within an agent's width of another open leaf.
+            let clashes = |o: &PlacedObject| {
+                let f = o.footprint();
+                swings.iter().any(|w: &Rect| w.overlaps(&f, LEAF_GAP))
+            };
+            if clashes(&object) {
+                let other = place(!swing_positive);
+                if !clashes(&other) {
+                    object = other;
+                }
+            }
+            swings.push(object.footprint());
+        }
+        level.objects.push(object);
     }
     Some(())
 }
+
+/// Smallest gap between the swept boxes of two open door leaves (an agent's width and a margin).
+const LEAF_GAP: f64 = 0.35;
 
 /// The world position of a side of `r` (x or z), moved `inset` into the room.
 fn side_line(r: &Rect, side: Side, inset: f64) -> f64 {

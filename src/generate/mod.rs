@@ -13,6 +13,7 @@ pub mod mp3d_writer;
 mod objwrite;
 pub mod plan;
 pub mod suncg_writer;
+pub mod textures;
 
 use std::path::Path;
 
@@ -24,7 +25,7 @@ use crate::seed::{derive_seed, Rng};
 pub use plan::HousePlan;
 
 /// Bumped when the generator's output for a given configuration changes; part of house ids.
-pub const GENERATOR_VERSION: u32 = 1;
+pub const GENERATOR_VERSION: u32 = 2;
 
 /// The on-disk format to write.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -11,12 +11,16 @@ pub fn num(out: &mut String, v: f64) {
     let _ = write!(out, "{r}");
 }
 
-/// An OBJ being assembled: vertices, the six axis normals, faces grouped by material.
+/// An OBJ being assembled: vertices, the six axis normals, faces grouped by material;
+/// faces of textured materials also get planar texture coordinates.
 pub struct ObjText {
     body: String,
     faces: Vec<(usize, String)>,
     vertices: usize,
+    texcoords: usize,
     mtllib: String,
+    /// (material, metres per texture repeat) of textured materials.
+    textured: Vec<(usize, f64)>,
 }
 
 /// The six axis normals, written once at the top of every OBJ: -x, +x, -y, +y, -z, +z.
@@ -29,8 +33,17 @@ impl ObjText {
             body: String::with_capacity(4096),
             faces: Vec::new(),
             vertices: 0,
+            texcoords: 0,
             mtllib: mtllib.to_string(),
+            textured: Vec::new(),
         }
+    }
+
+    /// Gives faces of `material` texture coordinates, one repeat per `metres`, projected
+    /// along the face's axis (x faces use (z, y), y faces (x, z), z faces (x, y)).
+    pub fn texture_scale(mut self, material: usize, metres: f64) -> Self {
+        self.textured.push((material, metres));
+        self
     }
 
     fn vertex(&mut self, p: [f64; 3]) {
@@ -44,11 +57,37 @@ impl ObjText {
         self.vertices += 1;
     }
 
-    fn face(&mut self, material: usize, corners: [usize; 4], normal: usize) {
-        let mut f = String::with_capacity(40);
+    /// A quad with corners (1-based vertex numbers) at `points`, normal number `normal`.
+    fn face(&mut self, material: usize, corners: [usize; 4], points: [[f64; 3]; 4], normal: usize) {
+        let scale = self
+            .textured
+            .iter()
+            .find(|(m, _)| *m == material)
+            .map(|(_, s)| *s);
+        let mut f = String::with_capacity(48);
         f.push('f');
-        for c in corners {
-            let _ = write!(f, " {c}//{normal}");
+        match scale {
+            Some(s) => {
+                let (a, b) = match normal {
+                    1 | 2 => (2, 1),
+                    3 | 4 => (0, 2),
+                    _ => (0, 1),
+                };
+                for (c, p) in corners.iter().zip(points) {
+                    self.body.push_str("vt ");
+                    num(&mut self.body, p[a] / s);
+                    self.body.push(' ');
+                    num(&mut self.body, p[b] / s);
+                    self.body.push('\n');
+                    self.texcoords += 1;
+                    let _ = write!(f, " {c}/{}/{normal}", self.texcoords);
+                }
+            }
+            None => {
+                for c in corners {
+                    let _ = write!(f, " {c}//{normal}");
+                }
+            }
         }
         f.push('\n');
         self.faces.push((material, f));
@@ -57,33 +96,51 @@ impl ObjText {
     /// A closed box, faces counter-clockwise seen from outside.
     pub fn add_box(&mut self, min: [f64; 3], max: [f64; 3], material: usize) {
         let o = self.vertices + 1;
+        let corner = |i: usize| {
+            [
+                if i & 1 == 0 { min[0] } else { max[0] },
+                if i & 2 == 0 { min[1] } else { max[1] },
+                if i & 4 == 0 { min[2] } else { max[2] },
+            ]
+        };
         for i in 0..8 {
-            let x = if i & 1 == 0 { min[0] } else { max[0] };
-            let y = if i & 2 == 0 { min[1] } else { max[1] };
-            let z = if i & 4 == 0 { min[2] } else { max[2] };
-            self.vertex([x, y, z]);
+            self.vertex(corner(i));
         }
         // Corner k has bits (x, y, z); faces listed CCW from outside.
-        let v = |k: usize| o + k;
-        self.face(material, [v(0), v(4), v(6), v(2)], 1); // -x
-        self.face(material, [v(1), v(3), v(7), v(5)], 2); // +x
-        self.face(material, [v(0), v(1), v(5), v(4)], 3); // -y
-        self.face(material, [v(2), v(6), v(7), v(3)], 4); // +y
-        self.face(material, [v(0), v(2), v(3), v(1)], 5); // -z
-        self.face(material, [v(4), v(5), v(7), v(6)], 6); // +z
+        let quads: [([usize; 4], usize); 6] = [
+            ([0, 4, 6, 2], 1), // -x
+            ([1, 3, 7, 5], 2), // +x
+            ([0, 1, 5, 4], 3), // -y
+            ([2, 6, 7, 3], 4), // +y
+            ([0, 2, 3, 1], 5), // -z
+            ([4, 5, 7, 6], 6), // +z
+        ];
+        for (q, normal) in quads {
+            self.face(material, q.map(|k| o + k), q.map(corner), normal);
+        }
     }
 
     /// A horizontal rectangle at height `y`, facing up (`up`) or down.
     pub fn add_flat(&mut self, r: &Rect, y: f64, up: bool, material: usize) {
         let o = self.vertices + 1;
-        self.vertex([r.x0, y, r.z0]);
-        self.vertex([r.x0, y, r.z1]);
-        self.vertex([r.x1, y, r.z1]);
-        self.vertex([r.x1, y, r.z0]);
+        let p = [
+            [r.x0, y, r.z0],
+            [r.x0, y, r.z1],
+            [r.x1, y, r.z1],
+            [r.x1, y, r.z0],
+        ];
+        for q in p {
+            self.vertex(q);
+        }
         if up {
-            self.face(material, [o, o + 1, o + 2, o + 3], 4);
+            self.face(material, [o, o + 1, o + 2, o + 3], p, 4);
         } else {
-            self.face(material, [o, o + 3, o + 2, o + 1], 3);
+            self.face(
+                material,
+                [o, o + 3, o + 2, o + 1],
+                [p[0], p[3], p[2], p[1]],
+                3,
+            );
         }
     }
 
@@ -106,10 +163,13 @@ impl ObjText {
     }
 }
 
-/// MTL text for `(name, rgb, alpha)` materials.
-pub fn mtl_text(materials: &[(String, [f64; 3], f64)]) -> String {
+/// One MTL material: name, diffuse colour, opacity and an optional `map_Kd` path.
+pub type MtlMaterial = (String, [f64; 3], f64, Option<String>);
+
+/// MTL text for `materials`.
+pub fn mtl_text(materials: &[MtlMaterial]) -> String {
     let mut out = String::from("# generated by minos\n");
-    for (name, rgb, alpha) in materials {
+    for (name, rgb, alpha, texture) in materials {
         let _ = write!(out, "newmtl {name}\nKd ");
         num(&mut out, rgb[0]);
         out.push(' ');
@@ -119,6 +179,9 @@ pub fn mtl_text(materials: &[(String, [f64; 3], f64)]) -> String {
         out.push_str("\nKa 0 0 0\nd ");
         num(&mut out, *alpha);
         out.push('\n');
+        if let Some(t) = texture {
+            let _ = writeln!(out, "map_Kd {t}");
+        }
     }
     out
 }

@@ -1,6 +1,8 @@
 //! Writes plans in SUNCG's on-disk layout:
 //! `house/<id>/house.json`, `room/<id>/<modelId>{f,c,w}.obj/.mtl`,
-//! `object/<modelId>/<modelId>.obj/.mtl` and `metadata/ModelCategoryMapping.csv`.
+//! `object/<modelId>/<modelId>.obj/.mtl`, `metadata/ModelCategoryMapping.csv` and the
+//! procedural textures in `texture/` (wood on floors of most rooms and on every model
+//! material named `wood`, tiles in kitchens and bathrooms, a checker in hallways).
 //!
 //! Every file is written atomically, and `house.json` last, so a house whose `house.json`
 //! exists is complete.
@@ -14,11 +16,22 @@ use serde_json::{json, Value};
 use crate::io::atomic::write_bytes_atomic;
 
 use super::catalog::catalog;
-use super::objwrite::{mtl_text, ObjText};
+use super::objwrite::{mtl_text, MtlMaterial, ObjText};
 use super::plan::{HousePlan, LevelPlan, Rect, RoomPlan, Side};
+use super::textures::{self, ProceduralTexture};
 
-/// Writes the model library (`object/`) and its category table (`metadata/`).
+/// Metres per texture repeat on generated surfaces.
+const TEXTURE_METRES: f64 = 1.0;
+
+/// The texture a model material gets, by its name.
+fn model_texture(material: &str) -> Option<ProceduralTexture> {
+    (material == "wood").then_some(textures::WOOD)
+}
+
+/// Writes the model library (`object/`), its category table (`metadata/`) and the
+/// procedural textures (`texture/`).
 pub fn write_library(root: &Path) -> io::Result<()> {
+    textures::write_textures(root)?;
     let mut csv = String::from(
         "index,model_id,fine_grained_class,coarse_grained_class,empty_struct_obj,nyuv2_40class,wnsynsetid,wnsynsetkey\n",
     );
@@ -26,6 +39,11 @@ pub fn write_library(root: &Path) -> io::Result<()> {
         let dir = root.join("object").join(&m.id);
         let names: Vec<String> = m.materials.iter().map(|x| x.name.clone()).collect();
         let mut obj = ObjText::new(&format!("{}.mtl", m.id));
+        for (i, x) in m.materials.iter().enumerate() {
+            if model_texture(&x.name).is_some() {
+                obj = obj.texture_scale(i, TEXTURE_METRES);
+            }
+        }
         for p in &m.parts {
             obj.add_box(p.min, p.max, p.material);
         }
@@ -33,10 +51,13 @@ pub fn write_library(root: &Path) -> io::Result<()> {
             &dir.join(format!("{}.obj", m.id)),
             obj.finish(&names).as_bytes(),
         )?;
-        let mtl: Vec<(String, [f64; 3], f64)> = m
+        let mtl: Vec<MtlMaterial> = m
             .materials
             .iter()
-            .map(|x| (x.name.clone(), x.rgb, x.alpha))
+            .map(|x| {
+                let texture = model_texture(&x.name).map(|t| t.mtl_path());
+                (x.name.clone(), x.rgb, x.alpha, texture)
+            })
             .collect();
         write_bytes_atomic(
             &dir.join(format!("{}.mtl", m.id)),
@@ -81,23 +102,84 @@ fn bbox_json(lo: [f64; 3], hi: [f64; 3]) -> Value {
     json!({"min": [r4(lo[0]), r4(lo[1]), r4(lo[2])], "max": [r4(hi[0]), r4(hi[1]), r4(hi[2])]})
 }
 
-const ROOM_MATERIALS: [(&str, [f64; 3]); 3] = [
-    ("floor", [0.62, 0.5, 0.38]),
-    ("ceiling", [0.95, 0.95, 0.95]),
-    ("wall", [0.85, 0.83, 0.78]),
-];
+/// A room surface material: name, colour and texture.
+#[derive(Clone, Copy)]
+struct SurfaceMaterial {
+    name: &'static str,
+    rgb: [f64; 3],
+    texture: Option<ProceduralTexture>,
+}
 
-fn write_obj_mtl(dir: &Path, stem: &str, obj: ObjText, material: usize) -> io::Result<()> {
-    let (name, rgb) = ROOM_MATERIALS[material];
-    let names: Vec<String> = ROOM_MATERIALS.iter().map(|(n, _)| n.to_string()).collect();
+const WOOD_FLOOR: SurfaceMaterial = SurfaceMaterial {
+    name: "floor",
+    rgb: [0.72, 0.57, 0.42],
+    texture: Some(textures::WOOD),
+};
+const TILE_FLOOR: SurfaceMaterial = SurfaceMaterial {
+    name: "floor_tiles",
+    rgb: [0.9, 0.88, 0.84],
+    texture: Some(textures::TILES),
+};
+const CHECKER_FLOOR: SurfaceMaterial = SurfaceMaterial {
+    name: "floor_checker",
+    rgb: [0.86, 0.8, 0.72],
+    texture: Some(textures::CHECKER),
+};
+const GROUND: SurfaceMaterial = SurfaceMaterial {
+    name: "floor",
+    rgb: [0.62, 0.5, 0.38],
+    texture: None,
+};
+const CEILING: SurfaceMaterial = SurfaceMaterial {
+    name: "ceiling",
+    rgb: [0.95, 0.95, 0.95],
+    texture: None,
+};
+const WALL: SurfaceMaterial = SurfaceMaterial {
+    name: "wall",
+    rgb: [0.85, 0.83, 0.78],
+    texture: None,
+};
+
+/// The floor material of a room of SUNCG type `raw_type`.
+fn floor_material(raw_type: &str) -> SurfaceMaterial {
+    match raw_type {
+        "Kitchen" | "Bathroom" => TILE_FLOOR,
+        "Hallway" => CHECKER_FLOOR,
+        _ => WOOD_FLOOR,
+    }
+}
+
+/// Writes `stem.obj` (every face in material 0, `material`) and its `stem.mtl`.
+fn write_obj_mtl(
+    dir: &Path,
+    stem: &str,
+    obj: ObjText,
+    material: SurfaceMaterial,
+) -> io::Result<()> {
     write_bytes_atomic(
         &dir.join(format!("{stem}.obj")),
-        obj.finish(&names).as_bytes(),
+        obj.finish(&[material.name.to_string()]).as_bytes(),
     )?;
+    let mtl: MtlMaterial = (
+        material.name.to_string(),
+        material.rgb,
+        1.0,
+        material.texture.map(|t| t.mtl_path()),
+    );
     write_bytes_atomic(
         &dir.join(format!("{stem}.mtl")),
-        mtl_text(&[(name.to_string(), rgb, 1.0)]).as_bytes(),
+        mtl_text(&[mtl]).as_bytes(),
     )
+}
+
+/// An OBJ for one surface material (texture coordinates when it has a texture).
+fn surface_obj(mtllib: &str, material: SurfaceMaterial) -> ObjText {
+    let obj = ObjText::new(mtllib);
+    match material.texture {
+        Some(_) => obj.texture_scale(0, TEXTURE_METRES),
+        None => obj,
+    }
 }
 
 fn minus_all(r: Rect, holes: &[Rect]) -> Vec<Rect> {
@@ -109,23 +191,24 @@ fn minus_all(r: Rect, holes: &[Rect]) -> Vec<Rect> {
 }
 
 fn write_room(dir: &Path, model: &str, room: &RoomPlan, base: f64) -> io::Result<()> {
-    let mut floor = ObjText::new(&format!("{model}f.mtl"));
+    let floor_mat = floor_material(room.raw_type);
+    let mut floor = surface_obj(&format!("{model}f.mtl"), floor_mat);
     for part in minus_all(room.rect, &room.floor_holes) {
         floor.add_flat(&part, base, true, 0);
     }
-    write_obj_mtl(dir, &format!("{model}f"), floor, 0)?;
-    let mut ceiling = ObjText::new(&format!("{model}c.mtl"));
+    write_obj_mtl(dir, &format!("{model}f"), floor, floor_mat)?;
+    let mut ceiling = surface_obj(&format!("{model}c.mtl"), CEILING);
     for part in minus_all(room.rect, &room.ceiling_holes) {
-        ceiling.add_flat(&part, base + room.wall_height, false, 1);
+        ceiling.add_flat(&part, base + room.wall_height, false, 0);
     }
-    write_obj_mtl(dir, &format!("{model}c"), ceiling, 1)?;
-    let mut walls = ObjText::new(&format!("{model}w.mtl"));
+    write_obj_mtl(dir, &format!("{model}c"), ceiling, CEILING)?;
+    let mut walls = surface_obj(&format!("{model}w.mtl"), WALL);
     for side in Side::ALL {
         for (min, max) in room.wall_boxes(side, base) {
-            walls.add_box(min, max, 2);
+            walls.add_box(min, max, 0);
         }
     }
-    write_obj_mtl(dir, &format!("{model}w"), walls, 2)
+    write_obj_mtl(dir, &format!("{model}w"), walls, WALL)
 }
 
 fn level_nodes(li: usize, level: &LevelPlan, lo: &mut [f64; 3], hi: &mut [f64; 3]) -> Vec<Value> {
@@ -229,11 +312,16 @@ pub fn write_house(root: &Path, plan: &HousePlan) -> io::Result<()> {
                     )
                 },
             );
-            let mut ground = ObjText::new(&format!("{}f.mtl", ground_model_id(li)));
+            let mut ground = surface_obj(&format!("{}f.mtl", ground_model_id(li)), GROUND);
             for part in g.minus(&footprint) {
                 ground.add_flat(&part, level.base_y, true, 0);
             }
-            write_obj_mtl(&room_dir, &format!("{}f", ground_model_id(li)), ground, 0)?;
+            write_obj_mtl(
+                &room_dir,
+                &format!("{}f", ground_model_id(li)),
+                ground,
+                GROUND,
+            )?;
         }
         let mut lo = [f64::INFINITY; 3];
         let mut hi = [f64::NEG_INFINITY; 3];

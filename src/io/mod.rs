@@ -6,3 +6,4 @@ pub mod export;
 pub mod manifest;
 pub mod rrd;
 pub mod scene_file;
+pub mod variant_store;

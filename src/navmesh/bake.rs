@@ -1,4 +1,5 @@
-//! Baking many scenes: load each compiled scene, build its grid, write `DATA/nav/<id>.nav`
+//! Baking many scenes: load each compiled scene (applying its variant, if the id names one),
+//! build its grid, write `DATA/nav/<id>.nav`
 //! and its previews, in parallel. A scene that fails is reported and the others finish;
 //! grids newer than their scene and baked with the same parameters are kept.
 
@@ -6,7 +7,7 @@ use std::path::{Path, PathBuf};
 
 use rayon::prelude::*;
 
-use crate::io::scene_file::{read_scene, scene_path};
+use crate::io::variant_store::{load_scene, newest_input};
 use crate::progress::Progress;
 
 use super::build::build;
@@ -52,7 +53,7 @@ impl BakeReport {
 pub struct BakeConfig {
     /// DATA folder.
     pub data: PathBuf,
-    /// Scene ids to bake.
+    /// Scene ids to bake (`<scene>@<variant>` for variants).
     pub ids: Vec<String>,
     /// Agent and grid parameters.
     pub params: NavParams,
@@ -62,15 +63,15 @@ pub struct BakeConfig {
     pub previews: bool,
 }
 
-fn newer(a: &Path, b: &Path) -> bool {
-    let m = |p: &Path| std::fs::metadata(p).and_then(|m| m.modified()).ok();
-    matches!((m(a), m(b)), (Some(x), Some(y)) if x >= y)
+/// True when `out` exists and is at least as new as every input of `scene_ref`.
+fn up_to_date(data: &Path, out: &Path, scene_ref: &str) -> bool {
+    let built = std::fs::metadata(out).and_then(|m| m.modified()).ok();
+    matches!((built, newest_input(data, scene_ref)), (Some(x), Some(y)) if x >= y)
 }
 
 fn bake_one(cfg: &BakeConfig, id: &str) -> BakeOutcome {
-    let scene_file = scene_path(&cfg.data, id);
     let out = nav_path(&cfg.data, id);
-    if !cfg.force && newer(&out, &scene_file) {
+    if !cfg.force && up_to_date(&cfg.data, &out, id) {
         if let Ok(g) = read_nav(&out) {
             if g.params == cfg.params {
                 return BakeOutcome::UpToDate;
@@ -78,7 +79,7 @@ fn bake_one(cfg: &BakeConfig, id: &str) -> BakeOutcome {
         }
     }
     let result = (|| -> Result<BakeOutcome, String> {
-        let (_, scene) = read_scene(&scene_file).map_err(|e| e.to_string())?;
+        let (scene, _) = load_scene(&cfg.data, id).map_err(|e| e.to_string())?;
         let grid = build(&scene, &cfg.params).map_err(|e| e.to_string())?;
         write_nav(&out, &grid).map_err(|e| e.to_string())?;
         if cfg.previews {

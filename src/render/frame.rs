@@ -16,6 +16,38 @@ const LIGHT: [f32; 3] = [0.35, 1.0, 0.55];
 /// Ambient share of the shading.
 const AMBIENT: f32 = 0.35;
 
+/// World directions of the rays through pixel centres, split into a per-column and a
+/// per-row part (the same camera model the rasterisers sample).
+struct PixelRays {
+    columns: Vec<Vec3>,
+    rows: Vec<Vec3>,
+}
+
+impl PixelRays {
+    fn new(camera: &Camera, width: u32, height: u32) -> Self {
+        let to_world = camera.view().inverse();
+        let (right, up) = (
+            to_world.transform_vector3(Vec3::X),
+            to_world.transform_vector3(Vec3::Y),
+        );
+        let forward = to_world.transform_vector3(Vec3::NEG_Z);
+        let tan = (camera.vfov_deg.to_radians() * 0.5).tan();
+        let aspect = width as f32 / height.max(1) as f32;
+        let columns = (0..width)
+            .map(|x| right * (((x as f32 + 0.5) / width as f32 * 2.0 - 1.0) * tan * aspect))
+            .collect();
+        let rows = (0..height)
+            .map(|y| forward + up * ((1.0 - (y as f32 + 0.5) / height as f32 * 2.0) * tan))
+            .collect();
+        PixelRays { columns, rows }
+    }
+
+    #[inline]
+    fn dir(&self, x: usize, y: usize) -> Vec3 {
+        self.columns[x] + self.rows[y]
+    }
+}
+
 /// Triangle ids and depth-buffer values of one camera image, row-major from the top left.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Frame {
@@ -41,23 +73,37 @@ impl Frame {
         }
     }
 
-    /// Shaded RGB colour (flat material colour, one directional light plus ambient; both
-    /// faces lit alike). Black where nothing is hit.
-    pub fn color(&self, scene: &RenderScene) -> Vec<[u8; 3]> {
+    /// Shaded RGB colour: the material colour, times the texture where the triangle has one
+    /// (bilinear, coordinates exact at the pixel centre's ray), with one directional light
+    /// plus ambient (both faces lit alike). Black where nothing is hit.
+    pub fn color(&self, scene: &RenderScene, camera: &Camera) -> Vec<[u8; 3]> {
         let light = Vec3::from_array(LIGHT).normalize();
-        self.tri
-            .iter()
-            .map(|&t| {
+        let rays =
+            (!scene.textures.is_empty()).then(|| PixelRays::new(camera, self.width, self.height));
+        let width = self.width.max(1) as usize;
+        let mut out = Vec::with_capacity(self.tri.len());
+        for (y, row) in self.tri.chunks(width).enumerate() {
+            for (x, &t) in row.iter().enumerate() {
                 if t == NO_HIT {
-                    return [0, 0, 0];
+                    out.push([0, 0, 0]);
+                    continue;
                 }
                 let info = &scene.tris[t as usize];
-                let shade =
-                    AMBIENT + (1.0 - AMBIENT) * Vec3::from_array(info.normal).dot(light).abs();
-                info.color
-                    .map(|c| ((c * shade).clamp(0.0, 1.0) * 255.0).round() as u8)
-            })
-            .collect()
+                let normal = Vec3::from_array(info.normal);
+                let shade = AMBIENT + (1.0 - AMBIENT) * normal.dot(light).abs();
+                let mut rgb = info.color;
+                if let (Some(tex), Some(rays)) = (scene.textures.get(info.texture as usize), &rays)
+                {
+                    let dir = rays.dir(x, y);
+                    let [u, v] = scene.uv_maps[t as usize].at(camera.position, dir, normal);
+                    let s = tex.sample(u, v);
+                    rgb = [rgb[0] * s[0], rgb[1] * s[1], rgb[2] * s[2]];
+                }
+                // + 0.5 and truncate: rounding without a library call (values are ≥ 0).
+                out.push(rgb.map(|c| ((c * shade).clamp(0.0, 1.0) * 255.0 + 0.5) as u8));
+            }
+        }
+        out
     }
 
     /// Linear depth in metres along the viewing axis (0 where nothing is hit).
@@ -97,6 +143,7 @@ impl Frame {
                 (NO_HIT, _) => 0,
                 (t, Taxonomy::Nyu40) => scene.tris[t as usize].nyu40,
                 (t, Taxonomy::Mpcat40) => scene.tris[t as usize].mpcat40,
+                (t, Taxonomy::Coarse) => scene.tris[t as usize].coarse,
             })
             .collect()
     }

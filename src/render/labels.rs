@@ -1,5 +1,6 @@
-//! Semantic label taxonomies for per-pixel class images: NYU-40 and Matterport3D's mpcat40,
-//! with fixed indices (tables in `data/taxonomy/`), so labels mean the same in every scene.
+//! Semantic label taxonomies for per-pixel class images: NYU-40, Matterport3D's mpcat40 and
+//! minos's coarse classes (after MINOS/SUNCG's coarse-grained categories), with fixed indices
+//! (tables in `data/taxonomy/`), so labels mean the same in every scene.
 
 use std::collections::HashMap;
 use std::sync::OnceLock;
@@ -17,6 +18,9 @@ pub enum Taxonomy {
     Nyu40,
     /// Matterport3D mpcat40 (0 = void).
     Mpcat40,
+    /// Coarse classes (`data/taxonomy/coarse.csv`, 0 = void): wall, floor, ceiling, door,
+    /// window, stairs, chair, table, bed, sofa, cabinet, …, other.
+    Coarse,
 }
 
 struct Tables {
@@ -25,6 +29,22 @@ struct Tables {
     nyu_to_mp: HashMap<String, String>,
     nyu40_names: Vec<String>,
     mpcat40_names: Vec<String>,
+    coarse: HashMap<String, u16>,
+    coarse_names: Vec<String>,
+    /// Object label (normalised) → coarse class.
+    coarse_map: HashMap<String, u16>,
+}
+
+/// Lower case, with spaces and '-' read as '_' (how coarse_map.csv lists labels).
+fn normalise(label: &str) -> String {
+    label
+        .trim()
+        .chars()
+        .map(|c| match c {
+            ' ' | '-' => '_',
+            c => c.to_ascii_lowercase(),
+        })
+        .collect()
 }
 
 fn rows(text: &str) -> impl Iterator<Item = (String, String)> + '_ {
@@ -58,22 +78,30 @@ fn tables() -> &'static Tables {
         let (nyu40, nyu40_names) = indexed(include_str!("../../data/taxonomy/nyu40.csv"));
         let (mpcat40, mpcat40_names) = indexed(include_str!("../../data/taxonomy/mpcat40.csv"));
         let nyu_to_mp = rows(include_str!("../../data/taxonomy/nyu40_to_mpcat40.csv")).collect();
+        let (coarse, coarse_names) = indexed(include_str!("../../data/taxonomy/coarse.csv"));
+        let coarse_map = rows(include_str!("../../data/taxonomy/coarse_map.csv"))
+            .filter_map(|(label, class)| coarse.get(&class).map(|&i| (normalise(&label), i)))
+            .collect();
         Tables {
             nyu40,
             mpcat40,
             nyu_to_mp,
             nyu40_names,
             mpcat40_names,
+            coarse,
+            coarse_names,
+            coarse_map,
         }
     })
 }
 
 impl Taxonomy {
-    /// Parses `nyu40` or `mpcat40`.
+    /// Parses `nyu40`, `mpcat40` or `coarse`.
     pub fn from_name(s: &str) -> Option<Taxonomy> {
         match s {
             "nyu40" => Some(Taxonomy::Nyu40),
             "mpcat40" => Some(Taxonomy::Mpcat40),
+            "coarse" => Some(Taxonomy::Coarse),
             _ => None,
         }
     }
@@ -83,6 +111,7 @@ impl Taxonomy {
         match self {
             Taxonomy::Nyu40 => &tables().nyu40_names,
             Taxonomy::Mpcat40 => &tables().mpcat40_names,
+            Taxonomy::Coarse => &tables().coarse_names,
         }
     }
 
@@ -109,6 +138,13 @@ impl Taxonomy {
                     .and_then(|m| t.mpcat40.get(m));
                 direct.or(stairs).or(via_nyu).copied().unwrap_or(0)
             }
+            Taxonomy::Coarse => [&c.coarse, &c.fine, &c.mpcat40, &c.nyu40]
+                .into_iter()
+                .flatten()
+                .find_map(|label| t.coarse_map.get(&normalise(label)))
+                .or_else(|| t.coarse.get("other"))
+                .copied()
+                .unwrap_or(0),
         }
     }
 
@@ -123,6 +159,7 @@ impl Taxonomy {
         let map = match self {
             Taxonomy::Nyu40 => &t.nyu40,
             Taxonomy::Mpcat40 => &t.mpcat40,
+            Taxonomy::Coarse => &t.coarse,
         };
         map.get(name).copied().unwrap_or(0)
     }
@@ -152,5 +189,36 @@ mod tests {
         assert_eq!(Taxonomy::Mpcat40.object_class(&stairs), 16);
         assert_eq!(Taxonomy::Nyu40.names()[40], "otherprop");
         assert_eq!(Taxonomy::Mpcat40.names().len(), 42);
+    }
+
+    #[test]
+    fn coarse_classes_from_any_label() {
+        let coarse = |fine: &str, coarse: Option<&str>, nyu40: Option<&str>| {
+            Taxonomy::Coarse.object_class(&Categories {
+                fine: Some(fine.into()),
+                coarse: coarse.map(str::to_string),
+                nyu40: nyu40.map(str::to_string),
+                mpcat40: None,
+            })
+        };
+        let names = Taxonomy::Coarse.names();
+        let id = |name: &str| names.iter().position(|n| n == name).unwrap() as u16;
+        assert_eq!(id("bed"), 9);
+        assert_eq!(coarse("double_bed", Some("bed"), Some("bed")), id("bed"));
+        // SUNCG coarse class first, then NYU-40 when the coarse label is not listed.
+        assert_eq!(
+            coarse("wardrobe", Some("wardrobe_cabinet"), None),
+            id("cabinet")
+        );
+        assert_eq!(
+            coarse("fridge", Some("zzz"), Some("refridgerator")),
+            id("appliance")
+        );
+        // 3D-FUTURE super-category, compared in lower case.
+        assert_eq!(coarse("Lounge Chair", Some("Chair"), None), id("chair"));
+        assert_eq!(coarse("vase", Some("vase"), None), id("other"));
+        assert_eq!(Taxonomy::Coarse.surface_class(SurfaceKind::Floor), 2);
+        assert_eq!(Taxonomy::Coarse.surface_class(SurfaceKind::Ceiling), 3);
+        assert_eq!(Taxonomy::from_name("coarse"), Some(Taxonomy::Coarse));
     }
 }

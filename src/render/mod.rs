@@ -1,6 +1,6 @@
 //! Rendering: the scene as a triangle soup with per-triangle attributes (`scene`), the camera
 //! model (`camera`), frames and the images derived from them (`frame`), label taxonomies
-//! (`labels`), and two renderers producing the same frames: the CPU rasteriser (`cpu`, always
+//! (`labels`), textures (`texture`, `texture_library`), and two renderers producing the same frames: the CPU rasteriser (`cpu`, always
 //! available) and wgpu (`gpu`, when an adapter exists).
 
 pub mod camera;
@@ -9,6 +9,8 @@ pub mod frame;
 pub mod gpu;
 pub mod labels;
 pub mod scene;
+pub mod texture;
+pub mod texture_library;
 pub mod visualize;
 
 pub use camera::Camera;

@@ -20,7 +20,7 @@ use crate::episode::batch::Shard;
 use crate::episode::Episode;
 use crate::io::atomic::write_bytes_atomic;
 use crate::io::rrd::episode::EpisodeRecorder;
-use crate::io::scene_file::{read_scene, scene_path};
+use crate::io::variant_store::{grid_ref, load_scene};
 use crate::navmesh::file::{nav_path, read_nav};
 use crate::progress::Progress;
 use crate::sim::simulator::Renderer;
@@ -359,9 +359,9 @@ pub fn run(
                 return out;
             }
             let setup = (|| -> Result<Simulator, String> {
-                let (_, scene) = read_scene(&scene_path(&cfg.data, scene_id))
+                let (scene, _) = load_scene(&cfg.data, scene_id)
                     .map_err(|e| format!("{e} (run `minos ingest`)"))?;
-                let grid = read_nav(&nav_path(&cfg.data, scene_id))
+                let grid = read_nav(&nav_path(&cfg.data, &grid_ref(&cfg.data, scene_id)))
                     .map_err(|e| format!("{e} (run `minos bake`)"))?;
                 let assets =
                     Arc::new(SceneAssets::new(&scene, grid, &cfg.body).map_err(|e| e.to_string())?);

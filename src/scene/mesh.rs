@@ -12,7 +12,9 @@ pub struct Material {
     pub name: String,
     /// Linear RGBA diffuse colour in `[0, 1]`; alpha below 1 means translucent.
     pub diffuse: [f32; 4],
-    /// Texture name or path as the dataset gives it (not loaded by ingest).
+    /// Texture name or path as the dataset gives it (not loaded by ingest; the renderers
+    /// resolve it next to the mesh file or in SUNCG's `texture/` folder, see
+    /// [`crate::render::texture_library`]).
     pub texture: Option<String>,
 }
 
@@ -36,7 +38,9 @@ pub struct Mesh {
     pub positions: Vec<[f32; 3]>,
     /// Unit vertex normals, one per position.
     pub normals: Vec<[f32; 3]>,
-    /// Texture coordinates, one per position, or empty when the mesh has none.
+    /// Texture coordinates, one per position, or empty when the mesh has none. OBJ/OpenGL
+    /// convention: v = 0 is the bottom row of the image (glTF's v is flipped on load and
+    /// on export).
     pub uvs: Vec<[f32; 2]>,
     /// Three vertex indices per triangle, counter-clockwise seen from the front.
     pub indices: Vec<u32>,

@@ -6,6 +6,7 @@ pub mod geometry;
 pub mod mesh;
 pub mod model;
 pub mod taxonomy;
+pub mod variants;
 
 pub use geometry::Aabb;
 pub use mesh::{Material, Mesh, WorldMesh};

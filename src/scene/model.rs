@@ -165,7 +165,7 @@ pub struct MaterialOverride {
     pub name: String,
     /// Replacement diffuse colour, if given.
     pub diffuse: Option<[f32; 4]>,
-    /// Replacement texture name, if given.
+    /// Replacement texture name, if given; an empty name removes the model's texture.
     pub texture: Option<String>,
 }
 

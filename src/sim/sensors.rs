@@ -285,12 +285,12 @@ impl CameraSensor {
         match self.modality {
             Modality::Color => Image::U8 {
                 channels: 3,
-                data: frame.color(scene).into_iter().flatten().collect(),
+                data: frame.color(scene, camera).into_iter().flatten().collect(),
             },
             Modality::Gray => Image::U8 {
                 channels: 1,
                 data: frame
-                    .color(scene)
+                    .color(scene, camera)
                     .into_iter()
                     .map(|[r, g, b]| {
                         (0.299 * f32::from(r) + 0.587 * f32::from(g) + 0.114 * f32::from(b)).round()

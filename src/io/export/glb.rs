@@ -112,7 +112,9 @@ fn build(scene: &Scene, plan: &Plan) -> (json::Root, Vec<u8>, ExportSummary) {
             attributes.insert(Valid(json::mesh::Semantic::Normals), normals);
         }
         if let Some(uvs) = part.uvs() {
-            let uvs = data.vec2(uvs);
+            // `Mesh::uvs` has v = 0 at the bottom of the image, glTF at the top.
+            let flipped: Vec<[f32; 2]> = uvs.iter().map(|&[u, v]| [u, 1.0 - v]).collect();
+            let uvs = data.vec2(&flipped);
             attributes.insert(Valid(json::mesh::Semantic::TexCoords(0)), uvs);
         }
         let mut primitives = Vec::new();

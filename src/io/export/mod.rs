@@ -330,8 +330,10 @@ impl MaterialTable {
             if let Some(d) = ov.diffuse {
                 diffuse = d;
             }
-            if ov.texture.is_some() {
-                texture.clone_from(&ov.texture);
+            match ov.texture.as_deref() {
+                Some("") => texture = None,
+                Some(_) => texture.clone_from(&ov.texture),
+                None => {}
             }
         }
         let diffuse = diffuse.map(|c| {

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use super::scene::{episode_entity, log_coordinates, log_episode_plan, log_nav, log_scene_mesh};
 use super::{RecordingError, RrdFile};
 use crate::episode::Episode;
-use crate::io::scene_file::{read_scene, scene_path};
+use crate::io::variant_store::{grid_ref, load_scene};
 use crate::navmesh::file::{nav_path, read_nav};
 use crate::render::RenderScene;
 
@@ -15,7 +15,7 @@ use crate::render::RenderScene;
 pub struct ViewConfig {
     /// DATA folder (ingested and baked).
     pub data: PathBuf,
-    /// Scene id.
+    /// Scene id, or `<scene>@<variant>`.
     pub scene: String,
     /// The `.rrd` file to write.
     pub out: PathBuf,
@@ -47,9 +47,9 @@ pub enum ViewError {
 
 /// Writes the recording of `cfg.scene` with those of `episodes` that belong to it.
 pub fn write_view(cfg: &ViewConfig, episodes: &[Episode]) -> Result<ViewReport, ViewError> {
-    let (_, scene) = read_scene(&scene_path(&cfg.data, &cfg.scene))
+    let (scene, _) = load_scene(&cfg.data, &cfg.scene)
         .map_err(|e| ViewError::Input(format!("{e} (run `minos ingest`)")))?;
-    let grid = read_nav(&nav_path(&cfg.data, &cfg.scene))
+    let grid = read_nav(&nav_path(&cfg.data, &grid_ref(&cfg.data, &cfg.scene)))
         .map_err(|e| ViewError::Input(format!("{e} (run `minos bake`)")))?;
     let render = RenderScene::new(&scene);
     let file = RrdFile::create(&cfg.out, &cfg.scene, &cfg.scene)?;

@@ -441,8 +441,8 @@ impl MeshBuilder {
         Ok(())
     }
 
-    /// The mesh: texture coordinates dropped when all are zero, a default material when
-    /// there is none.
+    /// The mesh: texture coordinates dropped when all are zero (else turned from glTF's
+    /// v-down to [`Mesh::uvs`]' v-up convention), a default material when there is none.
     pub fn finish(self) -> Mesh {
         self.finish_with_colors().0
     }
@@ -453,6 +453,10 @@ impl MeshBuilder {
         let mut out = self.mesh;
         if out.uvs.iter().all(|t| *t == [0.0, 0.0]) {
             out.uvs.clear();
+        } else {
+            for uv in &mut out.uvs {
+                uv[1] = 1.0 - uv[1];
+            }
         }
         if out.materials.is_empty() {
             out.materials
@@ -464,13 +468,19 @@ impl MeshBuilder {
 
 fn to_material(m: &gltf::Material) -> Material {
     let pbr = m.pbr_metallic_roughness();
+    // An image file's URI (relative to the glTF file) where there is one, so the renderers
+    // can find it; otherwise a name (embedded images are not decoded).
     let texture = pbr.base_color_texture().map(|t| {
         let tex = t.texture();
         let img = tex.source();
-        tex.name()
-            .or(img.name())
-            .map(str::to_string)
-            .unwrap_or_else(|| format!("image_{}", img.index()))
+        match img.source() {
+            gltf::image::Source::Uri { uri, .. } if !uri.starts_with("data:") => uri.to_string(),
+            _ => tex
+                .name()
+                .or(img.name())
+                .map(str::to_string)
+                .unwrap_or_else(|| format!("image_{}", img.index())),
+        }
     });
     Material {
         name: m

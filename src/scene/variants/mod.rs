@@ -1,0 +1,82 @@
+//! Scene variants (MINOS's environment customisation): clutter removal, empty houses, open
+//! doors and semantically consistent retexturing, described by a small [`VariantSpec`] and
+//! applied to a loaded scene, never stored as copies of meshes.
+//!
+//! A variant is addressed as `<scene>@<variant>` ([`split_ref`]). [`apply_variant`] runs the
+//! operations in a fixed order — clutter, doors, retexture — on the canonical model, so every
+//! later stage (navigation grids, episodes, rendering, rollouts) sees the variant like any other
+//! scene. Retexturing draws from [`MaterialStats`] computed over the ingested scenes.
+
+pub mod clutter;
+pub mod doors;
+pub mod materials;
+pub mod retexture;
+pub mod spec;
+
+pub use clutter::{apply_clutter, is_architecture, survives_empty};
+pub use doors::{apply_doors, DoorReport};
+pub use materials::{MaterialEntry, MaterialStats, MaterialStatsBuilder};
+pub use retexture::{apply_retexture, RetextureReport};
+pub use spec::{
+    parse_spec_file, validate_name, DoorState, KeepOnly, Retexture, TextureSet, VariantSpec,
+};
+
+use crate::scene::Scene;
+
+/// Splits `<scene>@<variant>` into the scene id and the variant name.
+pub fn split_ref(scene_ref: &str) -> (&str, Option<&str>) {
+    match scene_ref.split_once('@') {
+        Some((id, v)) => (id, Some(v)),
+        None => (scene_ref, None),
+    }
+}
+
+/// `<scene>@<variant>`, or the scene id alone without a variant.
+pub fn join_ref(scene: &str, variant: Option<&str>) -> String {
+    match variant {
+        Some(v) => format!("{scene}@{v}"),
+        None => scene.to_string(),
+    }
+}
+
+/// What applying a variant did to one scene.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct VariantReport {
+    /// Objects removed by the clutter rules.
+    pub removed: usize,
+    /// Door changes.
+    pub doors: DoorReport,
+    /// Retexturing, when the variant asks for it.
+    pub retexture: Option<RetextureReport>,
+}
+
+/// Errors applying a variant.
+#[derive(Debug, thiserror::Error)]
+pub enum VariantError {
+    /// Retexturing needs material statistics.
+    #[error("variant {0}: retexture needs material statistics (run `minos variants`)")]
+    NoStats(String),
+}
+
+/// Applies variant `name` to `scene` (loaded without variant): clutter, then doors, then
+/// retexture. The scene's id becomes `<scene>@<name>`. Level boxes are kept (they still bound
+/// everything), so a variant's grid covers the same area as its scene's.
+pub fn apply_variant(
+    scene: &mut Scene,
+    name: &str,
+    spec: &VariantSpec,
+    stats: Option<&MaterialStats>,
+) -> Result<VariantReport, VariantError> {
+    let base = split_ref(&scene.id).0.to_string();
+    let mut report = VariantReport {
+        removed: apply_clutter(scene, spec),
+        doors: apply_doors(scene, spec),
+        retexture: None,
+    };
+    if let Some(r) = &spec.retexture {
+        let stats = stats.ok_or_else(|| VariantError::NoStats(name.to_string()))?;
+        report.retexture = Some(apply_retexture(scene, &base, r, stats));
+    }
+    scene.id = join_ref(&base, Some(name));
+    Ok(report)
+}
