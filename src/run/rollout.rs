@@ -6,7 +6,7 @@
 //!
 //! With [`RunConfig::rerun`], the first episodes of the shard are also recorded for the
 //! rerun viewer while they roll out (`DIR/.parts/<index>.rrd`, finished before the metrics
-//! file) and concatenated into one `.rrd` at the end; recording never changes the tables.
+//! file) and joined into one `.rrd` at the end; recording never changes the tables.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};

@@ -6,7 +6,7 @@
 //! [`scene`] logs what does not change over time (meshes, the navigation grid, an episode's
 //! start, goal and shortest path), [`episode`] what does (the agent, its cameras and
 //! measurements per step), and [`view`] writes a scene's recording for `minos view`.
-//! Several recordings concatenate into one file ([`concat`]); the viewer lists each as a
+//! Several recordings are joined into one file ([`concat`]); the viewer lists each as a
 //! recording of its own. The entity paths are listed in `docs/FORMATS.md`.
 
 pub mod episode;
