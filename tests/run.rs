@@ -752,3 +752,33 @@ fn minos_view_records_a_scene_with_its_episodes_shortest_paths() {
     assert!(err.contains("nope") && err.lines().count() == 1, "{err}");
     assert!(!dir.path().join("nope.rrd").exists());
 }
+
+#[test]
+fn an_episodes_drawn_shortest_path_starts_at_its_start_and_has_its_geodesic_length() {
+    let data_dir = data().0.path().join("DATA");
+    let mut grids = std::collections::HashMap::new();
+    for e in &data().1 {
+        let grid = grids.entry(e.scene_id.clone()).or_insert_with(|| {
+            minos::navmesh::file::read_nav(&minos::navmesh::file::nav_path(&data_dir, &e.scene_id))
+                .unwrap()
+        });
+        let path = minos::episode::goal::shortest_path(grid, e)
+            .unwrap_or_else(|| panic!("{}: no path", e.episode_id));
+        let first = path[0];
+        assert!(
+            (first.x - e.start_position[0]).abs() < 1e-5
+                && (first.z - e.start_position[2]).abs() < 1e-5,
+            "{}: path starts at {first:?}",
+            e.episode_id
+        );
+        let length: f32 = path.windows(2).map(|w| w[0].distance(w[1])).sum();
+        // Within a fraction of a 5 cm cell: the goal field's path and the point-to-point
+        // route that measured the episode refine their corners separately.
+        assert!(
+            (length - e.geodesic_distance).abs() <= 0.03,
+            "{}: drawn {length} m, stored {} m",
+            e.episode_id,
+            e.geodesic_distance
+        );
+    }
+}

@@ -29,8 +29,8 @@ pub fn goal_spans(grid: &NavGrid, episode: &Episode) -> Vec<u32> {
 }
 
 /// The shortest path from the episode's start to its nearest goal span, as a polyline that
-/// begins at the start position itself; `None` when the start is off the grid or no goal is
-/// reachable.
+/// begins at the start position itself (and ends at a point goal itself); `None` when the
+/// start is off the grid or no goal is reachable.
 pub fn shortest_path(grid: &NavGrid, episode: &Episode) -> Option<Vec<Vec3>> {
     let start = Vec3::from_array(episode.start_position);
     let from = grid.snap(start)?;
@@ -42,9 +42,14 @@ pub fn shortest_path(grid: &NavGrid, episode: &Episode) -> Option<Vec<Vec3>> {
     match path_from_field(grid, &field, from) {
         PathResult::Unreachable => None,
         PathResult::Found(p) => {
+            // Start (and, for a point goal, end) at the points themselves, not the span
+            // centres, as the episode's geodesic distance does.
             let mut points = p.points;
             if let Some(first) = points.first_mut() {
                 *first = Vec3::new(start.x, first.y, start.z);
+            }
+            if let (Goal::Point { position }, Some(last)) = (&episode.goal, points.last_mut()) {
+                *last = Vec3::new(position[0], last.y, position[2]);
             }
             Some(points)
         }
