@@ -1,8 +1,8 @@
 //! Where an episode's goal lies on a navigation grid, and the shortest path to it: the
 //! walkable spans that count as reached (a point goal's span; an object goal's spans within
 //! the success radius of each target; a room goal's floor) and the path from the start to
-//! the nearest of them. Used to draw episodes (`minos view`, run recordings); the simulator
-//! builds its goal field from the same spans.
+//! the nearest of them. The simulator builds its goal field from these spans; `minos view`
+//! and run recordings draw the path.
 
 use glam::Vec3;
 
