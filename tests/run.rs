@@ -95,6 +95,7 @@ fn config(out: &Path, agent: AgentKind, sensors: SensorSuite) -> RunConfig {
         reward: Reward::Geodesic,
         encoding: ImageEncoding::Raw,
         lerobot: false,
+        rerun: None,
     }
 }
 
@@ -299,7 +300,10 @@ fn a_killed_run_resumed_gives_identical_bytes() {
             .arg("--episodes")
             .arg(&eps_file)
             .arg("--out")
-            .arg(out);
+            .arg(out)
+            .arg("--rerun")
+            .arg(out.with_extension("rrd"))
+            .args(["--rerun-episodes", "2"]);
         if resume {
             c.arg("--resume");
         }
@@ -343,6 +347,11 @@ fn a_killed_run_resumed_gives_identical_bytes() {
         interrupted,
         "the run finished before it could be killed; the resume was not exercised"
     );
+    // The resumed run's recording holds the same two episodes, complete.
+    let recorded = |out: &Path| entities_via_footer(&out.with_extension("rrd"));
+    let (a, b) = (recorded(&full), recorded(&killed));
+    assert_eq!(a.len(), 2);
+    assert_eq!(a, b);
 }
 
 #[test]
@@ -445,6 +454,331 @@ fn the_lerobot_layout_has_one_file_per_episode_and_consistent_meta() {
                 .value(0)
                 .len(),
             16 * 16 * 3
+        );
+    }
+}
+
+/// What a recording logged at one entity.
+#[derive(Debug, Default)]
+struct Logged {
+    /// Components logged statically (`Archetype:field`).
+    statics: std::collections::BTreeSet<String>,
+    /// Components logged on the `step` timeline.
+    temporal: std::collections::BTreeSet<String>,
+    /// Steps at which something was logged.
+    steps: std::collections::BTreeSet<i64>,
+    /// Translations logged (Transform3D), in step order.
+    translations: std::collections::BTreeMap<i64, [f32; 3]>,
+}
+
+/// Reads an `.rrd` file with rerun's own decoder: (recording id, entity path) → what was
+/// logged there.
+fn read_rrd(path: &Path) -> std::collections::BTreeMap<(String, String), Logged> {
+    use rerun::log::{Chunk, LogMsg};
+    let reader = std::io::BufReader::new(std::fs::File::open(path).unwrap());
+    let mut out: std::collections::BTreeMap<(String, String), Logged> = Default::default();
+    for msg in re_log_encoding::DecoderApp::decode_eager(reader).unwrap() {
+        let LogMsg::ArrowMsg(store, arrow) = msg.unwrap() else {
+            continue;
+        };
+        let chunk = Chunk::from_arrow_msg(&arrow).unwrap();
+        let key = (
+            store.recording_id().to_string(),
+            chunk
+                .entity_path()
+                .to_string()
+                .trim_start_matches('/')
+                .to_string(),
+        );
+        let logged = out.entry(key).or_default();
+        let names = chunk
+            .component_descriptors()
+            .map(|d| d.component.to_string());
+        if chunk.is_static() {
+            logged.statics.extend(names);
+            continue;
+        }
+        logged.temporal.extend(names);
+        let Some(steps) = chunk.timelines().get(&"step".into()) else {
+            continue;
+        };
+        logged.steps.extend(steps.times_raw());
+        let translation = rerun::archetypes::Transform3D::descriptor_translation().component;
+        for (step, t) in steps
+            .times_raw()
+            .iter()
+            .zip(chunk.iter_component::<rerun::components::Translation3D>(translation))
+        {
+            if let Some(t) = t.first() {
+                logged.translations.insert(*step, [t.x(), t.y(), t.z()]);
+            }
+        }
+    }
+    out
+}
+
+/// Polls a future that never waits (rerun's file reads are blocking) to completion.
+fn block_on<F: std::future::Future>(f: F) -> F::Output {
+    let mut f = std::pin::pin!(f);
+    let mut cx = std::task::Context::from_waker(std::task::Waker::noop());
+    loop {
+        if let std::task::Poll::Ready(v) = f.as_mut().poll(&mut cx) {
+            return v;
+        }
+        std::thread::yield_now();
+    }
+}
+
+/// Loads every chunk the way the viewer does for random access — through the footer's
+/// per-recording manifest of byte offsets — and returns recording id → entity paths.
+fn entities_via_footer(
+    path: &Path,
+) -> std::collections::BTreeMap<String, std::collections::BTreeSet<String>> {
+    use re_log_encoding::{ChunkProvider, RrdChunkProvider};
+    let file = std::fs::File::open(path).unwrap();
+    let footer = block_on(re_log_encoding::read_rrd_footer(&file))
+        .unwrap()
+        .expect("a footer");
+    let mut out = std::collections::BTreeMap::new();
+    for (store, raw) in footer.manifests {
+        let provider = RrdChunkProvider::from_reader(
+            std::fs::File::open(path).unwrap(),
+            "test",
+            std::sync::Arc::new(raw),
+        )
+        .unwrap();
+        let ids = provider.manifest().col_chunk_ids().to_vec();
+        let chunks = block_on(provider.load_chunks(&ids)).unwrap();
+        assert_eq!(chunks.len(), ids.len());
+        out.insert(
+            store.recording_id().to_string(),
+            chunks
+                .iter()
+                .map(|c| {
+                    c.entity_path()
+                        .to_string()
+                        .trim_start_matches('/')
+                        .to_string()
+                })
+                .collect(),
+        );
+    }
+    out
+}
+
+#[test]
+fn a_run_records_one_pose_and_image_per_step_and_leaves_the_tables_unchanged() {
+    let dir = tempfile::tempdir().unwrap();
+    let episodes: Vec<Episode> = data()
+        .1
+        .iter()
+        .filter(|e| e.task != Task::ObjectGoal)
+        .take(4)
+        .cloned()
+        .collect();
+    let sensors = SensorSuite::minos(16);
+    let plain = dir.path().join("plain");
+    run(
+        &config(&plain, AgentKind::Oracle, sensors.clone()),
+        &episodes,
+        &NoProgress,
+    )
+    .unwrap();
+    let out = dir.path().join("recorded");
+    let rrd = dir.path().join("rec/run.rrd");
+    let mut cfg = config(&out, AgentKind::Oracle, sensors);
+    cfg.rerun = Some(minos::run::rollout::RerunOutput {
+        path: rrd.clone(),
+        episodes: 2,
+    });
+    let report = run(&cfg, &episodes, &NoProgress).unwrap();
+    assert_eq!(report.recorded, 2);
+    // Recording never changes the tables.
+    for f in ["trajectories.parquet", "observations.parquet"] {
+        assert_eq!(
+            std::fs::read(plain.join(f)).unwrap(),
+            std::fs::read(out.join(f)).unwrap(),
+            "{f} differs with --rerun"
+        );
+    }
+    // Only the finished file is left: no temporary names, no parts.
+    let names: Vec<_> = std::fs::read_dir(rrd.parent().unwrap())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(names, vec![std::ffi::OsString::from("run.rrd")]);
+    assert!(!out.join(".parts").exists());
+
+    let logged = read_rrd(&rrd);
+    let mut sorted = episodes.clone();
+    sorted.sort_by(|a, b| a.episode_id.cmp(&b.episode_id));
+    let recordings: std::collections::BTreeSet<&str> =
+        logged.keys().map(|(r, _)| r.as_str()).collect();
+    let expected: std::collections::BTreeSet<&str> =
+        sorted[..2].iter().map(|e| e.episode_id.as_str()).collect();
+    assert_eq!(recordings, expected, "the first two episodes are recorded");
+    // The footer indexes both recordings at the right offsets (random access in the viewer).
+    let indexed = entities_via_footer(&rrd);
+    for (recording, entities) in &indexed {
+        let decoded: std::collections::BTreeSet<String> = logged
+            .keys()
+            .filter(|(r, _)| r == recording)
+            .map(|(_, e)| e.clone())
+            .collect();
+        assert_eq!(entities, &decoded, "{recording}");
+    }
+    assert_eq!(
+        indexed
+            .keys()
+            .map(String::as_str)
+            .collect::<std::collections::BTreeSet<_>>(),
+        expected
+    );
+    let traj = first_batch(&out.join("trajectories.parquet"));
+    let ids = column::<StringArray>(&traj, "episode_id");
+    for ep in &sorted[..2] {
+        let at = |entity: &str| {
+            logged
+                .get(&(ep.episode_id.clone(), entity.to_string()))
+                .unwrap_or_else(|| panic!("{}: no {entity}", ep.episode_id))
+        };
+        let rows = (0..traj.num_rows())
+            .filter(|&r| ids.value(r) == ep.episode_id)
+            .count() as i64;
+        assert!(rows > 1);
+        // The oracle ends with a stop, so the agent has one pose per trajectory row.
+        let steps: Vec<i64> = (0..rows).collect();
+        let agent = at("world/agent");
+        assert_eq!(agent.steps.iter().copied().collect::<Vec<_>>(), steps);
+        assert!(agent.temporal.contains("Transform3D:translation"));
+        let start = agent.translations[&0];
+        for k in 0..3 {
+            assert!((start[k] - ep.start_position[k]).abs() < 1e-4, "{start:?}");
+        }
+        assert_eq!(
+            at("world/trajectory").steps.len() as i64,
+            rows,
+            "a trajectory strip per step"
+        );
+        for (camera, archetype) in [
+            ("color", "Image:buffer"),
+            ("depth", "DepthImage:buffer"),
+            ("semantic", "SegmentationImage:buffer"),
+        ] {
+            let image = at(&format!("world/cameras/{camera}/image"));
+            assert!(image.temporal.contains(archetype), "{camera}: {image:?}");
+            assert!(image.statics.contains("Pinhole:image_from_camera"));
+            assert_eq!(image.steps.iter().copied().collect::<Vec<_>>(), steps);
+            assert_eq!(
+                at(&format!("world/cameras/{camera}")).steps.len() as i64,
+                rows
+            );
+        }
+        assert_eq!(at("metrics/geodesic").steps.len() as i64, rows);
+        assert_eq!(at("metrics/reward").steps.len() as i64, rows);
+        assert!(at("world/scene/mesh")
+            .statics
+            .contains("Mesh3D:vertex_positions"));
+        assert!(at("semantic/mesh").statics.contains("Mesh3D:vertex_colors"));
+        assert!(at("world/nav/walkable")
+            .statics
+            .contains("Points3D:positions"));
+        assert!(at("world/episode/shortest_path")
+            .statics
+            .contains("LineStrips3D:strips"));
+        assert!(at("nav/L0").statics.contains("Image:buffer"));
+    }
+}
+
+#[test]
+fn minos_view_records_a_scene_with_its_episodes_shortest_paths() {
+    let dir = tempfile::tempdir().unwrap();
+    let episodes = &data().1;
+    let eps_file = dir.path().join("eps.parquet");
+    minos::episode::format::write_episodes(&eps_file, episodes).unwrap();
+    let data_dir = data().0.path().join("DATA");
+    let scene = episodes[0].scene_id.clone();
+    let of_scene: Vec<&Episode> = episodes.iter().filter(|e| e.scene_id == scene).collect();
+    let rrd = dir.path().join("view.rrd");
+    let status = common::minos()
+        .args(["view", "-q", "--scene", &scene, "--data"])
+        .arg(&data_dir)
+        .arg("--episodes")
+        .arg(&eps_file)
+        .arg("--out")
+        .arg(&rrd)
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let logged = read_rrd(&rrd);
+    assert!(logged.keys().all(|(r, _)| *r == scene), "one recording");
+    let has = |entity: &str, component: &str| {
+        logged
+            .get(&(scene.clone(), entity.to_string()))
+            .is_some_and(|l| l.statics.contains(component) && l.steps.is_empty())
+    };
+    assert!(has("world/scene/mesh", "Mesh3D:vertex_colors"));
+    assert!(has("world/nav/walkable", "Points3D:positions"));
+    // Sampled episodes are reachable: each has its start, goals and shortest path.
+    for e in &of_scene {
+        let base = minos::io::rrd::scene::episode_entity(&e.episode_id).to_string();
+        let base = base.trim_start_matches('/');
+        assert!(
+            has(&format!("{base}/start"), "Points3D:positions"),
+            "{base}"
+        );
+        assert!(has(&format!("{base}/goal"), "Points3D:positions"), "{base}");
+        assert!(
+            has(&format!("{base}/shortest_path"), "LineStrips3D:strips"),
+            "{base}"
+        );
+    }
+    let drawn = logged
+        .keys()
+        .filter(|(_, e)| e.starts_with("world/episodes/"))
+        .filter(|(_, e)| e.ends_with("/start"))
+        .count();
+    assert_eq!(drawn, of_scene.len(), "only the scene's episodes are drawn");
+    // A scene that was never ingested is a one-line error naming the file.
+    let out = common::minos()
+        .args(["view", "-q", "--scene", "nope", "--data"])
+        .arg(&data_dir)
+        .arg("--out")
+        .arg(dir.path().join("nope.rrd"))
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("nope") && err.lines().count() == 1, "{err}");
+    assert!(!dir.path().join("nope.rrd").exists());
+}
+
+#[test]
+fn an_episodes_drawn_shortest_path_starts_at_its_start_and_has_its_geodesic_length() {
+    let data_dir = data().0.path().join("DATA");
+    let mut grids = std::collections::HashMap::new();
+    for e in &data().1 {
+        let grid = grids.entry(e.scene_id.clone()).or_insert_with(|| {
+            minos::navmesh::file::read_nav(&minos::navmesh::file::nav_path(&data_dir, &e.scene_id))
+                .unwrap()
+        });
+        let path = minos::episode::goal::shortest_path(grid, e)
+            .unwrap_or_else(|| panic!("{}: no path", e.episode_id));
+        let first = path[0];
+        assert!(
+            (first.x - e.start_position[0]).abs() < 1e-5
+                && (first.z - e.start_position[2]).abs() < 1e-5,
+            "{}: path starts at {first:?}",
+            e.episode_id
+        );
+        let length: f32 = path.windows(2).map(|w| w[0].distance(w[1])).sum();
+        // Within a fraction of a 5 cm cell: the goal field's path and the point-to-point
+        // route that measured the episode refine their corners separately.
+        assert!(
+            (length - e.geodesic_distance).abs() <= 0.03,
+            "{}: drawn {length} m, stored {} m",
+            e.episode_id,
+            e.geodesic_distance
         );
     }
 }

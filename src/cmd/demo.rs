@@ -16,7 +16,7 @@ use minos::io::manifest::read_manifest;
 use minos::navmesh::bake::{bake_scenes, BakeConfig};
 use minos::navmesh::NavParams;
 use minos::run::metrics::{render_table, Reward};
-use minos::run::rollout::{run as rollout, AgentKind, RunConfig};
+use minos::run::rollout::{run as rollout, AgentKind, RerunOutput, RunConfig};
 use minos::run::tables::ImageEncoding;
 use minos::sim::{AgentConfig, RendererChoice, SensorSuite};
 use minos::split::{self, Expr, Ratios};
@@ -30,7 +30,8 @@ use super::Context;
 /// a Parquet manifest), writes a seeded 60/20/20 split and MINOS's multi-room split
 /// (3 to 5 rooms), prints environment statistics, bakes navigation grids with previews, and
 /// samples PointGoal, ObjectGoal (doors) and RoomGoal episodes, and rolls out the oracle on
-/// the validation episodes into Parquet datasets with metrics. Re-running resumes.
+/// the validation episodes into Parquet datasets with metrics, recording the first for the
+/// rerun viewer (episode.rrd). Re-running resumes.
 #[derive(Debug, clap::Args)]
 #[command(
     after_help = "Examples:\n  minos demo\n  minos demo --houses 200 --seed 3 --out /tmp/demo"
@@ -162,6 +163,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         episodes_dir.display()
     ));
     let run_dir = args.out.join("runs").join("oracle");
+    let recording = args.out.join("episode.rrd");
     let run_cfg = RunConfig {
         data: data.clone(),
         out: run_dir.clone(),
@@ -176,24 +178,34 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         reward: Reward::Geodesic,
         encoding: ImageEncoding::Raw,
         lerobot: false,
+        rerun: Some(RerunOutput {
+            path: recording.clone(),
+            episodes: 1,
+        }),
     };
     let report = {
         let bar = ctx.progress(validation.len() as u64, "oracle");
         rollout(&run_cfg, &validation, &bar).map_err(anyhow::Error::msg)?
     };
     ctx.say(format!(
-        "7/7 oracle rollouts (RGB-D-semantic 84², Habitat agent) of {} validation episodes -> {}",
+        "7/7 oracle rollouts (RGB-D-semantic 84², Habitat agent) of {} validation episodes -> {}, \
+         {} recorded -> {}",
         report.episodes.len(),
-        run_dir.display()
+        run_dir.display(),
+        report.recorded,
+        recording.display()
     ));
     ctx.say(render_table(&report.groups));
     ctx.say(format!(
-        "done in {:.1} s. Next:\n  open {nav}/<scene>.L0.png to see a navigation grid\n  \
+        "done in {:.1} s. Next:\n  rerun {rrd}   (scrub the recorded episode: `pip install rerun-sdk==0.36.*`)\n  \
+         minos view --data {d} --scene {id} --episodes {e} --out {id}.rrd\n  \
+         open {nav}/<scene>.L0.png to see a navigation grid\n  \
          minos nav query --data {d} --scene {id} --from X,0,Z --to X,0,Z\n  \
          minos stats --data {d} --split multiroom\n  \
          minos export --data {d} --scene {id} --out house.glb   (open in Blender)\n  \
          python: pandas.read_parquet(\"{e}\"), pyarrow.parquet.read_table(\"{r}\")",
         start.elapsed().as_secs_f64(),
+        rrd = recording.display(),
         nav = data.join("nav").display(),
         d = data.display(),
         id = ids.first().map(String::as_str).unwrap_or("ID"),

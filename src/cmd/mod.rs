@@ -20,6 +20,7 @@ mod run;
 mod split;
 mod stats;
 mod variants;
+mod view;
 
 pub use common::Context;
 
@@ -64,10 +65,12 @@ enum Command {
     Episodes(Box<episodes::Args>),
     /// Render what an agent's sensors see at a pose (one PNG per sensor).
     Render(render::Args),
-    /// Roll out episodes with an agent into Parquet datasets and metrics.
+    /// Roll out episodes with an agent into Parquet datasets and metrics (and rerun recordings).
     Run(run::Args),
     /// Export a compiled scene's world-space geometry as OBJ or GLB.
     Export(export::Args),
+    /// Record a scene, its navigation grid and episodes' shortest paths for the rerun viewer.
+    View(view::Args),
     /// Run the whole pipeline on generated houses into ./minos-demo/.
     Demo(demo::Args),
 }
@@ -97,6 +100,7 @@ pub fn main() -> ExitCode {
         Command::Render(a) => render::run(a, &ctx),
         Command::Run(a) => run::run(a, &ctx),
         Command::Export(a) => export::run(a, &ctx),
+        Command::View(a) => view::run(a, &ctx),
         Command::Demo(a) => demo::run(a, &ctx),
     };
     match result {

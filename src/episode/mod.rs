@@ -3,6 +3,7 @@
 
 pub mod batch;
 pub mod format;
+pub mod goal;
 pub mod habitat;
 pub mod interchange;
 pub mod minos_csv;

@@ -3,6 +3,10 @@
 //! skips episodes whose metrics exist, and the final tables are merged from the parts in
 //! episode order, so an interrupted and resumed run ends with the same bytes as an
 //! uninterrupted one.
+//!
+//! With [`RunConfig::rerun`], the first episodes of the shard are also recorded for the
+//! rerun viewer while they roll out (`DIR/.parts/<index>.rrd`, finished before the metrics
+//! file) and joined into one `.rrd` at the end; recording never changes the tables.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -15,6 +19,7 @@ use serde::{Deserialize, Serialize};
 use crate::episode::batch::Shard;
 use crate::episode::Episode;
 use crate::io::atomic::write_bytes_atomic;
+use crate::io::rrd::episode::EpisodeRecorder;
 use crate::io::variant_store::{grid_ref, load_scene};
 use crate::navmesh::file::{nav_path, read_nav};
 use crate::navmesh::geodesic::Geodesic;
@@ -74,6 +79,17 @@ pub struct RunConfig {
     pub encoding: ImageEncoding,
     /// Also lay the dataset out LeRobot-style in `out/lerobot/`.
     pub lerobot: bool,
+    /// Also record episodes for the rerun viewer.
+    pub rerun: Option<RerunOutput>,
+}
+
+/// Which episodes a run records for the rerun viewer, and where.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RerunOutput {
+    /// The `.rrd` file (one recording per episode, in episode-id order).
+    pub path: PathBuf,
+    /// How many episodes to record: the first of this shard in episode-id order.
+    pub episodes: usize,
 }
 
 /// Metrics of a finished episode as stored in its part file.
@@ -116,6 +132,8 @@ pub struct RunReport {
     pub resumed: usize,
     /// Episodes that failed, with the reason.
     pub failures: Vec<(String, String)>,
+    /// Episodes in the rerun recording.
+    pub recorded: usize,
 }
 
 fn part(dir: &Path, index: usize, ext: &str) -> PathBuf {
@@ -132,7 +150,8 @@ fn make_agent(kind: &AgentKind, seed: u64) -> Result<Box<dyn Agent>, String> {
     })
 }
 
-/// Runs one episode into its part files and returns its metrics.
+/// Runs one episode into its part files (and, when `record`, its recording) and returns its
+/// metrics.
 #[allow(clippy::too_many_arguments)]
 fn run_episode(
     sim: &mut Simulator,
@@ -142,9 +161,19 @@ fn run_episode(
     cfg: &RunConfig,
     parts: &Path,
     index: usize,
+    record: bool,
 ) -> Result<EpisodeMetrics, String> {
     sim.reset_episode_in(ep, Some(geo));
     agent.reset(ep, sim)?;
+    let mut recorder = if record {
+        let path = part(parts, index, "rrd");
+        Some(
+            EpisodeRecorder::create(&path, ep, sim.assets(), &cfg.sensors.cameras, &cfg.body)
+                .map_err(|e| e.to_string())?,
+        )
+    } else {
+        None
+    };
     let max_steps = cfg.max_steps.unwrap_or(ep.max_steps).max(1);
     let mut obs = sim.observe().map_err(|e| e.to_string())?;
     let mut writer = ObservationWriter::create(
@@ -155,6 +184,7 @@ fn run_episode(
     )?;
     let mut rows: Vec<StepRow> = Vec::new();
     let (mut path_length, mut collisions, mut success) = (0.0f32, 0u32, false);
+    let mut stopped = false;
     for t in 0..max_steps {
         writer.push(t, &obs.images)?;
         let m = &obs.measurements;
@@ -167,6 +197,10 @@ fn run_episode(
             state.yaw,
             state.tilt,
         ];
+        if let Some(r) = recorder.as_mut() {
+            r.observe(t, &state, &sim.cameras(), &obs)
+                .map_err(|e| e.to_string())?;
+        }
         let decision = agent.decide(&obs, sim)?;
         let mut row = StepRow {
             step: t,
@@ -187,6 +221,8 @@ fn run_episode(
                 row.done = true;
                 row.success = success;
                 row.reward = cfg.reward.of_step(before, before, max_steps, success);
+                stopped = true;
+                record_act(&mut recorder, &row)?;
                 rows.push(row);
                 break;
             }
@@ -207,6 +243,7 @@ fn run_episode(
                 row.success = arrived;
                 row.reward = cfg.reward.of_step(before, after, max_steps, arrived);
                 success = arrived;
+                record_act(&mut recorder, &row)?;
                 rows.push(row);
                 if arrived {
                     break;
@@ -216,6 +253,14 @@ fn run_episode(
     }
     writer.finish()?;
     write_trajectory(&part(parts, index, "traj.parquet"), &ep.episode_id, &rows)?;
+    if let Some(mut r) = recorder {
+        // Where the last action left the agent (a stop leaves it where it was).
+        if !stopped {
+            r.observe(rows.len() as u32, &sim.state(), &sim.cameras(), &obs)
+                .map_err(|e| e.to_string())?;
+        }
+        r.finish().map_err(|e| e.to_string())?;
+    }
     let final_geodesic = obs.measurements.goal_geodesic.unwrap_or(f32::NAN);
     let m = EpisodeMetrics::finish(
         success,
@@ -240,6 +285,16 @@ fn run_episode(
     let json = serde_json::to_vec(&done).map_err(|e| e.to_string())?;
     write_bytes_atomic(&part(parts, index, "json"), &json).map_err(|e| e.to_string())?;
     Ok(m)
+}
+
+/// Logs a step's action, reward and collision to the recording, if any.
+fn record_act(recorder: &mut Option<EpisodeRecorder>, row: &StepRow) -> Result<(), String> {
+    match recorder {
+        Some(r) => r
+            .act(row.step, &row.action, row.reward, row.collision)
+            .map_err(|e| e.to_string()),
+        None => Ok(()),
+    }
 }
 
 /// An episode's index and its metrics (and whether they were kept from an earlier run).
@@ -270,6 +325,18 @@ pub fn run(
     std::fs::create_dir_all(&parts).map_err(|e| format!("{}: {e}", parts.display()))?;
     let mine = select(episodes, cfg.shard);
     progress.set_total(mine.len() as u64);
+    // The episodes recorded for rerun: the first of the shard, in episode-id order.
+    let recorded: std::collections::BTreeSet<usize> = mine
+        .iter()
+        .take(cfg.rerun.as_ref().map_or(0, |r| r.episodes))
+        .map(|(i, _)| *i)
+        .collect();
+    // Finished earlier: metrics written and, when recorded, the recording too.
+    let done = |i: usize| {
+        cfg.resume
+            && part(&parts, i, "json").is_file()
+            && (!recorded.contains(&i) || part(&parts, i, "rrd").is_file())
+    };
     let mut by_scene: BTreeMap<String, Vec<(usize, Episode)>> = BTreeMap::new();
     for (i, e) in &mine {
         by_scene
@@ -281,15 +348,9 @@ pub fn run(
     let results: Vec<Vec<Outcome>> = scenes
         .par_iter()
         .map(|(scene_id, eps)| {
-            let pending: Vec<&(usize, Episode)> = eps
-                .iter()
-                .filter(|(i, _)| !(cfg.resume && part(&parts, *i, "json").is_file()))
-                .collect();
+            let pending: Vec<&(usize, Episode)> = eps.iter().filter(|(i, _)| !done(*i)).collect();
             let mut out: Vec<Outcome> = Vec::new();
-            for (i, _) in eps
-                .iter()
-                .filter(|(i, _)| cfg.resume && part(&parts, *i, "json").is_file())
-            {
+            for (i, _) in eps.iter().filter(|(i, _)| done(*i)) {
                 let kept = std::fs::read(part(&parts, *i, "json"))
                     .map_err(|e| e.to_string())
                     .and_then(|b| serde_json::from_slice::<PartDone>(&b).map_err(|e| e.to_string()))
@@ -335,8 +396,17 @@ pub fn run(
                         for (i, ep) in pending {
                             out.push((
                                 *i,
-                                run_episode(&mut sim, &geo, agent.as_mut(), ep, cfg, &parts, *i)
-                                    .map(|m| (m, false)),
+                                run_episode(
+                                    &mut sim,
+                                    &geo,
+                                    agent.as_mut(),
+                                    ep,
+                                    cfg,
+                                    &parts,
+                                    *i,
+                                    recorded.contains(i),
+                                )
+                                .map(|m| (m, false)),
                             ));
                             progress.advance(1);
                         }
@@ -405,6 +475,21 @@ pub fn run(
         &serde_json::to_vec_pretty(&metrics).map_err(|e| e.to_string())?,
     )
     .map_err(|e| e.to_string())?;
+    if let Some(rerun) = &cfg.rerun {
+        let recordings: Vec<PathBuf> = mine
+            .iter()
+            .filter(|(i, e)| {
+                recorded.contains(i)
+                    && report
+                        .episodes
+                        .iter()
+                        .any(|(r, _)| r.episode_id == e.episode_id)
+            })
+            .map(|(i, _)| part(&parts, *i, "rrd"))
+            .collect();
+        crate::io::rrd::concat(&recordings, &rerun.path).map_err(|e| e.to_string())?;
+        report.recorded = recordings.len();
+    }
     if cfg.lerobot {
         let sources: Vec<(Episode, PathBuf, PathBuf)> = mine
             .iter()

@@ -320,23 +320,11 @@ impl Simulator {
         geo: Option<&Geodesic<'_>>,
     ) {
         use crate::episode::Goal;
-        let grid = &self.assets.grid;
         let goal = match &episode.goal {
             Goal::Point { position } => GoalSpec::Point(Vec3::from_array(*position)),
-            Goal::Object { targets, .. } => GoalSpec::Spans(
-                targets
-                    .iter()
-                    .filter_map(|t| grid.objects.iter().position(|o| o.id == t.id))
-                    .flat_map(|o| grid.object_spans(o as u32, episode.success_radius))
-                    .collect(),
-            ),
-            Goal::Room { targets, .. } => GoalSpec::Spans(
-                targets
-                    .iter()
-                    .filter_map(|t| grid.rooms.iter().position(|r| r.id == t.id))
-                    .flat_map(|r| grid.room_spans(r as u32))
-                    .collect(),
-            ),
+            Goal::Object { .. } | Goal::Room { .. } => {
+                GoalSpec::Spans(crate::episode::goal::goal_spans(&self.assets.grid, episode))
+            }
         };
         let start = Vec3::from_array(episode.start_position);
         let id = episode.episode_id.clone();
