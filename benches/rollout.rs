@@ -134,6 +134,7 @@ fn main() {
             reward: Reward::Geodesic,
             encoding: ImageEncoding::Raw,
             lerobot: false,
+            rerun: None,
         };
         let (t, cpu0) = (Instant::now(), process_cpu());
         let report = pool
