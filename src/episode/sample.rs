@@ -5,6 +5,13 @@
 //! Every choice draws from one generator seeded from `(seed, scene id, task)`, so a scene's
 //! episodes never depend on thread count, scene order or sharding. Rejected draws are counted
 //! by reason so users can see why a scene yields few episodes.
+//!
+//! A PointGoal draw costs one point-to-point query (`navmesh::path`); pairs farther apart
+//! than `max_geodesic` are rejected before it, and the walk listing rooms and doors is done
+//! only for kept pairs (before the filters only when `min_doors`/`min_rooms` need it). On
+//! the generated houses of `cargo bench --bench episodes` about half the draws are rejected
+//! (mostly by the ratio rule), and a scene of 100 episodes costs about 8 ms on one core, of
+//! which the per-scene setup (line-of-sight index, sparse graph) is about 3 ms.
 
 use std::collections::BTreeMap;
 

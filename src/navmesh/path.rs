@@ -7,8 +7,10 @@
 //! [`shortest_path`] and [`shortest_path_in`] run the same search, so they return the same
 //! path. The chain is string-pulled once more (consecutive segments merge wherever a
 //! straight walk allows), its corners are refined, and its segments are walked span by span
-//! to list the rooms and door objects on the way. In MINOS's weighted mode the chain is the
-//! grid path of the cell-level search; only collinear steps are merged.
+//! to list the rooms and door objects on the way ([`shortest_polyline_in`] leaves that walk
+//! out, [`add_rooms_and_doors`] adds it; refinement looks again only at corners next to a
+//! change). In MINOS's weighted mode the chain is the grid path of the cell-level search;
+//! only collinear steps are merged.
 //!
 //! Where this module's job ends: it answers one pair (or follows one field); choosing
 //! endpoints, snapping positions to spans and episodes are other modules' jobs.
