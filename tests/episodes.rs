@@ -115,10 +115,18 @@ fn every_episode_is_reachable_and_its_geodesic_matches_a_fresh_query() {
                 let g = grid(&e.scene_id);
                 let start = glam::Vec3::from_array(e.start_position);
                 let fresh = match &e.goal {
-                    Goal::Point { position } => route(&g, start, glam::Vec3::from_array(*position))
-                        .unwrap()
-                        .geodesic
-                        .expect("reachable"),
+                    Goal::Point { position } => {
+                        let r = route(&g, start, glam::Vec3::from_array(*position)).unwrap();
+                        // Rooms and doors are listed only for kept pairs: still those of
+                        // the fresh path.
+                        assert_eq!(
+                            (e.path_num_doors, e.path_num_rooms),
+                            (r.doors.len() as u32, r.rooms.len() as u32),
+                            "{}",
+                            e.episode_id
+                        );
+                        r.geodesic.expect("reachable")
+                    }
                     goal => {
                         let spans = goal_spans(&g, goal, e.success_radius);
                         let field = distance_field(&g, &spans);

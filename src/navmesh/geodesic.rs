@@ -920,13 +920,16 @@ impl<'g> Geodesic<'g> {
             sc.begin();
             let (open, closed) = (sc.open, sc.open + 1);
             // Landmark distances to the goal, through the vertices that see it and could
-            // bend towards it (nearest first, skipping those that cannot lower any).
+            // bend towards it (nearest first, skipping those that cannot lower any). Unused,
+            // so skipped, when zone spans are nodes.
             let (seen, blocked) = (open, open + 1);
             sc.sees.resize(sp.verts.len(), 0);
             sc.near.clear();
-            for (i, v) in sp.verts.iter().enumerate() {
-                if v.span != goal && spans[v.span as usize].island == island && v.allows(ct) {
-                    sc.near.push((dist(v.pos, pt).to_bits(), i as u32));
+            if !zones {
+                for (i, v) in sp.verts.iter().enumerate() {
+                    if v.span != goal && spans[v.span as usize].island == island && v.allows(ct) {
+                        sc.near.push((dist(v.pos, pt).to_bits(), i as u32));
+                    }
                 }
             }
             sc.near.sort_unstable();

@@ -7,8 +7,10 @@
 //! [`shortest_path`] and [`shortest_path_in`] run the same search, so they return the same
 //! path. The chain is string-pulled once more (consecutive segments merge wherever a
 //! straight walk allows), its corners are refined, and its segments are walked span by span
-//! to list the rooms and door objects on the way. In MINOS's weighted mode the chain is the
-//! grid path of the cell-level search; only collinear steps are merged.
+//! to list the rooms and door objects on the way ([`shortest_polyline_in`] leaves that walk
+//! out, [`add_rooms_and_doors`] adds it; refinement looks again only at corners next to a
+//! change). In MINOS's weighted mode the chain is the grid path of the cell-level search;
+//! only collinear steps are merged.
 //!
 //! Where this module's job ends: it answers one pair (or follows one field); choosing
 //! endpoints, snapping positions to spans and episodes are other modules' jobs.
@@ -89,14 +91,31 @@ pub fn shortest_path(grid: &NavGrid, from: u32, to: u32) -> PathResult {
 
 /// [`shortest_path`] with precomputed geodesic data.
 pub fn shortest_path_in(geo: &Geodesic<'_>, from: u32, to: u32) -> PathResult {
+    let mut result = shortest_polyline_in(geo, from, to);
+    if let PathResult::Found(path) = &mut result {
+        add_rooms_and_doors(geo.grid(), path);
+    }
+    result
+}
+
+/// [`shortest_path_in`] without the walk that lists rooms and doors: the same spans, points
+/// and length, with `rooms` and `doors` left empty. For callers that may discard the path
+/// by its length; [`add_rooms_and_doors`] completes a kept one.
+pub fn shortest_polyline_in(geo: &Geodesic<'_>, from: u32, to: u32) -> PathResult {
     let grid = geo.grid();
     if !may_connect(grid, from, to) {
         return PathResult::Unreachable;
     }
     match geo.path_chain(from, to) {
-        Some(chain) => finish(grid, Some(geo), chain),
+        Some(chain) => PathResult::Found(polyline(grid, Some(geo), chain)),
         None => PathResult::Unreachable,
     }
+}
+
+/// Fills a path's `rooms` and `doors` by walking its segments span by span (what
+/// [`shortest_path_in`] adds to [`shortest_polyline_in`]).
+pub fn add_rooms_and_doors(grid: &NavGrid, path: &mut Path) {
+    (path.rooms, path.doors) = rooms_and_doors(grid, &path.spans);
 }
 
 /// The path from span `from` to the nearest goal of a precomputed field, following its
@@ -128,6 +147,13 @@ pub fn path_from_field(grid: &NavGrid, field: &DistanceField, from: u32) -> Path
 
 /// String-pulls and refines an anchor chain (start first), and collects rooms and doors.
 fn finish(grid: &NavGrid, geo: Option<&Geodesic<'_>>, chain: Vec<u32>) -> PathResult {
+    let mut path = polyline(grid, geo, chain);
+    add_rooms_and_doors(grid, &mut path);
+    PathResult::Found(path)
+}
+
+/// String-pulls and refines an anchor chain (start first); rooms and doors left empty.
+fn polyline(grid: &NavGrid, geo: Option<&Geodesic<'_>>, chain: Vec<u32>) -> Path {
     let pos = |s: u32| match geo.and_then(|g| g.position(s)) {
         Some(p) => p,
         None => grid.span_position(s as usize),
@@ -144,14 +170,13 @@ fn finish(grid: &NavGrid, geo: Option<&Geodesic<'_>>, chain: Vec<u32>) -> PathRe
     };
     let points: Vec<Vec3> = chain.iter().map(|&s| pos(s)).collect();
     let length = points.windows(2).map(|w| w[0].distance(w[1])).sum();
-    let (rooms, doors) = rooms_and_doors(grid, &chain);
-    PathResult::Found(Path {
+    Path {
         spans: chain,
         points,
         length,
-        rooms,
-        doors,
-    })
+        rooms: Vec::new(),
+        doors: Vec::new(),
+    }
 }
 
 /// Greedy string pulling: from each kept span, skip ahead while a straight walk reaches the
@@ -181,17 +206,32 @@ fn refine(
     pos: &impl Fn(u32) -> Vec3,
     straight: &impl Fn(u32, u32) -> bool,
 ) -> Vec<u32> {
+    // A corner whose own span and neighbours are as they were when it last changed nothing
+    // would change nothing again: only corners next to a change are looked at again (the
+    // same result as looking at every corner in every pass, with fewer straight walks).
+    let mut dirty = vec![true; chain.len()];
     for _ in 0..32 {
         let mut changed = false;
         let mut i = 1;
         while i + 1 < chain.len() {
+            if !dirty[i] {
+                i += 1;
+                continue;
+            }
             let (p, q) = (chain[i - 1], chain[i + 1]);
             if straight(p, q) {
                 chain.remove(i);
+                dirty.remove(i);
+                dirty[i - 1] = true;
+                dirty[i] = true;
                 changed = true;
                 continue;
             }
-            let cost = |s: u32| pos(p).distance(pos(s)) + pos(s).distance(pos(q));
+            let (pp, pq) = (pos(p), pos(q));
+            let cost = |s: u32| {
+                let ps = pos(s);
+                pp.distance(ps) + ps.distance(pq)
+            };
             let mut best = (cost(chain[i]), chain[i]);
             for n in grid.spans[chain[i] as usize].links {
                 if n == NONE {
@@ -204,7 +244,11 @@ fn refine(
             }
             if best.1 != chain[i] {
                 chain[i] = best.1;
+                dirty[i - 1] = true;
+                dirty[i + 1] = true;
                 changed = true;
+            } else {
+                dirty[i] = false;
             }
             i += 1;
         }
