@@ -238,6 +238,31 @@ fn demo_leaves_a_manifest_splits_and_statistics() {
         stdout.contains("houses") && stdout.contains("living_room"),
         "{stdout}"
     );
+    // The oracle demonstrated validation episodes of all three tasks and reached every goal.
+    let metrics: serde_json::Value = serde_json::from_slice(
+        &std::fs::read(dir.path().join("runs/oracle/metrics.json")).unwrap(),
+    )
+    .unwrap();
+    let groups = &metrics["groups"];
+    for task in ["pointgoal", "objectgoal", "roomgoal"] {
+        let g = &groups[format!("task={task}")];
+        assert!(
+            g["episodes"].as_u64().unwrap_or(0) > 0,
+            "no {task} rollouts"
+        );
+        assert_eq!(g["success"].as_f64(), Some(1.0), "{task}: {g}");
+    }
+    assert!(groups["all"]["spl"].as_f64().unwrap() >= 0.9, "{groups}");
+    assert_eq!(metrics["failures"].as_array().map(Vec::len), Some(0));
+    for file in [
+        "episodes/pointgoal.parquet",
+        "runs/oracle/trajectories.parquet",
+        "runs/oracle/observations.parquet",
+        "episode.rrd",
+    ] {
+        let len = std::fs::metadata(dir.path().join(file)).map_or(0, |m| m.len());
+        assert!(len > 0, "{file} missing or empty");
+    }
 }
 
 #[test]
