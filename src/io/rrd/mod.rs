@@ -1,8 +1,20 @@
 //! rerun recordings (`.rrd` files) of scenes, navigation grids, episodes and rollouts, for
 //! looking at results in the rerun viewer (`rerun FILE.rrd`).
 //!
-//! [`RrdFile`] streams one recording to a temporary name and renames it into place when
-//! [`RrdFile::finish`] succeeds, so a `.rrd` under its final name is always complete.
+//! [`RrdFile`] encodes one recording with rerun's own encoder (`re_log_encoding`) to a
+//! temporary name and renames it into place when [`RrdFile::finish`] succeeds, so a `.rrd`
+//! under its final name is always complete. It does not go through the SDK's
+//! `RecordingStream`, for two reasons: every write error comes back to the caller (the SDK's
+//! file sink logs them on its own thread), and the data are deterministic. The SDK stamps
+//! every row and chunk with a wall-clock id, adds `log_time`/`log_tick` timelines and a start
+//! time; here row and chunk ids are a counter under a base derived from the recording id, the
+//! only timelines are `step` and `sim_time`, and no clock is read, so the same run writes the
+//! same data: every message of a recording is byte-identical between runs. The one part that
+//! is not is rerun's footer, the index of chunk offsets at the end of the file that the
+//! viewer uses to load large files lazily and `rerun rrd verify` checks: rerun's encoder
+//! builds it from randomly seeded hash maps, so its bytes (not its content) change from run
+//! to run. minos keeps the footer, as rerun's tools expect one.
+//!
 //! [`scene`] logs what does not change over time (meshes, the navigation grid, an episode's
 //! start, goal and shortest path), [`episode`] what does (the agent, its cameras and
 //! measurements per step), and [`view`] writes a scene's recording for `minos view`.
@@ -13,11 +25,19 @@ pub mod episode;
 pub mod scene;
 pub mod view;
 
+use std::cell::{Cell, RefCell};
+use std::fs::File;
+use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
-use rerun::RecordingStream;
+use re_log_encoding::{CrateVersion, Encoder, EncodingOptions};
+use rerun::external::re_log_types::external::re_tuid::Tuid;
+use rerun::external::re_log_types::{SetStoreInfo, StoreInfo, StoreSource};
+use rerun::log::{Chunk, ChunkId, LogMsg, RowId};
+use rerun::{EntityPath, StoreId, StoreKind, TimeCell, TimePoint};
 
 use crate::io::atomic::{temp_path, write_atomic};
+use crate::seed::derive_seed;
 
 /// Application id of every minos recording (the viewer groups recordings by it).
 pub const APPLICATION_ID: &str = "minos";
@@ -27,6 +47,10 @@ pub const STEP_TIMELINE: &str = "step";
 
 /// The duration timeline of simulated time (steps × the agent's time step).
 pub const SIM_TIME_TIMELINE: &str = "sim_time";
+
+/// The time part of every row and chunk id minos writes (2026-01-01T00:00:00Z in
+/// nanoseconds): ids are ordered by their counter, never by a clock.
+const ID_EPOCH_NANOS: u64 = 1_767_225_600_000_000_000;
 
 /// Why a recording could not be written.
 #[derive(Debug, thiserror::Error)]
@@ -41,10 +65,16 @@ pub enum RecordingError {
     },
 }
 
-/// One recording streamed to a temporary file beside `path`, renamed into place by
+/// One recording encoded to a temporary file beside `path`, renamed into place by
 /// [`RrdFile::finish`]; dropped unfinished, it removes its temporary file.
 pub struct RrdFile {
-    rec: Option<RecordingStream>,
+    encoder: RefCell<Option<Encoder<BufWriter<File>>>>,
+    store: StoreId,
+    /// High half of every id's counter: the recording's own (from its id), so ids of joined
+    /// recordings never collide.
+    id_base: u64,
+    next_id: Cell<u64>,
+    time: RefCell<TimePoint>,
     tmp: PathBuf,
     path: PathBuf,
 }
@@ -60,29 +90,44 @@ impl RrdFile {
             std::fs::create_dir_all(dir).map_err(|e| fail(&e))?;
         }
         let tmp = temp_path(path);
-        let rec = rerun::RecordingStreamBuilder::new(APPLICATION_ID)
-            .recording_id(recording_id)
-            .recording_name(name)
-            .enabled(true)
-            .save(&tmp)
-            .map_err(|e| fail(&e))?;
-        Ok(RrdFile {
-            rec: Some(rec),
+        let file = File::create(&tmp).map_err(|e| fail(&e))?;
+        let encoder = Encoder::new_eager(
+            CrateVersion::LOCAL,
+            EncodingOptions::PROTOBUF_COMPRESSED,
+            BufWriter::new(file),
+        );
+        let encoder = match encoder {
+            Ok(e) => e,
+            Err(e) => {
+                let _ = std::fs::remove_file(&tmp);
+                return Err(fail(&e));
+            }
+        };
+        let store = StoreId::new(StoreKind::Recording, APPLICATION_ID, recording_id);
+        let rec = RrdFile {
+            encoder: RefCell::new(Some(encoder)),
+            store: store.clone(),
+            id_base: (derive_seed(0, &["rrd", recording_id]) & 0xffff_ffff) << 32,
+            next_id: Cell::new(0),
+            time: RefCell::new(TimePoint::default()),
             tmp,
             path: path.to_path_buf(),
-        })
+        };
+        let source = StoreSource::Other(format!("minos {}", env!("CARGO_PKG_VERSION")));
+        rec.append(&LogMsg::SetStoreInfo(SetStoreInfo {
+            row_id: rec.next_tuid(),
+            info: StoreInfo::new(store, source),
+        }))?;
+        rec.log_static(
+            EntityPath::properties(),
+            &rerun::RecordingInfo::new().with_name(name),
+        )?;
+        Ok(rec)
     }
 
     /// The final path.
     pub fn path(&self) -> &Path {
         &self.path
-    }
-
-    /// The stream to log to (`None` only after `finish`).
-    pub(crate) fn stream(&self) -> Result<&RecordingStream, RecordingError> {
-        self.rec
-            .as_ref()
-            .ok_or_else(|| self.error("recording already finished"))
     }
 
     /// An error about this recording.
@@ -93,47 +138,79 @@ impl RrdFile {
         }
     }
 
+    /// The next id of this recording (row, chunk or store-info ids share one counter).
+    fn next_tuid(&self) -> Tuid {
+        let n = self.next_id.get();
+        self.next_id.set(n + 1);
+        Tuid::from_nanos_and_inc(ID_EPOCH_NANOS, self.id_base | n)
+    }
+
+    /// Encodes one message into the file.
+    fn append(&self, msg: &LogMsg) -> Result<(), RecordingError> {
+        let mut encoder = self.encoder.borrow_mut();
+        let encoder = encoder
+            .as_mut()
+            .ok_or_else(|| self.error("recording already finished"))?;
+        encoder.append(msg).map_err(|e| self.error(e))?;
+        Ok(())
+    }
+
+    /// Writes `what` at `entity` at `time` (empty: static) as one chunk of one row.
+    fn write<AS: ?Sized + rerun::AsComponents>(
+        &self,
+        entity: EntityPath,
+        time: TimePoint,
+        what: &AS,
+    ) -> Result<(), RecordingError> {
+        let chunk_id = ChunkId::from_tuid(self.next_tuid());
+        let row_id = RowId::from_tuid(self.next_tuid());
+        let chunk = Chunk::builder_with_id(chunk_id, entity.clone())
+            .with_serialized_batches(row_id, time, what.as_serialized_batches())
+            .build()
+            .and_then(|c| c.to_arrow_msg())
+            .map_err(|e| self.error(format!("{entity}: {e}")))?;
+        self.append(&LogMsg::ArrowMsg(self.store.clone(), chunk))
+    }
+
     /// Logs `what` at `entity` at the current time (see [`RrdFile::set_step`]).
     pub fn log<AS: ?Sized + rerun::AsComponents>(
         &self,
-        entity: impl Into<rerun::EntityPath>,
+        entity: impl Into<EntityPath>,
         what: &AS,
     ) -> Result<(), RecordingError> {
-        let entity = entity.into();
-        self.stream()?
-            .log(entity.clone(), what)
-            .map_err(|e| self.error(format!("{entity}: {e}")))
+        let time = self.time.borrow().clone();
+        self.write(entity.into(), time, what)
     }
 
     /// Logs `what` at `entity` for all times (scene geometry, camera intrinsics).
     pub fn log_static<AS: ?Sized + rerun::AsComponents>(
         &self,
-        entity: impl Into<rerun::EntityPath>,
+        entity: impl Into<EntityPath>,
         what: &AS,
     ) -> Result<(), RecordingError> {
-        let entity = entity.into();
-        self.stream()?
-            .log_static(entity.clone(), what)
-            .map_err(|e| self.error(format!("{entity}: {e}")))
+        self.write(entity.into(), TimePoint::default(), what)
     }
 
     /// Sets the time of what is logged next: the `step` sequence and `sim_time` (step × `dt`
     /// seconds).
     pub fn set_step(&self, step: u32, dt: f32) -> Result<(), RecordingError> {
-        let rec = self.stream()?;
-        rec.set_time_sequence(STEP_TIMELINE, i64::from(step));
-        rec.set_duration_secs(SIM_TIME_TIMELINE, f64::from(step) * f64::from(dt));
+        let nanos = (f64::from(step) * f64::from(dt) * 1e9).round() as i64;
+        let mut time = TimePoint::default();
+        time.insert_cell(STEP_TIMELINE, TimeCell::from_sequence(i64::from(step)));
+        time.insert_cell(SIM_TIME_TIMELINE, TimeCell::from_duration_nanos(nanos));
+        *self.time.borrow_mut() = time;
         Ok(())
     }
 
-    /// Flushes everything logged, closes the file (writing rerun's footer) and renames it to
+    /// Writes rerun's footer (the index of every chunk), closes the file and renames it to
     /// its final name.
-    pub fn finish(mut self) -> Result<PathBuf, RecordingError> {
-        if let Some(rec) = self.rec.take() {
-            rec.flush_blocking().map_err(|e| self.error(e))?;
-            // Dropping the file sink joins its writer thread, which writes the footer.
-            rec.disconnect();
-            drop(rec);
+    pub fn finish(self) -> Result<PathBuf, RecordingError> {
+        let encoder = self.encoder.borrow_mut().take();
+        if let Some(mut encoder) = encoder {
+            encoder.finish().map_err(|e| self.error(e))?;
+            let mut w = encoder.into_inner().map_err(|e| self.error(e))?;
+            w.flush().map_err(|e| self.error(e))?;
+            w.get_ref().sync_all().map_err(|e| self.error(e))?;
         }
         std::fs::rename(&self.tmp, &self.path).map_err(|e| self.error(e))?;
         Ok(self.path.clone())
@@ -142,9 +219,7 @@ impl RrdFile {
 
 impl Drop for RrdFile {
     fn drop(&mut self) {
-        if let Some(rec) = self.rec.take() {
-            rec.disconnect();
-            drop(rec);
+        if self.encoder.get_mut().take().is_some() {
             let _ = std::fs::remove_file(&self.tmp);
         }
     }
@@ -155,7 +230,7 @@ impl Drop for RrdFile {
 /// (byte-wise concatenation would leave each part's footer pointing at the wrong offsets).
 /// The viewer lists each recording on its own.
 pub fn concat(parts: &[PathBuf], out: &Path) -> Result<(), RecordingError> {
-    use re_log_encoding::{CrateVersion, DecoderApp, Encoder, EncodingOptions};
+    use re_log_encoding::DecoderApp;
     let fail = |path: &Path, e: &dyn std::fmt::Display| {
         std::io::Error::other(format!("{}: {e}", path.display()))
     };
@@ -164,7 +239,7 @@ pub fn concat(parts: &[PathBuf], out: &Path) -> Result<(), RecordingError> {
             Encoder::new_eager(CrateVersion::LOCAL, EncodingOptions::PROTOBUF_COMPRESSED, w)
                 .map_err(|e| fail(out, &e))?;
         for p in parts {
-            let reader = std::io::BufReader::new(std::fs::File::open(p).map_err(|e| fail(p, &e))?);
+            let reader = std::io::BufReader::new(File::open(p).map_err(|e| fail(p, &e))?);
             for msg in DecoderApp::decode_eager(reader).map_err(|e| fail(p, &e))? {
                 let msg = msg.map_err(|e| fail(p, &e))?;
                 encoder.append(&msg).map_err(|e| fail(out, &e))?;
