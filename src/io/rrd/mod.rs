@@ -26,6 +26,7 @@ pub mod scene;
 pub mod view;
 
 use std::cell::{Cell, RefCell};
+use std::collections::BTreeMap;
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
@@ -75,9 +76,28 @@ pub struct RrdFile {
     id_base: u64,
     next_id: Cell<u64>,
     time: RefCell<TimePoint>,
+    /// Timed rows not yet written, per entity path.
+    pending: RefCell<BTreeMap<String, Pending>>,
     tmp: PathBuf,
     path: PathBuf,
 }
+
+/// One row: its id, time and component batches.
+type Row = (RowId, TimePoint, Vec<rerun::SerializedComponentBatch>);
+
+/// Rows of one entity gathered into one chunk.
+struct Pending {
+    id: ChunkId,
+    entity: EntityPath,
+    rows: Vec<Row>,
+    bytes: usize,
+}
+
+/// Most rows in one chunk of a timed entity.
+const CHUNK_ROWS: usize = 64;
+
+/// Chunks of a timed entity are written once their component arrays reach this size.
+const CHUNK_BYTES: usize = 4 << 20;
 
 impl RrdFile {
     /// Starts the recording `recording_id` (shown as `name` in the viewer) for `path`.
@@ -110,6 +130,7 @@ impl RrdFile {
             id_base: (derive_seed(0, &["rrd", recording_id]) & 0xffff_ffff) << 32,
             next_id: Cell::new(0),
             time: RefCell::new(TimePoint::default()),
+            pending: RefCell::new(BTreeMap::new()),
             tmp,
             path: path.to_path_buf(),
         };
@@ -155,21 +176,71 @@ impl RrdFile {
         Ok(())
     }
 
-    /// Writes `what` at `entity` at `time` (empty: static) as one chunk of one row.
+    /// Writes `what` at `entity` at `time` (empty: static). Static rows become a chunk at
+    /// once; timed rows are gathered per entity into chunks of up to [`CHUNK_ROWS`] rows or
+    /// [`CHUNK_BYTES`] bytes, as rerun's own batcher does (one chunk per row would repeat
+    /// the chunk's schema with every image).
     fn write<AS: ?Sized + rerun::AsComponents>(
         &self,
         entity: EntityPath,
         time: TimePoint,
         what: &AS,
     ) -> Result<(), RecordingError> {
-        let chunk_id = ChunkId::from_tuid(self.next_tuid());
         let row_id = RowId::from_tuid(self.next_tuid());
-        let chunk = Chunk::builder_with_id(chunk_id, entity.clone())
-            .with_serialized_batches(row_id, time, what.as_serialized_batches())
+        let batches = what.as_serialized_batches();
+        if time.is_static() {
+            return self.emit(Pending {
+                id: ChunkId::from_tuid(self.next_tuid()),
+                entity,
+                rows: vec![(row_id, time, batches)],
+                bytes: 0,
+            });
+        }
+        let bytes: usize = batches
+            .iter()
+            .map(|b| b.array.get_array_memory_size())
+            .sum();
+        let key = entity.to_string();
+        let mut pending = self.pending.borrow_mut();
+        let p = pending.entry(key.clone()).or_insert_with(|| Pending {
+            id: ChunkId::from_tuid(self.next_tuid()),
+            entity,
+            rows: Vec::new(),
+            bytes: 0,
+        });
+        p.rows.push((row_id, time, batches));
+        p.bytes += bytes;
+        if p.rows.len() >= CHUNK_ROWS || p.bytes >= CHUNK_BYTES {
+            let full = pending.remove(&key);
+            drop(pending);
+            if let Some(full) = full {
+                return self.emit(full);
+            }
+        }
+        Ok(())
+    }
+
+    /// Builds one chunk of gathered rows and encodes it.
+    fn emit(&self, p: Pending) -> Result<(), RecordingError> {
+        let entity = p.entity.to_string();
+        let mut builder = Chunk::builder_with_id(p.id, p.entity);
+        for (row_id, time, batches) in p.rows {
+            builder = builder.with_serialized_batches(row_id, time, batches);
+        }
+        let msg = builder
             .build()
             .and_then(|c| c.to_arrow_msg())
             .map_err(|e| self.error(format!("{entity}: {e}")))?;
-        self.append(&LogMsg::ArrowMsg(self.store.clone(), chunk))
+        self.append(&LogMsg::ArrowMsg(self.store.clone(), msg))
+    }
+
+    /// Writes every gathered row, entity by entity in path order.
+    fn flush_pending(&self) -> Result<(), RecordingError> {
+        let pending = std::mem::take(&mut *self.pending.borrow_mut());
+        for (_, p) in pending {
+            self.emit(p)?;
+        }
+        Ok(())
     }
 
     /// Logs `what` at `entity` at the current time (see [`RrdFile::set_step`]).
@@ -205,6 +276,7 @@ impl RrdFile {
     /// Writes rerun's footer (the index of every chunk), closes the file and renames it to
     /// its final name.
     pub fn finish(self) -> Result<PathBuf, RecordingError> {
+        self.flush_pending()?;
         let encoder = self.encoder.borrow_mut().take();
         if let Some(mut encoder) = encoder {
             encoder.finish().map_err(|e| self.error(e))?;
