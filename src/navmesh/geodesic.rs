@@ -1188,6 +1188,9 @@ impl<'g> Geodesic<'g> {
         let pg = fr.pos(cg, yg);
         nodes[goal as usize].mark = closed;
         fifo.push(goal);
+        for q in 0..4 {
+            self.settle_block(goal, cg, q, nodes, fifo, closed);
+        }
         let mut head = 0;
         let mut hidden = Vec::new();
         let start = &self.grid().column_start[..];
@@ -1255,6 +1258,139 @@ impl<'g> Geodesic<'g> {
                 node.g = best;
                 node.anchor = best_k;
                 sc.queue.push(best, m);
+            }
+        }
+    }
+
+    /// Number of cells `k` per axis of the square of columns from `goal` (at cell `cg`, rank
+    /// `rank` in its column) into quadrant `q` whose spans of that rank all have their three
+    /// forward links of the quadrant to flat spans of the same rank (0 when the goal has
+    /// not). Read from the [`SightIndex`]'s squares (capped at 255 cells): beyond, the square
+    /// is tiled by squares of 254 cells, each certified by the square ahead of its corner.
+    fn clear_side(&self, goal: u32, cg: (i64, i64), rank: u32, q: usize) -> i64 {
+        let sight = &self.sight;
+        let l0 = i64::from(sight.square_ahead(goal, q));
+        if l0 < 255 {
+            return (l0 - 1).max(0);
+        }
+        const TILE: i64 = 254;
+        let grid = self.grid();
+        let start = &grid.column_start;
+        let (sx, sz) = quadrant_signs(q);
+        // Cells to the grid's edge along each axis, the goal's included.
+        let reach = |c: i64, s: i64, n: u32| if s > 0 { i64::from(n) - c } else { c + 1 };
+        let most = reach(cg.0, sx, grid.nx).min(reach(cg.1, sz, grid.nz));
+        let corner = |ox: i64, oz: i64| -> Option<u32> {
+            let col = grid.column(cg.0 + sx * ox, cg.1 + sz * oz)?;
+            let s = start.get(col)?.checked_add(rank)?;
+            (s < *start.get(col + 1)?).then_some(s)
+        };
+        // Tiles of TILE cells from offsets 0, TILE, 2 TILE, ..., the last one moved back
+        // to end on the square's edge (k >= TILE).
+        let clear = |k: i64| {
+            let at = |i: i64| (i * TILE).min(k - TILE);
+            let tiles = (k + TILE - 1) / TILE;
+            (0..tiles).all(|j| {
+                (0..tiles).all(|i| {
+                    corner(at(i), at(j)).is_some_and(|t| i64::from(sight.square_ahead(t, q)) > TILE)
+                })
+            })
+        };
+        // `clear` holds exactly when the k × k square is clear, so it is monotone in k.
+        let (mut lo, mut hi) = (TILE, most.max(TILE));
+        while lo < hi {
+            let mid = lo + (hi - lo + 1) / 2;
+            if clear(mid) {
+                lo = mid;
+            } else {
+                hi = mid - 1;
+            }
+        }
+        lo
+    }
+
+    /// Settles at once the rectangle of spans ahead of `goal` (at cell `cg`) in quadrant `q`
+    /// that the goal sees whole, without walking to each: in the clear square of
+    /// [`Geodesic::clear_side`], the rows from the goal's while the floor heights of the
+    /// rectangle stay within half the profile tolerance. A straight walk from the goal to
+    /// a span of the rectangle then steps only on spans of the rectangle, of the goal's rank,
+    /// and its height checks pass, so it succeeds (the answer the flood's walk would give).
+    /// Spans whose links may lead out of the rectangle (its edges, and spans with links to
+    /// other ranks) go on the flood's queue so their links are followed.
+    fn settle_block(
+        &self,
+        goal: u32,
+        cg: (i64, i64),
+        q: usize,
+        nodes: &mut [State],
+        fifo: &mut Vec<u32>,
+        closed: u32,
+    ) {
+        let grid = self.grid();
+        let start = &grid.column_start[..];
+        let Some(&first) = grid.column(cg.0, cg.1).and_then(|c| start.get(c)) else {
+            return;
+        };
+        let rank = goal.wrapping_sub(first);
+        let k = self.clear_side(goal, cg, rank, q);
+        if k < 2 {
+            return;
+        }
+        let (sx, sz) = quadrant_signs(q);
+        let fr = self.frame;
+        let yg = nodes[goal as usize].y;
+        let pg = fr.pos(cg, yg);
+        let limit = 0.5 * super::los::profile_tolerance(grid);
+        let (mut lo, mut hi) = (yg, yg);
+        let mut row: Vec<u32> = Vec::with_capacity(k as usize);
+        for oz in 0..k {
+            let iz = cg.1 + sz * oz;
+            // The row's spans, and their height range.
+            row.clear();
+            let (mut rlo, mut rhi) = (lo, hi);
+            for ox in 0..k {
+                let col = grid.column(cg.0 + sx * ox, iz);
+                let span = col.and_then(|c| {
+                    let s = start.get(c)?.checked_add(rank)?;
+                    (s < *start.get(c + 1)?).then_some(s)
+                });
+                let Some(s) = span else {
+                    break;
+                };
+                let y = nodes[s as usize].y;
+                rlo = rlo.min(y);
+                rhi = rhi.max(y);
+                row.push(s);
+            }
+            if row.len() < k as usize || rhi - rlo > limit {
+                // The rectangle ends above this row: the last row's links lead out of it.
+                if oz > 0 {
+                    let prev = iz - sz;
+                    for ox in 0..k {
+                        if let Some(&s) =
+                            grid.column(cg.0 + sx * ox, prev).and_then(|c| start.get(c))
+                        {
+                            fifo.push(s + rank);
+                        }
+                    }
+                }
+                return;
+            }
+            (lo, hi) = (rlo, rhi);
+            let edge_row = oz == 0 || oz == k - 1;
+            for (ox, &s) in row.iter().enumerate() {
+                let ox = ox as i64;
+                let node = &mut nodes[s as usize];
+                if node.mark != closed {
+                    let cm = (cg.0 + sx * ox, iz);
+                    node.g = dist(pg, fr.pos(cm, node.y));
+                    node.anchor = goal;
+                    node.mark = closed;
+                }
+                let (same, linked) = self.sight.link_masks(s);
+                if edge_row || ox == 0 || ox == k - 1 || linked & !same != 0 {
+                    fifo.push(s);
+                }
             }
         }
     }
@@ -1505,6 +1641,16 @@ fn box_distance(lo: Vec3, hi: Vec3, p: Vec3) -> f32 {
 #[inline]
 fn box_gap(a0: Vec3, a1: Vec3, b0: Vec3, b1: Vec3) -> f32 {
     (b0 - a1).max(a0 - b1).max(Vec3::ZERO).length()
+}
+
+/// Signs `(sx, sz)` of the steps into quadrant `q` of the [`SightIndex`] (bit 0: towards -x,
+/// bit 1: towards -z).
+#[inline]
+fn quadrant_signs(q: usize) -> (i64, i64) {
+    (
+        if q & 1 != 0 { -1 } else { 1 },
+        if q & 2 != 0 { -1 } else { 1 },
+    )
 }
 
 /// Asks the CPU to start loading a span's record (a hint; no effect on results).

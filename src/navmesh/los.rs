@@ -447,6 +447,16 @@ impl<'g> SightIndex<'g> {
         (s.same_rank, s.linked)
     }
 
+    /// Side `L` of the clear square ahead of a span (a valid index) in quadrant `q` (bit 0:
+    /// heading to -x, bit 1: heading to -z; a walk along an axis uses the quadrant on the
+    /// positive side of the other axis): `L >= k` exactly when every span of the
+    /// `(k - 1) × (k - 1)` columns from this one into the quadrant has its three forward links
+    /// to flat spans of the same rank. Capped at 255.
+    #[inline]
+    pub(crate) fn square_ahead(&self, span: u32, q: usize) -> u8 {
+        self.spans[span as usize].ahead[q & 3]
+    }
+
     /// How many cells a walk from this span can jump at most, over all directions (0: it
     /// steps cell by cell whatever the direction).
     pub fn jump_reach(&self, span: u32) -> u16 {
