@@ -1315,8 +1315,9 @@ impl<'g> Geodesic<'g> {
     /// rectangle stay within half the profile tolerance. A straight walk from the goal to
     /// a span of the rectangle then steps only on spans of the rectangle, of the goal's rank,
     /// and its height checks pass, so it succeeds (the answer the flood's walk would give).
-    /// Spans whose links may lead out of the rectangle (its edges, and spans with links to
-    /// other ranks) go on the flood's queue so their links are followed.
+    /// Spans whose links may lead out of the rectangle go on the flood's queue so that their
+    /// links are followed: those on its edges, and inside, those with links to other ranks
+    /// (where the rows around are not all single-span columns, read from the link masks).
     fn settle_block(
         &self,
         goal: u32,
@@ -1333,65 +1334,100 @@ impl<'g> Geodesic<'g> {
         };
         let rank = goal.wrapping_sub(first);
         let k = self.clear_side(goal, cg, rank, q);
-        if k < 2 {
+        let (sx, sz) = quadrant_signs(q);
+        // The rectangle's columns must lie in the grid (they do: its spans exist).
+        if k < 2
+            || grid
+                .column(cg.0 + sx * (k - 1), cg.1 + sz * (k - 1))
+                .is_none()
+        {
             return;
         }
-        let (sx, sz) = quadrant_signs(q);
+        let ku = k as usize;
         let fr = self.frame;
         let yg = nodes[goal as usize].y;
         let pg = fr.pos(cg, yg);
         let limit = 0.5 * super::los::profile_tolerance(grid);
         let (mut lo, mut hi) = (yg, yg);
-        let mut row: Vec<u32> = Vec::with_capacity(k as usize);
+        let nx = i64::from(grid.nx);
+        // Columns `x0, x0 + sx, ...` of a row, and whether a row's columns (one more on each
+        // side, inside the grid) all hold a single span.
+        let x0 = cg.0;
+        let (xa, xb) = if sx > 0 {
+            ((x0 - 1).max(0), (x0 + k).min(nx - 1))
+        } else {
+            ((x0 - k).max(0), (x0 + 1).min(nx - 1))
+        };
+        let single = |iz: i64| {
+            let r = (iz * nx) as usize;
+            let (a, b) = (r + xa as usize, r + xb as usize + 1);
+            start
+                .get(a..=b)
+                .is_some_and(|w| w.windows(2).all(|p| p[1].wrapping_sub(p[0]) == 1))
+        };
+        // Spans of the current and previous rows (in column order from the goal's).
+        let mut row: Vec<u32> = Vec::with_capacity(ku);
+        let mut pending: Vec<u32> = Vec::with_capacity(ku);
+        // Single-span rows: the previous row's and the one before it.
+        let (mut single_prev2, mut single_prev) = (false, false);
+        let mut settled = 0;
         for oz in 0..k {
             let iz = cg.1 + sz * oz;
+            let base = iz * nx + x0;
             // The row's spans, and their height range.
             row.clear();
             let (mut rlo, mut rhi) = (lo, hi);
             for ox in 0..k {
-                let col = grid.column(cg.0 + sx * ox, iz);
-                let span = col.and_then(|c| {
-                    let s = start.get(c)?.checked_add(rank)?;
-                    (s < *start.get(c + 1)?).then_some(s)
-                });
-                let Some(s) = span else {
+                let c = (base + sx * ox) as usize;
+                let Some(s) = start.get(c).and_then(|&f| f.checked_add(rank)) else {
                     break;
                 };
+                if start.get(c + 1).is_none_or(|&e| s >= e) {
+                    break;
+                }
                 let y = nodes[s as usize].y;
                 rlo = rlo.min(y);
                 rhi = rhi.max(y);
                 row.push(s);
             }
-            if row.len() < k as usize || rhi - rlo > limit {
-                // The rectangle ends above this row: the last row's links lead out of it.
-                if oz > 0 {
-                    let prev = iz - sz;
-                    for ox in 0..k {
-                        if let Some(&s) =
-                            grid.column(cg.0 + sx * ox, prev).and_then(|c| start.get(c))
-                        {
-                            fifo.push(s + rank);
-                        }
-                    }
-                }
-                return;
+            if row.len() < ku || rhi - rlo > limit {
+                break;
             }
             (lo, hi) = (rlo, rhi);
-            let edge_row = oz == 0 || oz == k - 1;
+            let single_cur = rank == 0 && single(iz);
             for (ox, &s) in row.iter().enumerate() {
-                let ox = ox as i64;
                 let node = &mut nodes[s as usize];
                 if node.mark != closed {
-                    let cm = (cg.0 + sx * ox, iz);
+                    let cm = (x0 + sx * ox as i64, iz);
                     node.g = dist(pg, fr.pos(cm, node.y));
                     node.anchor = goal;
                     node.mark = closed;
                 }
-                let (same, linked) = self.sight.link_masks(s);
-                if edge_row || ox == 0 || ox == k - 1 || linked & !same != 0 {
-                    fifo.push(s);
-                }
             }
+            // The previous row is inside (not the first row): its spans other than the end
+            // ones need their links followed only when they may lead to another rank.
+            if oz >= 2 {
+                if single_prev2 && single_prev && single_cur {
+                    fifo.push(pending[0]);
+                    fifo.push(pending[ku - 1]);
+                } else {
+                    for (ox, &s) in pending.iter().enumerate() {
+                        let (same, linked) = self.sight.link_masks(s);
+                        if ox == 0 || ox == ku - 1 || linked & !same != 0 {
+                            fifo.push(s);
+                        }
+                    }
+                }
+            } else if oz == 1 {
+                fifo.extend_from_slice(&pending);
+            }
+            std::mem::swap(&mut row, &mut pending);
+            (single_prev2, single_prev) = (single_prev, single_cur);
+            settled = oz + 1;
+        }
+        // The last row settled is an edge of the rectangle.
+        if settled > 0 {
+            fifo.extend_from_slice(&pending);
         }
     }
 
@@ -1980,6 +2016,74 @@ mod tests {
                 }
             }
             assert!(checked > 1000);
+        }
+    }
+
+    #[test]
+    fn the_flood_settles_exactly_the_spans_the_goal_sees() {
+        // A floor wider than the index's 255-cell squares (so the goal's clear square is
+        // tiled), with walls, a gentle slope (the settled rectangles end where the heights
+        // spread) and an upper floor over part of it (columns of two spans).
+        let n = 300usize;
+        let rows = rows_from(n, n, |x, z| {
+            let wall = (x == 270 && z < 40) || (z == 275 && (150..220).contains(&x));
+            x > 0 && z > 0 && x < n - 1 && z < n - 1 && !wall
+        });
+        let refs: Vec<&str> = rows.iter().map(String::as_str).collect();
+        let mut spec = MapSpec::ascii(&refs, 0.05);
+        for iz in 200..n - 1 {
+            for ix in 1..n - 1 {
+                if spec.ground(ix, iz) == '.' {
+                    spec.set_height(ix, iz, 0.02 * (iz - 200) as f32);
+                }
+            }
+        }
+        for iz in 30..70 {
+            for ix in 140..200 {
+                spec.add(ix, iz, 2.5, '.');
+            }
+        }
+        let grid = spec.build(NavParams::default());
+        let geo = Geodesic::new(&grid);
+        let sight = geo.sight();
+        let upper = grid.column_start[50 * n + 150] + 1;
+        assert!((grid.spans[upper as usize].y - 2.5).abs() < 1e-6);
+        let corner = span_at(&grid, 3, 3);
+        assert!(geo.clear_side(corner, (3, 3), 0, 0) > 254, "tiled square");
+        for goal in [
+            corner,
+            span_at(&grid, 150, 120),
+            span_at(&grid, 285, 290),
+            span_at(&grid, 160, 45),
+            upper,
+        ] {
+            let field = geo.field(&[goal]);
+            // The flood's set: spans joined to the goal through spans it sees.
+            let mut seen = vec![false; grid.spans.len()];
+            seen[goal as usize] = true;
+            let mut stack = vec![goal];
+            while let Some(s) = stack.pop() {
+                for &m in &grid.spans[s as usize].links {
+                    if m != NONE && !seen[m as usize] && sight.straight_line(goal, m) {
+                        seen[m as usize] = true;
+                        stack.push(m);
+                    }
+                }
+            }
+            let pg = geo.position(goal).unwrap();
+            let mut count = 0;
+            for (s, &flooded) in seen.iter().enumerate() {
+                let s = s as u32;
+                if flooded {
+                    let want = dist(pg, geo.position(s).unwrap());
+                    assert_eq!(field.anchor[s as usize], goal, "span {s}");
+                    assert_eq!(field.dist[s as usize].to_bits(), want.to_bits(), "span {s}");
+                    count += 1;
+                } else if field.anchor[s as usize] == goal {
+                    assert!(sight.straight_line(goal, s), "span {s} anchored unseen");
+                }
+            }
+            assert!(count > 1000, "goal {goal}: {count}");
         }
     }
 
