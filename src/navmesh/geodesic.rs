@@ -34,7 +34,13 @@
 //! distance and the goal as anchor (no path is shorter), without the queue and with the
 //! records of spans about to be expanded loaded ahead; the spans the flood reaches but the
 //! goal does not see are repaired from their best settled neighbour and queued, and Lazy
-//! Theta* settles the rest. On open floor the whole field is the flood.
+//! Theta* settles the rest. On open floor the whole field is the flood. Around the goal the
+//! flood does not walk to each span: per quadrant, the [`SightIndex`]'s clear squares (tiled
+//! beyond their 255-cell cap) give a square of floor in which every walk from the goal
+//! succeeds as long as the heights stay within half the profile tolerance, so its rows are
+//! settled in memory order while they do, and only the spans whose links may leave that
+//! rectangle (its edges; inside, links to other layers) are expanded by the breadth-first
+//! flood. The set settled and the values are the same as walking to each span.
 //!
 //! [`Geodesic::search`] is the same propagation from one goal as an A* towards one start
 //! (admissible straight-line heuristic, no flood), stopping once the start is settled.
@@ -76,9 +82,10 @@
 //!
 //! Measured on the 2-core build box with `cargo bench --bench navigation` (one core, best of
 //! 2–3 runs on a shared, noisy box): a full field over the open 50 × 50 m floor (992k
-//! walkable spans, [`distance_field`] including [`Geodesic::new`], of which the
-//! [`SightIndex`] takes about 30 ms) about 70 ms; on the largest generated house (135k
-//! walkable spans, two levels) about 15 ms; point-to-point paths there about 0.13 ms per
+//! walkable spans, [`distance_field`] including [`Geodesic::new`]) about 30 ms, of which
+//! the [`SightIndex`] takes about 22 ms, the flood 5 ms and the search records and the
+//! exported field the rest; on the largest generated house (145k walkable spans, two
+//! levels) about 17 ms; point-to-point paths there about 0.13 ms per
 //! query with a shared [`Geodesic`] (building the sparse graph on the first query: about
 //! 7 ms), and 0.016 ms on a furnished 100 m² level (about 2 ms to build). Accuracy: fields
 //! within 0.6 % of exact shortest paths on the tests' corridors and doorways (the anchors are
@@ -1318,6 +1325,8 @@ impl<'g> Geodesic<'g> {
     /// Spans whose links may lead out of the rectangle go on the flood's queue so that their
     /// links are followed: those on its edges, and inside, those with links to other ranks
     /// (where the rows around are not all single-span columns, read from the link masks).
+    /// Not inlined: its loops need the registers.
+    #[inline(never)]
     fn settle_block(
         &self,
         goal: u32,
@@ -1346,12 +1355,15 @@ impl<'g> Geodesic<'g> {
         let ku = k as usize;
         let fr = self.frame;
         let yg = nodes[goal as usize].y;
+        if yg.is_nan() {
+            return;
+        }
         let pg = fr.pos(cg, yg);
         let limit = 0.5 * super::los::profile_tolerance(grid);
         let (mut lo, mut hi) = (yg, yg);
         let nx = i64::from(grid.nx);
-        // Columns `x0, x0 + sx, ...` of a row, and whether a row's columns (one more on each
-        // side, inside the grid) all hold a single span.
+        // Whether a row's columns of the rectangle (one more on each side, inside the grid)
+        // all hold a single span.
         let x0 = cg.0;
         let (xa, xb) = if sx > 0 {
             ((x0 - 1).max(0), (x0 + k).min(nx - 1))
@@ -1365,40 +1377,47 @@ impl<'g> Geodesic<'g> {
                 .get(a..=b)
                 .is_some_and(|w| w.windows(2).all(|p| p[1].wrapping_sub(p[0]) == 1))
         };
-        // Spans of the current and previous rows (in column order from the goal's).
+        // Spans of the current and previous rows, lowest x first.
         let mut row: Vec<u32> = Vec::with_capacity(ku);
         let mut pending: Vec<u32> = Vec::with_capacity(ku);
         // Single-span rows: the previous row's and the one before it.
         let (mut single_prev2, mut single_prev) = (false, false);
         let mut settled = 0;
+        // The rectangle's columns in a row, lowest x first.
+        let xmin = if sx > 0 { x0 } else { x0 - (k - 1) };
         for oz in 0..k {
             let iz = cg.1 + sz * oz;
-            let base = iz * nx + x0;
-            // The row's spans, and their height range.
+            // The row's spans (of the goal's rank), and their height range.
+            let c = (iz * nx + xmin) as usize;
+            let Some(bounds) = start.get(c..=c + ku) else {
+                break;
+            };
             row.clear();
-            let (mut rlo, mut rhi) = (lo, hi);
-            for ox in 0..k {
-                let c = (base + sx * ox) as usize;
-                let Some(s) = start.get(c).and_then(|&f| f.checked_add(rank)) else {
-                    break;
-                };
-                if start.get(c + 1).is_none_or(|&e| s >= e) {
-                    break;
+            for w in bounds.windows(2) {
+                match w[0].checked_add(rank) {
+                    Some(s) if s < w[1] => row.push(s),
+                    _ => break,
                 }
-                let y = nodes[s as usize].y;
-                rlo = rlo.min(y);
-                rhi = rhi.max(y);
-                row.push(s);
             }
-            if row.len() < ku || rhi - rlo > limit {
+            if row.len() < ku {
+                break;
+            }
+            let (mut rlo, mut rhi, mut nan) = (lo, hi, false);
+            for &s in &row {
+                let y = nodes[s as usize].y;
+                rlo = if y < rlo { y } else { rlo };
+                rhi = if y > rhi { y } else { rhi };
+                nan |= y.is_nan();
+            }
+            if nan || rhi - rlo > limit {
                 break;
             }
             (lo, hi) = (rlo, rhi);
             let single_cur = rank == 0 && single(iz);
-            for (ox, &s) in row.iter().enumerate() {
+            for (i, &s) in row.iter().enumerate() {
                 let node = &mut nodes[s as usize];
                 if node.mark != closed {
-                    let cm = (x0 + sx * ox as i64, iz);
+                    let cm = (xmin + i as i64, iz);
                     node.g = dist(pg, fr.pos(cm, node.y));
                     node.anchor = goal;
                     node.mark = closed;

@@ -624,17 +624,23 @@ fn squares_ahead(grid: &NavGrid, packed: &mut [SightSpan]) {
     // current row and of the row before.
     let mut size = [vec![0u8; nx + 2], vec![0u8; nx + 2]];
     let mut size_prev = [vec![0u8; nx + 2], vec![0u8; nx + 2]];
+    // Columns of the current row holding more than one span, by x.
+    let mut stacked: Vec<usize> = Vec::new();
     for sz in [1i32, -1] {
         for step_z in 0..nz {
             let iz = if sz > 0 { nz - 1 - step_z } else { step_z };
             std::mem::swap(&mut y, &mut y_prev);
             std::mem::swap(&mut size, &mut size_prev);
             let row = iz * nx;
+            stacked.clear();
             for ix in 0..nx {
                 let c = row + ix;
                 let (s0, s1) = (start[c] as usize, (start[c + 1] as usize).min(n));
                 if s0 < s1 {
                     let p = &packed[s0];
+                    if s1 - s0 > 1 {
+                        stacked.push(ix);
+                    }
                     first[ix + 1] = (s0 as u32, (s1 - s0 - 1) as u32);
                     y[ix + 1] = p.y;
                     mask[ix + 1] = p.same_rank;
@@ -658,25 +664,17 @@ fn squares_ahead(grid: &NavGrid, packed: &mut [SightSpan]) {
                 );
                 let offs =
                     [xd, zd, dd].map(|d| i64::from(DIRS[d].0) + i64::from(DIRS[d].1) * nx as i64);
-                let mut stacked = false;
-                for (&(s0, above), &l) in first[1..=nx].iter().zip(&cur[1..=nx]) {
+                for (&(s0, _), &l) in first[1..=nx].iter().zip(&cur[1..=nx]) {
                     if s0 != NONE {
                         packed[s0 as usize].ahead[q] = l;
-                        stacked |= above > 0;
                     }
-                }
-                if !stacked {
-                    continue;
                 }
                 // Spans above the first, visited from the far end (their x neighbours come
                 // first), from the packed records.
-                for step_x in 0..nx {
-                    let ix = if sx > 0 { nx - 1 - step_x } else { step_x };
+                for t in 0..stacked.len() {
+                    let ix = stacked[if sx > 0 { stacked.len() - 1 - t } else { t }];
                     let c = row + ix;
                     let (s0, above) = first[ix + 1];
-                    if s0 == NONE {
-                        continue;
-                    }
                     for s in s0 as usize + 1..=s0 as usize + above as usize {
                         let (h, same_rank) = (packed[s].y, packed[s].same_rank);
                         let size = if same_rank & forward != forward {
@@ -744,16 +742,20 @@ fn sweep_first_spans(
     }
     let rows = (mask, y, y_prev, prev);
     let mut carry = 0u8;
-    let inner = cur.iter_mut().enumerate().take(m - 1).skip(1);
+    // Index loops (the neighbour is `i ± 1`): iterator adapters compiled slower here.
     if plus_x {
-        for (i, out) in inner.rev() {
+        let mut i = m - 2;
+        while i >= 1 {
             carry = size(rows, forward, flat, i, i + 1, carry);
-            *out = carry;
+            cur[i] = carry;
+            i -= 1;
         }
     } else {
-        for (i, out) in inner {
+        let mut i = 1;
+        while i < m - 1 {
             carry = size(rows, forward, flat, i, i - 1, carry);
-            *out = carry;
+            cur[i] = carry;
+            i += 1;
         }
     }
 }
