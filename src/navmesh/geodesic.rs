@@ -34,7 +34,13 @@
 //! distance and the goal as anchor (no path is shorter), without the queue and with the
 //! records of spans about to be expanded loaded ahead; the spans the flood reaches but the
 //! goal does not see are repaired from their best settled neighbour and queued, and Lazy
-//! Theta* settles the rest. On open floor the whole field is the flood.
+//! Theta* settles the rest. On open floor the whole field is the flood. Around the goal the
+//! flood does not walk to each span: per quadrant, the [`SightIndex`]'s clear squares (tiled
+//! beyond their 255-cell cap) give a square of floor in which every walk from the goal
+//! succeeds as long as the heights stay within half the profile tolerance, so its rows are
+//! settled in memory order while they do, and only the spans whose links may leave that
+//! rectangle (its edges; inside, links to other layers) are expanded by the breadth-first
+//! flood. The set settled and the values are the same as walking to each span.
 //!
 //! [`Geodesic::search`] is the same propagation from one goal as an A* towards one start
 //! (admissible straight-line heuristic, no flood), stopping once the start is settled.
@@ -76,9 +82,10 @@
 //!
 //! Measured on the 2-core build box with `cargo bench --bench navigation` (one core, best of
 //! 2–3 runs on a shared, noisy box): a full field over the open 50 × 50 m floor (992k
-//! walkable spans, [`distance_field`] including [`Geodesic::new`], of which the
-//! [`SightIndex`] takes about 30 ms) about 70 ms; on the largest generated house (135k
-//! walkable spans, two levels) about 15 ms; point-to-point paths there about 0.13 ms per
+//! walkable spans, [`distance_field`] including [`Geodesic::new`]) about 30 ms, of which
+//! building the [`SightIndex`] takes about 22 ms, the flood about 5 ms and the search
+//! records and the exported field the rest; on the largest generated house (145k walkable
+//! spans, two levels) about 19 ms; point-to-point paths there about 0.13 ms per
 //! query with a shared [`Geodesic`] (building the sparse graph on the first query: about
 //! 7 ms), and 0.016 ms on a furnished 100 m² level (about 2 ms to build). Accuracy: fields
 //! within 0.6 % of exact shortest paths on the tests' corridors and doorways (the anchors are
@@ -1191,6 +1198,9 @@ impl<'g> Geodesic<'g> {
         let pg = fr.pos(cg, yg);
         nodes[goal as usize].mark = closed;
         fifo.push(goal);
+        for q in 0..4 {
+            self.settle_block(goal, cg, q, nodes, fifo, closed);
+        }
         let mut head = 0;
         let mut hidden = Vec::new();
         let start = &self.grid().column_start[..];
@@ -1259,6 +1269,187 @@ impl<'g> Geodesic<'g> {
                 node.anchor = best_k;
                 sc.queue.push(best, m);
             }
+        }
+    }
+
+    /// Number of cells `k` per axis of the square of columns from `goal` (at cell `cg`, rank
+    /// `rank` in its column) into quadrant `q` whose spans of that rank all have their three
+    /// forward links of the quadrant to flat spans of the same rank (0 when the goal has
+    /// not). Read from the [`SightIndex`]'s squares (capped at 255 cells): beyond, the square
+    /// is tiled by squares of 254 cells, each certified by the square ahead of its corner.
+    fn clear_side(&self, goal: u32, cg: (i64, i64), rank: u32, q: usize) -> i64 {
+        let sight = &self.sight;
+        let l0 = i64::from(sight.square_ahead(goal, q));
+        if l0 < 255 {
+            return (l0 - 1).max(0);
+        }
+        const TILE: i64 = 254;
+        let grid = self.grid();
+        let start = &grid.column_start;
+        let (sx, sz) = quadrant_signs(q);
+        // Cells to the grid's edge along each axis, the goal's included.
+        let reach = |c: i64, s: i64, n: u32| if s > 0 { i64::from(n) - c } else { c + 1 };
+        let most = reach(cg.0, sx, grid.nx).min(reach(cg.1, sz, grid.nz));
+        let corner = |ox: i64, oz: i64| -> Option<u32> {
+            let col = grid.column(cg.0 + sx * ox, cg.1 + sz * oz)?;
+            let s = start.get(col)?.checked_add(rank)?;
+            (s < *start.get(col + 1)?).then_some(s)
+        };
+        // Tiles of TILE cells from offsets 0, TILE, 2 TILE, ..., the last one moved back
+        // to end on the square's edge (k >= TILE).
+        let clear = |k: i64| {
+            let at = |i: i64| (i * TILE).min(k - TILE);
+            let tiles = (k + TILE - 1) / TILE;
+            (0..tiles).all(|j| {
+                (0..tiles).all(|i| {
+                    corner(at(i), at(j)).is_some_and(|t| i64::from(sight.square_ahead(t, q)) > TILE)
+                })
+            })
+        };
+        // `clear` holds exactly when the k × k square is clear, so it is monotone in k.
+        let (mut lo, mut hi) = (TILE, most.max(TILE));
+        while lo < hi {
+            let mid = lo + (hi - lo + 1) / 2;
+            if clear(mid) {
+                lo = mid;
+            } else {
+                hi = mid - 1;
+            }
+        }
+        lo
+    }
+
+    /// Settles at once the rectangle of spans ahead of `goal` (at cell `cg`) in quadrant `q`
+    /// that the goal sees whole, without walking to each: in the clear square of
+    /// [`Geodesic::clear_side`], the rows from the goal's while the floor heights of the
+    /// rectangle stay within half the profile tolerance. A straight walk from the goal to
+    /// a span of the rectangle then steps only on spans of the rectangle, of the goal's rank,
+    /// and its height checks pass, so it succeeds (the answer the flood's walk would give).
+    /// Spans whose links may lead out of the rectangle go on the flood's queue so that their
+    /// links are followed: those on its edges, and inside, those with links to other ranks
+    /// (where the rows around are not all single-span columns, read from the link masks).
+    /// Not inlined: its loops need the registers.
+    #[inline(never)]
+    fn settle_block(
+        &self,
+        goal: u32,
+        cg: (i64, i64),
+        q: usize,
+        nodes: &mut [State],
+        fifo: &mut Vec<u32>,
+        closed: u32,
+    ) {
+        let grid = self.grid();
+        let start = &grid.column_start[..];
+        let Some(&first) = grid.column(cg.0, cg.1).and_then(|c| start.get(c)) else {
+            return;
+        };
+        let rank = goal.wrapping_sub(first);
+        let k = self.clear_side(goal, cg, rank, q);
+        let (sx, sz) = quadrant_signs(q);
+        // The rectangle's columns must lie in the grid (they do: its spans exist).
+        if k < 2
+            || grid
+                .column(cg.0 + sx * (k - 1), cg.1 + sz * (k - 1))
+                .is_none()
+        {
+            return;
+        }
+        let ku = k as usize;
+        let fr = self.frame;
+        let yg = nodes[goal as usize].y;
+        if yg.is_nan() {
+            return;
+        }
+        let pg = fr.pos(cg, yg);
+        let limit = 0.5 * super::los::profile_tolerance(grid);
+        let (mut lo, mut hi) = (yg, yg);
+        let nx = i64::from(grid.nx);
+        // Whether a row's columns of the rectangle (one more on each side, inside the grid)
+        // all hold a single span.
+        let x0 = cg.0;
+        let (xa, xb) = if sx > 0 {
+            ((x0 - 1).max(0), (x0 + k).min(nx - 1))
+        } else {
+            ((x0 - k).max(0), (x0 + 1).min(nx - 1))
+        };
+        let single = |iz: i64| {
+            let r = (iz * nx) as usize;
+            let (a, b) = (r + xa as usize, r + xb as usize + 1);
+            start
+                .get(a..=b)
+                .is_some_and(|w| w.windows(2).all(|p| p[1].wrapping_sub(p[0]) == 1))
+        };
+        // Spans of the current and previous rows, lowest x first.
+        let mut row: Vec<u32> = Vec::with_capacity(ku);
+        let mut pending: Vec<u32> = Vec::with_capacity(ku);
+        // Single-span rows: the previous row's and the one before it.
+        let (mut single_prev2, mut single_prev) = (false, false);
+        let mut settled = 0;
+        // The rectangle's columns in a row, lowest x first.
+        let xmin = if sx > 0 { x0 } else { x0 - (k - 1) };
+        for oz in 0..k {
+            let iz = cg.1 + sz * oz;
+            // The row's spans (of the goal's rank), and their height range.
+            let c = (iz * nx + xmin) as usize;
+            let Some(bounds) = start.get(c..=c + ku) else {
+                break;
+            };
+            row.clear();
+            for w in bounds.windows(2) {
+                match w[0].checked_add(rank) {
+                    Some(s) if s < w[1] => row.push(s),
+                    _ => break,
+                }
+            }
+            if row.len() < ku {
+                break;
+            }
+            let (mut rlo, mut rhi, mut nan) = (lo, hi, false);
+            for &s in &row {
+                let y = nodes[s as usize].y;
+                rlo = if y < rlo { y } else { rlo };
+                rhi = if y > rhi { y } else { rhi };
+                nan |= y.is_nan();
+            }
+            if nan || rhi - rlo > limit {
+                break;
+            }
+            (lo, hi) = (rlo, rhi);
+            let single_cur = rank == 0 && single(iz);
+            for (i, &s) in row.iter().enumerate() {
+                let node = &mut nodes[s as usize];
+                if node.mark != closed {
+                    let cm = (xmin + i as i64, iz);
+                    node.g = dist(pg, fr.pos(cm, node.y));
+                    node.anchor = goal;
+                    node.mark = closed;
+                }
+            }
+            // The previous row is inside (not the first row): its spans other than the end
+            // ones need their links followed only when they may lead to another rank.
+            if oz >= 2 {
+                if single_prev2 && single_prev && single_cur {
+                    fifo.push(pending[0]);
+                    fifo.push(pending[ku - 1]);
+                } else {
+                    for (ox, &s) in pending.iter().enumerate() {
+                        let (same, linked) = self.sight.link_masks(s);
+                        if ox == 0 || ox == ku - 1 || linked & !same != 0 {
+                            fifo.push(s);
+                        }
+                    }
+                }
+            } else if oz == 1 {
+                fifo.extend_from_slice(&pending);
+            }
+            std::mem::swap(&mut row, &mut pending);
+            (single_prev2, single_prev) = (single_prev, single_cur);
+            settled = oz + 1;
+        }
+        // The last row settled is an edge of the rectangle.
+        if settled > 0 {
+            fifo.extend_from_slice(&pending);
         }
     }
 
@@ -1508,6 +1699,16 @@ fn box_distance(lo: Vec3, hi: Vec3, p: Vec3) -> f32 {
 #[inline]
 fn box_gap(a0: Vec3, a1: Vec3, b0: Vec3, b1: Vec3) -> f32 {
     (b0 - a1).max(a0 - b1).max(Vec3::ZERO).length()
+}
+
+/// Signs `(sx, sz)` of the steps into quadrant `q` of the [`SightIndex`] (bit 0: towards -x,
+/// bit 1: towards -z).
+#[inline]
+fn quadrant_signs(q: usize) -> (i64, i64) {
+    (
+        if q & 1 != 0 { -1 } else { 1 },
+        if q & 2 != 0 { -1 } else { 1 },
+    )
 }
 
 /// Asks the CPU to start loading a span's record (a hint; no effect on results).
@@ -1837,6 +2038,74 @@ mod tests {
                 }
             }
             assert!(checked > 1000);
+        }
+    }
+
+    #[test]
+    fn the_flood_settles_exactly_the_spans_the_goal_sees() {
+        // A floor wider than the index's 255-cell squares (so the goal's clear square is
+        // tiled), with walls, a gentle slope (the settled rectangles end where the heights
+        // spread) and an upper floor over part of it (columns of two spans).
+        let n = 300usize;
+        let rows = rows_from(n, n, |x, z| {
+            let wall = (x == 270 && z < 40) || (z == 275 && (150..220).contains(&x));
+            x > 0 && z > 0 && x < n - 1 && z < n - 1 && !wall
+        });
+        let refs: Vec<&str> = rows.iter().map(String::as_str).collect();
+        let mut spec = MapSpec::ascii(&refs, 0.05);
+        for iz in 200..n - 1 {
+            for ix in 1..n - 1 {
+                if spec.ground(ix, iz) == '.' {
+                    spec.set_height(ix, iz, 0.02 * (iz - 200) as f32);
+                }
+            }
+        }
+        for iz in 30..70 {
+            for ix in 140..200 {
+                spec.add(ix, iz, 2.5, '.');
+            }
+        }
+        let grid = spec.build(NavParams::default());
+        let geo = Geodesic::new(&grid);
+        let sight = geo.sight();
+        let upper = grid.column_start[50 * n + 150] + 1;
+        assert!((grid.spans[upper as usize].y - 2.5).abs() < 1e-6);
+        let corner = span_at(&grid, 3, 3);
+        assert!(geo.clear_side(corner, (3, 3), 0, 0) > 254, "tiled square");
+        for goal in [
+            corner,
+            span_at(&grid, 150, 120),
+            span_at(&grid, 285, 290),
+            span_at(&grid, 160, 45),
+            upper,
+        ] {
+            let field = geo.field(&[goal]);
+            // The flood's set: spans joined to the goal through spans it sees.
+            let mut seen = vec![false; grid.spans.len()];
+            seen[goal as usize] = true;
+            let mut stack = vec![goal];
+            while let Some(s) = stack.pop() {
+                for &m in &grid.spans[s as usize].links {
+                    if m != NONE && !seen[m as usize] && sight.straight_line(goal, m) {
+                        seen[m as usize] = true;
+                        stack.push(m);
+                    }
+                }
+            }
+            let pg = geo.position(goal).unwrap();
+            let mut count = 0;
+            for (s, &flooded) in seen.iter().enumerate() {
+                let s = s as u32;
+                if flooded {
+                    let want = dist(pg, geo.position(s).unwrap());
+                    assert_eq!(field.anchor[s as usize], goal, "span {s}");
+                    assert_eq!(field.dist[s as usize].to_bits(), want.to_bits(), "span {s}");
+                    count += 1;
+                } else if field.anchor[s as usize] == goal {
+                    assert!(sight.straight_line(goal, s), "span {s} anchored unseen");
+                }
+            }
+            assert!(count > 1000, "goal {goal}: {count}");
         }
     }
 

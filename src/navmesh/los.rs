@@ -333,6 +333,7 @@ impl<'g> SightIndex<'g> {
         let (nx, nz) = (grid.nx as usize, grid.nz as usize);
         let columns = start.len().saturating_sub(1).min(nx * nz);
         let mut spans = Vec::with_capacity(n);
+        let near = DIRS.map(|(dx, dz)| dx as isize + dz as isize * nx as isize);
         let mut c = 0;
         'rows: for iz in 0..nz {
             for ix in 0..nx {
@@ -344,12 +345,20 @@ impl<'g> SightIndex<'g> {
                     // Span index range of the neighbouring column in each direction (empty
                     // outside the grid): a link to the same rank lands at `lo + rank`.
                     let (mut lo, mut hi) = ([1u32; 8], [0u32; 8]);
-                    for (d, &(dx, dz)) in DIRS.iter().enumerate() {
-                        let (jx, jz) = (ix as i64 + i64::from(dx), iz as i64 + i64::from(dz));
-                        if jx >= 0 && jz >= 0 && (jx as usize) < nx && (jz as usize) < nz {
-                            let cc = jz as usize * nx + jx as usize;
-                            if cc + 1 < start.len() {
-                                (lo[d], hi[d]) = (start[cc], start[cc + 1]);
+                    if ix > 0 && iz > 0 && ix + 1 < nx && iz + 1 < nz && c + nx + 2 < start.len() {
+                        // Inside the grid: all eight neighbours exist.
+                        for d in 0..8 {
+                            let cc = c.wrapping_add_signed(near[d]);
+                            (lo[d], hi[d]) = (start[cc], start[cc + 1]);
+                        }
+                    } else {
+                        for (d, &(dx, dz)) in DIRS.iter().enumerate() {
+                            let (jx, jz) = (ix as i64 + i64::from(dx), iz as i64 + i64::from(dz));
+                            if jx >= 0 && jz >= 0 && (jx as usize) < nx && (jz as usize) < nz {
+                                let cc = jz as usize * nx + jx as usize;
+                                if cc + 1 < start.len() {
+                                    (lo[d], hi[d]) = (start[cc], start[cc + 1]);
+                                }
                             }
                         }
                     }
@@ -445,6 +454,16 @@ impl<'g> SightIndex<'g> {
     pub(crate) fn link_masks(&self, span: u32) -> (u8, u8) {
         let s = &self.spans[span as usize];
         (s.same_rank, s.linked)
+    }
+
+    /// Side `L` of the clear square ahead of a span (a valid index) in quadrant `q` (bit 0:
+    /// heading to -x, bit 1: heading to -z; a walk along an axis uses the quadrant on the
+    /// positive side of the other axis): `L >= k` exactly when every span of the
+    /// `(k - 1) × (k - 1)` columns from this one into the quadrant has its three forward links
+    /// to flat spans of the same rank. Capped at 255.
+    #[inline]
+    pub(crate) fn square_ahead(&self, span: u32, q: usize) -> u8 {
+        self.spans[span as usize].ahead[q & 3]
     }
 
     /// How many cells a walk from this span can jump at most, over all directions (0: it
@@ -579,9 +598,12 @@ fn quadrant(sx: i64, sz: i64) -> usize {
 /// (all to the same rank, within the flat limit; otherwise `L(s) = 1`), with columns visited
 /// from the far corner so that forward neighbours come first. Two sweeps over the rows (from
 /// the last row for the quadrants heading to +z, from the first for those heading to -z),
-/// each row visited in both x orders while it is in cache. Walkability is not read: the
-/// builder links walkable spans only, what a walk needs is the links, and a span without its
-/// forward links (size 1) is never jumped over.
+/// each row visited in both x orders while it is in cache. The first span of each column
+/// (nearly all spans) is computed from dense per-row copies of its height, links and sizes
+/// (the x neighbour's size carried in a register); spans above it read their neighbours from
+/// the packed records. Walkability is not read: the builder links walkable spans only, what
+/// a walk needs is the links, and a span without its forward links (size 1) is never jumped
+/// over.
 fn squares_ahead(grid: &NavGrid, packed: &mut [SightSpan]) {
     let flat = FLAT_FRACTION * grid.params.max_climb;
     let (nx, nz) = (grid.nx as usize, grid.nz as usize);
@@ -590,33 +612,80 @@ fn squares_ahead(grid: &NavGrid, packed: &mut [SightSpan]) {
         return;
     }
     let n = packed.len();
+    // Per column of the current row, at index ix + 1 (one entry of padding on each side):
+    // its first span (`NONE` when it has none) and how many spans it has above it; the
+    // first span's height and same-rank links; the heights of the row before (the row the
+    // forward z links lead to). Entries of columns without spans, and the padding, are only
+    // read for a link that does not exist, and then ignored.
+    let mut first = vec![(NONE, 0u32); nx + 2];
+    let mut mask = vec![0u8; nx + 2];
+    let (mut y, mut y_prev) = (vec![0f32; nx + 2], vec![0f32; nx + 2]);
+    // Per quadrant of the sweep (heading to +x, to -x): sizes of the first spans of the
+    // current row and of the row before.
+    let mut size = [vec![0u8; nx + 2], vec![0u8; nx + 2]];
+    let mut size_prev = [vec![0u8; nx + 2], vec![0u8; nx + 2]];
+    // Columns of the current row holding more than one span, by x.
+    let mut stacked: Vec<usize> = Vec::new();
     for sz in [1i32, -1] {
         for step_z in 0..nz {
             let iz = if sz > 0 { nz - 1 - step_z } else { step_z };
-            for sx in [1i32, -1] {
+            std::mem::swap(&mut y, &mut y_prev);
+            std::mem::swap(&mut size, &mut size_prev);
+            let row = iz * nx;
+            stacked.clear();
+            for ix in 0..nx {
+                let c = row + ix;
+                let (s0, s1) = (start[c] as usize, (start[c + 1] as usize).min(n));
+                if s0 < s1 {
+                    let p = &packed[s0];
+                    if s1 - s0 > 1 {
+                        stacked.push(ix);
+                    }
+                    first[ix + 1] = (s0 as u32, (s1 - s0 - 1) as u32);
+                    y[ix + 1] = p.y;
+                    mask[ix + 1] = p.same_rank;
+                } else {
+                    first[ix + 1] = (NONE, 0);
+                    mask[ix + 1] = 0;
+                }
+            }
+            for (k, sx) in [1i32, -1].into_iter().enumerate() {
                 let q = usize::from(sx < 0) | (usize::from(sz < 0) << 1);
                 let dir = |dx: i32, dz: i32| DIRS.iter().position(|&d| d == (dx, dz)).unwrap_or(0);
                 let (xd, zd, dd) = (dir(sx, 0), dir(0, sz), dir(sx, sz));
                 let forward = (1u8 << xd) | (1u8 << zd) | (1u8 << dd);
+                let cur = &mut size[k];
+                sweep_first_spans(
+                    (&mask, &y, &y_prev),
+                    (&size_prev[k], cur),
+                    forward,
+                    flat,
+                    sx > 0,
+                );
                 let offs =
                     [xd, zd, dd].map(|d| i64::from(DIRS[d].0) + i64::from(DIRS[d].1) * nx as i64);
-                for step_x in 0..nx {
-                    let ix = if sx > 0 { nx - 1 - step_x } else { step_x };
-                    let c = iz * nx + ix;
-                    let (s0, s1) = (start[c] as usize, (start[c + 1] as usize).min(n));
-                    for s in s0.min(s1)..s1 {
-                        let (y, same_rank) = (packed[s].y, packed[s].same_rank);
+                for (&(s0, _), &l) in first[1..=nx].iter().zip(&cur[1..=nx]) {
+                    if s0 != NONE {
+                        packed[s0 as usize].ahead[q] = l;
+                    }
+                }
+                // Spans above the first, visited from the far end (their x neighbours come
+                // first), from the packed records.
+                for t in 0..stacked.len() {
+                    let ix = stacked[if sx > 0 { stacked.len() - 1 - t } else { t }];
+                    let c = row + ix;
+                    let (s0, above) = first[ix + 1];
+                    for s in s0 as usize + 1..=s0 as usize + above as usize {
+                        let (h, same_rank) = (packed[s].y, packed[s].same_rank);
                         let size = if same_rank & forward != forward {
                             1
                         } else {
-                            let rank = (s - s0) as u32;
+                            let rank = (s - s0 as usize) as u32;
                             let mut min = u8::MAX;
                             let mut ok = true;
                             for off in offs {
                                 let l = (start[(c as i64 + off) as usize] + rank) as usize;
-                                // Field by field: the square size of the previous column
-                                // was just stored, and a whole-record load would stall.
-                                ok &= (packed[l].y - y).abs() <= flat;
+                                ok &= (packed[l].y - h).abs() <= flat;
                                 min = min.min(packed[l].ahead[q]);
                             }
                             if ok {
@@ -633,6 +702,64 @@ fn squares_ahead(grid: &NavGrid, packed: &mut [SightSpan]) {
     }
 }
 
+/// The recurrence of [`squares_ahead`] for the first spans of one row's columns, from dense
+/// copies (index ix + 1): their same-rank links and heights, the heights and sizes of the row
+/// before, into `cur`; visited from the far end (`plus_x`: heading to +x, so from the last
+/// column), the x neighbour's size carried along.
+#[inline(never)]
+fn sweep_first_spans(
+    (mask, y, y_prev): (&[u8], &[f32], &[f32]),
+    (prev, cur): (&[u8], &mut [u8]),
+    forward: u8,
+    flat: f32,
+    plus_x: bool,
+) {
+    let m = cur.len();
+    if m < 3 {
+        return;
+    }
+    let (mask, y, y_prev, prev) = (&mask[..m], &y[..m], &y_prev[..m], &prev[..m]);
+    #[inline(always)]
+    fn size(
+        (mask, y, y_prev, prev): (&[u8], &[f32], &[f32], &[u8]),
+        forward: u8,
+        flat: f32,
+        i: usize,
+        j: usize,
+        carry: u8,
+    ) -> u8 {
+        let h = y[i];
+        let ok = (mask[i] & forward == forward)
+            & ((y[j] - h).abs() <= flat)
+            & ((y_prev[i] - h).abs() <= flat)
+            & ((y_prev[j] - h).abs() <= flat);
+        let l = carry.min(prev[i]).min(prev[j]).saturating_add(1);
+        if ok {
+            l
+        } else {
+            1
+        }
+    }
+    let rows = (mask, y, y_prev, prev);
+    let mut carry = 0u8;
+    // Index loops (the neighbour is `i ± 1`): iterator adapters compiled slower here.
+    if plus_x {
+        let mut i = m - 2;
+        while i >= 1 {
+            carry = size(rows, forward, flat, i, i + 1, carry);
+            cur[i] = carry;
+            i -= 1;
+        }
+    } else {
+        let mut i = 1;
+        while i < m - 1 {
+            carry = size(rows, forward, flat, i, i - 1, carry);
+            cur[i] = carry;
+            i += 1;
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -643,6 +770,97 @@ mod tests {
     fn span_at(grid: &NavGrid, ix: usize, iz: usize) -> u32 {
         let c = iz * grid.nx as usize + ix;
         grid.column_start[c]
+    }
+
+    #[test]
+    fn square_sizes_match_the_straightforward_recurrence() {
+        // Regular wall cells, random bumps and a gently sloping upper floor over part of the
+        // ground: many ranks and sizes.
+        let (nx, nz) = (70usize, 50usize);
+        let mut rng = Rng::new(5);
+        let rows = crate::navmesh::testmaps::rows_from(nx, nz, |x, z| {
+            x > 0 && z > 0 && x < nx - 1 && z < nz - 1 && (x * 7 + z * 3) % 23 != 0
+        });
+        let refs: Vec<&str> = rows.iter().map(String::as_str).collect();
+        let mut spec = MapSpec::ascii(&refs, 0.05);
+        for ix in 1..nx - 1 {
+            for iz in 1..nz - 1 {
+                if rng.chance(0.05) {
+                    spec.set_height(ix, iz, 0.08 * rng.unit_f64() as f32);
+                }
+                if (20..45).contains(&ix) && (10..30).contains(&iz) {
+                    spec.add(ix, iz, 2.5 + 0.01 * (ix as f32 - 20.0), '.');
+                }
+            }
+        }
+        let grid = spec.build(NavParams::default());
+        let index = SightIndex::new(&grid);
+        let mut expect = index.spans.clone();
+        for s in &mut expect {
+            s.ahead = [0; 4];
+        }
+        squares_ahead_reference(&grid, &mut expect);
+        let mut big = 0;
+        for (got, want) in index.spans.iter().zip(&expect) {
+            assert_eq!(got.ahead, want.ahead);
+            big += usize::from(got.ahead.iter().any(|&a| a > 4));
+        }
+        assert!(big > 1000, "large squares exercised: {big}");
+        assert!(grid.spans.len() > nx * nz, "several ranks");
+    }
+
+    /// [`squares_ahead`] as it was first written, span by span from the packed records: the
+    /// reference its row sweeps must match.
+    fn squares_ahead_reference(grid: &NavGrid, packed: &mut [SightSpan]) {
+        let flat = FLAT_FRACTION * grid.params.max_climb;
+        let (nx, nz) = (grid.nx as usize, grid.nz as usize);
+        let start = &grid.column_start;
+        if nx == 0 || start.len() < nx * nz + 1 {
+            return;
+        }
+        let n = packed.len();
+        for sz in [1i32, -1] {
+            for step_z in 0..nz {
+                let iz = if sz > 0 { nz - 1 - step_z } else { step_z };
+                for sx in [1i32, -1] {
+                    let q = usize::from(sx < 0) | (usize::from(sz < 0) << 1);
+                    let dir =
+                        |dx: i32, dz: i32| DIRS.iter().position(|&d| d == (dx, dz)).unwrap_or(0);
+                    let (xd, zd, dd) = (dir(sx, 0), dir(0, sz), dir(sx, sz));
+                    let forward = (1u8 << xd) | (1u8 << zd) | (1u8 << dd);
+                    let offs = [xd, zd, dd]
+                        .map(|d| i64::from(DIRS[d].0) + i64::from(DIRS[d].1) * nx as i64);
+                    for step_x in 0..nx {
+                        let ix = if sx > 0 { nx - 1 - step_x } else { step_x };
+                        let c = iz * nx + ix;
+                        let (s0, s1) = (start[c] as usize, (start[c + 1] as usize).min(n));
+                        for s in s0.min(s1)..s1 {
+                            let (y, same_rank) = (packed[s].y, packed[s].same_rank);
+                            let size = if same_rank & forward != forward {
+                                1
+                            } else {
+                                let rank = (s - s0) as u32;
+                                let mut min = u8::MAX;
+                                let mut ok = true;
+                                for off in offs {
+                                    let l = (start[(c as i64 + off) as usize] + rank) as usize;
+                                    // Field by field: the square size of the previous column
+                                    // was just stored, and a whole-record load would stall.
+                                    ok &= (packed[l].y - y).abs() <= flat;
+                                    min = min.min(packed[l].ahead[q]);
+                                }
+                                if ok {
+                                    min.saturating_add(1)
+                                } else {
+                                    1
+                                }
+                            };
+                            packed[s].ahead[q] = size;
+                        }
+                    }
+                }
+            }
+        }
     }
 
     #[test]
