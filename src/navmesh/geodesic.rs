@@ -67,8 +67,16 @@
 //! the goal's region means entering it by one of its portals; leaving a region, leaving by
 //! one of its own), and eight landmarks: graph distances to landmarks chosen farthest-first,
 //! of which only the bound `d(landmark, goal) − d(landmark, vertex)` is used (the other
-//! direction could be undercut by a shortcut through the goal), and only when no zone spans
-//! are nodes. When the graph does not join the pair (or has more than 4096 vertices, or the
+//! direction could be undercut by a shortcut through the goal). When the goal lies in a zone,
+//! `d(landmark, goal)` is bounded through the zone's portals instead (every path into the
+//! zone passes one of their gates: the nearest gate's landmark distance plus the distance
+//! from the portal's box to the goal, less one cell for a walk that crosses a gate's cell off
+//! its centre); vertices inside the zones of the ends get no landmark bound (a path from
+//! there may stay in the zone, bending where the graph cannot). Spans of the start's zone,
+//! when the goal lies outside it, are bounded through the zone's exit portals: the distance
+//! to a portal's box plus the landmark bound of its farthest gate. A node keeps one pending
+//! lazy entry per parent, and none longer than its best checked entry (duplicates only cost
+//! pops and failing walks again). When the graph does not join the pair (or has more than 4096 vertices, or the
 //! start or goal lies in a zone of more than 20,000 spans), the query falls back to
 //! [`Geodesic::search`]; so does the weighted mode.
 //!
@@ -881,9 +889,9 @@ impl<'g> Geodesic<'g> {
         // passes one of them).
         for &(k, s) in &portal_gates {
             let (portal, m) = (&mut portals[k as usize], &marks[role[s as usize] as usize]);
-            for l in 0..LANDMARKS {
-                portal.near[l] = portal.near[l].min(m[l]);
-                portal.far[l] = portal.far[l].max(m[l]);
+            for ((near, far), &d) in portal.near.iter_mut().zip(&mut portal.far).zip(m) {
+                *near = near.min(d);
+                *far = far.max(d);
             }
         }
         Some(Sparse {
