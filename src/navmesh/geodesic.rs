@@ -73,8 +73,16 @@
 //! the goal's region means entering it by one of its portals; leaving a region, leaving by
 //! one of its own), and eight landmarks: graph distances to landmarks chosen farthest-first,
 //! of which only the bound `d(landmark, goal) − d(landmark, vertex)` is used (the other
-//! direction could be undercut by a shortcut through the goal), and only when no zone spans
-//! are nodes. When the graph does not join the pair (or has more than 4096 vertices, or the
+//! direction could be undercut by a shortcut through the goal). When the goal lies in a zone,
+//! `d(landmark, goal)` is bounded through the zone's portals instead (every path into the
+//! zone passes one of their gates: the nearest gate's landmark distance plus the distance
+//! from the portal's box to the goal, less one cell for a walk that crosses a gate's cell off
+//! its centre); vertices inside the zones of the ends get no landmark bound (a path from
+//! there may stay in the zone, bending where the graph cannot). Spans of the start's zone,
+//! when the goal lies outside it, are bounded through the zone's exit portals: the distance
+//! to a portal's box plus the landmark bound of its farthest gate. A node keeps one pending
+//! lazy entry per parent, and none longer than its best checked entry (duplicates only cost
+//! pops and failing walks again). When the graph does not join the pair (or has more than 4096 vertices, or the
 //! start or goal lies in a zone of more than 20,000 spans), the query falls back to
 //! [`Geodesic::search`]; so does the weighted mode.
 //!
@@ -334,6 +342,10 @@ struct Portal {
     region: u32,
     lo: Vec3,
     hi: Vec3,
+    /// Per landmark: the smallest and the largest graph distance from the landmark to the
+    /// portal's gates (`INFINITY` when a gate is not joined to it).
+    near: [f32; LANDMARKS],
+    far: [f32; LANDMARKS],
 }
 
 /// Flag of [`Sparse::area`] values that name a zone.
@@ -791,6 +803,7 @@ impl<'g> Geodesic<'g> {
         let mut gates: Vec<u32> = Vec::new();
         let mut portals: Vec<Portal> = Vec::new();
         let mut portal_of = std::collections::BTreeMap::new();
+        let mut portal_gates: Vec<(u32, u32)> = Vec::new();
         for &s in &edge_spans {
             if zone_span(s) {
                 continue;
@@ -809,11 +822,14 @@ impl<'g> Geodesic<'g> {
                         region,
                         lo: p,
                         hi: p,
+                        near: [f32::INFINITY; LANDMARKS],
+                        far: [0.0; LANDMARKS],
                     });
                     portals.len() - 1
                 });
                 portals[k].lo = portals[k].lo.min(p);
                 portals[k].hi = portals[k].hi.max(p);
+                portal_gates.push((k as u32, s));
             }
             if gate {
                 gates.push(s);
@@ -876,6 +892,15 @@ impl<'g> Geodesic<'g> {
         }
         first.push(edges.len() as u32);
         let marks = landmarks(&first, &edges);
+        // The landmark distances of each portal's gates (a path into or out of a zone
+        // passes one of them).
+        for &(k, s) in &portal_gates {
+            let (portal, m) = (&mut portals[k as usize], &marks[role[s as usize] as usize]);
+            for ((near, far), &d) in portal.near.iter_mut().zip(&mut portal.far).zip(m) {
+                *near = near.min(d);
+                *far = far.max(d);
+            }
+        }
         Some(Sparse {
             role,
             area,
@@ -923,16 +948,27 @@ impl<'g> Geodesic<'g> {
         let active = |s: u32| zones && zone_of(s).is_some_and(|a| Some(a) == zs || Some(a) == zg);
         let is_node = |s: u32| active(s) || vertex(s).is_some_and(|v| v.gate);
         let portal_bound = self.portal_bound(sp, goal, pt);
+        let slack = self.frame.size;
         self.with_scratch(|sc| {
             sc.begin();
             let (open, closed) = (sc.open, sc.open + 1);
-            // Landmark distances to the goal, through the vertices that see it and could
-            // bend towards it (nearest first, skipping those that cannot lower any). Unused,
-            // so skipped, when zone spans are nodes.
+            // Landmark distances to the goal. Outside a zone: through the vertices that see
+            // it and could bend towards it (nearest first, skipping those that cannot lower
+            // any). In a zone: a lower bound through the zone's portals (a path into the
+            // zone passes one of their gates; one cell of slack for a straight walk that
+            // crosses a gate's cell off its centre).
             let (seen, blocked) = (open, open + 1);
             sc.sees.resize(sp.verts.len(), 0);
             sc.near.clear();
-            if !zones {
+            let mut to_goal = [f32::INFINITY; LANDMARKS];
+            if let Some(zg) = zg {
+                for q in sp.portals.iter().filter(|q| q.zone == zg) {
+                    let d = (box_distance(q.lo, q.hi, pt) - slack).max(0.0);
+                    for (t, m) in to_goal.iter_mut().zip(&q.near) {
+                        *t = t.min(m + d);
+                    }
+                }
+            } else {
                 for (i, v) in sp.verts.iter().enumerate() {
                     if v.span != goal && spans[v.span as usize].island == island && v.allows(ct) {
                         sc.near.push((dist(v.pos, pt).to_bits(), i as u32));
@@ -940,7 +976,6 @@ impl<'g> Geodesic<'g> {
                 }
             }
             sc.near.sort_unstable();
-            let mut to_goal = [f32::INFINITY; LANDMARKS];
             for &(d, i) in &sc.near {
                 let d = f32::from_bits(d);
                 let marks = &sp.marks[i as usize];
@@ -957,25 +992,56 @@ impl<'g> Geodesic<'g> {
                     sc.sees[i as usize] = blocked;
                 }
             }
-            // The landmark bound holds for paths in the graph; with zone spans as nodes, a
-            // path may be shorter.
+            // A path from a span of the start's zone to a goal outside it leaves by one of
+            // the zone's portals: per portal, the box and a lower bound on the distance from
+            // its gates to the goal.
+            let exits: Vec<(Vec3, Vec3, f32)> = match zs {
+                Some(z) if zs != zg => sp
+                    .portals
+                    .iter()
+                    .filter(|q| q.zone == z)
+                    .map(|q| {
+                        let rest = q
+                            .far
+                            .iter()
+                            .zip(&to_goal)
+                            .map(|(f, t)| t - f)
+                            .filter(|d| d.is_finite())
+                            .fold(0.0f32, f32::max);
+                        (q.lo, q.hi, rest)
+                    })
+                    .collect(),
+                _ => Vec::new(),
+            };
             let h = |s: u32, p: Vec3| {
                 let mut best = portal_bound(s, p);
-                if !zones {
-                    if let Some(m) = sp.marks.get(sp.role[s as usize] as usize) {
-                        for (a, b) in m.iter().zip(&to_goal) {
-                            let d = b - a;
-                            if d.is_finite() {
-                                best = best.max(d);
-                            }
+                // Not for corners inside the zones of the ends: from there a path may stay in
+                // the zone, bending where the graph cannot.
+                if let Some(m) = sp
+                    .marks
+                    .get(sp.role[s as usize] as usize)
+                    .filter(|_| !active(s))
+                {
+                    for (a, b) in m.iter().zip(&to_goal) {
+                        let d = b - a;
+                        if d.is_finite() {
+                            best = best.max(d);
                         }
                     }
+                } else if !exits.is_empty() && zs.is_some() && zone_of(s) == zs {
+                    let via = exits
+                        .iter()
+                        .map(|&(lo, hi, rest)| (box_distance(lo, hi, p) - slack).max(0.0) + rest)
+                        .fold(f32::INFINITY, f32::min);
+                    best = best.max(via);
                 }
                 best
             };
             // Straight walks to the goal from vertices the landmark bound has not counted
-            // would undercut it.
-            let may_see_goal = |s: u32| zones || vertex(s).is_some_and(|v| v.allows(ct));
+            // would undercut it (from zone spans they cross a gate's cell; into the goal's
+            // zone, a portal).
+            let may_see_goal =
+                |s: u32| zg.is_some() || active(s) || vertex(s).is_some_and(|v| v.allows(ct));
             // The heuristic of a vertex, once per search.
             sc.hcache.resize(sp.verts.len(), (0, 0.0));
             let hcache = std::cell::Cell::from_mut(&mut sc.hcache[..]).as_slice_of_cells();
@@ -1006,6 +1072,7 @@ impl<'g> Geodesic<'g> {
                     Some(x) => x,
                     None => {
                         let e = entries.pop()?;
+
                         let m = (e.key & 0xffff_ffff) as u32;
                         if nodes[m as usize].mark == closed
                             || (e.lazy && !self.sight.straight_line(e.parent, m))
@@ -1042,13 +1109,25 @@ impl<'g> Geodesic<'g> {
                     if node.mark == closed {
                         return;
                     }
-                    if theta && (m != goal || may_see_goal(parent)) {
-                        push(entries, m, parent, ga + dist(pa, pos(m)), true);
+                    if node.mark != open {
+                        node.mark = open;
+                        node.g = f32::INFINITY;
+                        node.anchor = NONE;
                     }
-                    if node.mark == open && g >= node.g {
+                    // While a node is open, `g` is its best checked distance and `anchor`
+                    // the parent of its last lazy entry: the same lazy entry again, or one
+                    // longer than a checked entry (which pops first and closes the node),
+                    // would only cost a straight walk or a pop.
+                    if theta && node.anchor != parent && (m != goal || may_see_goal(parent)) {
+                        let lazy = ga + dist(pa, pos(m));
+                        if lazy <= node.g {
+                            node.anchor = parent;
+                            push(entries, m, parent, lazy, true);
+                        }
+                    }
+                    if g >= node.g {
                         return;
                     }
-                    node.mark = open;
                     node.g = g;
                     push(entries, m, n, g, false);
                 };

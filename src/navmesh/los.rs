@@ -326,7 +326,8 @@ pub struct SightIndex<'g> {
 }
 
 impl<'g> SightIndex<'g> {
-    /// Builds the index: one pass over the columns and one breadth-first pass over the links.
+    /// Builds the index: one pass over the columns (packed spans, link masks), then the clear
+    /// squares of every quadrant by row sweeps (`squares_ahead`).
     pub fn new(grid: &'g NavGrid) -> Self {
         let n = grid.spans.len();
         let start = &grid.column_start;
@@ -342,26 +343,28 @@ impl<'g> SightIndex<'g> {
                 }
                 let (s0, s1) = (start[c] as usize, (start[c + 1] as usize).min(n));
                 if s0 < s1 {
-                    // Span index range of the neighbouring column in each direction (empty
-                    // outside the grid): a link to the same rank lands at `lo + rank`.
-                    let (mut lo, mut hi) = ([1u32; 8], [0u32; 8]);
+                    // First span and span count of the neighbouring column in each direction
+                    // (none outside the grid): a link to the same rank lands at `lo + rank`.
+                    let (mut lo, mut count) = ([0u32; 8], [0u32; 8]);
                     if ix > 0 && iz > 0 && ix + 1 < nx && iz + 1 < nz && c + nx + 2 < start.len() {
                         // Inside the grid: all eight neighbours exist.
                         for d in 0..8 {
                             let cc = c.wrapping_add_signed(near[d]);
-                            (lo[d], hi[d]) = (start[cc], start[cc + 1]);
+                            (lo[d], count[d]) =
+                                (start[cc], start[cc + 1].saturating_sub(start[cc]));
                         }
                     } else {
                         for (d, &(dx, dz)) in DIRS.iter().enumerate() {
                             let (jx, jz) = (ix as i64 + i64::from(dx), iz as i64 + i64::from(dz));
                             if jx >= 0 && jz >= 0 && (jx as usize) < nx && (jz as usize) < nz {
                                 let cc = jz as usize * nx + jx as usize;
-                                if cc + 1 < start.len() {
-                                    (lo[d], hi[d]) = (start[cc], start[cc + 1]);
+                                if let (Some(&a), Some(&b)) = (start.get(cc), start.get(cc + 1)) {
+                                    (lo[d], count[d]) = (a, b.saturating_sub(a));
                                 }
                             }
                         }
                     }
+                    let n32 = n as u32;
                     for s in s0..s1 {
                         if spans.len() != s {
                             // Malformed column ranges: no fast paths for the rest.
@@ -370,12 +373,14 @@ impl<'g> SightIndex<'g> {
                         let span = &grid.spans[s];
                         let rank = (s - s0) as u32;
                         let (mut same, mut linked) = (0u8, 0u8);
+                        // Branch-free, so that the eight links are compared at once. `NONE`
+                        // is never below `n`.
                         for d in 0..8 {
                             let l = span.links[d];
-                            let ok = l != NONE && (l as usize) < n;
+                            let ok = l < n32;
                             linked |= u8::from(ok) << d;
-                            let on_rank = l.wrapping_sub(lo[d]) == rank && l < hi[d];
-                            same |= u8::from(ok && on_rank) << d;
+                            let on_rank = (l.wrapping_sub(lo[d]) == rank) & (rank < count[d]);
+                            same |= u8::from(ok & on_rank) << d;
                         }
                         spans.push(SightSpan {
                             y: span.y,
