@@ -99,6 +99,17 @@ fn config(out: &Path, agent: AgentKind, sensors: SensorSuite) -> RunConfig {
     }
 }
 
+/// The first `n` episodes of the shared data set whose task passes `keep`.
+fn first_episodes(keep: impl Fn(Task) -> bool, n: usize) -> Vec<Episode> {
+    data()
+        .1
+        .iter()
+        .filter(|e| keep(e.task))
+        .take(n)
+        .cloned()
+        .collect()
+}
+
 fn blind() -> SensorSuite {
     SensorSuite {
         cameras: vec![],
@@ -162,13 +173,7 @@ fn column<'a, T: 'static>(batch: &'a arrow::array::RecordBatch, name: &str) -> &
 #[test]
 fn observations_read_back_bit_for_bit_and_replays_reproduce_poses() {
     let dir = tempfile::tempdir().unwrap();
-    let episodes: Vec<Episode> = data()
-        .1
-        .iter()
-        .filter(|e| e.task == Task::PointGoal)
-        .take(3)
-        .cloned()
-        .collect();
+    let episodes = first_episodes(|t| t == Task::PointGoal, 3);
     let sensors = SensorSuite::minos(32);
     let out = dir.path().join("oracle");
     run(
@@ -372,13 +377,7 @@ fn rrd_messages(path: &Path) -> Vec<rerun::log::LogMsg> {
 #[test]
 fn an_external_process_drives_the_agent_over_json_lines() {
     let dir = tempfile::tempdir().unwrap();
-    let episodes: Vec<Episode> = data()
-        .1
-        .iter()
-        .filter(|e| e.task == Task::PointGoal)
-        .take(2)
-        .cloned()
-        .collect();
+    let episodes = first_episodes(|t| t == Task::PointGoal, 2);
     // A policy in plain sh: read a line, answer forward, stop after 5 steps of an episode.
     let script = dir.path().join("policy.sh");
     std::fs::write(
@@ -427,13 +426,7 @@ fn an_external_process_drives_the_agent_over_json_lines() {
 #[test]
 fn the_lerobot_layout_has_one_file_per_episode_and_consistent_meta() {
     let dir = tempfile::tempdir().unwrap();
-    let episodes: Vec<Episode> = data()
-        .1
-        .iter()
-        .filter(|e| e.task == Task::ObjectGoal)
-        .take(3)
-        .cloned()
-        .collect();
+    let episodes = first_episodes(|t| t == Task::ObjectGoal, 3);
     let out = dir.path().join("lr");
     let mut cfg = config(&out, AgentKind::Oracle, SensorSuite::minos(16));
     cfg.lerobot = true;
@@ -584,13 +577,7 @@ fn entities_via_footer(
 #[test]
 fn a_run_records_one_pose_and_image_per_step_and_leaves_the_tables_unchanged() {
     let dir = tempfile::tempdir().unwrap();
-    let episodes: Vec<Episode> = data()
-        .1
-        .iter()
-        .filter(|e| e.task != Task::ObjectGoal)
-        .take(4)
-        .cloned()
-        .collect();
+    let episodes = first_episodes(|t| t != Task::ObjectGoal, 4);
     let sensors = SensorSuite::minos(16);
     let plain = dir.path().join("plain");
     run(
