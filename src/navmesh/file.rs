@@ -12,13 +12,15 @@ use serde::{Deserialize, Serialize};
 
 use crate::io::atomic::write_bytes_atomic;
 
-use super::grid::{Island, NavGrid, NavObject, NavRoom, Span};
+use super::grid::{Baked, Island, NavGrid, NavObject, NavRoom, Span};
+use super::los::SightIndex;
 use super::params::NavParams;
 
 /// First bytes of every `.nav` file.
 pub const MAGIC: &[u8; 8] = b"MINOSNAV";
-/// Bumped whenever the encoding of [`NavGrid`] changes (2: fixed-width span arrays).
-pub const FORMAT_VERSION: u32 = 2;
+/// Bumped whenever the encoding of [`NavGrid`] changes (2: fixed-width span arrays; 3: the
+/// stored line-of-sight squares after them).
+pub const FORMAT_VERSION: u32 = 3;
 /// Bytes of one span record.
 pub const SPAN_BYTES: usize = 56;
 
@@ -131,6 +133,36 @@ fn span_ok(r: &[u8; SPAN_BYTES]) -> bool {
     r[54] <= 1
 }
 
+/// Bytes of one stored clear-square record (one per span).
+pub const SQUARES_BYTES: usize = 4;
+
+/// 64-bit checksum of a stored section: words of 8 bytes (then the remaining bytes) folded
+/// in by xor, multiplication by an odd constant and rotation. Every step is a bijection of
+/// the state, so changing any one word always changes the result; about a cycle per byte.
+pub fn checksum(bytes: &[u8]) -> u64 {
+    const K: u64 = 0x9E37_79B9_7F4A_7C15;
+    let mut h = 0xCBF2_9CE4_8422_2325 ^ bytes.len() as u64;
+    let (words, rest) = bytes.as_chunks::<8>();
+    for w in words {
+        h = (h ^ u64::from_le_bytes(*w)).wrapping_mul(K).rotate_left(29);
+    }
+    for &b in rest {
+        h = (h ^ u64::from(b)).wrapping_mul(K).rotate_left(29);
+    }
+    h ^ (h >> 32)
+}
+
+/// The stored line-of-sight section of a grid: the records of [`SightIndex::squares`] built
+/// from the grid itself (whatever it carries in [`NavGrid::baked`]).
+fn sight_section(grid: &NavGrid) -> Vec<u8> {
+    let squares = SightIndex::build(grid).squares();
+    let mut records = Vec::with_capacity(SQUARES_BYTES * squares.len());
+    for a in &squares {
+        records.extend_from_slice(a);
+    }
+    records
+}
+
 /// The bytes of a grid's file.
 fn encode(grid: &NavGrid) -> Result<Vec<u8>, postcard::Error> {
     let header = postcard::to_stdvec(&HeaderOut {
@@ -168,6 +200,10 @@ fn encode(grid: &NavGrid) -> Result<Vec<u8>, postcard::Error> {
         bytes.extend_from_slice(&s.to_le_bytes());
         bytes.extend_from_slice(&o.to_le_bytes());
     }
+    let squares = sight_section(grid);
+    bytes.extend_from_slice(&(grid.spans.len() as u64).to_le_bytes());
+    bytes.extend_from_slice(&checksum(&squares).to_le_bytes());
+    bytes.extend_from_slice(&squares);
     Ok(bytes)
 }
 
@@ -234,8 +270,10 @@ fn read_records<const N: usize, T>(
     Ok(out)
 }
 
-/// Reads a grid. Files of another format version are refused with a message asking for a
-/// rebake.
+/// Reads a grid, with the query structures stored after it in [`NavGrid::baked`]. Files of
+/// another format version are refused with a message asking for a rebake. A stored section
+/// that does not check out (checksum, length) is dropped with one warning: the structures
+/// are then rebuilt in memory by their users.
 pub fn read_nav(path: &Path) -> Result<NavGrid, NavFileError> {
     let file = std::fs::File::open(path).map_err(|cause| NavFileError::Io {
         path: path.to_path_buf(),
@@ -245,7 +283,13 @@ pub fn read_nav(path: &Path) -> Result<NavGrid, NavFileError> {
         .metadata()
         .map_err(ReadError::Io)
         .and_then(|m| read_from(file, m.len()));
-    grid.map_err(|e| match e {
+    grid.map(|(grid, warning)| {
+        if let Some(w) = warning {
+            tracing::warn!("{}: {w}; rebuilding it in memory", path.display());
+        }
+        grid
+    })
+    .map_err(|e| match e {
         ReadError::Io(cause) => NavFileError::Io {
             path: path.to_path_buf(),
             cause,
@@ -257,8 +301,9 @@ pub fn read_nav(path: &Path) -> Result<NavGrid, NavFileError> {
     })
 }
 
-/// Decodes a grid file of `len` bytes from `file`.
-fn read_from(file: std::fs::File, len: u64) -> Result<NavGrid, ReadError> {
+/// Decodes a grid file of `len` bytes from `file`, with a warning when its stored section
+/// was dropped.
+fn read_from(file: std::fs::File, len: u64) -> Result<(NavGrid, Option<String>), ReadError> {
     let mut r = std::io::BufReader::with_capacity(1 << 16, file);
     let mut head = [0u8; 16];
     r.read_exact(&mut head[..12])
@@ -290,11 +335,16 @@ fn read_from(file: std::fs::File, len: u64) -> Result<NavGrid, ReadError> {
         .zip(h.spans.checked_mul(SPAN_BYTES as u64))
         .zip(h.span_objects.checked_mul(8))
         .and_then(|((a, b), c)| a.checked_add(b)?.checked_add(c));
-    if body.is_none() || body != len.checked_sub(16 + u64::from(header_len)) {
+    // What follows the grid's arrays: nothing, or the stored line-of-sight section (16
+    // bytes of count and checksum, then its records).
+    let rest = body
+        .zip(len.checked_sub(16 + u64::from(header_len)))
+        .and_then(|(b, l)| l.checked_sub(b));
+    let Some(rest) = rest.filter(|&r| r == 0 || r >= 16) else {
         return Err(ReadError::Format(
             "corrupt: array lengths do not match the file's size".into(),
         ));
-    }
+    };
     if h.columns != u64::from(h.nx) * u64::from(h.nz) + 1 {
         return Err(ReadError::Format(format!(
             "corrupt: {} column starts for {} x {} columns",
@@ -323,7 +373,12 @@ fn read_from(file: std::fs::File, len: u64) -> Result<NavGrid, ReadError> {
         |_| true,
         "span object",
     )?;
-    Ok(NavGrid {
+    let (sight_squares, warning) = if rest == 0 {
+        (Vec::new(), None)
+    } else {
+        read_squares(&mut r, rest, h.spans)?
+    };
+    let grid = NavGrid {
         scene: h.scene,
         params: h.params,
         x0: h.x0,
@@ -337,7 +392,46 @@ fn read_from(file: std::fs::File, len: u64) -> Result<NavGrid, ReadError> {
         span_objects,
         islands: h.islands,
         level_heights: h.level_heights,
-    })
+        baked: Baked { sight_squares },
+    };
+    Ok((grid, warning))
+}
+
+/// Reads the stored line-of-sight section (`rest` bytes, at least 16) of a grid of `spans`
+/// spans: the records when their count and checksum check out, otherwise none and the
+/// warning to log. A section whose length does not match its count is a corrupt file.
+fn read_squares(
+    r: &mut impl Read,
+    rest: u64,
+    spans: u64,
+) -> Result<(Vec<[u8; 4]>, Option<String>), ReadError> {
+    let mut head = [0u8; 16];
+    r.read_exact(&mut head)?;
+    let count = u64::from_le_bytes(head[..8].try_into().unwrap_or_default());
+    let sum = u64::from_le_bytes(head[8..].try_into().unwrap_or_default());
+    if count
+        .checked_mul(SQUARES_BYTES as u64)
+        .and_then(|b| b.checked_add(16))
+        != Some(rest)
+    {
+        return Err(ReadError::Format(
+            "corrupt: the line-of-sight section's length does not match the file's size".into(),
+        ));
+    }
+    // `rest` is bounded by the file's size.
+    let mut bytes = vec![0u8; (rest - 16) as usize];
+    r.read_exact(&mut bytes)?;
+    if count != spans {
+        let w = format!("stored line-of-sight index has {count} records for {spans} spans");
+        return Ok((Vec::new(), Some(w)));
+    }
+    if checksum(&bytes) != sum {
+        return Ok((
+            Vec::new(),
+            Some("stored line-of-sight index fails its checksum".into()),
+        ));
+    }
+    Ok((bytes.as_chunks::<SQUARES_BYTES>().0.to_vec(), None))
 }
 
 #[cfg(test)]
@@ -363,7 +457,52 @@ mod tests {
         let g = grid();
         assert!(!g.span_objects.is_empty());
         write_nav(&path, &g).unwrap();
-        assert_eq!(read_nav(&path).unwrap(), g);
+        let read = read_nav(&path).unwrap();
+        assert_eq!(read, g);
+        let fresh = SightIndex::build(&g).squares();
+        assert_eq!(read.baked.sight_squares, fresh);
+        assert!(fresh.iter().any(|a| a.iter().any(|&l| l > 1)));
+        // Same bytes whatever the grid carries.
+        write_nav(&path, &read).unwrap();
+        assert_eq!(std::fs::read(&path).unwrap(), encode(&g).unwrap());
+    }
+
+    #[test]
+    fn a_stored_section_that_does_not_check_out_is_dropped() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("g.nav");
+        let g = grid();
+        let bytes = encode(&g).unwrap();
+        let section = bytes.len() - SQUARES_BYTES * g.spans.len();
+        // A flipped byte in the records, in the checksum.
+        for at in [section + 5, section - 3] {
+            let mut bad = bytes.clone();
+            bad[at] ^= 0x10;
+            std::fs::write(&path, &bad).unwrap();
+            let read = read_nav(&path).unwrap();
+            assert_eq!(read, g);
+            assert!(read.baked.sight_squares.is_empty());
+        }
+        // A count that is not the span count, with a matching length.
+        let mut bad = bytes[..section - 16].to_vec();
+        let n = g.spans.len() - 1;
+        bad.extend_from_slice(&(n as u64).to_le_bytes());
+        let records = &bytes[section..section + SQUARES_BYTES * n];
+        bad.extend_from_slice(&checksum(records).to_le_bytes());
+        bad.extend_from_slice(records);
+        std::fs::write(&path, &bad).unwrap();
+        assert!(read_nav(&path).unwrap().baked.sight_squares.is_empty());
+        // Without the section at all: read, nothing stored.
+        std::fs::write(&path, &bytes[..section - 16]).unwrap();
+        let read = read_nav(&path).unwrap();
+        assert_eq!(read, g);
+        assert!(read.baked.sight_squares.is_empty());
+        // Truncated inside the section: a one-line error.
+        for cut in [1, 5, SQUARES_BYTES * g.spans.len() + 8] {
+            std::fs::write(&path, &bytes[..bytes.len() - cut]).unwrap();
+            let e = read_nav(&path).unwrap_err().to_string();
+            assert!(e.contains("corrupt") && !e.contains('\n'), "{e}");
+        }
     }
 
     #[test]
@@ -371,12 +510,17 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("g.nav");
         let bytes = encode(&grid()).unwrap();
-        let mut old = bytes.clone();
-        old[8..12].copy_from_slice(&1u32.to_le_bytes());
-        std::fs::write(&path, &old).unwrap();
-        let e = read_nav(&path).unwrap_err().to_string();
-        assert!(e.contains("version 1") && e.contains("minos bake"), "{e}");
-        assert!(!e.contains('\n'), "{e}");
+        for v in [1u32, 2] {
+            let mut old = bytes.clone();
+            old[8..12].copy_from_slice(&v.to_le_bytes());
+            std::fs::write(&path, &old).unwrap();
+            let e = read_nav(&path).unwrap_err().to_string();
+            assert!(
+                e.contains(&format!("version {v}")) && e.contains("minos bake"),
+                "{e}"
+            );
+            assert!(!e.contains('\n'), "{e}");
+        }
         std::fs::write(&path, &bytes[..bytes.len() - 3]).unwrap();
         let e = read_nav(&path).unwrap_err().to_string();
         assert!(e.contains("corrupt"), "{e}");
@@ -387,7 +531,11 @@ mod tests {
         // A span whose walkable byte is not 0 or 1.
         let mut bad = bytes.clone();
         let g = grid();
-        let at = bytes.len() - 8 * g.span_objects.len() - SPAN_BYTES + 54;
+        let at = bytes.len()
+            - (16 + SQUARES_BYTES * g.spans.len())
+            - 8 * g.span_objects.len()
+            - SPAN_BYTES
+            + 54;
         bad[at] = 7;
         std::fs::write(&path, &bad).unwrap();
         assert!(read_nav(&path)

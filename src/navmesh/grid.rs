@@ -117,6 +117,29 @@ pub struct NavGrid {
     pub islands: Vec<Island>,
     /// Floor height of each level.
     pub level_heights: Vec<f32>,
+    /// Query structures stored with the grid in its `.nav` file (derived from the fields
+    /// above at bake time and checked when read); empty for a grid built in memory or when
+    /// the file's copy did not check out. Not part of the grid's identity (see [`Baked`]).
+    #[serde(skip)]
+    pub baked: Baked,
+}
+
+/// Query structures derived from a [`NavGrid`] at bake time and stored in its `.nav` file, so
+/// that loading a grid for queries does not rebuild them. Derived data: grids compare equal
+/// whatever they carry here, and every user falls back to building what is missing (or of
+/// the wrong length).
+#[derive(Debug, Clone, Default)]
+pub struct Baked {
+    /// Per span, the [`SightIndex`](super::los::SightIndex)'s side of the clear square ahead
+    /// in each quadrant (empty when not stored).
+    pub sight_squares: Vec<[u8; 4]>,
+}
+
+impl PartialEq for Baked {
+    /// Always true: derived data does not make two grids different.
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
 }
 
 impl NavGrid {
