@@ -91,8 +91,9 @@
 //! Measured on the 2-core build box with `cargo bench --bench navigation` (one core, best of
 //! 2–3 runs on a shared, noisy box): a full field over the open 50 × 50 m floor (992k
 //! walkable spans, [`distance_field`] including [`Geodesic::new`]) about 30 ms, of which
-//! building the [`SightIndex`] takes about 22 ms, the flood about 5 ms and the search
-//! records and the exported field the rest; on the largest generated house (145k walkable
+//! building the [`SightIndex`] takes about 22 ms (a grid read from its `.nav` file carries the
+//! index's clear squares, which halves `Geodesic::new` on the episode bench's houses), the
+//! flood about 5 ms and the search records and the exported field the rest; on the largest generated house (145k walkable
 //! spans, two levels) about 19 ms; point-to-point paths there about 0.13 ms per
 //! query with a shared [`Geodesic`] (building the sparse graph on the first query: about
 //! 7 ms), and 0.016 ms on a furnished 100 m² level (about 2 ms to build). Accuracy: fields

@@ -16,6 +16,13 @@
 //! straight 3D line between the two spans, so that the straight-line distance between them is
 //! a fair length of the walk.
 //!
+//! The clear squares are the costly part of the index (row sweeps over every quadrant), so a
+//! `.nav` file stores them ([`NavGrid::baked`], written by `file::write_nav`):
+//! [`SightIndex::new`] takes them from there when the grid carries one record per span and
+//! only packs the spans and their link masks, recomputed from the spans' own links (so stored
+//! data never decides which span a step lands on; a wrong square can only jump where the walk
+//! would have stepped, onto a span checked to exist). [`SightIndex::build`] always builds.
+//!
 //! Where this module's job ends: it answers "is this straight walk possible" and visits the
 //! spans it covers; costs and distance fields are `geodesic`, paths are `path`.
 //!
