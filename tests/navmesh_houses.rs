@@ -231,13 +231,25 @@ fn stored_query_structures_give_the_answers_of_fresh_ones() {
             stored.baked.sight_squares,
             SightIndex::build(&fresh).squares()
         );
-        // A flipped byte near the end (inside the stored records): dropped, rebuilt.
+        let edges = Geodesic::new(&fresh).sparse_edges();
+        assert!(edges.is_some());
+        assert_eq!(stored.baked.sparse_edges, edges);
+        // A flipped byte in each stored section (the squares, the graph's landmarks at the
+        // end): both dropped, rebuilt.
         let mut bytes = std::fs::read(&path).unwrap();
+        let header = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+        let base = 16
+            + header
+            + 4 * fresh.column_start.len()
+            + 56 * fresh.spans.len()
+            + 8 * fresh.span_objects.len();
+        bytes[base + 16 + 2 * fresh.spans.len()] ^= 0x01;
         let at = bytes.len() - 7;
         bytes[at] ^= 0x01;
         std::fs::write(&path, &bytes).unwrap();
         let corrupt = read_nav(&path).unwrap();
         assert!(corrupt.baked.sight_squares.is_empty());
+        assert!(corrupt.baked.sparse_edges.is_none());
         let geos = [
             Geodesic::new(&fresh),
             Geodesic::new(&stored),

@@ -6,9 +6,9 @@
 //! 0.4 ms where version 1 (all postcard) took about 1.8 ms (`cargo bench --bench episodes`).
 //!
 //! Version 3 adds, after the arrays, a section of query structures derived from the grid at
-//! bake time, as Detour bakes its query structures into a navmesh: the [`SightIndex`]'s clear
+//! bake time, as Detour bakes its query structures into a navmesh: the [`SightIndex`](super::los::SightIndex)'s clear
 //! squares (4 bytes per span), with their count and a 64-bit [`checksum`]. Reading puts them
-//! in [`NavGrid::baked`], where [`SightIndex::new`] (and so every `Geodesic`) picks them up
+//! in [`NavGrid::baked`], where [`SightIndex::new`](super::los::SightIndex::new) (and so every `Geodesic`) picks them up
 //! instead of redoing the sweep (about 0.9 ms of a 55k-span grid's 1.7 ms `Geodesic::new`). A
 //! section whose count or checksum does not check out is dropped with one warning and the
 //! index is rebuilt in memory; a file whose lengths do not add up is refused as corrupt.
@@ -22,8 +22,10 @@ use serde::{Deserialize, Serialize};
 
 use crate::io::atomic::write_bytes_atomic;
 
-use super::grid::{Baked, Island, NavGrid, NavObject, NavRoom, Span};
-use super::los::SightIndex;
+use super::geodesic::Geodesic;
+use super::grid::{
+    Baked, Island, NavGrid, NavObject, NavRoom, Span, SparseEdges, SPARSE_LANDMARKS,
+};
 use super::params::NavParams;
 
 /// First bytes of every `.nav` file.
@@ -162,15 +164,44 @@ pub fn checksum(bytes: &[u8]) -> u64 {
     h ^ (h >> 32)
 }
 
-/// The stored line-of-sight section of a grid: the records of [`SightIndex::squares`] built
-/// from the grid itself (whatever it carries in [`NavGrid::baked`]).
-fn sight_section(grid: &NavGrid) -> Vec<u8> {
-    let squares = SightIndex::build(grid).squares();
+/// The stored sections of a grid, built from the grid alone (whatever it carries in
+/// [`NavGrid::baked`]): the records of [`SightIndex::squares`](super::los::SightIndex::squares), and those of the sparse graph's
+/// edges (`first`, `edges`, `marks`) with its vertex and edge counts when it has one.
+#[allow(clippy::type_complexity)]
+fn stored_sections(grid: &NavGrid) -> (Vec<u8>, Option<(u64, u64, Vec<u8>)>) {
+    let bare;
+    let grid = if grid.baked.sight_squares.is_empty() && grid.baked.sparse_edges.is_none() {
+        grid
+    } else {
+        bare = NavGrid {
+            baked: Baked::default(),
+            ..grid.clone()
+        };
+        &bare
+    };
+    let geo = Geodesic::new(grid);
+    let squares = geo.sight().squares();
     let mut records = Vec::with_capacity(SQUARES_BYTES * squares.len());
     for a in &squares {
         records.extend_from_slice(a);
     }
-    records
+    let graph = geo.sparse_edges().map(|g| {
+        let mut out = Vec::with_capacity(
+            4 * g.first.len() + 8 * g.edges.len() + 4 * SPARSE_LANDMARKS * g.marks.len(),
+        );
+        for f in &g.first {
+            out.extend_from_slice(&f.to_le_bytes());
+        }
+        for (v, l) in &g.edges {
+            out.extend_from_slice(&v.to_le_bytes());
+            out.extend_from_slice(&l.to_le_bytes());
+        }
+        for d in g.marks.iter().flatten() {
+            out.extend_from_slice(&d.to_le_bytes());
+        }
+        (g.marks.len() as u64, g.edges.len() as u64, out)
+    });
+    (records, graph)
 }
 
 /// The bytes of a grid's file.
@@ -210,10 +241,16 @@ fn encode(grid: &NavGrid) -> Result<Vec<u8>, postcard::Error> {
         bytes.extend_from_slice(&s.to_le_bytes());
         bytes.extend_from_slice(&o.to_le_bytes());
     }
-    let squares = sight_section(grid);
+    let (squares, graph) = stored_sections(grid);
     bytes.extend_from_slice(&(grid.spans.len() as u64).to_le_bytes());
     bytes.extend_from_slice(&checksum(&squares).to_le_bytes());
     bytes.extend_from_slice(&squares);
+    if let Some((vertices, edges, records)) = graph {
+        bytes.extend_from_slice(&vertices.to_le_bytes());
+        bytes.extend_from_slice(&edges.to_le_bytes());
+        bytes.extend_from_slice(&checksum(&records).to_le_bytes());
+        bytes.extend_from_slice(&records);
+    }
     Ok(bytes)
 }
 
@@ -383,10 +420,17 @@ fn read_from(file: std::fs::File, len: u64) -> Result<(NavGrid, Option<String>),
         |_| true,
         "span object",
     )?;
-    let (sight_squares, warning) = if rest == 0 {
-        (Vec::new(), None)
+    let (sight_squares, rest, mut warning) = if rest == 0 {
+        (Vec::new(), 0, None)
     } else {
         read_squares(&mut r, rest, h.spans)?
+    };
+    let sparse_edges = if rest == 0 {
+        None
+    } else {
+        let (edges, w) = read_graph(&mut r, rest)?;
+        warning = warning.or(w);
+        edges
     };
     let grid = NavGrid {
         scene: h.scene,
@@ -402,60 +446,154 @@ fn read_from(file: std::fs::File, len: u64) -> Result<(NavGrid, Option<String>),
         span_objects,
         islands: h.islands,
         level_heights: h.level_heights,
-        baked: Baked { sight_squares },
+        baked: Baked {
+            sight_squares,
+            sparse_edges,
+        },
     };
     Ok((grid, warning))
 }
 
-/// Reads the stored line-of-sight section (`rest` bytes, at least 16) of a grid of `spans`
-/// spans: the records when their count and checksum check out, otherwise none and the
-/// warning to log. A section whose length does not match its count is a corrupt file.
+/// Reads the stored line-of-sight section of a grid of `spans` spans, `rest` bytes (at
+/// least 16) being left in the file: the records when their count and checksum check out
+/// (otherwise none and the warning to log), and the bytes left after the section. A section
+/// longer than what is left is a corrupt file.
+#[allow(clippy::type_complexity)]
 fn read_squares(
     r: &mut impl Read,
     rest: u64,
     spans: u64,
-) -> Result<(Vec<[u8; 4]>, Option<String>), ReadError> {
+) -> Result<(Vec<[u8; 4]>, u64, Option<String>), ReadError> {
     let mut head = [0u8; 16];
     r.read_exact(&mut head)?;
-    let count = u64::from_le_bytes(head[..8].try_into().unwrap_or_default());
-    let sum = u64::from_le_bytes(head[8..].try_into().unwrap_or_default());
-    if count
+    let count = u64_at(&head, 0);
+    let sum = u64_at(&head, 8);
+    let Some(left) = count
         .checked_mul(SQUARES_BYTES as u64)
         .and_then(|b| b.checked_add(16))
-        != Some(rest)
-    {
+        .and_then(|b| rest.checked_sub(b))
+    else {
         return Err(ReadError::Format(
             "corrupt: the line-of-sight section's length does not match the file's size".into(),
         ));
-    }
-    // `rest` is bounded by the file's size.
-    let mut bytes = vec![0u8; (rest - 16) as usize];
+    };
+    // Bounded by the file's size.
+    let mut bytes = vec![0u8; (rest - 16 - left) as usize];
     r.read_exact(&mut bytes)?;
     if count != spans {
         let w = format!("stored line-of-sight index has {count} records for {spans} spans");
-        return Ok((Vec::new(), Some(w)));
+        return Ok((Vec::new(), left, Some(w)));
     }
     if checksum(&bytes) != sum {
-        return Ok((
-            Vec::new(),
-            Some("stored line-of-sight index fails its checksum".into()),
-        ));
+        let w = "stored line-of-sight index fails its checksum".to_string();
+        return Ok((Vec::new(), left, Some(w)));
     }
-    Ok((bytes.as_chunks::<SQUARES_BYTES>().0.to_vec(), None))
+    Ok((bytes.as_chunks::<SQUARES_BYTES>().0.to_vec(), left, None))
+}
+
+/// Little-endian u64 at `at` of a slice (0 past its end).
+fn u64_at(b: &[u8], at: usize) -> u64 {
+    b.get(at..at + 8)
+        .and_then(|w| w.try_into().ok())
+        .map_or(0, u64::from_le_bytes)
+}
+
+/// Bytes of the sparse graph section for `vertices` vertices and `edges` edges, after its
+/// 24-byte head (`None` on overflow).
+fn graph_bytes(vertices: u64, edges: u64) -> Option<u64> {
+    let first = vertices.checked_add(1)?.checked_mul(4)?;
+    let marks = vertices.checked_mul(4 * SPARSE_LANDMARKS as u64)?;
+    first.checked_add(edges.checked_mul(8)?)?.checked_add(marks)
+}
+
+/// Reads the stored sparse graph section, the last `rest` bytes of the file: its edges and
+/// landmarks when the checksum and [`SparseEdges::fits`] check out (otherwise none and the
+/// warning to log). A section whose length does not match its counts is a corrupt file.
+fn read_graph(
+    r: &mut impl Read,
+    rest: u64,
+) -> Result<(Option<SparseEdges>, Option<String>), ReadError> {
+    let bad = || {
+        ReadError::Format(
+            "corrupt: the sparse graph section's length does not match the file's size".into(),
+        )
+    };
+    if rest < 24 {
+        return Err(bad());
+    }
+    let mut head = [0u8; 24];
+    r.read_exact(&mut head)?;
+    let (vertices, edges, sum) = (u64_at(&head, 0), u64_at(&head, 8), u64_at(&head, 16));
+    if graph_bytes(vertices, edges) != Some(rest - 24) {
+        return Err(bad());
+    }
+    // Bounded by the file's size.
+    let mut bytes = vec![0u8; (rest - 24) as usize];
+    r.read_exact(&mut bytes)?;
+    if checksum(&bytes) != sum {
+        let w = "stored sparse graph fails its checksum".to_string();
+        return Ok((None, Some(w)));
+    }
+    let (v, e) = (vertices as usize, edges as usize);
+    let (first, more) = bytes.split_at(4 * (v + 1));
+    let (edge_bytes, mark_bytes) = more.split_at(8 * e);
+    let g = SparseEdges {
+        first: first
+            .as_chunks::<4>()
+            .0
+            .iter()
+            .map(|b| u32::from_le_bytes(*b))
+            .collect(),
+        edges: edge_bytes
+            .as_chunks::<8>()
+            .0
+            .iter()
+            .map(|b| (u32_at(b, 0), f32::from_bits(u32_at(b, 4))))
+            .collect(),
+        marks: mark_bytes
+            .as_chunks::<{ 4 * SPARSE_LANDMARKS }>()
+            .0
+            .iter()
+            .map(|b| std::array::from_fn(|k| f32::from_bits(u32_at(b, 4 * k))))
+            .collect(),
+    };
+    if !g.fits(v) {
+        let w = "stored sparse graph does not fit its vertex count".to_string();
+        return Ok((None, Some(w)));
+    }
+    Ok((Some(g), None))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::navmesh::los::SightIndex;
     use crate::navmesh::testmaps::MapSpec;
 
     fn grid() -> NavGrid {
         let rows = [
-            "##########",
-            "#aaaa*aaa#",
-            "#aaaaDbbb#",
-            "#aaaaabbb#",
-            "##########",
+            "##############################",
+            "#aaaaaaaaaaaaaaaaaaaaaaaaaaaa#",
+            "#aaaa*aaaaaaaaaaaaaaaaaaaaaaa#",
+            "#aaaaDbbbbbbbbbbbbbbbbbbbbbbb#",
+            "#aaaaaaaaaaaaaaaaaaaaaaaaaaaa#",
+            "#aaaaaaaaaaaaaaaaaaaaaaaaaaaa#",
+            "#aaaaaaaaaaaaaaaaaaaaaaaaaaaa#",
+            "#aaaaaaaaaaaaaaaaaaaaaaaaaaaa#",
+            "#aaaaaaaaaaaaaaaaaaaaaaaaaaaa#",
+            "#aaaaaaaaaa####aaaaaaaaaaaaaa#",
+            "#aaaaaaaaaa####aaaaaaaaaaaaaa#",
+            "#aaaaaaaaaa####aaaaaaaaaaaaaa#",
+            "#aaaaaaaaaa####aaaaaaaaaaaaaa#",
+            "#aaaaaaaaaa####aaaaaaaaaaaaaa#",
+            "#aaaaaaaaaaaaaaaaaaaaaaaaaaaa#",
+            "#aaaaaaaaaaaaaaaaaaaaaaaaaaaa#",
+            "#aaaaaaaaaaaaaaaaaaaaaaaaaaaa#",
+            "#aaaaaaaaaaaaaaaaaaaaaaaaaaaa#",
+            "#aaaaaaaaaaaaaaaaaaaaaaaaaaaa#",
+            "#aaaaaaaaaaaaaaaaaaaaaaaaaaaa#",
+            "#aaaaaaaaaaaaaaaaaaaaaaaaaaaa#",
+            "##############################",
         ];
         MapSpec::ascii(&rows, 0.1).build(NavParams::default())
     }
@@ -471,10 +609,22 @@ mod tests {
         assert_eq!(read, g);
         let fresh = SightIndex::build(&g).squares();
         assert_eq!(read.baked.sight_squares, fresh);
+        let edges = crate::navmesh::geodesic::Geodesic::new(&g).sparse_edges();
+        assert!(edges.as_ref().is_some_and(|e| !e.edges.is_empty()));
+        assert_eq!(read.baked.sparse_edges, edges);
         assert!(fresh.iter().any(|a| a.iter().any(|&l| l > 1)));
         // Same bytes whatever the grid carries.
         write_nav(&path, &read).unwrap();
         assert_eq!(std::fs::read(&path).unwrap(), encode(&g).unwrap());
+    }
+
+    /// Where the grid's arrays end in a file's bytes (the stored sections follow).
+    fn arrays_end(bytes: &[u8], g: &NavGrid) -> usize {
+        let header = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+        16 + header
+            + 4 * g.column_start.len()
+            + SPAN_BYTES * g.spans.len()
+            + 8 * g.span_objects.len()
     }
 
     #[test]
@@ -483,36 +633,71 @@ mod tests {
         let path = dir.path().join("g.nav");
         let g = grid();
         let bytes = encode(&g).unwrap();
-        let section = bytes.len() - SQUARES_BYTES * g.spans.len();
-        // A flipped byte in the records, in the checksum.
-        for at in [section + 5, section - 3] {
+        let base = arrays_end(&bytes, &g);
+        let graph = base + 16 + SQUARES_BYTES * g.spans.len();
+        assert!(bytes.len() > graph + 24, "the test grid has a sparse graph");
+        let fresh = read_nav(&path_with(&path, &bytes)).unwrap();
+        assert!(!fresh.baked.sight_squares.is_empty());
+        assert!(fresh.baked.sparse_edges.is_some());
+        // A flipped byte in the squares or their checksum: the squares are dropped.
+        for at in [base + 16 + 5, base + 13] {
             let mut bad = bytes.clone();
             bad[at] ^= 0x10;
-            std::fs::write(&path, &bad).unwrap();
-            let read = read_nav(&path).unwrap();
+            let read = read_nav(&path_with(&path, &bad)).unwrap();
             assert_eq!(read, g);
             assert!(read.baked.sight_squares.is_empty());
+            assert_eq!(read.baked.sparse_edges, fresh.baked.sparse_edges);
         }
+        // In the graph's records or checksum: the graph is dropped.
+        for at in [bytes.len() - 7, graph + 17] {
+            let mut bad = bytes.clone();
+            bad[at] ^= 0x10;
+            let read = read_nav(&path_with(&path, &bad)).unwrap();
+            assert_eq!(read.baked.sight_squares, fresh.baked.sight_squares);
+            assert!(read.baked.sparse_edges.is_none());
+        }
+        // An edge to a vertex out of range, with a matching checksum: dropped too.
+        let e = fresh.baked.sparse_edges.clone().unwrap();
+        assert!(!e.edges.is_empty());
+        let mut bad = bytes.clone();
+        let at = graph + 24 + 4 * e.first.len();
+        bad[at..at + 4].copy_from_slice(&(e.marks.len() as u32).to_le_bytes());
+        let sum = checksum(&bad[graph + 24..]);
+        bad[graph + 16..graph + 24].copy_from_slice(&sum.to_le_bytes());
+        assert!(read_nav(&path_with(&path, &bad))
+            .unwrap()
+            .baked
+            .sparse_edges
+            .is_none());
         // A count that is not the span count, with a matching length.
-        let mut bad = bytes[..section - 16].to_vec();
+        let mut bad = bytes[..base].to_vec();
         let n = g.spans.len() - 1;
         bad.extend_from_slice(&(n as u64).to_le_bytes());
-        let records = &bytes[section..section + SQUARES_BYTES * n];
+        let records = &bytes[base + 16..base + 16 + SQUARES_BYTES * n];
         bad.extend_from_slice(&checksum(records).to_le_bytes());
         bad.extend_from_slice(records);
-        std::fs::write(&path, &bad).unwrap();
-        assert!(read_nav(&path).unwrap().baked.sight_squares.is_empty());
-        // Without the section at all: read, nothing stored.
-        std::fs::write(&path, &bytes[..section - 16]).unwrap();
-        let read = read_nav(&path).unwrap();
-        assert_eq!(read, g);
+        let read = read_nav(&path_with(&path, &bad)).unwrap();
         assert!(read.baked.sight_squares.is_empty());
-        // Truncated inside the section: a one-line error.
-        for cut in [1, 5, SQUARES_BYTES * g.spans.len() + 8] {
-            std::fs::write(&path, &bytes[..bytes.len() - cut]).unwrap();
-            let e = read_nav(&path).unwrap_err().to_string();
+        // Without the sections, without the graph: read, nothing (no graph) stored.
+        let read = read_nav(&path_with(&path, &bytes[..base])).unwrap();
+        assert_eq!(read, g);
+        assert!(read.baked.sight_squares.is_empty() && read.baked.sparse_edges.is_none());
+        let read = read_nav(&path_with(&path, &bytes[..graph])).unwrap();
+        assert_eq!(read.baked.sight_squares, fresh.baked.sight_squares);
+        assert!(read.baked.sparse_edges.is_none());
+        // Truncated inside a section: a one-line error.
+        for cut in [1, 5, bytes.len() - graph - 10, bytes.len() - base - 8] {
+            let e = read_nav(&path_with(&path, &bytes[..bytes.len() - cut]))
+                .unwrap_err()
+                .to_string();
             assert!(e.contains("corrupt") && !e.contains('\n'), "{e}");
         }
+    }
+
+    /// Writes `bytes` to `path`, returning it.
+    fn path_with<'p>(path: &'p Path, bytes: &[u8]) -> &'p Path {
+        std::fs::write(path, bytes).unwrap();
+        path
     }
 
     #[test]
@@ -541,11 +726,7 @@ mod tests {
         // A span whose walkable byte is not 0 or 1.
         let mut bad = bytes.clone();
         let g = grid();
-        let at = bytes.len()
-            - (16 + SQUARES_BYTES * g.spans.len())
-            - 8 * g.span_objects.len()
-            - SPAN_BYTES
-            + 54;
+        let at = arrays_end(&bytes, &g) - 8 * g.span_objects.len() - SPAN_BYTES + 54;
         bad[at] = 7;
         std::fs::write(&path, &bad).unwrap();
         assert!(read_nav(&path)
