@@ -636,14 +636,14 @@ mod tests {
         let base = arrays_end(&bytes, &g);
         let graph = base + 16 + SQUARES_BYTES * g.spans.len();
         assert!(bytes.len() > graph + 24, "the test grid has a sparse graph");
-        let fresh = read_nav(&path_with(&path, &bytes)).unwrap();
+        let fresh = read_nav(path_with(&path, &bytes)).unwrap();
         assert!(!fresh.baked.sight_squares.is_empty());
         assert!(fresh.baked.sparse_edges.is_some());
         // A flipped byte in the squares or their checksum: the squares are dropped.
         for at in [base + 16 + 5, base + 13] {
             let mut bad = bytes.clone();
             bad[at] ^= 0x10;
-            let read = read_nav(&path_with(&path, &bad)).unwrap();
+            let read = read_nav(path_with(&path, &bad)).unwrap();
             assert_eq!(read, g);
             assert!(read.baked.sight_squares.is_empty());
             assert_eq!(read.baked.sparse_edges, fresh.baked.sparse_edges);
@@ -652,7 +652,7 @@ mod tests {
         for at in [bytes.len() - 7, graph + 17] {
             let mut bad = bytes.clone();
             bad[at] ^= 0x10;
-            let read = read_nav(&path_with(&path, &bad)).unwrap();
+            let read = read_nav(path_with(&path, &bad)).unwrap();
             assert_eq!(read.baked.sight_squares, fresh.baked.sight_squares);
             assert!(read.baked.sparse_edges.is_none());
         }
@@ -664,7 +664,7 @@ mod tests {
         bad[at..at + 4].copy_from_slice(&(e.marks.len() as u32).to_le_bytes());
         let sum = checksum(&bad[graph + 24..]);
         bad[graph + 16..graph + 24].copy_from_slice(&sum.to_le_bytes());
-        assert!(read_nav(&path_with(&path, &bad))
+        assert!(read_nav(path_with(&path, &bad))
             .unwrap()
             .baked
             .sparse_edges
@@ -676,18 +676,18 @@ mod tests {
         let records = &bytes[base + 16..base + 16 + SQUARES_BYTES * n];
         bad.extend_from_slice(&checksum(records).to_le_bytes());
         bad.extend_from_slice(records);
-        let read = read_nav(&path_with(&path, &bad)).unwrap();
+        let read = read_nav(path_with(&path, &bad)).unwrap();
         assert!(read.baked.sight_squares.is_empty());
         // Without the sections, without the graph: read, nothing (no graph) stored.
-        let read = read_nav(&path_with(&path, &bytes[..base])).unwrap();
+        let read = read_nav(path_with(&path, &bytes[..base])).unwrap();
         assert_eq!(read, g);
         assert!(read.baked.sight_squares.is_empty() && read.baked.sparse_edges.is_none());
-        let read = read_nav(&path_with(&path, &bytes[..graph])).unwrap();
+        let read = read_nav(path_with(&path, &bytes[..graph])).unwrap();
         assert_eq!(read.baked.sight_squares, fresh.baked.sight_squares);
         assert!(read.baked.sparse_edges.is_none());
         // Truncated inside a section: a one-line error.
         for cut in [1, 5, bytes.len() - graph - 10, bytes.len() - base - 8] {
-            let e = read_nav(&path_with(&path, &bytes[..bytes.len() - cut]))
+            let e = read_nav(path_with(&path, &bytes[..bytes.len() - cut]))
                 .unwrap_err()
                 .to_string();
             assert!(e.contains("corrupt") && !e.contains('\n'), "{e}");
