@@ -48,7 +48,9 @@
 //! # Point-to-point paths: a sparse graph
 //!
 //! Shortest paths between two spans (`path` module) search a much smaller graph, built once
-//! per [`Geodesic`] on the first such query:
+//! per [`Geodesic`] on the first such query (its edges and landmark distances, the costly
+//! part, are taken from the grid's `.nav` file when stored there and they fit the vertices
+//! found: see `file` and [`Geodesic::sparse_edges`]):
 //!
 //! - *Plateaus* are spans joined by links with height steps of at most 5 mm, at least 256
 //!   spans within 5 cm of height; walkable spans on no plateau form uneven *zones* (stairs,
