@@ -11,7 +11,7 @@ use minos::episode::Task;
 use minos::generate::{generate, GenerateConfig, OutputFormat};
 use minos::ingest::{ingest, IngestConfig};
 use minos::navmesh::bake::{bake_scenes, BakeConfig};
-use minos::navmesh::file::{nav_path, read_nav};
+use minos::navmesh::file::{nav_path, read_nav, write_nav};
 use minos::navmesh::geodesic::Geodesic;
 use minos::navmesh::path::shortest_path_in;
 use minos::navmesh::NavParams;
@@ -71,20 +71,47 @@ fn main() {
     breakdown(&data, &ids);
 }
 
-/// Where PointGoal sampling spends its time, scene by scene: reading the grid, building the
-/// geodesic data (line-of-sight index, search records), the first path query on the largest
-/// island (which builds the sparse graph), and sampling 100 episodes with all of that reused.
+/// Where PointGoal sampling spends its time, scene by scene: reading the grid (with the
+/// line-of-sight squares and sparse graph edges stored in the file), building the geodesic
+/// data (line-of-sight index from the stored squares, search records), the first path query on
+/// the largest island (which builds the sparse graph, from the stored edges), the same two
+/// without the stored parts for comparison, and sampling 100 episodes with all of that
+/// reused.
 fn breakdown(data: &std::path::Path, ids: &[String]) {
     let (mut read, mut geo_new, mut first, mut sample) = (0.0, 0.0, 0.0, 0.0);
+    let (mut geo_unstored, mut first_unstored) = (0.0, 0.0);
     let mut spans = 0usize;
+    // Bytes of the files, of their stored sections (line-of-sight squares, sparse graph), and
+    // the time to write them (building the stored parts included).
+    let (mut file_bytes, mut squares_bytes, mut graph_bytes, mut write) = (0, 0, 0, 0.0);
+    let out = tempfile::tempdir().expect("tempdir");
     for id in ids {
         let t = Instant::now();
         let grid = read_nav(&nav_path(data, id)).expect("nav");
         read += t.elapsed().as_secs_f64();
         spans += grid.spans.len();
+        let bytes = std::fs::read(nav_path(data, id)).expect("nav");
+        let header = u32::from_le_bytes(bytes[12..16].try_into().expect("header")) as usize;
+        let arrays = 16
+            + header
+            + 4 * grid.column_start.len()
+            + 56 * grid.spans.len()
+            + 8 * grid.span_objects.len();
+        file_bytes += bytes.len();
+        squares_bytes += 16 + 4 * grid.spans.len();
+        graph_bytes += bytes.len() - arrays - 16 - 4 * grid.spans.len();
+        let t = Instant::now();
+        write_nav(&out.path().join("g.nav"), &grid).expect("write");
+        write += t.elapsed().as_secs_f64();
         let t = Instant::now();
         let geo = Geodesic::new(&grid);
         geo_new += t.elapsed().as_secs_f64();
+        assert_eq!(grid.baked.sight_squares.len(), grid.spans.len());
+        let mut bare = grid.clone();
+        bare.baked = Default::default();
+        let t = Instant::now();
+        let bare_geo = Geodesic::new(&bare);
+        geo_unstored += t.elapsed().as_secs_f64();
         // Two spans of the largest island, so that the query builds the sparse graph (a
         // pair on different islands is answered before that).
         let island = (0..grid.islands.len() as u32)
@@ -94,6 +121,9 @@ fn breakdown(data: &std::path::Path, ids: &[String]) {
         let t = Instant::now();
         let _ = shortest_path_in(&geo, walkable[0], walkable[walkable.len() / 2]);
         first += t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let _ = shortest_path_in(&bare_geo, walkable[0], walkable[walkable.len() / 2]);
+        first_unstored += t.elapsed().as_secs_f64();
         let cfg = SampleConfig {
             task: Task::PointGoal,
             per_scene: 100,
@@ -107,13 +137,20 @@ fn breakdown(data: &std::path::Path, ids: &[String]) {
     let n = ids.len().max(1) as f64;
     println!(
         "\npointgoal per scene ({} scenes, {:.0} spans on average): read grid {:.2} ms, \
-         Geodesic::new {:.2} ms, first path query {:.2} ms; sample_scene (100 episodes, \
-         including its own setup) {:.2} ms",
+         Geodesic::new {:.2} ms, first path query {:.2} ms (without the stored parts: {:.2} and \
+         {:.2} ms); sample_scene (100 episodes, including its own setup) {:.2} ms; write_nav \
+         {:.2} ms; file {:.0} kB, of which stored squares {:.0} kB and sparse graph {:.0} kB",
         ids.len(),
         spans as f64 / n,
         1e3 * read / n,
         1e3 * geo_new / n,
         1e3 * first / n,
-        1e3 * sample / n
+        1e3 * geo_unstored / n,
+        1e3 * first_unstored / n,
+        1e3 * sample / n,
+        1e3 * write / n,
+        file_bytes as f64 / n / 1e3,
+        squares_bytes as f64 / n / 1e3,
+        graph_bytes as f64 / n / 1e3,
     );
 }

@@ -197,3 +197,82 @@ fn real_suncg_sample_bakes_with_free_floor_around_the_furniture() {
     assert!(free > 1000, "{free} bedroom-coloured pixels");
     assert_eq!(minos::navmesh::file::read_nav(&nav).unwrap(), grid);
 }
+
+/// The line-of-sight squares stored in a `.nav` file equal freshly built ones, and a
+/// [`Geodesic`] over the grid read back (using them) answers path queries and fields exactly
+/// as one built from scratch; a corrupted section is dropped and the answers stay the same.
+#[test]
+fn stored_query_structures_give_the_answers_of_fresh_ones() {
+    use minos::navmesh::file::{read_nav, write_nav};
+    use minos::navmesh::geodesic::Geodesic;
+    use minos::navmesh::los::SightIndex;
+    use minos::navmesh::path::shortest_path_in;
+    let dir = tempfile::tempdir().unwrap();
+    let (root, data) = (dir.path().join("suncg"), dir.path().join("DATA"));
+    let cfg = GenerateConfig {
+        houses: 4,
+        seed: 5,
+        rooms: (3, 7),
+        levels: (1, 2),
+        closed_door_prob: 0.2,
+    };
+    let plans = generate_into(&cfg, &root);
+    ingest_into(&root, &data);
+    let mut rng = Rng::new(9);
+    let mut compared = 0;
+    for plan in &plans {
+        let (_, scene) = read_scene(&scene_path(&data, &plan.id)).unwrap();
+        let fresh = build(&scene, &NavParams::default()).unwrap();
+        let path = dir.path().join(format!("{}.nav", plan.id));
+        write_nav(&path, &fresh).unwrap();
+        let stored = read_nav(&path).unwrap();
+        assert_eq!(stored, fresh);
+        assert_eq!(
+            stored.baked.sight_squares,
+            SightIndex::build(&fresh).squares()
+        );
+        let edges = Geodesic::new(&fresh).sparse_edges();
+        assert!(edges.is_some());
+        assert_eq!(stored.baked.sparse_edges, edges);
+        // A flipped byte in each stored section (the squares, the graph's landmarks at the
+        // end): both dropped, rebuilt.
+        let mut bytes = std::fs::read(&path).unwrap();
+        let header = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+        let base = 16
+            + header
+            + 4 * fresh.column_start.len()
+            + 56 * fresh.spans.len()
+            + 8 * fresh.span_objects.len();
+        bytes[base + 16 + 2 * fresh.spans.len()] ^= 0x01;
+        let at = bytes.len() - 7;
+        bytes[at] ^= 0x01;
+        std::fs::write(&path, &bytes).unwrap();
+        let corrupt = read_nav(&path).unwrap();
+        assert!(corrupt.baked.sight_squares.is_empty());
+        assert!(corrupt.baked.sparse_edges.is_none());
+        let geos = [
+            Geodesic::new(&fresh),
+            Geodesic::new(&stored),
+            Geodesic::new(&corrupt),
+        ];
+        assert_eq!(geos[1].sight().squares(), geos[0].sight().squares());
+        assert_eq!(geos[2].sight().squares(), geos[0].sight().squares());
+        let walkable = fresh.walkable_spans(None);
+        for _ in 0..40 {
+            let a = walkable[rng.next_u32() as usize % walkable.len()];
+            let b = walkable[rng.next_u32() as usize % walkable.len()];
+            let want = shortest_path_in(&geos[0], a, b);
+            for geo in &geos[1..] {
+                assert_eq!(shortest_path_in(geo, a, b), want);
+            }
+            compared += 1;
+        }
+        let goals = [walkable[walkable.len() / 3]];
+        let want = geos[0].field(&goals);
+        for geo in &geos[1..] {
+            assert_eq!(geo.field(&goals), want);
+        }
+        assert_eq!(distance_field(&stored, &goals), want);
+    }
+    assert_eq!(compared, 160);
+}

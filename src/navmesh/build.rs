@@ -90,6 +90,7 @@ pub fn build(scene: &Scene, params: &NavParams) -> Result<NavGrid, BuildError> {
             .iter()
             .map(|l| l.floor_heights.first().copied().unwrap_or(l.bbox.min.y))
             .collect(),
+        baked: Default::default(),
     };
     assign_rooms(scene, &raster, &mut grid);
     assign_objects(scene, &object_solids, &mut grid);

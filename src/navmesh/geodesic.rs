@@ -48,7 +48,9 @@
 //! # Point-to-point paths: a sparse graph
 //!
 //! Shortest paths between two spans (`path` module) search a much smaller graph, built once
-//! per [`Geodesic`] on the first such query:
+//! per [`Geodesic`] on the first such query (its edges and landmark distances, the costly
+//! part, are taken from the grid's `.nav` file when stored there and they fit the vertices
+//! found: see `file` and [`Geodesic::sparse_edges`]):
 //!
 //! - *Plateaus* are spans joined by links with height steps of at most 5 mm, at least 256
 //!   spans within 5 cm of height; walkable spans on no plateau form uneven *zones* (stairs,
@@ -91,8 +93,9 @@
 //! Measured on the 2-core build box with `cargo bench --bench navigation` (one core, best of
 //! 2–3 runs on a shared, noisy box): a full field over the open 50 × 50 m floor (992k
 //! walkable spans, [`distance_field`] including [`Geodesic::new`]) about 30 ms, of which
-//! building the [`SightIndex`] takes about 22 ms, the flood about 5 ms and the search
-//! records and the exported field the rest; on the largest generated house (145k walkable
+//! building the [`SightIndex`] takes about 22 ms (a grid read from its `.nav` file carries the
+//! index's clear squares, which halves `Geodesic::new` on the episode bench's houses), the
+//! flood about 5 ms and the search records and the exported field the rest; on the largest generated house (145k walkable
 //! spans, two levels) about 19 ms; point-to-point paths there about 0.13 ms per
 //! query with a shared [`Geodesic`] (building the sparse graph on the first query: about
 //! 7 ms), and 0.016 ms on a furnished 100 m² level (about 2 ms to build). Accuracy: fields
@@ -110,7 +113,7 @@ use std::sync::{Mutex, OnceLock, PoisonError};
 
 use glam::Vec3;
 
-use super::grid::{NavGrid, Span, DIRS, NONE};
+use super::grid::{NavGrid, Span, SparseEdges, DIRS, NONE, SPARSE_LANDMARKS};
 use super::los::SightIndex;
 
 /// Distances from every span to the nearest goal, with the anchor chain to follow there.
@@ -327,7 +330,7 @@ const SPARSE_MAX_VERTICES: usize = 4096;
 /// cell-level search.
 const ZONE_NODES_MAX: u32 = 20_000;
 /// Landmarks of the sparse graph's A* heuristic.
-const LANDMARKS: usize = 8;
+const LANDMARKS: usize = SPARSE_LANDMARKS;
 /// Role of a span that is not a node of the sparse graph.
 const PLAIN: u32 = NONE;
 /// Role of a span of an uneven zone.
@@ -870,6 +873,18 @@ impl<'g> Geodesic<'g> {
         for (i, v) in verts.iter().enumerate() {
             role[v.span as usize] = i as u32;
         }
+        // The edges and landmarks stored with the grid, when they fit these vertices.
+        if let Some(g) = self.grid().baked.sparse_edges.as_ref() {
+            if g.fits(verts.len()) {
+                let (first, edges, marks) = (g.first.clone(), g.edges.clone(), g.marks.clone());
+                return Some(finish_sparse(
+                    (role, area, zone_spans),
+                    (portals, &portal_gates),
+                    verts,
+                    (first, edges, marks),
+                ));
+            }
+        }
         let mut lists: Vec<Vec<(u32, f32)>> = vec![Vec::new(); verts.len()];
         for (i, u) in verts.iter().enumerate() {
             let island = spans[u.span as usize].island;
@@ -892,24 +907,21 @@ impl<'g> Geodesic<'g> {
         }
         first.push(edges.len() as u32);
         let marks = landmarks(&first, &edges);
-        // The landmark distances of each portal's gates (a path into or out of a zone
-        // passes one of them).
-        for &(k, s) in &portal_gates {
-            let (portal, m) = (&mut portals[k as usize], &marks[role[s as usize] as usize]);
-            for ((near, far), &d) in portal.near.iter_mut().zip(&mut portal.far).zip(m) {
-                *near = near.min(d);
-                *far = far.max(d);
-            }
-        }
-        Some(Sparse {
-            role,
-            area,
-            zone_spans,
-            portals,
+        Some(finish_sparse(
+            (role, area, zone_spans),
+            (portals, &portal_gates),
             verts,
-            first,
-            edges,
-            marks,
+            (first, edges, marks),
+        ))
+    }
+
+    /// The edges and landmark distances of the sparse graph (built on first use), as a
+    /// `.nav` file stores them; `None` when the grid has too many vertices for the graph.
+    pub fn sparse_edges(&self) -> Option<SparseEdges> {
+        self.sparse().map(|sp| SparseEdges {
+            first: sp.first.clone(),
+            edges: sp.edges.clone(),
+            marks: sp.marks.clone(),
         })
     }
 
@@ -1655,6 +1667,41 @@ impl<'g> Geodesic<'g> {
                 }
             }
         }
+    }
+}
+
+/// The sparse graph from its parts: the landmark distances of each portal's gates (a path
+/// into or out of a zone passes one of them) are gathered here. `role` maps every gate to its
+/// vertex and `marks` has one entry per vertex (checked by the caller).
+#[allow(clippy::type_complexity)]
+fn finish_sparse(
+    (role, area, zone_spans): (Vec<u32>, Vec<u32>, Vec<u32>),
+    (mut portals, portal_gates): (Vec<Portal>, &[(u32, u32)]),
+    verts: Vec<Vertex>,
+    (first, edges, marks): (Vec<u32>, Vec<(u32, f32)>, Vec<[f32; LANDMARKS]>),
+) -> Sparse {
+    for &(k, s) in portal_gates {
+        let m = role
+            .get(s as usize)
+            .and_then(|&v| marks.get(v as usize))
+            .copied()
+            .unwrap_or([f32::INFINITY; LANDMARKS]);
+        if let Some(portal) = portals.get_mut(k as usize) {
+            for ((near, far), &d) in portal.near.iter_mut().zip(&mut portal.far).zip(&m) {
+                *near = near.min(d);
+                *far = far.max(d);
+            }
+        }
+    }
+    Sparse {
+        role,
+        area,
+        zone_spans,
+        portals,
+        verts,
+        first,
+        edges,
+        marks,
     }
 }
 

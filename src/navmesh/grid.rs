@@ -117,6 +117,67 @@ pub struct NavGrid {
     pub islands: Vec<Island>,
     /// Floor height of each level.
     pub level_heights: Vec<f32>,
+    /// Query structures stored with the grid in its `.nav` file (derived from the fields
+    /// above at bake time and checked when read); empty for a grid built in memory or when
+    /// the file's copy did not check out. Not part of the grid's identity (see [`Baked`]).
+    #[serde(skip)]
+    pub baked: Baked,
+}
+
+/// Query structures derived from a [`NavGrid`] at bake time and stored in its `.nav` file, so
+/// that loading a grid for queries does not rebuild them. Derived data: grids compare equal
+/// whatever they carry here, and every user falls back to building what is missing (or of
+/// the wrong length).
+#[derive(Debug, Clone, Default)]
+pub struct Baked {
+    /// Per span, the [`SightIndex`](super::los::SightIndex)'s side of the clear square ahead
+    /// in each quadrant (empty when not stored).
+    pub sight_squares: Vec<[u8; 4]>,
+    /// The edges and landmark distances of the point-to-point search's sparse graph (see
+    /// `geodesic`), when stored.
+    pub sparse_edges: Option<SparseEdges>,
+}
+
+/// Landmarks of the sparse graph's A* heuristic (`geodesic`).
+pub const SPARSE_LANDMARKS: usize = 8;
+
+/// The costly part of the sparse graph of point-to-point queries (`geodesic`): its edges
+/// (straight walks between vertices) and the landmark distances. The vertices themselves
+/// (obstacle corners and zone gates, in span order) are recomputed from the grid when it is
+/// loaded; these lists are used only when they fit that many vertices.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SparseEdges {
+    /// Edges of vertex `i`: `edges[first[i]..first[i + 1]]` (length: vertices + 1).
+    pub first: Vec<u32>,
+    /// `(vertex, length)` pairs.
+    pub edges: Vec<(u32, f32)>,
+    /// Per vertex: graph distances to the landmarks (`INFINITY` when not joined).
+    pub marks: Vec<[f32; SPARSE_LANDMARKS]>,
+}
+
+impl SparseEdges {
+    /// Do the lists describe a graph of `vertices` vertices: `first` rising from 0 to the
+    /// number of edges, every edge to a vertex in range with a finite length of at least 0,
+    /// landmark distances of at least 0 (or infinite)? Linear in the size of the lists.
+    pub fn fits(&self, vertices: usize) -> bool {
+        self.first.len() == vertices + 1
+            && self.marks.len() == vertices
+            && self.first.first() == Some(&0)
+            && self.first.last().map(|&l| l as usize) == Some(self.edges.len())
+            && self.first.windows(2).all(|w| w[0] <= w[1])
+            && self
+                .edges
+                .iter()
+                .all(|&(v, l)| (v as usize) < vertices && l.is_finite() && l >= 0.0)
+            && self.marks.iter().flatten().all(|&d| d >= 0.0)
+    }
+}
+
+impl PartialEq for Baked {
+    /// Always true: derived data does not make two grids different.
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
 }
 
 impl NavGrid {

@@ -16,6 +16,13 @@
 //! straight 3D line between the two spans, so that the straight-line distance between them is
 //! a fair length of the walk.
 //!
+//! The clear squares are the costly part of the index (row sweeps over every quadrant), so a
+//! `.nav` file stores them ([`NavGrid::baked`], written by `file::write_nav`):
+//! [`SightIndex::new`] takes them from there when the grid carries one record per span and
+//! only packs the spans and their link masks, recomputed from the spans' own links (so stored
+//! data never decides which span a step lands on; a wrong square can only jump where the walk
+//! would have stepped, onto a span checked to exist). [`SightIndex::build`] always builds.
+//!
 //! Where this module's job ends: it answers "is this straight walk possible" and visits the
 //! spans it covers; costs and distance fields are `geodesic`, paths are `path`.
 //!
@@ -326,9 +333,39 @@ pub struct SightIndex<'g> {
 }
 
 impl<'g> SightIndex<'g> {
-    /// Builds the index: one pass over the columns (packed spans, link masks), then the clear
-    /// squares of every quadrant by row sweeps (`squares_ahead`).
+    /// The index of a grid: the clear squares stored with it ([`NavGrid::baked`], read from
+    /// its `.nav` file) when it carries one per span, otherwise built as by
+    /// [`SightIndex::build`]. Either way one pass over the columns packs the spans and their
+    /// link masks (what a walk reads to find the next span, checked against the grid's own
+    /// links): stored squares can only make a walk jump where it would have stepped.
     pub fn new(grid: &'g NavGrid) -> Self {
+        let squares = &grid.baked.sight_squares;
+        if squares.is_empty() || squares.len() != grid.spans.len() {
+            return Self::build(grid);
+        }
+        let mut index = Self::packed(grid);
+        for (s, &a) in index.spans.iter_mut().zip(squares) {
+            s.ahead = a;
+        }
+        index
+    }
+
+    /// Builds the index from the grid alone: one pass over the columns (packed spans, link
+    /// masks), then the clear squares of every quadrant by row sweeps (`squares_ahead`).
+    pub fn build(grid: &'g NavGrid) -> Self {
+        let mut index = Self::packed(grid);
+        squares_ahead(grid, &mut index.spans);
+        index
+    }
+
+    /// Per span, the side of the clear square ahead in each quadrant (what a `.nav` file
+    /// stores, see [`NavGrid::baked`]).
+    pub fn squares(&self) -> Vec<[u8; 4]> {
+        self.spans.iter().map(|s| s.ahead).collect()
+    }
+
+    /// The packed spans and link masks, with no clear squares (every `ahead` is 0).
+    fn packed(grid: &'g NavGrid) -> Self {
         let n = grid.spans.len();
         let start = &grid.column_start;
         let (nx, nz) = (grid.nx as usize, grid.nz as usize);
@@ -399,7 +436,6 @@ impl<'g> SightIndex<'g> {
             y: s.y,
             ..SightSpan::default()
         }));
-        squares_ahead(grid, &mut spans);
         let nx = i64::from(grid.nx);
         let offsets = DIRS.map(|(dx, dz)| i64::from(dx) + i64::from(dz) * nx);
         SightIndex {

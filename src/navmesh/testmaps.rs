@@ -290,6 +290,7 @@ impl MapSpec {
             span_objects,
             islands,
             level_heights: vec![0.0],
+            baked: Default::default(),
         }
     }
 }
