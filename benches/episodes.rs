@@ -79,11 +79,12 @@ fn main() {
 /// reused.
 fn breakdown(data: &std::path::Path, ids: &[String]) {
     let (mut read, mut geo_new, mut first, mut sample) = (0.0, 0.0, 0.0, 0.0);
-    let (mut geo_unstored, mut first_unstored) = (0.0, 0.0);
+    let (mut geo_unstored, mut first_unstored, mut first_unlabelled) = (0.0, 0.0, 0.0);
     let mut spans = 0usize;
     // Bytes of the files, of their stored sections (line-of-sight squares, sparse graph), and
     // the time to write them (building the stored parts included).
     let (mut file_bytes, mut squares_bytes, mut graph_bytes, mut write) = (0, 0, 0, 0.0);
+    let mut labels_bytes = 0;
     let out = tempfile::tempdir().expect("tempdir");
     for id in ids {
         let t = Instant::now();
@@ -100,6 +101,9 @@ fn breakdown(data: &std::path::Path, ids: &[String]) {
         file_bytes += bytes.len();
         squares_bytes += 16 + 4 * grid.spans.len();
         graph_bytes += bytes.len() - arrays - 16 - 4 * grid.spans.len();
+        labels_bytes += grid.baked.sparse_labels.as_ref().map_or(0, |l| {
+            40 + 4 * (l.area.len() + l.verts.len()) + 8 * (l.portals.len() + l.portal_gates.len())
+        });
         let t = Instant::now();
         write_nav(&out.path().join("g.nav"), &grid).expect("write");
         write += t.elapsed().as_secs_f64();
@@ -124,6 +128,12 @@ fn breakdown(data: &std::path::Path, ids: &[String]) {
         let t = Instant::now();
         let _ = shortest_path_in(&bare_geo, walkable[0], walkable[walkable.len() / 2]);
         first_unstored += t.elapsed().as_secs_f64();
+        let mut unlabelled = grid.clone();
+        unlabelled.baked.sparse_labels = None;
+        let unlabelled_geo = Geodesic::new(&unlabelled);
+        let t = Instant::now();
+        let _ = shortest_path_in(&unlabelled_geo, walkable[0], walkable[walkable.len() / 2]);
+        first_unlabelled += t.elapsed().as_secs_f64();
         let cfg = SampleConfig {
             task: Task::PointGoal,
             per_scene: 100,
@@ -137,14 +147,15 @@ fn breakdown(data: &std::path::Path, ids: &[String]) {
     let n = ids.len().max(1) as f64;
     println!(
         "\npointgoal per scene ({} scenes, {:.0} spans on average): read grid {:.2} ms, \
-         Geodesic::new {:.2} ms, first path query {:.2} ms (without the stored parts: {:.2} and \
-         {:.2} ms); sample_scene (100 episodes, including its own setup) {:.2} ms; write_nav \
-         {:.2} ms; file {:.0} kB, of which stored squares {:.0} kB and sparse graph {:.0} kB",
+         Geodesic::new {:.2} ms, first path query {:.2} ms (without the stored labels: {:.2} ms; \
+         without any stored parts: {:.2} and {:.2} ms); sample_scene (100 episodes, including its own setup) {:.2} ms; write_nav \
+         {:.2} ms; file {:.0} kB, of which stored squares {:.0} kB and sparse graph {:.0} kB (labels {:.0} kB)",
         ids.len(),
         spans as f64 / n,
         1e3 * read / n,
         1e3 * geo_new / n,
         1e3 * first / n,
+        1e3 * first_unlabelled / n,
         1e3 * geo_unstored / n,
         1e3 * first_unstored / n,
         1e3 * sample / n,
@@ -152,5 +163,6 @@ fn breakdown(data: &std::path::Path, ids: &[String]) {
         file_bytes as f64 / n / 1e3,
         squares_bytes as f64 / n / 1e3,
         graph_bytes as f64 / n / 1e3,
+        labels_bytes as f64 / n / 1e3,
     );
 }

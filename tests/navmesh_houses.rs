@@ -234,8 +234,17 @@ fn stored_query_structures_give_the_answers_of_fresh_ones() {
         let edges = Geodesic::new(&fresh).sparse_edges();
         assert!(edges.is_some());
         assert_eq!(stored.baked.sparse_edges, edges);
-        // A flipped byte in each stored section (the squares, the graph's landmarks at the
-        // end): both dropped, rebuilt.
+        assert!(stored.baked.sparse_labels.is_some());
+        assert_eq!(
+            stored.baked.sparse_labels,
+            Geodesic::new(&fresh).sparse_labels()
+        );
+        let (v, e) = edges
+            .as_ref()
+            .map(|g| (g.marks.len(), g.edges.len()))
+            .unwrap();
+        // A flipped byte in each stored section (the squares, the graph's landmarks at its
+        // end, the labels at the file's end): all dropped, rebuilt.
         let mut bytes = std::fs::read(&path).unwrap();
         let header = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
         let base = 16
@@ -244,16 +253,25 @@ fn stored_query_structures_give_the_answers_of_fresh_ones() {
             + 56 * fresh.spans.len()
             + 8 * fresh.span_objects.len();
         bytes[base + 16 + 2 * fresh.spans.len()] ^= 0x01;
+        let labels = base + 16 + 4 * fresh.spans.len() + 24 + 4 * (v + 1) + 8 * e + 32 * v;
+        bytes[labels - 7] ^= 0x01;
         let at = bytes.len() - 7;
         bytes[at] ^= 0x01;
         std::fs::write(&path, &bytes).unwrap();
         let corrupt = read_nav(&path).unwrap();
         assert!(corrupt.baked.sight_squares.is_empty());
         assert!(corrupt.baked.sparse_edges.is_none());
+        assert!(corrupt.baked.sparse_labels.is_none());
+        // Only the labels, or only the edges, stored.
+        let (mut labels_only, mut edges_only) = (stored.clone(), stored.clone());
+        labels_only.baked.sparse_edges = None;
+        edges_only.baked.sparse_labels = None;
         let geos = [
             Geodesic::new(&fresh),
             Geodesic::new(&stored),
             Geodesic::new(&corrupt),
+            Geodesic::new(&labels_only),
+            Geodesic::new(&edges_only),
         ];
         assert_eq!(geos[1].sight().squares(), geos[0].sight().squares());
         assert_eq!(geos[2].sight().squares(), geos[0].sight().squares());

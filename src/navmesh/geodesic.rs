@@ -49,8 +49,9 @@
 //!
 //! Shortest paths between two spans (`path` module) search a much smaller graph, built once
 //! per [`Geodesic`] on the first such query (its edges and landmark distances, the costly
-//! part, are taken from the grid's `.nav` file when stored there and they fit the vertices
-//! found: see `file` and [`Geodesic::sparse_edges`]):
+//! part, are taken from the grid's `.nav` file when stored there and they fit the vertices;
+//! so are its labels, the plateaus, zones, vertices and portals, when they fit the grid: see
+//! `file`, [`Geodesic::sparse_edges`] and [`Geodesic::sparse_labels`]):
 //!
 //! - *Plateaus* are spans joined by links with height steps of at most 5 mm, at least 256
 //!   spans within 5 cm of height; walkable spans on no plateau form uneven *zones* (stairs,
@@ -113,7 +114,9 @@ use std::sync::{Mutex, OnceLock, PoisonError};
 
 use glam::Vec3;
 
-use super::grid::{NavGrid, Span, SparseEdges, DIRS, NONE, SPARSE_LANDMARKS};
+use super::grid::{
+    NavGrid, Span, SparseEdges, SparseLabels, DIRS, NONE, SPARSE_GATE, SPARSE_LANDMARKS,
+};
 use super::los::SightIndex;
 
 /// Distances from every span to the nearest goal, with the anchor chain to follow there.
@@ -407,12 +410,25 @@ struct Sparse {
     /// Portals: per (zone, region) next to each other, the zone, the region and the
     /// bounding box (min, max) of the region's spans linked to the zone.
     portals: Vec<Portal>,
+    /// (portal, gate span) for every gate of every portal.
+    portal_gates: Vec<(u32, u32)>,
     verts: Vec<Vertex>,
     /// Edges of vertex `i`: `edges[first[i]..first[i + 1]]`, as (vertex, length).
     first: Vec<u32>,
     edges: Vec<(u32, f32)>,
     /// Per vertex: graph distances to the landmarks (`INFINITY` when not joined).
     marks: Vec<[f32; LANDMARKS]>,
+}
+
+/// The linear part of the sparse graph (see [`Sparse`]), computed from the grid or taken
+/// from its stored [`SparseLabels`].
+struct Labels {
+    role: Vec<u32>,
+    area: Vec<u32>,
+    zone_spans: Vec<u32>,
+    portals: Vec<Portal>,
+    portal_gates: Vec<(u32, u32)>,
+    verts: Vec<Vertex>,
 }
 
 /// An entry of the sparse search's queue: reach `node` from `parent` with distance `g`;
@@ -705,6 +721,134 @@ impl<'g> Geodesic<'g> {
     /// shortest path could bend at both ends and the straight walk between them exists, and
     /// the landmark distances. `None` beyond [`SPARSE_MAX_VERTICES`] vertices.
     fn build_sparse(&self) -> Option<Sparse> {
+        let n = self.grid().spans.len();
+        let labels = match self.grid().baked.sparse_labels.as_ref() {
+            Some(l) if l.fits(n) => self.stored_labels(l),
+            _ => self.label_spans(),
+        }?;
+        let spans = &self.grid().spans;
+        let verts = &labels.verts;
+        // The edges and landmarks stored with the grid, when they fit these vertices.
+        if let Some(g) = self.grid().baked.sparse_edges.as_ref() {
+            if g.fits(verts.len()) {
+                let (first, edges, marks) = (g.first.clone(), g.edges.clone(), g.marks.clone());
+                return Some(finish_sparse(labels, (first, edges, marks)));
+            }
+        }
+        let mut lists: Vec<Vec<(u32, f32)>> = vec![Vec::new(); verts.len()];
+        for (i, u) in verts.iter().enumerate() {
+            let island = spans[u.span as usize].island;
+            for (j, v) in verts.iter().enumerate().skip(i + 1) {
+                if spans[v.span as usize].island != island || !u.allows(v.xz) || !v.allows(u.xz) {
+                    continue;
+                }
+                if self.sight.straight_line(u.span, v.span) {
+                    let len = dist(u.pos, v.pos);
+                    lists[i].push((j as u32, len));
+                    lists[j].push((i as u32, len));
+                }
+            }
+        }
+        let mut first = Vec::with_capacity(verts.len() + 1);
+        let mut edges = Vec::new();
+        for list in &lists {
+            first.push(edges.len() as u32);
+            edges.extend_from_slice(list);
+        }
+        first.push(edges.len() as u32);
+        let marks = landmarks(&first, &edges);
+        Some(finish_sparse(labels, (first, edges, marks)))
+    }
+
+    /// Bits of [`Vertex::corners`] for a span: the diagonals blocked while both axis links
+    /// beside them exist.
+    fn corners(&self, s: u32) -> u8 {
+        let mask = self.sight.link_masks(s).1;
+        let mut corners = 0u8;
+        for (k, (ax, az)) in [(0, 1), (2, 1), (2, 3), (0, 3)].into_iter().enumerate() {
+            // DIRS[4 + k] is the diagonal between the axis directions ax and az.
+            if mask & (1 << ax) != 0 && mask & (1 << az) != 0 && mask & (16 << k) == 0 {
+                corners |= 1 << k;
+            }
+        }
+        corners
+    }
+
+    /// The linear part of the sparse graph from the grid's stored labels (checked by the
+    /// caller with [`SparseLabels::fits`]): roles and zone sizes from the areas, vertex cells
+    /// and corners from the grid, portal boxes from their gates' positions. `None` beyond
+    /// [`SPARSE_MAX_VERTICES`] vertices.
+    fn stored_labels(&self, l: &SparseLabels) -> Option<Labels> {
+        if l.verts.len() > SPARSE_MAX_VERTICES {
+            return None;
+        }
+        let mut zone_spans: Vec<u32> = Vec::new();
+        let mut role = Vec::with_capacity(l.area.len());
+        for &a in &l.area {
+            if a != NONE && a & IN_ZONE != 0 {
+                // Below the span count (checked).
+                let z = (a & !IN_ZONE) as usize;
+                if z >= zone_spans.len() {
+                    zone_spans.resize(z + 1, 0);
+                }
+                zone_spans[z] += 1;
+                role.push(ZONE);
+            } else {
+                role.push(PLAIN);
+            }
+        }
+        let verts: Vec<Vertex> = l
+            .verts
+            .iter()
+            .map(|&v| {
+                let s = v & !SPARSE_GATE;
+                Vertex {
+                    span: s,
+                    xz: self.cell_xz(s),
+                    pos: self.position(s).unwrap_or(Vec3::ZERO),
+                    corners: self.corners(s),
+                    gate: v & SPARSE_GATE != 0,
+                }
+            })
+            .collect();
+        for (i, v) in verts.iter().enumerate() {
+            if let Some(r) = role.get_mut(v.span as usize) {
+                *r = i as u32;
+            }
+        }
+        let mut portals: Vec<Portal> = l
+            .portals
+            .iter()
+            .map(|&(zone, region)| Portal {
+                zone,
+                region,
+                lo: Vec3::INFINITY,
+                hi: Vec3::NEG_INFINITY,
+                near: [f32::INFINITY; LANDMARKS],
+                far: [0.0; LANDMARKS],
+            })
+            .collect();
+        for &(k, s) in &l.portal_gates {
+            let p = self.position(s).unwrap_or(Vec3::ZERO);
+            if let Some(q) = portals.get_mut(k as usize) {
+                q.lo = q.lo.min(p);
+                q.hi = q.hi.max(p);
+            }
+        }
+        Some(Labels {
+            role,
+            area: l.area.clone(),
+            zone_spans,
+            portals,
+            portal_gates: l.portal_gates.clone(),
+            verts,
+        })
+    }
+
+    /// The linear part of the sparse graph: plateaus, zones, areas, gates and portals, and
+    /// the vertices (see [`Geodesic::build_sparse`]). `None` beyond [`SPARSE_MAX_VERTICES`]
+    /// vertices.
+    fn label_spans(&self) -> Option<Labels> {
         let spans = &self.grid().spans;
         let n = spans.len();
         let sight = &self.sight;
@@ -843,14 +987,7 @@ impl<'g> Geodesic<'g> {
         let mut corner_spans: Vec<(u32, u8, bool)> = Vec::new();
         let mut next_gate = gates.iter().peekable();
         for s in 0..n as u32 {
-            let mask = sight.link_masks(s).1;
-            let mut corners = 0u8;
-            for (k, (ax, az)) in [(0, 1), (2, 1), (2, 3), (0, 3)].into_iter().enumerate() {
-                // DIRS[4 + k] is the diagonal between the axis directions ax and az.
-                if mask & (1 << ax) != 0 && mask & (1 << az) != 0 && mask & (16 << k) == 0 {
-                    corners |= 1 << k;
-                }
-            }
+            let corners = self.corners(s);
             let gate = next_gate.next_if(|&&g| g == s).is_some();
             if gate || corners != 0 {
                 corner_spans.push((s, corners, gate));
@@ -873,46 +1010,14 @@ impl<'g> Geodesic<'g> {
         for (i, v) in verts.iter().enumerate() {
             role[v.span as usize] = i as u32;
         }
-        // The edges and landmarks stored with the grid, when they fit these vertices.
-        if let Some(g) = self.grid().baked.sparse_edges.as_ref() {
-            if g.fits(verts.len()) {
-                let (first, edges, marks) = (g.first.clone(), g.edges.clone(), g.marks.clone());
-                return Some(finish_sparse(
-                    (role, area, zone_spans),
-                    (portals, &portal_gates),
-                    verts,
-                    (first, edges, marks),
-                ));
-            }
-        }
-        let mut lists: Vec<Vec<(u32, f32)>> = vec![Vec::new(); verts.len()];
-        for (i, u) in verts.iter().enumerate() {
-            let island = spans[u.span as usize].island;
-            for (j, v) in verts.iter().enumerate().skip(i + 1) {
-                if spans[v.span as usize].island != island || !u.allows(v.xz) || !v.allows(u.xz) {
-                    continue;
-                }
-                if self.sight.straight_line(u.span, v.span) {
-                    let len = dist(u.pos, v.pos);
-                    lists[i].push((j as u32, len));
-                    lists[j].push((i as u32, len));
-                }
-            }
-        }
-        let mut first = Vec::with_capacity(verts.len() + 1);
-        let mut edges = Vec::new();
-        for list in &lists {
-            first.push(edges.len() as u32);
-            edges.extend_from_slice(list);
-        }
-        first.push(edges.len() as u32);
-        let marks = landmarks(&first, &edges);
-        Some(finish_sparse(
-            (role, area, zone_spans),
-            (portals, &portal_gates),
+        Some(Labels {
+            role,
+            area,
+            zone_spans,
+            portals,
+            portal_gates,
             verts,
-            (first, edges, marks),
-        ))
+        })
     }
 
     /// The edges and landmark distances of the sparse graph (built on first use), as a
@@ -922,6 +1027,21 @@ impl<'g> Geodesic<'g> {
             first: sp.first.clone(),
             edges: sp.edges.clone(),
             marks: sp.marks.clone(),
+        })
+    }
+
+    /// The linear part of the sparse graph (built on first use), as a `.nav` file stores it;
+    /// `None` when the grid has too many vertices for the graph.
+    pub fn sparse_labels(&self) -> Option<SparseLabels> {
+        self.sparse().map(|sp| SparseLabels {
+            area: sp.area.clone(),
+            verts: sp
+                .verts
+                .iter()
+                .map(|v| v.span | if v.gate { SPARSE_GATE } else { 0 })
+                .collect(),
+            portals: sp.portals.iter().map(|q| (q.zone, q.region)).collect(),
+            portal_gates: sp.portal_gates.clone(),
         })
     }
 
@@ -1675,12 +1795,18 @@ impl<'g> Geodesic<'g> {
 /// vertex and `marks` has one entry per vertex (checked by the caller).
 #[allow(clippy::type_complexity)]
 fn finish_sparse(
-    (role, area, zone_spans): (Vec<u32>, Vec<u32>, Vec<u32>),
-    (mut portals, portal_gates): (Vec<Portal>, &[(u32, u32)]),
-    verts: Vec<Vertex>,
+    labels: Labels,
     (first, edges, marks): (Vec<u32>, Vec<(u32, f32)>, Vec<[f32; LANDMARKS]>),
 ) -> Sparse {
-    for &(k, s) in portal_gates {
+    let Labels {
+        role,
+        area,
+        zone_spans,
+        mut portals,
+        portal_gates,
+        verts,
+    } = labels;
+    for &(k, s) in &portal_gates {
         let m = role
             .get(s as usize)
             .and_then(|&v| marks.get(v as usize))
@@ -1698,6 +1824,7 @@ fn finish_sparse(
         area,
         zone_spans,
         portals,
+        portal_gates,
         verts,
         first,
         edges,

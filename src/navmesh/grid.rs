@@ -136,6 +136,61 @@ pub struct Baked {
     /// The edges and landmark distances of the point-to-point search's sparse graph (see
     /// `geodesic`), when stored.
     pub sparse_edges: Option<SparseEdges>,
+    /// The linear part of the sparse graph (areas, vertices, portals), when stored.
+    pub sparse_labels: Option<SparseLabels>,
+}
+
+/// Flag of a [`SparseLabels::verts`] entry: the vertex is a gate of an uneven zone.
+pub const SPARSE_GATE: u32 = 1 << 31;
+
+/// The linear part of the sparse graph of point-to-point queries (`geodesic`), as a `.nav`
+/// file stores it: what the plateau and zone labelling, the gates and the portals give. The
+/// rest (roles, zone sizes, vertex cells and corners, portal boxes) is recomputed from these
+/// and the grid; used only when [`SparseLabels::fits`] a grid of that many spans.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SparseLabels {
+    /// Per span: its region, `1 << 31` plus its zone, or `u32::MAX` when on neither.
+    pub area: Vec<u32>,
+    /// The vertices' spans in rising order, [`SPARSE_GATE`] added for gates.
+    pub verts: Vec<u32>,
+    /// Portals as (zone area, region area), in the order the graph numbers them.
+    pub portals: Vec<(u32, u32)>,
+    /// (portal, gate span) for every gate of every portal.
+    pub portal_gates: Vec<(u32, u32)>,
+}
+
+impl SparseLabels {
+    /// Do the lists fit a grid of `spans` spans: one area per span, zone numbers below the
+    /// span count, vertex spans in range and strictly rising, portal gates naming a portal
+    /// and a span in range, a gate for every portal? Linear in the size of the lists.
+    pub fn fits(&self, spans: usize) -> bool {
+        const IN_ZONE: u32 = 1 << 31;
+        let zone_ok = |a: u32| a == NONE || a & IN_ZONE == 0 || ((a & !IN_ZONE) as usize) < spans;
+        self.area.len() == spans
+            && self.area.iter().all(|&a| zone_ok(a))
+            && self
+                .verts
+                .iter()
+                .all(|&v| ((v & !SPARSE_GATE) as usize) < spans)
+            && self
+                .verts
+                .windows(2)
+                .all(|w| w[0] & !SPARSE_GATE < w[1] & !SPARSE_GATE)
+            && self
+                .portal_gates
+                .iter()
+                .all(|&(k, s)| (k as usize) < self.portals.len() && (s as usize) < spans)
+            && {
+                // Every portal has a gate (its box is theirs).
+                let mut gated = vec![false; self.portals.len()];
+                for &(k, _) in &self.portal_gates {
+                    if let Some(g) = gated.get_mut(k as usize) {
+                        *g = true;
+                    }
+                }
+                gated.iter().all(|&g| g)
+            }
+    }
 }
 
 /// Landmarks of the sparse graph's A* heuristic (`geodesic`).
