@@ -343,17 +343,13 @@ impl<'g> SightIndex<'g> {
         if squares.is_empty() || squares.len() != grid.spans.len() {
             return Self::build(grid);
         }
-        let mut index = Self::packed(grid);
-        for (s, &a) in index.spans.iter_mut().zip(squares) {
-            s.ahead = a;
-        }
-        index
+        Self::packed(grid, squares)
     }
 
     /// Builds the index from the grid alone: one pass over the columns (packed spans, link
     /// masks), then the clear squares of every quadrant by row sweeps (`squares_ahead`).
     pub fn build(grid: &'g NavGrid) -> Self {
-        let mut index = Self::packed(grid);
+        let mut index = Self::packed(grid, &[]);
         squares_ahead(grid, &mut index.spans);
         index
     }
@@ -364,8 +360,10 @@ impl<'g> SightIndex<'g> {
         self.spans.iter().map(|s| s.ahead).collect()
     }
 
-    /// The packed spans and link masks, with no clear squares (every `ahead` is 0).
-    fn packed(grid: &'g NavGrid) -> Self {
+    /// The packed spans and link masks, with the clear squares of `squares` (one per span, as
+    /// [`SightIndex::squares`] gives them; every `ahead` is 0 where it is shorter), set in
+    /// the same pass.
+    fn packed(grid: &'g NavGrid, squares: &[[u8; 4]]) -> Self {
         let n = grid.spans.len();
         let start = &grid.column_start;
         let (nx, nz) = (grid.nx as usize, grid.nz as usize);
@@ -422,7 +420,7 @@ impl<'g> SightIndex<'g> {
                         spans.push(SightSpan {
                             y: span.y,
                             column: c as u32,
-                            ahead: [0; 4],
+                            ahead: squares.get(s).copied().unwrap_or([0; 4]),
                             same_rank: same,
                             linked,
                         });
@@ -432,10 +430,17 @@ impl<'g> SightIndex<'g> {
             }
         }
         // Spans outside every column range (malformed grids) get no links.
-        spans.extend(grid.spans[spans.len()..].iter().map(|s| SightSpan {
-            y: s.y,
-            ..SightSpan::default()
-        }));
+        let done = spans.len();
+        spans.extend(
+            grid.spans[done..]
+                .iter()
+                .enumerate()
+                .map(|(i, s)| SightSpan {
+                    y: s.y,
+                    ahead: squares.get(done + i).copied().unwrap_or([0; 4]),
+                    ..SightSpan::default()
+                }),
+        );
         let nx = i64::from(grid.nx);
         let offsets = DIRS.map(|(dx, dz)| i64::from(dx) + i64::from(dz) * nx);
         SightIndex {
