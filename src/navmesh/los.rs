@@ -22,6 +22,10 @@
 //! only packs the spans and their link masks, recomputed from the spans' own links (so stored
 //! data never decides which span a step lands on; a wrong square can only jump where the walk
 //! would have stepped, onto a span checked to exist). [`SightIndex::build`] always builds.
+//! Packing is one pass over the columns that sets the stored squares as it goes and compares
+//! a span's eight links four at a time (SSE2 on x86-64, a branch-free loop elsewhere): about
+//! 0.4 ms of the 0.48 ms `Geodesic::new` of a 55k-span grid read from its file (0.7 ms with
+//! the scalar loop; `cargo bench --bench episodes`).
 //!
 //! Where this module's job ends: it answers "is this straight walk possible" and visits the
 //! spans it covers; costs and distance fields are `geodesic`, paths are `path`.
@@ -314,6 +318,78 @@ struct SightSpan {
     linked: u8,
 }
 
+/// Link masks of a span of rank `rank` in its column (`links`: its links; `lo`, `count`:
+/// first span and span count of the neighbouring column in each direction; `n`: the span
+/// count): `(same_rank, linked)`, bit `d` of `linked` set when link `d` exists (is below
+/// `n`; `NONE` never is), of `same_rank` when it also lands at `lo[d] + rank` with `rank <
+/// count[d]`. The eight links are compared four at a time (SSE2, part of every x86-64).
+#[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
+#[inline]
+fn link_bits(links: &[u32; 8], n: u32, lo: &[u32; 8], count: &[u32; 8], rank: u32) -> (u8, u8) {
+    use std::arch::x86_64::{
+        __m128i, _mm_add_epi32, _mm_and_si128, _mm_castsi128_ps, _mm_cmpeq_epi32, _mm_cmplt_epi32,
+        _mm_movemask_ps, _mm_set1_epi32, _mm_set_epi32, _mm_xor_si128,
+    };
+    // SAFETY: SSE2 is enabled (cfg above); the intrinsics only compute on values.
+    unsafe {
+        let four = |a: &[u32; 8], h: usize| -> __m128i {
+            _mm_set_epi32(
+                a[4 * h + 3] as i32,
+                a[4 * h + 2] as i32,
+                a[4 * h + 1] as i32,
+                a[4 * h] as i32,
+            )
+        };
+        // Unsigned comparisons as signed ones of the values with their top bit flipped.
+        let bias = _mm_set1_epi32(i32::MIN);
+        let (nb, r) = (
+            _mm_set1_epi32((n ^ 1 << 31) as i32),
+            _mm_set1_epi32(rank as i32),
+        );
+        let rb = _mm_xor_si128(r, bias);
+        let (mut same, mut linked) = (0u8, 0u8);
+        for h in 0..2 {
+            let l = four(links, h);
+            let ok = _mm_cmplt_epi32(_mm_xor_si128(l, bias), nb);
+            let on = _mm_cmpeq_epi32(l, _mm_add_epi32(four(lo, h), r));
+            let live = _mm_cmplt_epi32(rb, _mm_xor_si128(four(count, h), bias));
+            let both = _mm_and_si128(_mm_and_si128(ok, on), live);
+            linked |= (_mm_movemask_ps(_mm_castsi128_ps(ok)) as u8) << (4 * h);
+            same |= (_mm_movemask_ps(_mm_castsi128_ps(both)) as u8) << (4 * h);
+        }
+        (same, linked)
+    }
+}
+
+/// Link masks of a span (see the x86-64 version), one link at a time.
+#[cfg(not(all(target_arch = "x86_64", target_feature = "sse2")))]
+#[inline]
+fn link_bits(links: &[u32; 8], n: u32, lo: &[u32; 8], count: &[u32; 8], rank: u32) -> (u8, u8) {
+    link_bits_plain(links, n, lo, count, rank)
+}
+
+/// [`link_bits`] one link at a time (branch-free; the reference the SSE2 version is tested
+/// against).
+#[cfg_attr(all(target_arch = "x86_64", target_feature = "sse2"), allow(dead_code))]
+#[inline]
+fn link_bits_plain(
+    links: &[u32; 8],
+    n: u32,
+    lo: &[u32; 8],
+    count: &[u32; 8],
+    rank: u32,
+) -> (u8, u8) {
+    let (mut same, mut linked) = (0u8, 0u8);
+    for d in 0..8 {
+        let l = links[d];
+        let ok = l < n;
+        linked |= u8::from(ok) << d;
+        let on_rank = (l.wrapping_sub(lo[d]) == rank) & (rank < count[d]);
+        same |= u8::from(ok & on_rank) << d;
+    }
+    (same, linked)
+}
+
 /// Precomputed data for fast repeated line-of-sight queries on one grid.
 ///
 /// Per span: its height, column, which links stay on the same layer (rank in the column),
@@ -407,16 +483,7 @@ impl<'g> SightIndex<'g> {
                         }
                         let span = &grid.spans[s];
                         let rank = (s - s0) as u32;
-                        let (mut same, mut linked) = (0u8, 0u8);
-                        // Branch-free, so that the eight links are compared at once. `NONE`
-                        // is never below `n`.
-                        for d in 0..8 {
-                            let l = span.links[d];
-                            let ok = l < n32;
-                            linked |= u8::from(ok) << d;
-                            let on_rank = (l.wrapping_sub(lo[d]) == rank) & (rank < count[d]);
-                            same |= u8::from(ok & on_rank) << d;
-                        }
+                        let (same, linked) = link_bits(&span.links, n32, &lo, &count, rank);
                         spans.push(SightSpan {
                             y: span.y,
                             column: c as u32,
@@ -809,6 +876,58 @@ fn sweep_first_spans(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn link_bits_match_the_one_at_a_time_reference() {
+        // Values around the interesting boundaries: 0, the span count, NONE, the top bit.
+        let pick = [
+            0u32,
+            1,
+            2,
+            3,
+            7,
+            99,
+            100,
+            101,
+            1 << 31,
+            (1 << 31) - 1,
+            (1 << 31) + 1,
+            NONE - 1,
+            NONE,
+        ];
+        let mut x = 0x2545_F491_4F6C_DD1Du64;
+        let mut next = || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            pick[(x % pick.len() as u64) as usize]
+        };
+        for _ in 0..20_000 {
+            let links: [u32; 8] = std::array::from_fn(|_| next());
+            let lo: [u32; 8] = std::array::from_fn(|_| next());
+            let count: [u32; 8] = std::array::from_fn(|_| next());
+            let (n, rank) = (next(), next());
+            assert_eq!(
+                link_bits(&links, n, &lo, &count, rank),
+                link_bits_plain(&links, n, &lo, &count, rank),
+                "{links:?} {n} {lo:?} {count:?} {rank}"
+            );
+        }
+        // Links that land on the same rank.
+        let lo = [10, 20, 30, 40, 50, 60, 70, 80];
+        let count = [1, 2, 3, 4, 0, 2, 1, 9];
+        let links = [11, 21, 31, 41, 51, 61, NONE, 200];
+        for rank in 0..4 {
+            assert_eq!(
+                link_bits(&links, 150, &lo, &count, rank),
+                link_bits_plain(&links, 150, &lo, &count, rank)
+            );
+        }
+        assert_eq!(
+            link_bits(&links, 150, &lo, &count, 1),
+            (0b0010_1110, 0b0011_1111)
+        );
+    }
     use crate::navmesh::testmaps::{segment_hits_closed_cell, MapSpec};
     use crate::navmesh::NavParams;
     use crate::seed::Rng;
