@@ -23,9 +23,9 @@
 //! data never decides which span a step lands on; a wrong square can only jump where the walk
 //! would have stepped, onto a span checked to exist). [`SightIndex::build`] always builds.
 //! Packing is one pass over the columns that sets the stored squares as it goes and compares
-//! a span's eight links four at a time (SSE2 on x86-64, a branch-free loop elsewhere): about
-//! 0.4 ms of the 0.48 ms `Geodesic::new` of a 55k-span grid read from its file (0.7 ms with
-//! the scalar loop; `cargo bench --bench episodes`).
+//! a span's eight links four at a time (SSE2 on x86-64, a branch-free loop elsewhere):
+//! `Geodesic::new` of a 55k-span grid read from its file, packing and search records, takes
+//! about 0.48 ms (0.7 ms with the scalar loop; `cargo bench --bench episodes`).
 //!
 //! Where this module's job ends: it answers "is this straight walk possible" and visits the
 //! spans it covers; costs and distance fields are `geodesic`, paths are `path`.
