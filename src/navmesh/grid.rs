@@ -198,8 +198,9 @@ pub const SPARSE_LANDMARKS: usize = 8;
 
 /// The costly part of the sparse graph of point-to-point queries (`geodesic`): its edges
 /// (straight walks between vertices) and the landmark distances. The vertices themselves
-/// (obstacle corners and zone gates, in span order) are recomputed from the grid when it is
-/// loaded; these lists are used only when they fit that many vertices.
+/// (obstacle corners and zone gates, in span order) come from the stored [`SparseLabels`]
+/// or are recomputed from the grid when it is loaded; these lists are used only when they
+/// fit that many vertices.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SparseEdges {
     /// Edges of vertex `i`: `edges[first[i]..first[i + 1]]` (length: vertices + 1).
