@@ -8,34 +8,15 @@ use std::time::Instant;
 use minos::episode::batch::{sample_scenes, Shard};
 use minos::episode::sample::{sample_scene, SampleConfig};
 use minos::episode::Task;
-use minos::generate::{generate, GenerateConfig, OutputFormat};
-use minos::ingest::{ingest, IngestConfig};
-use minos::navmesh::bake::{bake_scenes, BakeConfig};
 use minos::navmesh::file::{nav_path, read_nav, write_nav};
 use minos::navmesh::geodesic::Geodesic;
 use minos::navmesh::path::shortest_path_in;
-use minos::navmesh::NavParams;
 use minos::progress::NoProgress;
 
+mod support;
 fn main() {
     let dir = tempfile::tempdir().expect("tempdir");
-    let (root, data) = (dir.path().join("suncg"), dir.path().join("DATA"));
-    let cfg = GenerateConfig {
-        houses: 20,
-        seed: 4,
-        ..GenerateConfig::default()
-    };
-    generate(&cfg, OutputFormat::Suncg, &root, false, &NoProgress).expect("generate");
-    let report = ingest(&IngestConfig::suncg(&root, &data), &NoProgress).expect("ingest");
-    let ids: Vec<String> = report.scenes.iter().map(|(r, _)| r.id.clone()).collect();
-    let bake = BakeConfig {
-        data: data.clone(),
-        ids: ids.clone(),
-        params: NavParams::default(),
-        force: false,
-        previews: false,
-    };
-    bake_scenes(&bake, &NoProgress);
+    let (data, ids) = support::baked_houses(dir.path(), 20, 4);
     let scenes: Vec<(String, String)> = ids
         .iter()
         .map(|id| (id.clone(), "train".to_string()))

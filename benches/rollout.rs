@@ -14,13 +14,9 @@ use std::time::{Duration, Instant};
 use minos::episode::batch::{sample_scenes, Shard};
 use minos::episode::sample::SampleConfig;
 use minos::episode::{Episode, Task};
-use minos::generate::{generate, GenerateConfig, OutputFormat};
-use minos::ingest::{ingest, IngestConfig};
 use minos::io::scene_file::{read_scene, scene_path};
-use minos::navmesh::bake::{bake_scenes, BakeConfig};
 use minos::navmesh::file::{nav_path, read_nav};
 use minos::navmesh::geodesic::Geodesic;
-use minos::navmesh::NavParams;
 use minos::progress::NoProgress;
 use minos::run::agents::{Agent, Decision};
 use minos::run::metrics::Reward;
@@ -32,6 +28,7 @@ use minos::sim::{AgentConfig, RendererChoice, SceneAssets, SensorSuite, Simulato
 
 /// CPU time (s) of the whole process (all threads), from `/proc/self/stat` (Linux; `None`
 /// elsewhere). On a shared, busy box CPU time is steadier than wall time.
+mod support;
 fn process_cpu() -> Option<f64> {
     let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
     let rest = stat.rsplit_once(')')?.1;
@@ -77,23 +74,7 @@ fn env(name: &str, default: usize) -> usize {
 
 fn main() {
     let dir = tempfile::tempdir().expect("tempdir");
-    let (root, data) = (dir.path().join("suncg"), dir.path().join("DATA"));
-    let cfg = GenerateConfig {
-        houses: env("MINOS_BENCH_HOUSES", 8),
-        seed: 5,
-        ..GenerateConfig::default()
-    };
-    generate(&cfg, OutputFormat::Suncg, &root, false, &NoProgress).expect("generate");
-    let report = ingest(&IngestConfig::suncg(&root, &data), &NoProgress).expect("ingest");
-    let ids: Vec<String> = report.scenes.iter().map(|(r, _)| r.id.clone()).collect();
-    let bake = BakeConfig {
-        data: data.clone(),
-        ids: ids.clone(),
-        params: NavParams::default(),
-        force: false,
-        previews: false,
-    };
-    bake_scenes(&bake, &NoProgress);
+    let (data, ids) = support::baked_houses(dir.path(), env("MINOS_BENCH_HOUSES", 8), 5);
     let scenes: Vec<(String, String)> = ids
         .iter()
         .map(|id| (id.clone(), "val".to_string()))

@@ -1,0 +1,32 @@
+//! Set-up shared by the benches: generated houses, ingested and baked into a DATA folder.
+
+use std::path::{Path, PathBuf};
+
+use minos::generate::{generate, GenerateConfig, OutputFormat};
+use minos::ingest::{ingest, IngestConfig};
+use minos::navmesh::bake::{bake_scenes, BakeConfig};
+use minos::navmesh::NavParams;
+use minos::progress::NoProgress;
+
+/// Generates `houses` furnished SUNCG-format houses from `seed` under `dir`, ingests them and
+/// bakes their grids at the default parameters; returns the DATA folder and the scene ids.
+pub fn baked_houses(dir: &Path, houses: usize, seed: u64) -> (PathBuf, Vec<String>) {
+    let (root, data) = (dir.join("suncg"), dir.join("DATA"));
+    let cfg = GenerateConfig {
+        houses,
+        seed,
+        ..GenerateConfig::default()
+    };
+    generate(&cfg, OutputFormat::Suncg, &root, false, &NoProgress).expect("generate");
+    let report = ingest(&IngestConfig::suncg(&root, &data), &NoProgress).expect("ingest");
+    let ids: Vec<String> = report.scenes.iter().map(|(r, _)| r.id.clone()).collect();
+    let bake = BakeConfig {
+        data: data.clone(),
+        ids: ids.clone(),
+        params: NavParams::default(),
+        force: false,
+        previews: false,
+    };
+    bake_scenes(&bake, &NoProgress);
+    (data, ids)
+}
