@@ -400,6 +400,19 @@ impl Vertex {
 /// joined by straight walks, and the spans of uneven zones joined by their links.
 #[derive(Debug, Clone)]
 struct Sparse {
+    /// Which spans are vertices, regions, zones and portals.
+    labels: Labels,
+    /// Edges of vertex `i`: `edges[first[i]..first[i + 1]]`, as (vertex, length).
+    first: Vec<u32>,
+    edges: Vec<(u32, f32)>,
+    /// Per vertex: graph distances to the landmarks (`INFINITY` when not joined).
+    marks: Vec<[f32; LANDMARKS]>,
+}
+
+/// The linear part of the sparse graph (see [`Sparse`]), computed from the grid or taken
+/// from its stored [`SparseLabels`].
+#[derive(Debug, Clone)]
+struct Labels {
     /// Per span: index into `verts`, [`ZONE`] or [`PLAIN`].
     role: Vec<u32>,
     /// Per walkable span: its region (plateau spans joined by links; zones cut regions
@@ -411,22 +424,6 @@ struct Sparse {
     /// bounding box (min, max) of the region's spans linked to the zone.
     portals: Vec<Portal>,
     /// (portal, gate span) for every gate of every portal.
-    portal_gates: Vec<(u32, u32)>,
-    verts: Vec<Vertex>,
-    /// Edges of vertex `i`: `edges[first[i]..first[i + 1]]`, as (vertex, length).
-    first: Vec<u32>,
-    edges: Vec<(u32, f32)>,
-    /// Per vertex: graph distances to the landmarks (`INFINITY` when not joined).
-    marks: Vec<[f32; LANDMARKS]>,
-}
-
-/// The linear part of the sparse graph (see [`Sparse`]), computed from the grid or taken
-/// from its stored [`SparseLabels`].
-struct Labels {
-    role: Vec<u32>,
-    area: Vec<u32>,
-    zone_spans: Vec<u32>,
-    portals: Vec<Portal>,
     portal_gates: Vec<(u32, u32)>,
     verts: Vec<Vertex>,
 }
@@ -1034,14 +1031,20 @@ impl<'g> Geodesic<'g> {
     /// `None` when the grid has too many vertices for the graph.
     pub fn sparse_labels(&self) -> Option<SparseLabels> {
         self.sparse().map(|sp| SparseLabels {
-            area: sp.area.clone(),
+            area: sp.labels.area.clone(),
             verts: sp
+                .labels
                 .verts
                 .iter()
                 .map(|v| v.span | if v.gate { SPARSE_GATE } else { 0 })
                 .collect(),
-            portals: sp.portals.iter().map(|q| (q.zone, q.region)).collect(),
-            portal_gates: sp.portal_gates.clone(),
+            portals: sp
+                .labels
+                .portals
+                .iter()
+                .map(|q| (q.zone, q.region))
+                .collect(),
+            portal_gates: sp.labels.portal_gates.clone(),
         })
     }
 
@@ -1056,7 +1059,7 @@ impl<'g> Geodesic<'g> {
         }
         let spans = &self.grid().spans;
         let island = spans[start as usize].island;
-        let vertex = |s: u32| sp.verts.get(sp.role[s as usize] as usize);
+        let vertex = |s: u32| sp.labels.verts.get(sp.labels.role[s as usize] as usize);
         let pos = |s: u32| match vertex(s) {
             Some(v) => v.pos,
             None => self.position(s).unwrap_or(Vec3::ZERO),
@@ -1065,13 +1068,14 @@ impl<'g> Geodesic<'g> {
         let (cs, ct) = (self.cell_xz(start), self.cell_xz(goal));
         // The spans of the zones that hold the start or the goal are nodes too, joined by
         // their links to each other and to the gates around them.
-        let zone_of = |s: u32| Some(sp.area[s as usize]).filter(|&a| a != NONE && a & IN_ZONE != 0);
+        let zone_of =
+            |s: u32| Some(sp.labels.area[s as usize]).filter(|&a| a != NONE && a & IN_ZONE != 0);
         let (zs, zg) = (zone_of(start), zone_of(goal));
         let zones = zs.is_some() || zg.is_some();
         // A zone that is most of the grid (a sloped or noisy floor): the cell-level search
         // does better.
         let big = |z: Option<u32>| {
-            z.and_then(|z| sp.zone_spans.get((z & !IN_ZONE) as usize))
+            z.and_then(|z| sp.labels.zone_spans.get((z & !IN_ZONE) as usize))
                 .is_some_and(|&size| size > ZONE_NODES_MAX)
         };
         if big(zs) || big(zg) {
@@ -1090,18 +1094,18 @@ impl<'g> Geodesic<'g> {
             // zone passes one of their gates; one cell of slack for a straight walk that
             // crosses a gate's cell off its centre).
             let (seen, blocked) = (open, open + 1);
-            sc.sees.resize(sp.verts.len(), 0);
+            sc.sees.resize(sp.labels.verts.len(), 0);
             sc.near.clear();
             let mut to_goal = [f32::INFINITY; LANDMARKS];
             if let Some(zg) = zg {
-                for q in sp.portals.iter().filter(|q| q.zone == zg) {
+                for q in sp.labels.portals.iter().filter(|q| q.zone == zg) {
                     let d = (box_distance(q.lo, q.hi, pt) - slack).max(0.0);
                     for (t, m) in to_goal.iter_mut().zip(&q.near) {
                         *t = t.min(m + d);
                     }
                 }
             } else {
-                for (i, v) in sp.verts.iter().enumerate() {
+                for (i, v) in sp.labels.verts.iter().enumerate() {
                     if v.span != goal && spans[v.span as usize].island == island && v.allows(ct) {
                         sc.near.push((dist(v.pos, pt).to_bits(), i as u32));
                     }
@@ -1115,7 +1119,10 @@ impl<'g> Geodesic<'g> {
                     continue;
                 }
                 // Walks start at the goal: those that fail mostly fail near it, in cache.
-                if self.sight.straight_line(goal, sp.verts[i as usize].span) {
+                if self
+                    .sight
+                    .straight_line(goal, sp.labels.verts[i as usize].span)
+                {
                     sc.sees[i as usize] = seen;
                     for (t, m) in to_goal.iter_mut().zip(marks) {
                         *t = t.min(m + d);
@@ -1129,6 +1136,7 @@ impl<'g> Geodesic<'g> {
             // its gates to the goal.
             let exits: Vec<(Vec3, Vec3, f32)> = match zs {
                 Some(z) if zs != zg => sp
+                    .labels
                     .portals
                     .iter()
                     .filter(|q| q.zone == z)
@@ -1151,7 +1159,7 @@ impl<'g> Geodesic<'g> {
                 // the zone, bending where the graph cannot.
                 if let Some(m) = sp
                     .marks
-                    .get(sp.role[s as usize] as usize)
+                    .get(sp.labels.role[s as usize] as usize)
                     .filter(|_| !active(s))
                 {
                     for (a, b) in m.iter().zip(&to_goal) {
@@ -1175,9 +1183,9 @@ impl<'g> Geodesic<'g> {
             let may_see_goal =
                 |s: u32| zg.is_some() || active(s) || vertex(s).is_some_and(|v| v.allows(ct));
             // The heuristic of a vertex, once per search.
-            sc.hcache.resize(sp.verts.len(), (0, 0.0));
+            sc.hcache.resize(sp.labels.verts.len(), (0, 0.0));
             let hcache = std::cell::Cell::from_mut(&mut sc.hcache[..]).as_slice_of_cells();
-            let h_of = |s: u32| match hcache.get(sp.role[s as usize] as usize) {
+            let h_of = |s: u32| match hcache.get(sp.labels.role[s as usize] as usize) {
                 Some(c) if c.get().0 == open => c.get().1,
                 Some(c) => {
                     let v = h(s, pos(s));
@@ -1265,7 +1273,7 @@ impl<'g> Geodesic<'g> {
                 };
                 if n == start {
                     // Lazy edges to every vertex that could bend towards the start.
-                    for v in &sp.verts {
+                    for v in &sp.labels.verts {
                         if v.span != start
                             && spans[v.span as usize].island == island
                             && v.allows(cs)
@@ -1273,8 +1281,8 @@ impl<'g> Geodesic<'g> {
                             push(entries, v.span, start, dist(ps, v.pos), true);
                         }
                     }
-                } else if let Some(&i) = sp.role.get(n as usize) {
-                    if let Some(v) = sp.verts.get(i as usize) {
+                } else if let Some(&i) = sp.labels.role.get(n as usize) {
+                    if let Some(v) = sp.labels.verts.get(i as usize) {
                         let known = sees[i as usize];
                         if known == seen {
                             relax(entries, goal, gn + dist(pn, pt));
@@ -1283,7 +1291,7 @@ impl<'g> Geodesic<'g> {
                         }
                         let (a, b) = (sp.first[i as usize], sp.first[i as usize + 1]);
                         for &(j, len) in &sp.edges[a as usize..b as usize] {
-                            relax(entries, sp.verts[j as usize].span, gn + len);
+                            relax(entries, sp.labels.verts[j as usize].span, gn + len);
                         }
                     }
                 }
@@ -1308,14 +1316,16 @@ impl<'g> Geodesic<'g> {
         goal: u32,
         pt: Vec3,
     ) -> impl Fn(u32, Vec3) -> f32 + 'a {
-        let goal_area = sp.area[goal as usize];
+        let goal_area = sp.labels.area[goal as usize];
         let entry: Vec<(Vec3, Vec3, f32)> = sp
+            .labels
             .portals
             .iter()
             .filter(|q| q.region == goal_area || q.zone == goal_area)
             .map(|q| (q.lo, q.hi, box_distance(q.lo, q.hi, pt)))
             .collect();
         let exits: Vec<(u32, Vec3, Vec3, f32)> = sp
+            .labels
             .portals
             .iter()
             .map(|p| {
@@ -1329,7 +1339,7 @@ impl<'g> Geodesic<'g> {
             .collect();
         move |s: u32, p: Vec3| {
             let e = dist(p, pt);
-            let a = sp.area[s as usize];
+            let a = sp.labels.area[s as usize];
             if a == goal_area {
                 return e;
             }
@@ -1798,15 +1808,14 @@ fn finish_sparse(
     labels: Labels,
     (first, edges, marks): (Vec<u32>, Vec<(u32, f32)>, Vec<[f32; LANDMARKS]>),
 ) -> Sparse {
+    let mut labels = labels;
     let Labels {
         role,
-        area,
-        zone_spans,
-        mut portals,
+        portals,
         portal_gates,
-        verts,
-    } = labels;
-    for &(k, s) in &portal_gates {
+        ..
+    } = &mut labels;
+    for &(k, s) in portal_gates.iter() {
         let m = role
             .get(s as usize)
             .and_then(|&v| marks.get(v as usize))
@@ -1820,12 +1829,7 @@ fn finish_sparse(
         }
     }
     Sparse {
-        role,
-        area,
-        zone_spans,
-        portals,
-        portal_gates,
-        verts,
+        labels,
         first,
         edges,
         marks,
@@ -2370,7 +2374,7 @@ mod tests {
         ] {
             let geo = Geodesic::new(&grid);
             let sparse = geo.sparse().expect("few vertices");
-            assert!(sparse.verts.iter().any(|v| v.corners != 0));
+            assert!(sparse.labels.verts.iter().any(|v| v.corners != 0));
             let spans = grid.walkable_spans(None);
             let mut rng = crate::seed::Rng::new(8);
             for _ in 0..100 {
@@ -2390,9 +2394,9 @@ mod tests {
         }
         let stairs = stairs().build(NavParams::default());
         let sparse = Geodesic::new(&stairs).sparse().cloned().unwrap();
-        let ramp = sparse.role.iter().filter(|&&r| r == ZONE).count();
+        let ramp = sparse.labels.role.iter().filter(|&&r| r == ZONE).count();
         assert!(ramp >= 4 * 60, "the ramp is an uneven zone: {ramp} spans");
-        assert!(sparse.verts.iter().any(|v| v.gate));
+        assert!(sparse.labels.verts.iter().any(|v| v.gate));
     }
 
     #[test]
