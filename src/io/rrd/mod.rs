@@ -77,7 +77,7 @@ pub struct RrdFile {
     next_id: Cell<u64>,
     time: RefCell<TimePoint>,
     /// Timed rows not yet written, per entity path.
-    pending: RefCell<BTreeMap<String, Pending>>,
+    pending: RefCell<BTreeMap<EntityPath, Pending>>,
     tmp: PathBuf,
     path: PathBuf,
 }
@@ -88,7 +88,6 @@ type Row = (RowId, TimePoint, Vec<rerun::SerializedComponentBatch>);
 /// Rows of one entity gathered into one chunk.
 struct Pending {
     id: ChunkId,
-    entity: EntityPath,
     rows: Vec<Row>,
     bytes: usize,
 }
@@ -189,41 +188,40 @@ impl RrdFile {
         let row_id = RowId::from_tuid(self.next_tuid());
         let batches = what.as_serialized_batches();
         if time.is_static() {
-            return self.emit(Pending {
-                id: ChunkId::from_tuid(self.next_tuid()),
+            return self.emit(
                 entity,
-                rows: vec![(row_id, time, batches)],
-                bytes: 0,
-            });
+                Pending {
+                    id: ChunkId::from_tuid(self.next_tuid()),
+                    rows: vec![(row_id, time, batches)],
+                    bytes: 0,
+                },
+            );
         }
         let bytes: usize = batches
             .iter()
             .map(|b| b.array.get_array_memory_size())
             .sum();
-        let key = entity.to_string();
         let mut pending = self.pending.borrow_mut();
-        let p = pending.entry(key.clone()).or_insert_with(|| Pending {
+        let p = pending.entry(entity.clone()).or_insert_with(|| Pending {
             id: ChunkId::from_tuid(self.next_tuid()),
-            entity,
             rows: Vec::new(),
             bytes: 0,
         });
         p.rows.push((row_id, time, batches));
         p.bytes += bytes;
         if p.rows.len() >= CHUNK_ROWS || p.bytes >= CHUNK_BYTES {
-            let full = pending.remove(&key);
+            let full = pending.remove(&entity);
             drop(pending);
             if let Some(full) = full {
-                return self.emit(full);
+                return self.emit(entity, full);
             }
         }
         Ok(())
     }
 
     /// Builds one chunk of gathered rows and encodes it.
-    fn emit(&self, p: Pending) -> Result<(), RecordingError> {
-        let entity = p.entity.to_string();
-        let mut builder = Chunk::builder_with_id(p.id, p.entity);
+    fn emit(&self, entity: EntityPath, p: Pending) -> Result<(), RecordingError> {
+        let mut builder = Chunk::builder_with_id(p.id, entity.clone());
         for (row_id, time, batches) in p.rows {
             builder = builder.with_serialized_batches(row_id, time, batches);
         }
@@ -237,8 +235,8 @@ impl RrdFile {
     /// Writes every gathered row, entity by entity in path order.
     fn flush_pending(&self) -> Result<(), RecordingError> {
         let pending = std::mem::take(&mut *self.pending.borrow_mut());
-        for (_, p) in pending {
-            self.emit(p)?;
+        for (entity, p) in pending {
+            self.emit(entity, p)?;
         }
         Ok(())
     }
