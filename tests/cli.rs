@@ -4,12 +4,12 @@ mod common;
 
 use std::path::Path;
 
-use common::minos;
+use common::{minos, RunOk};
 use minos::generate::{house_id, GenerateConfig};
 use minos::io::manifest::read_manifest;
 
 fn gen(root: &Path, houses: usize) -> GenerateConfig {
-    let out = minos()
+    minos()
         .args([
             "generate",
             "--houses",
@@ -21,13 +21,7 @@ fn gen(root: &Path, houses: usize) -> GenerateConfig {
             "--out",
         ])
         .arg(root)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+        .ok_output();
     GenerateConfig {
         houses,
         seed: 5,
@@ -212,14 +206,8 @@ fn demo_leaves_a_manifest_splits_and_statistics() {
     let out = minos()
         .args(["demo", "--houses", "12", "--out"])
         .arg(dir.path())
-        .output()
-        .unwrap();
+        .ok_output();
     let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
     let data = dir.path().join("data");
     let rows = read_manifest(&data.join("houses.parquet")).unwrap();
     assert_eq!(rows.len(), 12);

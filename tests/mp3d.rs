@@ -7,7 +7,7 @@ mod common;
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
 
-use common::{minos, tree_bytes};
+use common::{minos, tree_bytes, RunOk};
 use glam::Vec3;
 use minos::generate::mp3d_writer::{house_path, raw_name, region_letter, PANORAMA_HEIGHT};
 use minos::generate::{generate, plan_house, GenerateConfig, HousePlan, OutputFormat};
@@ -297,19 +297,13 @@ fn proxy_geometry_of_generated_houses_is_navigable_per_level() {
 fn cli_generates_and_ingests_mp3d_and_reports_broken_houses_on_one_line() {
     let dir = tempfile::tempdir().unwrap();
     let (root, data) = (dir.path().join("mp3d"), dir.path().join("DATA"));
-    let out = minos()
+    minos()
         .args([
             "generate", "--format", "mp3d", "--houses", "4", "--seed", "2", "--rooms", "2..5",
             "--out",
         ])
         .arg(&root)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+        .ok_output();
     let cfg = GenerateConfig {
         houses: 4,
         seed: 2,

@@ -9,7 +9,7 @@ use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use common::{generate_into, ingest_into, minos};
+use common::{generate_into, ingest_into, minos, RunOk};
 use glam::Vec3;
 use minos::episode::batch::{sample_scenes, Shard};
 use minos::episode::sample::SampleConfig;
@@ -537,30 +537,18 @@ fn the_cli_defines_bakes_and_reports_variants() {
         "[empty]\nempty = true\n[tex]\nretexture = { seed = 1, texture_set = \"val\" }\n",
     )
     .unwrap();
-    let out = minos()
+    minos()
         .args(["-q", "variants", "--data"])
         .arg(&data)
         .arg("--spec")
         .arg(&spec)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+        .ok_output();
     assert!(data.join("variants/empty.toml").is_file());
     assert!(data.join("stats/materials.json").is_file());
-    let out = minos()
+    minos()
         .args(["-q", "bake", "--no-preview", "--variant", "empty", "--data"])
         .arg(&data)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+        .ok_output();
     for id in &ids {
         assert!(data.join(format!("nav/{id}@empty.nav")).is_file());
     }

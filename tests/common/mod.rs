@@ -46,3 +46,22 @@ pub fn tree_bytes(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
 pub fn minos() -> std::process::Command {
     std::process::Command::new(env!("CARGO_BIN_EXE_minos"))
 }
+
+/// Running a command that must succeed.
+pub trait RunOk {
+    /// Runs the command to completion and returns its output; fails the test with the
+    /// command's stderr when it exits unsuccessfully.
+    fn ok_output(&mut self) -> std::process::Output;
+}
+
+impl RunOk for std::process::Command {
+    fn ok_output(&mut self) -> std::process::Output {
+        let out = self.output().expect("the command starts");
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        out
+    }
+}
