@@ -1,21 +1,35 @@
 //! minos: indoor 3D scene datasets in, embodied-AI navigation data out.
 //!
-//! Data flows one way: [`scene`] (canonical model and dataset loaders) → navigation → episodes
-//! → simulation and rendering → [`io`]. [`generate`] writes procedural houses in real dataset
-//! formats; [`ingest`], [`split`] and [`stats`] build and describe a DATA folder. The command
-//! line (`src/cmd/`, in the binary) only turns flags into the configuration structs of these
-//! modules. See `docs/ARCHITECTURE.md`.
+//! The modules stand on floors; each imports only from floors below it (enforced by
+//! `tests/layering.rs`, described in `docs/ARCHITECTURE.md`):
+//!
+//! 1. ground: [`atomic`] (files written under a temporary name), [`body`] (the agent's body
+//!    and presets), [`seed`], [`shard`], [`progress`];
+//! 2. the canonical model: [`scene`] (dataset loaders, variants as model operations);
+//! 3. algorithms, in the direction data flows: [`navmesh`] → [`episode`] → [`render`] →
+//!    [`sim`] → [`run`] (agents and metrics), plus [`generate`] (procedural houses);
+//! 4. storage and outputs: [`store`] (the DATA folder) and [`io`] (recordings, exports,
+//!    run tables), which never import each other;
+//! 5. what works on a DATA folder as a whole: [`split`], [`stats`] and the batch drivers of
+//!    [`pipeline`] (ingest, bake, episode batches, rollouts).
+//!
+//! The command line (`src/cmd/`, in the binary) only turns flags into the configuration
+//! structs of these modules.
 
+pub mod atomic;
+pub mod body;
 pub mod episode;
 pub mod generate;
-pub mod ingest;
 pub mod io;
 pub mod navmesh;
+pub mod pipeline;
 pub mod progress;
 pub mod render;
 pub mod run;
 pub mod scene;
 pub mod seed;
+pub mod shard;
 pub mod sim;
 pub mod split;
 pub mod stats;
+pub mod store;

@@ -11,7 +11,7 @@ use std::fmt::Write as _;
 
 use serde::Serialize;
 
-use crate::io::manifest::ManifestRow;
+use crate::store::manifest::ManifestRow;
 use crate::scene::taxonomy::RoomClass;
 use crate::split::{SplitLists, Subset};
 

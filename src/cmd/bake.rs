@@ -1,16 +1,18 @@
-//! `minos bake`: flags → [`minos::navmesh::bake::BakeConfig`], then a summary and one line
-//! per failed scene.
+//! `minos bake`: flags → [`BakeConfig`] ([`config`]), then [`minos::pipeline::bake`] and a
+//! summary with one line per failed scene.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
 
 use anyhow::Context as _;
-use minos::navmesh::bake::{bake_scenes, params_from_toml, BakeConfig, BakeOutcome};
+use minos::body::AgentPreset;
+use minos::navmesh::params::params_from_toml;
 use minos::navmesh::NavParams;
-use minos::split::read_split;
+use minos::pipeline::bake::{bake_scenes, BakeConfig, BakeOutcome};
+use minos::store::DataDir;
 
-use super::common::{ingested_ids, with_variant};
+use super::common::{split_or_all, PresetArg};
 use super::Context;
 
 /// Bake navigation grids: walkable floor spans for a cylinder agent, islands, rooms and
@@ -20,14 +22,15 @@ use super::Context;
 /// is walkable where the floor is within the slope limit, the agent's cylinder fits above it
 /// and stays `agent_radius` from obstacles; neighbouring spans connect when their heights
 /// differ by at most `max_climb`, so stairs join levels. Grids newer than their scene and
-/// baked with the same parameters are kept (use --force).
+/// baked with the same parameters are kept (use --force). A grid serves one agent body:
+/// `episodes`, `render` and `run` refuse a grid baked for another body than their --preset.
 #[derive(Debug, clap::Args)]
 #[command(
-    after_help = "Parameters (TOML keys of --config; defaults are minos's):\n  \
-    cell_size 0.05, agent_radius 0.1, agent_height 1.19, max_climb 0.2, max_slope_deg 45,\n  \
+    after_help = "Parameters (TOML keys of --config; defaults are the habitat preset's):\n  \
+    cell_size 0.05, agent_radius 0.1, agent_height 1.5, max_climb 0.2, max_slope_deg 45,\n  \
     clearance_margin 0.2, clearance_weight 1 (MINOS used 10: paths keep off walls, geodesics\n  \
-    are no longer exact). A config may start from a preset: preset = \"minos\".\n\n\
-    Examples:\n  minos bake --data DATA\n  minos bake --data DATA --split multiroom --preset minos\n  \
+    are no longer exact). A config may start from an agent preset: preset = \"minos\".\n\n\
+    Examples:\n  minos bake --data DATA\n  minos bake --data DATA --split multiroom --preset minos --cell-size 0.1\n  \
     minos bake --data DATA --config nav.toml --force\n  minos bake --data DATA --variant empty"
 )]
 pub struct Args {
@@ -37,11 +40,14 @@ pub struct Args {
     /// Bake only the scenes of this split (all subsets); default: every ingested scene.
     #[arg(long, value_name = "NAME")]
     split: Option<String>,
-    /// Parameter preset: default (5 cm cells), minos (10 cm cells, MINOS parity), habitat
-    /// (agent height 1.5 m).
-    #[arg(long, default_value = "default", value_parser = ["default", "minos", "habitat"])]
-    preset: String,
-    /// TOML file of parameters (overrides the preset), e.g. `cell_size = 0.1`.
+    /// Agent preset whose body the grids are for: habitat (1.5 m), minos or minos-gridworld
+    /// (MINOS's 1.19 m body).
+    #[arg(long, value_enum, default_value_t)]
+    preset: PresetArg,
+    /// Cell edge in metres (MINOS used 0.1).
+    #[arg(long, value_name = "M")]
+    cell_size: Option<f32>,
+    /// TOML file of parameters (overrides --preset and --cell-size), e.g. `cell_size = 0.1`.
     #[arg(long, value_name = "FILE")]
     config: Option<PathBuf>,
     /// Bake this variant of every selected scene (defined with `minos variants`); grids go to
@@ -56,40 +62,46 @@ pub struct Args {
     no_preview: bool,
 }
 
-/// Runs `minos bake`.
-pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
-    let mut params = NavParams::preset(&args.preset).context("--preset")?;
+/// The grid parameters the flags ask for (reads the `--config` file, if any).
+fn params(args: &Args) -> anyhow::Result<NavParams> {
+    let mut params = NavParams::preset(AgentPreset::from(args.preset));
+    if let Some(cell) = args.cell_size {
+        params.cell_size = cell;
+    }
     if let Some(path) = &args.config {
         let text = std::fs::read_to_string(path).with_context(|| format!("{}", path.display()))?;
         params = params_from_toml(&text, params)
             .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
     }
-    let ids: Vec<String> = match &args.split {
-        Some(name) => {
-            let lists = read_split(&args.data, name).with_context(|| format!("--split {name}"))?;
-            let mut ids: Vec<String> = lists
-                .train
-                .into_iter()
-                .chain(lists.val)
-                .chain(lists.test)
-                .collect();
-            ids.sort();
-            ids.dedup();
-            ids
-        }
-        None => ingested_ids(&args.data)?,
-    };
-    let ids = with_variant(&args.data, ids, args.variant.as_deref())?;
-    let start = Instant::now();
-    let cfg = BakeConfig {
-        data: args.data.clone(),
-        ids,
-        params,
+    params
+        .validate()
+        .map_err(|e| anyhow::anyhow!("--cell-size: {e}"))?;
+    Ok(params)
+}
+
+/// Flags → the library's configuration: parameters, and the scenes of the split (or every
+/// ingested scene) on the chosen variant.
+pub fn config(args: &Args) -> anyhow::Result<BakeConfig> {
+    let data = DataDir::new(&args.data);
+    let ids = split_or_all(&data, args.split.as_deref())?;
+    let scenes = data
+        .refs(&ids, args.variant.as_deref())
+        .map_err(|e| anyhow::anyhow!("--variant: {e}"))?;
+    Ok(BakeConfig {
+        params: params(args)?,
+        scenes,
+        data,
         force: args.force,
         previews: !args.no_preview,
-    };
+    })
+}
+
+/// Runs `minos bake`.
+pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
+    let cfg = config(&args)?;
+    let start = Instant::now();
     let report = {
-        let bar = ctx.progress(cfg.ids.len() as u64, "bake");
+        let bar = ctx.progress(cfg.scenes.len() as u64, "bake");
         bake_scenes(&cfg, &bar)
     };
     let mut failed = 0;
@@ -107,11 +119,54 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         report.scenes.len(),
         start.elapsed().as_secs_f64(),
         report.scenes.len() - baked - failed,
-        args.data.join("nav").display()
+        cfg.data.nav_dir().display()
     ));
     Ok(if failed == 0 {
         ExitCode::SUCCESS
     } else {
         ExitCode::FAILURE
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+    use minos::body::AgentBody;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        args: Args,
+    }
+
+    fn args(line: &str) -> Args {
+        Cli::try_parse_from(std::iter::once("bake").chain(line.split_whitespace()))
+            .expect("flags parse")
+            .args
+    }
+
+    #[test]
+    fn presets_choose_the_body_and_flags_the_cells() {
+        let p = params(&args("--data D")).unwrap();
+        assert_eq!(p.body, AgentBody::HABITAT);
+        assert_eq!(p.cell_size, 0.05);
+        let p = params(&args("--data D --preset minos --cell-size 0.1")).unwrap();
+        assert_eq!(p.body, AgentBody::MINOS);
+        assert_eq!(p.cell_size, 0.1);
+        let p = params(&args("--data D --preset minos-continuous")).unwrap();
+        assert_eq!(p.body, AgentBody::MINOS);
+        assert!(params(&args("--data D --cell-size -1")).is_err());
+        assert!(Cli::try_parse_from(["bake", "--data", "D", "--preset", "default"]).is_err());
+    }
+
+    #[test]
+    fn a_config_file_overrides_the_flags() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("nav.toml");
+        std::fs::write(&file, "preset = \"minos\"\ncell_size = 0.08\n").unwrap();
+        let line = format!("--data D --cell-size 0.1 --config {}", file.display());
+        let p = params(&args(&line)).unwrap();
+        assert_eq!((p.body, p.cell_size), (AgentBody::MINOS, 0.08));
+    }
 }

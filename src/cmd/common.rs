@@ -1,6 +1,15 @@
-//! What every subcommand shares: verbosity, logging set-up and progress bars.
+//! What every subcommand shares: verbosity, logging set-up, progress bars, and the typed
+//! flags several commands take (agent presets, renderers, sensor files, scene selections).
 
+use std::path::Path;
+
+use anyhow::Context as _;
 use indicatif::{ProgressBar, ProgressStyle};
+use minos::body::AgentPreset;
+use minos::render::RendererChoice;
+use minos::sim::SensorSuite;
+use minos::split::read_split;
+use minos::store::DataDir;
 use tracing_subscriber::EnvFilter;
 
 /// Global settings every subcommand receives.
@@ -25,6 +34,7 @@ impl Context {
         let _ = tracing_subscriber::fmt()
             .with_env_filter(filter)
             .with_writer(std::io::stderr)
+            .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
             .with_target(false)
             .try_init();
         Context { quiet }
@@ -74,35 +84,80 @@ impl Drop for Bar {
     }
 }
 
-/// Turns scene ids into references to `variant` (`<scene>@<variant>`), after checking that the
-/// variant is defined in `data`; without a variant the ids are returned unchanged.
-pub fn with_variant(
-    data: &std::path::Path,
-    ids: Vec<String>,
-    variant: Option<&str>,
-) -> anyhow::Result<Vec<String>> {
-    let Some(name) = variant else {
-        return Ok(ids);
-    };
-    minos::io::variant_store::read_variant(data, name)
-        .map_err(|e| anyhow::anyhow!("--variant {name}: {e}"))?;
-    Ok(ids
-        .into_iter()
-        .map(|id| {
-            minos::scene::variants::join_ref(minos::scene::variants::split_ref(&id).0, Some(name))
-        })
-        .collect())
+/// Agent presets of `--preset` (one vocabulary for every command; see
+/// [`minos::body::AgentPreset`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum PresetArg {
+    /// Habitat's agent: 1.5 m body, 0.25 m steps, 10° turns.
+    #[default]
+    Habitat,
+    /// MINOS's continuous agent: 1.19 m body, forces and friction.
+    #[value(alias = "minos-continuous")]
+    Minos,
+    /// MINOS's gridworld agent: 1.19 m body, 0.4 m steps, 90° turns.
+    MinosGridworld,
 }
 
-/// Ids of the scenes `minos ingest` compiled without error, in manifest order.
-pub fn ingested_ids(data: &std::path::Path) -> anyhow::Result<Vec<String>> {
-    use anyhow::Context as _;
-    Ok(
-        minos::io::manifest::read_manifest(&data.join("houses.parquet"))
-            .context("cannot read the manifest (run `minos ingest` first)")?
-            .into_iter()
-            .filter(|r| r.error.is_none())
-            .map(|r| r.id)
-            .collect(),
-    )
+impl From<PresetArg> for AgentPreset {
+    fn from(p: PresetArg) -> Self {
+        match p {
+            PresetArg::Habitat => AgentPreset::Habitat,
+            PresetArg::Minos => AgentPreset::Minos,
+            PresetArg::MinosGridworld => AgentPreset::MinosGridworld,
+        }
+    }
+}
+
+/// Renderers of `--renderer`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum RendererArg {
+    /// wgpu when an adapter exists, else the CPU rasteriser (the log says why).
+    Auto,
+    /// The built-in CPU rasteriser.
+    Cpu,
+    /// wgpu (fails without an adapter).
+    Wgpu,
+}
+
+impl From<RendererArg> for RendererChoice {
+    fn from(r: RendererArg) -> Self {
+        match r {
+            RendererArg::Auto => RendererChoice::Auto,
+            RendererArg::Cpu => RendererChoice::Cpu,
+            RendererArg::Wgpu => RendererChoice::Wgpu,
+        }
+    }
+}
+
+/// Reads a sensor file (TOML or JSON), or MINOS's default suite when none is named.
+pub fn sensor_suite(
+    file: Option<&Path>,
+    default: impl FnOnce() -> SensorSuite,
+) -> anyhow::Result<SensorSuite> {
+    match file {
+        Some(p) => {
+            let text = std::fs::read_to_string(p).with_context(|| p.display().to_string())?;
+            SensorSuite::parse(&text, &p.display().to_string()).map_err(anyhow::Error::msg)
+        }
+        None => Ok(default()),
+    }
+}
+
+/// The scenes of split `name` (all subsets, sorted, distinct), or every ingested scene.
+pub fn split_or_all(data: &DataDir, split: Option<&str>) -> anyhow::Result<Vec<String>> {
+    Ok(match split {
+        Some(name) => {
+            let lists = read_split(data, name).with_context(|| format!("--split {name}"))?;
+            let mut ids: Vec<String> = lists
+                .train
+                .into_iter()
+                .chain(lists.val)
+                .chain(lists.test)
+                .collect();
+            ids.sort();
+            ids.dedup();
+            ids
+        }
+        None => data.ingested_ids()?,
+    })
 }

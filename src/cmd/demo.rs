@@ -6,19 +6,24 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use anyhow::Context as _;
-use minos::episode::batch::{sample_scenes, Shard};
+use minos::body::{AgentPreset, BodyRule};
 use minos::episode::format::write_episodes;
 use minos::episode::sample::SampleConfig;
 use minos::episode::Task;
 use minos::generate::{generate, GenerateConfig, OutputFormat};
-use minos::ingest::{ingest, IngestConfig, Outcome};
-use minos::io::manifest::read_manifest;
-use minos::navmesh::bake::{bake_scenes, BakeConfig};
+use minos::io::tables::ImageEncoding;
 use minos::navmesh::NavParams;
+use minos::pipeline::bake::{bake_scenes, BakeConfig};
+use minos::pipeline::episodes::sample_scenes;
+use minos::pipeline::ingest::{ingest, IngestConfig, Outcome};
+use minos::pipeline::rollout::{
+    run as rollout, AgentKind, Provenance, RerunOutput, RunConfig,
+};
+use minos::render::RendererChoice;
 use minos::run::metrics::{render_table, Reward};
-use minos::run::rollout::{run as rollout, AgentKind, RerunOutput, RunConfig};
-use minos::run::tables::ImageEncoding;
-use minos::sim::{AgentConfig, RendererChoice, SensorSuite};
+use minos::shard::Shard;
+use minos::sim::{AgentConfig, SensorSuite};
+use minos::store::DataDir;
 use minos::split::{self, Expr, Ratios};
 use minos::stats;
 
@@ -77,13 +82,16 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         report.scenes.len(),
         report.manifest.display()
     ));
-    let rows = read_manifest(&report.manifest)?;
+    let store = DataDir::new(&data);
+    // One agent for every stage: the grids are baked for the body the oracle moves.
+    let preset = AgentPreset::default();
+    let rows = store.read_manifest()?;
     let ratios = Ratios::new([0.6, 0.2, 0.2])?;
     let all = split::split_by_ratios(&rows, None, ratios, args.seed);
-    let all_dir = split::write_split(&data, "all", &all.lists)?;
+    let all_dir = split::write_split(&store, "all", &all.lists)?;
     let multiroom = Expr::parse("nrooms > 2 && nrooms < 6").context("demo filter")?;
     let mr = split::split_by_ratios(&rows, Some(&multiroom), ratios, args.seed);
-    let mr_dir = split::write_split(&data, "multiroom", &mr.lists)?;
+    let mr_dir = split::write_split(&store, "multiroom", &mr.lists)?;
     ctx.say(format!(
         "3/7 splits: all {}/{}/{} -> {}, multiroom (3-5 rooms) {}/{}/{} -> {}",
         all.lists.train.len(),
@@ -107,9 +115,9 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     let bake = {
         let bar = ctx.progress(ids.len() as u64, "bake");
         let cfg = BakeConfig {
-            data: data.clone(),
-            ids: ids.clone(),
-            params: NavParams::default(),
+            data: store.clone(),
+            scenes: store.refs(&ids, None)?,
+            params: NavParams::preset(preset),
             force: false,
             previews: true,
         };
@@ -122,7 +130,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     ctx.say(format!(
         "5/7 baked {} navigation grids ({bake_failed} failed) -> {}",
         ids.len(),
-        data.join("nav").display()
+        store.nav_dir().display()
     ));
     let scenes: Vec<(String, String)> = [
         ("train", &all.lists.train),
@@ -144,7 +152,14 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         };
         let batch = {
             let bar = ctx.progress(scenes.len() as u64, task.name());
-            sample_scenes(&data, &scenes, &cfg, Shard::ALL, &bar)
+            sample_scenes(
+                &store,
+                &scenes,
+                &cfg,
+                BodyRule::strict(preset.body()),
+                Shard::ALL,
+                &bar,
+            )
         };
         let file = episodes_dir.join(format!("{}.parquet", task.name()));
         write_episodes(&file, &batch.episodes).with_context(|| file.display().to_string())?;
@@ -165,10 +180,10 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     let run_dir = args.out.join("runs").join("oracle");
     let recording = args.out.join("episode.rrd");
     let run_cfg = RunConfig {
-        data: data.clone(),
+        data: store.clone(),
         out: run_dir.clone(),
         agent: AgentKind::Oracle,
-        body: AgentConfig::habitat(),
+        body: AgentConfig::preset(preset),
         sensors: SensorSuite::minos(84),
         renderer: RendererChoice::Cpu,
         max_steps: None,
@@ -182,10 +197,18 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
             path: recording.clone(),
             episodes: 1,
         }),
+        allow_body_mismatch: false,
+        provenance: Provenance {
+            command: std::env::args().collect(),
+            episodes_file: None,
+            variant: None,
+            agent: "oracle".into(),
+            preset: Some(preset),
+        },
     };
     let report = {
         let bar = ctx.progress(validation.len() as u64, "oracle");
-        rollout(&run_cfg, &validation, &bar).map_err(anyhow::Error::msg)?
+        rollout(&run_cfg, &validation, &bar)?
     };
     ctx.say(format!(
         "7/7 oracle rollouts (RGB-D-semantic 84², Habitat agent) of {} validation episodes -> {}, \
@@ -206,7 +229,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
          python: pandas.read_parquet(\"{e}\"), pyarrow.parquet.read_table(\"{r}\")",
         start.elapsed().as_secs_f64(),
         rrd = recording.display(),
-        nav = data.join("nav").display(),
+        nav = store.nav_dir().display(),
         d = data.display(),
         id = ids.first().map(String::as_str).unwrap_or("ID"),
         e = episodes_dir.join("pointgoal.parquet").display(),

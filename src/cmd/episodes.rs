@@ -1,22 +1,26 @@
-//! `minos episodes`: flags → [`minos::episode::sample::SampleConfig`]; writes the episode
-//! Parquet, its statistics JSON, and optionally Habitat's layout. `minos episodes import`
-//! reads Habitat or MINOS episode files into the same Parquet.
+//! `minos episodes`: flags → an [`EpisodesJob`] ([`config`]: the scenes, the
+//! [`SampleConfig`], the agent body); [`minos::pipeline::episodes`] samples, then this writes
+//! the episode Parquet, its statistics JSON, and optionally Habitat's layout.
+//! `minos episodes import` reads Habitat or MINOS episode files into the same Parquet.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::{bail, Context as _};
-use minos::episode::batch::{sample_scenes, Shard};
+use minos::atomic::write_bytes_atomic;
+use minos::body::{AgentPreset, BodyRule};
 use minos::episode::format::{read_episodes, write_episodes};
 use minos::episode::habitat::{export_habitat, import_habitat};
 use minos::episode::minos_csv::import_minos_csv;
 use minos::episode::sample::{SampleConfig, Select};
 use minos::episode::Task;
-use minos::io::atomic::write_bytes_atomic;
+use minos::pipeline::episodes::sample_scenes;
 use minos::scene::RoomClass;
-use minos::split::read_split;
+use minos::shard::Shard;
+use minos::split::{read_split, Subset};
+use minos::store::DataDir;
 
-use super::common::with_variant;
+use super::common::PresetArg;
 use super::Context;
 
 /// Sample navigable PointGoal, ObjectGoal or RoomGoal episodes, or import episode files.
@@ -33,6 +37,23 @@ pub struct Args {
 enum Sub {
     /// Read Habitat (json.gz) or MINOS (csv, csv.bz2) episodes into minos's Parquet.
     Import(ImportArgs),
+}
+
+/// Subsets of `--subset`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum SubsetArg {
+    Train,
+    Val,
+    Test,
+}
+
+/// Formats of `episodes import --from`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum ImportFormat {
+    /// Habitat-Lab's json / json.gz.
+    Habitat,
+    /// MINOS's episode CSV (csv / csv.bz2).
+    MinosCsv,
 }
 
 /// Task of `--task`.
@@ -85,13 +106,19 @@ pub struct SampleArgs {
     /// Split whose scenes are used (DATA/splits/NAME).
     #[arg(long, value_name = "NAME")]
     split: Option<String>,
-    /// Only this subset of the split (train, val or test); default: all three.
-    #[arg(long, value_parser = ["train", "val", "test"])]
-    subset: Option<String>,
+    /// Only this subset of the split; default: all three.
+    #[arg(long, value_enum)]
+    subset: Option<SubsetArg>,
     /// Sample on this variant of every scene (needs `minos bake --variant NAME`); scene ids in
     /// the output read `<scene>@NAME`.
     #[arg(long, value_name = "NAME")]
     variant: Option<String>,
+    /// Agent preset whose body the episodes are for (the grids must be baked for it).
+    #[arg(long, value_enum, default_value_t)]
+    preset: PresetArg,
+    /// Sample on grids baked for another body than --preset's.
+    #[arg(long)]
+    allow_body_mismatch: bool,
     /// Episodes per scene.
     #[arg(long, default_value_t = 10)]
     per_scene: usize,
@@ -164,8 +191,8 @@ pub struct SampleArgs {
 )]
 struct ImportArgs {
     /// Format of FILE.
-    #[arg(long, value_parser = ["habitat", "minos-csv"])]
-    from: String,
+    #[arg(long, value_enum)]
+    from: ImportFormat,
     /// The file (.json, .json.gz, .csv, .csv.bz2).
     file: PathBuf,
     /// Write the episodes to this Parquet file.
@@ -173,20 +200,43 @@ struct ImportArgs {
     out: Option<PathBuf>,
 }
 
-/// Runs `minos episodes`.
-pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
-    if let Some(Sub::Import(a)) = args.command {
-        return import(a, ctx);
-    }
-    let a = args.sample;
+/// What `minos episodes` samples and where it writes.
+#[derive(Debug, Clone)]
+pub struct EpisodesJob {
+    /// The DATA folder.
+    pub data: DataDir,
+    /// `(scene reference, subset)` of every selected scene.
+    pub scenes: Vec<(String, String)>,
+    /// Sampling parameters.
+    pub sample: SampleConfig,
+    /// The body the episodes are for.
+    pub body: BodyRule,
+    /// This process's shard of the scenes.
+    pub shard: Shard,
+    /// The episode file.
+    pub out: PathBuf,
+    /// Also export Habitat-Lab's layout into this folder.
+    pub habitat_export: Option<PathBuf>,
+    /// Scene path prefix of the Habitat export.
+    pub scene_prefix: String,
+}
+
+/// Flags → the job (reads the split lists and checks the variant).
+pub fn config(a: &SampleArgs) -> anyhow::Result<EpisodesJob> {
     let (Some(data), Some(task), Some(split), Some(out)) =
-        (a.data.clone(), a.task, a.split.clone(), a.out.clone())
+        (a.data.as_ref(), a.task, a.split.as_ref(), a.out.as_ref())
     else {
         bail!("--data, --task, --split and --out are required (see `minos episodes --help`)");
     };
+    let data = DataDir::new(data);
     if a.bins.len() != 2 || a.bins[0] > a.bins[1] {
         bail!("--bins: expected two increasing distances, e.g. 3,6");
     }
+    let habitat_export = match a.export.as_deref() {
+        None => None,
+        Some([format, dir]) if format == "habitat" => Some(PathBuf::from(dir)),
+        Some(other) => bail!("--export: unknown format `{}` (habitat)", other[0]),
+    };
     let room_classes = if a.room_types.iter().any(|t| t == "any") {
         None
     } else {
@@ -200,24 +250,27 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
                 .collect::<anyhow::Result<Vec<_>>>()?,
         )
     };
-    let lists = read_split(&data, &split).with_context(|| format!("--split {split}"))?;
+    let subset = a.subset.map(|s| match s {
+        SubsetArg::Train => Subset::Train,
+        SubsetArg::Val => Subset::Val,
+        SubsetArg::Test => Subset::Test,
+    });
+    let lists = read_split(&data, split).with_context(|| format!("--split {split}"))?;
     let mut scenes = Vec::new();
-    for (name, ids) in [
-        ("train", &lists.train),
-        ("val", &lists.val),
-        ("test", &lists.test),
-    ] {
-        if a.subset.as_deref().is_none_or(|s| s == name) {
-            let refs = with_variant(&data, ids.clone(), a.variant.as_deref())?;
-            scenes.extend(refs.into_iter().map(|id| (id, name.to_string())));
+    for part in Subset::ALL {
+        if subset.is_none_or(|s| s == part) {
+            let refs = data
+                .refs(lists.get(part), a.variant.as_deref())
+                .map_err(|e| anyhow::anyhow!("--variant: {e}"))?;
+            scenes.extend(refs.into_iter().map(|r| (r.to_string(), part.name().to_string())));
         }
     }
     let stratified = match a.stratify {
         Stratify::On => true,
         Stratify::Off => false,
-        Stratify::Auto => matches!(a.subset.as_deref(), Some("val") | Some("test")),
+        Stratify::Auto => matches!(subset, Some(Subset::Val | Subset::Test)),
     };
-    let cfg = SampleConfig {
+    let sample = SampleConfig {
         task: match task {
             TaskArg::Pointgoal => Task::PointGoal,
             TaskArg::Objectgoal => Task::ObjectGoal,
@@ -245,11 +298,33 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         max_steps: a.max_steps,
         ..SampleConfig::default()
     };
+    Ok(EpisodesJob {
+        data,
+        scenes,
+        sample,
+        body: BodyRule {
+            body: AgentPreset::from(a.preset).body(),
+            allow_mismatch: a.allow_body_mismatch,
+        },
+        shard: a.shard,
+        out: out.clone(),
+        habitat_export,
+        scene_prefix: a.scene_prefix.clone(),
+    })
+}
+
+/// Runs `minos episodes`.
+pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
+    if let Some(Sub::Import(a)) = args.command {
+        return import(a, ctx);
+    }
+    let job = config(&args.sample)?;
+    let (cfg, out) = (&job.sample, &job.out);
     let batch = {
-        let bar = ctx.progress(scenes.len() as u64, "episodes");
-        sample_scenes(&data, &scenes, &cfg, a.shard, &bar)
+        let bar = ctx.progress(job.scenes.len() as u64, "episodes");
+        sample_scenes(&job.data, &job.scenes, cfg, job.body, job.shard, &bar)
     };
-    write_episodes(&out, &batch.episodes).with_context(|| format!("writing {}", out.display()))?;
+    write_episodes(out, &batch.episodes).with_context(|| format!("writing {}", out.display()))?;
     let stats_path = PathBuf::from(format!("{}.stats.json", out.display()));
     let stats = serde_json::to_vec_pretty(&batch).context("statistics")?;
     write_bytes_atomic(&stats_path, &stats).with_context(|| stats_path.display().to_string())?;
@@ -258,11 +333,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
             tracing::warn!("scene {id}: {p}");
         }
     }
-    if let Some(export) = &a.export {
-        if export[0] != "habitat" {
-            bail!("--export: unknown format `{}` (habitat)", export[0]);
-        }
-        let dir = PathBuf::from(&export[1]);
+    if let Some(dir) = &job.habitat_export {
         for subset in ["train", "val", "test"] {
             let eps: Vec<_> = batch
                 .episodes
@@ -271,7 +342,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
                 .cloned()
                 .collect();
             if !eps.is_empty() {
-                export_habitat(&dir, subset, &a.scene_prefix, &eps)?;
+                export_habitat(dir, subset, &job.scene_prefix, &eps)?;
             }
         }
         ctx.say(format!("exported Habitat episodes -> {}", dir.display()));
@@ -305,9 +376,9 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
 }
 
 fn import(a: ImportArgs, ctx: &Context) -> anyhow::Result<ExitCode> {
-    let episodes = match a.from.as_str() {
-        "habitat" => import_habitat(&a.file)?,
-        _ => import_minos_csv(&a.file)?,
+    let episodes = match a.from {
+        ImportFormat::Habitat => import_habitat(&a.file)?,
+        ImportFormat::MinosCsv => import_minos_csv(&a.file)?,
     };
     let scenes: std::collections::BTreeSet<&str> =
         episodes.iter().map(|e| e.scene_id.as_str()).collect();

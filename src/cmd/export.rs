@@ -5,9 +5,8 @@ use std::process::ExitCode;
 
 use anyhow::{bail, Context as _};
 use minos::io::export::{export_scene, ExportFormat};
-use minos::io::scene_file::scene_path;
-use minos::io::variant_store::load_scene;
-use minos::scene::variants::split_ref;
+use minos::scene::SceneRef;
+use minos::store::DataDir;
 
 use super::Context;
 
@@ -36,7 +35,7 @@ pub struct Args {
     /// Id of the scene to export (its compiled file's stem, e.g. a SUNCG house id), or
     /// `<scene>@<variant>` for a variant.
     #[arg(long, value_name = "ID")]
-    scene: String,
+    scene: SceneRef,
     /// Output format. When omitted it is taken from the --out extension (.obj or .glb).
     #[arg(long, value_enum, value_name = "FORMAT")]
     format: Option<Format>,
@@ -64,8 +63,8 @@ impl From<Format> for ExportFormat {
     }
 }
 
-/// Runs the subcommand.
-pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
+/// The format to write: `--format`, else the extension of `--out`.
+pub fn config(args: &Args) -> anyhow::Result<ExportFormat> {
     let format = match args.format {
         Some(f) => ExportFormat::from(f),
         None => match ExportFormat::from_path(&args.out) {
@@ -82,8 +81,14 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
             args.out.display()
         );
     }
-    let (id, _) = split_ref(&args.scene);
-    let path = scene_path(&args.data, id);
+    Ok(format)
+}
+
+/// Runs the subcommand.
+pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
+    let format = config(&args)?;
+    let data = DataDir::new(&args.data);
+    let path = data.scene_path(&args.scene.scene);
     if !path.is_file() {
         bail!(
             "scene {} not found: {} does not exist (run `minos ingest` on {} first, or check --scene)",
@@ -92,7 +97,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
             args.data.display()
         );
     }
-    let (scene, _) = load_scene(&args.data, &args.scene)?;
+    let (scene, _) = data.load_scene(&args.scene)?;
     let summary = export_scene(&scene, format, &args.out)
         .with_context(|| format!("exporting scene {}", args.scene))?;
     for name in &summary.skipped {
@@ -131,5 +136,35 @@ fn human_bytes(n: u64) -> String {
         format!("{n} bytes")
     } else {
         format!("{v:.1} {}", UNITS[unit])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        args: Args,
+    }
+
+    fn format(line: &str) -> anyhow::Result<ExportFormat> {
+        let args = Cli::try_parse_from(std::iter::once("export").chain(line.split_whitespace()))
+            .expect("flags parse")
+            .args;
+        config(&args)
+    }
+
+    #[test]
+    fn the_format_comes_from_the_flag_or_the_extension() {
+        assert_eq!(format("--data D --scene s --out a.glb").unwrap(), ExportFormat::Glb);
+        assert_eq!(format("--data D --scene s --out a.OBJ").ok(), ExportFormat::from_path(std::path::Path::new("a.OBJ")));
+        assert_eq!(
+            format("--data D --scene s --out a.glb --format obj").unwrap(),
+            ExportFormat::Obj
+        );
+        assert!(format("--data D --scene s --out a.ply").is_err());
     }
 }

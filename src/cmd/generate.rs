@@ -58,8 +58,8 @@ pub struct Args {
     force: bool,
 }
 
-/// Runs `minos generate`.
-pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
+/// Flags → what to generate and in which format.
+pub fn config(args: &Args) -> (GenerateConfig, OutputFormat) {
     let cfg = GenerateConfig {
         houses: args.houses,
         seed: args.seed,
@@ -71,6 +71,12 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         Format::Suncg => OutputFormat::Suncg,
         Format::Mp3d => OutputFormat::Mp3d,
     };
+    (cfg, format)
+}
+
+/// Runs `minos generate`.
+pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
+    let (cfg, format) = config(&args);
     let start = Instant::now();
     let bar = ctx.progress(cfg.houses as u64, "generate");
     let report = generate(&cfg, format, &args.out, args.force, &bar)

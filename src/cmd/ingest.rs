@@ -1,4 +1,4 @@
-//! `minos ingest`: flags → [`minos::ingest::IngestConfig`], then a summary and one line per
+//! `minos ingest`: flags → [`IngestConfig`] ([`config`]), then a summary and one line per
 //! failed scene.
 
 use std::path::PathBuf;
@@ -6,7 +6,8 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use anyhow::Context as _;
-use minos::ingest::{ingest, read_id_list, DatasetFormat, IngestConfig, Outcome};
+use minos::store::DataDir;
+use minos::pipeline::ingest::{ingest, read_id_list, DatasetFormat, IngestConfig, Outcome};
 
 use super::Context;
 
@@ -70,13 +71,13 @@ pub struct Args {
     force: bool,
 }
 
-/// Runs `minos ingest`.
-pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
+/// Flags → the library's configuration (reads the `--ids` list, if any).
+pub fn config(args: &Args) -> anyhow::Result<IngestConfig> {
     let ids = match &args.ids {
         Some(f) => Some(read_id_list(f)?),
         None => None,
     };
-    let cfg = IngestConfig {
+    Ok(IngestConfig {
         format: match args.dataset {
             Dataset::Suncg => DatasetFormat::Suncg,
             Dataset::ThreeDFront => DatasetFormat::ThreeDFront,
@@ -84,12 +85,17 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
             Dataset::Mp3d => DatasetFormat::Mp3d,
         },
         root: args.root.clone(),
-        data: args.out.clone(),
+        data: DataDir::new(&args.out),
         ids,
         force: args.force,
         categories: args.categories.clone(),
         models: args.models.clone(),
-    };
+    })
+}
+
+/// Runs `minos ingest`.
+pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
+    let cfg = config(&args)?;
     let start = Instant::now();
     let report = {
         let bar = ctx.progress(0, "ingest");

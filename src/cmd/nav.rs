@@ -6,8 +6,9 @@ use std::process::ExitCode;
 
 use anyhow::Context as _;
 use glam::Vec3;
-use minos::navmesh::file::{nav_path, read_nav};
 use minos::navmesh::route::{route, Route};
+use minos::scene::SceneRef;
+use minos::store::DataDir;
 use serde_json::json;
 
 use super::Context;
@@ -33,13 +34,13 @@ enum NavCommand {
     after_help = "Examples:\n  minos nav query --data DATA --scene ID --from 1.0,0,2.5 --to 6.2,0,4.0\n  \
     minos nav query --data DATA --scene ID --from 1,0,2.5 --to 6,3,4 --json | jq .geodesic"
 )]
-struct QueryArgs {
+pub struct QueryArgs {
     /// DATA folder with DATA/nav/<scene>.nav (run `minos bake`).
     #[arg(long)]
     data: PathBuf,
-    /// Scene id.
+    /// Scene id, or `<scene>@<variant>` (a retexture-only variant uses its scene's grid).
     #[arg(long)]
-    scene: String,
+    scene: SceneRef,
     /// Start point x,y,z.
     #[arg(long, value_parser = parse_point, allow_hyphen_values = true)]
     from: Vec3,
@@ -66,17 +67,41 @@ fn parse_point(s: &str) -> Result<Vec3, String> {
     }
 }
 
+/// A path query, as the flags ask for it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Query {
+    /// The DATA folder.
+    pub data: DataDir,
+    /// The scene (or variant).
+    pub scene: SceneRef,
+    /// Start point.
+    pub from: Vec3,
+    /// Goal point.
+    pub to: Vec3,
+    /// Print JSON.
+    pub json: bool,
+}
+
+/// Flags → the query.
+pub fn config(q: &QueryArgs) -> Query {
+    Query {
+        data: DataDir::new(&q.data),
+        scene: q.scene.clone(),
+        from: q.from,
+        to: q.to,
+        json: q.json,
+    }
+}
+
 /// Runs `minos nav`.
 pub fn run(args: Args, _ctx: &Context) -> anyhow::Result<ExitCode> {
     let NavCommand::Query(q) = args.command;
-    let path = nav_path(&q.data, &q.scene);
-    let grid = read_nav(&path).with_context(|| {
-        format!(
-            "scene {} (run `minos bake --data {}`)",
-            q.scene,
-            q.data.display()
-        )
-    })?;
+    let q = config(&q);
+    let path = q.data.grid_path(&q.scene);
+    let grid = q
+        .data
+        .read_grid(&q.scene)
+        .with_context(|| format!("scene {}", q.scene))?;
     let r: Route =
         route(&grid, q.from, q.to).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
     let euclidean = q.from.distance(q.to);
@@ -130,4 +155,32 @@ pub fn run(args: Args, _ctx: &Context) -> anyhow::Result<ExitCode> {
         println!("path:      {}", pts.join(" "));
     }
     Ok(ExitCode::SUCCESS)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        args: QueryArgs,
+    }
+
+    #[test]
+    fn points_and_scene_references_parse() {
+        let a = Cli::try_parse_from([
+            "q", "--data", "D", "--scene", "h@tex", "--from", "1,0,-2.5", "--to", "6,3,4",
+        ])
+        .unwrap()
+        .args;
+        let q = config(&a);
+        assert_eq!(q.scene, SceneRef::parse("h@tex"));
+        assert_eq!(q.from, Vec3::new(1.0, 0.0, -2.5));
+        assert_eq!(q.data.grid_path(&q.scene), std::path::Path::new("D/nav/h@tex.nav"));
+        for bad in ["1,2", "1,2,x", "1,2,inf"] {
+            assert!(parse_point(bad).is_err(), "{bad}");
+        }
+    }
 }

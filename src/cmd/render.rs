@@ -6,25 +6,15 @@ use std::sync::Arc;
 
 use anyhow::Context as _;
 use glam::Vec3;
-use minos::io::variant_store::{grid_ref, load_scene};
-use minos::navmesh::file::{nav_path, read_nav};
+use minos::body::AgentPreset;
 use minos::render::visualize::write_png;
-use minos::sim::simulator::Renderer;
-use minos::sim::{AgentConfig, RendererChoice, SceneAssets, SensorSuite, Simulator};
+use minos::render::{Renderer, RendererChoice};
+use minos::scene::SceneRef;
+use minos::sim::{AgentConfig, SceneAssets, SensorSuite, Simulator};
+use minos::store::DataDir;
 
-use super::common::with_variant;
+use super::common::{sensor_suite, PresetArg, RendererArg};
 use super::Context;
-
-/// Renderers of `--renderer`.
-#[derive(Debug, Clone, Copy, clap::ValueEnum)]
-enum RendererArg {
-    /// wgpu when an adapter exists, else CPU.
-    Auto,
-    /// The built-in CPU rasteriser.
-    Cpu,
-    /// wgpu (fails without an adapter).
-    Wgpu,
-}
 
 /// Render what an agent's sensors see at a pose, one PNG per sensor (colour; depth as 16-bit
 /// millimetres; normals as (n+1)/2; labels with a fixed colour per id).
@@ -45,19 +35,25 @@ pub struct Args {
     data: PathBuf,
     /// Scene id (or `<scene>@<variant>`).
     #[arg(long)]
-    scene: String,
+    scene: SceneRef,
     /// Render this variant of the scene (same as `--scene <scene>@NAME`).
     #[arg(long, value_name = "NAME")]
     variant: Option<String>,
     /// Agent pose x,y,z,yaw: y is the floor height under the agent, yaw in radians.
-    #[arg(long, allow_hyphen_values = true)]
-    pose: String,
+    #[arg(long, allow_hyphen_values = true, value_parser = parse_pose)]
+    pose: [f32; 4],
     /// Tilt (radians, positive up).
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
     tilt: f32,
     /// Renderer.
     #[arg(long, value_enum, default_value = "auto")]
     renderer: RendererArg,
+    /// Agent preset (body and eye height; the grid must be baked for its body).
+    #[arg(long, value_enum, default_value_t)]
+    preset: PresetArg,
+    /// Render on a grid baked for another body than --preset's.
+    #[arg(long)]
+    allow_body_mismatch: bool,
     /// Sensor file (TOML or JSON); default: every modality at --size.
     #[arg(long)]
     sensors: Option<PathBuf>,
@@ -69,50 +65,92 @@ pub struct Args {
     out: PathBuf,
 }
 
-/// Runs `minos render`.
-pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
-    let v: Vec<f32> = args
-        .pose
+fn parse_pose(s: &str) -> Result<[f32; 4], String> {
+    let v: Vec<f32> = s
         .split(',')
         .map(|t| {
             t.trim()
                 .parse::<f32>()
-                .with_context(|| format!("--pose: `{t}` is not a number"))
+                .map_err(|_| format!("`{t}` is not a number"))
         })
-        .collect::<anyhow::Result<_>>()?;
-    let [x, y, z, yaw] = v[..] else {
-        anyhow::bail!("--pose: expected x,y,z,yaw")
+        .collect::<Result<_, _>>()?;
+    match v[..] {
+        [x, y, z, yaw] if v.iter().all(|c| c.is_finite()) => Ok([x, y, z, yaw]),
+        _ => Err(format!("`{s}`: expected four finite numbers x,y,z,yaw")),
+    }
+}
+
+/// What `minos render` renders.
+#[derive(Debug, Clone)]
+pub struct RenderJob {
+    /// The DATA folder.
+    pub data: DataDir,
+    /// The scene (or variant).
+    pub scene: SceneRef,
+    /// The agent.
+    pub agent: AgentConfig,
+    /// Accept a grid baked for another body.
+    pub allow_body_mismatch: bool,
+    /// Position (x, floor y, z) and yaw.
+    pub pose: [f32; 4],
+    /// Tilt (radians).
+    pub tilt: f32,
+    /// Renderer.
+    pub renderer: RendererChoice,
+    /// Sensors.
+    pub sensors: SensorSuite,
+    /// Output folder.
+    pub out: PathBuf,
+}
+
+/// Flags → the render job (reads the sensor file, if any).
+pub fn config(args: &Args) -> anyhow::Result<RenderJob> {
+    let scene = match &args.variant {
+        Some(v) => args.scene.with_variant(Some(v)),
+        None => args.scene.clone(),
     };
-    let sensors = match &args.sensors {
-        Some(p) => {
-            let text = std::fs::read_to_string(p).with_context(|| p.display().to_string())?;
-            SensorSuite::parse(&text, &p.display().to_string()).map_err(anyhow::Error::msg)?
-        }
-        None => SensorSuite::all(args.size),
-    };
-    let scene_ref = with_variant(
-        &args.data,
-        vec![args.scene.clone()],
-        args.variant.as_deref(),
-    )?
-    .remove(0);
-    let (scene, _) = load_scene(&args.data, &scene_ref).context("run `minos ingest` first")?;
-    let grid = read_nav(&nav_path(&args.data, &grid_ref(&args.data, &scene_ref)))
-        .context("run `minos bake` first")?;
-    let agent = AgentConfig::minos_continuous();
-    let assets = Arc::new(SceneAssets::new(&scene, grid, &agent)?);
-    let choice = match args.renderer {
-        RendererArg::Auto => RendererChoice::Auto,
-        RendererArg::Cpu => RendererChoice::Cpu,
-        RendererArg::Wgpu => RendererChoice::Wgpu,
-    };
-    let renderer = Arc::new(Renderer::new(choice, &assets.render)?);
-    let mut sim = Simulator::new(assets, renderer.clone(), agent, sensors.clone(), 1, 0);
+    Ok(RenderJob {
+        data: DataDir::new(&args.data),
+        scene,
+        agent: AgentConfig::preset(AgentPreset::from(args.preset)),
+        allow_body_mismatch: args.allow_body_mismatch,
+        pose: args.pose,
+        tilt: args.tilt,
+        renderer: args.renderer.into(),
+        sensors: sensor_suite(args.sensors.as_deref(), || SensorSuite::all(args.size))?,
+        out: args.out.clone(),
+    })
+}
+
+/// Runs `minos render`.
+pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
+    let job = config(&args)?;
+    if let Some(v) = &job.scene.variant {
+        job.data
+            .read_variant(v)
+            .map_err(|e| anyhow::anyhow!("--variant {v}: {e}"))?;
+    }
+    let (scene, _) = job
+        .data
+        .load_scene(&job.scene)
+        .context("run `minos ingest` first")?;
+    let grid = job.data.read_grid(&job.scene)?;
+    let assets = if job.allow_body_mismatch {
+        SceneAssets::new_allowing_body_mismatch(&scene, grid, &job.agent)
+    } else {
+        SceneAssets::new(&scene, grid, &job.agent)
+    }
+    .with_context(|| format!("scene {}", job.scene))?;
+    let assets = Arc::new(assets);
+    let renderer = Arc::new(Renderer::new(job.renderer, &assets.render)?);
+    let sensors = job.sensors.clone();
+    let mut sim = Simulator::new(assets, renderer.clone(), job.agent, sensors.clone(), 1, 0);
+    let [x, y, z, yaw] = job.pose;
     sim.reset(Vec3::new(x, y, z), yaw, None, "render");
-    sim.set_tilt(args.tilt);
+    sim.set_tilt(job.tilt);
     let obs = sim.observe()?;
     for ((name, image), sensor) in obs.images.iter().zip(&sensors.cameras) {
-        let path = args.out.join(format!("{name}.png"));
+        let path = job.out.join(format!("{name}.png"));
         write_png(
             &path,
             sensor.modality,
@@ -126,7 +164,43 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         "rendered {} images with {} -> {}",
         obs.images.len(),
         renderer.name(),
-        args.out.display()
+        job.out.display()
     ));
     Ok(ExitCode::SUCCESS)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+    use minos::body::AgentBody;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        args: Args,
+    }
+
+    fn job(line: &str) -> RenderJob {
+        let args = Cli::try_parse_from(std::iter::once("render").chain(line.split_whitespace()))
+            .expect("flags parse")
+            .args;
+        config(&args).expect("config")
+    }
+
+    #[test]
+    fn flags_become_the_job() {
+        let j = job("--data D --scene h --variant empty --pose 1,0,-2,1.5 --out o");
+        assert_eq!(j.scene.to_string(), "h@empty");
+        assert_eq!(j.pose, [1.0, 0.0, -2.0, 1.5]);
+        assert_eq!(j.agent.body, AgentBody::HABITAT);
+        assert_eq!(j.renderer, RendererChoice::Auto);
+        assert_eq!(j.sensors.cameras.len(), SensorSuite::all(256).cameras.len());
+        let j = job("--data D --scene h --pose 0,0,0,0 --preset minos --renderer cpu --out o");
+        assert_eq!(j.agent.body, AgentBody::MINOS);
+        assert_eq!(j.renderer, RendererChoice::Cpu);
+        for bad in ["1,2,3", "1,2,3,x", "1,2,3,nan"] {
+            assert!(parse_pose(bad).is_err(), "{bad}");
+        }
+    }
 }

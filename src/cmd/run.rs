@@ -1,21 +1,54 @@
-//! `minos run`: flags → [`minos::run::rollout::RunConfig`]; prints the metrics table.
+//! `minos run`: flags → [`RunConfig`] ([`config`]: agent, body, sensors, episodes), then
+//! [`minos::pipeline::rollout::run`], which writes the tables and the manifest; prints the
+//! metrics table.
 
-use std::collections::HashMap;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use anyhow::{bail, Context as _};
-use minos::episode::batch::Shard;
+use anyhow::bail;
+use minos::body::AgentPreset;
 use minos::episode::format::read_episodes;
-use minos::io::atomic::write_bytes_atomic;
-use minos::io::variant_store::read_variant;
-use minos::run::agents::Decision;
+use minos::episode::Episode;
+use minos::io::tables::{read_replay, ImageEncoding};
+use minos::pipeline::rollout::{run as run_episodes, AgentKind, Provenance, RerunOutput, RunConfig};
 use minos::run::metrics::{render_table, Reward};
-use minos::run::rollout::{run as run_episodes, AgentKind, RerunOutput, RunConfig};
-use minos::run::tables::ImageEncoding;
-use minos::sim::{AgentConfig, RendererChoice, SensorSuite};
+use minos::shard::Shard;
+use minos::sim::{AgentConfig, SensorSuite};
+use minos::store::DataDir;
 
+use super::common::{sensor_suite, PresetArg, RendererArg};
 use super::Context;
+
+/// Rewards of `--reward`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum RewardArg {
+    /// MINOS: decrease of the Euclidean distance minus the normalised time of a step.
+    #[value(name = "dist_time")]
+    DistTime,
+    /// MINOS: decrease of the shortest-path distance.
+    #[value(name = "path_delta")]
+    PathDelta,
+    /// Habitat: decrease of the geodesic distance − 0.01 per step + 2.5 on success.
+    Geodesic,
+}
+
+/// Encodings of `--image-encoding`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum EncodingArg {
+    /// Raw little-endian pixels (shape and dtype in the column metadata).
+    Raw,
+    /// PNG.
+    Png,
+}
+
+/// Layouts of `--format`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum FormatArg {
+    /// minos's Parquet tables.
+    Parquet,
+    /// The Parquet tables and a LeRobot-style copy in DIR/lerobot.
+    Lerobot,
+}
 
 /// Roll out episodes with an agent, writing Parquet datasets (trajectories, observations,
 /// episodes with metrics) and metrics.json into DIR.
@@ -52,9 +85,12 @@ pub struct Args {
     /// lines on stdin/stdout, see docs/EXTERNAL_AGENT.md).
     #[arg(long)]
     agent: String,
-    /// Agent preset: minos-continuous, minos-gridworld or habitat.
-    #[arg(long, default_value = "habitat")]
-    preset: String,
+    /// Agent preset (body and motion); the grids must be baked for its body.
+    #[arg(long, value_enum, default_value_t)]
+    preset: PresetArg,
+    /// Run on grids baked for another body than --preset's (recorded in manifest.json).
+    #[arg(long)]
+    allow_body_mismatch: bool,
     /// Sensor file (TOML/JSON); default: MINOS's RGB, depth, semantic at --size and 4 contacts.
     #[arg(long)]
     sensors: Option<PathBuf>,
@@ -77,17 +113,17 @@ pub struct Args {
     #[arg(long)]
     resume: bool,
     /// Reward: dist_time (MINOS), path_delta (MINOS) or geodesic (Habitat).
-    #[arg(long, default_value = "dist_time", value_parser = ["dist_time", "path_delta", "geodesic"])]
-    reward: String,
+    #[arg(long, value_enum, default_value = "dist_time")]
+    reward: RewardArg,
     /// Image storage: raw little-endian pixels (shape/dtype in the column metadata) or png.
-    #[arg(long, default_value = "raw", value_parser = ["raw", "png"])]
-    image_encoding: String,
+    #[arg(long, value_enum, default_value = "raw")]
+    image_encoding: EncodingArg,
     /// Also write a LeRobot-style layout into DIR/lerobot (`--format lerobot`).
-    #[arg(long, value_parser = ["parquet", "lerobot"], default_value = "parquet")]
-    format: String,
-    /// Renderer: auto, cpu or wgpu.
-    #[arg(long, default_value = "cpu", value_parser = ["auto", "cpu", "wgpu"])]
-    renderer: String,
+    #[arg(long, value_enum, default_value = "parquet")]
+    format: FormatArg,
+    /// Renderer.
+    #[arg(long, value_enum, default_value = "cpu")]
+    renderer: RendererArg,
     /// Also record episodes for the rerun viewer into this .rrd file (open with
     /// `rerun FILE.rrd`): scene, navigation grid, shortest path, and per step the agent's
     /// pose, camera images and measurements.
@@ -100,135 +136,82 @@ pub struct Args {
     rerun_episodes: usize,
 }
 
-fn read_replay(path: &std::path::Path) -> anyhow::Result<HashMap<String, Vec<Decision>>> {
-    use arrow::array::{Array, StringArray, UInt32Array};
-    use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
-    let file = std::fs::File::open(path).with_context(|| path.display().to_string())?;
-    let reader = ParquetRecordBatchReaderBuilder::try_new(file)?.build()?;
-    let mut rows: HashMap<String, Vec<(u32, Decision)>> = HashMap::new();
-    for batch in reader {
-        let batch = batch?;
-        let col = |n: &str| {
-            batch
-                .column_by_name(n)
-                .with_context(|| format!("{}: no column `{n}`", path.display()))
-        };
-        let ids = col("episode_id")?
-            .as_any()
-            .downcast_ref::<StringArray>()
-            .context("episode_id: not text")?
-            .clone();
-        let steps = col("step")?
-            .as_any()
-            .downcast_ref::<UInt32Array>()
-            .context("step: not uint32")?
-            .clone();
-        let actions = col("action")?
-            .as_any()
-            .downcast_ref::<StringArray>()
-            .context("action: not text")?
-            .clone();
-        for i in 0..batch.num_rows() {
-            let d = Decision::from_name(actions.value(i)).with_context(|| {
-                format!(
-                    "{}: row {i}: unknown action `{}`",
-                    path.display(),
-                    actions.value(i)
-                )
-            })?;
-            rows.entry(ids.value(i).to_string())
-                .or_default()
-                .push((steps.value(i), d));
-        }
-    }
-    Ok(rows
-        .into_iter()
-        .map(|(k, mut v)| {
-            v.sort_by_key(|(s, _)| *s);
-            (k, v.into_iter().map(|(_, d)| d).collect())
-        })
-        .collect())
-}
-
-/// Runs `minos run`.
-pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
-    let agent = match args.agent.as_str() {
+/// The agent `--agent` names (reads the replay file of `replay:FILE`).
+fn agent_kind(name: &str) -> anyhow::Result<AgentKind> {
+    Ok(match name {
         "random" => AgentKind::Random,
         "forward" => AgentKind::Forward,
         "oracle" => AgentKind::Oracle,
         other => match (other.strip_prefix("replay:"), other.strip_prefix("external:")) {
-            (Some(file), _) => AgentKind::Replay(read_replay(std::path::Path::new(file))?),
+            (Some(file), _) => {
+                AgentKind::Replay(read_replay(Path::new(file)).map_err(anyhow::Error::msg)?)
+            }
             (_, Some(cmd)) if !cmd.trim().is_empty() => AgentKind::External(cmd.to_string()),
-            _ => bail!("--agent: unknown agent `{other}` (random, forward, oracle, replay:FILE, external:CMD)"),
+            _ => bail!(
+                "--agent: unknown agent `{other}` (random, forward, oracle, replay:FILE, external:CMD)"
+            ),
         },
-    };
-    let body = AgentConfig::preset(&args.preset)
-        .with_context(|| format!("--preset: unknown `{}`", args.preset))?;
-    let sensors = match &args.sensors {
-        Some(p) => SensorSuite::parse(
-            &std::fs::read_to_string(p).with_context(|| p.display().to_string())?,
-            &p.display().to_string(),
-        )
-        .map_err(anyhow::Error::msg)?,
-        None => SensorSuite::minos(args.size),
-    };
+    })
+}
+
+/// Flags → the run's configuration and its episodes (reads the episode, sensor and replay
+/// files and checks the variant).
+pub fn config(args: &Args) -> anyhow::Result<(RunConfig, Vec<Episode>)> {
+    let data = DataDir::new(&args.data);
+    let agent = agent_kind(&args.agent)?;
+    let preset = AgentPreset::from(args.preset);
+    let sensors = sensor_suite(args.sensors.as_deref(), || SensorSuite::minos(args.size))?;
     let mut episodes = read_episodes(&args.episodes)?;
     if let Some(name) = &args.variant {
-        read_variant(&args.data, name).map_err(|e| anyhow::anyhow!("--variant {name}: {e}"))?;
+        data.read_variant(name)
+            .map_err(|e| anyhow::anyhow!("--variant {name}: {e}"))?;
         episodes = episodes.into_iter().map(|e| e.on_variant(name)).collect();
     }
     let cfg = RunConfig {
-        data: args.data.clone(),
+        data,
         out: args.out.clone(),
         agent,
-        body,
+        body: AgentConfig::preset(preset),
         sensors,
-        renderer: match args.renderer.as_str() {
-            "auto" => RendererChoice::Auto,
-            "wgpu" => RendererChoice::Wgpu,
-            _ => RendererChoice::Cpu,
-        },
+        renderer: args.renderer.into(),
         max_steps: args.max_steps,
         seed: args.seed,
         shard: args.shard,
         resume: args.resume,
-        reward: Reward::from_name(&args.reward).unwrap_or_default(),
-        encoding: if args.image_encoding == "png" {
-            ImageEncoding::Png
-        } else {
-            ImageEncoding::Raw
+        reward: match args.reward {
+            RewardArg::DistTime => Reward::DistTime,
+            RewardArg::PathDelta => Reward::PathDelta,
+            RewardArg::Geodesic => Reward::Geodesic,
         },
-        lerobot: args.format == "lerobot",
+        encoding: match args.image_encoding {
+            EncodingArg::Raw => ImageEncoding::Raw,
+            EncodingArg::Png => ImageEncoding::Png,
+        },
+        lerobot: args.format == FormatArg::Lerobot,
         rerun: args.rerun.as_ref().map(|path| RerunOutput {
             path: path.clone(),
             episodes: args.rerun_episodes,
         }),
+        allow_body_mismatch: args.allow_body_mismatch,
+        provenance: Provenance {
+            command: std::env::args().collect(),
+            episodes_file: Some(args.episodes.clone()),
+            variant: args.variant.clone(),
+            agent: args.agent.clone(),
+            preset: Some(preset),
+        },
     };
+    Ok((cfg, episodes))
+}
+
+/// Runs `minos run`.
+pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
+    let (cfg, episodes) = config(&args)?;
     let start = std::time::Instant::now();
     let report = {
         let bar = ctx.progress(episodes.len() as u64, "run");
-        run_episodes(&cfg, &episodes, &bar).map_err(anyhow::Error::msg)?
+        run_episodes(&cfg, &episodes, &bar)?
     };
-    let manifest = serde_json::json!({
-        "command": std::env::args().collect::<Vec<_>>(),
-        "minos_version": env!("CARGO_PKG_VERSION"),
-        "episodes_file": args.episodes,
-        "variant": args.variant,
-        "agent": args.agent,
-        "preset": args.preset,
-        "body": body,
-        "sensors": cfg.sensors,
-        "seed": args.seed,
-        "shard": format!("{}/{}", args.shard.index, args.shard.count),
-        "reward": args.reward,
-        "image_encoding": args.image_encoding,
-        "rerun": args.rerun,
-        "rerun_episodes": args.rerun.as_ref().map(|_| args.rerun_episodes),
-    });
-    write_bytes_atomic(
-        &args.out.join("manifest.json"),
-        &serde_json::to_vec_pretty(&manifest)?,
-    )?;
     for (id, e) in &report.failures {
         eprintln!("error: episode {id}: {e}");
     }
@@ -241,14 +224,14 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         report.failures.len(),
         start.elapsed().as_secs_f64(),
         f64::from(steps) / start.elapsed().as_secs_f64(),
-        args.out.display()
+        cfg.out.display()
     ));
-    if let Some(path) = &args.rerun {
+    if let Some(rerun) = &cfg.rerun {
         ctx.say(format!(
             "{} episode(s) recorded -> {} (open with `rerun {}`)",
             report.recorded,
-            path.display(),
-            path.display()
+            rerun.path.display(),
+            rerun.path.display()
         ));
     }
     Ok(if report.failures.is_empty() {
@@ -256,4 +239,57 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     } else {
         ExitCode::FAILURE
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+    use minos::body::AgentBody;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        args: Args,
+    }
+
+    fn args(line: &str) -> Args {
+        Cli::try_parse_from(std::iter::once("run").chain(line.split_whitespace()))
+            .expect("flags parse")
+            .args
+    }
+
+    #[test]
+    fn agents_are_named_or_refused() {
+        assert_eq!(agent_kind("oracle").unwrap(), AgentKind::Oracle);
+        assert_eq!(
+            agent_kind("external:python3 p.py").unwrap(),
+            AgentKind::External("python3 p.py".into())
+        );
+        assert!(agent_kind("external: ").is_err());
+        assert!(agent_kind("greedy").is_err());
+        let missing = agent_kind("replay:/nonexistent/t.parquet").unwrap_err().to_string();
+        assert!(missing.contains("/nonexistent/t.parquet"), "{missing}");
+    }
+
+    #[test]
+    fn typed_flags_refuse_unknown_values() {
+        for bad in [
+            "--reward distance",
+            "--image-encoding jpeg",
+            "--format hdf5",
+            "--renderer vulkan",
+            "--preset default",
+        ] {
+            let line = format!("run --data D --episodes E --agent oracle --out O {bad}");
+            assert!(Cli::try_parse_from(line.split_whitespace()).is_err(), "{bad}");
+        }
+        let a = args("--data D --episodes E --agent oracle --out O --preset minos-gridworld");
+        assert_eq!(AgentPreset::from(a.preset), AgentPreset::MinosGridworld);
+        assert_eq!(
+            AgentConfig::preset(AgentPreset::from(a.preset)).body,
+            AgentBody::MINOS
+        );
+        assert_eq!(args("--data D --episodes E --agent oracle --out O").reward, RewardArg::DistTime);
+    }
 }

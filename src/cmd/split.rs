@@ -6,9 +6,9 @@ use std::process::ExitCode;
 
 use anyhow::Context as _;
 use clap::ArgGroup;
-use minos::io::manifest::read_manifest;
 use minos::split::expr::SYNTAX_HELP;
 use minos::split::{self, Expr, Ratios, SplitResult};
+use minos::store::DataDir;
 
 use super::Context;
 
@@ -66,33 +66,73 @@ pub struct Args {
     seed: u64,
 }
 
-/// Runs the subcommand.
-pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
+/// How the scenes are divided.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Method {
+    /// Official lists read from a folder.
+    Lists(PathBuf),
+    /// Seeded fractions.
+    Ratios(Ratios, u64),
+}
+
+/// What `minos split` writes.
+#[derive(Debug, Clone)]
+pub struct SplitJob {
+    /// The DATA folder.
+    pub data: DataDir,
+    /// The split's folder, `DATA/splits/<name>/`.
+    pub dir: PathBuf,
+    /// The `--where` filter.
+    pub filter: Option<Expr>,
+    /// Lists or ratios.
+    pub method: Method,
+}
+
+/// Flags → the job (the name and the `--where` expression checked before any work).
+pub fn config(args: &Args) -> anyhow::Result<SplitJob> {
     let filter = args
         .filter
         .as_deref()
         .map(Expr::parse)
         .transpose()
         .context("--where")?;
-    // Fail on a bad name before any work.
-    let dir = split::split_dir(&args.data, &args.name).context("--name")?;
-    let rows = read_manifest(&args.data.join("houses.parquet"))
+    let data = DataDir::new(&args.data);
+    let dir = split::split_dir(&data, &args.name).context("--name")?;
+    let method = match (&args.lists, args.ratios) {
+        (Some(lists_dir), _) => Method::Lists(lists_dir.clone()),
+        (None, Some(ratios)) => Method::Ratios(ratios, args.seed),
+        (None, None) => anyhow::bail!("one of --lists and --ratios is required"),
+    };
+    Ok(SplitJob {
+        data,
+        dir,
+        filter,
+        method,
+    })
+}
+
+/// Runs the subcommand.
+pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
+    let job = config(&args)?;
+    let (filter, dir) = (job.filter.as_ref(), &job.dir);
+    let rows = job
+        .data
+        .read_manifest()
         .context("cannot read the manifest (run `minos ingest` first)")?;
-    let result = match (&args.lists, args.ratios) {
-        (Some(lists_dir), _) => {
+    let result = match &job.method {
+        Method::Lists(lists_dir) => {
             let lists = split::read_lists(lists_dir).context("--lists")?;
-            split::split_by_lists(&rows, filter.as_ref(), &lists)
+            split::split_by_lists(&rows, filter, &lists)
                 .with_context(|| format!("--lists {}", lists_dir.display()))?
         }
-        (None, Some(ratios)) => split::split_by_ratios(&rows, filter.as_ref(), ratios, args.seed),
-        (None, None) => anyhow::bail!("one of --lists and --ratios is required"),
+        Method::Ratios(ratios, seed) => split::split_by_ratios(&rows, filter, *ratios, *seed),
     };
     warn_missing(&result.missing, "listed ids are not in DATA");
     if result.lists.total() == 0 {
         tracing::warn!("split {} is empty", args.name);
     }
-    split::write_split(&args.data, &args.name, &result.lists)?;
-    ctx.say(summary(&args, &result, &dir));
+    split::write_split(&job.data, &args.name, &result.lists)?;
+    ctx.say(summary(&args, &result, dir));
     Ok(ExitCode::SUCCESS)
 }
 

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::Context as _;
-use minos::io::manifest::read_manifest;
+use minos::store::DataDir;
 use minos::split;
 use minos::stats::{self, StatsColumn};
 
@@ -46,7 +46,9 @@ pub struct Args {
 
 /// Runs the subcommand.
 pub fn run(args: Args, _ctx: &Context) -> anyhow::Result<ExitCode> {
-    let rows = read_manifest(&args.data.join("houses.parquet"))
+    let data = DataDir::new(&args.data);
+    let rows = data
+        .read_manifest()
         .context("cannot read the manifest (run `minos ingest` first)")?;
     let columns = match &args.split {
         None => vec![StatsColumn {
@@ -55,7 +57,7 @@ pub fn run(args: Args, _ctx: &Context) -> anyhow::Result<ExitCode> {
         }],
         Some(name) => {
             let lists =
-                split::read_split(&args.data, name).with_context(|| format!("--split {name}"))?;
+                split::read_split(&data, name).with_context(|| format!("--split {name}"))?;
             let what = format!("ids of split {name} are not in the manifest (not counted)");
             super::split::warn_missing(&lists.missing_from(&rows), &what);
             stats::compute_split(&rows, &lists)

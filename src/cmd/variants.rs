@@ -5,16 +5,13 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::{bail, Context as _};
-use minos::io::variant_store::{
-    collect_stats, dry_run, list_variants, read_stats, read_variant, stats_path, write_stats,
-    write_variant,
-};
+use minos::pipeline::variants::{collect_stats, dry_run};
+use minos::store::DataDir;
 use minos::scene::variants::materials::DEFAULT_FRACTIONS;
 use minos::scene::variants::{
     parse_spec_file, validate_name, KeepOnly, Retexture, TextureSet, VariantSpec,
 };
 
-use super::common::ingested_ids;
 use super::Context;
 
 /// Define scene variants: clutter removal (remove, keep_only, empty, hide), open doors and
@@ -113,32 +110,38 @@ fn from_flags(args: &Args, name: &str) -> anyhow::Result<VariantSpec> {
     Ok(spec)
 }
 
+/// Flags → the variants to define: read from `--spec FILE`, or one built from the flags.
+pub fn config(args: &Args) -> anyhow::Result<Vec<(String, VariantSpec)>> {
+    Ok(match (&args.spec, &args.name) {
+        (Some(path), _) => {
+            let text = std::fs::read_to_string(path).with_context(|| path.display().to_string())?;
+            parse_spec_file(&text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?
+        }
+        (None, Some(name)) => vec![(name.clone(), from_flags(args, name)?)],
+        (None, None) => bail!("give --spec FILE or --name NAME with changes (see --help)"),
+    })
+}
+
 /// Runs `minos variants`.
 pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
+    let data = DataDir::new(&args.data);
     if args.list {
-        for name in list_variants(&args.data) {
-            let spec = read_variant(&args.data, &name)?;
+        for name in data.list_variants() {
+            let spec = data.read_variant(&name)?;
             let line = spec.to_toml().lines().collect::<Vec<_>>().join("; ");
             println!("{name}: {line}");
         }
         return Ok(ExitCode::SUCCESS);
     }
-    let variants: Vec<(String, VariantSpec)> = match (&args.spec, &args.name) {
-        (Some(path), _) => {
-            let text = std::fs::read_to_string(path).with_context(|| path.display().to_string())?;
-            parse_spec_file(&text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?
-        }
-        (None, Some(name)) => vec![(name.clone(), from_flags(&args, name)?)],
-        (None, None) => bail!("give --spec FILE or --name NAME with changes (see --help)"),
-    };
-    let ids = ingested_ids(&args.data)?;
+    let variants = config(&args)?;
+    let ids = data.ingested_ids()?;
 
     let needs_stats = variants.iter().any(|(_, s)| s.retexture.is_some());
     let stats = if needs_stats || args.refresh_stats {
         let existing = if args.refresh_stats {
             None
         } else {
-            read_stats(&args.data).ok()
+            data.read_material_stats().ok()
         };
         Some(match existing {
             Some(s) => s,
@@ -146,7 +149,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
                 let (stats, failures) = {
                     let bar = ctx.progress(ids.len() as u64, "material stats");
                     collect_stats(
-                        &args.data,
+                        &data,
                         &ids,
                         args.partition_seed,
                         DEFAULT_FRACTIONS,
@@ -156,7 +159,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
                 for (id, e) in &failures {
                     eprintln!("warning: scene {id}: left out of the material statistics: {e}");
                 }
-                let path = write_stats(&args.data, &stats)?;
+                let path = data.write_material_stats(&stats)?;
                 let per_set = |set| stats.materials.iter().filter(|m| m.set == set).count();
                 ctx.say(format!(
                     "material statistics of {} scenes: {} materials in {} categories \
@@ -176,14 +179,14 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         None
     };
     if needs_stats && stats.is_none() {
-        bail!("{}: missing", stats_path(&args.data).display());
+        bail!("{}: missing", data.material_stats_path().display());
     }
 
     let mut failed = 0;
     for (name, spec) in &variants {
         let reports = {
             let bar = ctx.progress(ids.len() as u64, name);
-            dry_run(&args.data, &ids, name, spec, stats.as_ref(), &bar)
+            dry_run(&data, &ids, name, spec, stats.as_ref(), &bar)
         };
         let (mut removed, mut swapped, mut cleared, mut redrawn, mut kept) = (0, 0, 0, 0, 0);
         for (id, r) in &reports {
@@ -206,7 +209,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
                 }
             }
         }
-        let path = write_variant(&args.data, name, spec)?;
+        let path = data.write_variant(name, spec)?;
         let mut what = format!("{removed} objects removed");
         if spec.open_doors || !spec.doors.is_empty() {
             what += &format!(", {swapped} doors swapped, {cleared} doors cleared");
@@ -217,7 +220,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         let bake = if spec.changes_geometry() {
             format!(
                 "; bake it with `minos bake --data {} --variant {name}`",
-                args.data.display()
+                data.root().display()
             )
         } else {
             "; it keeps the geometry and shares its scenes' grids".to_string()

@@ -1,10 +1,12 @@
-//! `minos view`: flags → [`minos::io::rrd::view::write_view`]; prints what was recorded.
+//! `minos view`: flags → [`ViewConfig`] ([`config`]) → [`minos::pipeline::view::write_view`]; prints what was recorded.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 use minos::episode::format::read_episodes;
-use minos::io::rrd::view::{write_view, ViewConfig};
+use minos::pipeline::view::{write_view, ViewConfig};
+use minos::scene::SceneRef;
+use minos::store::DataDir;
 
 use super::Context;
 
@@ -29,7 +31,7 @@ pub struct Args {
     data: PathBuf,
     /// Id of the scene to record (`<scene>@<variant>` for a variant).
     #[arg(long, value_name = "ID")]
-    scene: String,
+    scene: SceneRef,
     /// Episode file from `minos episodes`: draws the scene's episodes with their shortest
     /// paths.
     #[arg(long, value_name = "FILE")]
@@ -39,17 +41,22 @@ pub struct Args {
     out: PathBuf,
 }
 
+/// Flags → what to record.
+pub fn config(args: &Args) -> ViewConfig {
+    ViewConfig {
+        data: DataDir::new(&args.data),
+        scene: args.scene.clone(),
+        out: args.out.clone(),
+    }
+}
+
 /// Runs `minos view`.
 pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     let episodes = match &args.episodes {
         Some(p) => read_episodes(p)?,
         None => Vec::new(),
     };
-    let cfg = ViewConfig {
-        data: args.data.clone(),
-        scene: args.scene.clone(),
-        out: args.out.clone(),
-    };
+    let cfg = config(&args);
     let report = write_view(&cfg, &episodes)?;
     if args.episodes.is_some() && report.episodes == 0 {
         tracing::warn!("no episode of scene {} in the episode file", args.scene);

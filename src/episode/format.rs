@@ -50,7 +50,7 @@ use parquet::basic::{Compression, ZstdLevel};
 use parquet::file::properties::WriterProperties;
 
 use super::{Difficulty, Episode, Goal, GoalTarget, Task};
-use crate::io::atomic::write_atomic;
+use crate::atomic::write_atomic;
 
 /// Rows per record batch (and at most per row group) when writing.
 const BATCH_ROWS: usize = 65_536;

@@ -86,7 +86,7 @@ use super::interchange::{
     DEFAULT_MAX_STEPS,
 };
 use super::{Difficulty, Episode, Goal, GoalTarget, Task};
-use crate::io::atomic::write_atomic;
+use crate::atomic::write_atomic;
 
 /// Success radius (m) of imported PointNav episodes without one (Habitat's PointNav default).
 pub const DEFAULT_POINT_SUCCESS_RADIUS: f32 = 0.2;

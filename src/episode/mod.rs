@@ -1,7 +1,6 @@
 //! Episodes: navigable PointGoal / ObjectGoal / RoomGoal start–goal pairs, their Parquet
 //! file, and interchange with Habitat-Lab and MINOS formats.
 
-pub mod batch;
 pub mod format;
 pub mod goal;
 pub mod habitat;
@@ -151,8 +150,9 @@ impl Episode {
     /// (replacing any variant it had) and the episode id follows it. Positions stay: variants
     /// that only remove clutter, open doors or retexture keep every start and goal walkable.
     pub fn on_variant(mut self, name: &str) -> Self {
-        let base = crate::scene::variants::split_ref(&self.scene_id).0;
-        let scene = crate::scene::variants::join_ref(base, Some(name));
+        let scene = crate::scene::SceneRef::parse(&self.scene_id)
+            .with_variant(Some(name))
+            .to_string();
         if let Some(rest) = self.episode_id.strip_prefix(&format!("{}:", self.scene_id)) {
             self.episode_id = format!("{scene}:{rest}");
         } else {

@@ -19,7 +19,7 @@ use std::fmt::Write as _;
 use std::io;
 use std::path::{Path, PathBuf};
 
-use crate::io::atomic::write_bytes_atomic;
+use crate::atomic::write_bytes_atomic;
 use crate::scene::formats::mp3d::ply::write_ply;
 use crate::scene::RoomClass;
 

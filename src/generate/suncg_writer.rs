@@ -13,7 +13,7 @@ use std::path::Path;
 
 use serde_json::{json, Value};
 
-use crate::io::atomic::write_bytes_atomic;
+use crate::atomic::write_bytes_atomic;
 
 use super::catalog::catalog;
 use super::objwrite::{mtl_text, MtlMaterial, ObjText};

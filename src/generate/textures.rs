@@ -5,7 +5,7 @@
 use std::io;
 use std::path::Path;
 
-use crate::io::atomic::write_bytes_atomic;
+use crate::atomic::write_bytes_atomic;
 
 /// A procedural texture: its file stem under `texture/` and how to draw it.
 #[derive(Debug, Clone, Copy)]

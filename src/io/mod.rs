@@ -1,9 +1,8 @@
-//! Files minos reads and writes: atomic output, the compiled scene format, the Parquet
-//! manifest, scene export to OBJ/GLB, and rerun recordings (`.rrd`).
+//! Outputs: rerun recordings (`rrd`), scene exports to OBJ/GLB (`export`), and the Parquet
+//! tables of a run with their LeRobot-style copy (`tables`, `lerobot`). Nothing here reads or
+//! writes the DATA folder (that is `crate::store`).
 
-pub mod atomic;
 pub mod export;
-pub mod manifest;
+pub mod lerobot;
 pub mod rrd;
-pub mod scene_file;
-pub mod variant_store;
+pub mod tables;

@@ -164,7 +164,7 @@ fn rasterise(
             continue;
         };
         // Stairs are walked on; so are objects lying on the floor no higher than a step.
-        let walk_on = object.flags.stairs || object.bbox.max.y <= base + params.max_climb;
+        let walk_on = object.flags.stairs || object.bbox.max.y <= base + params.body.max_climb;
         pieces.clear();
         for t in mesh.indices.chunks_exact(3) {
             let tri = [
@@ -268,7 +268,7 @@ fn open_spans(mut solids: Vec<Solid>, columns: usize, params: &NavParams) -> (Ve
             }
             let ceiling = merged.get(k + 1).map_or(f32::INFINITY, |n| n.ymin);
             let headroom = ceiling - m.ymax;
-            if headroom >= params.agent_height {
+            if headroom >= params.body.height {
                 spans.push(Span {
                     y: m.ymax,
                     headroom,
@@ -309,7 +309,7 @@ fn step_target(
         }
         let dy = (s.y - y).abs();
         let overlap = (s.y + s.headroom).min(top) - s.y.max(y);
-        if dy <= params.max_climb + 1e-4 && overlap >= params.agent_height && dy < best_dy {
+        if dy <= params.body.max_climb + 1e-4 && overlap >= params.body.height && dy < best_dy {
             best = t as u32;
             best_dy = dy;
         }
@@ -361,7 +361,7 @@ fn link(
                 let (t1, t2) = (spans[a as usize].links[az], spans[b as usize].links[ax]);
                 if t1 == t2
                     && t1 != NONE
-                    && (spans[t1 as usize].y - spans[s].y).abs() <= params.max_climb + 1e-4
+                    && (spans[t1 as usize].y - spans[s].y).abs() <= params.body.max_climb + 1e-4
                 {
                     t1
                 } else {
@@ -412,7 +412,7 @@ fn erode(_column_start: &[u32], spans: &mut [Span], params: &NavParams, raster: 
     }
     for (s, d) in spans.iter_mut().zip(dist) {
         s.clearance = d;
-        s.walkable = d + 1e-4 >= params.agent_radius;
+        s.walkable = d + 1e-4 >= params.body.radius;
     }
 }
 
@@ -467,7 +467,7 @@ fn assign_rooms(scene: &Scene, raster: &RasterGrid, grid: &mut NavGrid) {
     }
     cover.sort_by(|a, b| a.0.cmp(&b.0).then(a.1.cmp(&b.1)));
     cover.dedup_by(|a, b| a.0 == b.0 && a.1 == b.1);
-    let climb = grid.params.max_climb;
+    let climb = grid.params.body.max_climb;
     let mut k = 0;
     for c in 0..(grid.nx * grid.nz) as usize {
         while k < cover.len() && (cover[k].0 as usize) < c {

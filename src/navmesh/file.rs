@@ -31,7 +31,7 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use crate::io::atomic::write_bytes_atomic;
+use crate::atomic::write_bytes_atomic;
 
 use super::geodesic::Geodesic;
 use super::grid::{
@@ -67,11 +67,6 @@ pub enum NavFileError {
         /// What is wrong.
         message: String,
     },
-}
-
-/// Where a scene's grid lives in a DATA folder.
-pub fn nav_path(data: &Path, scene: &str) -> PathBuf {
-    data.join("nav").join(format!("{scene}.nav"))
 }
 
 /// What the header says (the grid without its per-span arrays), as written.

@@ -1755,7 +1755,7 @@ impl<'g> Geodesic<'g> {
     fn weighted(&self, sc: &mut Scratch, target: Option<u32>) {
         let grid = self.grid();
         let spans = &grid.spans;
-        let threshold = grid.params.agent_radius + grid.params.clearance_margin;
+        let threshold = grid.params.body.radius + grid.params.clearance_margin;
         let weight = grid.params.clearance_weight;
         let fr = self.frame;
         let (open, closed) = (sc.open, sc.open + 1);

@@ -49,7 +49,7 @@ const FLAT_FRACTION: f32 = 0.25;
 /// slope (≤ 45°): so stairs count as straight ramps, while a line from a floor onto a ramp
 /// must still bend where the slope changes.
 pub fn profile_tolerance(grid: &NavGrid) -> f32 {
-    (0.5 * grid.params.max_climb + grid.params.cell_size).max(0.02)
+    (0.5 * grid.params.body.max_climb + grid.params.cell_size).max(0.02)
 }
 
 /// Exact integer DDA over the cells a segment between two cell centres passes.
@@ -718,7 +718,7 @@ fn quadrant(sx: i64, sz: i64) -> usize {
 /// a walk needs is the links, and a span without its forward links (size 1) is never jumped
 /// over.
 fn squares_ahead(grid: &NavGrid, packed: &mut [SightSpan]) {
-    let flat = FLAT_FRACTION * grid.params.max_climb;
+    let flat = FLAT_FRACTION * grid.params.body.max_climb;
     let (nx, nz) = (grid.nx as usize, grid.nz as usize);
     let start = &grid.column_start;
     if nx == 0 || start.len() < nx * nz + 1 {
@@ -977,7 +977,7 @@ mod tests {
     /// [`squares_ahead`] as it was first written, span by span from the packed records: the
     /// reference its row sweeps must match.
     fn squares_ahead_reference(grid: &NavGrid, packed: &mut [SightSpan]) {
-        let flat = FLAT_FRACTION * grid.params.max_climb;
+        let flat = FLAT_FRACTION * grid.params.body.max_climb;
         let (nx, nz) = (grid.nx as usize, grid.nz as usize);
         let start = &grid.column_start;
         if nx == 0 || start.len() < nx * nz + 1 {

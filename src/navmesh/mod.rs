@@ -6,7 +6,6 @@
 //! `geodesic` (any-angle distance fields), `path` (shortest paths with rooms and doors),
 //! `query` (snapping, sampling), `file` (the `.nav` format) and `preview` (PNG images).
 
-pub mod bake;
 pub mod build;
 pub mod file;
 pub mod geodesic;

@@ -7,20 +7,9 @@ use std::path::Path;
 use image::{Rgb, RgbImage};
 
 use super::grid::{NavGrid, NONE};
-use crate::io::atomic::write_atomic;
+use crate::atomic::write_atomic;
+use crate::scene::room_colors::room_class_color;
 
-/// Colour of each MINOS room class (0 other … 8 outdoor).
-pub const CLASS_COLORS: [[u8; 3]; 9] = [
-    [190, 190, 170],
-    [150, 160, 235],
-    [140, 210, 140],
-    [120, 210, 230],
-    [240, 200, 120],
-    [235, 230, 120],
-    [220, 150, 220],
-    [235, 190, 160],
-    [160, 230, 170],
-];
 const OUTSIDE: [u8; 3] = [200, 200, 200];
 const ERODED: [u8; 3] = [235, 235, 235];
 const OBSTACLE: [u8; 3] = [45, 45, 50];
@@ -49,7 +38,7 @@ pub fn render_level(grid: &NavGrid, level: u16, scale: u32) -> RgbImage {
             } else if span.room == NONE {
                 OUTSIDE
             } else {
-                CLASS_COLORS[grid.rooms[span.room as usize].class.min(8) as usize]
+                room_class_color(grid.rooms[span.room as usize].class)
             };
             if span.walkable {
                 if let Some(o) = grid.objects_above(s as u32).find(|o| o.door || o.arch) {

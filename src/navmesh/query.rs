@@ -24,14 +24,14 @@ impl NavGrid {
                     .abs()
                     .total_cmp(&(self.spans[b].y - p.y).abs())
             })
-            .filter(|&s| (self.spans[s].y - p.y).abs() <= self.params.agent_height)
+            .filter(|&s| (self.spans[s].y - p.y).abs() <= self.params.body.height)
             .map(|s| s as u32)
     }
 
     /// True when an agent standing at `p` (y = floor height) is on walkable floor.
     pub fn is_walkable(&self, p: Vec3) -> bool {
         self.span_at(p)
-            .is_some_and(|s| (self.spans[s as usize].y - p.y).abs() <= self.params.max_climb)
+            .is_some_and(|s| (self.spans[s as usize].y - p.y).abs() <= self.params.body.max_climb)
     }
 
     /// The nearest walkable span to `p` within [`SNAP_RADIUS`] (3D distance between `p` and
@@ -109,8 +109,8 @@ impl NavGrid {
                 for s in self.column_spans(c) {
                     let span = &self.spans[s];
                     if !span.walkable
-                        || span.y > o.max[1] + self.params.max_climb
-                        || span.y + self.params.agent_height < o.min[1]
+                        || span.y > o.max[1] + self.params.body.max_climb
+                        || span.y + self.params.body.height < o.min[1]
                     {
                         continue;
                     }

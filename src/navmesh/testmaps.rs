@@ -108,7 +108,7 @@ impl MapSpec {
             sorted.sort_by(|a, b| a.0.total_cmp(&b.0));
             for (i, &(y, ch)) in sorted.iter().enumerate() {
                 let headroom = sorted.get(i + 1).map_or(f32::INFINITY, |n| n.0 - y);
-                let walkable = ch != '#' && headroom >= params.agent_height;
+                let walkable = ch != '#' && headroom >= params.body.height;
                 let room = if ch.is_ascii_lowercase() {
                     ch as u32 - 'a' as u32
                 } else {
@@ -147,7 +147,7 @@ impl MapSpec {
                         let y = spans[s].y;
                         let best = (column_start[nc] as usize..column_start[nc + 1] as usize)
                             .filter(|&t| {
-                                spans[t].walkable && (spans[t].y - y).abs() <= params.max_climb
+                                spans[t].walkable && (spans[t].y - y).abs() <= params.body.max_climb
                             })
                             .min_by(|&p, &q| {
                                 (spans[p].y - y).abs().total_cmp(&(spans[q].y - y).abs())

@@ -1,13 +1,15 @@
 //! Rendering: the scene as a triangle soup with per-triangle attributes (`scene`), the camera
 //! model (`camera`), frames and the images derived from them (`frame`), label taxonomies
-//! (`labels`), textures (`texture`, `texture_library`), and two renderers producing the same frames: the CPU rasteriser (`cpu`, always
+//! (`labels`), the images sensors produce (`image`), textures (`texture`, `texture_library`), and two renderers producing the same frames, chosen in `renderer`: the CPU rasteriser (`cpu`, always
 //! available) and wgpu (`gpu`, when an adapter exists).
 
 pub mod camera;
 pub mod cpu;
 pub mod frame;
 pub mod gpu;
+pub mod image;
 pub mod labels;
+pub mod renderer;
 pub mod scene;
 pub mod texture;
 pub mod texture_library;
@@ -15,5 +17,7 @@ pub mod visualize;
 
 pub use camera::Camera;
 pub use frame::{Frame, NO_HIT};
+pub use image::{Image, Modality};
 pub use labels::Taxonomy;
+pub use renderer::{Renderer, RendererChoice};
 pub use scene::RenderScene;

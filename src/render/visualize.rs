@@ -5,7 +5,7 @@ use std::path::Path;
 
 use image::{ImageBuffer, Luma, Rgb, RgbImage};
 
-use crate::sim::sensors::{Image, Modality};
+use super::image::{Image, Modality};
 
 /// A fixed, well-spread colour for a label id (0 is black).
 pub fn label_color(id: u32) -> [u8; 3] {
@@ -29,7 +29,7 @@ pub fn write_png(
     height: u32,
 ) -> std::io::Result<()> {
     let bytes = encode_png(modality, image, width, height)?;
-    crate::io::atomic::write_bytes_atomic(path, &bytes)
+    crate::atomic::write_bytes_atomic(path, &bytes)
 }
 
 /// Encodes `image` (of a sensor with `modality`, `width` × `height`) as PNG bytes.
@@ -101,7 +101,7 @@ pub fn encode_png(
                     if c == 0 {
                         [0, 0, 0]
                     } else {
-                        crate::navmesh::preview::CLASS_COLORS[(c as usize).min(8)]
+                        crate::scene::room_colors::ROOM_CLASS_COLORS[(c as usize).min(8)]
                     }
                 })
                 .collect(),

@@ -8,6 +8,43 @@ use crate::seed::{derive_seed, Rng};
 use crate::sim::agent::Motion;
 use crate::sim::{Actions, Observation, Simulator};
 
+/// Why an agent could not go on. Messages are one line and name the agent and the episode
+/// or step concerned.
+#[derive(Debug, thiserror::Error)]
+pub enum AgentError {
+    /// A replay has no decisions for the episode.
+    #[error("the replay file has no episode `{0}`")]
+    NoReplay(String),
+    /// The oracle found no plan to the goal.
+    #[error("episode {0}: no plan found")]
+    NoPlan(String),
+    /// The oracle's plan no longer matches the agent's state.
+    #[error("episode {0}: lost the plan")]
+    LostPlan(String),
+    /// `decide` was called before `reset`.
+    #[error("{0} used before reset")]
+    NotReset(&'static str),
+    /// The external agent's process could not be started or spoken to.
+    #[error("external agent `{command}`: {message}")]
+    External {
+        /// Its command line.
+        command: String,
+        /// What went wrong.
+        message: String,
+    },
+    /// The external agent's process closed its output.
+    #[error("external agent `{0}` closed its output")]
+    ExternalClosed(String),
+    /// A reply of the external agent that is not a decision.
+    #[error("{0}")]
+    Reply(#[from] ReplyError),
+}
+
+/// A reply of an external agent that is not a decision.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{0}")]
+pub struct ReplyError(pub String);
+
 /// What an agent does next.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Decision {
@@ -87,9 +124,9 @@ impl Decision {
 /// An agent.
 pub trait Agent: Send {
     /// Prepares for an episode (the simulator has been reset to it).
-    fn reset(&mut self, episode: &Episode, sim: &Simulator) -> Result<(), String>;
+    fn reset(&mut self, episode: &Episode, sim: &Simulator) -> Result<(), AgentError>;
     /// The next decision given the latest observation.
-    fn decide(&mut self, obs: &Observation, sim: &Simulator) -> Result<Decision, String>;
+    fn decide(&mut self, obs: &Observation, sim: &Simulator) -> Result<Decision, AgentError>;
     /// Whether success needs an explicit `stop` from this agent.
     fn stops(&self) -> bool {
         false
@@ -128,14 +165,14 @@ impl RandomAgent {
 }
 
 impl Agent for RandomAgent {
-    fn reset(&mut self, episode: &Episode, _sim: &Simulator) -> Result<(), String> {
+    fn reset(&mut self, episode: &Episode, _sim: &Simulator) -> Result<(), AgentError> {
         self.rng = Rng::new(derive_seed(
             self.seed,
             &[&episode.episode_id, "random-agent"],
         ));
         Ok(())
     }
-    fn decide(&mut self, _obs: &Observation, sim: &Simulator) -> Result<Decision, String> {
+    fn decide(&mut self, _obs: &Observation, sim: &Simulator) -> Result<Decision, AgentError> {
         let set = action_set(sim);
         let name = set[self.rng.below(set.len())];
         Ok(Decision::Act(
@@ -165,7 +202,7 @@ impl ForwardAgent {
 }
 
 impl Agent for ForwardAgent {
-    fn reset(&mut self, episode: &Episode, _sim: &Simulator) -> Result<(), String> {
+    fn reset(&mut self, episode: &Episode, _sim: &Simulator) -> Result<(), AgentError> {
         self.rng = Rng::new(derive_seed(
             self.seed,
             &[&episode.episode_id, "forward-agent"],
@@ -173,7 +210,7 @@ impl Agent for ForwardAgent {
         self.turning = 0;
         Ok(())
     }
-    fn decide(&mut self, obs: &Observation, _sim: &Simulator) -> Result<Decision, String> {
+    fn decide(&mut self, obs: &Observation, _sim: &Simulator) -> Result<Decision, AgentError> {
         if obs.measurements.collision && self.turning == 0 {
             self.turning = 1 + self.rng.below(4) as u32;
             self.turn = if self.rng.chance(0.5) {
@@ -213,16 +250,16 @@ impl ReplayAgent {
 }
 
 impl Agent for ReplayAgent {
-    fn reset(&mut self, episode: &Episode, _sim: &Simulator) -> Result<(), String> {
+    fn reset(&mut self, episode: &Episode, _sim: &Simulator) -> Result<(), AgentError> {
         self.current = self
             .by_episode
             .get(&episode.episode_id)
             .cloned()
-            .ok_or_else(|| format!("the replay file has no episode `{}`", episode.episode_id))?;
+            .ok_or_else(|| AgentError::NoReplay(episode.episode_id.clone()))?;
         self.next = 0;
         Ok(())
     }
-    fn decide(&mut self, _obs: &Observation, _sim: &Simulator) -> Result<Decision, String> {
+    fn decide(&mut self, _obs: &Observation, _sim: &Simulator) -> Result<Decision, AgentError> {
         let d = self
             .current
             .get(self.next)

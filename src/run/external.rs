@@ -11,7 +11,7 @@ use serde_json::{json, Value};
 use crate::episode::Episode;
 use crate::sim::{Actions, Observation, Simulator};
 
-use super::agents::{Agent, Decision};
+use super::agents::{Agent, AgentError, Decision, ReplyError};
 
 /// A running external policy.
 pub struct ExternalAgent {
@@ -24,16 +24,25 @@ pub struct ExternalAgent {
 
 impl ExternalAgent {
     /// Starts `command` with `sh -c`.
-    pub fn spawn(command: &str) -> Result<Self, String> {
+    pub fn spawn(command: &str) -> Result<Self, AgentError> {
+        let fail = |message: String| AgentError::External {
+            command: command.to_string(),
+            message,
+        };
         let mut child = Command::new("sh")
             .arg("-c")
             .arg(command)
             .stdin(Stdio::piped())
             .stdout(Stdio::piped())
             .spawn()
-            .map_err(|e| format!("external agent `{command}`: {e}"))?;
-        let stdin = child.stdin.take().ok_or("external agent: no stdin")?;
-        let stdout = BufReader::new(child.stdout.take().ok_or("external agent: no stdout")?);
+            .map_err(|e| fail(e.to_string()))?;
+        let stdin = child.stdin.take().ok_or_else(|| fail("no stdin".into()))?;
+        let stdout = BufReader::new(
+            child
+                .stdout
+                .take()
+                .ok_or_else(|| fail("no stdout".into()))?,
+        );
         Ok(ExternalAgent {
             command: command.to_string(),
             child,
@@ -43,32 +52,31 @@ impl ExternalAgent {
         })
     }
 
-    fn send(&mut self, msg: &Value) -> Result<(), String> {
+    fn fail(&self, message: String) -> AgentError {
+        AgentError::External {
+            command: self.command.clone(),
+            message,
+        }
+    }
+
+    fn send(&mut self, msg: &Value) -> Result<(), AgentError> {
         let line = msg.to_string();
         writeln!(self.stdin, "{line}")
             .and_then(|_| self.stdin.flush())
-            .map_err(|e| format!("external agent `{}`: write: {e}", self.command))
+            .map_err(|e| self.fail(format!("write: {e}")))
     }
 
-    fn receive(&mut self) -> Result<Value, String> {
+    fn receive(&mut self) -> Result<Value, AgentError> {
         let mut line = String::new();
         let n = self
             .stdout
             .read_line(&mut line)
-            .map_err(|e| format!("external agent `{}`: read: {e}", self.command))?;
+            .map_err(|e| self.fail(format!("read: {e}")))?;
         if n == 0 {
-            return Err(format!(
-                "external agent `{}` closed its output",
-                self.command
-            ));
+            return Err(AgentError::ExternalClosed(self.command.clone()));
         }
-        serde_json::from_str(line.trim()).map_err(|e| {
-            format!(
-                "external agent `{}`: reply `{}` is not JSON: {e}",
-                self.command,
-                line.trim()
-            )
-        })
+        serde_json::from_str(line.trim())
+            .map_err(|e| self.fail(format!("reply `{}` is not JSON: {e}", line.trim())))
     }
 }
 
@@ -80,19 +88,21 @@ impl Drop for ExternalAgent {
 }
 
 /// Parses a reply: `{"stop": true}`, `{"action": "forward"}` or `{"actions": {"forward": 1.0, …}}`.
-pub fn parse_reply(v: &Value) -> Result<Decision, String> {
+pub fn parse_reply(v: &Value) -> Result<Decision, ReplyError> {
     if v.get("stop").and_then(Value::as_bool) == Some(true) {
         return Ok(Decision::Stop);
     }
     if let Some(name) = v.get("action").and_then(Value::as_str) {
-        return Decision::from_name(name).ok_or_else(|| format!("unknown action `{name}`"));
+        return Decision::from_name(name)
+            .ok_or_else(|| ReplyError(format!("unknown action `{name}`")));
     }
     if let Some(map) = v.get("actions").and_then(Value::as_object) {
         let mut a = Actions::IDLE;
         for (k, val) in map {
             let s = val
                 .as_f64()
-                .ok_or_else(|| format!("actions.{k}: not a number"))? as f32;
+                .ok_or_else(|| ReplyError(format!("actions.{k}: not a number")))?
+                as f32;
             match k.as_str() {
                 "forward" => a.forward = s,
                 "backward" => a.backward = s,
@@ -102,14 +112,14 @@ pub fn parse_reply(v: &Value) -> Result<Decision, String> {
                 "turn_right" => a.turn_right = s,
                 "look_up" => a.look_up = s,
                 "look_down" => a.look_down = s,
-                other => return Err(format!("actions: unknown action `{other}`")),
+                other => return Err(ReplyError(format!("actions: unknown action `{other}`"))),
             }
         }
         return Ok(Decision::Act(a.clamped()));
     }
-    Err(format!(
+    Err(ReplyError(format!(
         "reply `{v}` has none of `stop`, `action`, `actions`"
-    ))
+    )))
 }
 
 fn observation_json(episode: &str, obs: &Observation, sim: &Simulator) -> Value {
@@ -145,7 +155,7 @@ fn observation_json(episode: &str, obs: &Observation, sim: &Simulator) -> Value 
 }
 
 impl Agent for ExternalAgent {
-    fn reset(&mut self, episode: &Episode, _sim: &Simulator) -> Result<(), String> {
+    fn reset(&mut self, episode: &Episode, _sim: &Simulator) -> Result<(), AgentError> {
         self.episode = episode.episode_id.clone();
         let msg = json!({
             "type": "reset",
@@ -158,16 +168,12 @@ impl Agent for ExternalAgent {
         self.send(&msg)
     }
 
-    fn decide(&mut self, obs: &Observation, sim: &Simulator) -> Result<Decision, String> {
+    fn decide(&mut self, obs: &Observation, sim: &Simulator) -> Result<Decision, AgentError> {
         let msg = observation_json(&self.episode, obs, sim);
         self.send(&msg)?;
         let reply = self.receive()?;
-        parse_reply(&reply).map_err(|e| {
-            format!(
-                "external agent `{}`: step {}: {e}",
-                self.command, obs.measurements.step
-            )
-        })
+        parse_reply(&reply)
+            .map_err(|e| self.fail(format!("step {}: {e}", obs.measurements.step)))
     }
 
     fn stops(&self) -> bool {

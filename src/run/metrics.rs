@@ -1,10 +1,28 @@
-//! Rewards and metrics: MINOS's `dist_time` and `path_delta` rewards and Habitat's geodesic
+//! Rewards, the success test ([`reached`]) and metrics: MINOS's `dist_time` and `path_delta` rewards and Habitat's geodesic
 //! delta; per-episode success, MINOS speed (fraction of time left), SPL, SoftSPL, path length
 //! and collisions, aggregated per task, split and difficulty.
 
 use std::collections::BTreeMap;
 
+use glam::Vec3;
 use serde::Serialize;
+
+use crate::episode::{Episode, Goal};
+use crate::sim::{AgentState, Simulator};
+
+/// True when the agent at `state` satisfies the episode's success test.
+pub fn reached(sim: &Simulator, episode: &Episode, state: &AgentState) -> bool {
+    let p = Vec3::from_array(state.position);
+    match &episode.goal {
+        Goal::Point { position } => {
+            p.distance(Vec3::from_array(*position)) <= episode.success_radius
+        }
+        Goal::Object { .. } | Goal::Room { .. } => sim.goal_field_distance(p).is_some_and(|d| {
+            // On a goal span: the field is 0 there; allow the offset within the cell.
+            d <= sim.assets().grid.cell() * 0.75
+        }),
+    }
+}
 
 /// A reward function.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -19,7 +37,16 @@ pub enum Reward {
 }
 
 impl Reward {
-    /// Parses `dist_time`, `path_delta` or `geodesic`.
+    /// `dist_time`, `path_delta` or `geodesic`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Reward::DistTime => "dist_time",
+            Reward::PathDelta => "path_delta",
+            Reward::Geodesic => "geodesic",
+        }
+    }
+
+    /// A reward function by its [`Reward::name`].
     pub fn from_name(s: &str) -> Option<Reward> {
         match s {
             "dist_time" => Some(Reward::DistTime),

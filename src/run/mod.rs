@@ -1,11 +1,9 @@
-//! Runs: agents rolling out episodes in simulators (`agents`, `oracle`), rewards and metrics
-//! (`metrics`), and the Parquet tables they write (`tables`); `rollout` ties them together
-//! with resumable, per-episode part files.
+//! Agents and how they are scored: the agents that drive a simulator (`agents`: random,
+//! forward, replay; `oracle`, the planner; `external`, a policy process over JSON lines) and
+//! the rewards, success test and metrics of an episode (`metrics`). The batch driver that
+//! rolls agents out over many episodes is `crate::pipeline::rollout`.
 
 pub mod agents;
 pub mod external;
-pub mod lerobot;
 pub mod metrics;
 pub mod oracle;
-pub mod rollout;
-pub mod tables;

@@ -22,7 +22,8 @@ use crate::episode::{Episode, Goal};
 use crate::sim::agent::{AgentState, Motion};
 use crate::sim::{Actions, Observation, Simulator};
 
-use super::agents::{action_set, Agent, Decision};
+use super::metrics::reached;
+use super::agents::{action_set, Agent, AgentError, Decision};
 
 /// Largest number of states one plan may expand.
 const MAX_EXPANSIONS: usize = 40_000;
@@ -42,20 +43,6 @@ impl OracleAgent {
     /// A fresh oracle.
     pub fn new() -> Self {
         Self::default()
-    }
-}
-
-/// True when the agent at `state` satisfies the episode's success test.
-pub fn reached(sim: &Simulator, episode: &Episode, state: &AgentState) -> bool {
-    let p = Vec3::from_array(state.position);
-    match &episode.goal {
-        Goal::Point { position } => {
-            p.distance(Vec3::from_array(*position)) <= episode.success_radius
-        }
-        Goal::Object { .. } | Goal::Room { .. } => sim.goal_field_distance(p).is_some_and(|d| {
-            // On a goal span: the field is 0 there; allow the offset within the cell.
-            d <= sim.assets().grid.cell() * 0.75
-        }),
     }
 }
 
@@ -335,22 +322,22 @@ fn search(
 }
 
 impl Agent for OracleAgent {
-    fn reset(&mut self, episode: &Episode, sim: &Simulator) -> Result<(), String> {
+    fn reset(&mut self, episode: &Episode, sim: &Simulator) -> Result<(), AgentError> {
         self.episode = Some(episode.clone());
         self.next = 0;
         self.plan = plan(sim, episode, sim.state())
-            .ok_or_else(|| format!("episode {}: no plan found", episode.episode_id))?;
+            .ok_or_else(|| AgentError::NoPlan(episode.episode_id.clone()))?;
         self.expected = None;
         Ok(())
     }
 
-    fn decide(&mut self, _obs: &Observation, sim: &Simulator) -> Result<Decision, String> {
-        let episode = self.episode.as_ref().ok_or("oracle used before reset")?;
+    fn decide(&mut self, _obs: &Observation, sim: &Simulator) -> Result<Decision, AgentError> {
+        let episode = self.episode.as_ref().ok_or(AgentError::NotReset("oracle"))?;
         // Re-plan if the world did not do what the plan expected (it is deterministic, so this
         // only happens when the plan came from another state).
         if self.expected.is_some_and(|e| e != sim.state()) {
             self.plan = plan(sim, episode, sim.state())
-                .ok_or_else(|| format!("episode {}: lost the plan", episode.episode_id))?;
+                .ok_or_else(|| AgentError::LostPlan(episode.episode_id.clone()))?;
             self.next = 0;
         }
         let Some(name) = self.plan.get(self.next).copied() else {

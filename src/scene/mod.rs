@@ -5,6 +5,8 @@ pub mod formats;
 pub mod geometry;
 pub mod mesh;
 pub mod model;
+pub mod room_colors;
+pub mod scene_ref;
 pub mod taxonomy;
 pub mod variants;
 
@@ -14,4 +16,5 @@ pub use model::{
     Categories, Dataset, Level, MaterialOverride, MeshId, Object, ObjectFlags, Room, Scene,
     Surface, SurfaceKind,
 };
+pub use scene_ref::SceneRef;
 pub use taxonomy::RoomClass;

@@ -3,6 +3,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::body::{AgentBody, AgentPreset};
+
 /// How actions move the agent.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "lowercase")]
@@ -32,18 +34,18 @@ pub enum Motion {
 }
 
 /// The agent's body, motion model and timing.
+///
+/// In files (the run manifest) the body's fields are written flat: `radius`, `height`,
+/// `eye_height`, `mass`, `max_climb`, `dt`, `look_step_deg`, `motion`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(from = "AgentFields", into = "AgentFields")]
 pub struct AgentConfig {
-    /// Cylinder radius (m).
-    pub radius: f32,
-    /// Cylinder height (m).
-    pub height: f32,
+    /// The body: the same [`AgentBody`] navigation grids are baked for.
+    pub body: AgentBody,
     /// Eye height above the floor (m).
     pub eye_height: f32,
     /// Mass (kg).
     pub mass: f32,
-    /// Highest step the body climbs (m).
-    pub max_climb: f32,
     /// Simulated time per step (s).
     pub dt: f32,
     /// Tilt change of a full-strength look action (degrees).
@@ -52,17 +54,60 @@ pub struct AgentConfig {
     pub motion: Motion,
 }
 
+/// [`AgentConfig`] as stored: flat fields in this order.
+#[derive(Serialize, Deserialize)]
+struct AgentFields {
+    radius: f32,
+    height: f32,
+    eye_height: f32,
+    mass: f32,
+    max_climb: f32,
+    dt: f32,
+    look_step_deg: f32,
+    motion: Motion,
+}
+
+impl From<AgentConfig> for AgentFields {
+    fn from(a: AgentConfig) -> Self {
+        AgentFields {
+            radius: a.body.radius,
+            height: a.body.height,
+            eye_height: a.eye_height,
+            mass: a.mass,
+            max_climb: a.body.max_climb,
+            dt: a.dt,
+            look_step_deg: a.look_step_deg,
+            motion: a.motion,
+        }
+    }
+}
+
+impl From<AgentFields> for AgentConfig {
+    fn from(f: AgentFields) -> Self {
+        AgentConfig {
+            body: AgentBody {
+                radius: f.radius,
+                height: f.height,
+                max_climb: f.max_climb,
+            },
+            eye_height: f.eye_height,
+            mass: f.mass,
+            dt: f.dt,
+            look_step_deg: f.look_step_deg,
+            motion: f.motion,
+        }
+    }
+}
+
 impl AgentConfig {
-    /// MINOS's continuous agent: radius 0.1, eye 1.09, mass 32, acceleration 20 m/s², speed
-    /// 2 m/s, friction 0.5, turn acceleration 4π rad/s², angular speed 4π (enforced),
-    /// angular friction 1, dt 0.1 s.
+    /// MINOS's continuous agent: MINOS's body ([`AgentBody::MINOS`]), eye 1.09, mass 32,
+    /// acceleration 20 m/s², speed 2 m/s, friction 0.5, turn acceleration 4π rad/s², angular
+    /// speed 4π (enforced), angular friction 1, dt 0.1 s.
     pub fn minos_continuous() -> Self {
         AgentConfig {
-            radius: 0.1,
-            height: 1.19,
+            body: AgentBody::MINOS,
             eye_height: 1.09,
             mass: 32.0,
-            max_climb: 0.2,
             dt: 0.1,
             look_step_deg: 10.0,
             motion: Motion::Continuous {
@@ -87,10 +132,11 @@ impl AgentConfig {
         }
     }
 
-    /// Habitat's discrete agent: 0.25 m steps, 10° turns, height 1.5 m.
+    /// Habitat's discrete agent: Habitat's body ([`AgentBody::HABITAT`], 1.5 m), eye 1.25 m,
+    /// 0.25 m steps, 10° turns.
     pub fn habitat() -> Self {
         AgentConfig {
-            height: 1.5,
+            body: AgentBody::HABITAT,
             eye_height: 1.25,
             motion: Motion::Discrete {
                 step: 0.25,
@@ -100,13 +146,12 @@ impl AgentConfig {
         }
     }
 
-    /// A preset by name: `minos-continuous`, `minos-gridworld`, `habitat`.
-    pub fn preset(name: &str) -> Option<Self> {
-        match name {
-            "minos-continuous" => Some(Self::minos_continuous()),
-            "minos-gridworld" => Some(Self::minos_gridworld()),
-            "habitat" => Some(Self::habitat()),
-            _ => None,
+    /// The agent of preset `preset`.
+    pub fn preset(preset: AgentPreset) -> Self {
+        match preset {
+            AgentPreset::Habitat => Self::habitat(),
+            AgentPreset::Minos => Self::minos_continuous(),
+            AgentPreset::MinosGridworld => Self::minos_gridworld(),
         }
     }
 }

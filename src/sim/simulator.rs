@@ -6,91 +6,19 @@ use std::sync::Arc;
 
 use glam::Vec3;
 
+use crate::body::BodyMismatch;
 use crate::navmesh::geodesic::{DistanceField, Geodesic};
 use crate::navmesh::path::{path_from_field, PathResult};
 use crate::navmesh::NavGrid;
-use crate::render::gpu::{GpuError, GpuRenderer};
-use crate::render::{cpu, Camera, Frame, RenderScene};
+use crate::render::gpu::GpuError;
+pub use crate::render::renderer::{Renderer, RendererChoice};
+use crate::render::{Camera, RenderScene};
 use crate::scene::Scene;
 use crate::seed::{derive_seed, Rng};
 
 use super::agent::{intended_motion, Actions, AgentConfig, AgentState};
 use super::collision::CollisionWorld;
 use super::sensors::{Image, SensorSuite};
-
-/// Which renderer to use.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum RendererChoice {
-    /// The CPU rasteriser.
-    Cpu,
-    /// wgpu (fails when no adapter exists).
-    Wgpu,
-    /// wgpu when an adapter exists, else the CPU rasteriser.
-    #[default]
-    Auto,
-}
-
-/// A renderer instance.
-pub enum Renderer {
-    /// The CPU rasteriser.
-    Cpu,
-    /// wgpu, with the scene uploaded.
-    Gpu(Box<GpuRenderer>),
-}
-
-impl Renderer {
-    /// Creates the chosen renderer for `scene`.
-    pub fn new(choice: RendererChoice, scene: &RenderScene) -> Result<Renderer, GpuError> {
-        let gpu = || -> Result<Renderer, GpuError> {
-            let mut g = GpuRenderer::new()?;
-            g.upload(scene);
-            Ok(Renderer::Gpu(Box::new(g)))
-        };
-        match choice {
-            RendererChoice::Cpu => Ok(Renderer::Cpu),
-            RendererChoice::Wgpu => gpu(),
-            RendererChoice::Auto => Ok(gpu().unwrap_or(Renderer::Cpu)),
-        }
-    }
-
-    /// `cpu` or the adapter's name.
-    pub fn name(&self) -> String {
-        match self {
-            Renderer::Cpu => "cpu".into(),
-            Renderer::Gpu(g) => format!("wgpu: {}", g.adapter_name()),
-        }
-    }
-
-    /// Renders cameras (any resolutions) in order.
-    pub fn render(&self, scene: &RenderScene, cameras: &[Camera]) -> Result<Vec<Frame>, GpuError> {
-        match self {
-            Renderer::Cpu => Ok(cameras.iter().map(|c| cpu::render(scene, c)).collect()),
-            Renderer::Gpu(g) => {
-                // Batch cameras of equal resolution.
-                let mut frames: Vec<Option<Frame>> = vec![None; cameras.len()];
-                let mut done = vec![false; cameras.len()];
-                for i in 0..cameras.len() {
-                    if done[i] {
-                        continue;
-                    }
-                    let group: Vec<usize> = (i..cameras.len())
-                        .filter(|&j| {
-                            !done[j]
-                                && cameras[j].width == cameras[i].width
-                                && cameras[j].height == cameras[i].height
-                        })
-                        .collect();
-                    let cams: Vec<Camera> = group.iter().map(|&j| cameras[j]).collect();
-                    for (j, f) in group.iter().zip(g.render_batch(&cams)?) {
-                        frames[*j] = Some(f);
-                        done[*j] = true;
-                    }
-                }
-                Ok(frames.into_iter().flatten().collect())
-            }
-        }
-    }
-}
 
 /// Errors building a simulator.
 #[derive(Debug, thiserror::Error)]
@@ -101,6 +29,9 @@ pub enum SimError {
     /// The renderer could not be created.
     #[error(transparent)]
     Render(#[from] GpuError),
+    /// The navigation grid was baked for another body than the agent's.
+    #[error(transparent)]
+    Body(#[from] BodyMismatch),
 }
 
 /// Everything that does not change between simulators of one scene (share it with `Arc`).
@@ -116,12 +47,25 @@ pub struct SceneAssets {
 }
 
 impl SceneAssets {
-    /// Prepares a scene for agents of `agent`'s body.
+    /// Prepares a scene for agents of `agent`'s body, on `grid`, which must have been baked
+    /// for that body ([`SimError::Body`] otherwise).
     pub fn new(scene: &Scene, grid: NavGrid, agent: &AgentConfig) -> Result<Self, SimError> {
+        agent.body.check_grid(&grid.params.body)?;
+        Self::new_allowing_body_mismatch(scene, grid, agent)
+    }
+
+    /// [`SceneAssets::new`] without the body check, for a grid knowingly baked for another
+    /// body (`--allow-body-mismatch`): geodesics and goal measurements then describe the
+    /// grid's body, collisions the agent's.
+    pub fn new_allowing_body_mismatch(
+        scene: &Scene,
+        grid: NavGrid,
+        agent: &AgentConfig,
+    ) -> Result<Self, SimError> {
         Ok(SceneAssets {
             id: scene.id.clone(),
             render: RenderScene::new(scene),
-            collision: CollisionWorld::new(scene, agent.radius, agent.height, agent.max_climb)
+            collision: CollisionWorld::new(scene, agent.body.radius, agent.body.height, agent.body.max_climb)
                 .map_err(SimError::Scene)?,
             grid,
         })
@@ -338,7 +282,7 @@ impl Simulator {
         let c = grid.column(ix, iz)?;
         grid.column_spans(c)
             .map(|s| grid.spans[s].y)
-            .filter(|h| (h - y).abs() <= self.agent.max_climb + 1e-4)
+            .filter(|h| (h - y).abs() <= self.agent.body.max_climb + 1e-4)
             .min_by(|a, b| (a - y).abs().total_cmp(&(b - y).abs()))
     }
 
@@ -367,7 +311,7 @@ impl Simulator {
         state.yaw = (state.yaw + rot).rem_euclid(std::f32::consts::TAU);
         let mut base = Vec3::from_array(state.position);
         let total = Vec3::new(disp[0], 0.0, disp[1]);
-        let n = (total.length() / (SUBSTEP * self.agent.radius))
+        let n = (total.length() / (SUBSTEP * self.agent.body.radius))
             .ceil()
             .max(1.0) as usize;
         let mut step = total / n as f32;
@@ -516,7 +460,7 @@ impl Simulator {
                 let a = self.state.yaw + k as f32 * std::f32::consts::TAU / contact.count as f32;
                 let dir = Vec3::new(-a.sin(), 0.0, -a.cos());
                 let probe = 0.03;
-                let center = base + Vec3::Y * contact.height + dir * (self.agent.radius + probe);
+                let center = base + Vec3::Y * contact.height + dir * (self.agent.body.radius + probe);
                 let hit = self.assets.collision.probe(center, probe);
                 let v = Vec3::new(self.last_velocity[0], 0.0, self.last_velocity[1]);
                 m.contacts.push(hit);

@@ -27,7 +27,7 @@
 
 use std::fmt;
 
-use crate::io::manifest::ManifestRow;
+use crate::store::manifest::ManifestRow;
 use crate::scene::taxonomy::RoomClass;
 
 /// The language in a few lines, as `minos split --help` shows it.

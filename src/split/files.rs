@@ -8,7 +8,8 @@ use std::fs;
 use std::path::{Path, PathBuf};
 
 use super::{SplitError, SplitLists, Subset};
-use crate::io::atomic::write_bytes_atomic;
+use crate::atomic::write_bytes_atomic;
+use crate::store::DataDir;
 
 /// The ids of one list file's text: everything after a `#` is a comment; blank lines are
 /// skipped; ids are trimmed. Order and repeats are kept.
@@ -37,21 +38,14 @@ pub fn read_lists(dir: &Path) -> Result<SplitLists, SplitError> {
 
 /// The folder of split `name` in `data`: `data/splits/name`. The name must be a plain folder
 /// name, so a split can never be written outside `data/splits/`.
-pub fn split_dir(data: &Path, name: &str) -> Result<PathBuf, SplitError> {
-    let plain = !name.is_empty()
-        && name != "."
-        && name != ".."
-        && !name.contains(['/', '\\'])
-        && !name.chars().any(char::is_control);
-    if !plain {
-        return Err(SplitError::BadName(name.to_string()));
-    }
-    Ok(data.join("splits").join(name))
+pub fn split_dir(data: &DataDir, name: &str) -> Result<PathBuf, SplitError> {
+    data.split_dir(name)
+        .ok_or_else(|| SplitError::BadName(name.to_string()))
 }
 
 /// Writes split `name` into `data/splits/name/{train,val,test}.txt`, each file sorted,
 /// distinct and atomically replaced; returns the folder.
-pub fn write_split(data: &Path, name: &str, lists: &SplitLists) -> Result<PathBuf, SplitError> {
+pub fn write_split(data: &DataDir, name: &str, lists: &SplitLists) -> Result<PathBuf, SplitError> {
     let dir = split_dir(data, name)?;
     let mut lists = lists.clone();
     lists.sort();
@@ -71,7 +65,7 @@ pub fn write_split(data: &Path, name: &str, lists: &SplitLists) -> Result<PathBu
 }
 
 /// Reads split `name` of `data` (written by [`write_split`]).
-pub fn read_split(data: &Path, name: &str) -> Result<SplitLists, SplitError> {
+pub fn read_split(data: &DataDir, name: &str) -> Result<SplitLists, SplitError> {
     read_lists(&split_dir(data, name)?)
 }
 
@@ -102,12 +96,12 @@ mod tests {
             val: strings(&["c"]),
             test: Vec::new(),
         };
-        let out = write_split(dir.path(), "mine", &lists).unwrap();
+        let out = write_split(&DataDir::new(dir.path()), "mine", &lists).unwrap();
         assert_eq!(out, dir.path().join("splits/mine"));
         assert_eq!(fs::read_to_string(out.join("train.txt")).unwrap(), "a\nb\n");
         assert_eq!(fs::read_to_string(out.join("val.txt")).unwrap(), "c\n");
         assert_eq!(fs::read_to_string(out.join("test.txt")).unwrap(), "");
-        let back = read_split(dir.path(), "mine").unwrap();
+        let back = read_split(&DataDir::new(dir.path()), "mine").unwrap();
         assert_eq!(back.train, strings(&["a", "b"]));
         assert_eq!(back.val, strings(&["c"]));
         assert!(back.test.is_empty());
@@ -117,7 +111,7 @@ mod tests {
 
     #[test]
     fn split_names_cannot_escape_the_splits_folder() {
-        let data = Path::new("DATA");
+        let data = &DataDir::new("DATA");
         for bad in ["", ".", "..", "a/b", "..\\x", "a\nb"] {
             assert!(
                 matches!(split_dir(data, bad), Err(SplitError::BadName(_))),

@@ -18,7 +18,7 @@ use std::collections::{HashMap, HashSet};
 use std::fmt;
 use std::str::FromStr;
 
-use crate::io::manifest::ManifestRow;
+use crate::store::manifest::ManifestRow;
 use crate::seed::derive_seed;
 
 pub use expr::{Expr, ExprError, ExprErrorKind};

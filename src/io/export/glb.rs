@@ -14,7 +14,7 @@ use glam::Vec3;
 use gltf::json::{self, validation::Checked::Valid, validation::USize64, Index};
 
 use super::{Counter, ExportError, ExportSummary, Plan};
-use crate::io::atomic::write_atomic;
+use crate::atomic::write_atomic;
 use crate::scene::Scene;
 
 /// Size of the GLB header plus the two chunk headers.

@@ -11,7 +11,7 @@
 //!
 //! Materials carry the diffuse colour (with the instance's [`MaterialOverride`] applied to its
 //! slot) and translucency; textures are not exported. Both writers go through
-//! [`write_atomic`](crate::io::atomic::write_atomic), so an interrupted export never leaves a
+//! [`write_atomic`](crate::atomic::write_atomic), so an interrupted export never leaves a
 //! complete-looking file behind.
 
 mod glb;

@@ -8,7 +8,7 @@ use std::io::Write;
 use std::path::Path;
 
 use super::{Counter, ExportError, ExportSummary, Plan};
-use crate::io::atomic::write_atomic;
+use crate::atomic::write_atomic;
 use crate::scene::Scene;
 
 /// Writes `plan` to `out` and its materials to `out` with the extension `.mtl`.

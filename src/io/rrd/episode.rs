@@ -74,18 +74,18 @@ impl EpisodeRecorder {
         episode: &Episode,
         assets: &SceneAssets,
         cameras: &[CameraSensor],
-        body: &AgentConfig,
+        agent: &AgentConfig,
     ) -> Result<Self, RecordingError> {
         let file = RrdFile::create(path, &episode.episode_id, &episode.episode_id)?;
         log_coordinates(&file)?;
         log_scene_mesh(&file, &assets.render)?;
         log_nav(&file, &assets.grid)?;
         log_episode_plan(&file, &assets.grid, episode, &PLAN.into())?;
-        let length = (body.height - 2.0 * body.radius).max(0.0);
+        let length = (agent.body.height - 2.0 * agent.body.radius).max(0.0);
         file.log_static(
             AGENT_BODY,
-            &Capsules3D::from_lengths_and_radii([length], [body.radius])
-                .with_translations([[0.0, body.radius, 0.0]])
+            &Capsules3D::from_lengths_and_radii([length], [agent.body.radius])
+                .with_translations([[0.0, agent.body.radius, 0.0]])
                 .with_quaternions([Quaternion::from_xyzw(
                     Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2).to_array(),
                 )])
@@ -101,7 +101,7 @@ impl EpisodeRecorder {
         Ok(EpisodeRecorder {
             file,
             cameras: cameras.to_vec(),
-            dt: body.dt,
+            dt: agent.dt,
             trail: Vec::new(),
         })
     }

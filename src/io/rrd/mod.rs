@@ -37,7 +37,7 @@ use rerun::external::re_log_types::{SetStoreInfo, StoreInfo, StoreSource};
 use rerun::log::{Chunk, ChunkId, LogMsg, RowId};
 use rerun::{EntityPath, StoreId, StoreKind, TimeCell, TimePoint};
 
-use crate::io::atomic::{temp_path, write_atomic};
+use crate::atomic::{temp_path, write_atomic};
 use crate::seed::derive_seed;
 
 /// Application id of every minos recording (the viewer groups recordings by it).

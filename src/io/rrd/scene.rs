@@ -12,7 +12,8 @@ use super::{RecordingError, RrdFile};
 use crate::episode::goal::{goal_positions, shortest_path};
 use crate::episode::Episode;
 use crate::navmesh::grid::NONE;
-use crate::navmesh::preview::{levels_present, render_level, CLASS_COLORS};
+use crate::navmesh::preview::{levels_present, render_level};
+use crate::scene::room_colors::room_class_color;
 use crate::navmesh::NavGrid;
 use crate::render::{RenderScene, Taxonomy};
 use crate::scene::SurfaceKind;
@@ -140,7 +141,7 @@ pub fn log_nav(file: &RrdFile, grid: &NavGrid) -> Result<usize, RecordingError> 
         .iter()
         .map(|&s| match grid.spans[s].room {
             NONE => color([200, 200, 200]),
-            r => color(CLASS_COLORS[grid.rooms[r as usize].class.min(8) as usize]),
+            r => color(room_class_color(grid.rooms[r as usize].class)),
         })
         .collect();
     file.log_static(

@@ -2,7 +2,7 @@
 //! doors and semantically consistent retexturing, described by a small [`VariantSpec`] and
 //! applied to a loaded scene, never stored as copies of meshes.
 //!
-//! A variant is addressed as `<scene>@<variant>` ([`split_ref`]). [`apply_variant`] runs the
+//! A variant is addressed as `<scene>@<variant>` ([`SceneRef`](crate::scene::SceneRef)). [`apply_variant`] runs the
 //! operations in a fixed order — clutter, doors, retexture — on the canonical model, so every
 //! later stage (navigation grids, episodes, rendering, rollouts) sees the variant like any other
 //! scene. Retexturing draws from [`MaterialStats`] computed over the ingested scenes.
@@ -21,23 +21,7 @@ pub use spec::{
     parse_spec_file, validate_name, DoorState, KeepOnly, Retexture, TextureSet, VariantSpec,
 };
 
-use crate::scene::Scene;
-
-/// Splits `<scene>@<variant>` into the scene id and the variant name.
-pub fn split_ref(scene_ref: &str) -> (&str, Option<&str>) {
-    match scene_ref.split_once('@') {
-        Some((id, v)) => (id, Some(v)),
-        None => (scene_ref, None),
-    }
-}
-
-/// `<scene>@<variant>`, or the scene id alone without a variant.
-pub fn join_ref(scene: &str, variant: Option<&str>) -> String {
-    match variant {
-        Some(v) => format!("{scene}@{v}"),
-        None => scene.to_string(),
-    }
-}
+use crate::scene::{Scene, SceneRef};
 
 /// What applying a variant did to one scene.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
@@ -67,7 +51,7 @@ pub fn apply_variant(
     spec: &VariantSpec,
     stats: Option<&MaterialStats>,
 ) -> Result<VariantReport, VariantError> {
-    let base = split_ref(&scene.id).0.to_string();
+    let base = SceneRef::parse(&scene.id).scene;
     let mut report = VariantReport {
         removed: apply_clutter(scene, spec),
         doors: apply_doors(scene, spec),
@@ -77,6 +61,8 @@ pub fn apply_variant(
         let stats = stats.ok_or_else(|| VariantError::NoStats(name.to_string()))?;
         report.retexture = Some(apply_retexture(scene, &base, r, stats));
     }
-    scene.id = join_ref(&base, Some(name));
+    scene.id = SceneRef::base(base.as_str())
+        .with_variant(Some(name))
+        .to_string();
     Ok(report)
 }

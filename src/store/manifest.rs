@@ -21,7 +21,7 @@ use parquet::arrow::ArrowWriter;
 use parquet::basic::{Compression, ZstdLevel};
 use parquet::file::properties::WriterProperties;
 
-use crate::io::atomic::write_atomic;
+use crate::atomic::write_atomic;
 use crate::scene::Scene;
 
 /// Errors reading or writing the manifest.

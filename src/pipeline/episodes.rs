@@ -3,48 +3,17 @@
 //! sorted list, so the union of all shards equals one unsharded run.
 
 use std::collections::BTreeMap;
-use std::path::Path;
 
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::io::variant_store::grid_ref;
-use crate::navmesh::file::{nav_path, read_nav};
+use crate::episode::sample::{sample_scene, SampleConfig, SceneEpisodes};
+use crate::body::BodyRule;
+use crate::episode::Episode;
 use crate::progress::Progress;
-
-use super::sample::{sample_scene, SampleConfig};
-use super::Episode;
-
-/// One shard of a scene list: `index` of `count` (`0/1` is everything).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Shard {
-    /// This shard (0-based).
-    pub index: usize,
-    /// Number of shards.
-    pub count: usize,
-}
-
-impl Shard {
-    /// Everything.
-    pub const ALL: Shard = Shard { index: 0, count: 1 };
-
-    /// Parses `i/n` with `0 <= i < n`.
-    pub fn parse(s: &str) -> Result<Shard, String> {
-        let (i, n) = s
-            .split_once('/')
-            .ok_or_else(|| format!("`{s}`: expected i/n, e.g. 0/4"))?;
-        let num = |t: &str| {
-            t.trim()
-                .parse::<usize>()
-                .map_err(|_| format!("`{s}`: `{t}` is not a whole number"))
-        };
-        let (index, count) = (num(i)?, num(n)?);
-        if count == 0 || index >= count {
-            return Err(format!("`{s}`: need 0 <= i < n"));
-        }
-        Ok(Shard { index, count })
-    }
-}
+use crate::scene::SceneRef;
+use crate::shard::Shard;
+use crate::store::DataDir;
 
 /// Per-scene outcome in the statistics.
 #[derive(Debug, Clone, Default, Serialize)]
@@ -78,11 +47,13 @@ pub struct EpisodeBatch {
     pub scenes: BTreeMap<String, SceneStats>,
 }
 
-/// Samples `cfg` over `scenes` (`(scene id, split subset)`), reading grids from `data`.
+/// Samples `cfg` over `scenes` (`(scene id, split subset)`), reading grids from `data`; a
+/// scene whose grid was baked for another body than `body`'s is a problem of that scene.
 pub fn sample_scenes(
-    data: &Path,
+    data: &DataDir,
     scenes: &[(String, String)],
     cfg: &SampleConfig,
+    body: BodyRule,
     shard: Shard,
     progress: &dyn Progress,
 ) -> EpisodeBatch {
@@ -92,16 +63,20 @@ pub fn sample_scenes(
     let mine: Vec<&(String, String)> = sorted
         .into_iter()
         .enumerate()
-        .filter(|(i, _)| i % shard.count == shard.index)
+        .filter(|(i, _)| shard.keeps(*i))
         .map(|(_, s)| s)
         .collect();
     progress.set_total(mine.len() as u64);
-    let results: Vec<(String, Result<super::sample::SceneEpisodes, String>)> = mine
+    let results: Vec<(String, Result<SceneEpisodes, String>)> = mine
         .par_iter()
         .map(|(id, split)| {
-            let r = read_nav(&nav_path(data, &grid_ref(data, id)))
-                .map_err(|e| format!("{e} (run `minos bake`)"))
-                .map(|grid| sample_scene(&grid, id, split, cfg));
+            let r = data
+                .read_grid(&SceneRef::parse(id))
+                .map_err(|e| e.to_string())
+                .and_then(|grid| {
+                    body.check(&grid.params.body).map_err(|e| e.to_string())?;
+                    Ok(sample_scene(&grid, id, split, cfg))
+                });
             progress.advance(1);
             (id.clone(), r)
         })
@@ -152,16 +127,4 @@ pub fn sample_scenes(
             / n;
     }
     batch
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn shards_parse() {
-        assert_eq!(Shard::parse("1/4"), Ok(Shard { index: 1, count: 4 }));
-        assert!(Shard::parse("4/4").is_err());
-        assert!(Shard::parse("1").is_err());
-    }
 }

@@ -16,7 +16,7 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use crate::io::atomic::write_atomic;
+use crate::atomic::write_atomic;
 use crate::scene::Scene;
 
 /// First bytes of every compiled scene.

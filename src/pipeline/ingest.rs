@@ -11,8 +11,9 @@ use std::time::SystemTime;
 
 use rayon::prelude::*;
 
-use crate::io::manifest::{read_manifest, write_manifest, ManifestError, ManifestRow};
-use crate::io::scene_file::{read_header, read_scene, scene_path, write_scene, SceneHeader};
+use crate::store::manifest::{read_manifest, write_manifest, ManifestError, ManifestRow};
+use crate::store::scene_file::{read_header, read_scene, write_scene, SceneHeader};
+use crate::store::DataDir;
 use crate::progress::Progress;
 use crate::scene::formats::gltf_scene::GltfLoader;
 use crate::scene::formats::mp3d::Mp3dLoader;
@@ -63,7 +64,7 @@ pub struct IngestConfig {
     /// Dataset root.
     pub root: PathBuf,
     /// DATA folder to fill.
-    pub data: PathBuf,
+    pub data: DataDir,
     /// Only these scene ids (all when `None`).
     pub ids: Option<Vec<String>>,
     /// Rebuild compiled scenes even when up to date.
@@ -81,7 +82,7 @@ impl IngestConfig {
         IngestConfig {
             format: DatasetFormat::Suncg,
             root: root.to_path_buf(),
-            data: data.to_path_buf(),
+            data: DataDir::new(data),
             ids: None,
             force: false,
             categories: None,
@@ -170,11 +171,11 @@ fn up_to_date(compiled: &Path, source: &Path) -> bool {
 fn ingest_one(
     loader: &dyn DatasetLoader,
     house: &SceneEntry,
-    data: &Path,
+    data: &DataDir,
     force: bool,
 ) -> (ManifestRow, Outcome, Vec<String>) {
     let dataset = loader.dataset().name();
-    let compiled = scene_path(data, &house.id);
+    let compiled = data.scene_path(&house.id);
     let source = house.path.display().to_string();
     let fail = |e: String| {
         // A stale compiled scene must not outlive a source that no longer loads.
@@ -222,7 +223,7 @@ pub fn ingest(cfg: &IngestConfig, progress: &dyn Progress) -> Result<IngestRepor
     let loader = cfg.format.loader(cfg)?;
     let loader = loader.as_ref();
     let mut report = IngestReport {
-        manifest: cfg.data.join("houses.parquet"),
+        manifest: cfg.data.manifest_path(),
         ..Default::default()
     };
     report.warnings.extend(loader.root_warning());

@@ -15,7 +15,7 @@ use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 use serde_json::json;
 
 use crate::episode::Episode;
-use crate::io::atomic::write_bytes_atomic;
+use crate::atomic::write_bytes_atomic;
 use crate::sim::sensors::{dtype_of, CameraSensor};
 
 /// Episodes per chunk folder.

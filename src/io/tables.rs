@@ -9,7 +9,7 @@ use std::path::Path;
 use std::sync::Arc;
 
 use arrow::array::{
-    ArrayRef, BinaryBuilder, BooleanArray, BooleanBuilder, Float32Array, Float32Builder,
+    Array, ArrayRef, BinaryBuilder, BooleanArray, BooleanBuilder, Float32Array, Float32Builder,
     ListBuilder, RecordBatch, StringArray, UInt32Array,
 };
 use arrow::datatypes::{DataType, Field, Schema, SchemaRef};
@@ -22,7 +22,8 @@ use parquet::file::reader::{FileReader, SerializedFileReader};
 use parquet::file::writer::SerializedFileWriter;
 use parquet::schema::types::ColumnPath;
 
-use crate::io::atomic::temp_path;
+use crate::atomic::temp_path;
+use crate::run::agents::Decision;
 use crate::sim::sensors::{CameraSensor, Image};
 
 /// Observation rows per row group.
@@ -191,6 +192,16 @@ pub enum ImageEncoding {
     Raw,
     /// PNG files (8- or 16-bit; float depth as 16-bit millimetres).
     Png,
+}
+
+impl ImageEncoding {
+    /// `raw` or `png`.
+    pub fn name(self) -> &'static str {
+        match self {
+            ImageEncoding::Raw => "raw",
+            ImageEncoding::Png => "png",
+        }
+    }
 }
 
 /// Schema of the observation table for a sensor suite.
@@ -436,7 +447,7 @@ fn copy_row_groups(
 /// metrics.
 pub fn write_episode_table(
     path: &Path,
-    rows: &[(crate::episode::Episode, super::metrics::EpisodeMetrics)],
+    rows: &[(crate::episode::Episode, crate::run::metrics::EpisodeMetrics)],
 ) -> Result<(), TableError> {
     let schema = Arc::new(Schema::new(vec![
         Field::new("episode_id", DataType::Utf8, false),
@@ -459,7 +470,7 @@ pub fn write_episode_table(
             rows.iter().map(|(e, _)| f(e)),
         ))
     };
-    let m = |f: &dyn Fn(&super::metrics::EpisodeMetrics) -> f32| -> ArrayRef {
+    let m = |f: &dyn Fn(&crate::run::metrics::EpisodeMetrics) -> f32| -> ArrayRef {
         Arc::new(rows.iter().map(|(_, m)| f(m)).collect::<Float32Array>())
     };
     let columns: Vec<ArrayRef> = vec![
@@ -497,4 +508,52 @@ pub fn write_episode_table(
     let batch = RecordBatch::try_new(schema.clone(), columns)
         .map_err(|e| format!("{}: {e}", path.display()))?;
     write_batches(path, schema, std::iter::once(batch))
+}
+
+/// Reads the decisions of every episode of a trajectory table (`trajectories.parquet` of a
+/// run), in step order: what `--agent replay:FILE` replays.
+pub fn read_replay(path: &Path) -> Result<HashMap<String, Vec<Decision>>, TableError> {
+    let fail = |m: String| format!("{}: {m}", path.display());
+    let file = File::open(path).map_err(|e| fail(e.to_string()))?;
+    let reader = ParquetRecordBatchReaderBuilder::try_new(file)
+        .and_then(|b| b.build())
+        .map_err(|e| fail(e.to_string()))?;
+    let mut rows: HashMap<String, Vec<(u32, Decision)>> = HashMap::new();
+    for batch in reader {
+        let batch = batch.map_err(|e| fail(e.to_string()))?;
+        let column = |name: &str| {
+            batch
+                .column_by_name(name)
+                .ok_or_else(|| fail(format!("no column `{name}`")))
+        };
+        let ids = column("episode_id")?
+            .as_any()
+            .downcast_ref::<StringArray>()
+            .ok_or_else(|| fail("episode_id: not text".into()))?;
+        let steps = column("step")?
+            .as_any()
+            .downcast_ref::<UInt32Array>()
+            .ok_or_else(|| fail("step: not uint32".into()))?;
+        let actions = column("action")?
+            .as_any()
+            .downcast_ref::<StringArray>()
+            .ok_or_else(|| fail("action: not text".into()))?;
+        for i in 0..batch.num_rows() {
+            if ids.is_null(i) || steps.is_null(i) || actions.is_null(i) {
+                return Err(fail(format!("row {i}: a null episode_id, step or action")));
+            }
+            let d = Decision::from_name(actions.value(i))
+                .ok_or_else(|| fail(format!("row {i}: unknown action `{}`", actions.value(i))))?;
+            rows.entry(ids.value(i).to_string())
+                .or_default()
+                .push((steps.value(i), d));
+        }
+    }
+    Ok(rows
+        .into_iter()
+        .map(|(k, mut v)| {
+            v.sort_by_key(|(s, _)| *s);
+            (k, v.into_iter().map(|(_, d)| d).collect())
+        })
+        .collect())
 }

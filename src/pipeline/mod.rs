@@ -1,0 +1,13 @@
+//! Batch drivers: one per long command. Each reads scenes and grids from a DATA folder
+//! ([`crate::store::DataDir`]), runs an algorithm per scene in parallel, collects the results
+//! in input order and writes outputs, so results never depend on the thread count:
+//! `ingest` (dataset → compiled scenes + manifest), `bake` (navigation grids), `episodes`
+//! (episode sampling over many scenes), `variants` (material statistics, dry runs),
+//! `rollout` (agents over episodes into datasets) and `view` (a scene for the rerun viewer).
+
+pub mod bake;
+pub mod episodes;
+pub mod ingest;
+pub mod rollout;
+pub mod variants;
+pub mod view;

@@ -1,0 +1,369 @@
+//! Rolling out episodes: one simulator per scene (scenes in parallel), episodes in order,
+//! each writing its own part files (`DIR/.parts/<index>.*`), the metrics file last; `--resume`
+//! skips episodes whose metrics exist, and the final tables are merged from the parts in
+//! episode order, so an interrupted and resumed run ends with the same bytes as an
+//! uninterrupted one.
+//!
+//! With [`RunConfig::rerun`], the first episodes of the shard are also recorded for the
+//! rerun viewer while they roll out (`DIR/.parts/<index>.rrd`, finished before the metrics
+//! file) and joined into one `.rrd` at the end; recording never changes the tables.
+
+mod episode;
+mod manifest;
+mod parts;
+mod scene;
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+
+use rayon::prelude::*;
+
+use crate::atomic::write_bytes_atomic;
+use crate::body::AgentPreset;
+use crate::episode::Episode;
+use crate::io::rrd::RecordingError;
+use crate::io::tables::{merge, observation_schema, trajectory_schema, ImageEncoding};
+use crate::navmesh::geodesic::Geodesic;
+use crate::progress::Progress;
+use crate::run::agents::Decision;
+use crate::run::metrics::{aggregate, Aggregate, EpisodeMetrics, Reward};
+use crate::shard::Shard;
+use crate::sim::{AgentConfig, SensorSuite};
+use crate::store::DataDir;
+
+pub use episode::EpisodeError;
+pub use crate::render::RendererChoice;
+use parts::part;
+use scene::SceneRun;
+
+/// Which agent drives.
+#[derive(Debug, Clone, PartialEq)]
+pub enum AgentKind {
+    /// Uniform over the action set.
+    Random,
+    /// Forward, turning on collision.
+    Forward,
+    /// Plans over reachable states and stops at the goal.
+    Oracle,
+    /// Decisions from a trajectory table, per episode.
+    Replay(std::collections::HashMap<String, Vec<Decision>>),
+    /// A process speaking JSON lines (one per scene thread).
+    External(String),
+}
+
+/// What a run does.
+#[derive(Debug, Clone)]
+pub struct RunConfig {
+    /// DATA folder (ingested, baked).
+    pub data: DataDir,
+    /// Output folder.
+    pub out: PathBuf,
+    /// The agent.
+    pub agent: AgentKind,
+    /// Body and motion.
+    pub body: AgentConfig,
+    /// Sensors.
+    pub sensors: SensorSuite,
+    /// Renderer.
+    pub renderer: RendererChoice,
+    /// Step limit overriding the episodes' own.
+    pub max_steps: Option<u32>,
+    /// Seed (random agents, sensor noise).
+    pub seed: u64,
+    /// Shard of the episode list.
+    pub shard: Shard,
+    /// Keep finished episodes of an interrupted run.
+    pub resume: bool,
+    /// Reward function.
+    pub reward: Reward,
+    /// Image storage.
+    pub encoding: ImageEncoding,
+    /// Also lay the dataset out LeRobot-style in `out/lerobot/`.
+    pub lerobot: bool,
+    /// Also record episodes for the rerun viewer.
+    pub rerun: Option<RerunOutput>,
+    /// Run on grids baked for another body than `body` (recorded in the manifest).
+    pub allow_body_mismatch: bool,
+    /// Where the run came from, for `manifest.json`.
+    pub provenance: Provenance,
+}
+
+/// Where a run came from, recorded in its `manifest.json` beside the configuration.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Provenance {
+    /// The command line (empty for library callers).
+    pub command: Vec<String>,
+    /// The episode file read.
+    pub episodes_file: Option<PathBuf>,
+    /// The variant every episode was moved to.
+    pub variant: Option<String>,
+    /// The agent as the user named it (`oracle`, `replay:FILE`, …).
+    pub agent: String,
+    /// The agent preset the body came from, if any.
+    pub preset: Option<AgentPreset>,
+}
+
+/// Why a run stopped as a whole (an episode's failure is only reported, see
+/// [`RunReport::failures`]).
+#[derive(Debug, thiserror::Error)]
+pub enum RolloutError {
+    /// A file or folder of the output could not be written.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file or folder.
+        path: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// A merged table could not be written (the message names the file).
+    #[error("{0}")]
+    Table(String),
+    /// The joined recording could not be written.
+    #[error(transparent)]
+    Recording(#[from] RecordingError),
+    /// The LeRobot-style copy could not be written.
+    #[error("lerobot: {0}")]
+    Lerobot(String),
+}
+
+fn io_error(path: &Path) -> impl FnOnce(std::io::Error) -> RolloutError + '_ {
+    move |source| RolloutError::Io {
+        path: path.to_path_buf(),
+        source,
+    }
+}
+
+/// Which episodes a run records for the rerun viewer, and where.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RerunOutput {
+    /// The `.rrd` file (one recording per episode, in episode-id order).
+    pub path: PathBuf,
+    /// How many episodes to record: the first of this shard in episode-id order.
+    pub episodes: usize,
+}
+
+/// What a run produced.
+#[derive(Debug, Default)]
+pub struct RunReport {
+    /// Episodes run (or kept from an earlier run) with their metrics, in episode order.
+    pub episodes: Vec<(Episode, EpisodeMetrics)>,
+    /// Aggregates by group.
+    pub groups: BTreeMap<String, Aggregate>,
+    /// Episodes kept from an interrupted run.
+    pub resumed: usize,
+    /// Episodes that failed, with the reason.
+    pub failures: Vec<(String, String)>,
+    /// Episodes in the rerun recording.
+    pub recorded: usize,
+}
+
+/// The episodes of this shard, in episode-id order, with their global index.
+pub fn select(episodes: &[Episode], shard: Shard) -> Vec<(usize, Episode)> {
+    let mut sorted: Vec<&Episode> = episodes.iter().collect();
+    sorted.sort_by(|a, b| a.episode_id.cmp(&b.episode_id));
+    sorted
+        .into_iter()
+        .enumerate()
+        .filter(|(i, _)| shard.keeps(*i))
+        .map(|(i, e)| (i, e.clone()))
+        .collect()
+}
+
+/// An episode's index and its metrics (and whether they were kept from an earlier run).
+type Outcome = (usize, Result<(EpisodeMetrics, bool), String>);
+
+/// Runs the episodes, writes the tables, `metrics.json` and `manifest.json` into `cfg.out`.
+pub fn run(
+    cfg: &RunConfig,
+    episodes: &[Episode],
+    progress: &dyn Progress,
+) -> Result<RunReport, RolloutError> {
+    let parts = cfg.out.join(".parts");
+    if !cfg.resume && parts.exists() {
+        std::fs::remove_dir_all(&parts).map_err(io_error(&parts))?;
+    }
+    std::fs::create_dir_all(&parts).map_err(io_error(&parts))?;
+    let mine = select(episodes, cfg.shard);
+    progress.set_total(mine.len() as u64);
+    // The episodes recorded for rerun: the first of the shard, in episode-id order.
+    let recorded: BTreeSet<usize> = mine
+        .iter()
+        .take(cfg.rerun.as_ref().map_or(0, |r| r.episodes))
+        .map(|(i, _)| *i)
+        .collect();
+    let mut by_scene: BTreeMap<String, Vec<(usize, Episode)>> = BTreeMap::new();
+    for (i, e) in &mine {
+        by_scene
+            .entry(e.scene_id.clone())
+            .or_default()
+            .push((*i, e.clone()));
+    }
+    let scenes: Vec<(String, Vec<(usize, Episode)>)> = by_scene.into_iter().collect();
+    let results: Vec<Vec<Outcome>> = scenes
+        .par_iter()
+        .map(|(scene_id, eps)| run_scene(cfg, scene_id, eps, &parts, &recorded, progress))
+        .collect();
+    let mut by_index: BTreeMap<usize, Result<(EpisodeMetrics, bool), String>> =
+        results.into_iter().flatten().collect();
+    let mut report = RunReport::default();
+    for (i, ep) in &mine {
+        match by_index.remove(i) {
+            Some(Ok((m, resumed))) => {
+                report.resumed += usize::from(resumed);
+                report.episodes.push((ep.clone(), m));
+            }
+            Some(Err(e)) => report.failures.push((ep.episode_id.clone(), e)),
+            None => report
+                .failures
+                .push((ep.episode_id.clone(), "not run".into())),
+        }
+    }
+    finish(cfg, &mine, &parts, &recorded, &mut report)?;
+    if report.failures.is_empty() {
+        let _ = std::fs::remove_dir_all(&parts);
+    }
+    Ok(report)
+}
+
+/// Runs the episodes of one scene (keeping those an earlier run finished), in episode order.
+fn run_scene(
+    cfg: &RunConfig,
+    scene_id: &str,
+    eps: &[(usize, Episode)],
+    parts: &Path,
+    recorded: &BTreeSet<usize>,
+    progress: &dyn Progress,
+) -> Vec<Outcome> {
+    // Finished earlier: metrics written and, when recorded, the recording too.
+    let done = |i: usize| {
+        cfg.resume
+            && part(parts, i, "json").is_file()
+            && (!recorded.contains(&i) || part(parts, i, "rrd").is_file())
+    };
+    let mut out: Vec<Outcome> = Vec::new();
+    for (i, _) in eps.iter().filter(|(i, _)| done(*i)) {
+        out.push((*i, parts::read_done(parts, *i).map(|m| (m, true))));
+        progress.advance(1);
+    }
+    let pending: Vec<&(usize, Episode)> = eps.iter().filter(|(i, _)| !done(*i)).collect();
+    if pending.is_empty() {
+        return out;
+    }
+    let setup = scene::load(cfg, scene_id).and_then(|(sim, assets)| {
+        let agent = scene::make_agent(&cfg.agent, cfg.seed).map_err(|e| e.to_string())?;
+        Ok((sim, assets, agent))
+    });
+    match setup {
+        Err(e) => {
+            for (i, _) in pending {
+                out.push((*i, Err(e.clone())));
+                progress.advance(1);
+            }
+        }
+        Ok((sim, assets, agent)) => {
+            let mut run = SceneRun {
+                sim,
+                agent,
+                geo: Geodesic::new(&assets.grid),
+            };
+            for (i, ep) in pending {
+                let r = episode::run_episode(&mut run, ep, cfg, parts, *i, recorded.contains(i));
+                out.push((*i, r.map(|m| (m, false)).map_err(|e| e.to_string())));
+                progress.advance(1);
+            }
+        }
+    }
+    out
+}
+
+/// Merges the finished episodes' parts into the final tables and writes `metrics.json`,
+/// `manifest.json`, the joined recording and the LeRobot-style copy.
+fn finish(
+    cfg: &RunConfig,
+    mine: &[(usize, Episode)],
+    parts: &Path,
+    recorded: &BTreeSet<usize>,
+    report: &mut RunReport,
+) -> Result<(), RolloutError> {
+    let finished: BTreeSet<&str> = report
+        .episodes
+        .iter()
+        .map(|(e, _)| e.episode_id.as_str())
+        .collect();
+    let kept: Vec<&(usize, Episode)> = mine
+        .iter()
+        .filter(|(_, e)| finished.contains(e.episode_id.as_str()))
+        .collect();
+    let traj_parts: Vec<PathBuf> = kept
+        .iter()
+        .map(|(i, _)| part(parts, *i, "traj.parquet"))
+        .collect();
+    let obs_parts: Vec<PathBuf> = kept
+        .iter()
+        .map(|(i, _)| part(parts, *i, "obs.parquet"))
+        .collect();
+    merge(
+        &traj_parts,
+        trajectory_schema(),
+        &cfg.out.join("trajectories.parquet"),
+    )
+    .map_err(RolloutError::Table)?;
+    merge(
+        &obs_parts,
+        observation_schema(&cfg.sensors.cameras, cfg.encoding),
+        &cfg.out.join("observations.parquet"),
+    )
+    .map_err(RolloutError::Table)?;
+    let rows: Vec<(String, String, String, EpisodeMetrics)> = report
+        .episodes
+        .iter()
+        .map(|(e, m)| {
+            (
+                e.task.name().to_string(),
+                e.split.clone(),
+                e.difficulty.name().to_string(),
+                *m,
+            )
+        })
+        .collect();
+    report.groups = aggregate(&rows);
+    crate::io::tables::write_episode_table(&cfg.out.join("episodes.parquet"), &report.episodes)
+        .map_err(RolloutError::Table)?;
+    let metrics = serde_json::json!({
+        "groups": report.groups,
+        "episodes": report.episodes.iter().map(|(e, m)| serde_json::json!({"episode_id": e.episode_id, "metrics": m})).collect::<Vec<_>>(),
+        "failures": report.failures.iter().map(|(id, e)| serde_json::json!({"episode_id": id, "error": e})).collect::<Vec<_>>(),
+    });
+    let path = cfg.out.join("metrics.json");
+    let bytes = serde_json::to_vec_pretty(&metrics).map_err(|e| RolloutError::Table(e.to_string()))?;
+    write_bytes_atomic(&path, &bytes).map_err(io_error(&path))?;
+    if let Some(rerun) = &cfg.rerun {
+        let recordings: Vec<PathBuf> = kept
+            .iter()
+            .filter(|(i, _)| recorded.contains(i))
+            .map(|(i, _)| part(parts, *i, "rrd"))
+            .collect();
+        crate::io::rrd::concat(&recordings, &rerun.path)?;
+        report.recorded = recordings.len();
+    }
+    if cfg.lerobot {
+        let sources: Vec<(Episode, PathBuf, PathBuf)> = kept
+            .iter()
+            .map(|(i, e)| {
+                (
+                    e.clone(),
+                    part(parts, *i, "traj.parquet"),
+                    part(parts, *i, "obs.parquet"),
+                )
+            })
+            .collect();
+        crate::io::lerobot::write(
+            &cfg.out.join("lerobot"),
+            &sources,
+            &cfg.sensors.cameras,
+            1.0 / cfg.body.dt,
+        )
+        .map_err(RolloutError::Lerobot)?;
+    }
+    manifest::write(cfg)
+}

@@ -1,0 +1,75 @@
+//! An episode's part files in `DIR/.parts/`: `<index>.traj.parquet`, `<index>.obs.parquet`,
+//! `<index>.rrd` when recorded, and `<index>.json`, its metrics, written last, so an episode
+//! whose metrics exist is finished and a resumed run keeps it.
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use crate::atomic::write_bytes_atomic;
+use crate::run::metrics::EpisodeMetrics;
+
+/// The part file of episode `index` with extension `ext`.
+pub fn part(dir: &Path, index: usize, ext: &str) -> PathBuf {
+    dir.join(format!("{index:06}.{ext}"))
+}
+
+/// Metrics of a finished episode as stored in its part file.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct PartDone {
+    episode_id: String,
+    success: bool,
+    speed: f32,
+    spl: f32,
+    soft_spl: f32,
+    path_length: f32,
+    steps: u32,
+    collisions: u32,
+    final_geodesic: Option<f32>,
+}
+
+impl From<&PartDone> for EpisodeMetrics {
+    fn from(p: &PartDone) -> Self {
+        EpisodeMetrics {
+            success: p.success,
+            speed: p.speed,
+            spl: p.spl,
+            soft_spl: p.soft_spl,
+            path_length: p.path_length,
+            steps: p.steps,
+            collisions: p.collisions,
+            final_geodesic: p.final_geodesic.unwrap_or(f32::NAN),
+        }
+    }
+}
+
+/// Writes the metrics part of a finished episode (atomically: it marks the episode done).
+pub fn write_done(
+    dir: &Path,
+    index: usize,
+    episode_id: &str,
+    m: &EpisodeMetrics,
+) -> Result<(), String> {
+    let done = PartDone {
+        episode_id: episode_id.to_string(),
+        success: m.success,
+        speed: m.speed,
+        spl: m.spl,
+        soft_spl: m.soft_spl,
+        path_length: m.path_length,
+        steps: m.steps,
+        collisions: m.collisions,
+        final_geodesic: m.final_geodesic.is_finite().then_some(m.final_geodesic),
+    };
+    let path = part(dir, index, "json");
+    let json = serde_json::to_vec(&done).map_err(|e| format!("{}: {e}", path.display()))?;
+    write_bytes_atomic(&path, &json).map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// Reads the metrics part of an episode finished by an earlier run.
+pub fn read_done(dir: &Path, index: usize) -> Result<EpisodeMetrics, String> {
+    let path = part(dir, index, "json");
+    let bytes = std::fs::read(&path).map_err(|e| e.to_string())?;
+    let done: PartDone = serde_json::from_slice(&bytes).map_err(|e| e.to_string())?;
+    Ok(EpisodeMetrics::from(&done))
+}

@@ -1,0 +1,83 @@
+//! Choosing a renderer: the CPU rasteriser, wgpu, or `auto` (wgpu when an adapter exists,
+//! else the CPU, saying why in the log). Both produce the same frames.
+
+use super::gpu::{GpuError, GpuRenderer};
+use super::{cpu, Camera, Frame, RenderScene};
+
+/// Which renderer to use.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum RendererChoice {
+    /// The CPU rasteriser.
+    Cpu,
+    /// wgpu (fails when no adapter exists).
+    Wgpu,
+    /// wgpu when an adapter exists, else the CPU rasteriser.
+    #[default]
+    Auto,
+}
+
+/// A renderer instance.
+pub enum Renderer {
+    /// The CPU rasteriser.
+    Cpu,
+    /// wgpu, with the scene uploaded.
+    Gpu(Box<GpuRenderer>),
+}
+
+impl Renderer {
+    /// Creates the chosen renderer for `scene`.
+    pub fn new(choice: RendererChoice, scene: &RenderScene) -> Result<Renderer, GpuError> {
+        let gpu = || -> Result<Renderer, GpuError> {
+            let mut g = GpuRenderer::new()?;
+            g.upload(scene);
+            Ok(Renderer::Gpu(Box::new(g)))
+        };
+        match choice {
+            RendererChoice::Cpu => Ok(Renderer::Cpu),
+            RendererChoice::Wgpu => gpu(),
+            RendererChoice::Auto => Ok(gpu().unwrap_or_else(|e| {
+                tracing::info!("renderer auto: no usable GPU ({e}); using the CPU rasteriser");
+                Renderer::Cpu
+            })),
+        }
+    }
+
+    /// `cpu` or the adapter's name.
+    pub fn name(&self) -> String {
+        match self {
+            Renderer::Cpu => "cpu".into(),
+            Renderer::Gpu(g) => format!("wgpu: {}", g.adapter_name()),
+        }
+    }
+
+    /// Renders cameras (any resolutions) in order.
+    pub fn render(&self, scene: &RenderScene, cameras: &[Camera]) -> Result<Vec<Frame>, GpuError> {
+        match self {
+            Renderer::Cpu => Ok(cameras.iter().map(|c| cpu::render(scene, c)).collect()),
+            Renderer::Gpu(g) => {
+                // Batch cameras of equal resolution.
+                let mut frames: Vec<Option<Frame>> = vec![None; cameras.len()];
+                let mut done = vec![false; cameras.len()];
+                for i in 0..cameras.len() {
+                    if done[i] {
+                        continue;
+                    }
+                    let group: Vec<usize> = (i..cameras.len())
+                        .filter(|&j| {
+                            !done[j]
+                                && cameras[j].width == cameras[i].width
+                                && cameras[j].height == cameras[i].height
+                        })
+                        .collect();
+                    let cams: Vec<Camera> = group.iter().map(|&j| cameras[j]).collect();
+                    for (j, f) in group.iter().zip(g.render_batch(&cams)?) {
+                        frames[*j] = Some(f);
+                        done[*j] = true;
+                    }
+                }
+                Ok(frames.into_iter().flatten().collect())
+            }
+        }
+    }
+}
+

@@ -1,0 +1,176 @@
+//! Scenes and variants in a DATA folder: `DATA/variants/<name>.toml` (one variant's
+//! description), `DATA/stats/materials.json` (the material statistics retexturing draws
+//! from), and [`DataDir::load_scene`], which reads a compiled scene and applies the variant its
+//! reference names (`<scene>@<variant>`): the one way every command loads a scene.
+
+use std::path::{Path, PathBuf};
+use std::time::SystemTime;
+
+use super::manifest::ManifestError;
+use super::scene_file::{read_scene, SceneFileError, SceneHeader};
+use super::DataDir;
+use crate::atomic::write_bytes_atomic;
+use crate::navmesh::file::NavFileError;
+use crate::scene::variants::{
+    apply_variant, validate_name, MaterialStats, VariantError, VariantReport, VariantSpec,
+};
+use crate::scene::{Scene, SceneRef};
+
+/// Errors reading or writing a DATA folder: its files, variants and grids.
+#[derive(Debug, thiserror::Error)]
+pub enum StoreError {
+    /// File system error.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// A file that does not parse or is inconsistent.
+    #[error("{path}: {message}")]
+    Format {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+    /// A variant name that cannot be used.
+    #[error("{0}")]
+    Name(String),
+    /// The compiled scene could not be read.
+    #[error(transparent)]
+    Scene(#[from] SceneFileError),
+    /// The variant could not be applied.
+    #[error(transparent)]
+    Apply(#[from] VariantError),
+    /// The manifest could not be read or written.
+    #[error(transparent)]
+    Manifest(#[from] ManifestError),
+    /// A navigation grid could not be read.
+    #[error("{0} (run `minos bake`)")]
+    Grid(#[from] NavFileError),
+}
+
+fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> StoreError + '_ {
+    move |source| StoreError::Io {
+        path: path.to_path_buf(),
+        source,
+    }
+}
+
+impl DataDir {
+    /// Reads scene `id`'s compiled file (without applying any variant).
+    pub fn read_scene(&self, id: &str) -> Result<(SceneHeader, Scene), SceneFileError> {
+        read_scene(&self.scene_path(id))
+    }
+
+    /// Writes variant `name` atomically.
+    pub fn write_variant(&self, name: &str, spec: &VariantSpec) -> Result<PathBuf, StoreError> {
+        validate_name(name).map_err(StoreError::Name)?;
+        let path = self.variant_path(name);
+        let text = format!(
+        "# minos variant `{name}` (scene ids `<scene>@{name}`); written by `minos variants`.\n{}",
+        spec.to_toml()
+    );
+        write_bytes_atomic(&path, text.as_bytes()).map_err(io_err(&path))?;
+        Ok(path)
+    }
+
+    /// Reads variant `name`.
+    pub fn read_variant(&self, name: &str) -> Result<VariantSpec, StoreError> {
+        validate_name(name).map_err(StoreError::Name)?;
+        let path = self.variant_path(name);
+        let text = std::fs::read_to_string(&path).map_err(|e| match e.kind() {
+            std::io::ErrorKind::NotFound => StoreError::Format {
+                path: path.clone(),
+                message: format!("no variant `{name}` (define it with `minos variants`)"),
+            },
+            _ => StoreError::Io {
+                path: path.clone(),
+                source: e,
+            },
+        })?;
+        VariantSpec::from_toml(&text).map_err(|message| StoreError::Format { path, message })
+    }
+
+    /// The names of every variant defined in `data`, sorted.
+    pub fn list_variants(&self) -> Vec<String> {
+        let Ok(dir) = std::fs::read_dir(self.variants_dir()) else {
+            return Vec::new();
+        };
+        let mut names: Vec<String> = dir
+            .filter_map(|e| e.ok())
+            .filter_map(|e| {
+                let p = e.path();
+                (p.extension()? == "toml").then(|| p.file_stem()?.to_str().map(String::from))?
+            })
+            .collect();
+        names.sort();
+        names
+    }
+
+    /// Writes the material statistics atomically.
+    pub fn write_material_stats(&self, stats: &MaterialStats) -> Result<PathBuf, StoreError> {
+        let path = self.material_stats_path();
+        let text = serde_json::to_string_pretty(stats).map_err(|e| StoreError::Format {
+            path: path.clone(),
+            message: e.to_string(),
+        })?;
+        write_bytes_atomic(&path, text.as_bytes()).map_err(io_err(&path))?;
+        Ok(path)
+    }
+
+    /// Reads the material statistics.
+    pub fn read_material_stats(&self) -> Result<MaterialStats, StoreError> {
+        let path = self.material_stats_path();
+        let text = std::fs::read_to_string(&path).map_err(io_err(&path))?;
+        let stats: MaterialStats = serde_json::from_str(&text).map_err(|e| StoreError::Format {
+            path: path.clone(),
+            message: e.to_string(),
+        })?;
+        stats
+            .validate()
+            .map_err(|message| StoreError::Format { path, message })?;
+        Ok(stats)
+    }
+
+    /// Loads scene `scene_ref` (`<scene>` or `<scene>@<variant>`) from `data`, applying the variant.
+    pub fn load_scene(
+        &self,
+        scene_ref: &SceneRef,
+    ) -> Result<(Scene, Option<VariantReport>), StoreError> {
+        let (_, mut scene) = self.read_scene(&scene_ref.scene)?;
+        let Some(name) = scene_ref.variant.as_deref() else {
+            return Ok((scene, None));
+        };
+        let spec = self.read_variant(name)?;
+        let stats = match spec.retexture {
+            Some(_) => Some(self.read_material_stats()?),
+            None => None,
+        };
+        let report = apply_variant(&mut scene, name, &spec, stats.as_ref())?;
+        Ok((scene, Some(report)))
+    }
+
+    /// The files `scene_ref` is made from: the compiled scene, and for a variant its description
+    /// (and the statistics when it retextures). Outputs older than any of them are stale.
+    pub fn inputs_of(&self, scene_ref: &SceneRef) -> Vec<PathBuf> {
+        let mut files = vec![self.scene_path(&scene_ref.scene)];
+        if let Some(name) = scene_ref.variant.as_deref() {
+            files.push(self.variant_path(name));
+            if self.read_variant(name).is_ok_and(|s| s.retexture.is_some()) {
+                files.push(self.material_stats_path());
+            }
+        }
+        files
+    }
+
+    /// The newest modification time of [`inputs_of`], or `None` when one is missing.
+    pub fn newest_input(&self, scene_ref: &SceneRef) -> Option<SystemTime> {
+        self.inputs_of(scene_ref)
+            .iter()
+            .map(|p| std::fs::metadata(p).and_then(|m| m.modified()).ok())
+            .try_fold(SystemTime::UNIX_EPOCH, |acc, t| t.map(|t| acc.max(t)))
+    }
+}
