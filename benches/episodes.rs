@@ -5,13 +5,15 @@
 
 use std::time::Instant;
 
-use minos::episode::batch::{sample_scenes, Shard};
+use minos::body::{AgentBody, BodyRule};
 use minos::episode::sample::{sample_scene, SampleConfig};
 use minos::episode::Task;
 use minos::navmesh::file::{nav_path, read_nav, write_nav};
 use minos::navmesh::geodesic::Geodesic;
 use minos::navmesh::path::shortest_path_in;
+use minos::pipeline::episodes::sample_scenes;
 use minos::progress::NoProgress;
+use minos::shard::Shard;
 
 mod support;
 fn main() {
@@ -35,7 +37,16 @@ fn main() {
             ..SampleConfig::default()
         };
         let t = Instant::now();
-        let batch = pool.install(|| sample_scenes(&data, &scenes, &cfg, Shard::ALL, &NoProgress));
+        let batch = pool.install(|| {
+            sample_scenes(
+                &minos::store::DataDir::new(&data),
+                &scenes,
+                &cfg,
+                BodyRule::strict(AgentBody::HABITAT),
+                Shard::ALL,
+                &NoProgress,
+            )
+        });
         let s = t.elapsed().as_secs_f64();
         println!(
             "| {} | {} | {:.2} s | {:.0} |",
@@ -69,7 +80,9 @@ fn breakdown(data: &std::path::Path, ids: &[String]) {
     let out = tempfile::tempdir().expect("tempdir");
     for id in ids {
         let t = Instant::now();
-        let grid = read_nav(&nav_path(data, id)).expect("nav");
+        let grid = minos::store::DataDir::new(data)
+            .read_grid(&minos::scene::SceneRef::parse(id))
+            .expect("nav");
         read += t.elapsed().as_secs_f64();
         spans += grid.spans.len();
         let bytes = std::fs::read(nav_path(data, id)).expect("nav");

@@ -10,13 +10,12 @@ use std::time::Instant;
 
 use glam::{Mat4, Vec3};
 use minos::generate::{generate, GenerateConfig, OutputFormat};
-use minos::ingest::{ingest, IngestConfig};
-use minos::io::scene_file::{read_scene, scene_path};
 use minos::navmesh::build::build;
 use minos::navmesh::geodesic::distance_field;
 use minos::navmesh::geodesic::Geodesic;
 use minos::navmesh::path::{shortest_path, shortest_path_in};
 use minos::navmesh::NavParams;
+use minos::pipeline::ingest::{ingest, IngestConfig};
 use minos::progress::NoProgress;
 use minos::scene::{
     Aabb, Dataset, Level, Material, Mesh, Room, RoomClass, Scene, Surface, SurfaceKind,
@@ -41,7 +40,12 @@ fn houses(cfg: &GenerateConfig, dir: &std::path::Path) -> Vec<Scene> {
     report
         .scenes
         .iter()
-        .map(|(row, _)| read_scene(&scene_path(&data, &row.id)).expect("scene").1)
+        .map(|(row, _)| {
+            minos::store::DataDir::new(&data)
+                .read_scene(&row.id)
+                .expect("scene")
+                .1
+        })
         .collect()
 }
 

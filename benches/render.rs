@@ -10,10 +10,9 @@ use std::time::Instant;
 
 use glam::Vec3;
 use minos::generate::{generate, GenerateConfig, OutputFormat};
-use minos::ingest::{ingest, IngestConfig};
-use minos::io::scene_file::{read_scene, scene_path};
 use minos::navmesh::build::build;
 use minos::navmesh::NavParams;
+use minos::pipeline::ingest::{ingest, IngestConfig};
 use minos::progress::NoProgress;
 use minos::render::gpu::GpuRenderer;
 use minos::render::{cpu, Camera, RenderScene};
@@ -43,11 +42,17 @@ fn main() {
     let scene = report
         .scenes
         .iter()
-        .map(|(r, _)| read_scene(&scene_path(&data, &r.id)).expect("scene").1)
+        .map(|(r, _)| {
+            minos::store::DataDir::new(&data)
+                .read_scene(&r.id)
+                .expect("scene")
+                .1
+        })
         .max_by_key(|s| s.triangle_count())
         .expect("houses");
     let rs = RenderScene::new(&scene);
-    let grid = build(&scene, &NavParams::default()).expect("bake");
+    // MINOS's body, as the simulator bench below moves MINOS's continuous agent.
+    let grid = build(&scene, &NavParams::for_body(minos::body::AgentBody::MINOS)).expect("bake");
     let spans = grid.walkable_spans(None);
     let mut rng = Rng::new(3);
     let poses: Vec<(Vec3, f32)> = (0..64)

@@ -11,18 +11,19 @@
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use minos::episode::batch::{sample_scenes, Shard};
+use minos::body::{AgentBody, BodyRule};
 use minos::episode::sample::SampleConfig;
 use minos::episode::{Episode, Task};
-use minos::io::scene_file::{read_scene, scene_path};
+use minos::io::tables::{ImageEncoding, ObservationWriter};
 use minos::navmesh::file::{nav_path, read_nav};
 use minos::navmesh::geodesic::Geodesic;
+use minos::pipeline::episodes::sample_scenes;
+use minos::pipeline::rollout::{run, AgentKind, RunConfig};
 use minos::progress::NoProgress;
 use minos::run::agents::{Agent, Decision};
 use minos::run::metrics::Reward;
 use minos::run::oracle::OracleAgent;
-use minos::run::rollout::{run, AgentKind, RunConfig};
-use minos::run::tables::{ImageEncoding, ObservationWriter};
+use minos::shard::Shard;
 use minos::sim::simulator::Renderer;
 use minos::sim::{AgentConfig, RendererChoice, SceneAssets, SensorSuite, Simulator};
 
@@ -94,7 +95,14 @@ fn main() {
                 seed: 2,
                 ..SampleConfig::default()
             };
-            let batch = sample_scenes(&data, &scenes, &cfg, Shard::ALL, &NoProgress);
+            let batch = sample_scenes(
+                &minos::store::DataDir::new(&data),
+                &scenes,
+                &cfg,
+                BodyRule::strict(AgentBody::HABITAT),
+                Shard::ALL,
+                &NoProgress,
+            );
             (task, batch.episodes)
         })
         .collect();
@@ -102,7 +110,7 @@ fn main() {
     println!("|---|---|---|---|---|---|---|---|");
     for (task, episodes) in &tasks {
         let cfg = RunConfig {
-            data: data.clone(),
+            data: minos::store::DataDir::new(&data),
             out: dir.path().join(format!("run-{}", task.name())),
             agent: AgentKind::Oracle,
             body: AgentConfig::habitat(),
@@ -116,6 +124,8 @@ fn main() {
             encoding: ImageEncoding::Raw,
             lerobot: false,
             rerun: None,
+            allow_body_mismatch: false,
+            provenance: Default::default(),
         };
         let (t, cpu0) = (Instant::now(), process_cpu());
         let report = pool
@@ -167,8 +177,12 @@ fn breakdown(data: &std::path::Path, tasks: &[(Task, Vec<Episode>)], dir: &std::
     scene_ids.dedup();
     for id in scene_ids {
         let (mut sim, assets) = Clock::time(&mut setup, || {
-            let (_, scene) = read_scene(&scene_path(data, id)).expect("scene");
-            let grid = read_nav(&nav_path(data, id)).expect("nav");
+            let (_, scene) = minos::store::DataDir::new(data)
+                .read_scene(id)
+                .expect("scene");
+            let grid = minos::store::DataDir::new(data)
+                .read_grid(&minos::scene::SceneRef::parse(id))
+                .expect("nav");
             let body = AgentConfig::habitat();
             let assets = Arc::new(SceneAssets::new(&scene, grid, &body).expect("assets"));
             let renderer =

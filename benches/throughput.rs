@@ -9,8 +9,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use minos::generate::{generate, plan_house, GenerateConfig, OutputFormat};
-use minos::ingest::{ingest, IngestConfig};
-use minos::io::scene_file::{read_scene, scene_path};
+use minos::pipeline::ingest::{ingest, IngestConfig};
 use minos::progress::NoProgress;
 use minos::scene::formats::suncg::{HouseEntry, SuncgLoader};
 
@@ -99,7 +98,11 @@ fn main() {
     }
     let compiled = best_rate(entries.len(), 3, || {
         for e in &entries {
-            black_box(read_scene(&scene_path(&data, &e.id)).expect("compiled"));
+            black_box(
+                minos::store::DataDir::new(&data)
+                    .read_scene(&e.id)
+                    .expect("compiled"),
+            );
         }
     });
     row("load compiled scene", 1, compiled, "houses/s");
@@ -125,12 +128,12 @@ fn real_sample(real: &Path, tmp: &Path) {
     });
     let loaded = loader.load(&entry).expect("real house");
     let path = tmp.join("real.mscene");
-    let header = minos::io::scene_file::SceneHeader {
+    let header = minos::store::scene_file::SceneHeader {
         id: id.into(),
         source: String::new(),
         sources: vec![],
     };
-    minos::io::scene_file::write_scene(&path, &header, &loaded.scene).expect("write");
+    minos::store::scene_file::write_scene(&path, &header, &loaded.scene).expect("write");
     let compiled = best_rate(1, 10, || {
         black_box(read_scene(&path).expect("read"));
     });

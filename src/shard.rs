@@ -52,7 +52,6 @@ impl std::str::FromStr for Shard {
     }
 }
 
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -63,7 +62,10 @@ mod tests {
         assert!(Shard::parse("4/4").is_err());
         assert!(Shard::parse("1").is_err());
         assert!(Shard::parse("0/0").is_err());
-        assert_eq!("2/7".parse::<Shard>().map(|s| s.to_string()), Ok("2/7".to_string()));
+        assert_eq!(
+            "2/7".parse::<Shard>().map(|s| s.to_string()),
+            Ok("2/7".to_string())
+        );
     }
 
     #[test]

@@ -11,9 +11,9 @@ use std::fmt::Write as _;
 
 use serde::Serialize;
 
-use crate::store::manifest::ManifestRow;
 use crate::scene::taxonomy::RoomClass;
 use crate::split::{SplitLists, Subset};
+use crate::store::manifest::ManifestRow;
 
 /// How many categories [`render_table`] lists.
 pub const TOP_CATEGORIES: usize = 20;

@@ -6,7 +6,7 @@ use std::path::Path;
 
 use common::{minos, RunOk};
 use minos::generate::{house_id, GenerateConfig};
-use minos::io::manifest::read_manifest;
+use minos::store::manifest::read_manifest;
 
 fn gen(root: &Path, houses: usize) -> GenerateConfig {
     minos()

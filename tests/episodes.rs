@@ -7,20 +7,21 @@ mod common;
 use std::path::Path;
 
 use common::{generate_into, ingest_into};
-use minos::episode::batch::{sample_scenes, EpisodeBatch, Shard};
+use minos::body::{AgentBody, BodyRule};
 use minos::episode::format::write_episodes;
 use minos::episode::habitat::{export_habitat, import_habitat};
 use minos::episode::sample::{path_length_between, SampleConfig, Select};
 use minos::episode::{Goal, Task};
 use minos::generate::GenerateConfig;
-use minos::io::manifest::read_manifest;
-use minos::navmesh::bake::{bake_scenes, BakeConfig};
-use minos::navmesh::file::{nav_path, read_nav};
 use minos::navmesh::geodesic::distance_field;
 use minos::navmesh::path::{path_from_field, PathResult};
 use minos::navmesh::route::route;
 use minos::navmesh::{NavGrid, NavParams};
+use minos::pipeline::bake::{bake_scenes, BakeConfig};
+use minos::pipeline::episodes::{sample_scenes, EpisodeBatch};
 use minos::progress::NoProgress;
+use minos::shard::Shard;
+use minos::store::manifest::read_manifest;
 
 /// A baked DATA folder of generated houses, shared by the tests of this file.
 fn data() -> &'static (tempfile::TempDir, Vec<(String, String)>) {
@@ -38,14 +39,14 @@ fn data() -> &'static (tempfile::TempDir, Vec<(String, String)>) {
         };
         generate_into(&cfg, &root);
         ingest_into(&root, &data);
-        let ids: Vec<String> = read_manifest(&data.join("houses.parquet"))
+        let ids: Vec<String> = read_manifest(&minos::store::DataDir::new(&data).manifest_path())
             .unwrap()
             .into_iter()
             .map(|r| r.id)
             .collect();
         let bake = BakeConfig {
-            data: data.clone(),
-            ids: ids.clone(),
+            data: minos::store::DataDir::new(&data),
+            scenes: ids.iter().map(|id| id.parse().unwrap()).collect(),
             params: NavParams::default(),
             force: false,
             previews: false,
@@ -63,11 +64,20 @@ fn data() -> &'static (tempfile::TempDir, Vec<(String, String)>) {
 
 fn run(cfg: &SampleConfig, shard: Shard) -> EpisodeBatch {
     let (dir, scenes) = data();
-    sample_scenes(&dir.path().join("DATA"), scenes, cfg, shard, &NoProgress)
+    sample_scenes(
+        &minos::store::DataDir::new(dir.path().join("DATA")),
+        scenes,
+        cfg,
+        BodyRule::strict(AgentBody::HABITAT),
+        shard,
+        &NoProgress,
+    )
 }
 
 fn grid(scene: &str) -> NavGrid {
-    read_nav(&nav_path(&data().0.path().join("DATA"), scene)).unwrap()
+    minos::store::DataDir::new(&data().0.path().join("DATA"))
+        .read_grid(&minos::scene::SceneRef::parse(scene))
+        .unwrap()
 }
 
 /// The goal spans of an object or room goal, recomputed from the grid.
@@ -330,12 +340,10 @@ fn a_simulator_reset_to_an_episode_measures_its_stored_geodesic() {
         let e = &batch.episodes[0];
         let (dir, _) = data();
         let data = dir.path().join("DATA");
-        let (_, scene) = minos::io::scene_file::read_scene(&minos::io::scene_file::scene_path(
-            &data,
-            &e.scene_id,
-        ))
-        .unwrap();
-        let agent = minos::sim::AgentConfig::minos_continuous();
+        let (_, scene) = minos::store::DataDir::new(&data)
+            .read_scene(&e.scene_id)
+            .unwrap();
+        let agent = minos::sim::AgentConfig::habitat();
         let assets =
             Arc::new(minos::sim::SceneAssets::new(&scene, grid(&e.scene_id), &agent).unwrap());
         let renderer = Arc::new(minos::sim::simulator::Renderer::Cpu);

@@ -8,8 +8,7 @@ use std::collections::BTreeSet;
 use common::{generate_into, ingest_into, tree_bytes};
 use minos::generate::plan::{OpeningKind, Rect};
 use minos::generate::{generate, GenerateConfig, OutputFormat};
-use minos::ingest::Outcome;
-use minos::io::scene_file::{read_scene, scene_path};
+use minos::pipeline::ingest::Outcome;
 use minos::progress::NoProgress;
 use minos::scene::RoomClass;
 
@@ -136,7 +135,9 @@ fn generated_houses_are_plausible_navigation_environments() {
             }
         }
         // Furniture never interpenetrates, in the ingested scene itself.
-        let (_, scene) = read_scene(&scene_path(&data, &plan.id)).unwrap();
+        let (_, scene) = minos::store::DataDir::new(&data)
+            .read_scene(&plan.id)
+            .unwrap();
         for level in &scene.levels {
             let furniture: Vec<_> = level
                 .objects

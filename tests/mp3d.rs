@@ -11,16 +11,16 @@ use common::{minos, tree_bytes, RunOk};
 use glam::Vec3;
 use minos::generate::mp3d_writer::{house_path, raw_name, region_letter, PANORAMA_HEIGHT};
 use minos::generate::{generate, plan_house, GenerateConfig, HousePlan, OutputFormat};
-use minos::ingest::{ingest, DatasetFormat, IngestConfig, IngestReport, Outcome};
-use minos::io::manifest::read_manifest;
 use minos::navmesh::build::build;
 use minos::navmesh::{NavGrid, NavParams};
+use minos::pipeline::ingest::{ingest, DatasetFormat, IngestConfig, IngestReport, Outcome};
 use minos::progress::NoProgress;
 use minos::scene::formats::mp3d::{
     house_file, zup_to_yup, GeometrySource, Mp3dLoader, Mp3dOptions,
 };
 use minos::scene::formats::SceneEntry;
 use minos::scene::{Scene, SurfaceKind};
+use minos::store::manifest::read_manifest;
 
 fn config(houses: usize, seed: u64, closed_door_prob: f64) -> GenerateConfig {
     GenerateConfig {
@@ -41,7 +41,7 @@ fn ingest_mp3d(root: &Path, data: &Path) -> IngestReport {
     let cfg = IngestConfig {
         format: DatasetFormat::Mp3d,
         root: root.to_path_buf(),
-        data: data.to_path_buf(),
+        data: minos::store::DataDir::new(data),
         ids: None,
         force: false,
         categories: None,

@@ -292,12 +292,10 @@ fn under_a_table_is_walkable_only_if_the_agent_fits() {
     let under = Vec3::new(2.8, 0.0, 1.8);
     assert!(
         !grid_of(&scene).is_walkable(under),
-        "a 1.19 m agent does not fit under a 0.72 m table"
+        "a 1.5 m agent does not fit under a 0.72 m table"
     );
-    let small = NavParams {
-        agent_height: 0.6,
-        ..NavParams::default()
-    };
+    let mut small = NavParams::default();
+    small.body.height = 0.6;
     let g = build(&scene, &small).unwrap();
     assert!(g.is_walkable(under), "a 0.6 m agent fits");
     // And the table top is never floor.

@@ -8,7 +8,6 @@ use std::path::PathBuf;
 
 use common::{generate_into, ingest_into};
 use minos::generate::GenerateConfig;
-use minos::io::scene_file::{read_scene, scene_path};
 use minos::navmesh::build::build;
 use minos::navmesh::geodesic::distance_field;
 use minos::navmesh::path::shortest_path;
@@ -37,7 +36,9 @@ fn doors_rooms_and_levels_of_generated_houses_connect_as_planned() {
     ingest_into(&root, &data);
     let (mut open_checked, mut closed_checked, mut stairs_checked) = (0, 0, 0);
     for plan in &plans {
-        let (_, scene) = read_scene(&scene_path(&data, &plan.id)).unwrap();
+        let (_, scene) = minos::store::DataDir::new(&data)
+            .read_scene(&plan.id)
+            .unwrap();
         let grid = build(&scene, &NavParams::default()).unwrap();
         // Global room index of (level, room).
         let offsets: Vec<u32> = plan
@@ -166,7 +167,9 @@ fn real_suncg_sample_bakes_with_free_floor_around_the_furniture() {
     let dir = tempfile::tempdir().unwrap();
     ingest_into(&data.join("suncg"), dir.path());
     let id = "00e2eed27fb6b5c911624902888039ee";
-    let (_, scene) = read_scene(&scene_path(dir.path(), id)).unwrap();
+    let (_, scene) = minos::store::DataDir::new(dir.path())
+        .read_scene(id)
+        .unwrap();
     let grid = build(&scene, &NavParams::default()).unwrap();
     let room_area = scene.levels[0].rooms[0].area;
     let walkable = grid.walkable_count() as f32 * grid.cell() * grid.cell();
@@ -192,7 +195,7 @@ fn real_suncg_sample_bakes_with_free_floor_around_the_furniture() {
     let pngs = minos::navmesh::preview::write_previews(&grid, &nav).unwrap();
     assert_eq!(pngs.len(), 1);
     let img = image::open(&pngs[0]).unwrap().to_rgb8();
-    let bedroom = minos::navmesh::preview::CLASS_COLORS[1];
+    let bedroom = minos::scene::room_colors::ROOM_CLASS_COLORS[1];
     let free = img.pixels().filter(|p| p.0 == bedroom).count();
     assert!(free > 1000, "{free} bedroom-coloured pixels");
     assert_eq!(minos::navmesh::file::read_nav(&nav).unwrap(), grid);
@@ -221,7 +224,9 @@ fn stored_query_structures_give_the_answers_of_fresh_ones() {
     let mut rng = Rng::new(9);
     let mut compared = 0;
     for plan in &plans {
-        let (_, scene) = read_scene(&scene_path(&data, &plan.id)).unwrap();
+        let (_, scene) = minos::store::DataDir::new(&data)
+            .read_scene(&plan.id)
+            .unwrap();
         let fresh = build(&scene, &NavParams::default()).unwrap();
         let path = dir.path().join(format!("{}.nav", plan.id));
         write_nav(&path, &fresh).unwrap();

@@ -8,9 +8,9 @@ use std::path::{Path, PathBuf};
 
 use glam::Vec3;
 use minos::episode::sample::{sample_scene, SampleConfig};
-use minos::ingest::{ingest, DatasetFormat, IngestConfig, Outcome};
 use minos::navmesh::build::build;
 use minos::navmesh::NavParams;
+use minos::pipeline::ingest::{ingest, DatasetFormat, IngestConfig, Outcome};
 use minos::progress::NoProgress;
 use minos::scene::formats::gltf_scene::{GltfLoader, STAGE_ROOM_ID};
 use minos::scene::formats::{load_mesh_file, SceneEntry};
@@ -104,7 +104,7 @@ fn ingest_compiles_every_test_asset_scene() {
     let cfg = IngestConfig {
         format: DatasetFormat::Gltf,
         root: assets(&data),
-        data: dir.path().join("DATA"),
+        data: minos::store::DataDir::new(dir.path().join("DATA")),
         ids: None,
         force: false,
         categories: Some(data.join("gltf_habitat/hm3d_semantics/hm3dsem_category_mappings.tsv")),

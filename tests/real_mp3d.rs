@@ -7,9 +7,9 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use glam::Vec3;
-use minos::ingest::{ingest, DatasetFormat, IngestConfig, Outcome};
 use minos::navmesh::build::build;
 use minos::navmesh::NavParams;
+use minos::pipeline::ingest::{ingest, DatasetFormat, IngestConfig, Outcome};
 use minos::progress::NoProgress;
 use minos::scene::formats::mp3d::{house_file, zup_to_yup, Mp3dLoader};
 use minos::scene::formats::SceneEntry;
@@ -156,7 +156,7 @@ fn truncated_house_fails_with_a_line_numbered_error_and_the_batch_goes_on() {
     let cfg = IngestConfig {
         format: DatasetFormat::Mp3d,
         root: mp3d.join("house"),
-        data: dir.path().join("DATA"),
+        data: minos::store::DataDir::new(dir.path().join("DATA")),
         ids: None,
         force: false,
         categories: Some(mp3d.join("category_mapping.tsv")),

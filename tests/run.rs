@@ -9,19 +9,20 @@ use std::sync::Arc;
 
 use arrow::array::{Array, BinaryArray, Float32Array, StringArray, UInt32Array};
 use common::{generate_into, ingest_into};
-use minos::episode::batch::{sample_scenes, Shard};
 use minos::episode::sample::SampleConfig;
 use minos::episode::{Episode, Task};
 use minos::generate::GenerateConfig;
-use minos::io::manifest::read_manifest;
-use minos::navmesh::bake::{bake_scenes, BakeConfig};
+use minos::io::tables::ImageEncoding;
 use minos::navmesh::NavParams;
+use minos::pipeline::bake::{bake_scenes, BakeConfig};
+use minos::pipeline::episodes::sample_scenes;
+use minos::pipeline::rollout::{run, AgentKind, RunConfig};
 use minos::progress::NoProgress;
 use minos::run::agents::Decision;
 use minos::run::metrics::Reward;
-use minos::run::rollout::{run, AgentKind, RunConfig};
-use minos::run::tables::ImageEncoding;
+use minos::shard::Shard;
 use minos::sim::{AgentConfig, RendererChoice, SensorSuite};
+use minos::store::manifest::read_manifest;
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 
 fn data() -> &'static (tempfile::TempDir, Vec<Episode>) {
@@ -41,15 +42,15 @@ fn data() -> &'static (tempfile::TempDir, Vec<Episode>) {
             &root,
         );
         ingest_into(&root, &data);
-        let ids: Vec<String> = read_manifest(&data.join("houses.parquet"))
+        let ids: Vec<String> = read_manifest(&minos::store::DataDir::new(&data).manifest_path())
             .unwrap()
             .into_iter()
             .map(|r| r.id)
             .collect();
         bake_scenes(
             &BakeConfig {
-                data: data.clone(),
-                ids: ids.clone(),
+                data: minos::store::DataDir::new(&data),
+                scenes: ids.iter().map(|id| id.parse().unwrap()).collect(),
                 params: NavParams::default(),
                 force: false,
                 previews: false,
@@ -62,7 +63,7 @@ fn data() -> &'static (tempfile::TempDir, Vec<Episode>) {
         for task in [Task::PointGoal, Task::ObjectGoal, Task::RoomGoal] {
             episodes.extend(
                 sample_scenes(
-                    &data,
+                    &minos::store::DataDir::new(&data),
                     &scenes,
                     &SampleConfig {
                         task,
@@ -70,6 +71,7 @@ fn data() -> &'static (tempfile::TempDir, Vec<Episode>) {
                         seed: 2,
                         ..SampleConfig::default()
                     },
+                    minos::body::BodyRule::strict(minos::body::AgentBody::HABITAT),
                     Shard::ALL,
                     &NoProgress,
                 )
@@ -82,7 +84,7 @@ fn data() -> &'static (tempfile::TempDir, Vec<Episode>) {
 
 fn config(out: &Path, agent: AgentKind, sensors: SensorSuite) -> RunConfig {
     RunConfig {
-        data: data().0.path().join("DATA"),
+        data: minos::store::DataDir::new(data().0.path().join("DATA")),
         out: out.to_path_buf(),
         agent,
         body: AgentConfig::habitat(),
@@ -96,6 +98,8 @@ fn config(out: &Path, agent: AgentKind, sensors: SensorSuite) -> RunConfig {
         encoding: ImageEncoding::Raw,
         lerobot: false,
         rerun: None,
+        allow_body_mismatch: false,
+        provenance: Default::default(),
     }
 }
 
@@ -198,14 +202,12 @@ fn observations_read_back_bit_for_bit_and_replays_reproduce_poses() {
         .min_by(|a, b| a.episode_id.cmp(&b.episode_id))
         .unwrap();
     let data_dir = data().0.path().join("DATA");
-    let (_, scene) = minos::io::scene_file::read_scene(&minos::io::scene_file::scene_path(
-        &data_dir,
-        &e.scene_id,
-    ))
-    .unwrap();
-    let grid =
-        minos::navmesh::file::read_nav(&minos::navmesh::file::nav_path(&data_dir, &e.scene_id))
-            .unwrap();
+    let (_, scene) = minos::store::DataDir::new(&data_dir)
+        .read_scene(&e.scene_id)
+        .unwrap();
+    let grid = minos::store::DataDir::new(&data_dir)
+        .read_grid(&minos::scene::SceneRef::parse(&e.scene_id))
+        .unwrap();
     let body = AgentConfig::habitat();
     let assets = Arc::new(minos::sim::SceneAssets::new(&scene, grid, &body).unwrap());
     let mut sim = minos::sim::Simulator::new(
@@ -589,7 +591,7 @@ fn a_run_records_one_pose_and_image_per_step_and_leaves_the_tables_unchanged() {
     let out = dir.path().join("recorded");
     let rrd = dir.path().join("rec/run.rrd");
     let mut cfg = config(&out, AgentKind::Oracle, sensors);
-    cfg.rerun = Some(minos::run::rollout::RerunOutput {
+    cfg.rerun = Some(minos::pipeline::rollout::RerunOutput {
         path: rrd.clone(),
         episodes: 2,
     });
@@ -781,7 +783,8 @@ fn an_episodes_drawn_shortest_path_starts_at_its_start_and_has_its_geodesic_leng
     let mut grids = std::collections::HashMap::new();
     for e in &data().1 {
         let grid = grids.entry(e.scene_id.clone()).or_insert_with(|| {
-            minos::navmesh::file::read_nav(&minos::navmesh::file::nav_path(&data_dir, &e.scene_id))
+            minos::store::DataDir::new(&data_dir)
+                .read_grid(&minos::scene::SceneRef::parse(&e.scene_id))
                 .unwrap()
         });
         let path = minos::episode::goal::shortest_path(grid, e)

@@ -21,7 +21,7 @@ use minos::sim::{
 };
 
 fn sim_with(scene: &Scene, agent: AgentConfig, sensors: SensorSuite) -> Simulator {
-    let grid = build(scene, &NavParams::default()).unwrap();
+    let grid = build(scene, &NavParams::for_body(agent.body)).unwrap();
     let assets = Arc::new(SceneAssets::new(scene, grid, &agent).unwrap());
     let renderer = Arc::new(Renderer::new(RendererChoice::Cpu, &assets.render).unwrap());
     Simulator::new(assets, renderer, agent, sensors, 500, 0)
@@ -397,9 +397,9 @@ fn cpu_and_wgpu_renderers_agree() {
     let (mut depth_se, mut depth_n, mut label_eq, mut label_n, mut color_ae, mut color_n) =
         (0f64, 0usize, 0usize, 0usize, 0f64, 0usize);
     for plan in &plans {
-        let (_, scene) =
-            minos::io::scene_file::read_scene(&minos::io::scene_file::scene_path(&data, &plan.id))
-                .unwrap();
+        let (_, scene) = minos::store::DataDir::new(&data)
+            .read_scene(&plan.id)
+            .unwrap();
         let rs = RenderScene::new(&scene);
         assert!(
             rs.tris

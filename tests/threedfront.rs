@@ -8,11 +8,10 @@ use std::path::{Path, PathBuf};
 use glam::Vec3;
 use minos::episode::sample::{sample_scene, SampleConfig};
 use minos::episode::Task;
-use minos::ingest::{ingest, DatasetFormat, IngestConfig, Outcome};
-use minos::io::scene_file::{read_scene, scene_path};
 use minos::navmesh::build::build;
 use minos::navmesh::path::shortest_path;
 use minos::navmesh::{NavGrid, NavParams};
+use minos::pipeline::ingest::{ingest, DatasetFormat, IngestConfig, Outcome};
 use minos::progress::NoProgress;
 use minos::scene::formats::threedfront::{parse_scene, ThreeDFrontLoader};
 use minos::scene::formats::{LoadError, LoadedScene, SceneEntry};
@@ -639,7 +638,9 @@ fn ingest_and_the_cli_read_a_3dfront_root() {
     let (row, outcome) = &report.scenes[0];
     assert_eq!(*outcome, Outcome::Compiled, "{:?}", row.error);
     assert_eq!(row.dataset, "3dfront");
-    let (_, scene) = read_scene(&scene_path(&data, "hand-made")).expect("compiled scene");
+    let (_, scene) = minos::store::DataDir::new(&data)
+        .read_scene("hand-made")
+        .expect("compiled scene");
     assert_eq!(scene.levels[0].rooms.len(), 2);
     // The CLI flag names: --dataset 3dfront --models DIR.
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_minos"))

@@ -11,14 +11,15 @@ use std::sync::Arc;
 
 use common::{generate_into, ingest_into, minos, RunOk};
 use glam::Vec3;
-use minos::episode::batch::{sample_scenes, Shard};
+use minos::body::{AgentBody, BodyRule};
 use minos::episode::sample::SampleConfig;
 use minos::episode::Task;
 use minos::generate::GenerateConfig;
-use minos::io::variant_store::{collect_stats, load_scene, write_stats, write_variant};
-use minos::navmesh::bake::{bake_scenes, BakeConfig};
 use minos::navmesh::build::build;
 use minos::navmesh::{NavGrid, NavParams};
+use minos::pipeline::bake::{bake_scenes, BakeConfig};
+use minos::pipeline::episodes::sample_scenes;
+use minos::pipeline::variants::collect_stats;
 use minos::progress::NoProgress;
 use minos::render::labels::Taxonomy;
 use minos::scene::variants::materials::{
@@ -28,9 +29,11 @@ use minos::scene::variants::materials::{
 use minos::scene::variants::{MaterialStats, Retexture, TextureSet, VariantSpec};
 use minos::scene::Scene;
 use minos::seed::Rng;
+use minos::shard::Shard;
 use minos::sim::sensors::{Image, Modality};
 use minos::sim::simulator::Renderer;
 use minos::sim::{AgentConfig, RendererChoice, SceneAssets, SensorSuite, Simulator};
+use minos::store::DataDir;
 
 /// Generated (`cfg`), ingested houses in `dir/data`; returns that DATA folder and the ids.
 fn houses_with(dir: &Path, cfg: &GenerateConfig) -> (PathBuf, Vec<String>) {
@@ -54,11 +57,14 @@ fn houses(dir: &Path, count: usize, seed: u64) -> (PathBuf, Vec<String>) {
 }
 
 fn define(data: &Path, name: &str, spec: VariantSpec) {
-    write_variant(data, name, &spec).unwrap();
+    DataDir::new(data).write_variant(name, &spec).unwrap();
 }
 
 fn load(data: &Path, scene_ref: &str) -> Scene {
-    load_scene(data, scene_ref).unwrap().0
+    DataDir::new(data)
+        .load_scene(&scene_ref.parse().unwrap())
+        .unwrap()
+        .0
 }
 
 fn object_ids(scene: &Scene) -> BTreeSet<String> {
@@ -68,7 +74,7 @@ fn object_ids(scene: &Scene) -> BTreeSet<String> {
 /// Semantic and depth images from `poses` (x, y, z, yaw) with a 48² camera.
 fn views(scene: &Scene, poses: &[(Vec3, f32)]) -> Vec<(Vec<u16>, Vec<f32>, Vec<u8>)> {
     let agent = AgentConfig::minos_continuous();
-    let grid = build(scene, &NavParams::default()).unwrap();
+    let grid = build(scene, &NavParams::for_body(agent.body)).unwrap();
     let assets = Arc::new(SceneAssets::new(scene, grid, &agent).unwrap());
     let renderer = Arc::new(Renderer::new(RendererChoice::Cpu, &assets.render).unwrap());
     let mut suite = SensorSuite::minos(48);
@@ -159,7 +165,7 @@ fn removing_a_category_removes_exactly_its_instances_from_model_grid_and_image()
         assert!(gv.objects.iter().all(|o| !chairs.contains(&o.id)), "{id}");
         assert_eq!((gb.x0, gb.z0, gb.nx, gb.nz), (gv.x0, gv.z0, gv.nx, gv.nz));
         let near_chair = |p: Vec3| {
-            let m = params.agent_radius + 2.0 * params.cell_size;
+            let m = params.body.radius + 2.0 * params.cell_size;
             base.objects().filter(|o| chairs.contains(&o.id)).any(|o| {
                 p.x >= o.bbox.min.x - m
                     && p.x <= o.bbox.max.x + m
@@ -329,9 +335,10 @@ fn opening_doors_merges_the_islands_they_separated() {
 }
 
 fn stats_for(data: &Path, ids: &[String]) -> MaterialStats {
-    let (stats, failures) = collect_stats(data, ids, 0, DEFAULT_FRACTIONS, &NoProgress);
+    let data = DataDir::new(data);
+    let (stats, failures) = collect_stats(&data, ids, 0, DEFAULT_FRACTIONS, &NoProgress);
     assert!(failures.is_empty());
-    write_stats(data, &stats).unwrap();
+    data.write_material_stats(&stats).unwrap();
     stats
 }
 
@@ -489,8 +496,8 @@ fn furnished_houses_make_longer_detours_than_empty_ones() {
         .collect();
     let report = bake_scenes(
         &BakeConfig {
-            data: data.clone(),
-            ids: refs,
+            data: DataDir::new(&data),
+            scenes: refs.iter().map(|r| r.parse().unwrap()).collect(),
             params: NavParams::default(),
             force: false,
             previews: false,
@@ -510,7 +517,14 @@ fn furnished_houses_make_longer_detours_than_empty_ones() {
             .iter()
             .map(|id| (format!("{id}{variant}"), "train".to_string()))
             .collect();
-        sample_scenes(&data, &scenes, &cfg, Shard::ALL, &NoProgress)
+        sample_scenes(
+            &DataDir::new(&data),
+            &scenes,
+            &cfg,
+            BodyRule::strict(AgentBody::HABITAT),
+            Shard::ALL,
+            &NoProgress,
+        )
     };
     let (furnished, empty) = (sample(""), sample("@empty"));
     assert_eq!(furnished.total, 6 * 60);

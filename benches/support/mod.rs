@@ -3,9 +3,9 @@
 use std::path::{Path, PathBuf};
 
 use minos::generate::{generate, GenerateConfig, OutputFormat};
-use minos::ingest::{ingest, IngestConfig};
-use minos::navmesh::bake::{bake_scenes, BakeConfig};
 use minos::navmesh::NavParams;
+use minos::pipeline::bake::{bake_scenes, BakeConfig};
+use minos::pipeline::ingest::{ingest, IngestConfig};
 use minos::progress::NoProgress;
 
 /// Generates `houses` furnished SUNCG-format houses from `seed` under `dir`, ingests them and
@@ -21,8 +21,11 @@ pub fn baked_houses(dir: &Path, houses: usize, seed: u64) -> (PathBuf, Vec<Strin
     let report = ingest(&IngestConfig::suncg(&root, &data), &NoProgress).expect("ingest");
     let ids: Vec<String> = report.scenes.iter().map(|(r, _)| r.id.clone()).collect();
     let bake = BakeConfig {
-        data: data.clone(),
-        ids: ids.clone(),
+        data: minos::store::DataDir::new(&data),
+        scenes: ids
+            .iter()
+            .map(|id| minos::scene::SceneRef::parse(id))
+            .collect(),
         params: NavParams::default(),
         force: false,
         previews: false,

@@ -84,9 +84,12 @@ fn params(args: &Args) -> anyhow::Result<NavParams> {
 pub fn config(args: &Args) -> anyhow::Result<BakeConfig> {
     let data = DataDir::new(&args.data);
     let ids = split_or_all(&data, args.split.as_deref())?;
-    let scenes = data
-        .refs(&ids, args.variant.as_deref())
-        .map_err(|e| anyhow::anyhow!("--variant: {e}"))?;
+    let scenes = data.refs(&ids, args.variant.as_deref()).map_err(|e| {
+        anyhow::anyhow!(
+            "--variant {}: {e}",
+            args.variant.as_deref().unwrap_or_default()
+        )
+    })?;
     Ok(BakeConfig {
         params: params(args)?,
         scenes,
@@ -156,7 +159,7 @@ mod tests {
         assert_eq!(p.cell_size, 0.1);
         let p = params(&args("--data D --preset minos-continuous")).unwrap();
         assert_eq!(p.body, AgentBody::MINOS);
-        assert!(params(&args("--data D --cell-size -1")).is_err());
+        assert!(params(&args("--data D --cell-size=-1")).is_err());
         assert!(Cli::try_parse_from(["bake", "--data", "D", "--preset", "default"]).is_err());
     }
 

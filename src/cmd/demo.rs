@@ -16,16 +16,14 @@ use minos::navmesh::NavParams;
 use minos::pipeline::bake::{bake_scenes, BakeConfig};
 use minos::pipeline::episodes::sample_scenes;
 use minos::pipeline::ingest::{ingest, IngestConfig, Outcome};
-use minos::pipeline::rollout::{
-    run as rollout, AgentKind, Provenance, RerunOutput, RunConfig,
-};
+use minos::pipeline::rollout::{run as rollout, AgentKind, Provenance, RerunOutput, RunConfig};
 use minos::render::RendererChoice;
 use minos::run::metrics::{render_table, Reward};
 use minos::shard::Shard;
 use minos::sim::{AgentConfig, SensorSuite};
-use minos::store::DataDir;
 use minos::split::{self, Expr, Ratios};
 use minos::stats;
+use minos::store::DataDir;
 
 use super::Context;
 

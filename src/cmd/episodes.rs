@@ -261,8 +261,16 @@ pub fn config(a: &SampleArgs) -> anyhow::Result<EpisodesJob> {
         if subset.is_none_or(|s| s == part) {
             let refs = data
                 .refs(lists.get(part), a.variant.as_deref())
-                .map_err(|e| anyhow::anyhow!("--variant: {e}"))?;
-            scenes.extend(refs.into_iter().map(|r| (r.to_string(), part.name().to_string())));
+                .map_err(|e| {
+                    anyhow::anyhow!(
+                        "--variant {}: {e}",
+                        a.variant.as_deref().unwrap_or_default()
+                    )
+                })?;
+            scenes.extend(
+                refs.into_iter()
+                    .map(|r| (r.to_string(), part.name().to_string())),
+            );
         }
     }
     let stratified = match a.stratify {

@@ -159,8 +159,14 @@ mod tests {
 
     #[test]
     fn the_format_comes_from_the_flag_or_the_extension() {
-        assert_eq!(format("--data D --scene s --out a.glb").unwrap(), ExportFormat::Glb);
-        assert_eq!(format("--data D --scene s --out a.OBJ").ok(), ExportFormat::from_path(std::path::Path::new("a.OBJ")));
+        assert_eq!(
+            format("--data D --scene s --out a.glb").unwrap(),
+            ExportFormat::Glb
+        );
+        assert_eq!(
+            format("--data D --scene s --out a.OBJ").ok(),
+            ExportFormat::from_path(std::path::Path::new("a.OBJ"))
+        );
         assert_eq!(
             format("--data D --scene s --out a.glb --format obj").unwrap(),
             ExportFormat::Obj

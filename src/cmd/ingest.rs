@@ -6,8 +6,8 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use anyhow::Context as _;
-use minos::store::DataDir;
 use minos::pipeline::ingest::{ingest, read_id_list, DatasetFormat, IngestConfig, Outcome};
+use minos::store::DataDir;
 
 use super::Context;
 

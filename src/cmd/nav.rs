@@ -178,7 +178,10 @@ mod tests {
         let q = config(&a);
         assert_eq!(q.scene, SceneRef::parse("h@tex"));
         assert_eq!(q.from, Vec3::new(1.0, 0.0, -2.5));
-        assert_eq!(q.data.grid_path(&q.scene), std::path::Path::new("D/nav/h@tex.nav"));
+        assert_eq!(
+            q.data.grid_path(&q.scene),
+            std::path::Path::new("D/nav/h@tex.nav")
+        );
         for bad in ["1,2", "1,2,x", "1,2,inf"] {
             assert!(parse_point(bad).is_err(), "{bad}");
         }

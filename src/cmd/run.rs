@@ -10,7 +10,9 @@ use minos::body::AgentPreset;
 use minos::episode::format::read_episodes;
 use minos::episode::Episode;
 use minos::io::tables::{read_replay, ImageEncoding};
-use minos::pipeline::rollout::{run as run_episodes, AgentKind, Provenance, RerunOutput, RunConfig};
+use minos::pipeline::rollout::{
+    run as run_episodes, AgentKind, Provenance, RerunOutput, RunConfig,
+};
 use minos::run::metrics::{render_table, Reward};
 use minos::shard::Shard;
 use minos::sim::{AgentConfig, SensorSuite};
@@ -268,7 +270,9 @@ mod tests {
         );
         assert!(agent_kind("external: ").is_err());
         assert!(agent_kind("greedy").is_err());
-        let missing = agent_kind("replay:/nonexistent/t.parquet").unwrap_err().to_string();
+        let missing = agent_kind("replay:/nonexistent/t.parquet")
+            .unwrap_err()
+            .to_string();
         assert!(missing.contains("/nonexistent/t.parquet"), "{missing}");
     }
 
@@ -282,7 +286,10 @@ mod tests {
             "--preset default",
         ] {
             let line = format!("run --data D --episodes E --agent oracle --out O {bad}");
-            assert!(Cli::try_parse_from(line.split_whitespace()).is_err(), "{bad}");
+            assert!(
+                Cli::try_parse_from(line.split_whitespace()).is_err(),
+                "{bad}"
+            );
         }
         let a = args("--data D --episodes E --agent oracle --out O --preset minos-gridworld");
         assert_eq!(AgentPreset::from(a.preset), AgentPreset::MinosGridworld);
@@ -290,6 +297,9 @@ mod tests {
             AgentConfig::preset(AgentPreset::from(a.preset)).body,
             AgentBody::MINOS
         );
-        assert_eq!(args("--data D --episodes E --agent oracle --out O").reward, RewardArg::DistTime);
+        assert_eq!(
+            args("--data D --episodes E --agent oracle --out O").reward,
+            RewardArg::DistTime
+        );
     }
 }

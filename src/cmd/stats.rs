@@ -5,9 +5,9 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::Context as _;
-use minos::store::DataDir;
 use minos::split;
 use minos::stats::{self, StatsColumn};
+use minos::store::DataDir;
 
 use super::Context;
 

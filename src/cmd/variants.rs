@@ -6,11 +6,11 @@ use std::process::ExitCode;
 
 use anyhow::{bail, Context as _};
 use minos::pipeline::variants::{collect_stats, dry_run};
-use minos::store::DataDir;
 use minos::scene::variants::materials::DEFAULT_FRACTIONS;
 use minos::scene::variants::{
     parse_spec_file, validate_name, KeepOnly, Retexture, TextureSet, VariantSpec,
 };
+use minos::store::DataDir;
 
 use super::Context;
 
@@ -148,13 +148,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
             None => {
                 let (stats, failures) = {
                     let bar = ctx.progress(ids.len() as u64, "material stats");
-                    collect_stats(
-                        &data,
-                        &ids,
-                        args.partition_seed,
-                        DEFAULT_FRACTIONS,
-                        &bar,
-                    )
+                    collect_stats(&data, &ids, args.partition_seed, DEFAULT_FRACTIONS, &bar)
                 };
                 for (id, e) in &failures {
                     eprintln!("warning: scene {id}: left out of the material statistics: {e}");

@@ -14,8 +14,8 @@ use arrow::datatypes::{DataType, Field, Schema};
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 use serde_json::json;
 
-use crate::episode::Episode;
 use crate::atomic::write_bytes_atomic;
+use crate::episode::Episode;
 use crate::sim::sensors::{dtype_of, CameraSensor};
 
 /// Episodes per chunk folder.

@@ -179,8 +179,11 @@ mod tests {
         .unwrap();
         assert_eq!(p.body, AgentBody::HABITAT);
         assert_eq!(p.cell_size, 0.1);
-        let p = params_from_toml("preset = \"minos\"\nagent_height = 1.3\n", NavParams::default())
-            .unwrap();
+        let p = params_from_toml(
+            "preset = \"minos\"\nagent_height = 1.3\n",
+            NavParams::default(),
+        )
+        .unwrap();
         assert_eq!(p.body.height, 1.3);
         assert_eq!(p.body.radius, AgentBody::MINOS.radius);
         let err = params_from_toml("cel_size = 0.1", NavParams::default()).unwrap_err();
@@ -203,9 +206,7 @@ mod tests {
             clearance_weight: 7.0,
         };
         let bytes = postcard::to_stdvec(&p).unwrap();
-        let expected: Vec<u8> = (1..=7)
-            .flat_map(|v| (v as f32).to_le_bytes())
-            .collect();
+        let expected: Vec<u8> = (1..=7).flat_map(|v| (v as f32).to_le_bytes()).collect();
         assert_eq!(bytes, expected);
         assert_eq!(postcard::from_bytes::<NavParams>(&bytes).unwrap(), p);
     }

@@ -7,8 +7,8 @@ use std::collections::BTreeMap;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::episode::sample::{sample_scene, SampleConfig, SceneEpisodes};
 use crate::body::BodyRule;
+use crate::episode::sample::{sample_scene, SampleConfig, SceneEpisodes};
 use crate::episode::Episode;
 use crate::progress::Progress;
 use crate::scene::SceneRef;

@@ -11,15 +11,15 @@ use std::time::SystemTime;
 
 use rayon::prelude::*;
 
-use crate::store::manifest::{read_manifest, write_manifest, ManifestError, ManifestRow};
-use crate::store::scene_file::{read_header, read_scene, write_scene, SceneHeader};
-use crate::store::DataDir;
 use crate::progress::Progress;
 use crate::scene::formats::gltf_scene::GltfLoader;
 use crate::scene::formats::mp3d::Mp3dLoader;
 use crate::scene::formats::suncg::SuncgLoader;
 use crate::scene::formats::threedfront::ThreeDFrontLoader;
 use crate::scene::formats::{DatasetLoader, LoadError, SceneEntry};
+use crate::store::manifest::{read_manifest, write_manifest, ManifestError, ManifestRow};
+use crate::store::scene_file::{read_header, read_scene, write_scene, SceneHeader};
+use crate::store::DataDir;
 
 /// Dataset formats ingest reads.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

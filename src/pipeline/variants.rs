@@ -28,7 +28,8 @@ pub fn collect_stats(
         let loaded: Vec<(String, Result<Scene, String>)> = chunk
             .par_iter()
             .map(|id| {
-                let r = data.read_scene(id)
+                let r = data
+                    .read_scene(id)
                     .map(|(_, s)| s)
                     .map_err(|e| e.to_string());
                 progress.advance(1);
@@ -58,7 +59,8 @@ pub fn dry_run(
     progress.set_total(ids.len() as u64);
     ids.par_iter()
         .map(|id| {
-            let r = data.read_scene(id)
+            let r = data
+                .read_scene(id)
                 .map_err(|e| e.to_string())
                 .and_then(|(_, mut scene)| {
                     apply_variant(&mut scene, name, spec, stats).map_err(|e| e.to_string())

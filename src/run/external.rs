@@ -172,8 +172,7 @@ impl Agent for ExternalAgent {
         let msg = observation_json(&self.episode, obs, sim);
         self.send(&msg)?;
         let reply = self.receive()?;
-        parse_reply(&reply)
-            .map_err(|e| self.fail(format!("step {}: {e}", obs.measurements.step)))
+        parse_reply(&reply).map_err(|e| self.fail(format!("step {}: {e}", obs.measurements.step)))
     }
 
     fn stops(&self) -> bool {
@@ -200,9 +199,11 @@ mod tests {
         assert_eq!((a.forward, a.turn_right), (1.0, 0.5));
         assert!(parse_reply(&json!({"action": "fly"}))
             .unwrap_err()
+            .0
             .contains("fly"));
         assert!(parse_reply(&json!({"actions": {"jump": 1}}))
             .unwrap_err()
+            .0
             .contains("jump"));
         assert!(parse_reply(&json!({})).is_err());
     }

@@ -22,8 +22,8 @@ use crate::episode::{Episode, Goal};
 use crate::sim::agent::{AgentState, Motion};
 use crate::sim::{Actions, Observation, Simulator};
 
-use super::metrics::reached;
 use super::agents::{action_set, Agent, AgentError, Decision};
+use super::metrics::reached;
 
 /// Largest number of states one plan may expand.
 const MAX_EXPANSIONS: usize = 40_000;
@@ -332,7 +332,10 @@ impl Agent for OracleAgent {
     }
 
     fn decide(&mut self, _obs: &Observation, sim: &Simulator) -> Result<Decision, AgentError> {
-        let episode = self.episode.as_ref().ok_or(AgentError::NotReset("oracle"))?;
+        let episode = self
+            .episode
+            .as_ref()
+            .ok_or(AgentError::NotReset("oracle"))?;
         // Re-plan if the world did not do what the plan expected (it is deterministic, so this
         // only happens when the plan came from another state).
         if self.expected.is_some_and(|e| e != sim.state()) {

@@ -73,7 +73,12 @@ mod tests {
 
     #[test]
     fn text_form_round_trips() {
-        for text in ["0004d52d1aeeb8ae6de39d6bd993e992", "house_3@empty", "a@b@c", "x@"] {
+        for text in [
+            "0004d52d1aeeb8ae6de39d6bd993e992",
+            "house_3@empty",
+            "a@b@c",
+            "x@",
+        ] {
             assert_eq!(SceneRef::parse(text).to_string(), text);
         }
         let r = SceneRef::parse("house_3@empty");

@@ -65,8 +65,13 @@ impl SceneAssets {
         Ok(SceneAssets {
             id: scene.id.clone(),
             render: RenderScene::new(scene),
-            collision: CollisionWorld::new(scene, agent.body.radius, agent.body.height, agent.body.max_climb)
-                .map_err(SimError::Scene)?,
+            collision: CollisionWorld::new(
+                scene,
+                agent.body.radius,
+                agent.body.height,
+                agent.body.max_climb,
+            )
+            .map_err(SimError::Scene)?,
             grid,
         })
     }
@@ -460,7 +465,8 @@ impl Simulator {
                 let a = self.state.yaw + k as f32 * std::f32::consts::TAU / contact.count as f32;
                 let dir = Vec3::new(-a.sin(), 0.0, -a.cos());
                 let probe = 0.03;
-                let center = base + Vec3::Y * contact.height + dir * (self.agent.body.radius + probe);
+                let center =
+                    base + Vec3::Y * contact.height + dir * (self.agent.body.radius + probe);
                 let hit = self.assets.collision.probe(center, probe);
                 let v = Vec3::new(self.last_velocity[0], 0.0, self.last_velocity[1]);
                 m.contacts.push(hit);

@@ -27,8 +27,8 @@
 
 use std::fmt;
 
-use crate::store::manifest::ManifestRow;
 use crate::scene::taxonomy::RoomClass;
+use crate::store::manifest::ManifestRow;
 
 /// The language in a few lines, as `minos split --help` shows it.
 pub const SYNTAX_HELP: &str = "\

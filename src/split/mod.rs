@@ -18,8 +18,8 @@ use std::collections::{HashMap, HashSet};
 use std::fmt;
 use std::str::FromStr;
 
-use crate::store::manifest::ManifestRow;
 use crate::seed::derive_seed;
+use crate::store::manifest::ManifestRow;
 
 pub use expr::{Expr, ExprError, ExprErrorKind};
 pub use files::{parse_list, read_lists, read_split, split_dir, write_split};

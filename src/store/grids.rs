@@ -16,9 +16,7 @@ impl DataDir {
         let Some(name) = scene.variant.as_deref() else {
             return scene.clone();
         };
-        let keeps_geometry = self
-            .read_variant(name)
-            .is_ok_and(|s| !s.changes_geometry());
+        let keeps_geometry = self.read_variant(name).is_ok_and(|s| !s.changes_geometry());
         if keeps_geometry && !self.nav_path(scene).is_file() {
             scene.without_variant()
         } else {

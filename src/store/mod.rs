@@ -151,7 +151,10 @@ mod tests {
         assert_eq!(data.manifest_path(), Path::new("/d/houses.parquet"));
         assert_eq!(data.scene_path("h1"), Path::new("/d/scenes/h1.mscene"));
         assert_eq!(data.nav_path(&v), Path::new("/d/nav/h1@empty.nav"));
-        assert_eq!(data.variant_path("empty"), Path::new("/d/variants/empty.toml"));
+        assert_eq!(
+            data.variant_path("empty"),
+            Path::new("/d/variants/empty.toml")
+        );
         assert_eq!(
             data.material_stats_path(),
             Path::new("/d/stats/materials.json")

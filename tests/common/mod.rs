@@ -7,7 +7,7 @@ pub mod scenes;
 use std::path::{Path, PathBuf};
 
 use minos::generate::{generate, plan_house, GenerateConfig, HousePlan, OutputFormat};
-use minos::ingest::{ingest, IngestConfig, IngestReport};
+use minos::pipeline::ingest::{ingest, IngestConfig, IngestReport};
 use minos::progress::NoProgress;
 
 /// Generates `cfg` into `root` and returns the plans.

@@ -13,9 +13,9 @@ use crate::episode::goal::{goal_positions, shortest_path};
 use crate::episode::Episode;
 use crate::navmesh::grid::NONE;
 use crate::navmesh::preview::{levels_present, render_level};
-use crate::scene::room_colors::room_class_color;
 use crate::navmesh::NavGrid;
 use crate::render::{RenderScene, Taxonomy};
+use crate::scene::room_colors::room_class_color;
 use crate::scene::SurfaceKind;
 
 /// Root of the 3D world (right-handed, metres, +Y up).

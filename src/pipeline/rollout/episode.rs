@@ -171,4 +171,3 @@ fn record_act(recorder: &mut Option<EpisodeRecorder>, row: &StepRow) -> Result<(
         None => Ok(()),
     }
 }
-

@@ -31,8 +31,8 @@ use crate::shard::Shard;
 use crate::sim::{AgentConfig, SensorSuite};
 use crate::store::DataDir;
 
-pub use episode::EpisodeError;
 pub use crate::render::RendererChoice;
+pub use episode::EpisodeError;
 use parts::part;
 use scene::SceneRun;
 
@@ -335,7 +335,8 @@ fn finish(
         "failures": report.failures.iter().map(|(id, e)| serde_json::json!({"episode_id": id, "error": e})).collect::<Vec<_>>(),
     });
     let path = cfg.out.join("metrics.json");
-    let bytes = serde_json::to_vec_pretty(&metrics).map_err(|e| RolloutError::Table(e.to_string()))?;
+    let bytes =
+        serde_json::to_vec_pretty(&metrics).map_err(|e| RolloutError::Table(e.to_string()))?;
     write_bytes_atomic(&path, &bytes).map_err(io_error(&path))?;
     if let Some(rerun) = &cfg.rerun {
         let recordings: Vec<PathBuf> = kept

@@ -1,0 +1,308 @@
+//! The layering of `docs/ARCHITECTURE.md`, enforced: every module of the library imports only
+//! from the floors below it. The test reads the sources, so an import that runs back up the
+//! layers fails here, whatever compiles.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+
+/// Ground: utilities every floor may use.
+const GROUND: &[&str] = &["atomic", "body", "progress", "seed", "shard"];
+
+/// Each top-level module of the library and the modules (beyond the ground) it may import.
+/// Read top to bottom, this is the floor plan of `docs/ARCHITECTURE.md`.
+const FLOORS: &[(&str, &[&str])] = &[
+    ("atomic", &[]),
+    ("body", &[]),
+    ("progress", &[]),
+    ("seed", &[]),
+    ("shard", &[]),
+    // The canonical model.
+    ("scene", &[]),
+    // Algorithms, in the direction data flows.
+    ("generate", &["scene"]),
+    ("navmesh", &["scene"]),
+    ("episode", &["scene", "navmesh"]),
+    ("render", &["scene"]),
+    ("sim", &["scene", "navmesh", "episode", "render"]),
+    ("run", &["scene", "navmesh", "episode", "render", "sim"]),
+    // Storage (the DATA folder) and outputs, side by side.
+    ("store", &["scene", "navmesh"]),
+    (
+        "io",
+        &["scene", "navmesh", "episode", "render", "sim", "run"],
+    ),
+    // What works on a DATA folder as a whole.
+    ("split", &["scene", "store"]),
+    ("stats", &["scene", "store", "split"]),
+    (
+        "pipeline",
+        &[
+            "scene", "generate", "navmesh", "episode", "render", "sim", "run", "store", "io",
+            "split", "stats",
+        ],
+    ),
+];
+
+fn allowed(module: &str) -> Option<BTreeSet<&'static str>> {
+    let (_, deps) = FLOORS.iter().find(|(m, _)| *m == module)?;
+    Some(deps.iter().chain(GROUND).copied().collect())
+}
+
+fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
+    for entry in std::fs::read_dir(dir).expect("readable source folder") {
+        let path = entry.expect("readable entry").path();
+        if path.is_dir() {
+            rust_files(&path, out);
+        } else if path.extension().is_some_and(|e| e == "rs") {
+            out.push(path);
+        }
+    }
+}
+
+/// The module path of a file below `src/` (`src/a/b/mod.rs` → `[a, b]`, `src/a/c.rs` →
+/// `[a, c]`).
+fn module_path(rel: &Path) -> Vec<String> {
+    let mut parts: Vec<String> = rel
+        .iter()
+        .map(|p| p.to_string_lossy().trim_end_matches(".rs").to_string())
+        .collect();
+    if parts.last().is_some_and(|p| p == "mod") {
+        parts.pop();
+    }
+    parts
+}
+
+/// The code of a line: without its `//` comment (doc comments included) and without the
+/// contents of string literals on it (good enough for this crate's sources).
+fn code_of(line: &str) -> String {
+    let mut out = String::new();
+    let mut in_str = false;
+    let mut prev = ' ';
+    let chars: Vec<char> = line.chars().collect();
+    let mut i = 0;
+    while i < chars.len() {
+        let c = chars[i];
+        if !in_str && c == '/' && chars.get(i + 1) == Some(&'/') {
+            break;
+        }
+        if c == '"' && prev != '\\' && !(prev == '\'' && chars.get(i + 1) == Some(&'\'')) {
+            in_str = !in_str;
+            out.push(c);
+        } else if !in_str {
+            out.push(c);
+        }
+        prev = if prev == '\\' && c == '\\' { ' ' } else { c };
+        i += 1;
+    }
+    out
+}
+
+fn ident_at(s: &str) -> String {
+    s.chars()
+        .take_while(|c| c.is_ascii_alphanumeric() || *c == '_')
+        .collect()
+}
+
+/// The top-level modules `code` (one file, comments removed) refers to, for a file whose
+/// module path is `here`.
+fn references(code: &str, here: &[String]) -> BTreeSet<String> {
+    let mut found = BTreeSet::new();
+    // `crate::x` and `crate::{x, y::z}`.
+    for (at, _) in code.match_indices("crate::") {
+        let before = code[..at].chars().last();
+        if before.is_some_and(|c| c.is_ascii_alphanumeric() || c == '_' || c == '$') {
+            continue;
+        }
+        let rest = &code[at + "crate::".len()..];
+        if let Some(group) = rest.strip_prefix('{') {
+            let mut depth = 0;
+            let mut item = String::new();
+            for c in group.chars() {
+                match c {
+                    '{' => depth += 1,
+                    '}' if depth == 0 => break,
+                    '}' => depth -= 1,
+                    ',' if depth == 0 => {
+                        found.insert(ident_at(item.trim()));
+                        item.clear();
+                        continue;
+                    }
+                    _ => {}
+                }
+                if depth == 0 {
+                    item.push(c);
+                }
+            }
+            found.insert(ident_at(item.trim()));
+        } else {
+            found.insert(ident_at(rest));
+        }
+    }
+    // `super::…` chains that climb to the crate root (only from a top-level file's children
+    // or deeper); `here` is the file's module path.
+    for (at, _) in code.match_indices("super::") {
+        let before = code[..at].chars().last();
+        if before.is_some_and(|c| c.is_ascii_alphanumeric() || c == '_' || c == ':') {
+            continue;
+        }
+        let mut rest = &code[at..];
+        let mut ups = 0;
+        while let Some(r) = rest.strip_prefix("super::") {
+            ups += 1;
+            rest = r;
+        }
+        if ups >= here.len() {
+            found.insert(ident_at(rest));
+        }
+    }
+    found.retain(|m| !m.is_empty() && m != "self" && m != "crate");
+    found
+}
+
+fn violations(src: &Path) -> Vec<String> {
+    let mut files = Vec::new();
+    rust_files(src, &mut files);
+    files.sort();
+    let mut out = Vec::new();
+    for file in files {
+        let rel = file.strip_prefix(src).expect("below src");
+        let here = module_path(rel);
+        let Some(top) = here.first() else { continue };
+        // The binary's command line may use everything.
+        if top == "cmd" || top == "main" || top == "lib" {
+            continue;
+        }
+        let Some(ok) = allowed(top) else {
+            out.push(format!(
+                "{}: module `{top}` has no floor in tests/layering.rs (add it to FLOORS)",
+                rel.display()
+            ));
+            continue;
+        };
+        let text = std::fs::read_to_string(&file).expect("readable source");
+        let code: String = text.lines().map(code_of).collect::<Vec<_>>().join("\n");
+        for m in references(&code, &here) {
+            if m != *top && !ok.contains(m.as_str()) {
+                out.push(format!(
+                    "{}: `{top}` imports `{m}`, which is not below it",
+                    rel.display()
+                ));
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn every_import_runs_down_the_layers() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let found = violations(&src);
+    assert!(
+        found.is_empty(),
+        "imports that run back up:\n{}",
+        found.join("\n")
+    );
+}
+
+#[test]
+fn every_top_level_module_has_a_floor() {
+    let lib = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("src/lib.rs"))
+        .expect("lib.rs");
+    let declared: BTreeSet<String> = lib
+        .lines()
+        .filter_map(|l| l.trim().strip_prefix("pub mod "))
+        .map(|m| m.trim_end_matches(';').to_string())
+        .collect();
+    let floors: BTreeSet<String> = FLOORS.iter().map(|(m, _)| m.to_string()).collect();
+    assert_eq!(declared, floors, "src/lib.rs modules vs FLOORS");
+}
+
+#[test]
+fn the_checker_sees_every_form_of_import() {
+    let here = |p: &str| -> Vec<String> { p.split('/').map(String::from).collect() };
+    let refs = |code: &str, at: &str| references(&code_of(code), &here(at));
+    assert_eq!(
+        refs("use crate::store::DataDir;", "navmesh/bake"),
+        ["store".to_string()].into()
+    );
+    assert_eq!(
+        refs("use crate::{io::rrd, sim::{Simulator, agent}};", "render/x"),
+        ["io".to_string(), "sim".to_string()].into()
+    );
+    assert_eq!(
+        refs("let x = crate::io::tables::ROW_GROUP;", "sim/a"),
+        ["io".to_string()].into()
+    );
+    // From src/navmesh/x.rs, `super::super::store` climbs to the root; `super::grid` does not.
+    assert_eq!(
+        refs("use super::super::store::DataDir;", "navmesh/x"),
+        ["store".to_string()].into()
+    );
+    assert!(refs("use super::grid::NavGrid;", "navmesh/x").is_empty());
+    // From a top-level file, `super::` is the crate root.
+    assert_eq!(
+        refs("use super::io::tables;", "stats"),
+        ["io".to_string()].into()
+    );
+    // Comments and strings do not count.
+    assert!(refs("/// see [`crate::io::rrd`] // crate::store", "render/x").is_empty());
+    assert!(refs(r#"let s = "crate::store::x";"#, "render/x").is_empty());
+    // A planted violation is reported with its file.
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir_all(dir.path().join("render")).unwrap();
+    std::fs::write(
+        dir.path().join("render/bad.rs"),
+        "use crate::sim::Simulator;\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.path().join("render/good.rs"),
+        "use crate::scene::Scene;\n",
+    )
+    .unwrap();
+    let found = violations(dir.path());
+    assert_eq!(found.len(), 1, "{found:?}");
+    assert!(
+        found[0].contains("bad.rs") && found[0].contains("`sim`"),
+        "{found:?}"
+    );
+}
+
+#[test]
+fn the_floor_plan_has_no_cycle() {
+    // Depth-first search over FLOORS (ground included): a module never reaches itself.
+    let graph: BTreeMap<&str, Vec<&str>> = FLOORS
+        .iter()
+        .map(|(m, deps)| {
+            (
+                *m,
+                deps.iter()
+                    .chain(GROUND)
+                    .copied()
+                    .filter(|d| d != m)
+                    .collect(),
+            )
+        })
+        .collect();
+    fn reaches(
+        graph: &BTreeMap<&str, Vec<&str>>,
+        from: &str,
+        to: &str,
+        seen: &mut BTreeSet<String>,
+    ) -> bool {
+        graph.get(from).is_some_and(|deps| {
+            deps.iter()
+                .any(|d| *d == to || (seen.insert(d.to_string()) && reaches(graph, d, to, seen)))
+        })
+    }
+    for (m, _) in FLOORS {
+        let ground = GROUND.contains(m);
+        // Ground modules list no dependencies, so only the upper floors can cycle.
+        if !ground {
+            assert!(
+                !reaches(&graph, m, m, &mut BTreeSet::new()),
+                "{m} depends on itself"
+            );
+        }
+    }
+}
