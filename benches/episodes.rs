@@ -8,7 +8,7 @@ use std::time::Instant;
 use minos::body::{AgentBody, BodyRule};
 use minos::episode::sample::{sample_scene, SampleConfig};
 use minos::episode::Task;
-use minos::navmesh::file::{nav_path, read_nav, write_nav};
+use minos::navmesh::file::write_nav;
 use minos::navmesh::geodesic::Geodesic;
 use minos::navmesh::path::shortest_path_in;
 use minos::pipeline::episodes::sample_scenes;
@@ -85,7 +85,7 @@ fn breakdown(data: &std::path::Path, ids: &[String]) {
             .expect("nav");
         read += t.elapsed().as_secs_f64();
         spans += grid.spans.len();
-        let bytes = std::fs::read(nav_path(data, id)).expect("nav");
+        let bytes = std::fs::read(minos::store::DataDir::new(data).nav_path(&id.parse().unwrap())).expect("nav");
         let header = u32::from_le_bytes(bytes[12..16].try_into().expect("header")) as usize;
         let arrays = 16
             + header

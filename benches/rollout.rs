@@ -15,7 +15,6 @@ use minos::body::{AgentBody, BodyRule};
 use minos::episode::sample::SampleConfig;
 use minos::episode::{Episode, Task};
 use minos::io::tables::{ImageEncoding, ObservationWriter};
-use minos::navmesh::file::{nav_path, read_nav};
 use minos::navmesh::geodesic::Geodesic;
 use minos::pipeline::episodes::sample_scenes;
 use minos::pipeline::rollout::{run, AgentKind, RunConfig};

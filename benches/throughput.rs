@@ -135,7 +135,7 @@ fn real_sample(real: &Path, tmp: &Path) {
     };
     minos::store::scene_file::write_scene(&path, &header, &loaded.scene).expect("write");
     let compiled = best_rate(1, 10, || {
-        black_box(read_scene(&path).expect("read"));
+        black_box(minos::store::scene_file::read_scene(&path).expect("read"));
     });
     println!(
         "real SUNCG sample (glTF meshes, {} triangles): source {:.1} ms, compiled {:.2} ms ({:.0}x)",
