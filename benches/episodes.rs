@@ -85,7 +85,8 @@ fn breakdown(data: &std::path::Path, ids: &[String]) {
             .expect("nav");
         read += t.elapsed().as_secs_f64();
         spans += grid.spans.len();
-        let bytes = std::fs::read(minos::store::DataDir::new(data).nav_path(&id.parse().unwrap())).expect("nav");
+        let bytes = std::fs::read(minos::store::DataDir::new(data).nav_path(&id.parse().unwrap()))
+            .expect("nav");
         let header = u32::from_le_bytes(bytes[12..16].try_into().expect("header")) as usize;
         let arrays = 16
             + header

@@ -35,7 +35,6 @@
 //! Only `goal_category` and `goal_room_class` hold nulls; list items are never null. The three
 //! `goal_*` list columns have one entry per target, in the same order.
 
-use std::fs::File;
 use std::path::Path;
 use std::sync::Arc;
 
@@ -44,16 +43,23 @@ use arrow::array::{
     ListArray, ListBuilder, RecordBatch, StringArray, StringBuilder, UInt32Array, UInt64Array,
 };
 use arrow::datatypes::{Field, Schema};
-use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
-use parquet::arrow::ArrowWriter;
-use parquet::basic::{Compression, ZstdLevel};
-use parquet::file::properties::WriterProperties;
 
 use super::{Difficulty, Episode, Goal, GoalTarget, Task};
-use crate::atomic::write_atomic;
+use crate::parquet_io::{read_batches, write_batches, writer_properties, ParquetFileError};
 
 /// Rows per record batch (and at most per row group) when writing.
 const BATCH_ROWS: usize = 65_536;
+
+impl From<ParquetFileError> for EpisodeFileError {
+    fn from(e: ParquetFileError) -> Self {
+        match e {
+            ParquetFileError::Io { path, source } => EpisodeFileError::Io { path, source },
+            ParquetFileError::Format { path, message } => {
+                EpisodeFileError::Format { path, message }
+            }
+        }
+    }
+}
 
 /// Errors reading or writing an episode file.
 #[derive(Debug, thiserror::Error)]
@@ -202,16 +208,6 @@ fn to_batch(eps: &[Episode]) -> Result<RecordBatch, arrow::error::ArrowError> {
     )
 }
 
-#[derive(Debug, thiserror::Error)]
-enum WriteErr {
-    #[error(transparent)]
-    Io(#[from] std::io::Error),
-    #[error(transparent)]
-    Parquet(#[from] parquet::errors::ParquetError),
-    #[error(transparent)]
-    Arrow(#[from] arrow::error::ArrowError),
-}
-
 /// Writes `episodes` to `path` atomically, one row per episode in the order given (see the
 /// module documentation for the columns). The same episodes always give the same bytes.
 pub fn write_episodes(path: &Path, episodes: &[Episode]) -> Result<(), EpisodeFileError> {
@@ -220,29 +216,11 @@ pub fn write_episodes(path: &Path, episodes: &[Episode]) -> Result<(), EpisodeFi
         path: p.clone(),
         message,
     };
-    let props = WriterProperties::builder()
-        .set_compression(Compression::ZSTD(
-            ZstdLevel::try_new(3).map_err(|e| format(e.to_string()))?,
-        ))
-        .set_max_row_group_row_count(Some(BATCH_ROWS))
-        .build();
     // The schema does not depend on the data: take it from an empty batch.
     let schema = to_batch(&[]).map_err(|e| format(e.to_string()))?.schema();
-    write_atomic(path, |w| -> Result<(), WriteErr> {
-        let mut writer = ArrowWriter::try_new(w, schema, Some(props))?;
-        for chunk in episodes.chunks(BATCH_ROWS) {
-            writer.write(&to_batch(chunk)?)?;
-        }
-        writer.close()?;
-        Ok(())
-    })
-    .map_err(|e| match e {
-        WriteErr::Io(source) => EpisodeFileError::Io {
-            path: p.clone(),
-            source,
-        },
-        other => format(other.to_string()),
-    })
+    let props = writer_properties(3, Some(BATCH_ROWS), &schema);
+    let batches = episodes.chunks(BATCH_ROWS).map(to_batch);
+    write_batches(path, schema, props, batches).map_err(EpisodeFileError::from)
 }
 
 /// Reads every episode of an episode file, in file order.
@@ -252,13 +230,7 @@ pub fn read_episodes(path: &Path) -> Result<Vec<Episode>, EpisodeFileError> {
         path: p.clone(),
         message,
     };
-    let file = File::open(path).map_err(|source| EpisodeFileError::Io {
-        path: p.clone(),
-        source,
-    })?;
-    let reader = ParquetRecordBatchReaderBuilder::try_new(file)
-        .and_then(|b| b.build())
-        .map_err(|e| format(e.to_string()))?;
+    let reader = read_batches(path)?;
     let mut episodes = Vec::new();
     for batch in reader {
         let batch = batch.map_err(|e| format(e.to_string()))?;
@@ -289,13 +261,11 @@ enum BatchError {
     },
 }
 
-fn column<'a, T: 'static>(batch: &'a RecordBatch, name: &str) -> Result<&'a T, BatchError> {
-    batch
-        .column_by_name(name)
-        .ok_or_else(|| BatchError::Format(format!("column `{name}` is missing")))?
-        .as_any()
-        .downcast_ref::<T>()
-        .ok_or_else(|| BatchError::Format(format!("column `{name}` has an unexpected type")))
+fn column<'a, T: arrow::array::Array + 'static>(
+    batch: &'a RecordBatch,
+    name: &str,
+) -> Result<&'a T, BatchError> {
+    crate::parquet_io::column(batch, name).map_err(BatchError::Format)
 }
 
 /// A `list<fixed_size_list<float32, 3>>`-shaped array's parts: the point list and its floats.
@@ -521,6 +491,9 @@ fn read_batch(
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
+    use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
+    use parquet::arrow::ArrowWriter;
+    use std::fs::File;
 
     /// One episode of each task, with several targets and view points, NaN-free.
     pub(crate) fn sample_episodes() -> Vec<Episode> {

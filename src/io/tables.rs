@@ -15,14 +15,13 @@ use arrow::array::{
 use arrow::datatypes::{DataType, Field, Schema, SchemaRef};
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 use parquet::arrow::{add_encoded_arrow_schema_to_metadata, ArrowSchemaConverter, ArrowWriter};
-use parquet::basic::{Compression, ZstdLevel};
 use parquet::column::writer::ColumnCloseResult;
-use parquet::file::properties::{EnabledStatistics, WriterProperties};
+use parquet::file::properties::WriterProperties;
 use parquet::file::reader::{FileReader, SerializedFileReader};
 use parquet::file::writer::SerializedFileWriter;
-use parquet::schema::types::ColumnPath;
 
 use crate::atomic::temp_path;
+use crate::parquet_io::{self, writer_properties};
 use crate::run::agents::Decision;
 use crate::sim::sensors::{CameraSensor, Image};
 
@@ -32,21 +31,10 @@ pub const ROW_GROUP: usize = 32;
 /// A table failure (the message names the file).
 pub type TableError = String;
 
-/// Writer settings for a table: zstd level 1; binary (image) columns without dictionary
-/// encoding or statistics, which cost time and buy nothing for unique multi-kilobyte values.
+/// Writer settings for a table: zstd level 1, row groups of at most `ROW_GROUP * 8` rows;
+/// binary (image) columns without dictionary encoding or statistics.
 fn props(schema: &Schema) -> WriterProperties {
-    let mut b = WriterProperties::builder()
-        .set_compression(Compression::ZSTD(ZstdLevel::try_new(1).unwrap_or_default()))
-        .set_max_row_group_row_count(Some(ROW_GROUP * 8));
-    for f in schema.fields() {
-        if f.data_type() == &DataType::Binary {
-            let col = ColumnPath::from(f.name().as_str());
-            b = b
-                .set_column_dictionary_enabled(col.clone(), false)
-                .set_column_statistics_enabled(col, EnabledStatistics::None);
-        }
-    }
-    b.build()
+    writer_properties(1, Some(ROW_GROUP * 8), schema)
 }
 
 /// Appends an image's raw little-endian bytes to `out`.
@@ -169,19 +157,8 @@ fn write_batches(
     schema: SchemaRef,
     batches: impl Iterator<Item = RecordBatch>,
 ) -> Result<(), TableError> {
-    let tmp = temp_path(path);
-    let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
-    if let Some(dir) = path.parent() {
-        std::fs::create_dir_all(dir).map_err(|e| err(&e))?;
-    }
-    let file = File::create(&tmp).map_err(|e| err(&e))?;
     let props = props(&schema);
-    let mut w = ArrowWriter::try_new(file, schema, Some(props)).map_err(|e| err(&e))?;
-    for b in batches {
-        w.write(&b).map_err(|e| err(&e))?;
-    }
-    w.close().map_err(|e| err(&e))?;
-    std::fs::rename(&tmp, path).map_err(|e| err(&e))
+    parquet_io::write_batches(path, schema, props, batches.map(Ok)).map_err(|e| e.to_string())
 }
 
 /// How images are stored.

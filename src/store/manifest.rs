@@ -7,43 +7,19 @@
 //! statistic is null and `error` holds the one-line message.
 
 use std::collections::BTreeSet;
-use std::fs::File;
 use std::path::Path;
 use std::sync::Arc;
 
+use crate::parquet_io::{column, read_batches, write_batches, writer_properties, ParquetFileError};
+use crate::scene::Scene;
 use arrow::array::{
     Array, ArrayRef, Float64Array, ListArray, ListBuilder, RecordBatch, StringArray, StringBuilder,
     UInt32Array, UInt64Array,
 };
 use arrow::datatypes::{DataType, Field, Schema};
-use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
-use parquet::arrow::ArrowWriter;
-use parquet::basic::{Compression, ZstdLevel};
-use parquet::file::properties::WriterProperties;
-
-use crate::atomic::write_atomic;
-use crate::scene::Scene;
 
 /// Errors reading or writing the manifest.
-#[derive(Debug, thiserror::Error)]
-pub enum ManifestError {
-    /// File system error.
-    #[error("{path}: {source}")]
-    Io {
-        /// The manifest path.
-        path: String,
-        /// The cause.
-        source: std::io::Error,
-    },
-    /// Parquet / Arrow error.
-    #[error("{path}: {message}")]
-    Format {
-        /// The manifest path.
-        path: String,
-        /// What is wrong.
-        message: String,
-    },
-}
+pub type ManifestError = ParquetFileError;
 
 /// One scene's row in the manifest.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -232,69 +208,21 @@ fn to_batch(rows: &[ManifestRow]) -> Result<RecordBatch, arrow::error::ArrowErro
 
 /// Writes the manifest atomically (rows in the order given; callers sort by id).
 pub fn write_manifest(path: &Path, rows: &[ManifestRow]) -> Result<(), ManifestError> {
-    let p = path.display().to_string();
-    let fmt = |e: &dyn std::fmt::Display| ManifestError::Format {
-        path: p.clone(),
-        message: e.to_string(),
-    };
-    let batch = to_batch(rows).map_err(|e| fmt(&e))?;
-    let props = WriterProperties::builder()
-        .set_compression(Compression::ZSTD(
-            ZstdLevel::try_new(3).map_err(|e| fmt(&e))?,
-        ))
-        .build();
-    write_atomic(path, |w| -> Result<(), WriteErr> {
-        let mut writer = ArrowWriter::try_new(w, batch.schema(), Some(props))?;
-        writer.write(&batch)?;
-        writer.close()?;
-        Ok(())
-    })
-    .map_err(|e| match e {
-        WriteErr::Io(source) => ManifestError::Io {
-            path: p.clone(),
-            source,
-        },
-        WriteErr::Parquet(e) => fmt(&e),
-    })
-}
-
-#[derive(Debug, thiserror::Error)]
-enum WriteErr {
-    #[error(transparent)]
-    Io(#[from] std::io::Error),
-    #[error(transparent)]
-    Parquet(#[from] parquet::errors::ParquetError),
+    let batch = to_batch(rows).map_err(|e| ParquetFileError::format(path, e))?;
+    let props = writer_properties(3, None, &batch.schema());
+    write_batches(path, batch.schema(), props, [Ok(batch)])
 }
 
 /// Reads every row of a manifest.
 pub fn read_manifest(path: &Path) -> Result<Vec<ManifestRow>, ManifestError> {
-    let p = path.display().to_string();
-    let fmt = |m: String| ManifestError::Format {
-        path: p.clone(),
-        message: m,
-    };
-    let file = File::open(path).map_err(|source| ManifestError::Io {
-        path: p.clone(),
-        source,
-    })?;
-    let reader = ParquetRecordBatchReaderBuilder::try_new(file)
-        .and_then(|b| b.build())
-        .map_err(|e| fmt(e.to_string()))?;
+    let fmt = |m: String| ParquetFileError::format(path, m);
+    let reader = read_batches(path)?;
     let mut rows = Vec::new();
     for batch in reader {
         let batch = batch.map_err(|e| fmt(e.to_string()))?;
         read_batch(&batch, &mut rows).map_err(fmt)?;
     }
     Ok(rows)
-}
-
-fn column<'a, T: 'static>(batch: &'a RecordBatch, name: &str) -> Result<&'a T, String> {
-    batch
-        .column_by_name(name)
-        .ok_or_else(|| format!("column `{name}` is missing"))?
-        .as_any()
-        .downcast_ref::<T>()
-        .ok_or_else(|| format!("column `{name}` has an unexpected type"))
 }
 
 fn read_batch(batch: &RecordBatch, rows: &mut Vec<ManifestRow>) -> Result<(), String> {
