@@ -18,7 +18,7 @@ use minos::shard::Shard;
 mod support;
 fn main() {
     let dir = tempfile::tempdir().expect("tempdir");
-    let (data, ids) = support::baked_houses(dir.path(), 20, 4);
+    let (data, ids) = support::baked_houses(dir.path(), 20, 4, AgentBody::MINOS);
     let scenes: Vec<(String, String)> = ids
         .iter()
         .map(|id| (id.clone(), "train".to_string()))
@@ -42,7 +42,7 @@ fn main() {
                 &minos::store::DataDir::new(&data),
                 &scenes,
                 &cfg,
-                BodyRule::strict(AgentBody::HABITAT),
+                BodyRule::strict(AgentBody::MINOS),
                 Shard::ALL,
                 &NoProgress,
             )

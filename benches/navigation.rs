@@ -94,7 +94,8 @@ fn flat_floor(side: f32) -> Scene {
 }
 
 fn main() {
-    let params = NavParams::default();
+    // MINOS's 1.19 m body, as every figure in docs/PERFORMANCE.md was measured with it.
+    let params = NavParams::for_body(minos::body::AgentBody::MINOS);
     let dir = tempfile::tempdir().expect("tempdir");
     println!("| measurement | scene | time |\n|---|---|---|");
     let single = houses(

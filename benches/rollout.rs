@@ -74,7 +74,12 @@ fn env(name: &str, default: usize) -> usize {
 
 fn main() {
     let dir = tempfile::tempdir().expect("tempdir");
-    let (data, ids) = support::baked_houses(dir.path(), env("MINOS_BENCH_HOUSES", 8), 5);
+    let (data, ids) = support::baked_houses(
+        dir.path(),
+        env("MINOS_BENCH_HOUSES", 8),
+        5,
+        AgentBody::HABITAT,
+    );
     let scenes: Vec<(String, String)> = ids
         .iter()
         .map(|id| (id.clone(), "val".to_string()))

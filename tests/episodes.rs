@@ -75,7 +75,7 @@ fn run(cfg: &SampleConfig, shard: Shard) -> EpisodeBatch {
 }
 
 fn grid(scene: &str) -> NavGrid {
-    minos::store::DataDir::new(&data().0.path().join("DATA"))
+    minos::store::DataDir::new(data().0.path().join("DATA"))
         .read_grid(&minos::scene::SceneRef::parse(scene))
         .unwrap()
 }

@@ -9,8 +9,14 @@ use minos::pipeline::ingest::{ingest, IngestConfig};
 use minos::progress::NoProgress;
 
 /// Generates `houses` furnished SUNCG-format houses from `seed` under `dir`, ingests them and
-/// bakes their grids at the default parameters; returns the DATA folder and the scene ids.
-pub fn baked_houses(dir: &Path, houses: usize, seed: u64) -> (PathBuf, Vec<String>) {
+/// bakes their grids for `body` at the default resolution; returns the DATA folder and the
+/// scene ids.
+pub fn baked_houses(
+    dir: &Path,
+    houses: usize,
+    seed: u64,
+    body: minos::body::AgentBody,
+) -> (PathBuf, Vec<String>) {
     let (root, data) = (dir.join("suncg"), dir.join("DATA"));
     let cfg = GenerateConfig {
         houses,
@@ -26,7 +32,7 @@ pub fn baked_houses(dir: &Path, houses: usize, seed: u64) -> (PathBuf, Vec<Strin
             .iter()
             .map(|id| minos::scene::SceneRef::parse(id))
             .collect(),
-        params: NavParams::default(),
+        params: NavParams::for_body(body),
         force: false,
         previews: false,
     };
