@@ -10,6 +10,7 @@ use serde::{Deserialize, Serialize};
 use super::geometry::Aabb;
 use super::mesh::{Mesh, WorldMesh};
 use super::taxonomy::RoomClass;
+pub use super::taxonomy::{Categories, ObjectFlags};
 
 /// Index of a mesh in [`Scene::meshes`].
 pub type MeshId = u32;
@@ -108,52 +109,6 @@ pub struct Room {
     pub floor_height: f32,
     /// World box of the room's surfaces.
     pub bbox: Aabb,
-}
-
-/// Category labels of an object in the taxonomies the dataset provides.
-#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize)]
-pub struct Categories {
-    /// The dataset's fine-grained category (`double_bed`).
-    pub fine: Option<String>,
-    /// The dataset's coarse category (`bed`).
-    pub coarse: Option<String>,
-    /// NYU-40 class name (`bed`).
-    pub nyu40: Option<String>,
-    /// Matterport3D mpcat40 class name.
-    pub mpcat40: Option<String>,
-}
-
-impl Categories {
-    /// The most specific label available, `unknown` when there is none.
-    pub fn best(&self) -> &str {
-        self.fine
-            .as_deref()
-            .or(self.coarse.as_deref())
-            .or(self.mpcat40.as_deref())
-            .or(self.nyu40.as_deref())
-            .unwrap_or("unknown")
-    }
-
-    /// True when any taxonomy calls the object `name` (case-insensitive).
-    pub fn matches(&self, name: &str) -> bool {
-        [&self.fine, &self.coarse, &self.nyu40, &self.mpcat40]
-            .into_iter()
-            .flatten()
-            .any(|c| c.eq_ignore_ascii_case(name))
-    }
-}
-
-/// What kind of architectural element an object is, if any.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
-pub struct ObjectFlags {
-    /// A door (open or closed).
-    pub door: bool,
-    /// A window.
-    pub window: bool,
-    /// An arch (an opening without a leaf).
-    pub arch: bool,
-    /// Stairs.
-    pub stairs: bool,
 }
 
 /// A material override an instance applies to its model's material slot.

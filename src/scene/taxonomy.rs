@@ -1,11 +1,10 @@
-//! Category and room taxonomies. The tables are data files in `data/taxonomy/`, compiled
-//! into the binary; this module only reads them.
+//! Category and room taxonomies: the vocabulary the model is labelled with (MINOS room classes,
+//! category labels, object flags) and the tables that map dataset labels onto it, read from
+//! the data files in `data/taxonomy/` compiled into the binary.
 
 use std::collections::HashMap;
 
 use serde::{Deserialize, Serialize};
-
-use super::model::{Categories, ObjectFlags};
 
 /// The nine MINOS room classes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
@@ -233,6 +232,52 @@ impl ModelCategories {
     pub fn is_empty(&self) -> bool {
         self.map.is_empty()
     }
+}
+
+/// Category labels of an object in the taxonomies the dataset provides.
+#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Categories {
+    /// The dataset's fine-grained category (`double_bed`).
+    pub fine: Option<String>,
+    /// The dataset's coarse category (`bed`).
+    pub coarse: Option<String>,
+    /// NYU-40 class name (`bed`).
+    pub nyu40: Option<String>,
+    /// Matterport3D mpcat40 class name.
+    pub mpcat40: Option<String>,
+}
+
+impl Categories {
+    /// The most specific label available, `unknown` when there is none.
+    pub fn best(&self) -> &str {
+        self.fine
+            .as_deref()
+            .or(self.coarse.as_deref())
+            .or(self.mpcat40.as_deref())
+            .or(self.nyu40.as_deref())
+            .unwrap_or("unknown")
+    }
+
+    /// True when any taxonomy calls the object `name` (case-insensitive).
+    pub fn matches(&self, name: &str) -> bool {
+        [&self.fine, &self.coarse, &self.nyu40, &self.mpcat40]
+            .into_iter()
+            .flatten()
+            .any(|c| c.eq_ignore_ascii_case(name))
+    }
+}
+
+/// What kind of architectural element an object is, if any.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ObjectFlags {
+    /// A door (open or closed).
+    pub door: bool,
+    /// A window.
+    pub window: bool,
+    /// An arch (an opening without a leaf).
+    pub arch: bool,
+    /// Stairs.
+    pub stairs: bool,
 }
 
 #[cfg(test)]
