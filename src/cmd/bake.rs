@@ -134,19 +134,11 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use clap::Parser;
+    use crate::cmd::common::parse_flags;
     use minos::body::AgentBody;
 
-    #[derive(Parser)]
-    struct Cli {
-        #[command(flatten)]
-        args: Args,
-    }
-
     fn args(line: &str) -> Args {
-        Cli::try_parse_from(std::iter::once("bake").chain(line.split_whitespace()))
-            .expect("flags parse")
-            .args
+        parse_flags::<Args>(line).expect("flags parse")
     }
 
     #[test]
@@ -160,7 +152,7 @@ mod tests {
         let p = params(&args("--data D --preset minos-continuous")).unwrap();
         assert_eq!(p.body, AgentBody::MINOS);
         assert!(params(&args("--data D --cell-size=-1")).is_err());
-        assert!(Cli::try_parse_from(["bake", "--data", "D", "--preset", "default"]).is_err());
+        assert!(parse_flags::<Args>("--data D --preset default").is_err());
     }
 
     #[test]

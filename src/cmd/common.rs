@@ -161,3 +161,13 @@ pub fn split_or_all(data: &DataDir, split: Option<&str>) -> anyhow::Result<Vec<S
         None => data.ingested_ids()?,
     })
 }
+
+/// Parses `line` (white-space separated) as the flags of a subcommand whose arguments are `A`,
+/// for the unit tests of each command's `config`.
+#[cfg(test)]
+pub fn parse_flags<A: clap::Args + clap::FromArgMatches>(line: &str) -> Result<A, clap::Error> {
+    let command = A::augment_args(clap::Command::new("minos"));
+    let matches =
+        command.try_get_matches_from(std::iter::once("minos").chain(line.split_whitespace()))?;
+    A::from_arg_matches(&matches)
+}

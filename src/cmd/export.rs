@@ -142,18 +142,10 @@ fn human_bytes(n: u64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use clap::Parser;
-
-    #[derive(Parser)]
-    struct Cli {
-        #[command(flatten)]
-        args: Args,
-    }
+    use crate::cmd::common::parse_flags;
 
     fn format(line: &str) -> anyhow::Result<ExportFormat> {
-        let args = Cli::try_parse_from(std::iter::once("export").chain(line.split_whitespace()))
-            .expect("flags parse")
-            .args;
+        let args = parse_flags::<Args>(line).expect("flags parse");
         config(&args)
     }
 

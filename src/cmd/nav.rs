@@ -160,21 +160,12 @@ pub fn run(args: Args, _ctx: &Context) -> anyhow::Result<ExitCode> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use clap::Parser;
-
-    #[derive(Parser)]
-    struct Cli {
-        #[command(flatten)]
-        args: QueryArgs,
-    }
+    use crate::cmd::common::parse_flags;
 
     #[test]
     fn points_and_scene_references_parse() {
-        let a = Cli::try_parse_from([
-            "q", "--data", "D", "--scene", "h@tex", "--from", "1,0,-2.5", "--to", "6,3,4",
-        ])
-        .unwrap()
-        .args;
+        let a = parse_flags::<QueryArgs>("--data D --scene h@tex --from 1,0,-2.5 --to 6,3,4")
+            .expect("flags parse");
         let q = config(&a);
         assert_eq!(q.scene, SceneRef::parse("h@tex"));
         assert_eq!(q.from, Vec3::new(1.0, 0.0, -2.5));

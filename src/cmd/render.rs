@@ -172,19 +172,11 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use clap::Parser;
+    use crate::cmd::common::parse_flags;
     use minos::body::AgentBody;
 
-    #[derive(Parser)]
-    struct Cli {
-        #[command(flatten)]
-        args: Args,
-    }
-
     fn job(line: &str) -> RenderJob {
-        let args = Cli::try_parse_from(std::iter::once("render").chain(line.split_whitespace()))
-            .expect("flags parse")
-            .args;
+        let args = parse_flags::<Args>(line).expect("flags parse");
         config(&args).expect("config")
     }
 

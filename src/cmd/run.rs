@@ -246,19 +246,11 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use clap::Parser;
+    use crate::cmd::common::parse_flags;
     use minos::body::AgentBody;
 
-    #[derive(Parser)]
-    struct Cli {
-        #[command(flatten)]
-        args: Args,
-    }
-
     fn args(line: &str) -> Args {
-        Cli::try_parse_from(std::iter::once("run").chain(line.split_whitespace()))
-            .expect("flags parse")
-            .args
+        parse_flags::<Args>(line).expect("flags parse")
     }
 
     #[test]
@@ -285,11 +277,8 @@ mod tests {
             "--renderer vulkan",
             "--preset default",
         ] {
-            let line = format!("run --data D --episodes E --agent oracle --out O {bad}");
-            assert!(
-                Cli::try_parse_from(line.split_whitespace()).is_err(),
-                "{bad}"
-            );
+            let line = format!("--data D --episodes E --agent oracle --out O {bad}");
+            assert!(parse_flags::<Args>(&line).is_err(), "{bad}");
         }
         let a = args("--data D --episodes E --agent oracle --out O --preset minos-gridworld");
         assert_eq!(AgentPreset::from(a.preset), AgentPreset::MinosGridworld);

@@ -50,36 +50,12 @@ use crate::parquet_io::{read_batches, write_batches, writer_properties, ParquetF
 /// Rows per record batch (and at most per row group) when writing.
 const BATCH_ROWS: usize = 65_536;
 
-impl From<ParquetFileError> for EpisodeFileError {
-    fn from(e: ParquetFileError) -> Self {
-        match e {
-            ParquetFileError::Io { path, source } => EpisodeFileError::Io { path, source },
-            ParquetFileError::Format { path, message } => {
-                EpisodeFileError::Format { path, message }
-            }
-        }
-    }
-}
-
 /// Errors reading or writing an episode file.
 #[derive(Debug, thiserror::Error)]
 pub enum EpisodeFileError {
-    /// File system error.
-    #[error("{path}: {source}")]
-    Io {
-        /// The episode file.
-        path: String,
-        /// The cause.
-        source: std::io::Error,
-    },
-    /// Parquet / Arrow error, or a column missing or of the wrong type.
-    #[error("{path}: {message}")]
-    Format {
-        /// The episode file.
-        path: String,
-        /// What is wrong.
-        message: String,
-    },
+    /// The file could not be read or written, is not Parquet, or lacks a column.
+    #[error(transparent)]
+    File(#[from] ParquetFileError),
     /// A value that cannot be turned back into an episode.
     #[error("{path}: row {row}: {column}: {message}")]
     Value {
@@ -211,11 +187,7 @@ fn to_batch(eps: &[Episode]) -> Result<RecordBatch, arrow::error::ArrowError> {
 /// Writes `episodes` to `path` atomically, one row per episode in the order given (see the
 /// module documentation for the columns). The same episodes always give the same bytes.
 pub fn write_episodes(path: &Path, episodes: &[Episode]) -> Result<(), EpisodeFileError> {
-    let p = path.display().to_string();
-    let format = |message: String| EpisodeFileError::Format {
-        path: p.clone(),
-        message,
-    };
+    let format = |message: String| ParquetFileError::format(path, message);
     // The schema does not depend on the data: take it from an empty batch.
     let schema = to_batch(&[]).map_err(|e| format(e.to_string()))?.schema();
     let props = writer_properties(3, Some(BATCH_ROWS), &schema);
@@ -226,17 +198,14 @@ pub fn write_episodes(path: &Path, episodes: &[Episode]) -> Result<(), EpisodeFi
 /// Reads every episode of an episode file, in file order.
 pub fn read_episodes(path: &Path) -> Result<Vec<Episode>, EpisodeFileError> {
     let p = path.display().to_string();
-    let format = |message: String| EpisodeFileError::Format {
-        path: p.clone(),
-        message,
-    };
+    let format = |message: String| ParquetFileError::format(path, message);
     let reader = read_batches(path)?;
     let mut episodes = Vec::new();
     for batch in reader {
         let batch = batch.map_err(|e| format(e.to_string()))?;
         let first_row = episodes.len();
         read_batch(&batch, first_row, &mut episodes).map_err(|e| match e {
-            BatchError::Format(message) => format(message),
+            BatchError::Format(message) => format(message).into(),
             BatchError::Value {
                 row,
                 column,
