@@ -407,3 +407,55 @@ fn import(a: ImportArgs, ctx: &Context) -> anyhow::Result<ExitCode> {
     }
     Ok(ExitCode::SUCCESS)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cmd::common::parse_flags;
+
+    fn config_of(line: &str) -> anyhow::Result<EpisodesJob> {
+        config(&parse_flags::<SampleArgs>(line).expect("flags parse"))
+    }
+
+    #[test]
+    fn flags_are_checked_before_any_file_is_read() {
+        let err = config_of("--task pointgoal --split s --out o.parquet").unwrap_err();
+        assert!(err.to_string().contains("--data"), "{err}");
+        let base = "--data /nonexistent --task pointgoal --split s --out o.parquet";
+        let err = config_of(&format!("{base} --bins 6,3")).unwrap_err();
+        assert!(err.to_string().starts_with("--bins"), "{err}");
+        let err = config_of(&format!("{base} --export hm3d dir")).unwrap_err();
+        assert!(err.to_string().contains("unknown format `hm3d`"), "{err}");
+        let err = config_of(&format!("{base} --room-types kitchen,attic")).unwrap_err();
+        assert!(err.to_string().contains("`attic`"), "{err}");
+        // Only then is the split read: a missing DATA folder names the split.
+        let err = config_of(base).unwrap_err();
+        assert!(err.to_string().contains("--split s"), "{err}");
+        assert!(parse_flags::<SampleArgs>(&format!("{base} --subset dev")).is_err());
+        assert!(parse_flags::<SampleArgs>(&format!("{base} --preset default")).is_err());
+    }
+
+    #[test]
+    fn the_split_the_subset_and_the_body_shape_the_job() {
+        let dir = tempfile::tempdir().unwrap();
+        let data = DataDir::new(dir.path());
+        let lists = minos::split::SplitLists {
+            train: vec!["a".into(), "b".into()],
+            val: vec!["c".into()],
+            test: vec![],
+        };
+        minos::split::write_split(&data, "s", &lists).unwrap();
+        let line = format!(
+            "--data {} --task roomgoal --split s --subset val --out o.parquet --preset minos",
+            dir.path().display()
+        );
+        let job = config_of(&line).unwrap();
+        assert_eq!(job.scenes, [("c".to_string(), "val".to_string())]);
+        assert!(job.sample.stratified, "val subsets stratify by default");
+        assert_eq!(job.body.body, minos::body::AgentBody::MINOS);
+        assert!(!job.body.allow_mismatch);
+        let job = config_of(&line.replace(" --subset val", "")).unwrap();
+        assert_eq!(job.scenes.len(), 3);
+        assert!(!job.sample.stratified);
+    }
+}

@@ -44,9 +44,14 @@ pub struct Args {
     json: bool,
 }
 
+/// Flags → the DATA folder to describe (which split, and how, the flags say directly).
+pub fn config(args: &Args) -> DataDir {
+    DataDir::new(&args.data)
+}
+
 /// Runs the subcommand.
 pub fn run(args: Args, _ctx: &Context) -> anyhow::Result<ExitCode> {
-    let data = DataDir::new(&args.data);
+    let data = config(&args);
     let rows = data
         .read_manifest()
         .context("cannot read the manifest (run `minos ingest` first)")?;
