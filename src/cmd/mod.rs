@@ -11,6 +11,7 @@ mod common;
 mod demo;
 mod episodes;
 mod export;
+mod export_dataset;
 mod generate;
 mod ingest;
 mod nav;
@@ -69,6 +70,8 @@ enum Command {
     Run(run::Args),
     /// Export a compiled scene's world-space geometry as OBJ or GLB.
     Export(export::Args),
+    /// Write a run as a dataset other tools load (LeRobot v3.0).
+    ExportDataset(export_dataset::Args),
     /// Record a scene, its navigation grid and episodes' shortest paths for the rerun viewer.
     View(view::Args),
     /// Run the whole pipeline on generated houses into ./minos-demo/.
@@ -100,6 +103,7 @@ pub fn main() -> ExitCode {
         Command::Render(a) => render::run(a, &ctx),
         Command::Run(a) => run::run(a, &ctx),
         Command::Export(a) => export::run(a, &ctx),
+        Command::ExportDataset(a) => export_dataset::run(a, &ctx),
         Command::View(a) => view::run(a, &ctx),
         Command::Demo(a) => demo::run(a, &ctx),
     };

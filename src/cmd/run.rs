@@ -39,7 +39,9 @@ enum RewardArg {
 enum EncodingArg {
     /// Raw little-endian pixels (shape and dtype in the column metadata).
     Raw,
-    /// PNG.
+    /// PNG: lossless for colour and ids (16-bit labels; u32 ids as RGBA bytes), depth as
+    /// 16-bit millimetres and normals as 16-bit values (the quantisation is in the column
+    /// metadata).
     Png,
 }
 
@@ -48,7 +50,7 @@ enum EncodingArg {
 enum FormatArg {
     /// minos's Parquet tables.
     Parquet,
-    /// The Parquet tables and a LeRobot-style copy in DIR/lerobot.
+    /// The Parquet tables and a LeRobot v3.0 dataset in DIR/lerobot.
     Lerobot,
 }
 
@@ -117,10 +119,12 @@ pub struct Args {
     /// Reward: dist_time (MINOS), path_delta (MINOS) or geodesic (Habitat).
     #[arg(long, value_enum, default_value = "dist_time")]
     reward: RewardArg,
-    /// Image storage: raw little-endian pixels (shape/dtype in the column metadata) or png.
+    /// Image storage in observations.parquet: raw little-endian pixels, or png (lossless but
+    /// for float depth, 1 mm steps, and normals; the column metadata says which).
     #[arg(long, value_enum, default_value = "raw")]
     image_encoding: EncodingArg,
-    /// Also write a LeRobot-style layout into DIR/lerobot (`--format lerobot`).
+    /// `lerobot`: also write a LeRobot v3.0 dataset into DIR/lerobot, loadable with
+    /// `LeRobotDataset(repo_id, root="DIR/lerobot")` (see also `minos export-dataset`).
     #[arg(long, value_enum, default_value = "parquet")]
     format: FormatArg,
     /// Renderer.

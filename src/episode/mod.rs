@@ -4,6 +4,7 @@
 pub mod format;
 pub mod goal;
 pub mod habitat;
+pub mod instruction;
 pub mod interchange;
 pub mod minos_csv;
 pub mod sample;

@@ -1,8 +1,10 @@
 //! Outputs: rerun recordings (`rrd`), scene exports to OBJ/GLB (`export`), and the Parquet
-//! tables of a run with their LeRobot-style copy (`tables`, `lerobot`). Nothing here reads or
+//! tables of a run (`tables`, with how an image is stored in a cell in `image_codec`) and their
+//! LeRobot v3.0 copy (`lerobot`). Nothing here reads or
 //! writes the DATA folder (that is `crate::store`).
 
 pub mod export;
+pub mod image_codec;
 pub mod lerobot;
 pub mod rrd;
 pub mod tables;

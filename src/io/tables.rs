@@ -21,6 +21,8 @@ use parquet::file::reader::{FileReader, SerializedFileReader};
 use parquet::file::writer::SerializedFileWriter;
 
 use crate::atomic::temp_path;
+pub use crate::io::image_codec::ImageEncoding;
+use crate::io::image_codec::{encode_cell, CellFormat};
 use crate::parquet_io::{self, writer_properties};
 use crate::run::agents::Decision;
 use crate::sim::sensors::{CameraSensor, Image};
@@ -35,19 +37,6 @@ pub type TableError = String;
 /// binary (image) columns without dictionary encoding or statistics.
 fn props(schema: &Schema) -> WriterProperties {
     writer_properties(1, Some(ROW_GROUP * 8), schema)
-}
-
-/// Appends an image's raw little-endian bytes to `out`.
-fn append_le_bytes(out: &mut Vec<u8>, img: &Image) {
-    #[cfg(target_endian = "little")]
-    match img {
-        Image::U8 { data, .. } => out.extend_from_slice(data),
-        Image::U16(d) => out.extend_from_slice(bytemuck::cast_slice(d)),
-        Image::U32(d) => out.extend_from_slice(bytemuck::cast_slice(d)),
-        Image::F32 { data, .. } => out.extend_from_slice(bytemuck::cast_slice(data)),
-    }
-    #[cfg(not(target_endian = "little"))]
-    out.extend_from_slice(&img.to_le_bytes());
 }
 
 /// Schema of the trajectory table.
@@ -161,26 +150,6 @@ fn write_batches(
     parquet_io::write_batches(path, schema, props, batches.map(Ok)).map_err(|e| e.to_string())
 }
 
-/// How images are stored.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum ImageEncoding {
-    /// Raw little-endian pixels; shape and dtype in the column metadata.
-    #[default]
-    Raw,
-    /// PNG files (8- or 16-bit; float depth as 16-bit millimetres).
-    Png,
-}
-
-impl ImageEncoding {
-    /// `raw` or `png`.
-    pub fn name(self) -> &'static str {
-        match self {
-            ImageEncoding::Raw => "raw",
-            ImageEncoding::Png => "png",
-        }
-    }
-}
-
 /// Schema of the observation table for a sensor suite.
 pub fn observation_schema(cameras: &[CameraSensor], encoding: ImageEncoding) -> SchemaRef {
     let mut fields = vec![
@@ -188,25 +157,7 @@ pub fn observation_schema(cameras: &[CameraSensor], encoding: ImageEncoding) -> 
         Field::new("step", DataType::UInt32, false),
     ];
     for c in cameras {
-        let (dtype, channels) = crate::sim::sensors::dtype_of(c);
-        let mut meta = HashMap::new();
-        meta.insert(
-            "shape".to_string(),
-            format!("[{}, {}, {}]", c.resolution[1], c.resolution[0], channels),
-        );
-        meta.insert("dtype".to_string(), dtype.to_string());
-        meta.insert(
-            "modality".to_string(),
-            format!("{:?}", c.modality).to_lowercase(),
-        );
-        meta.insert(
-            "encoding".to_string(),
-            match encoding {
-                ImageEncoding::Raw => "raw-le",
-                ImageEncoding::Png => "png",
-            }
-            .to_string(),
-        );
+        let meta = CellFormat::for_camera(c, encoding).metadata(c.modality);
         fields.push(Field::new(&c.name, DataType::Binary, false).with_metadata(meta));
     }
     Arc::new(Schema::new(fields))
@@ -218,7 +169,8 @@ pub struct ObservationWriter {
     tmp: std::path::PathBuf,
     writer: ArrowWriter<File>,
     schema: SchemaRef,
-    encoding: ImageEncoding,
+    /// How each camera's images are stored, in camera order.
+    formats: Vec<CellFormat>,
     cameras: Vec<CameraSensor>,
     episode: String,
     /// Steps of the pending rows.
@@ -254,7 +206,10 @@ impl ObservationWriter {
             tmp,
             writer,
             schema,
-            encoding,
+            formats: cameras
+                .iter()
+                .map(|c| CellFormat::for_camera(c, encoding))
+                .collect(),
             cameras: cameras.to_vec(),
             episode: episode.to_string(),
             steps: Vec::with_capacity(ROW_GROUP),
@@ -265,23 +220,21 @@ impl ObservationWriter {
 
     /// Adds the images of one step.
     pub fn push(&mut self, step: u32, images: &[(String, Image)]) -> Result<(), TableError> {
-        for (((_, img), cam), b) in images.iter().zip(&self.cameras).zip(&mut self.pending) {
-            match self.encoding {
-                ImageEncoding::Raw => {
-                    self.buf.clear();
-                    append_le_bytes(&mut self.buf, img);
-                    b.append_value(&self.buf);
-                }
-                ImageEncoding::Png => b.append_value(
-                    crate::render::visualize::encode_png(
-                        cam.modality,
-                        img,
-                        cam.resolution[0],
-                        cam.resolution[1],
-                    )
-                    .map_err(|e| format!("{}: sensor {}: {e}", self.path.display(), cam.name))?,
-                ),
-            }
+        for ((((_, img), cam), format), b) in images
+            .iter()
+            .zip(&self.cameras)
+            .zip(&self.formats)
+            .zip(&mut self.pending)
+        {
+            self.buf.clear();
+            encode_cell(img, format, &mut self.buf).map_err(|e| {
+                format!(
+                    "{}: step {step}: sensor `{}`: {e}",
+                    self.path.display(),
+                    cam.name
+                )
+            })?;
+            b.append_value(&self.buf);
         }
         self.steps.push(step);
         if self.steps.len() >= ROW_GROUP {
@@ -420,8 +373,8 @@ fn copy_row_groups(
     std::fs::rename(&tmp, out).map_err(|e| err(&e))
 }
 
-/// Writes the episode table: the episodes' own columns that matter for analysis and their
-/// metrics.
+/// Writes the episode table: the episodes' own columns that matter for analysis, their
+/// metrics, and the task in words (`instruction`).
 pub fn write_episode_table(
     path: &Path,
     rows: &[(crate::episode::Episode, crate::run::metrics::EpisodeMetrics)],
@@ -441,6 +394,7 @@ pub fn write_episode_table(
         Field::new("steps", DataType::UInt32, false),
         Field::new("collisions", DataType::UInt32, false),
         Field::new("final_geodesic", DataType::Float32, true),
+        Field::new("instruction", DataType::Utf8, false),
     ]));
     let s = |f: &dyn Fn(&crate::episode::Episode) -> String| -> ArrayRef {
         Arc::new(StringArray::from_iter_values(
@@ -481,6 +435,7 @@ pub fn write_episode_table(
                 .map(|(_, m)| m.final_geodesic.is_finite().then_some(m.final_geodesic))
                 .collect::<Float32Array>(),
         ),
+        s(&crate::episode::instruction::instruction),
     ];
     let batch = RecordBatch::try_new(schema.clone(), columns)
         .map_err(|e| format!("{}: {e}", path.display()))?;

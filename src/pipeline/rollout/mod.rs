@@ -36,6 +36,9 @@ pub use episode::EpisodeError;
 use parts::part;
 use scene::SceneRun;
 
+/// `robot_type` of a run's LeRobot copy.
+pub const LEROBOT_ROBOT_TYPE: &str = "minos-agent";
+
 /// Which agent drives.
 #[derive(Debug, Clone, PartialEq)]
 pub enum AgentKind {
@@ -78,7 +81,7 @@ pub struct RunConfig {
     pub reward: Reward,
     /// Image storage.
     pub encoding: ImageEncoding,
-    /// Also lay the dataset out LeRobot-style in `out/lerobot/`.
+    /// Also write the run as a LeRobot v3.0 dataset in `out/lerobot/`.
     pub lerobot: bool,
     /// Also record episodes for the rerun viewer.
     pub rerun: Option<RerunOutput>,
@@ -121,9 +124,9 @@ pub enum RolloutError {
     /// The joined recording could not be written.
     #[error(transparent)]
     Recording(#[from] RecordingError),
-    /// The LeRobot-style copy could not be written.
+    /// The LeRobot copy could not be written.
     #[error("lerobot: {0}")]
-    Lerobot(String),
+    Lerobot(#[from] crate::io::lerobot::LerobotError),
 }
 
 fn io_error(path: &Path) -> impl FnOnce(std::io::Error) -> RolloutError + '_ {
@@ -277,7 +280,7 @@ fn run_scene(
 }
 
 /// Merges the finished episodes' parts into the final tables and writes `metrics.json`,
-/// `manifest.json`, the joined recording and the LeRobot-style copy.
+/// `manifest.json`, the joined recording and the LeRobot copy (made from the merged tables).
 fn finish(
     cfg: &RunConfig,
     mine: &[(usize, Episode)],
@@ -348,23 +351,16 @@ fn finish(
         report.recorded = recordings.len();
     }
     if cfg.lerobot {
-        let sources: Vec<(Episode, PathBuf, PathBuf)> = kept
-            .iter()
-            .map(|(i, e)| {
-                (
-                    e.clone(),
-                    part(parts, *i, "traj.parquet"),
-                    part(parts, *i, "obs.parquet"),
-                )
-            })
-            .collect();
-        crate::io::lerobot::write(
+        let options = crate::io::lerobot::DatasetOptions {
+            fps: crate::io::lerobot::fps_of_step(cfg.body.dt),
+            robot_type: LEROBOT_ROBOT_TYPE.into(),
+        };
+        crate::io::lerobot::write_dataset(
+            &crate::io::lerobot::RunTables::in_dir(&cfg.out),
             &cfg.out.join("lerobot"),
-            &sources,
-            &cfg.sensors.cameras,
-            1.0 / cfg.body.dt,
-        )
-        .map_err(RolloutError::Lerobot)?;
+            &options,
+            &crate::progress::NoProgress,
+        )?;
     }
     manifest::write(cfg)
 }

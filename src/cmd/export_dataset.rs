@@ -1,0 +1,143 @@
+//! `minos export-dataset`: flags → [`ExportConfig`] ([`config`]) →
+//! [`minos::io::lerobot::write_dataset`]; prints what was written.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use anyhow::Context as _;
+use minos::io::lerobot::{fps_of_step, write_dataset, DatasetOptions, RunTables};
+use minos::pipeline::rollout::LEROBOT_ROBOT_TYPE;
+
+use super::Context;
+
+const AFTER_HELP: &str = "\
+The dataset is LeRobot's v3.0 layout (meta/info.json, meta/stats.json, meta/tasks.parquet,
+meta/episodes/…, data/chunk-000/file-000.parquet), loadable offline with
+`LeRobotDataset(\"minos/run\", root=OUT)`. Colour and grey cameras are PNG `image` features;
+depth, normals and label images are lossless arrays under `observation.<sensor>`; every
+episode's task is its instruction (\"find a chair\", \"go to the kitchen\", \"go 4.2 m ahead
+and 1.3 m left\"). The frame rate is the agent's steps per second from the run's
+manifest.json unless --fps is given.
+
+Examples:
+  minos export-dataset --run runs/oracle --out datasets/oracle-lerobot
+  minos export-dataset --run minos-demo/run --out /tmp/demo-lerobot --fps 10";
+
+/// Dataset formats of `--format`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum DatasetFormat {
+    /// LeRobot v3.0.
+    Lerobot,
+}
+
+/// Flags of `minos export-dataset`.
+#[derive(Debug, clap::Args)]
+#[command(after_help = AFTER_HELP)]
+pub struct Args {
+    /// A run folder written by `minos run` (trajectories, observations and episodes tables).
+    #[arg(long, value_name = "DIR")]
+    run: PathBuf,
+    /// The dataset folder to write (replaced when the new one is complete).
+    #[arg(long, value_name = "DIR")]
+    out: PathBuf,
+    /// The dataset format.
+    #[arg(long, value_enum, default_value = "lerobot")]
+    format: DatasetFormat,
+    /// Frames per second (default: the agent's steps per second from DIR/manifest.json).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=10_000))]
+    fps: Option<u32>,
+}
+
+/// What to export.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ExportConfig {
+    /// The run's tables.
+    pub tables: RunTables,
+    /// The dataset folder.
+    pub out: PathBuf,
+    /// Dataset options.
+    pub options: DatasetOptions,
+}
+
+/// The agent's step (`body.dt`) recorded in a run's manifest.
+fn manifest_step(run: &Path) -> anyhow::Result<f32> {
+    let path = run.join("manifest.json");
+    let text = std::fs::read_to_string(&path).with_context(|| {
+        format!(
+            "{}: cannot read the run's manifest (give --fps)",
+            path.display()
+        )
+    })?;
+    let manifest: serde_json::Value =
+        serde_json::from_str(&text).with_context(|| format!("{}: not JSON", path.display()))?;
+    let dt = manifest
+        .pointer("/body/dt")
+        .and_then(|v| v.as_f64())
+        .filter(|dt| dt.is_finite() && *dt > 0.0)
+        .with_context(|| format!("{}: body.dt: not a positive number", path.display()))?;
+    Ok(dt as f32)
+}
+
+/// Flags → what to export (reads the run's manifest.json for the frame rate).
+pub fn config(args: &Args) -> anyhow::Result<ExportConfig> {
+    let DatasetFormat::Lerobot = args.format;
+    let fps = match args.fps {
+        Some(fps) => fps,
+        None => fps_of_step(manifest_step(&args.run)?),
+    };
+    Ok(ExportConfig {
+        tables: RunTables::in_dir(&args.run),
+        out: args.out.clone(),
+        options: DatasetOptions {
+            fps,
+            robot_type: LEROBOT_ROBOT_TYPE.into(),
+        },
+    })
+}
+
+/// Runs `minos export-dataset`.
+pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
+    let cfg = config(&args)?;
+    let bar = ctx.progress(0, "episodes");
+    let summary = write_dataset(&cfg.tables, &cfg.out, &cfg.options, &bar)?;
+    drop(bar);
+    ctx.say(format!(
+        "{}: LeRobot {} dataset, {} episodes, {} frames, {} tasks, {} data file(s), {} fps",
+        cfg.out.display(),
+        minos::io::lerobot::CODEBASE_VERSION,
+        summary.episodes,
+        summary.frames,
+        summary.tasks,
+        summary.data_files,
+        cfg.options.fps
+    ));
+    Ok(ExitCode::SUCCESS)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cmd::common::parse_flags;
+
+    #[test]
+    fn fps_comes_from_the_flag_or_the_runs_manifest() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let run = dir.path().display().to_string();
+        let flags = |extra: &str| {
+            parse_flags::<Args>(&format!("--run {run} --out {run}/lr {extra}")).expect("flags")
+        };
+        // No manifest and no --fps: one error naming the manifest.
+        let e = config(&flags("")).expect_err("no manifest").to_string();
+        assert!(e.contains("manifest.json"), "{e}");
+        assert_eq!(config(&flags("--fps 30")).expect("given").options.fps, 30);
+        std::fs::write(dir.path().join("manifest.json"), r#"{"body": {"dt": 0.1}}"#)
+            .expect("write");
+        let cfg = config(&flags("")).expect("from the manifest");
+        assert_eq!(cfg.options.fps, 10);
+        assert_eq!(cfg.tables.episodes, dir.path().join("episodes.parquet"));
+        std::fs::write(dir.path().join("manifest.json"), r#"{"body": {"dt": -1}}"#).expect("write");
+        let e = config(&flags("")).expect_err("bad dt").to_string();
+        assert!(e.contains("body.dt"), "{e}");
+        assert!(parse_flags::<Args>(&format!("--run {run} --out x --fps 0")).is_err());
+    }
+}

@@ -1,0 +1,278 @@
+//! One episode's frames as a record batch of the data files, and the episode's statistics
+//! for every feature.
+
+use std::sync::Arc;
+
+use arrow::array::{
+    ArrayRef, BinaryBuilder, BooleanArray, FixedSizeListBuilder, Float32Array, Float32Builder,
+    Int64Array, ListArray, PrimitiveArray, RecordBatch, StringArray, StructArray,
+};
+use arrow::buffer::{OffsetBuffer, ScalarBuffer};
+use arrow::datatypes::{
+    ArrowPrimitiveType, DataType, Field, Float32Type, Schema, SchemaRef, UInt16Type, UInt32Type,
+    UInt8Type,
+};
+use serde_json::json;
+
+use super::features::{Camera, Feature, FeatureKind, Scalar};
+use super::source::StepRow;
+use super::stats::FeatureStats;
+use crate::io::image_codec::{encode_cell, CellEncoding, CellFormat};
+use crate::render::Image;
+
+/// The frames of one episode, ready to be laid out.
+pub struct EpisodeFrames<'a> {
+    /// Its trajectory rows, in step order.
+    pub steps: &'a [StepRow],
+    /// Each frame's images, in camera order.
+    pub images: Vec<Vec<Image>>,
+    /// Its index in the dataset.
+    pub episode_index: i64,
+    /// The dataset index of its first frame.
+    pub first_index: i64,
+    /// Its task's index.
+    pub task_index: i64,
+    /// Frames per second.
+    pub fps: u32,
+}
+
+/// The data files' schema: one nullable column per feature (as Hugging Face writes them)
+/// and the `huggingface` metadata naming each column's `datasets` feature.
+pub fn data_schema(features: &[Feature], cameras: &[Camera]) -> SchemaRef {
+    let fields: Vec<Field> = features
+        .iter()
+        .map(|f| Field::new(&f.key, f.arrow_type(cameras), true))
+        .collect();
+    let hf: serde_json::Map<String, serde_json::Value> = features
+        .iter()
+        .map(|f| (f.key.clone(), f.hf(cameras)))
+        .collect();
+    let meta = json!({"info": {"features": hf}}).to_string();
+    Arc::new(Schema::new(fields).with_metadata([("huggingface".to_string(), meta)].into()))
+}
+
+/// An image that could not be laid out (the caller names the file and episode).
+pub type FrameError = String;
+
+/// Builds the episode's batch and its statistics (one per feature, in feature order).
+pub fn episode_batch(
+    features: &[Feature],
+    cameras: &[Camera],
+    schema: &SchemaRef,
+    ep: &EpisodeFrames,
+) -> Result<(RecordBatch, Vec<FeatureStats>), FrameError> {
+    let n = ep.steps.len();
+    let frames = n as u64;
+    let mut columns: Vec<ArrayRef> = Vec::with_capacity(features.len());
+    let mut stats = Vec::with_capacity(features.len());
+    for f in features {
+        let (column, s) = match &f.kind {
+            FeatureKind::Vector(names) => {
+                let rows: Vec<&[f32]> = ep
+                    .steps
+                    .iter()
+                    .map(|s| {
+                        if f.key == "observation.state" {
+                            &s.state[..]
+                        } else {
+                            &s.action[..]
+                        }
+                    })
+                    .collect();
+                vector_column(&rows, names.len(), frames)
+            }
+            FeatureKind::Scalar(kind) => scalar_column(f, *kind, ep, frames),
+            FeatureKind::Image(c) => image_column(*c, &cameras[*c].format, ep, frames)?,
+            FeatureKind::Array(c) => array_column(*c, &cameras[*c].format, ep, frames)?,
+        };
+        columns.push(column);
+        stats.push(s);
+    }
+    let batch = RecordBatch::try_new(schema.clone(), columns).map_err(|e| e.to_string())?;
+    Ok((batch, stats))
+}
+
+fn vector_column(rows: &[&[f32]], len: usize, frames: u64) -> (ArrayRef, FeatureStats) {
+    let field = Arc::new(Field::new("element", DataType::Float32, true));
+    let mut b =
+        FixedSizeListBuilder::new(Float32Builder::new(), len as i32).with_field(field.clone());
+    let mut channels = vec![Vec::with_capacity(rows.len()); len];
+    for r in rows {
+        b.values().append_slice(r);
+        b.append(true);
+        for (k, v) in r.iter().enumerate() {
+            channels[k].push(f64::from(*v));
+        }
+    }
+    (
+        Arc::new(b.finish()),
+        FeatureStats::of_channels(&mut channels, frames),
+    )
+}
+
+fn scalar_column(
+    f: &Feature,
+    kind: Scalar,
+    ep: &EpisodeFrames,
+    frames: u64,
+) -> (ArrayRef, FeatureStats) {
+    let n = ep.steps.len();
+    let values: Vec<f64> = match f.key.as_str() {
+        "next.reward" => ep.steps.iter().map(|s| f64::from(s.reward)).collect(),
+        "next.done" => ep
+            .steps
+            .iter()
+            .map(|s| f64::from(u8::from(s.done)))
+            .collect(),
+        "next.success" => ep
+            .steps
+            .iter()
+            .map(|s| f64::from(u8::from(s.success)))
+            .collect(),
+        "timestamp" => (0..n)
+            .map(|i| f64::from(i as f32 / ep.fps as f32))
+            .collect(),
+        "frame_index" => (0..n).map(|i| i as f64).collect(),
+        "episode_index" => vec![ep.episode_index as f64; n],
+        "index" => (0..n).map(|i| (ep.first_index + i as i64) as f64).collect(),
+        _ => vec![ep.task_index as f64; n],
+    };
+    let column: ArrayRef = match kind {
+        Scalar::F32 => Arc::new(values.iter().map(|v| *v as f32).collect::<Float32Array>()),
+        Scalar::Bool => Arc::new(
+            values
+                .iter()
+                .map(|v| Some(*v != 0.0))
+                .collect::<BooleanArray>(),
+        ),
+        Scalar::I64 => Arc::new(values.iter().map(|v| *v as i64).collect::<Int64Array>()),
+    };
+    let mut channels = [values];
+    (column, FeatureStats::of_channels(&mut channels, frames))
+}
+
+/// PNG images in Hugging Face's image struct (`bytes`, `path` = null); statistics per RGB
+/// channel over every pixel, grey counted as three equal channels (LeRobot reads images as
+/// RGB).
+fn image_column(
+    camera: usize,
+    format: &CellFormat,
+    ep: &EpisodeFrames,
+    frames: u64,
+) -> Result<(ArrayRef, FeatureStats), FrameError> {
+    let png = CellFormat {
+        encoding: CellEncoding::Png8,
+        ..*format
+    };
+    let mut bytes = BinaryBuilder::new();
+    let mut hist = vec![[0u64; 256]; format.channels as usize];
+    let mut buf = Vec::new();
+    for (i, frame) in ep.images.iter().enumerate() {
+        let img = &frame[camera];
+        buf.clear();
+        encode_cell(img, &png, &mut buf).map_err(|e| format!("frame {i}: {e}"))?;
+        bytes.append_value(&buf);
+        if let Image::U8 { data, .. } = img {
+            for px in data.chunks_exact(format.channels as usize) {
+                for (c, v) in px.iter().enumerate() {
+                    hist[c][*v as usize] += 1;
+                }
+            }
+        }
+    }
+    if hist.len() == 1 {
+        hist = vec![hist[0]; 3];
+    }
+    let n = ep.images.len();
+    let column = StructArray::new(
+        vec![
+            Field::new("bytes", DataType::Binary, true),
+            Field::new("path", DataType::Utf8, true),
+        ]
+        .into(),
+        vec![
+            Arc::new(bytes.finish()) as ArrayRef,
+            Arc::new(StringArray::new_null(n)),
+        ],
+        None,
+    );
+    Ok((Arc::new(column), FeatureStats::of_histograms(&hist, frames)))
+}
+
+/// Frames as `[h][w][c]` nested lists of the sensor's own values; statistics per channel.
+fn array_column(
+    camera: usize,
+    format: &CellFormat,
+    ep: &EpisodeFrames,
+    frames: u64,
+) -> Result<(ArrayRef, FeatureStats), FrameError> {
+    let c = format.channels as usize;
+    let mut channels = vec![Vec::new(); c];
+    let values: ArrayRef = match ep.images.first().map(|f| &f[camera]) {
+        Some(Image::U8 { .. }) | None => {
+            flat::<UInt8Type>(ep, camera, &mut channels, |img| match img {
+                Image::U8 { data, .. } => Some(data.clone()),
+                _ => None,
+            })?
+        }
+        Some(Image::U16(_)) => flat::<UInt16Type>(ep, camera, &mut channels, |img| match img {
+            Image::U16(d) => Some(d.clone()),
+            _ => None,
+        })?,
+        Some(Image::U32(_)) => flat::<UInt32Type>(ep, camera, &mut channels, |img| match img {
+            Image::U32(d) => Some(d.clone()),
+            _ => None,
+        })?,
+        Some(Image::F32 { .. }) => {
+            flat::<Float32Type>(ep, camera, &mut channels, |img| match img {
+                Image::F32 { data, .. } => Some(data.clone()),
+                _ => None,
+            })?
+        }
+    };
+    let (h, w) = (format.height as usize, format.width as usize);
+    let n = ep.images.len();
+    if values.len() != n * h * w * c {
+        return Err(format!(
+            "{} values for {n} frames of {h}×{w}×{c}",
+            values.len()
+        ));
+    }
+    let item = |t: DataType| Arc::new(Field::new("item", t, true));
+    let nest = |values: ArrayRef, size: usize, count: usize| -> Result<ArrayRef, FrameError> {
+        let offsets = OffsetBuffer::new(ScalarBuffer::from(
+            (0..=count).map(|i| (i * size) as i32).collect::<Vec<i32>>(),
+        ));
+        let list = ListArray::try_new(item(values.data_type().clone()), offsets, values, None)
+            .map_err(|e| e.to_string())?;
+        Ok(Arc::new(list))
+    };
+    let pixels = nest(values, c, n * h * w)?;
+    let rows = nest(pixels, w, n * h)?;
+    let column = nest(rows, h, n)?;
+    Ok((column, FeatureStats::of_channels(&mut channels, frames)))
+}
+
+/// Concatenates one camera's frames into a flat array, collecting every channel's values.
+fn flat<T>(
+    ep: &EpisodeFrames,
+    camera: usize,
+    channels: &mut [Vec<f64>],
+    pixels: impl Fn(&Image) -> Option<Vec<T::Native>>,
+) -> Result<ArrayRef, FrameError>
+where
+    T: ArrowPrimitiveType,
+    T::Native: Into<f64> + Copy,
+{
+    let c = channels.len();
+    let mut all: Vec<T::Native> = Vec::new();
+    for (i, frame) in ep.images.iter().enumerate() {
+        let data =
+            pixels(&frame[camera]).ok_or_else(|| format!("frame {i}: image type changed"))?;
+        for (k, v) in data.iter().enumerate() {
+            channels[k % c].push((*v).into());
+        }
+        all.extend_from_slice(&data);
+    }
+    Ok(Arc::new(PrimitiveArray::<T>::from_iter_values(all)))
+}

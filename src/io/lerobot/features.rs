@@ -1,0 +1,341 @@
+//! The features of a minos LeRobot dataset: what each column is, how `meta/info.json`
+//! describes it (LeRobot dtype, shape, names), how Hugging Face `datasets` types it (the
+//! `huggingface` schema metadata of the data files) and its Arrow type.
+//!
+//! | key | LeRobot dtype, shape | from |
+//! |---|---|---|
+//! | `observation.state` | float32 [5]: x, y, z, yaw, tilt | the pose before the action |
+//! | `action` | float32 [9]: the eight action strengths and `stop` | the decision |
+//! | `observation.images.<sensor>` | `image` [h, w, c] (PNG) | colour and grey cameras |
+//! | `observation.<sensor>` | the sensor's dtype [h, w, c], lossless | depth (metres), normals, semantic, instance, room and room-class ids |
+//! | `next.reward`, `next.done`, `next.success` | float32 / bool [1] | the step's outcome |
+//! | `timestamp`, `frame_index`, `episode_index`, `index`, `task_index` | LeRobot's own | |
+//!
+//! Label and depth images are arrays, not `image` features, because LeRobot turns `image`
+//! features into 8-bit [0, 1] tensors and requires their statistics to be 3-channel: a class
+//! id or a depth in metres would not survive that. Their keys avoid the word `image` for the
+//! same reason.
+
+use std::sync::Arc;
+
+use arrow::datatypes::{DataType, Field, Fields};
+use serde_json::{json, Value};
+
+use super::stats::StatLayout;
+use crate::io::image_codec::{CellFormat, PixelType};
+use crate::render::Modality;
+
+/// Names of the state vector's elements.
+pub const STATE_NAMES: [&str; 5] = ["x", "y", "z", "yaw", "tilt"];
+
+/// Names of the action vector's elements: the eight strengths of MINOS's actions, then
+/// `stop` (1 when the agent declared the goal reached).
+pub const ACTION_NAMES: [&str; 9] = [
+    "forward",
+    "backward",
+    "strafe_left",
+    "strafe_right",
+    "turn_left",
+    "turn_right",
+    "look_up",
+    "look_down",
+    "stop",
+];
+
+/// A camera of the run, as its observation column describes it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Camera {
+    /// The sensor's name (its column in `observations.parquet`).
+    pub name: String,
+    /// What it records.
+    pub modality: Modality,
+    /// How the run stored it, and the pixels' dtype and shape.
+    pub format: CellFormat,
+}
+
+impl Camera {
+    /// Whether the camera becomes a LeRobot `image` feature (8-bit colour or grey); other
+    /// cameras become lossless arrays.
+    pub fn is_image(&self) -> bool {
+        matches!(self.modality, Modality::Color | Modality::Gray)
+            && self.format.dtype == PixelType::U8
+            && matches!(self.format.channels, 1 | 3)
+    }
+}
+
+/// A scalar feature's value type.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Scalar {
+    /// `float32`.
+    F32,
+    /// `bool`.
+    Bool,
+    /// `int64`.
+    I64,
+}
+
+/// What a feature holds.
+#[derive(Debug, Clone, PartialEq)]
+pub enum FeatureKind {
+    /// A fixed-length float32 vector with named elements.
+    Vector(&'static [&'static str]),
+    /// One value per frame.
+    Scalar(Scalar),
+    /// The camera `cameras[i]` as PNG images.
+    Image(usize),
+    /// The camera `cameras[i]` as an [h, w, c] array of its dtype.
+    Array(usize),
+}
+
+/// One column of the data files.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Feature {
+    /// Its key (column name).
+    pub key: String,
+    /// What it holds.
+    pub kind: FeatureKind,
+}
+
+/// Errors in the features (a sensor whose name makes a bad key).
+#[derive(Debug, thiserror::Error)]
+#[error("sensor `{sensor}`: {message}")]
+pub struct FeatureError {
+    /// The sensor.
+    pub sensor: String,
+    /// What is wrong.
+    pub message: String,
+}
+
+/// The dataset's features, in column order, for the run's cameras.
+pub fn features(cameras: &[Camera]) -> Result<Vec<Feature>, FeatureError> {
+    let mut out = vec![
+        Feature {
+            key: "observation.state".into(),
+            kind: FeatureKind::Vector(&STATE_NAMES),
+        },
+        Feature {
+            key: "action".into(),
+            kind: FeatureKind::Vector(&ACTION_NAMES),
+        },
+    ];
+    for (i, c) in cameras.iter().enumerate() {
+        let bad = |message: &str| FeatureError {
+            sensor: c.name.clone(),
+            message: message.into(),
+        };
+        if c.name.is_empty() || c.name.contains('/') {
+            return Err(bad("LeRobot feature names cannot be empty or contain `/`"));
+        }
+        if c.is_image() {
+            out.push(Feature {
+                key: format!("observation.images.{}", c.name),
+                kind: FeatureKind::Image(i),
+            });
+        } else {
+            if c.name.contains("image") || c.name == "state" || c.name == "environment_state" {
+                return Err(bad(
+                    "an array sensor's key `observation.<name>` must not contain `image` \
+                     (LeRobot reads such keys as 3-channel images) nor be `state` or \
+                     `environment_state`; rename the sensor",
+                ));
+            }
+            out.push(Feature {
+                key: format!("observation.{}", c.name),
+                kind: FeatureKind::Array(i),
+            });
+        }
+    }
+    for (key, s) in [
+        ("next.reward", Scalar::F32),
+        ("next.done", Scalar::Bool),
+        ("next.success", Scalar::Bool),
+        ("timestamp", Scalar::F32),
+        ("frame_index", Scalar::I64),
+        ("episode_index", Scalar::I64),
+        ("index", Scalar::I64),
+        ("task_index", Scalar::I64),
+    ] {
+        out.push(Feature {
+            key: key.into(),
+            kind: FeatureKind::Scalar(s),
+        });
+    }
+    Ok(out)
+}
+
+fn scalar_name(s: Scalar) -> &'static str {
+    match s {
+        Scalar::F32 => "float32",
+        Scalar::Bool => "bool",
+        Scalar::I64 => "int64",
+    }
+}
+
+fn arrow_pixel(t: PixelType) -> DataType {
+    match t {
+        PixelType::U8 => DataType::UInt8,
+        PixelType::U16 => DataType::UInt16,
+        PixelType::U32 => DataType::UInt32,
+        PixelType::F32 => DataType::Float32,
+    }
+}
+
+/// `List<item>` with nullable items, as Hugging Face writes nested lists.
+fn list_of(t: DataType) -> DataType {
+    DataType::List(Arc::new(Field::new("item", t, true)))
+}
+
+impl Feature {
+    /// The entry in `meta/info.json`'s `features`.
+    pub fn info(&self, cameras: &[Camera]) -> Value {
+        match &self.kind {
+            FeatureKind::Vector(names) => {
+                json!({"dtype": "float32", "shape": [names.len()], "names": names})
+            }
+            FeatureKind::Scalar(s) => {
+                json!({"dtype": scalar_name(*s), "shape": [1], "names": null})
+            }
+            FeatureKind::Image(i) | FeatureKind::Array(i) => {
+                let c = &cameras[*i];
+                let f = &c.format;
+                let image = matches!(self.kind, FeatureKind::Image(_));
+                let mut info = json!({
+                    "minos.sensor": c.name,
+                    "minos.modality": format!("{:?}", c.modality).to_lowercase(),
+                    "minos.storage": if image { "PNG, lossless" } else { "array of the sensor's values, lossless" },
+                });
+                if c.modality == Modality::Depth && f.dtype == PixelType::F32 {
+                    info["minos.unit"] = json!("m (0 = no return)");
+                }
+                json!({
+                    "dtype": if image { "image" } else { f.dtype.name() },
+                    "shape": [f.height, f.width, f.channels],
+                    "names": ["height", "width", "channels"],
+                    "info": info,
+                })
+            }
+        }
+    }
+
+    /// The Hugging Face `datasets` feature (the `huggingface` schema metadata).
+    pub fn hf(&self, cameras: &[Camera]) -> Value {
+        match &self.kind {
+            FeatureKind::Vector(names) => json!({
+                "feature": {"dtype": "float32", "_type": "Value"},
+                "length": names.len(),
+                "_type": "List",
+            }),
+            FeatureKind::Scalar(s) => json!({"dtype": scalar_name(*s), "_type": "Value"}),
+            FeatureKind::Image(_) => json!({"_type": "Image"}),
+            FeatureKind::Array(i) => {
+                let f = &cameras[*i].format;
+                json!({
+                    "shape": [f.height, f.width, f.channels],
+                    "dtype": f.dtype.name(),
+                    "_type": "Array3D",
+                })
+            }
+        }
+    }
+
+    /// The Arrow type of the column.
+    pub fn arrow_type(&self, cameras: &[Camera]) -> DataType {
+        match &self.kind {
+            FeatureKind::Vector(names) => DataType::FixedSizeList(
+                Arc::new(Field::new("element", DataType::Float32, true)),
+                names.len() as i32,
+            ),
+            FeatureKind::Scalar(Scalar::F32) => DataType::Float32,
+            FeatureKind::Scalar(Scalar::Bool) => DataType::Boolean,
+            FeatureKind::Scalar(Scalar::I64) => DataType::Int64,
+            FeatureKind::Image(_) => DataType::Struct(Fields::from(vec![
+                Field::new("bytes", DataType::Binary, true),
+                Field::new("path", DataType::Utf8, true),
+            ])),
+            FeatureKind::Array(i) => {
+                list_of(list_of(list_of(arrow_pixel(cameras[*i].format.dtype))))
+            }
+        }
+    }
+
+    /// How its statistics are nested.
+    pub fn stat_layout(&self) -> StatLayout {
+        match self.kind {
+            FeatureKind::Image(_) => StatLayout::Image,
+            _ => StatLayout::Flat,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::io::image_codec::CellEncoding;
+
+    fn camera(name: &str, modality: Modality, dtype: PixelType, channels: u32) -> Camera {
+        Camera {
+            name: name.into(),
+            modality,
+            format: CellFormat {
+                encoding: CellEncoding::RawLe,
+                dtype,
+                width: 84,
+                height: 64,
+                channels,
+            },
+        }
+    }
+
+    #[test]
+    fn colour_is_an_image_and_labels_and_depth_are_lossless_arrays() {
+        let cams = vec![
+            camera("rgb", Modality::Color, PixelType::U8, 3),
+            camera("depth", Modality::Depth, PixelType::F32, 1),
+            camera("semantic", Modality::Semantic, PixelType::U16, 1),
+            camera("rooms", Modality::RoomClass, PixelType::U8, 1),
+        ];
+        let f = features(&cams).expect("valid");
+        let keys: Vec<&str> = f.iter().map(|f| f.key.as_str()).collect();
+        assert_eq!(
+            &keys[..6],
+            [
+                "observation.state",
+                "action",
+                "observation.images.rgb",
+                "observation.depth",
+                "observation.semantic",
+                "observation.rooms"
+            ]
+        );
+        assert_eq!(f[2].info(&cams)["dtype"], "image");
+        assert_eq!(f[2].info(&cams)["shape"], json!([64, 84, 3]));
+        assert_eq!(f[3].info(&cams)["dtype"], "float32");
+        assert_eq!(f[4].info(&cams)["dtype"], "uint16");
+        assert_eq!(f[5].info(&cams)["dtype"], "uint8");
+        assert_eq!(
+            f[3].hf(&cams),
+            json!({"shape": [64, 84, 1], "dtype": "float32", "_type": "Array3D"})
+        );
+        assert_eq!(f[1].info(&cams)["shape"], json!([9]));
+        for k in [
+            "timestamp",
+            "frame_index",
+            "episode_index",
+            "index",
+            "task_index",
+        ] {
+            assert!(keys.contains(&k), "{k}");
+        }
+    }
+
+    #[test]
+    fn sensor_names_that_make_bad_keys_are_refused() {
+        for name in ["a/b", "", "state", "depth_image"] {
+            let cams = vec![camera(name, Modality::Depth, PixelType::F32, 1)];
+            let e = features(&cams).expect_err(name).to_string();
+            assert!(e.contains(&format!("sensor `{name}`")), "{e}");
+        }
+        // An image sensor may be called anything LeRobot accepts.
+        assert!(features(&[camera("image", Modality::Color, PixelType::U8, 3)]).is_ok());
+    }
+}

@@ -1,0 +1,380 @@
+//! The `meta/` files of a LeRobot v3.0 dataset: `info.json`, `stats.json`, `tasks.parquet`
+//! (tasks as a pandas index, as LeRobot reads them) and `episodes/chunk-*/file-*.parquet`
+//! (one row per episode: its tasks, length, where its frames are, and its statistics).
+
+use std::collections::BTreeMap;
+use std::fs::File;
+use std::path::Path;
+use std::sync::Arc;
+
+use arrow::array::{
+    ArrayRef, Float64Builder, Int64Array, Int64Builder, ListBuilder, RecordBatch, StringArray,
+    StringBuilder,
+};
+use arrow::datatypes::{Field, Schema};
+use parquet::arrow::ArrowWriter;
+use serde_json::{json, Value};
+
+use super::features::{Camera, Feature};
+use super::stats::{FeatureStats, StatLayout};
+use super::LerobotError;
+use crate::parquet_io::writer_properties;
+
+/// LeRobot's format version this module writes.
+pub const CODEBASE_VERSION: &str = "v3.0";
+
+/// Data files per chunk folder (LeRobot's default).
+pub const CHUNK_SIZE: usize = 1000;
+
+/// Largest data file before the next episode starts a new one (LeRobot's default), MB.
+pub const DATA_FILE_MB: u64 = 100;
+
+/// LeRobot's `data_path` template.
+pub const DATA_PATH: &str = "data/chunk-{chunk_index:03d}/file-{file_index:03d}.parquet";
+
+/// A file's place: chunk folder and file number.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct FileIndex {
+    /// `chunk-NNN`.
+    pub chunk: usize,
+    /// `file-NNN`.
+    pub file: usize,
+}
+
+impl FileIndex {
+    /// The next file (a new chunk after [`CHUNK_SIZE`] files), as LeRobot numbers them.
+    pub fn next(self) -> FileIndex {
+        if self.file + 1 == CHUNK_SIZE {
+            FileIndex {
+                chunk: self.chunk + 1,
+                file: 0,
+            }
+        } else {
+            FileIndex {
+                chunk: self.chunk,
+                file: self.file + 1,
+            }
+        }
+    }
+
+    /// `<dir>/chunk-NNN/file-NNN.parquet`.
+    pub fn path(self, dir: &str) -> String {
+        format!(
+            "{dir}/chunk-{:03}/file-{:03}.parquet",
+            self.chunk, self.file
+        )
+    }
+}
+
+/// One row of `meta/episodes`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EpisodeMeta {
+    /// LeRobot's episode index.
+    pub episode_index: i64,
+    /// Its task (instruction).
+    pub task: String,
+    /// Frames.
+    pub length: i64,
+    /// The data file holding its frames.
+    pub data: FileIndex,
+    /// Dataset index of its first frame.
+    pub from_index: i64,
+    /// One past its last frame's dataset index.
+    pub to_index: i64,
+    /// minos's episode id.
+    pub episode_id: String,
+    /// minos's scene id.
+    pub scene_id: String,
+    /// Statistics per feature, in feature order.
+    pub stats: Vec<FeatureStats>,
+}
+
+/// Episode rows per `meta/episodes` file.
+pub const EPISODES_PER_META_FILE: usize = 1000;
+
+fn parquet_error(path: &Path, e: impl ToString) -> LerobotError {
+    LerobotError::Write {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    }
+}
+
+/// Writes one Parquet file of `batch` (zstd, no dictionary for the nested statistics).
+fn write_parquet(path: &Path, batch: &RecordBatch) -> Result<(), LerobotError> {
+    if let Some(dir) = path.parent() {
+        std::fs::create_dir_all(dir).map_err(|source| LerobotError::Io {
+            path: dir.to_path_buf(),
+            source,
+        })?;
+    }
+    let file = File::create(path).map_err(|source| LerobotError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let props = writer_properties(1, None, &batch.schema());
+    let mut w = ArrowWriter::try_new(file, batch.schema(), Some(props))
+        .map_err(|e| parquet_error(path, e))?;
+    w.write(batch).map_err(|e| parquet_error(path, e))?;
+    w.close().map_err(|e| parquet_error(path, e))?;
+    Ok(())
+}
+
+/// Writes `meta/tasks.parquet`: `task_index` and the task text as the pandas index `task`.
+pub fn write_tasks(root: &Path, tasks: &[String]) -> Result<(), LerobotError> {
+    let pandas = json!({
+        "index_columns": ["task"],
+        "column_indexes": [{"name": null, "field_name": null, "pandas_type": "unicode", "numpy_type": "object", "metadata": {"encoding": "UTF-8"}}],
+        "columns": [
+            {"name": "task_index", "field_name": "task_index", "pandas_type": "int64", "numpy_type": "int64", "metadata": null},
+            {"name": "task", "field_name": "task", "pandas_type": "unicode", "numpy_type": "object", "metadata": null},
+        ],
+        "attributes": {},
+        "creator": {"library": "minos", "version": env!("CARGO_PKG_VERSION")},
+        "pandas_version": "2.2.0",
+    });
+    let schema = Arc::new(
+        Schema::new(vec![
+            Field::new("task_index", arrow::datatypes::DataType::Int64, true),
+            Field::new("task", arrow::datatypes::DataType::Utf8, true),
+        ])
+        .with_metadata([("pandas".to_string(), pandas.to_string())].into()),
+    );
+    let path = root.join("meta/tasks.parquet");
+    let batch = RecordBatch::try_new(
+        schema,
+        vec![
+            Arc::new((0..tasks.len() as i64).collect::<Int64Array>()),
+            Arc::new(StringArray::from_iter_values(tasks)),
+        ],
+    )
+    .map_err(|e| parquet_error(&path, e))?;
+    write_parquet(&path, &batch)
+}
+
+/// A list column of f64 lists nested `depth` deep (1: `[v]`, 3: `[[[v]]]`) from JSON.
+fn nested_f64(values: &[&Value], depth: usize) -> ArrayRef {
+    fn num(v: &Value) -> Option<f64> {
+        v.as_f64()
+    }
+    fn items(v: &Value) -> &[Value] {
+        v.as_array().map(|a| a.as_slice()).unwrap_or(&[])
+    }
+    if depth == 1 {
+        let mut b = ListBuilder::new(Float64Builder::new());
+        for v in values {
+            for x in items(v) {
+                b.values().append_option(num(x));
+            }
+            b.append(true);
+        }
+        Arc::new(b.finish())
+    } else {
+        let mut b = ListBuilder::new(ListBuilder::new(ListBuilder::new(Float64Builder::new())));
+        for v in values {
+            for a in items(v) {
+                for bb in items(a) {
+                    for x in items(bb) {
+                        b.values().values().values().append_option(num(x));
+                    }
+                    b.values().values().append(true);
+                }
+                b.values().append(true);
+            }
+            b.append(true);
+        }
+        Arc::new(b.finish())
+    }
+}
+
+/// Writes `meta/episodes/chunk-*/file-*.parquet` ([`EPISODES_PER_META_FILE`] rows each).
+pub fn write_episodes(
+    root: &Path,
+    episodes: &[EpisodeMeta],
+    features: &[Feature],
+) -> Result<(), LerobotError> {
+    let mut place = FileIndex::default();
+    for (k, rows) in episodes.chunks(EPISODES_PER_META_FILE).enumerate() {
+        if k > 0 {
+            place = place.next();
+        }
+        let path = root.join(place.path("meta/episodes"));
+        let mut fields = Vec::new();
+        let mut columns: Vec<ArrayRef> = Vec::new();
+        let mut push = |name: &str, column: ArrayRef| {
+            fields.push(Field::new(name, column.data_type().clone(), true));
+            columns.push(column);
+        };
+        let ints = |f: &dyn Fn(&EpisodeMeta) -> i64| -> ArrayRef {
+            Arc::new(rows.iter().map(f).collect::<Int64Array>())
+        };
+        push("episode_index", ints(&|e| e.episode_index));
+        let mut tasks = ListBuilder::new(StringBuilder::new());
+        for e in rows {
+            tasks.values().append_value(&e.task);
+            tasks.append(true);
+        }
+        push("tasks", Arc::new(tasks.finish()));
+        push("length", ints(&|e| e.length));
+        push("data/chunk_index", ints(&|e| e.data.chunk as i64));
+        push("data/file_index", ints(&|e| e.data.file as i64));
+        push("dataset_from_index", ints(&|e| e.from_index));
+        push("dataset_to_index", ints(&|e| e.to_index));
+        push("meta/episodes/chunk_index", ints(&|_| place.chunk as i64));
+        push("meta/episodes/file_index", ints(&|_| place.file as i64));
+        push(
+            "minos/episode_id",
+            Arc::new(StringArray::from_iter_values(
+                rows.iter().map(|e| e.episode_id.as_str()),
+            )),
+        );
+        push(
+            "minos/scene_id",
+            Arc::new(StringArray::from_iter_values(
+                rows.iter().map(|e| e.scene_id.as_str()),
+            )),
+        );
+        for (fi, f) in features.iter().enumerate() {
+            let layout = f.stat_layout();
+            let named: Vec<Vec<(&'static str, Value)>> =
+                rows.iter().map(|e| e.stats[fi].named(layout)).collect();
+            let Some(first) = named.first() else { continue };
+            for (si, (stat, _)) in first.iter().enumerate() {
+                let values: Vec<&Value> = named.iter().map(|n| &n[si].1).collect();
+                let column: ArrayRef = if *stat == "count" {
+                    let mut b = ListBuilder::new(Int64Builder::new());
+                    for v in &values {
+                        for x in v.as_array().map(|a| a.as_slice()).unwrap_or(&[]) {
+                            b.values().append_option(x.as_i64());
+                        }
+                        b.append(true);
+                    }
+                    Arc::new(b.finish())
+                } else {
+                    nested_f64(&values, if layout == StatLayout::Image { 3 } else { 1 })
+                };
+                push(&format!("stats/{}/{stat}", f.key), column);
+            }
+        }
+        let batch = RecordBatch::try_new(Arc::new(Schema::new(fields)), columns)
+            .map_err(|e| parquet_error(&path, e))?;
+        write_parquet(&path, &batch)?;
+    }
+    Ok(())
+}
+
+/// The dataset statistics (`meta/stats.json`): each feature's episodes combined.
+pub fn stats_json(episodes: &[EpisodeMeta], features: &[Feature]) -> Value {
+    let mut out = serde_json::Map::new();
+    for (fi, f) in features.iter().enumerate() {
+        let parts: Vec<&FeatureStats> = episodes.iter().map(|e| &e.stats[fi]).collect();
+        if let Some(all) = FeatureStats::aggregate(&parts) {
+            let named: serde_json::Map<String, Value> = all
+                .named(f.stat_layout())
+                .into_iter()
+                .map(|(k, v)| (k.to_string(), v))
+                .collect();
+            out.insert(f.key.clone(), Value::Object(named));
+        }
+    }
+    Value::Object(out)
+}
+
+/// `splits` of `info.json`: each split's contiguous episode range (`"0:12"`). Episodes are
+/// in id order, so a split is contiguous only when the run's episodes were; when they are
+/// not, or have no split, every episode is `train` (LeRobot's default).
+pub fn splits(episodes: &[(String, usize)], total: usize) -> Value {
+    let mut ranges: BTreeMap<&str, (usize, usize, usize)> = BTreeMap::new();
+    for (split, index) in episodes {
+        let r = ranges.entry(split.as_str()).or_insert((*index, *index, 0));
+        r.0 = r.0.min(*index);
+        r.1 = r.1.max(*index);
+        r.2 += 1;
+    }
+    let contiguous = ranges
+        .iter()
+        .all(|(name, (lo, hi, n))| !name.is_empty() && hi - lo + 1 == *n);
+    if total > 0 && contiguous {
+        Value::Object(
+            ranges
+                .into_iter()
+                .map(|(name, (lo, hi, _))| (name.to_string(), json!(format!("{lo}:{}", hi + 1))))
+                .collect(),
+        )
+    } else {
+        json!({"train": format!("0:{total}")})
+    }
+}
+
+/// The contents of `meta/info.json`.
+#[allow(clippy::too_many_arguments)]
+pub fn info_json(
+    features: &[Feature],
+    cameras: &[Camera],
+    robot_type: &str,
+    fps: u32,
+    total_episodes: usize,
+    total_frames: i64,
+    total_tasks: usize,
+    splits: Value,
+) -> Value {
+    let feats: serde_json::Map<String, Value> = features
+        .iter()
+        .map(|f| (f.key.clone(), f.info(cameras)))
+        .collect();
+    json!({
+        "codebase_version": CODEBASE_VERSION,
+        "robot_type": robot_type,
+        "total_episodes": total_episodes,
+        "total_frames": total_frames,
+        "total_tasks": total_tasks,
+        "chunks_size": CHUNK_SIZE,
+        "data_files_size_in_mb": DATA_FILE_MB,
+        "video_files_size_in_mb": 200,
+        "fps": fps,
+        "splits": splits,
+        "data_path": DATA_PATH,
+        "video_path": null,
+        "features": feats,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn file_indices_roll_into_a_new_chunk_after_chunk_size_files() {
+        let mut i = FileIndex::default();
+        for _ in 0..CHUNK_SIZE - 1 {
+            i = i.next();
+        }
+        assert_eq!(
+            i,
+            FileIndex {
+                chunk: 0,
+                file: 999
+            }
+        );
+        assert_eq!(i.next(), FileIndex { chunk: 1, file: 0 });
+        assert_eq!(i.next().path("data"), "data/chunk-001/file-000.parquet");
+    }
+
+    #[test]
+    fn splits_are_ranges_only_when_contiguous() {
+        let eps = |v: &[&str]| -> Vec<(String, usize)> {
+            v.iter()
+                .enumerate()
+                .map(|(i, s)| (s.to_string(), i))
+                .collect()
+        };
+        assert_eq!(
+            splits(&eps(&["train", "train", "val"]), 3),
+            json!({"train": "0:2", "val": "2:3"})
+        );
+        assert_eq!(
+            splits(&eps(&["train", "val", "train"]), 3),
+            json!({"train": "0:3"})
+        );
+        assert_eq!(splits(&eps(&["", ""]), 2), json!({"train": "0:2"}));
+    }
+}

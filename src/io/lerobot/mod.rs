@@ -1,0 +1,441 @@
+//! A run as a LeRobot v3.0 dataset (`minos run --format lerobot`, `minos export-dataset`),
+//! the layout `lerobot.datasets.lerobot_dataset.LeRobotDataset(repo_id, root=DIR)` loads
+//! offline:
+//!
+//! ```text
+//! DIR/meta/info.json                          codebase_version v3.0, fps, features, totals, splits
+//! DIR/meta/stats.json                         per-feature statistics of the whole dataset
+//! DIR/meta/tasks.parquet                      task_index, task (the instruction) as index
+//! DIR/meta/episodes/chunk-000/file-000.parquet  one row per episode: tasks, length,
+//!                                             data/chunk_index, data/file_index,
+//!                                             dataset_from_index, dataset_to_index,
+//!                                             stats/<feature>/<stat>, minos/episode_id, minos/scene_id
+//! DIR/data/chunk-000/file-000.parquet         the frames, episodes whole and in order, with
+//!                                             the Hugging Face `datasets` features as schema
+//!                                             metadata; a new file after 100 MB
+//! ```
+//!
+//! The features are described in [`features`]; every episode's task is its instruction in
+//! English ([`crate::episode::instruction`]), so language-conditioned policies get "find a
+//! chair" rather than "objectgoal". The copy is made from the run's own tables
+//! ([`RunTables`]), so an existing run converts without being run again, and the whole
+//! folder is written under a temporary name and renamed into place when complete. Same run
+//! tables ⇒ same bytes.
+
+mod data;
+pub mod features;
+mod meta;
+pub mod source;
+pub mod stats;
+
+use std::fs::File;
+use std::path::{Path, PathBuf};
+
+use parquet::arrow::ArrowWriter;
+use parquet::file::properties::{EnabledStatistics, WriterProperties};
+
+use crate::atomic::write_bytes_atomic;
+use crate::parquet_io::ParquetFileError;
+use crate::progress::Progress;
+use data::{data_schema, episode_batch, EpisodeFrames};
+use features::FeatureError;
+pub use meta::CODEBASE_VERSION;
+use meta::{EpisodeMeta, FileIndex};
+pub use source::RunTables;
+use source::{read_episodes, read_steps, ObservationRows, StepRow};
+
+/// Why the LeRobot copy could not be written; every message names the file.
+#[derive(Debug, thiserror::Error)]
+pub enum LerobotError {
+    /// A file system error.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file or folder.
+        path: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// A run table that cannot be read, or a bad record in it.
+    #[error("{}: {record}: {message}", path.display())]
+    Read {
+        /// The table.
+        path: PathBuf,
+        /// The record (`row 12`, `column \`depth\``).
+        record: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// A dataset file that could not be written.
+    #[error("{}: {message}", path.display())]
+    Write {
+        /// The file.
+        path: PathBuf,
+        /// What went wrong.
+        message: String,
+    },
+    /// The run's tables disagree with each other.
+    #[error("{}: {message}", path.display())]
+    Mismatch {
+        /// The table that disagrees.
+        path: PathBuf,
+        /// How.
+        message: String,
+    },
+    /// A sensor that cannot become a LeRobot feature.
+    #[error("{}: {source}", path.display())]
+    Feature {
+        /// The observation table.
+        path: PathBuf,
+        /// The cause.
+        source: FeatureError,
+    },
+}
+
+impl From<ParquetFileError> for LerobotError {
+    fn from(e: ParquetFileError) -> Self {
+        match e {
+            ParquetFileError::Io { path, source } => LerobotError::Io {
+                path: path.into(),
+                source,
+            },
+            ParquetFileError::Format { path, message } => LerobotError::Read {
+                path: path.into(),
+                record: "file".into(),
+                message,
+            },
+        }
+    }
+}
+
+/// What the dataset is.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DatasetOptions {
+    /// Frames per second (LeRobot requires an integer): the agent's steps per second.
+    pub fps: u32,
+    /// `robot_type` in `info.json`.
+    pub robot_type: String,
+}
+
+/// What was written.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct DatasetSummary {
+    /// Episodes.
+    pub episodes: usize,
+    /// Frames.
+    pub frames: usize,
+    /// Distinct tasks (instructions).
+    pub tasks: usize,
+    /// Data files.
+    pub data_files: usize,
+}
+
+/// The frames per second of an agent stepping every `dt` seconds, as LeRobot's integer
+/// `fps` (at least 1).
+pub fn fps_of_step(dt: f32) -> u32 {
+    if dt.is_finite() && dt > 0.0 {
+        (1.0 / dt).round().max(1.0) as u32
+    } else {
+        1
+    }
+}
+
+fn io(path: &Path) -> impl FnOnce(std::io::Error) -> LerobotError + '_ {
+    move |source| LerobotError::Io {
+        path: path.to_path_buf(),
+        source,
+    }
+}
+
+/// Data-file writer properties: zstd, no dictionaries (images and arrays are unique
+/// values), chunk statistics truncated so image bytes do not land in the footer.
+fn data_properties() -> WriterProperties {
+    WriterProperties::builder()
+        .set_compression(parquet::basic::Compression::ZSTD(
+            parquet::basic::ZstdLevel::try_new(1).unwrap_or_default(),
+        ))
+        .set_dictionary_enabled(false)
+        .set_statistics_enabled(EnabledStatistics::Chunk)
+        .set_statistics_truncate_length(Some(64))
+        .build()
+}
+
+/// The data file being filled.
+struct DataFile {
+    index: FileIndex,
+    path: PathBuf,
+    writer: ArrowWriter<File>,
+}
+
+impl DataFile {
+    fn open(
+        root: &Path,
+        index: FileIndex,
+        schema: arrow::datatypes::SchemaRef,
+    ) -> Result<Self, LerobotError> {
+        let path = root.join(index.path("data"));
+        if let Some(dir) = path.parent() {
+            std::fs::create_dir_all(dir).map_err(io(dir))?;
+        }
+        let file = File::create(&path).map_err(io(&path))?;
+        let writer = ArrowWriter::try_new(file, schema, Some(data_properties())).map_err(|e| {
+            LerobotError::Write {
+                path: path.clone(),
+                message: e.to_string(),
+            }
+        })?;
+        Ok(DataFile {
+            index,
+            path,
+            writer,
+        })
+    }
+
+    fn close(self) -> Result<(), LerobotError> {
+        let path = self.path;
+        self.writer.close().map_err(|e| LerobotError::Write {
+            path,
+            message: e.to_string(),
+        })?;
+        Ok(())
+    }
+}
+
+/// Writes the LeRobot v3.0 dataset of the run `tables` into `out` (replacing what is there
+/// once the new copy is complete).
+pub fn write_dataset(
+    tables: &RunTables,
+    out: &Path,
+    options: &DatasetOptions,
+    progress: &dyn Progress,
+) -> Result<DatasetSummary, LerobotError> {
+    let parent = out
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    std::fs::create_dir_all(parent).map_err(io(parent))?;
+    let name = out
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "lerobot".into());
+    let tmp = parent.join(format!(".{name}.tmp-{}", std::process::id()));
+    if tmp.exists() {
+        std::fs::remove_dir_all(&tmp).map_err(io(&tmp))?;
+    }
+    let result = write_into(tables, &tmp, options, progress);
+    match result {
+        Ok(summary) => {
+            let old = parent.join(format!(".{name}.old-{}", std::process::id()));
+            if out.exists() {
+                std::fs::rename(out, &old).map_err(io(out))?;
+            }
+            std::fs::rename(&tmp, out).map_err(io(out))?;
+            if old.exists() {
+                std::fs::remove_dir_all(&old).map_err(io(&old))?;
+            }
+            Ok(summary)
+        }
+        Err(e) => {
+            let _ = std::fs::remove_dir_all(&tmp);
+            Err(e)
+        }
+    }
+}
+
+/// Writes the dataset into the (new, empty) folder `root`.
+fn write_into(
+    tables: &RunTables,
+    root: &Path,
+    options: &DatasetOptions,
+    progress: &dyn Progress,
+) -> Result<DatasetSummary, LerobotError> {
+    let episodes = read_episodes(&tables.episodes)?;
+    let steps = read_steps(&tables.trajectories)?;
+    let mut observations = ObservationRows::open(&tables.observations)?;
+    let cameras = observations.cameras().to_vec();
+    let features = features::features(&cameras).map_err(|source| LerobotError::Feature {
+        path: tables.observations.clone(),
+        source,
+    })?;
+    let schema = data_schema(&features, &cameras);
+    progress.set_total(episodes.len() as u64);
+
+    // Tasks in order of first appearance.
+    let mut tasks: Vec<String> = Vec::new();
+    let mut metas: Vec<EpisodeMeta> = Vec::with_capacity(episodes.len());
+    let mut file: Option<DataFile> = None;
+    let mut next_index = FileIndex::default();
+    let mut data_files = 0;
+    let mut rest: &[StepRow] = &steps;
+    let mut frames_total: i64 = 0;
+    let limit = meta::DATA_FILE_MB * 1024 * 1024;
+    for (k, ep) in episodes.iter().enumerate() {
+        let n = rest
+            .iter()
+            .take_while(|s| s.episode_id == ep.episode_id)
+            .count();
+        let (mine, after) = rest.split_at(n);
+        rest = after;
+        if n == 0 {
+            return Err(LerobotError::Mismatch {
+                path: tables.trajectories.clone(),
+                message: format!(
+                    "episode `{}` (row {k} of {}) has no trajectory rows where the table \
+                     reaches it (episodes must be in the same order in both tables)",
+                    ep.episode_id,
+                    tables.episodes.display()
+                ),
+            });
+        }
+        if let Some((i, s)) = mine.iter().enumerate().find(|(i, s)| s.step as usize != *i) {
+            return Err(LerobotError::Mismatch {
+                path: tables.trajectories.clone(),
+                message: format!(
+                    "episode `{}`: row {i} is step {}, expected {i}",
+                    ep.episode_id, s.step
+                ),
+            });
+        }
+        let mut images = Vec::with_capacity(n);
+        for i in 0..n {
+            let row = observations.next_row()?;
+            match row {
+                Some((id, step, imgs)) if id == ep.episode_id && step as usize == i => {
+                    images.push(imgs)
+                }
+                other => {
+                    let got = other
+                        .map(|(id, step, _)| format!("episode `{id}` step {step}"))
+                        .unwrap_or_else(|| "the end of the table".into());
+                    return Err(LerobotError::Mismatch {
+                        path: tables.observations.clone(),
+                        message: format!(
+                            "expected episode `{}` step {i}, found {got}",
+                            ep.episode_id
+                        ),
+                    });
+                }
+            }
+        }
+        let task_index = match tasks.iter().position(|t| *t == ep.instruction) {
+            Some(t) => t,
+            None => {
+                tasks.push(ep.instruction.clone());
+                tasks.len() - 1
+            }
+        };
+        let frames = EpisodeFrames {
+            steps: mine,
+            images,
+            episode_index: k as i64,
+            first_index: frames_total,
+            task_index: task_index as i64,
+            fps: options.fps,
+        };
+        let (batch, stats) =
+            episode_batch(&features, &cameras, &schema, &frames).map_err(|message| {
+                LerobotError::Mismatch {
+                    path: tables.observations.clone(),
+                    message: format!("episode `{}`: {message}", ep.episode_id),
+                }
+            })?;
+        let current = match file.take() {
+            Some(f) if f.writer.bytes_written() < limit as usize => f,
+            Some(f) => {
+                f.close()?;
+                next_index = next_index.next();
+                data_files += 1;
+                DataFile::open(root, next_index, schema.clone())?
+            }
+            None => {
+                data_files += 1;
+                DataFile::open(root, next_index, schema.clone())?
+            }
+        };
+        let mut current = current;
+        let werr = |path: &Path, e: parquet::errors::ParquetError| LerobotError::Write {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        };
+        current
+            .writer
+            .write(&batch)
+            .map_err(|e| werr(&current.path, e))?;
+        current.writer.flush().map_err(|e| werr(&current.path, e))?;
+        metas.push(EpisodeMeta {
+            episode_index: k as i64,
+            task: ep.instruction.clone(),
+            length: n as i64,
+            data: current.index,
+            from_index: frames_total,
+            to_index: frames_total + n as i64,
+            episode_id: ep.episode_id.clone(),
+            scene_id: ep.scene_id.clone(),
+            stats,
+        });
+        frames_total += n as i64;
+        file = Some(current);
+        progress.advance(1);
+    }
+    if !rest.is_empty() {
+        return Err(LerobotError::Mismatch {
+            path: tables.trajectories.clone(),
+            message: format!(
+                "rows of episode `{}` are not in {}",
+                rest[0].episode_id,
+                tables.episodes.display()
+            ),
+        });
+    }
+    if let Some((id, step, _)) = observations.next_row()? {
+        return Err(LerobotError::Mismatch {
+            path: tables.observations.clone(),
+            message: format!("episode `{id}` step {step} has no trajectory row"),
+        });
+    }
+    match file {
+        Some(f) => f.close()?,
+        None => {
+            // No episode: LeRobot still needs a data file to find.
+            data_files += 1;
+            DataFile::open(root, next_index, schema.clone())?.close()?;
+        }
+    }
+
+    meta::write_tasks(root, &tasks)?;
+    meta::write_episodes(root, &metas, &features)?;
+    let json_file = |path: PathBuf, value: serde_json::Value| -> Result<(), LerobotError> {
+        let bytes = serde_json::to_vec_pretty(&value).map_err(|e| LerobotError::Write {
+            path: path.clone(),
+            message: e.to_string(),
+        })?;
+        write_bytes_atomic(&path, &bytes).map_err(io(&path))
+    };
+    json_file(
+        root.join("meta/stats.json"),
+        meta::stats_json(&metas, &features),
+    )?;
+    let split_of: Vec<(String, usize)> = episodes
+        .iter()
+        .enumerate()
+        .map(|(i, e)| (e.split.clone(), i))
+        .collect();
+    json_file(
+        root.join("meta/info.json"),
+        meta::info_json(
+            &features,
+            &cameras,
+            &options.robot_type,
+            options.fps,
+            metas.len(),
+            frames_total,
+            tasks.len(),
+            meta::splits(&split_of, metas.len()),
+        ),
+    )?;
+    Ok(DatasetSummary {
+        episodes: metas.len(),
+        frames: frames_total as usize,
+        tasks: tasks.len(),
+        data_files,
+    })
+}
