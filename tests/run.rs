@@ -425,49 +425,6 @@ fn an_external_process_drives_the_agent_over_json_lines() {
     );
 }
 
-#[test]
-fn the_lerobot_layout_has_one_file_per_episode_and_consistent_meta() {
-    let dir = tempfile::tempdir().unwrap();
-    let episodes = first_episodes(|t| t == Task::ObjectGoal, 3);
-    let out = dir.path().join("lr");
-    let mut cfg = config(&out, AgentKind::Oracle, SensorSuite::minos(16));
-    cfg.lerobot = true;
-    let report = run(&cfg, &episodes, &NoProgress).unwrap();
-    let info: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(out.join("lerobot/meta/info.json")).unwrap())
-            .unwrap();
-    let frames: u32 = report.episodes.iter().map(|(_, m)| m.steps).sum();
-    assert_eq!(info["total_episodes"], 3);
-    assert_eq!(info["total_frames"].as_u64(), Some(u64::from(frames)));
-    assert_eq!(
-        info["features"]["observation.images.color"]["shape"],
-        serde_json::json!([16, 16, 3])
-    );
-    let lines = std::fs::read_to_string(out.join("lerobot/meta/episodes.jsonl")).unwrap();
-    assert_eq!(lines.lines().count(), 3);
-    for i in 0..3 {
-        let f = out.join(format!("lerobot/data/chunk-000/episode_{i:06}.parquet"));
-        let b = first_batch(&f);
-        let idx = b
-            .column_by_name("episode_index")
-            .unwrap()
-            .as_any()
-            .downcast_ref::<arrow::array::Int64Array>()
-            .unwrap();
-        assert!((0..b.num_rows()).all(|r| idx.value(r) == i as i64));
-        assert_eq!(
-            b.column_by_name("observation.images.color")
-                .unwrap()
-                .as_any()
-                .downcast_ref::<BinaryArray>()
-                .unwrap()
-                .value(0)
-                .len(),
-            16 * 16 * 3
-        );
-    }
-}
-
 /// What a recording logged at one entity.
 #[derive(Debug, Default)]
 struct Logged {

@@ -232,7 +232,7 @@ impl CellFormat {
             "shape".into(),
             format!("[{}, {}, {}]", self.height, self.width, self.channels),
         );
-        meta.insert("modality".into(), format!("{modality:?}").to_lowercase());
+        meta.insert("modality".into(), modality_name(modality));
         meta.insert("encoding".into(), self.encoding.name().into());
         let quantisation = self.encoding.quantisation();
         meta.insert("lossless".into(), quantisation.is_empty().to_string());
@@ -290,6 +290,19 @@ impl CellFormat {
     fn pixels(&self) -> usize {
         self.width as usize * self.height as usize
     }
+}
+
+/// A modality's name as sensor files spell it (`color`, `room_class`, …).
+pub fn modality_name(modality: Modality) -> String {
+    serde_json::to_value(modality)
+        .ok()
+        .and_then(|v| v.as_str().map(str::to_string))
+        .unwrap_or_default()
+}
+
+/// Parses [`modality_name`].
+pub fn modality_from_name(name: &str) -> Option<Modality> {
+    serde_json::from_value(serde_json::Value::String(name.to_string())).ok()
 }
 
 fn describe_image(img: &Image, pixels: usize) -> String {

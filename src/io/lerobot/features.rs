@@ -22,7 +22,7 @@ use arrow::datatypes::{DataType, Field, Fields};
 use serde_json::{json, Value};
 
 use super::stats::StatLayout;
-use crate::io::image_codec::{CellFormat, PixelType};
+use crate::io::image_codec::{modality_name, CellFormat, PixelType};
 use crate::render::Modality;
 
 /// Names of the state vector's elements.
@@ -201,7 +201,7 @@ impl Feature {
                 let image = matches!(self.kind, FeatureKind::Image(_));
                 let mut info = json!({
                     "minos.sensor": c.name,
-                    "minos.modality": format!("{:?}", c.modality).to_lowercase(),
+                    "minos.modality": modality_name(c.modality),
                     "minos.storage": if image { "PNG, lossless" } else { "array of the sensor's values, lossless" },
                 });
                 if c.modality == Modality::Depth && f.dtype == PixelType::F32 {

@@ -13,6 +13,7 @@ use arrow::array::{
 };
 use arrow::datatypes::{Field, Schema};
 use parquet::arrow::ArrowWriter;
+use parquet::file::metadata::KeyValue;
 use serde_json::{json, Value};
 
 use super::features::{Camera, Feature};
@@ -99,7 +100,8 @@ fn parquet_error(path: &Path, e: impl ToString) -> LerobotError {
     }
 }
 
-/// Writes one Parquet file of `batch` (zstd, no dictionary for the nested statistics).
+/// Writes one Parquet file of `batch` (zstd), its schema metadata also as the file's
+/// key-value metadata (where pandas and pyarrow write theirs).
 fn write_parquet(path: &Path, batch: &RecordBatch) -> Result<(), LerobotError> {
     if let Some(dir) = path.parent() {
         std::fs::create_dir_all(dir).map_err(|source| LerobotError::Io {
@@ -111,7 +113,17 @@ fn write_parquet(path: &Path, batch: &RecordBatch) -> Result<(), LerobotError> {
         path: path.to_path_buf(),
         source,
     })?;
-    let props = writer_properties(1, None, &batch.schema());
+    let props = writer_properties(1, None, &batch.schema())
+        .into_builder()
+        .set_key_value_metadata(Some(
+            batch
+                .schema()
+                .metadata()
+                .iter()
+                .map(|(k, v)| KeyValue::new(k.clone(), v.clone()))
+                .collect(),
+        ))
+        .build();
     let mut w = ArrowWriter::try_new(file, batch.schema(), Some(props))
         .map_err(|e| parquet_error(path, e))?;
     w.write(batch).map_err(|e| parquet_error(path, e))?;

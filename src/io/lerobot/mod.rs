@@ -32,6 +32,7 @@ use std::fs::File;
 use std::path::{Path, PathBuf};
 
 use parquet::arrow::ArrowWriter;
+use parquet::file::metadata::KeyValue;
 use parquet::file::properties::{EnabledStatistics, WriterProperties};
 
 use crate::atomic::write_bytes_atomic;
@@ -147,9 +148,17 @@ fn io(path: &Path) -> impl FnOnce(std::io::Error) -> LerobotError + '_ {
 }
 
 /// Data-file writer properties: zstd, no dictionaries (images and arrays are unique
-/// values), chunk statistics truncated so image bytes do not land in the footer.
-fn data_properties() -> WriterProperties {
+/// values), chunk statistics truncated so image bytes do not land in the footer, and the
+/// schema's `huggingface` metadata also as the file's own key-value metadata, where
+/// Hugging Face's writer puts it.
+fn data_properties(schema: &arrow::datatypes::Schema) -> WriterProperties {
+    let key_values: Vec<KeyValue> = schema
+        .metadata()
+        .iter()
+        .map(|(k, v)| KeyValue::new(k.clone(), v.clone()))
+        .collect();
     WriterProperties::builder()
+        .set_key_value_metadata(Some(key_values))
         .set_compression(parquet::basic::Compression::ZSTD(
             parquet::basic::ZstdLevel::try_new(1).unwrap_or_default(),
         ))
@@ -177,12 +186,12 @@ impl DataFile {
             std::fs::create_dir_all(dir).map_err(io(dir))?;
         }
         let file = File::create(&path).map_err(io(&path))?;
-        let writer = ArrowWriter::try_new(file, schema, Some(data_properties())).map_err(|e| {
-            LerobotError::Write {
+        let props = data_properties(&schema);
+        let writer =
+            ArrowWriter::try_new(file, schema, Some(props)).map_err(|e| LerobotError::Write {
                 path: path.clone(),
                 message: e.to_string(),
-            }
-        })?;
+            })?;
         Ok(DataFile {
             index,
             path,

@@ -12,7 +12,7 @@ use parquet::arrow::arrow_reader::ParquetRecordBatchReader;
 
 use super::features::Camera;
 use super::LerobotError;
-use crate::io::image_codec::{decode_cell, CellFormat};
+use crate::io::image_codec::{decode_cell, modality_from_name, CellFormat};
 use crate::parquet_io::{column, read_batches};
 use crate::render::{Image, Modality};
 
@@ -203,7 +203,7 @@ impl ObservationRows {
                 CellFormat::from_metadata(meta).map_err(|e| read_error(path, record.clone(), e))?;
             let modality: Modality = meta
                 .get("modality")
-                .and_then(|m| serde_json::from_value(serde_json::Value::String(m.clone())).ok())
+                .and_then(|m| modality_from_name(m))
                 .ok_or_else(|| read_error(path, record, "metadata: no known `modality`"))?;
             cameras.push(Camera {
                 name: field.name().clone(),

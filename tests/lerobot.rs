@@ -1,0 +1,764 @@
+//! The LeRobot v3.0 copy of a run: its layout checked against LeRobot's documented v3.0
+//! schema without LeRobot, its frames against the run's own tables (decoded independently),
+//! its statistics against the frames, `export-dataset` against `run --format lerobot`, the
+//! PNG image encoding against the raw one; and, when Python can `import lerobot`, loaded by
+//! the real `LeRobotDataset` (tests/python/check_lerobot.py).
+
+mod common;
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+
+use arrow::array::{
+    Array, BinaryArray, BooleanArray, FixedSizeListArray, Float32Array, Float64Array, Int64Array,
+    ListArray, RecordBatch, StringArray, StructArray, UInt16Array, UInt32Array, UInt8Array,
+};
+use common::{generate_into, ingest_into, minos, tree_bytes, RunOk};
+use minos::episode::sample::SampleConfig;
+use minos::episode::{Episode, Task};
+use minos::generate::GenerateConfig;
+use minos::io::tables::ImageEncoding;
+use minos::navmesh::NavParams;
+use minos::pipeline::bake::{bake_scenes, BakeConfig};
+use minos::pipeline::episodes::sample_scenes;
+use minos::pipeline::rollout::{run, AgentKind, RunConfig};
+use minos::progress::NoProgress;
+use minos::run::metrics::Reward;
+use minos::shard::Shard;
+use minos::sim::{AgentConfig, RendererChoice, SensorSuite};
+use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
+use serde_json::Value;
+
+/// Width and height of every camera (not square, so rows and columns cannot be swapped).
+const SIZE: [u32; 2] = [16, 12];
+
+/// A DATA folder with two baked houses, episodes of the three tasks, and one oracle run
+/// with every camera modality, written as raw pixels and as PNG.
+struct Fixture {
+    dir: tempfile::TempDir,
+    episodes: Vec<Episode>,
+}
+
+fn fixture() -> &'static Fixture {
+    static F: std::sync::OnceLock<Fixture> = std::sync::OnceLock::new();
+    F.get_or_init(|| {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let (root, data) = (dir.path().join("suncg"), dir.path().join("DATA"));
+        generate_into(
+            &GenerateConfig {
+                houses: 2,
+                seed: 8,
+                rooms: (3, 5),
+                levels: (1, 1),
+                closed_door_prob: 0.0,
+            },
+            &root,
+        );
+        ingest_into(&root, &data);
+        let data_dir = minos::store::DataDir::new(&data);
+        let ids = data_dir.ingested_ids().expect("ids");
+        bake_scenes(
+            &BakeConfig {
+                data: data_dir.clone(),
+                scenes: ids.iter().map(|id| id.parse().expect("id")).collect(),
+                params: NavParams::default(),
+                force: false,
+                previews: false,
+            },
+            &NoProgress,
+        );
+        let scenes: Vec<(String, String)> =
+            ids.into_iter().map(|id| (id, "val".to_string())).collect();
+        let mut episodes = Vec::new();
+        for task in [Task::PointGoal, Task::ObjectGoal, Task::RoomGoal] {
+            episodes.extend(
+                sample_scenes(
+                    &data_dir,
+                    &scenes,
+                    &SampleConfig {
+                        task,
+                        per_scene: 1,
+                        seed: 3,
+                        ..SampleConfig::default()
+                    },
+                    minos::body::BodyRule::strict(minos::body::AgentBody::HABITAT),
+                    Shard::ALL,
+                    &NoProgress,
+                )
+                .episodes,
+            );
+        }
+        assert!(episodes.len() >= 4, "{} episodes", episodes.len());
+        let f = Fixture { dir, episodes };
+        for (name, encoding) in [("raw", ImageEncoding::Raw), ("png", ImageEncoding::Png)] {
+            let report = run(&config(&f, name, encoding), &f.episodes, &NoProgress).expect("run");
+            assert!(report.failures.is_empty(), "{:?}", report.failures);
+        }
+        f
+    })
+}
+
+fn sensors() -> SensorSuite {
+    let mut s = SensorSuite::all(SIZE[0]);
+    for c in &mut s.cameras {
+        c.resolution = SIZE;
+    }
+    s
+}
+
+fn config(f: &Fixture, name: &str, encoding: ImageEncoding) -> RunConfig {
+    RunConfig {
+        data: minos::store::DataDir::new(f.dir.path().join("DATA")),
+        out: f.dir.path().join(name),
+        agent: AgentKind::Oracle,
+        body: AgentConfig::habitat(),
+        sensors: sensors(),
+        renderer: RendererChoice::Cpu,
+        max_steps: Some(40),
+        seed: 5,
+        shard: Shard::ALL,
+        resume: false,
+        reward: Reward::Geodesic,
+        encoding,
+        lerobot: true,
+        rerun: None,
+        allow_body_mismatch: false,
+        provenance: Default::default(),
+    }
+}
+
+fn run_dir(name: &str) -> PathBuf {
+    fixture().dir.path().join(name)
+}
+
+fn batches(path: &Path) -> Vec<RecordBatch> {
+    ParquetRecordBatchReaderBuilder::try_new(std::fs::File::open(path).expect("open"))
+        .expect("parquet")
+        .build()
+        .expect("reader")
+        .map(|b| b.expect("batch"))
+        .collect()
+}
+
+fn table(path: &Path) -> RecordBatch {
+    let b = batches(path);
+    arrow::compute::concat_batches(&b[0].schema(), &b).expect("concat")
+}
+
+fn col<'a, T: 'static>(b: &'a RecordBatch, name: &str) -> &'a T {
+    b.column_by_name(name)
+        .unwrap_or_else(|| panic!("no column {name}"))
+        .as_any()
+        .downcast_ref::<T>()
+        .unwrap_or_else(|| {
+            panic!(
+                "column {name}: {:?}",
+                b.column_by_name(name).map(|c| c.data_type().clone())
+            )
+        })
+}
+
+fn json(path: &Path) -> Value {
+    serde_json::from_slice(&std::fs::read(path).expect("read")).expect("json")
+}
+
+/// The value of `key` in a Parquet file's key-value metadata.
+fn file_metadata(path: &Path, key: &str) -> String {
+    let reader =
+        parquet::file::reader::SerializedFileReader::new(std::fs::File::open(path).expect("open"))
+            .expect("parquet");
+    let kv = parquet::file::reader::FileReader::metadata(&reader)
+        .file_metadata()
+        .key_value_metadata()
+        .cloned()
+        .unwrap_or_default();
+    kv.iter()
+        .find(|k| k.key == key)
+        .and_then(|k| k.value.clone())
+        .unwrap_or_else(|| panic!("{}: no `{key}` metadata", path.display()))
+}
+
+/// Every data file of a dataset, in chunk/file order.
+fn data_files(root: &Path) -> Vec<PathBuf> {
+    let mut files: Vec<PathBuf> = tree_bytes(&root.join("data"))
+        .into_iter()
+        .map(|(p, _)| root.join("data").join(p))
+        .collect();
+    files.sort();
+    files
+}
+
+/// All frames of a dataset as one batch.
+fn frames(root: &Path) -> RecordBatch {
+    let b: Vec<RecordBatch> = data_files(root).iter().flat_map(|f| batches(f)).collect();
+    arrow::compute::concat_batches(&b[0].schema(), &b).expect("concat")
+}
+
+#[test]
+fn the_dataset_follows_the_lerobot_v3_layout() {
+    let root = run_dir("raw").join("lerobot");
+    let info = json(&root.join("meta/info.json"));
+    // info.json: the v3.0 fields with their types.
+    assert_eq!(info["codebase_version"], "v3.0");
+    let fps = info["fps"].as_u64().expect("integer fps");
+    assert_eq!(
+        fps,
+        u64::from(minos::io::lerobot::fps_of_step(AgentConfig::habitat().dt))
+    );
+    assert_eq!(
+        info["data_path"],
+        "data/chunk-{chunk_index:03d}/file-{file_index:03d}.parquet"
+    );
+    for key in [
+        "chunks_size",
+        "data_files_size_in_mb",
+        "video_files_size_in_mb",
+    ] {
+        assert!(info[key].as_u64().is_some_and(|v| v > 0), "{key}");
+    }
+    assert!(info["video_path"].is_null());
+    let episodes = fixture().episodes.len() as u64;
+    assert_eq!(info["total_episodes"].as_u64(), Some(episodes));
+    assert_eq!(
+        info["splits"],
+        serde_json::json!({"val": format!("0:{episodes}")})
+    );
+    let features = info["features"].as_object().expect("features");
+    for (key, f) in features {
+        assert!(
+            f["dtype"].is_string() && f["shape"].is_array(),
+            "{key}: {f}"
+        );
+        assert!(f.get("names").is_some(), "{key}");
+    }
+    let h = u64::from(SIZE[1]);
+    let w = u64::from(SIZE[0]);
+    assert_eq!(features["observation.images.color"]["dtype"], "image");
+    assert_eq!(
+        features["observation.images.color"]["shape"],
+        serde_json::json!([h, w, 3])
+    );
+    for (key, dtype, c) in [
+        ("observation.depth", "float32", 1),
+        ("observation.normal", "float32", 3),
+        ("observation.semantic", "uint16", 1),
+        ("observation.instance", "uint32", 1),
+        ("observation.room", "uint32", 1),
+        ("observation.room_class", "uint8", 1),
+    ] {
+        assert_eq!(features[key]["dtype"], dtype, "{key}");
+        assert_eq!(
+            features[key]["shape"],
+            serde_json::json!([h, w, c]),
+            "{key}"
+        );
+    }
+
+    // Data files: one column per feature, typed as the Hugging Face metadata says.
+    let frames = frames(&root);
+    let schema = frames.schema();
+    let columns: BTreeSet<&str> = schema.fields().iter().map(|f| f.name().as_str()).collect();
+    let keys: BTreeSet<&str> = features.keys().map(String::as_str).collect();
+    assert_eq!(columns, keys);
+    // The Hugging Face features, in the file's key-value metadata as `datasets` writes them.
+    let hf: Value =
+        serde_json::from_str(&file_metadata(&data_files(&root)[0], "huggingface")).expect("hf");
+    for (key, f) in features {
+        let t = &hf["info"]["features"][key];
+        let expected = match f["dtype"].as_str() {
+            Some("image") => "Image",
+            _ if f["shape"].as_array().map(Vec::len) == Some(3) => "Array3D",
+            _ if f["shape"] == serde_json::json!([1]) => "Value",
+            _ => "List",
+        };
+        assert_eq!(t["_type"], expected, "{key}: {t}");
+    }
+    let total = frames.num_rows() as u64;
+    assert_eq!(info["total_frames"].as_u64(), Some(total));
+    let index = col::<Int64Array>(&frames, "index");
+    assert!((0..frames.num_rows()).all(|i| index.value(i) == i as i64));
+
+    // meta/episodes: contiguous ranges covering every frame, in existing data files.
+    let eps = table(&root.join("meta/episodes/chunk-000/file-000.parquet"));
+    assert_eq!(eps.num_rows() as u64, episodes);
+    let (from, to, length) = (
+        col::<Int64Array>(&eps, "dataset_from_index"),
+        col::<Int64Array>(&eps, "dataset_to_index"),
+        col::<Int64Array>(&eps, "length"),
+    );
+    let mut next = 0;
+    for e in 0..eps.num_rows() {
+        assert_eq!(col::<Int64Array>(&eps, "episode_index").value(e), e as i64);
+        assert_eq!(from.value(e), next);
+        assert_eq!(to.value(e) - from.value(e), length.value(e));
+        next = to.value(e);
+        let file = root.join(format!(
+            "data/chunk-{:03}/file-{:03}.parquet",
+            col::<Int64Array>(&eps, "data/chunk_index").value(e),
+            col::<Int64Array>(&eps, "data/file_index").value(e)
+        ));
+        assert!(file.is_file(), "{}", file.display());
+        let episode_index = col::<Int64Array>(&frames, "episode_index");
+        let frame_index = col::<Int64Array>(&frames, "frame_index");
+        for (k, i) in (from.value(e)..to.value(e)).enumerate() {
+            assert_eq!(episode_index.value(i as usize), e as i64);
+            assert_eq!(frame_index.value(i as usize), k as i64);
+        }
+        let done = col::<BooleanArray>(&frames, "next.done");
+        assert!(
+            done.value(to.value(e) as usize - 1),
+            "episode {e} ends done"
+        );
+        assert_eq!(col::<ListArray>(&eps, "tasks").value(e).len(), 1);
+    }
+    assert_eq!(next as u64, total);
+    for key in features.keys() {
+        for stat in [
+            "min", "max", "mean", "std", "count", "q01", "q10", "q50", "q90", "q99",
+        ] {
+            let name = format!("stats/{key}/{stat}");
+            assert!(eps.column_by_name(&name).is_some(), "{name}");
+        }
+    }
+
+    // meta/tasks.parquet: the instructions as a pandas index, numbered in order.
+    let tasks = table(&root.join("meta/tasks.parquet"));
+    let pandas: Value =
+        serde_json::from_str(&file_metadata(&root.join("meta/tasks.parquet"), "pandas"))
+            .expect("pandas");
+    assert_eq!(pandas["index_columns"], serde_json::json!(["task"]));
+    let task_index = col::<Int64Array>(&tasks, "task_index");
+    assert!((0..tasks.num_rows()).all(|i| task_index.value(i) == i as i64));
+    assert_eq!(info["total_tasks"].as_u64(), Some(tasks.num_rows() as u64));
+    let texts = col::<StringArray>(&tasks, "task");
+    let by_episode = col::<ListArray>(&eps, "tasks");
+    let frame_tasks = col::<Int64Array>(&frames, "task_index");
+    for e in 0..eps.num_rows() {
+        let t = by_episode.value(e);
+        let t = t.as_any().downcast_ref::<StringArray>().expect("text");
+        let i = frame_tasks.value(from.value(e) as usize) as usize;
+        assert_eq!(texts.value(i), t.value(0));
+    }
+    // Stats in stats.json for every feature, nested as LeRobot nests them.
+    let stats = json(&root.join("meta/stats.json"));
+    for key in features.keys() {
+        assert!(stats[key]["mean"].is_array(), "{key}");
+    }
+    assert_eq!(
+        stats["observation.images.color"]["mean"]
+            .as_array()
+            .map(Vec::len),
+        Some(3)
+    );
+    assert!(stats["observation.images.color"]["mean"][0][0][0].is_number());
+    assert_eq!(
+        stats["observation.normal"]["mean"].as_array().map(Vec::len),
+        Some(3)
+    );
+}
+
+/// The run's observation rows: (episode id, step) → column → cell bytes.
+fn observation_cells(run: &Path) -> BTreeMap<(String, u32), BTreeMap<String, Vec<u8>>> {
+    let mut out = BTreeMap::new();
+    for b in batches(&run.join("observations.parquet")) {
+        let ids = col::<StringArray>(&b, "episode_id");
+        let steps = col::<UInt32Array>(&b, "step");
+        for r in 0..b.num_rows() {
+            let mut cells = BTreeMap::new();
+            for f in b.schema().fields().iter().skip(2) {
+                cells.insert(
+                    f.name().clone(),
+                    col::<BinaryArray>(&b, f.name()).value(r).to_vec(),
+                );
+            }
+            out.insert((ids.value(r).to_string(), steps.value(r)), cells);
+        }
+    }
+    out
+}
+
+/// The values of row `r` of a nested `[h][w][c]` list column, flattened.
+fn nested<T: 'static + Clone>(
+    column: &ListArray,
+    r: usize,
+    leaf: impl Fn(&dyn Array) -> Vec<T>,
+) -> Vec<T> {
+    let rows = column.value(r);
+    let rows = rows.as_any().downcast_ref::<ListArray>().expect("rows");
+    let mut out = Vec::new();
+    for y in 0..rows.len() {
+        let px = rows.value(y);
+        let px = px.as_any().downcast_ref::<ListArray>().expect("pixels");
+        assert_eq!(px.len(), SIZE[0] as usize);
+        for x in 0..px.len() {
+            out.extend(leaf(px.value(x).as_ref()));
+        }
+    }
+    assert_eq!(rows.len(), SIZE[1] as usize);
+    out
+}
+
+fn le_f32(b: &[u8]) -> Vec<f32> {
+    b.chunks_exact(4)
+        .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+        .collect()
+}
+
+#[test]
+fn frames_equal_the_runs_own_tables() {
+    let run = run_dir("raw");
+    let frames = frames(&run.join("lerobot"));
+    let cells = observation_cells(&run);
+    let eps = table(&run.join("lerobot/meta/episodes/chunk-000/file-000.parquet"));
+    let ids = col::<StringArray>(&eps, "minos/episode_id");
+    let from = col::<Int64Array>(&eps, "dataset_from_index");
+    let traj = table(&run.join("trajectories.parquet"));
+    let fps = json(&run.join("lerobot/meta/info.json"))["fps"]
+        .as_f64()
+        .expect("fps");
+    let state = col::<FixedSizeListArray>(&frames, "observation.state");
+    let action = col::<FixedSizeListArray>(&frames, "action");
+    let timestamp = col::<Float32Array>(&frames, "timestamp");
+    let color = col::<StructArray>(&frames, "observation.images.color");
+    let color_bytes = color.column_by_name("bytes").expect("bytes");
+    let color_bytes = color_bytes
+        .as_any()
+        .downcast_ref::<BinaryArray>()
+        .expect("binary");
+    for i in 0..frames.num_rows() {
+        let e = (0..eps.num_rows())
+            .rev()
+            .find(|e| from.value(*e) as usize <= i)
+            .expect("episode");
+        let step = (i - from.value(e) as usize) as u32;
+        let key = (ids.value(e).to_string(), step);
+        let row = &cells[&key];
+        // Colour: the PNG decodes (with the image crate, not minos) to the raw pixels.
+        let png = image::load_from_memory(color_bytes.value(i))
+            .expect("png")
+            .to_rgb8();
+        assert_eq!(png.dimensions(), (SIZE[0], SIZE[1]));
+        assert_eq!(png.as_raw(), &row["color"], "colour of {key:?}");
+        // Arrays: exactly the sensor's values.
+        let depth = nested(col::<ListArray>(&frames, "observation.depth"), i, |a| {
+            a.as_any()
+                .downcast_ref::<Float32Array>()
+                .expect("f32")
+                .values()
+                .to_vec()
+        });
+        assert_eq!(depth, le_f32(&row["depth"]), "depth of {key:?}");
+        let normal = nested(col::<ListArray>(&frames, "observation.normal"), i, |a| {
+            a.as_any()
+                .downcast_ref::<Float32Array>()
+                .expect("f32")
+                .values()
+                .to_vec()
+        });
+        assert_eq!(normal, le_f32(&row["normal"]));
+        let semantic = nested(col::<ListArray>(&frames, "observation.semantic"), i, |a| {
+            a.as_any()
+                .downcast_ref::<UInt16Array>()
+                .expect("u16")
+                .values()
+                .to_vec()
+        });
+        let raw: Vec<u16> = row["semantic"]
+            .chunks_exact(2)
+            .map(|c| u16::from_le_bytes([c[0], c[1]]))
+            .collect();
+        assert_eq!(semantic, raw);
+        let instance = nested(col::<ListArray>(&frames, "observation.instance"), i, |a| {
+            a.as_any()
+                .downcast_ref::<UInt32Array>()
+                .expect("u32")
+                .values()
+                .to_vec()
+        });
+        let raw: Vec<u32> = row["instance"]
+            .chunks_exact(4)
+            .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+            .collect();
+        assert_eq!(instance, raw);
+        let classes = nested(
+            col::<ListArray>(&frames, "observation.room_class"),
+            i,
+            |a| {
+                a.as_any()
+                    .downcast_ref::<UInt8Array>()
+                    .expect("u8")
+                    .values()
+                    .to_vec()
+            },
+        );
+        assert_eq!(classes, row["room_class"]);
+        // State, action and time from the trajectory table (same row order).
+        let s = state.value(i);
+        let s = s.as_any().downcast_ref::<Float32Array>().expect("f32");
+        for (k, name) in ["x", "y", "z", "yaw", "tilt"].iter().enumerate() {
+            assert_eq!(s.value(k), col::<Float32Array>(&traj, name).value(i));
+        }
+        let a = action.value(i);
+        let a = a.as_any().downcast_ref::<Float32Array>().expect("f32");
+        let stop = col::<StringArray>(&traj, "action").value(i) == "stop";
+        assert_eq!(a.value(8), if stop { 1.0 } else { 0.0 });
+        let strengths = col::<ListArray>(&traj, "action_strengths").value(i);
+        let strengths = strengths
+            .as_any()
+            .downcast_ref::<Float32Array>()
+            .expect("f32");
+        assert_eq!(&a.values()[..8], strengths.values());
+        assert!((f64::from(timestamp.value(i)) - f64::from(step) / fps).abs() < 1e-5);
+    }
+    // Every observation row made it into the dataset.
+    assert_eq!(cells.len(), frames.num_rows());
+}
+
+#[test]
+fn statistics_are_those_of_the_frames() {
+    let root = run_dir("raw").join("lerobot");
+    let frames = frames(&root);
+    let stats = json(&root.join("meta/stats.json"));
+    let n = frames.num_rows();
+    // observation.state: mean, min, max per element over every frame.
+    let state = col::<FixedSizeListArray>(&frames, "observation.state");
+    for k in 0..5 {
+        let v: Vec<f64> = (0..n)
+            .map(|i| {
+                let s = state.value(i);
+                f64::from(
+                    s.as_any()
+                        .downcast_ref::<Float32Array>()
+                        .expect("f32")
+                        .value(k),
+                )
+            })
+            .collect();
+        let mean = v.iter().sum::<f64>() / n as f64;
+        let got = stats["observation.state"]["mean"][k]
+            .as_f64()
+            .expect("mean");
+        assert!(
+            (got - mean).abs() <= 1e-9 * (1.0 + mean.abs()),
+            "{k}: {got} vs {mean}"
+        );
+        // (serde_json's default float parsing may be off in the last digit.)
+        let min = v.iter().copied().fold(f64::INFINITY, f64::min);
+        let got = stats["observation.state"]["min"][k].as_f64().expect("min");
+        assert!(
+            (got - min).abs() <= 1e-15 * (1.0 + min.abs()),
+            "{got} vs {min}"
+        );
+    }
+    // Depth: one channel, over every pixel of every frame.
+    let depth = col::<ListArray>(&frames, "observation.depth");
+    let all: Vec<f64> = (0..n)
+        .flat_map(|i| {
+            nested(depth, i, |a| {
+                a.as_any()
+                    .downcast_ref::<Float32Array>()
+                    .expect("f32")
+                    .values()
+                    .to_vec()
+            })
+        })
+        .map(f64::from)
+        .collect();
+    let mean = all.iter().sum::<f64>() / all.len() as f64;
+    let var = all.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / all.len() as f64;
+    let s = &stats["observation.depth"];
+    assert!((s["mean"][0].as_f64().expect("mean") - mean).abs() < 1e-9);
+    assert!((s["std"][0].as_f64().expect("std") - var.sqrt()).abs() < 1e-9);
+    assert_eq!(s["count"][0].as_u64(), Some(n as u64));
+    // Colour: per channel in [0, 1] over every pixel.
+    let color = col::<StructArray>(&frames, "observation.images.color");
+    let bytes = color.column_by_name("bytes").expect("bytes");
+    let bytes = bytes
+        .as_any()
+        .downcast_ref::<BinaryArray>()
+        .expect("binary");
+    let mut sums = [0f64; 3];
+    let mut count = 0f64;
+    for i in 0..n {
+        let img = image::load_from_memory(bytes.value(i))
+            .expect("png")
+            .to_rgb8();
+        for p in img.pixels() {
+            for c in 0..3 {
+                sums[c] += f64::from(p.0[c]) / 255.0;
+            }
+            count += 1.0;
+        }
+    }
+    for c in 0..3 {
+        let got = stats["observation.images.color"]["mean"][c][0][0]
+            .as_f64()
+            .expect("mean");
+        assert!((got - sums[c] / count).abs() < 1e-9, "channel {c}");
+    }
+    // Per-episode statistics cover their episode's frames only.
+    let eps = table(&root.join("meta/episodes/chunk-000/file-000.parquet"));
+    let counts = col::<ListArray>(&eps, "stats/index/count");
+    let maxima = col::<ListArray>(&eps, "stats/index/max");
+    let to = col::<Int64Array>(&eps, "dataset_to_index");
+    for e in 0..eps.num_rows() {
+        let c = counts.value(e);
+        let c = c.as_any().downcast_ref::<Int64Array>().expect("i64");
+        assert_eq!(c.value(0), col::<Int64Array>(&eps, "length").value(e));
+        let m = maxima.value(e);
+        let m = m.as_any().downcast_ref::<Float64Array>().expect("f64");
+        assert_eq!(m.value(0), (to.value(e) - 1) as f64);
+    }
+}
+
+#[test]
+fn export_dataset_rebuilds_the_same_bytes_and_png_runs_hold_the_same_data() {
+    let raw = run_dir("raw");
+    let out = fixture().dir.path().join("exported");
+    minos()
+        .args(["export-dataset", "--run"])
+        .arg(&raw)
+        .arg("--out")
+        .arg(&out)
+        .arg("-q")
+        .ok_output();
+    assert_eq!(tree_bytes(&out), tree_bytes(&raw.join("lerobot")));
+    // Nothing left beside it: no temporary folder.
+    let names: Vec<String> = std::fs::read_dir(fixture().dir.path())
+        .expect("dir")
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    assert!(!names.iter().any(|n| n.contains(".tmp-")), "{names:?}");
+
+    // A run stored as PNG holds the same images: integers exactly, depth within 0.5 mm.
+    let png = observation_cells(&run_dir("png"));
+    let rawc = observation_cells(&raw);
+    assert_eq!(png.len(), rawc.len());
+    let schema = batches(&run_dir("png").join("observations.parquet"))[0].schema();
+    for f in schema.fields().iter().skip(2) {
+        let meta = f.metadata();
+        let lossless = meta["lossless"] == "true";
+        assert_eq!(
+            lossless,
+            f.name() != "depth" && f.name() != "normal",
+            "{}",
+            f.name()
+        );
+    }
+    let png_frames = frames(&run_dir("png").join("lerobot"));
+    let raw_frames = frames(&raw.join("lerobot"));
+    for key in [
+        "observation.images.color",
+        "observation.semantic",
+        "observation.instance",
+        "observation.room",
+        "observation.room_class",
+        "observation.state",
+    ] {
+        assert_eq!(
+            png_frames.column_by_name(key).expect(key).to_data(),
+            raw_frames.column_by_name(key).expect(key).to_data(),
+            "{key}"
+        );
+    }
+    let d = |b: &RecordBatch, i| {
+        nested(col::<ListArray>(b, "observation.depth"), i, |a| {
+            a.as_any()
+                .downcast_ref::<Float32Array>()
+                .expect("f32")
+                .values()
+                .to_vec()
+        })
+    };
+    for i in 0..raw_frames.num_rows() {
+        for (a, b) in d(&png_frames, i).iter().zip(d(&raw_frames, i)) {
+            assert!((a - b.min(65.535)).abs() <= 0.0005 + 1e-6, "{a} vs {b}");
+        }
+    }
+}
+
+#[test]
+fn corrupt_or_mismatched_run_tables_are_one_line_errors_naming_the_file() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let run = dir.path().join("run");
+    std::fs::create_dir_all(&run).expect("dir");
+    for f in [
+        "trajectories.parquet",
+        "observations.parquet",
+        "episodes.parquet",
+        "manifest.json",
+    ] {
+        std::fs::copy(run_dir("raw").join(f), run.join(f)).expect("copy");
+    }
+    // Observations cut short: the trajectories then have a step the observations lack.
+    let bytes = std::fs::read(run.join("observations.parquet")).expect("read");
+    std::fs::write(run.join("observations.parquet"), &bytes[..bytes.len() / 2]).expect("write");
+    let out = minos()
+        .args(["export-dataset", "--run"])
+        .arg(&run)
+        .arg("--out")
+        .arg(dir.path().join("lr"))
+        .output()
+        .expect("runs");
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("observations.parquet"), "{err}");
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(!dir.path().join("lr").exists());
+    // The trajectories of another run: the tables disagree.
+    std::fs::copy(
+        run_dir("raw").join("observations.parquet"),
+        run.join("observations.parquet"),
+    )
+    .expect("copy");
+    let mut eps = std::fs::read(run_dir("raw").join("episodes.parquet")).expect("read");
+    eps.truncate(eps.len() - 3);
+    std::fs::write(run.join("episodes.parquet"), eps).expect("write");
+    let out = minos()
+        .args(["export-dataset", "--run"])
+        .arg(&run)
+        .arg("--out")
+        .arg(dir.path().join("lr"))
+        .output()
+        .expect("runs");
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("episodes.parquet"), "{err}");
+}
+
+#[test]
+fn lerobot_itself_loads_the_dataset() {
+    let python = std::env::var("MINOS_PYTHON").unwrap_or_else(|_| "python3".into());
+    let probe = std::process::Command::new(&python)
+        .args(["-c", "import lerobot"])
+        .output();
+    match probe {
+        Ok(o) if o.status.success() => {}
+        _ => {
+            eprintln!(
+                "skipped: `{python} -c 'import lerobot'` fails (pip install lerobot, or set \
+                 MINOS_PYTHON to a Python that has it)"
+            );
+            return;
+        }
+    }
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/python/check_lerobot.py");
+    let root = run_dir("raw").join("lerobot");
+    let out = std::process::Command::new(&python)
+        .arg(&script)
+        .arg(&root)
+        .arg(run_dir("raw"))
+        .env("HF_HUB_OFFLINE", "1")
+        .env("HF_DATASETS_OFFLINE", "1")
+        .env("HF_HOME", fixture().dir.path().join("hf-home"))
+        .output()
+        .expect("python runs");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains("lerobot loaded"), "{stdout}");
+}
