@@ -80,7 +80,7 @@ enum Command {
 pub fn main() -> ExitCode {
     // Before any thread starts (setting the environment later would race with readers):
     // keep the GPU adapter probe from printing libwayland's XDG_RUNTIME_DIR complaint.
-    if let Some((name, value)) = minos::render::gpu::quiet_probe_env(|k| std::env::var_os(k)) {
+    if let Some((name, value)) = minos::render::gpu::quiet_probe_env(std::env::var_os) {
         std::env::set_var(name, value);
     }
     let cli = Cli::parse();

@@ -35,7 +35,7 @@ pub enum GpuError {
 /// own switch, `NODEVICE_SELECT=1` — unless the user picked a device (`MESA_VK_DEVICE_SELECT`)
 /// or set `NODEVICE_SELECT` already. Adapters are still chosen by wgpu's power preference.
 pub fn quiet_probe_env(
-    var: impl Fn(&str) -> Option<std::ffi::OsString>,
+    var: impl Fn(&'static str) -> Option<std::ffi::OsString>,
 ) -> Option<(&'static str, &'static str)> {
     let session = var("XDG_RUNTIME_DIR").is_some_and(|d| std::path::Path::new(&d).is_absolute());
     let chosen = var("MESA_VK_DEVICE_SELECT").is_some() || var("NODEVICE_SELECT").is_some();

@@ -30,7 +30,7 @@ pub fn check(cfg: &RunConfig, episodes: &[(usize, Episode)]) -> Result<(), Rollo
         .map(|(problem, ids)| {
             let mut names = ids[..ids.len().min(LISTED)].join(", ");
             if ids.len() > LISTED {
-                names.push_str(&format!(" and {} more", ids.len() - LISTED));
+                names = format!("{names} and {} more", ids.len() - LISTED);
             }
             let s = if ids.len() == 1 { "" } else { "s" };
             format!("{problem} (scene{s} {names})")
