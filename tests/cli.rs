@@ -517,7 +517,11 @@ fn bake_nav_query_and_episodes_from_the_command_line() {
         "2",
         "--out",
         all.to_str().unwrap(),
+        "--export",
+        "habitat",
+        hab.to_str().unwrap(),
     ]);
+    assert!(hab.join("all/all.json.gz").is_file(), "Habitat split `all`");
     let episodes = minos::episode::format::read_episodes(&all).unwrap();
     let scenes: std::collections::BTreeSet<&str> =
         episodes.iter().map(|e| e.scene_id.as_str()).collect();
