@@ -764,3 +764,99 @@ fn an_episodes_drawn_shortest_path_starts_at_its_start_and_has_its_geodesic_leng
         );
     }
 }
+
+/// `minos run --agent AGENT` over `episodes` (written under `dir`) on the shared DATA folder,
+/// writing into `dir/out`.
+fn run_cli(dir: &Path, episodes: &[Episode], agent: &str, extra: &[&str]) -> std::process::Output {
+    let eps_file = dir.join("eps.parquet");
+    minos::episode::format::write_episodes(&eps_file, episodes).unwrap();
+    common::minos()
+        .args(["run", "--size", "8", "--agent", agent, "--data"])
+        .arg(data().0.path().join("DATA"))
+        .arg("--episodes")
+        .arg(&eps_file)
+        .arg("--out")
+        .arg(dir.join("out"))
+        .args(extra)
+        .output()
+        .unwrap()
+}
+
+/// The one error line of a failed command.
+fn one_error(out: &std::process::Output) -> String {
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    let errors: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error")).collect();
+    assert_eq!(errors.len(), 1, "{stderr}");
+    errors[0].to_string()
+}
+
+#[test]
+fn run_checks_every_scene_once_before_writing_anything() {
+    let dir = tempfile::tempdir().unwrap();
+    let episodes = &data().1;
+    let scenes: std::collections::BTreeSet<&str> =
+        episodes.iter().map(|e| e.scene_id.as_str()).collect();
+    // The grids are baked for Habitat's body; MINOS's agent is another.
+    let err = one_error(&run_cli(
+        dir.path(),
+        episodes,
+        "forward",
+        &["--preset", "minos"],
+    ));
+    let n = scenes.len();
+    assert!(
+        err.contains(&format!("{n} of the {n} scenes"))
+            && err.contains("baked for body")
+            && err.contains("minos bake --preset minos"),
+        "{err}"
+    );
+    assert!(
+        !dir.path().join("out").exists(),
+        "an output folder was created"
+    );
+    // A scene that was never ingested, among good ones.
+    let mut some = first_episodes(|_| true, 3);
+    some[0].scene_id = "ghost".into();
+    let err = one_error(&run_cli(dir.path(), &some, "forward", &[]));
+    assert!(
+        err.contains("1 of the") && err.contains("not ingested") && err.contains("scene ghost"),
+        "{err}"
+    );
+    assert!(
+        !dir.path().join("out").exists(),
+        "an output folder was created"
+    );
+}
+
+#[test]
+fn a_replay_without_some_episode_is_refused_up_front_naming_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let episodes = first_episodes(|_| true, 3);
+    // A trajectory table of the first episode only.
+    let first = dir.path().join("first");
+    let mut cfg = config(&first, AgentKind::Forward, blind());
+    cfg.max_steps = Some(3);
+    run(&cfg, &episodes[..1], &NoProgress).unwrap();
+    let table = first.join("trajectories.parquet");
+    let agent = format!("replay:{}", table.display());
+    let err = one_error(&run_cli(dir.path(), &episodes, &agent, &[]));
+    assert!(
+        err.contains(&format!(
+            "{} has no steps for 2 of the 3 episodes",
+            table.display()
+        )),
+        "{err}"
+    );
+    assert!(
+        !dir.path().join("out").exists(),
+        "an output folder was created"
+    );
+    // The episode it has replays.
+    let ok = run_cli(dir.path(), &episodes[..1], &agent, &[]);
+    assert!(
+        ok.status.success(),
+        "{}",
+        String::from_utf8_lossy(&ok.stderr)
+    );
+}

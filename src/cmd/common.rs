@@ -129,6 +129,25 @@ impl From<RendererArg> for RendererChoice {
     }
 }
 
+/// The most worker threads `--threads` accepts: far above any machine's cores, low enough
+/// that a typo (`--threads 80000`) is refused instead of exhausting the system.
+pub const MAX_THREADS: usize = 1024;
+
+/// Parses a thread count: `0` means all cores (rayon's default), more than [`MAX_THREADS`]
+/// is refused.
+pub fn parse_threads(s: &str) -> Result<usize, String> {
+    let n: usize = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{s}` is not a thread count (0 = all cores)"))?;
+    if n > MAX_THREADS {
+        return Err(format!(
+            "{n} threads is more than the {MAX_THREADS} allowed (0 = all cores)"
+        ));
+    }
+    Ok(n)
+}
+
 /// Reads a sensor file (TOML or JSON), or MINOS's default suite when none is named.
 pub fn sensor_suite(
     file: Option<&Path>,
@@ -170,4 +189,23 @@ pub fn parse_flags<A: clap::Args + clap::FromArgMatches>(line: &str) -> Result<A
     let matches =
         command.try_get_matches_from(std::iter::once("minos").chain(line.split_whitespace()))?;
     A::from_arg_matches(&matches)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn thread_counts_zero_means_all_cores_and_absurd_counts_are_refused() {
+        assert_eq!(parse_threads("0"), Ok(0));
+        assert_eq!(parse_threads("8"), Ok(8));
+        assert_eq!(parse_threads(&MAX_THREADS.to_string()), Ok(MAX_THREADS));
+        let too_many = parse_threads("80000").unwrap_err();
+        assert!(
+            too_many.contains("80000") && too_many.contains("1024"),
+            "{too_many}"
+        );
+        assert!(parse_threads("-1").unwrap_err().contains("`-1`"));
+        assert!(parse_threads("many").is_err());
+    }
 }

@@ -33,8 +33,9 @@ use super::Context;
 /// a Parquet manifest), writes a seeded 60/20/20 split and MINOS's multi-room split
 /// (3 to 5 rooms), prints environment statistics, bakes navigation grids with previews, and
 /// samples PointGoal, ObjectGoal (doors) and RoomGoal episodes, and rolls out the oracle on
-/// the validation episodes into Parquet datasets with metrics, recording the first for the
-/// rerun viewer (episode.rrd). Re-running resumes.
+/// the validation episodes (episodes/oracle_val.parquet) into Parquet datasets with metrics and
+/// the run's manifest.json, recording the first for the rerun viewer (episode.rrd).
+/// Re-running resumes.
 #[derive(Debug, clap::Args)]
 #[command(
     after_help = "Examples:\n  minos demo\n  minos demo --houses 200 --seed 3 --out /tmp/demo"
@@ -170,10 +171,17 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
                 .filter(|e| e.split == "val" && e.episode_id.ends_with(|c: char| c < '3')),
         );
     }
+    // The oracle's episodes in a file of their own, which its manifest.json names, so the
+    // run can be repeated with `minos run --episodes`.
+    let validation_file = episodes_dir.join("oracle_val.parquet");
+    write_episodes(&validation_file, &validation)
+        .with_context(|| validation_file.display().to_string())?;
     ctx.say(format!(
-        "6/7 episodes: {} -> {}",
+        "6/7 episodes: {} -> {} (the oracle's {} in {})",
         written.join(", "),
-        episodes_dir.display()
+        episodes_dir.display(),
+        validation.len(),
+        validation_file.display()
     ));
     let run_dir = args.out.join("runs").join("oracle");
     let recording = args.out.join("episode.rrd");
@@ -198,7 +206,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         allow_body_mismatch: false,
         provenance: Provenance {
             command: std::env::args().collect(),
-            episodes_file: None,
+            episodes_file: Some(validation_file.clone()),
             variant: None,
             agent: "oracle".into(),
             preset: Some(preset),

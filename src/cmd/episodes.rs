@@ -103,10 +103,11 @@ pub struct SampleArgs {
     /// Task.
     #[arg(long, value_enum)]
     task: Option<TaskArg>,
-    /// Split whose scenes are used (DATA/splits/NAME).
+    /// Split whose scenes are used (DATA/splits/NAME); default: every scene `minos ingest`
+    /// compiled, with an empty `split` in the episodes (exported to Habitat as `all`).
     #[arg(long, value_name = "NAME")]
     split: Option<String>,
-    /// Only this subset of the split; default: all three.
+    /// Only this subset of the split (needs --split); default: all three.
     #[arg(long, value_enum)]
     subset: Option<SubsetArg>,
     /// Sample on this variant of every scene (needs `minos bake --variant NAME`); scene ids in
@@ -223,11 +224,12 @@ pub struct EpisodesJob {
 
 /// Flags → the job (reads the split lists and checks the variant).
 pub fn config(a: &SampleArgs) -> anyhow::Result<EpisodesJob> {
-    let (Some(data), Some(task), Some(split), Some(out)) =
-        (a.data.as_ref(), a.task, a.split.as_ref(), a.out.as_ref())
-    else {
-        bail!("--data, --task, --split and --out are required (see `minos episodes --help`)");
+    let (Some(data), Some(task), Some(out)) = (a.data.as_ref(), a.task, a.out.as_ref()) else {
+        bail!("--data, --task and --out are required (see `minos episodes --help`)");
     };
+    if a.subset.is_some() && a.split.is_none() {
+        bail!("--subset needs --split (without one, every ingested scene is used)");
+    }
     let data = DataDir::new(data);
     if a.bins.len() != 2 || a.bins[0] > a.bins[1] {
         bail!("--bins: expected two increasing distances, e.g. 3,6");
@@ -255,23 +257,33 @@ pub fn config(a: &SampleArgs) -> anyhow::Result<EpisodesJob> {
         SubsetArg::Val => Subset::Val,
         SubsetArg::Test => Subset::Test,
     });
-    let lists = read_split(&data, split).with_context(|| format!("--split {split}"))?;
+    let refs = |ids: &[String]| {
+        data.refs(ids, a.variant.as_deref()).map_err(|e| {
+            anyhow::anyhow!(
+                "--variant {}: {e}",
+                a.variant.as_deref().unwrap_or_default()
+            )
+        })
+    };
     let mut scenes = Vec::new();
-    for part in Subset::ALL {
-        if subset.is_none_or(|s| s == part) {
-            let refs = data
-                .refs(lists.get(part), a.variant.as_deref())
-                .map_err(|e| {
-                    anyhow::anyhow!(
-                        "--variant {}: {e}",
-                        a.variant.as_deref().unwrap_or_default()
-                    )
-                })?;
-            scenes.extend(
-                refs.into_iter()
-                    .map(|r| (r.to_string(), part.name().to_string())),
-            );
+    match &a.split {
+        Some(split) => {
+            let lists = read_split(&data, split).with_context(|| format!("--split {split}"))?;
+            for part in Subset::ALL {
+                if subset.is_none_or(|s| s == part) {
+                    scenes.extend(
+                        refs(lists.get(part))?
+                            .into_iter()
+                            .map(|r| (r.to_string(), part.name().to_string())),
+                    );
+                }
+            }
         }
+        None => scenes.extend(
+            refs(&data.ingested_ids()?)?
+                .into_iter()
+                .map(|r| (r.to_string(), String::new())),
+        ),
     }
     let stratified = match a.stratify {
         Stratify::On => true,
@@ -342,7 +354,13 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         }
     }
     if let Some(dir) = &job.habitat_export {
-        for subset in ["train", "val", "test"] {
+        // Episodes of no split (no --split given) go into Habitat's split `all`.
+        for (subset, habitat_split) in [
+            ("train", "train"),
+            ("val", "val"),
+            ("test", "test"),
+            ("", "all"),
+        ] {
             let eps: Vec<_> = batch
                 .episodes
                 .iter()
@@ -350,7 +368,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
                 .cloned()
                 .collect();
             if !eps.is_empty() {
-                export_habitat(dir, subset, &job.scene_prefix, &eps)?;
+                export_habitat(dir, habitat_split, &job.scene_prefix, &eps)?;
             }
         }
         ctx.say(format!("exported Habitat episodes -> {}", dir.display()));
@@ -457,5 +475,39 @@ mod tests {
         let job = config_of(&line.replace(" --subset val", "")).unwrap();
         assert_eq!(job.scenes.len(), 3);
         assert!(!job.sample.stratified);
+    }
+
+    #[test]
+    fn without_a_split_every_ingested_scene_is_used() {
+        let dir = tempfile::tempdir().unwrap();
+        let data = DataDir::new(dir.path());
+        let row = |id: &str| minos::store::ManifestRow::failed(id, "suncg", "/x", "".into());
+        let mut rows = vec![row("a"), row("b"), row("c")];
+        for r in &mut rows[..2] {
+            r.error = None;
+        }
+        minos::store::manifest::write_manifest(&data.manifest_path(), &rows).unwrap();
+        let line = format!(
+            "--data {} --task pointgoal --out o.parquet",
+            dir.path().display()
+        );
+        let job = config_of(&line).unwrap();
+        assert_eq!(
+            job.scenes,
+            [
+                ("a".to_string(), String::new()),
+                ("b".to_string(), String::new())
+            ],
+            "scenes that failed to ingest are left out"
+        );
+        let err = config_of(&format!("{line} --subset val")).unwrap_err();
+        assert!(err.to_string().contains("--subset needs --split"), "{err}");
+        let empty = tempfile::tempdir().unwrap();
+        let err = config_of(&format!(
+            "--data {} --task pointgoal --out o.parquet",
+            empty.path().display()
+        ))
+        .unwrap_err();
+        assert!(err.to_string().contains("minos ingest"), "{err}");
     }
 }

@@ -56,8 +56,8 @@ pub struct Args {
     /// Only the scene ids listed in FILE (one per line).
     #[arg(long, value_name = "FILE")]
     ids: Option<PathBuf>,
-    /// Parallel jobs (same as the global --threads).
-    #[arg(long, value_name = "N")]
+    /// Parallel jobs (same as the global --threads: 0 means all cores, at most 1024).
+    #[arg(long, value_name = "N", value_parser = super::common::parse_threads)]
     jobs: Option<usize>,
     /// Category table: SUNCG's if not <root>/metadata/ModelCategoryMapping.csv; Matterport3D's
     /// category_mapping.tsv if not in <root> or <root>/metadata.

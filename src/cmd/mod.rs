@@ -39,8 +39,9 @@ struct Cli {
     /// More log output: -v info, -vv debug, -vvv trace (RUST_LOG overrides).
     #[arg(short, long, action = clap::ArgAction::Count, global = true)]
     verbose: u8,
-    /// Worker threads for parallel work (default: all cores). Outputs never depend on it.
-    #[arg(long, global = true, value_name = "N")]
+    /// Worker threads for parallel work: 0 or unset means all cores (RAYON_NUM_THREADS
+    /// overrides), at most 1024. Outputs never depend on it.
+    #[arg(long, global = true, value_name = "N", value_parser = common::parse_threads)]
     threads: Option<usize>,
     #[command(subcommand)]
     command: Command,
@@ -80,6 +81,11 @@ enum Command {
 
 /// Parses the command line, sets up logging and threads, and runs the subcommand.
 pub fn main() -> ExitCode {
+    // Before any thread starts (setting the environment later would race with readers):
+    // keep the GPU adapter probe from printing libwayland's XDG_RUNTIME_DIR complaint.
+    if let Some((name, value)) = minos::render::gpu::quiet_probe_env(std::env::var_os) {
+        std::env::set_var(name, value);
+    }
     let cli = Cli::parse();
     let ctx = Context::new(cli.quiet, cli.verbose);
     if let Some(n) = cli.threads {

@@ -11,7 +11,7 @@ use minos::episode::format::read_episodes;
 use minos::episode::Episode;
 use minos::io::tables::{read_replay, ImageEncoding};
 use minos::pipeline::rollout::{
-    run as run_episodes, AgentKind, Provenance, RerunOutput, RunConfig,
+    run as run_episodes, select, AgentKind, Provenance, RerunOutput, RunConfig,
 };
 use minos::run::metrics::{render_table, Reward};
 use minos::shard::Shard;
@@ -160,6 +160,34 @@ fn agent_kind(name: &str) -> anyhow::Result<AgentKind> {
     })
 }
 
+/// Refuses a replay file that has no steps for some episode this shard runs: one error naming
+/// the file, before anything runs.
+fn check_replay(
+    agent: &AgentKind,
+    name: &str,
+    episodes: &[Episode],
+    shard: Shard,
+) -> anyhow::Result<()> {
+    let (AgentKind::Replay(by_episode), Some(file)) = (agent, name.strip_prefix("replay:")) else {
+        return Ok(());
+    };
+    let mine = select(episodes, shard);
+    let missing: Vec<&str> = mine
+        .iter()
+        .map(|(_, e)| e.episode_id.as_str())
+        .filter(|id| !by_episode.contains_key(*id))
+        .collect();
+    if let Some(first) = missing.first() {
+        bail!(
+            "--agent replay:{file}: {file} has no steps for {} of the {} episodes to run (first: \
+             {first}); replay the trajectories.parquet of a run over the same episodes",
+            missing.len(),
+            mine.len()
+        );
+    }
+    Ok(())
+}
+
 /// Flags → the run's configuration and its episodes (reads the episode, sensor and replay
 /// files and checks the variant).
 pub fn config(args: &Args) -> anyhow::Result<(RunConfig, Vec<Episode>)> {
@@ -173,6 +201,7 @@ pub fn config(args: &Args) -> anyhow::Result<(RunConfig, Vec<Episode>)> {
             .map_err(|e| anyhow::anyhow!("--variant {name}: {e}"))?;
         episodes = episodes.into_iter().map(|e| e.on_variant(name)).collect();
     }
+    check_replay(&agent, &args.agent, &episodes, args.shard)?;
     let cfg = RunConfig {
         data,
         out: args.out.clone(),

@@ -362,36 +362,53 @@ fn read_records<const N: usize, T>(
 /// that does not check out (checksum, length) is dropped with one warning: the structures
 /// are then rebuilt in memory by their users.
 pub fn read_nav(path: &Path) -> Result<NavGrid, NavFileError> {
-    let file = std::fs::File::open(path).map_err(|cause| NavFileError::Io {
-        path: path.to_path_buf(),
-        cause,
-    })?;
-    let grid = file
-        .metadata()
-        .map_err(ReadError::Io)
-        .and_then(|m| read_from(file, m.len()));
+    let grid = open(path).and_then(|(file, len)| read_from(file, len));
     grid.map(|(grid, warning)| {
         if let Some(w) = warning {
             tracing::warn!("{}: {w}; rebuilding it in memory", path.display());
         }
         grid
     })
-    .map_err(|e| match e {
-        ReadError::Io(cause) => NavFileError::Io {
-            path: path.to_path_buf(),
-            cause,
-        },
-        ReadError::Format(message) => NavFileError::Format {
-            path: path.to_path_buf(),
-            message,
-        },
-    })
+    .map_err(|e| e.at(path))
 }
 
-/// Decodes a grid file of `len` bytes from `file`, with a warning when its stored section
-/// was dropped.
-fn read_from(file: std::fs::File, len: u64) -> Result<(NavGrid, Option<String>), ReadError> {
-    let mut r = std::io::BufReader::with_capacity(1 << 16, file);
+/// Reads only the parameters a grid was baked with (its body among them) from the file's
+/// header, without its arrays: a cheap check before a batch loads whole grids.
+pub fn read_nav_params(path: &Path) -> Result<NavParams, NavFileError> {
+    open(path)
+        .and_then(|(file, len)| {
+            let mut r = std::io::BufReader::new(file);
+            read_header(&mut r, len).map(|(h, _)| h.params)
+        })
+        .map_err(|e| e.at(path))
+}
+
+/// The file and its length.
+fn open(path: &Path) -> Result<(std::fs::File, u64), ReadError> {
+    let file = std::fs::File::open(path).map_err(ReadError::Io)?;
+    let len = file.metadata().map_err(ReadError::Io)?.len();
+    Ok((file, len))
+}
+
+impl ReadError {
+    /// The error, naming `path`.
+    fn at(self, path: &Path) -> NavFileError {
+        match self {
+            ReadError::Io(cause) => NavFileError::Io {
+                path: path.to_path_buf(),
+                cause,
+            },
+            ReadError::Format(message) => NavFileError::Format {
+                path: path.to_path_buf(),
+                message,
+            },
+        }
+    }
+}
+
+/// Reads the magic, the version and the header of a file of `len` bytes; returns the header
+/// and its length.
+fn read_header(r: &mut impl Read, len: u64) -> Result<(HeaderIn, u32), ReadError> {
     let mut head = [0u8; 16];
     r.read_exact(&mut head[..12])
         .map_err(|_| ReadError::Format("not a minos navigation grid (too short)".into()))?;
@@ -416,6 +433,14 @@ fn read_from(file: std::fs::File, len: u64) -> Result<(NavGrid, Option<String>),
     r.read_exact(&mut header)?;
     let h: HeaderIn =
         postcard::from_bytes(&header).map_err(|e| ReadError::Format(format!("corrupt: {e}")))?;
+    Ok((h, header_len))
+}
+
+/// Decodes a grid file of `len` bytes from `file`, with a warning when its stored section
+/// was dropped.
+fn read_from(file: std::fs::File, len: u64) -> Result<(NavGrid, Option<String>), ReadError> {
+    let mut r = std::io::BufReader::with_capacity(1 << 16, file);
+    let (h, header_len) = read_header(&mut r, len)?;
     let body = h
         .columns
         .checked_mul(4)
@@ -733,6 +758,30 @@ mod tests {
         // Same bytes whatever the grid carries.
         write_nav(&path, &read).unwrap();
         assert_eq!(std::fs::read(&path).unwrap(), encode(&g).unwrap());
+    }
+
+    #[test]
+    fn the_parameters_read_alone_from_the_header() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("g.nav");
+        let mut params = NavParams::default();
+        params.body = crate::body::AgentBody::MINOS;
+        let rows = ["#####", "#...#", "#####"];
+        let g = MapSpec::ascii(&rows, 0.1).build(params);
+        let bytes = encode(&g).unwrap();
+        // The arrays are not read: a file cut after its header still gives its parameters.
+        let header = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+        std::fs::write(&path, &bytes[..16 + header]).unwrap();
+        assert_eq!(read_nav_params(&path).unwrap(), g.params);
+        assert_eq!(g.params.body, crate::body::AgentBody::MINOS);
+        assert!(read_nav(&path).is_err());
+        let e = read_nav_params(&dir.path().join("none.nav")).unwrap_err();
+        assert!(e.to_string().contains("none.nav"), "{e}");
+        std::fs::write(&path, b"something else entirely").unwrap();
+        assert!(read_nav_params(&path)
+            .unwrap_err()
+            .to_string()
+            .contains("magic"));
     }
 
     /// Where the grid's arrays end in a file's bytes (the stored sections follow).

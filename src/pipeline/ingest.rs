@@ -4,6 +4,11 @@
 //! A scene that fails gets an error row and the batch goes on. A compiled scene newer than
 //! all its sources is reused (unless `force`), so re-running resumes an interrupted ingest.
 //! Rows of scenes not in this run (another dataset, an `--ids` subset) are kept.
+//!
+//! Every path ingest stores (the manifest's `source_path`, the compiled scene's `source` and
+//! `sources`, the mesh file names textures are found beside) is absolute: the dataset root,
+//! `--categories` and `--models` are made absolute (symbolic links resolved) before anything
+//! is read, so later commands give the same results from any working directory.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -134,6 +139,20 @@ pub enum IngestError {
     /// An `--ids` file problem.
     #[error("{0}")]
     Ids(String),
+    /// The root holds no scene of the format (nothing is written).
+    #[error(
+        "{}: no {dataset} scenes found (looked for {layout}; is this the dataset root, and \
+         the right --dataset?)",
+        root.display()
+    )]
+    NoScenes {
+        /// The dataset root searched.
+        root: PathBuf,
+        /// The dataset's name.
+        dataset: &'static str,
+        /// Where the loader looked, relative to the root.
+        layout: &'static str,
+    },
 }
 
 /// Reads an id list: one id per line, `#` comments and blank lines ignored.
@@ -218,8 +237,30 @@ fn ingest_one(
     )
 }
 
+/// `path` made absolute against the working directory, with symbolic links and `..` resolved
+/// when it exists (as given when it cannot be resolved; the loader then names it).
+fn absolute(path: &Path) -> PathBuf {
+    std::fs::canonicalize(path)
+        .or_else(|_| std::path::absolute(path))
+        .unwrap_or_else(|_| path.to_path_buf())
+}
+
+impl IngestConfig {
+    /// The same configuration with the root, the category table and the model folder made
+    /// absolute, so nothing stored depends on the working directory.
+    pub fn with_absolute_paths(&self) -> IngestConfig {
+        IngestConfig {
+            root: absolute(&self.root),
+            categories: self.categories.as_deref().map(absolute),
+            models: self.models.as_deref().map(absolute),
+            ..self.clone()
+        }
+    }
+}
+
 /// Ingests every selected scene of the root into the DATA folder.
 pub fn ingest(cfg: &IngestConfig, progress: &dyn Progress) -> Result<IngestReport, IngestError> {
+    let cfg = &cfg.with_absolute_paths();
     let loader = cfg.format.loader(cfg)?;
     let loader = loader.as_ref();
     let mut report = IngestReport {
@@ -228,6 +269,13 @@ pub fn ingest(cfg: &IngestConfig, progress: &dyn Progress) -> Result<IngestRepor
     };
     report.warnings.extend(loader.root_warning());
     let mut houses = loader.discover()?;
+    if houses.is_empty() {
+        return Err(IngestError::NoScenes {
+            root: cfg.root.clone(),
+            dataset: loader.dataset().name(),
+            layout: loader.scene_layout(),
+        });
+    }
     if let Some(ids) = &cfg.ids {
         let wanted: BTreeSet<&str> = ids.iter().map(String::as_str).collect();
         let present: BTreeSet<String> = houses.iter().map(|h| h.id.clone()).collect();

@@ -24,6 +24,24 @@ pub enum GpuError {
     Render(String),
 }
 
+/// The environment variable to set, before any thread starts, so that looking for an adapter
+/// prints nothing on a machine without a desktop session, or `None` when nothing needs to
+/// change. `var` reads the environment.
+///
+/// Mesa's Vulkan device-select layer (installed with lavapipe and Mesa's drivers) asks the
+/// Wayland display for its default GPU, and libwayland prints `error: XDG_RUNTIME_DIR is
+/// invalid or not set in the environment.` when there is no session. Without a usable
+/// `XDG_RUNTIME_DIR` there is no display to choose by, so the layer is turned off with Mesa's
+/// own switch, `NODEVICE_SELECT=1` — unless the user picked a device (`MESA_VK_DEVICE_SELECT`)
+/// or set `NODEVICE_SELECT` already. Adapters are still chosen by wgpu's power preference.
+pub fn quiet_probe_env(
+    var: impl Fn(&'static str) -> Option<std::ffi::OsString>,
+) -> Option<(&'static str, &'static str)> {
+    let session = var("XDG_RUNTIME_DIR").is_some_and(|d| std::path::Path::new(&d).is_absolute());
+    let chosen = var("MESA_VK_DEVICE_SELECT").is_some() || var("NODEVICE_SELECT").is_some();
+    (!session && !chosen).then_some(("NODEVICE_SELECT", "1"))
+}
+
 const SHADER: &str = r#"
 struct Cam { vp: mat4x4<f32> };
 @group(0) @binding(0) var<uniform> cam: Cam;
@@ -403,5 +421,33 @@ impl GpuRenderer {
                     .collect(),
             })
             .collect())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn env<'a>(vars: &'a [(&'a str, &'a str)]) -> impl Fn(&str) -> Option<std::ffi::OsString> + 'a {
+        move |k| vars.iter().find(|(n, _)| *n == k).map(|(_, v)| v.into())
+    }
+
+    #[test]
+    fn the_device_select_layer_is_turned_off_only_without_a_session_or_a_choice() {
+        assert_eq!(quiet_probe_env(env(&[])), Some(("NODEVICE_SELECT", "1")));
+        assert_eq!(
+            quiet_probe_env(env(&[("XDG_RUNTIME_DIR", "relative")])),
+            Some(("NODEVICE_SELECT", "1")),
+            "libwayland refuses a relative runtime dir too"
+        );
+        assert_eq!(
+            quiet_probe_env(env(&[("XDG_RUNTIME_DIR", "/run/user/1000")])),
+            None
+        );
+        assert_eq!(
+            quiet_probe_env(env(&[("MESA_VK_DEVICE_SELECT", "10de:2330")])),
+            None
+        );
+        assert_eq!(quiet_probe_env(env(&[("NODEVICE_SELECT", "0")])), None);
     }
 }

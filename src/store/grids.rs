@@ -3,8 +3,8 @@
 use std::path::PathBuf;
 
 use super::{DataDir, StoreError};
-use crate::navmesh::file::read_nav;
-use crate::navmesh::NavGrid;
+use crate::navmesh::file::{read_nav, read_nav_params};
+use crate::navmesh::{NavGrid, NavParams};
 use crate::scene::SceneRef;
 
 impl DataDir {
@@ -33,5 +33,11 @@ impl DataDir {
     /// `minos bake`.
     pub fn read_grid(&self, scene: &SceneRef) -> Result<NavGrid, StoreError> {
         Ok(read_nav(&self.grid_path(scene))?)
+    }
+
+    /// Reads only the parameters (the body among them) of the grid that serves `scene`, from
+    /// its header: what a batch checks before loading whole grids.
+    pub fn read_grid_params(&self, scene: &SceneRef) -> Result<NavParams, StoreError> {
+        Ok(read_nav_params(&self.grid_path(scene))?)
     }
 }

@@ -224,4 +224,18 @@ mod tests {
             }
         }
     }
+
+    #[test]
+    fn formats_md_shows_how_an_episode_id_is_escaped_in_its_entity_path() {
+        let doc = include_str!("../../../docs/FORMATS.md");
+        let shown = episode_entity("h1@empty:pointgoal:00003").to_string();
+        assert_eq!(shown, r"/world/episodes/h1\@empty\:pointgoal\:00003");
+        let mentioned = shown.trim_start_matches('/');
+        assert!(
+            doc.contains(&format!("`{mentioned}`")),
+            "docs/FORMATS.md should show {mentioned}"
+        );
+        // The id stays one path part whatever it holds.
+        assert_eq!(episode_entity("a/b c").len(), 3);
+    }
 }

@@ -11,6 +11,7 @@
 mod episode;
 mod manifest;
 mod parts;
+mod preflight;
 mod scene;
 
 use std::collections::{BTreeMap, BTreeSet};
@@ -127,6 +128,20 @@ pub enum RolloutError {
     /// The LeRobot copy could not be written.
     #[error("lerobot: {0}")]
     Lerobot(#[from] crate::io::lerobot::LerobotError),
+    /// Scenes of the episodes cannot run (not ingested, not baked, baked for another body);
+    /// found before anything is written.
+    #[error(
+        "{scenes} of the {total} scenes of the episodes cannot run, so nothing was written: \
+         {problems}"
+    )]
+    NotReady {
+        /// Scenes that cannot run.
+        scenes: usize,
+        /// Scenes the episodes name.
+        total: usize,
+        /// Each problem with the scenes that have it.
+        problems: String,
+    },
 }
 
 fn io_error(path: &Path) -> impl FnOnce(std::io::Error) -> RolloutError + '_ {
@@ -176,17 +191,20 @@ pub fn select(episodes: &[Episode], shard: Shard) -> Vec<(usize, Episode)> {
 type Outcome = (usize, Result<(EpisodeMetrics, bool), String>);
 
 /// Runs the episodes, writes the tables, `metrics.json` and `manifest.json` into `cfg.out`.
+/// The scenes of this shard's episodes are checked first ([`RolloutError::NotReady`], with
+/// nothing written).
 pub fn run(
     cfg: &RunConfig,
     episodes: &[Episode],
     progress: &dyn Progress,
 ) -> Result<RunReport, RolloutError> {
+    let mine = select(episodes, cfg.shard);
+    preflight::check(cfg, &mine)?;
     let parts = cfg.out.join(".parts");
     if !cfg.resume && parts.exists() {
         std::fs::remove_dir_all(&parts).map_err(io_error(&parts))?;
     }
     std::fs::create_dir_all(&parts).map_err(io_error(&parts))?;
-    let mine = select(episodes, cfg.shard);
     progress.set_total(mine.len() as u64);
     // The episodes recorded for rerun: the first of the shard, in episode-id order.
     let recorded: BTreeSet<usize> = mine

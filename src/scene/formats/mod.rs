@@ -43,6 +43,9 @@ pub trait DatasetLoader: Sync {
     fn discover(&self) -> Result<Vec<SceneEntry>, LoadError>;
     /// Loads one scene; every failure names the file and the record.
     fn load(&self, entry: &SceneEntry) -> Result<LoadedScene, LoadError>;
+    /// Where [`DatasetLoader::discover`] looks for scenes, relative to the root, in words (for
+    /// the error of a root that holds none).
+    fn scene_layout(&self) -> &'static str;
     /// A remark about the whole root (e.g. a missing category table), if any.
     fn root_warning(&self) -> Option<String> {
         None

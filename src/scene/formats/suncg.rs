@@ -232,6 +232,9 @@ impl DatasetLoader for SuncgLoader {
     fn load(&self, entry: &SceneEntry) -> Result<LoadedScene, LoadError> {
         SuncgLoader::load(self, entry)
     }
+    fn scene_layout(&self) -> &'static str {
+        "house/<id>/house.json or <id>/house.json"
+    }
     fn root_warning(&self) -> Option<String> {
         self.mapping_path.is_none().then(|| {
             format!(

@@ -372,6 +372,9 @@ impl DatasetLoader for GltfLoader {
     fn load(&self, entry: &SceneEntry) -> Result<LoadedScene, LoadError> {
         GltfLoader::load(self, entry)
     }
+    fn scene_layout(&self) -> &'static str {
+        ".glb, .gltf or .scene_instance.json files in any folder"
+    }
     fn root_warning(&self) -> Option<String> {
         if self.root_warnings.is_empty() {
             None

@@ -374,6 +374,9 @@ impl DatasetLoader for Mp3dLoader {
     fn load(&self, entry: &SceneEntry) -> Result<LoadedScene, LoadError> {
         Mp3dLoader::load(self, entry)
     }
+    fn scene_layout(&self) -> &'static str {
+        "<scan>/house_segmentations/<scan>.house or <scan>.house (in v1/scans/ when present)"
+    }
     fn root_warning(&self) -> Option<String> {
         self.mapping_path.is_none().then(|| {
             format!(

@@ -192,6 +192,9 @@ impl DatasetLoader for ThreeDFrontLoader {
     fn load(&self, entry: &SceneEntry) -> Result<LoadedScene, LoadError> {
         ThreeDFrontLoader::load(self, entry)
     }
+    fn scene_layout(&self) -> &'static str {
+        "<scene uid>.json files (model_info.json aside)"
+    }
     fn root_warning(&self) -> Option<String> {
         let mut remarks = Vec::new();
         if self.mapping_path.is_none() {
