@@ -2,6 +2,12 @@
 //! goals carry view points inside their room facing its centre, the files follow habitat-lab's
 //! episode classes field by field, and — where Python can import habitat-lab — its own
 //! `PointNavDatasetV1` / `ObjectNavDatasetV1` load them.
+//!
+//! That last test runs `tests/python/habitat_check.py` with `$MINOS_HABITAT_PYTHON` (else
+//! `python3`) and skips, saying why, when it cannot import habitat-lab. habitat-lab 0.3.3
+//! imports on Python 3.9/3.10 only (3.11's dataclasses reject its config defaults), e.g.
+//! `python3.9 -m venv V && V/bin/pip install habitat-lab==0.3.320250127`, then
+//! `MINOS_HABITAT_PYTHON=V/bin/python cargo test --test habitat`.
 
 mod common;
 
