@@ -275,7 +275,7 @@ fn habitat_export_and_import_round_trip() {
             .cloned()
             .collect();
         let out = dir.path().join(task.name());
-        export_habitat(&out, "val", "", &val).unwrap();
+        export_habitat(&out, "val", &Default::default(), &val).unwrap();
         let mut back = Vec::new();
         for f in std::fs::read_dir(out.join("val/content"))
             .unwrap()

@@ -10,7 +10,7 @@ use anyhow::{bail, Context as _};
 use minos::atomic::write_bytes_atomic;
 use minos::body::{AgentPreset, BodyRule};
 use minos::episode::format::{read_episodes, write_episodes};
-use minos::episode::habitat::{export_habitat, import_habitat};
+use minos::episode::habitat::{export_habitat, import_habitat, SceneIdStyle};
 use minos::episode::minos_csv::import_minos_csv;
 use minos::episode::sample::{SampleConfig, Select};
 use minos::episode::Task;
@@ -91,7 +91,7 @@ enum Stratify {
 #[derive(Debug, clap::Args)]
 #[command(
     after_help = "Examples:\n  minos episodes --data DATA --task pointgoal --split all --per-scene 20 --seed 1 --out eps/point.parquet\n  \
-    minos episodes --data DATA --task objectgoal --categories door,arch --select closest --split all --subset val \\\n      --per-scene 10 --out eps/door_val.parquet --export habitat eps/habitat\n  \
+    minos episodes --data DATA --task objectgoal --categories door,arch --select closest --split all --subset val \\\n      --per-scene 10 --out eps/door_val.parquet --export habitat eps/habitat \\\n      --scene-prefix data/scene_datasets/minos/ --scene-suffix .glb\n  \
     minos episodes --data DATA --task roomgoal --room-types kitchen,bedroom --split all --per-scene 10 --out eps/rooms.parquet\n  \
     minos episodes --data DATA --task pointgoal --split all --shard 0/4 --out eps/part0.parquet\n  \
     minos episodes import --from habitat val.json.gz --out eps/habitat_val.parquet"
@@ -182,6 +182,10 @@ pub struct SampleArgs {
     /// Scene path prefix written into Habitat's scene_id.
     #[arg(long, default_value = "")]
     scene_prefix: String,
+    /// Scene file extension appended to Habitat's scene_id (e.g. `.glb`); the goal keys
+    /// follow it.
+    #[arg(long, default_value = "", value_name = "EXT")]
+    scene_suffix: String,
 }
 
 /// Reads an episode file of another tool.
@@ -218,8 +222,8 @@ pub struct EpisodesJob {
     pub out: PathBuf,
     /// Also export Habitat-Lab's layout into this folder.
     pub habitat_export: Option<PathBuf>,
-    /// Scene path prefix of the Habitat export.
-    pub scene_prefix: String,
+    /// How the Habitat export names scenes (`--scene-prefix`, `--scene-suffix`).
+    pub scene_names: SceneIdStyle,
 }
 
 /// Flags → the job (reads the split lists and checks the variant).
@@ -239,6 +243,13 @@ pub fn config(a: &SampleArgs) -> anyhow::Result<EpisodesJob> {
         Some([format, dir]) if format == "habitat" => Some(PathBuf::from(dir)),
         Some(other) => bail!("--export: unknown format `{}` (habitat)", other[0]),
     };
+    let scene_names = SceneIdStyle {
+        prefix: a.scene_prefix.clone(),
+        suffix: a.scene_suffix.clone(),
+    };
+    scene_names
+        .check()
+        .map_err(|e| anyhow::anyhow!("--scene-suffix: {e}"))?;
     let room_classes = if a.room_types.iter().any(|t| t == "any") {
         None
     } else {
@@ -329,7 +340,7 @@ pub fn config(a: &SampleArgs) -> anyhow::Result<EpisodesJob> {
         shard: a.shard,
         out: out.clone(),
         habitat_export,
-        scene_prefix: a.scene_prefix.clone(),
+        scene_names,
     })
 }
 
@@ -368,7 +379,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
                 .cloned()
                 .collect();
             if !eps.is_empty() {
-                export_habitat(dir, habitat_split, &job.scene_prefix, &eps)?;
+                export_habitat(dir, habitat_split, &job.scene_names, &eps)?;
             }
         }
         ctx.say(format!("exported Habitat episodes -> {}", dir.display()));
@@ -444,6 +455,9 @@ mod tests {
         assert!(err.to_string().starts_with("--bins"), "{err}");
         let err = config_of(&format!("{base} --export hm3d dir")).unwrap_err();
         assert!(err.to_string().contains("unknown format `hm3d`"), "{err}");
+        let err = config_of(&format!("{base} --scene-suffix x/.glb")).unwrap_err();
+        assert!(err.to_string().starts_with("--scene-suffix: "), "{err}");
+        assert!(err.to_string().contains("path separator"), "{err}");
         let err = config_of(&format!("{base} --room-types kitchen,attic")).unwrap_err();
         assert!(err.to_string().contains("`attic`"), "{err}");
         // Only then is the split read: a missing DATA folder names the split.
@@ -475,6 +489,30 @@ mod tests {
         let job = config_of(&line.replace(" --subset val", "")).unwrap();
         assert_eq!(job.scenes.len(), 3);
         assert!(!job.sample.stratified);
+        assert_eq!(job.scene_names, SceneIdStyle::default());
+    }
+
+    #[test]
+    fn scene_prefix_and_suffix_name_the_habitat_scenes() {
+        let dir = tempfile::tempdir().unwrap();
+        let data = DataDir::new(dir.path());
+        let lists = minos::split::SplitLists {
+            train: vec!["a".into()],
+            val: vec![],
+            test: vec![],
+        };
+        minos::split::write_split(&data, "s", &lists).unwrap();
+        let job = config_of(&format!(
+            "--data {} --task objectgoal --split s --out o.parquet --export habitat h \
+             --scene-prefix data/scene_datasets/minos/ --scene-suffix .glb",
+            dir.path().display()
+        ))
+        .unwrap();
+        assert_eq!(job.habitat_export, Some(PathBuf::from("h")));
+        assert_eq!(
+            job.scene_names.scene_id("a"),
+            "data/scene_datasets/minos/a.glb"
+        );
     }
 
     #[test]

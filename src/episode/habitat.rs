@@ -9,38 +9,50 @@
 //!
 //! ```text
 //! DIR/<split>/<split>.json.gz            {"episodes": []} (+ category maps for ObjectNav)
-//! DIR/<split>/content/<scene>.json.gz    {"episodes": [...]} (+ "goals_by_category")
+//! DIR/<split>/content/<scene>.json.gz    {"episodes": [...]} (+ category maps, "goals_by_category")
 //! ```
 //!
 //! Every episode given goes into the split named by the `split` argument (callers filter by
 //! [`Episode::split`] first). Each episode becomes:
 //!
-//! - `episode_id` (string), `scene_id` = `scene_prefix` + the scene id, nothing appended.
+//! - `episode_id` (string), `scene_id` = prefix + the scene id + suffix ([`SceneIdStyle`]).
 //!   Habitat resolves `scene_id` against its `scenes_dir`, so users typically pass a prefix
-//!   such as `data/scene_datasets/minos/` and must add any file extension by converting or
-//!   linking the scenes under that name. The prefix must not end in a partial name: the
-//!   ObjectNav goal key uses the last path component of `scene_id`.
+//!   such as `data/scene_datasets/minos/` and the scene files' extension as suffix (`.glb`).
 //! - `start_position` [x, y, z]; `start_rotation` [x, y, z, w] = [0, sin(yaw/2), 0, cos(yaw/2)].
 //! - `info`: `geodesic_distance`, `euclidean_distance` (null when NaN), `difficulty`, and, as a
-//!   minos extension that Habitat ignores (it keeps `info` as a free dictionary), `task`,
-//!   `split`, `seed`, `path_num_doors`, `path_num_rooms`, `success_radius`, `max_steps`.
+//!   minos extension that Habitat ignores (it keeps `info` as a free dictionary),
+//!   `minos_episode_id` (the episode id again: Habitat's ObjectNav loader replaces
+//!   `episode_id` by the episode's index in its file), `task`, `split`, `seed`,
+//!   `path_num_doors`, `path_num_rooms`, `success_radius`, `max_steps`.
 //! - PointGoal: `goals` = `[{"position", "radius"}]` with the success radius.
 //! - ObjectGoal: `object_category` and an empty `goals` list; the targets go to the content
-//!   file's top-level `goals_by_category["<scene>_<category>"]` as `{"object_id",
-//!   "object_category", "position", "view_points": [{"agent_state": {"position",
-//!   "rotation"}, "iou": 1.0}]}`, as Habitat's ObjectNav loader expects. A view point's
+//!   file's top-level `goals_by_category[key]` as `{"object_id", "object_name",
+//!   "object_name_id", "object_category", "room_id", "room_name", "position", "view_points":
+//!   [{"agent_state": {"position", "rotation"}, "iou": 1.0}]}`, as Habitat's ObjectNav loader
+//!   expects. The key is Habitat's ([`goals_key`]): the last path component of `scene_id`,
+//!   extension included, `_`, the category. `object_name` is the id again; `object_name_id`
+//!   numbers the file's distinct `object_id`s in sorted order from 0; `room_id` and
+//!   `room_name` are null (the episode does not record an object's room). A view point's
 //!   rotation faces the target's position.
-//! - RoomGoal (minos extension): exported exactly like ObjectGoal with `object_category` = the
-//!   room class and the rooms as goals (`object_id` = room id), marked by `info.task =
-//!   "roomgoal"`. Habitat's ObjectNav loader reads it as an object-goal episode.
+//! - RoomGoal (minos extension): exported like ObjectGoal with `object_category` = the room
+//!   class and the rooms as goals (`object_id`, `object_name` and `room_id` = the room id,
+//!   `room_name` = the class), marked by `info.task = "roomgoal"`. The view points are
+//!   walkable points inside the room, facing its position (the walkable point nearest its
+//!   centre). Habitat's ObjectNav loader reads it as an object-goal episode, and its
+//!   `DistanceToGoal` measures to those view points.
 //!
 //! Habitat stores one goal list per scene and category, so when several episodes of the same
 //! scene and category list different targets, the exported list is their union (first
 //! occurrence of each id wins) and every episode reads the union back.
 //!
-//! For ObjectNav the split file carries `category_to_task_category_id` and
-//! `category_to_scene_annotation_category_id`: the sorted category (and room class) names
-//! numbered from 0, the same numbers in both maps (minos has no scene annotation ids).
+//! When any episode has an object or room goal, the split file and every content file carry
+//! `category_to_task_category_id` and `category_to_scene_annotation_category_id`: the sorted
+//! category (and room class) names of the whole split numbered from 0, the same numbers in
+//! both maps (minos has no scene annotation ids). Habitat's ObjectNav loader needs them in any
+//! file it loads on its own.
+//!
+//! Habitat's two loaders read one task each: a content file mixing PointGoal with object or
+//! room episodes loads in neither (the command line exports one task at a time).
 //!
 //! Output is deterministic: fixed key order, episodes in the order given (grouped by scene,
 //! scenes sorted), f32 values written as their exact f64 value, gzip header mtime 0. Files are
@@ -59,10 +71,10 @@
 //!
 //! | field | default |
 //! |---|---|
-//! | `episode_id` | kept when it contains `:` (a minos id), else `<scene>:habitat:<id>` |
+//! | `episode_id` | `info.minos_episode_id`, else `episode_id` when it contains `:` (a minos id), else `<scene>:habitat:<id>` |
 //! | `scene_id` | last component of the file's `scene_id`, without a `.glb`/`.gltf`/`.ply`/`.obj`/`.json`/`.house`/`.navmesh` extension |
 //! | `task` | `info.task`, else `objectgoal` when `object_category` is present, else `pointgoal` |
-//! | targets | `goals_by_category["<basename(scene_id)>_<category>"]`, else the episode's `goals`, else one target with the episode's `object_id` and an unknown (NaN) position |
+//! | targets | `goals_by_category["<basename(scene_id)>_<category>"]` (Habitat's key, extension kept), else `goals_by_category["<scene>_<category>"]` (the key without it), else the episode's `goals`, else one target with the episode's `object_id` and an unknown (NaN) position |
 //! | `euclidean_distance` | `info.euclidean_distance`, else computed from the start to the goal (the nearest target with a known position), else NaN |
 //! | `geodesic_distance` | `info.geodesic_distance`, else NaN |
 //! | `difficulty` | `info.difficulty`, else from the geodesic distance (below 3 m easy, below 6 m medium, else hard; medium when unknown) |
@@ -187,18 +199,65 @@ pub fn yaw_from_quaternion(q: [f64; 4]) -> Option<(f32, QuaternionConvention)> {
 // Export
 // ---------------------------------------------------------------------------------------
 
+/// How a minos scene id becomes Habitat's `scene_id`: `prefix + scene + suffix`.
+///
+/// Habitat resolves `scene_id` against its `scenes_dir`, so the prefix is typically a folder
+/// such as `data/scene_datasets/minos/` and the suffix the scene file's extension (`.glb`).
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct SceneIdStyle {
+    /// Written before the scene id.
+    pub prefix: String,
+    /// Written after the scene id (a file extension such as `.glb`; no path separator).
+    pub suffix: String,
+}
+
+impl SceneIdStyle {
+    /// The `scene_id` written for minos scene `scene`.
+    pub fn scene_id(&self, scene: &str) -> String {
+        format!("{}{scene}{}", self.prefix, self.suffix)
+    }
+
+    /// Why the suffix cannot be used, if so: a suffix with a path separator would move the
+    /// scene into another folder and change the goal keys' basename.
+    pub fn check(&self) -> Result<(), String> {
+        if self.suffix.contains(['/', '\\', '\0']) {
+            Err(format!(
+                "scene suffix `{}` must not contain a path separator",
+                self.suffix
+            ))
+        } else {
+            Ok(())
+        }
+    }
+}
+
+/// Habitat's ObjectNav goal key of an episode: `os.path.basename(scene_id) + "_" +
+/// object_category` (habitat-lab's `ObjectGoalNavEpisode.goals_key`; the basename keeps the
+/// extension).
+pub fn goals_key(scene_id: &str, category: &str) -> String {
+    format!("{}_{category}", basename(scene_id))
+}
+
+/// The category maps Habitat's ObjectNav loader reads (`category_to_task_category_id`,
+/// `category_to_scene_annotation_category_id`): the same numbering twice.
+#[derive(Serialize, Clone)]
+struct CategoryMaps<'a> {
+    category_to_task_category_id: BTreeMap<&'a str, u32>,
+    category_to_scene_annotation_category_id: BTreeMap<&'a str, u32>,
+}
+
 #[derive(Serialize)]
 struct SplitFile<'a> {
     episodes: [(); 0],
-    #[serde(skip_serializing_if = "Option::is_none")]
-    category_to_task_category_id: Option<BTreeMap<&'a str, u32>>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    category_to_scene_annotation_category_id: Option<BTreeMap<&'a str, u32>>,
+    #[serde(flatten)]
+    maps: Option<CategoryMaps<'a>>,
 }
 
 #[derive(Serialize)]
 struct ContentFile<'a> {
     episodes: Vec<EpisodeOut<'a>>,
+    #[serde(flatten)]
+    maps: Option<CategoryMaps<'a>>,
     #[serde(skip_serializing_if = "BTreeMap::is_empty")]
     goals_by_category: BTreeMap<String, Vec<ObjectGoalOut<'a>>>,
 }
@@ -220,6 +279,8 @@ struct InfoOut<'a> {
     geodesic_distance: f64,
     euclidean_distance: f64,
     difficulty: &'static str,
+    /// Habitat's ObjectNav loader replaces `episode_id` by the list index; this keeps ours.
+    minos_episode_id: &'a str,
     task: &'static str,
     split: &'a str,
     seed: u64,
@@ -238,7 +299,11 @@ struct PointGoalOut {
 #[derive(Serialize)]
 struct ObjectGoalOut<'a> {
     object_id: &'a str,
+    object_name: &'a str,
+    object_name_id: u32,
     object_category: &'a str,
+    room_id: Option<&'a str>,
+    room_name: Option<&'a str>,
     position: [f64; 3],
     view_points: Vec<ViewPointOut>,
 }
@@ -298,22 +363,26 @@ fn gzip_json<T: Serialize>(path: &Path, value: &T) -> Result<(), HabitatError> {
 }
 
 /// Writes `episodes` as the Habitat split `split` under `dir` (see the module documentation
-/// for the layout and fields), with `scene_prefix` prepended to every `scene_id`. Returns the
-/// files written: the split file first, then one content file per scene in scene order.
+/// for the layout and fields), naming scenes as `names` says. Returns the files written: the
+/// split file first, then one content file per scene in scene order.
 pub fn export_habitat(
     dir: &Path,
     split: &str,
-    scene_prefix: &str,
+    names: &SceneIdStyle,
     episodes: &[Episode],
 ) -> Result<Vec<PathBuf>, HabitatError> {
     let split_dir = dir.join(split);
     let split_path = split_dir.join(format!("{split}.json.gz"));
+    let shape = |message: String| HabitatError::Shape {
+        path: split_path.display().to_string(),
+        message,
+    };
     if !valid_component(split) {
-        return Err(HabitatError::Shape {
-            path: split_path.display().to_string(),
-            message: format!("split name `{split}` cannot be a directory name"),
-        });
+        return Err(shape(format!(
+            "split name `{split}` cannot be a directory name"
+        )));
     }
+    names.check().map_err(shape)?;
     let mut by_scene: BTreeMap<&str, Vec<&Episode>> = BTreeMap::new();
     for e in episodes {
         by_scene.entry(e.scene_id.as_str()).or_default().push(e);
@@ -341,8 +410,10 @@ pub fn export_habitat(
                 Err(fail(e, format!("{what} {p:?} is not finite")))
             }
         };
+        let scene_id = names.scene_id(scene);
         let mut file = ContentFile {
             episodes: Vec::with_capacity(eps.len()),
+            maps: None,
             goals_by_category: BTreeMap::new(),
         };
         let mut seen: HashMap<String, BTreeSet<&str>> = HashMap::new();
@@ -352,13 +423,14 @@ pub fn export_habitat(
             }
             let mut out = EpisodeOut {
                 episode_id: &e.episode_id,
-                scene_id: format!("{scene_prefix}{scene}"),
+                scene_id: scene_id.clone(),
                 start_position: finite(e, "start position", e.start_position)?,
                 start_rotation: yaw_to_quaternion(e.start_yaw),
                 info: InfoOut {
                     geodesic_distance: f64::from(e.geodesic_distance),
                     euclidean_distance: f64::from(e.euclidean_distance),
                     difficulty: e.difficulty.name(),
+                    minos_episode_id: &e.episode_id,
                     task: e.task.name(),
                     split: &e.split,
                     seed: e.seed,
@@ -370,7 +442,7 @@ pub fn export_habitat(
                 goals: Vec::new(),
                 object_category: None,
             };
-            let (label, targets) = match &e.goal {
+            let (label, targets, rooms) = match &e.goal {
                 Goal::Point { position } => {
                     out.goals.push(PointGoalOut {
                         position: finite(e, "goal position", *position)?,
@@ -379,13 +451,12 @@ pub fn export_habitat(
                     file.episodes.push(out);
                     continue;
                 }
-                Goal::Object { category, targets } => (category.as_str(), targets),
-                Goal::Room { class, targets } => (class.as_str(), targets),
+                Goal::Object { category, targets } => (category.as_str(), targets, false),
+                Goal::Room { class, targets } => (class.as_str(), targets, true),
             };
             out.object_category = Some(label);
             categories.insert(label);
-            // Habitat's key: basename(scene_id) + "_" + category.
-            let key = format!("{scene}_{label}");
+            let key = goals_key(&scene_id, label);
             let ids = seen.entry(key.clone()).or_default();
             let list = file.goals_by_category.entry(key).or_default();
             for t in targets {
@@ -407,35 +478,60 @@ pub fn export_habitat(
                     .collect::<Result<Vec<_>, HabitatError>>()?;
                 list.push(ObjectGoalOut {
                     object_id: &t.id,
+                    object_name: &t.id,
+                    object_name_id: 0,
                     object_category: label,
+                    room_id: rooms.then_some(t.id.as_str()),
+                    room_name: rooms.then_some(label),
                     position: finite(e, "target position", t.position)?,
                     view_points,
                 });
             }
             file.episodes.push(out);
         }
+        number_goals(&mut file.goals_by_category);
         contents.push((path, file));
     }
 
-    let ids: Option<BTreeMap<&str, u32>> = (!categories.is_empty()).then(|| {
-        categories
+    // The same category maps in the split file and in every content file, so a content file
+    // loads alone as well as through the split file.
+    let maps = (!categories.is_empty()).then(|| {
+        let ids: BTreeMap<&str, u32> = categories
             .iter()
             .enumerate()
             .map(|(i, c)| (*c, i as u32))
-            .collect()
+            .collect();
+        CategoryMaps {
+            category_to_task_category_id: ids.clone(),
+            category_to_scene_annotation_category_id: ids,
+        }
     });
     let split_file = SplitFile {
         episodes: [],
-        category_to_task_category_id: ids.clone(),
-        category_to_scene_annotation_category_id: ids,
+        maps: maps.clone(),
     };
     gzip_json(&split_path, &split_file)?;
     let mut written = vec![split_path];
-    for (path, file) in contents {
+    for (path, mut file) in contents {
+        file.maps.clone_from(&maps);
         gzip_json(&path, &file)?;
         written.push(path);
     }
     Ok(written)
+}
+
+/// Numbers a content file's goals: `object_name_id` is the goal's index among the file's
+/// distinct `object_id`s in sorted order (minos ids are strings; Habitat wants an integer).
+fn number_goals(goals: &mut BTreeMap<String, Vec<ObjectGoalOut<'_>>>) {
+    let ids: BTreeSet<&str> = goals.values().flatten().map(|g| g.object_id).collect();
+    let number: HashMap<&str, u32> = ids
+        .into_iter()
+        .enumerate()
+        .map(|(i, id)| (id, i as u32))
+        .collect();
+    for g in goals.values_mut().flatten() {
+        g.object_name_id = number.get(g.object_id).copied().unwrap_or(0);
+    }
 }
 
 // ---------------------------------------------------------------------------------------
@@ -699,10 +795,15 @@ fn read_episode(
         .ok_or_else(|| r.err("episode_id", "missing (expected a string or an integer)"))?;
     let raw_scene = r.required_string("scene_id")?;
     let scene = scene_name(raw_scene).to_string();
-    let episode_id = if raw_id.contains(':') {
-        raw_id
-    } else {
-        format!("{scene}:habitat:{raw_id}")
+    let info = r.object("info")?;
+    let minos_id = match &info {
+        Some(i) => i.string("minos_episode_id")?,
+        None => None,
+    };
+    let episode_id = match minos_id {
+        Some(id) => id.to_string(),
+        None if raw_id.contains(':') => raw_id,
+        None => format!("{scene}:habitat:{raw_id}"),
     };
     let start_position = r.position("start_position")?;
     let q = r
@@ -715,7 +816,6 @@ fn read_episode(
         )
     })?;
 
-    let info = r.object("info")?;
     let info_num = |f: &str| -> Result<Option<f64>, HabitatError> {
         info.as_ref().map_or(Ok(None), |i| i.number(f))
     };
@@ -759,8 +859,14 @@ fn read_episode(
                     "missing (expected a string for an object or room goal)",
                 )
             })?;
-            let key = format!("{}_{label}", basename(raw_scene));
-            let targets = if let Some(t) = goals_by_category.get(key.as_str()) {
+            let key = goals_key(raw_scene, label);
+            // Habitat's key keeps the scene file's extension; files whose keys dropped it
+            // (a `scene_id` extended by hand) are read by the key without it.
+            let stem_key = format!("{scene}_{label}");
+            let targets = if let Some(t) = goals_by_category
+                .get(key.as_str())
+                .or_else(|| goals_by_category.get(stem_key.as_str()))
+            {
                 t.clone()
             } else if !r.array("goals")?.is_empty() {
                 read_targets(r.path, &format!("{}.goals", r.name), r.array("goals")?)?
@@ -863,6 +969,13 @@ mod tests {
         }
     }
 
+    fn prefixed(prefix: &str) -> SceneIdStyle {
+        SceneIdStyle {
+            prefix: prefix.into(),
+            suffix: String::new(),
+        }
+    }
+
     /// Point and object episodes whose yaws span the whole circle, incl. values ≥ π.
     fn episodes_for_export() -> Vec<Episode> {
         let s = sample_episodes();
@@ -880,7 +993,13 @@ mod tests {
     fn export_then_import_gives_the_same_episodes() {
         let dir = tempfile::tempdir().unwrap();
         let eps = episodes_for_export();
-        let files = export_habitat(dir.path(), "val", "data/scene_datasets/minos/", &eps).unwrap();
+        let files = export_habitat(
+            dir.path(),
+            "val",
+            &prefixed("data/scene_datasets/minos/"),
+            &eps,
+        )
+        .unwrap();
         let names: Vec<String> = files
             .iter()
             .map(|f| f.strip_prefix(dir.path()).unwrap().display().to_string())
@@ -941,7 +1060,7 @@ mod tests {
     fn export_layout_matches_habitat() {
         let dir = tempfile::tempdir().unwrap();
         let eps = episodes_for_export();
-        let files = export_habitat(dir.path(), "train", "", &eps).unwrap();
+        let files = export_habitat(dir.path(), "train", &SceneIdStyle::default(), &eps).unwrap();
         let split = read_json(&files[0]);
         assert_eq!(split["episodes"], serde_json::json!([]));
         assert_eq!(
@@ -993,7 +1112,7 @@ mod tests {
 
         // Deterministic: a second export gives identical bytes; gzip mtime is 0.
         let dir2 = tempfile::tempdir().unwrap();
-        let files2 = export_habitat(dir2.path(), "train", "", &eps).unwrap();
+        let files2 = export_habitat(dir2.path(), "train", &SceneIdStyle::default(), &eps).unwrap();
         for (a, b) in files.iter().zip(&files2) {
             let (a, b) = (std::fs::read(a).unwrap(), std::fs::read(b).unwrap());
             assert_eq!(a, b);
@@ -1018,7 +1137,7 @@ mod tests {
             });
         }
         eps.push(other);
-        let files = export_habitat(dir.path(), "val", "", &eps).unwrap();
+        let files = export_habitat(dir.path(), "val", &SceneIdStyle::default(), &eps).unwrap();
         let back = import_habitat(&files[1]).unwrap();
         let ids = |e: &Episode| match &e.goal {
             Goal::Object { targets, .. } => targets.iter().map(|t| t.id.clone()).collect(),
@@ -1027,6 +1146,107 @@ mod tests {
         let union = vec!["0_12", "0_13", "0_14", "0_99"];
         assert_eq!(ids(&back[1]), union);
         assert_eq!(ids(&back[2]), union);
+    }
+
+    #[test]
+    fn a_scene_suffix_extends_scene_ids_and_goal_keys_alike() {
+        let dir = tempfile::tempdir().unwrap();
+        let eps = episodes_for_export();
+        let style = SceneIdStyle {
+            prefix: "data/scene_datasets/minos/".into(),
+            suffix: ".glb".into(),
+        };
+        let files = export_habitat(dir.path(), "val", &style, &eps).unwrap();
+        let content = read_json(&files[1]);
+        let ep = &content["episodes"][1];
+        assert_eq!(ep["scene_id"], "data/scene_datasets/minos/house_a.glb");
+        assert_eq!(ep["info"]["minos_episode_id"], ep["episode_id"]);
+        let keys: Vec<&String> = content["goals_by_category"]
+            .as_object()
+            .unwrap()
+            .keys()
+            .collect();
+        assert_eq!(keys, ["house_a.glb_chair"]);
+        // The category maps are in every content file, equal to the split file's.
+        let split = read_json(&files[0]);
+        for f in &files[1..] {
+            let c = read_json(f);
+            for map in [
+                "category_to_task_category_id",
+                "category_to_scene_annotation_category_id",
+            ] {
+                assert_eq!(c[map], split[map], "{map}");
+            }
+        }
+        // Goals: name, number, room fields.
+        let goals = content["goals_by_category"]["house_a.glb_chair"]
+            .as_array()
+            .unwrap();
+        let numbers: Vec<u64> = goals
+            .iter()
+            .map(|g| g["object_name_id"].as_u64().unwrap())
+            .collect();
+        assert_eq!(numbers, [0, 1, 2]);
+        assert_eq!(goals[1]["object_name"], "0_13");
+        assert!(goals[1]["room_id"].is_null() && goals[1]["room_name"].is_null());
+        let room = read_json(&files[2]);
+        let g = &room["goals_by_category"]["house_b@dark.glb_kitchen"][0];
+        assert_eq!(
+            (&g["room_id"], &g["room_name"]),
+            (&g["object_id"], &g["object_category"])
+        );
+        assert_eq!(g["room_name"], "kitchen");
+        assert_eq!(g["view_points"].as_array().map(Vec::len), Some(3));
+        // Everything reads back under the scene's own id.
+        let mut back = import_habitat(&files[1]).unwrap();
+        back.extend(import_habitat(&files[2]).unwrap());
+        let mut expected = eps.clone();
+        expected.sort_by(|a, b| a.scene_id.cmp(&b.scene_id));
+        for (b, e) in back.iter().zip(&expected) {
+            assert_eq!((&b.episode_id, &b.scene_id), (&e.episode_id, &e.scene_id));
+            assert_eq!(b.goal, e.goal);
+        }
+        // A suffix with a path separator would change the key's basename: refused.
+        let bad = SceneIdStyle {
+            prefix: String::new(),
+            suffix: "/x.glb".into(),
+        };
+        let err = export_habitat(dir.path(), "val", &bad, &eps).unwrap_err();
+        assert!(err.to_string().contains("path separator"), "{err}");
+    }
+
+    #[test]
+    fn habitat_numbered_ids_and_extensionless_keys_still_import() {
+        let dir = tempfile::tempdir().unwrap();
+        // As habitat-lab re-saves a file (`episode_id` = index), and an older minos file whose
+        // scene_id was given an extension by hand (its key lacks it).
+        let path = dir.path().join("old.json");
+        let text = r#"{"episodes": [
+            {"episode_id": "0", "scene_id": "minos/h1.glb", "start_position": [0, 0, 0],
+             "start_rotation": [0, 0, 0, 1], "object_category": "bed", "goals": [],
+             "info": {"minos_episode_id": "h1:objectgoal:00007"}},
+            {"episode_id": "1", "scene_id": "minos/h1.glb", "start_position": [0, 0, 0],
+             "start_rotation": [0, 0, 0, 1], "object_category": "bed", "goals": []}],
+          "goals_by_category": {"h1_bed": [{"object_id": "0_3", "position": [1, 0, 1]}]}}"#;
+        std::fs::write(&path, text).unwrap();
+        let back = import_habitat(&path).unwrap();
+        assert_eq!(back[0].episode_id, "h1:objectgoal:00007");
+        assert_eq!(back[1].episode_id, "h1:habitat:1");
+        assert_eq!(back[0].scene_id, "h1");
+        match &back[1].goal {
+            Goal::Object { targets, .. } => assert_eq!(targets[0].id, "0_3"),
+            other => panic!("{other:?}"),
+        }
+        // Habitat's key (with the extension) wins over the key without it.
+        let both = text.replace(
+            r#""goals_by_category": {"#,
+            r#""goals_by_category": {"h1.glb_bed": [{"object_id": "0_5", "position": [2, 0, 2]}], "#,
+        );
+        std::fs::write(&path, both).unwrap();
+        match &import_habitat(&path).unwrap()[0].goal {
+            Goal::Object { targets, .. } => assert_eq!(targets[0].id, "0_5"),
+            other => panic!("{other:?}"),
+        }
     }
 
     #[test]

@@ -50,8 +50,8 @@ pub struct GoalTarget {
     pub id: String,
     /// A representative position: object box centre, or a walkable point of the room.
     pub position: [f32; 3],
-    /// Walkable points from which the target counts as reached (object "view points"),
-    /// possibly subsampled; empty when not computed.
+    /// Walkable points from which the target counts as reached (Habitat's "view points":
+    /// near an object, or inside a room), possibly subsampled; empty when not computed.
     pub view_points: Vec<[f32; 3]>,
 }
 

@@ -175,6 +175,9 @@ fn position_of(grid: &NavGrid, spans: &[u32]) -> [f32; 3] {
     grid.span_position(best as usize).to_array()
 }
 
+/// The view points of a target reached from `spans` (walkable spans near an object, or inside
+/// a room): at most [`MAX_VIEW_POINTS`] of them, every `⌈n / MAX⌉`-th span in the spans'
+/// order, so the choice is deterministic and spread over the region.
 fn view_points(grid: &NavGrid, spans: &[u32]) -> Vec<[f32; 3]> {
     let step = spans.len().div_ceil(MAX_VIEW_POINTS).max(1);
     spans
@@ -241,10 +244,12 @@ fn goal_sets(grid: &NavGrid, cfg: &SampleConfig) -> Vec<GoalSet> {
                         if spans.is_empty() {
                             continue;
                         }
+                        // View points as for objects: walkable points of the room,
+                        // subsampled; exports turn them to face `position`, its centre.
                         set.targets.push(GoalTarget {
                             id: r.id.clone(),
                             position: position_of(grid, &spans),
-                            view_points: Vec::new(),
+                            view_points: view_points(grid, &spans),
                         });
                         set.spans.push(spans);
                     }

@@ -1,10 +1,16 @@
 //! Point-to-point routes for users and later stages: snap both points, find the shortest
 //! path, and report it between the points themselves (not the span centres).
+//!
+//! [`route`] answers one query; [`route_in`] and [`route_many`] answer many on one grid with
+//! the query structures ([`Geodesic`]: line-of-sight index, sparse graph, search records)
+//! built once and shared. Every function gives the same answer for the same pair.
 
 use glam::Vec3;
+use rayon::prelude::*;
 
+use super::geodesic::Geodesic;
 use super::grid::NavGrid;
-use super::path::{shortest_path, PathResult};
+use super::path::{shortest_path, shortest_path_in, PathResult};
 
 /// A route between two world points.
 #[derive(Debug, Clone, PartialEq)]
@@ -31,8 +37,31 @@ pub struct NotWalkable {
     pub point: Vec3,
 }
 
-/// The shortest route from `from` to `to` (y = floor height under the agent).
+/// The shortest route from `from` to `to` (y = floor height under the agent). Builds the
+/// query structures for this one query; see [`route_in`] for many.
 pub fn route(grid: &NavGrid, from: Vec3, to: Vec3) -> Result<Route, NotWalkable> {
+    let (a, b) = snap_both(grid, from, to)?;
+    Ok(finish(grid, from, to, a, b, shortest_path(grid, a, b)))
+}
+
+/// [`route`] with the query structures of `geo`'s grid built beforehand.
+pub fn route_in(geo: &Geodesic<'_>, from: Vec3, to: Vec3) -> Result<Route, NotWalkable> {
+    let grid = geo.grid();
+    let (a, b) = snap_both(grid, from, to)?;
+    Ok(finish(grid, from, to, a, b, shortest_path_in(geo, a, b)))
+}
+
+/// [`route_in`] for every `(from, to)` pair, in parallel on the current rayon pool; the
+/// answers are in the pairs' order whatever the thread count.
+pub fn route_many(geo: &Geodesic<'_>, pairs: &[(Vec3, Vec3)]) -> Vec<Result<Route, NotWalkable>> {
+    pairs
+        .par_iter()
+        .map(|&(from, to)| route_in(geo, from, to))
+        .collect()
+}
+
+/// Both endpoints snapped to walkable spans.
+fn snap_both(grid: &NavGrid, from: Vec3, to: Vec3) -> Result<(u32, u32), NotWalkable> {
     let a = grid.snap(from).ok_or(NotWalkable {
         which: "start",
         point: from,
@@ -41,14 +70,19 @@ pub fn route(grid: &NavGrid, from: Vec3, to: Vec3) -> Result<Route, NotWalkable>
         which: "goal",
         point: to,
     })?;
-    match shortest_path(grid, a, b) {
-        PathResult::Unreachable => Ok(Route {
+    Ok((a, b))
+}
+
+/// The route of a path search between spans `a` (snapped from `from`) and `b` (from `to`).
+fn finish(grid: &NavGrid, from: Vec3, to: Vec3, a: u32, b: u32, result: PathResult) -> Route {
+    match result {
+        PathResult::Unreachable => Route {
             reachable: false,
             geodesic: None,
             rooms: vec![],
             doors: vec![],
             points: vec![],
-        }),
+        },
         PathResult::Found(p) => {
             let mut points = p.points.clone();
             // Start and end at the points themselves, on the floor of their spans.
@@ -63,13 +97,13 @@ pub fn route(grid: &NavGrid, from: Vec3, to: Vec3) -> Result<Route, NotWalkable>
                 *last = Vec3::new(to.x, yb, to.z);
             }
             let length = points.windows(2).map(|w| w[0].distance(w[1])).sum();
-            Ok(Route {
+            Route {
                 reachable: true,
                 geodesic: Some(length),
                 rooms: p.rooms,
                 doors: p.doors,
                 points,
-            })
+            }
         }
     }
 }
