@@ -171,6 +171,50 @@ fn every_task_round_trips_with_a_scene_suffix() {
 }
 
 #[test]
+fn object_goals_name_the_room_their_object_stands_in() {
+    let (_, eps) = &fixture().episodes[1];
+    let mut checked = 0;
+    for e in eps {
+        let Goal::Object { targets, .. } = &e.goal else {
+            panic!("{}: not an object goal", e.episode_id)
+        };
+        let g = grid(&e.scene_id);
+        for t in targets {
+            let room = t
+                .room
+                .as_ref()
+                .unwrap_or_else(|| panic!("{}: no room", t.id));
+            // Independently: the room holding the most of the target's view points.
+            let mut counts = std::collections::BTreeMap::new();
+            for v in &t.view_points {
+                let span = g.snap(glam::Vec3::from_array(*v)).unwrap();
+                *counts.entry(g.spans[span as usize].room).or_insert(0usize) += 1;
+            }
+            let most = counts.values().copied().max().unwrap();
+            let r = g.rooms.iter().position(|r| r.id == room.id).unwrap() as u32;
+            assert_eq!(counts.get(&r), Some(&most), "{}: {room:?}", t.id);
+            let class = minos::scene::RoomClass::from_name(&room.class).unwrap();
+            assert_eq!(class.index(), g.rooms[r as usize].class);
+            checked += 1;
+        }
+    }
+    assert!(checked > 0);
+    // Exported as Habitat's room_id / room_name.
+    for f in content_files(Task::ObjectGoal) {
+        for goals in read_json(&f)["goals_by_category"]
+            .as_object()
+            .unwrap()
+            .values()
+        {
+            for goal in goals.as_array().unwrap() {
+                assert!(goal["room_id"].is_string(), "{goal}");
+                assert!(goal["room_name"].is_string(), "{goal}");
+            }
+        }
+    }
+}
+
+#[test]
 fn room_goals_have_view_points_inside_the_room_facing_its_centre() {
     let (_, eps) = &fixture().episodes[2];
     let mut checked = 0;

@@ -584,17 +584,17 @@ fn statistics_are_those_of_the_frames() {
             .expect("png")
             .to_rgb8();
         for p in img.pixels() {
-            for c in 0..3 {
-                sums[c] += f64::from(p.0[c]) / 255.0;
+            for (sum, v) in sums.iter_mut().zip(p.0) {
+                *sum += f64::from(v) / 255.0;
             }
             count += 1.0;
         }
     }
-    for c in 0..3 {
+    for (c, sum) in sums.iter().enumerate() {
         let got = stats["observation.images.color"]["mean"][c][0][0]
             .as_f64()
             .expect("mean");
-        assert!((got - sums[c] / count).abs() < 1e-9, "channel {c}");
+        assert!((got - sum / count).abs() < 1e-9, "channel {c}");
     }
     // Per-episode statistics cover their episode's frames only.
     let eps = table(&root.join("meta/episodes/chunk-000/file-000.parquet"));

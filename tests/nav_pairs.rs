@@ -249,7 +249,7 @@ fn parquet_pairs_give_a_parquet_table_of_the_same_answers() {
             .iter()
             .map(|(a, b)| f64::from([a.x, a.y, a.z, b.x, b.y, b.z][k]))
             .collect();
-        if k % 2 == 0 {
+        if k.is_multiple_of(2) {
             Arc::new(Float64Array::from(v))
         } else {
             Arc::new(Float32Array::from(

@@ -24,6 +24,8 @@
 //! | `goal_ids` | list\<utf8\> | target ids (object instance or room ids); empty for PointGoal |
 //! | `goal_positions` | list\<fixed_size_list\<float32, 3\>\> | one position per target; empty for PointGoal |
 //! | `goal_view_points` | list\<list\<fixed_size_list\<float32, 3\>\>\> | per target, its view points (possibly none); empty for PointGoal |
+//! | `goal_room_ids` | list\<utf8, nullable items\> | per target, the id of the room it is in (a room target: itself), null when unknown; empty for PointGoal. Optional when reading (older files lack it) |
+//! | `goal_room_classes` | list\<utf8, nullable items\> | per target, that room's MINOS class; same optionality |
 //! | `euclidean_distance` | float32 | straight-line start–goal distance (m) |
 //! | `geodesic_distance` | float32 | shortest-path start–goal distance (m) |
 //! | `path_num_doors` | uint32 | doors on the shortest path |
@@ -32,8 +34,9 @@
 //! | `success_radius` | float32 | success radius (m) |
 //! | `max_steps` | uint32 | step limit |
 //!
-//! Only `goal_category` and `goal_room_class` hold nulls; list items are never null. The three
-//! `goal_*` list columns have one entry per target, in the same order.
+//! Only `goal_category`, `goal_room_class` and the items of `goal_room_ids` /
+//! `goal_room_classes` hold nulls. The `goal_*` list columns have one entry per target, in the
+//! same order.
 
 use std::path::Path;
 use std::sync::Arc;
@@ -44,8 +47,63 @@ use arrow::array::{
 };
 use arrow::datatypes::{Field, Schema};
 
-use super::{Difficulty, Episode, Goal, GoalTarget, Task};
+use super::{Difficulty, Episode, Goal, GoalTarget, TargetRoom, Task};
 use crate::parquet_io::{read_batches, write_batches, writer_properties, ParquetFileError};
+
+/// The optional `goal_room_ids` / `goal_room_classes` columns of a batch.
+struct TargetRooms<'a> {
+    /// Both columns with their string values, when the file has them.
+    columns: Option<[(&'a ListArray, &'a StringArray); 2]>,
+}
+
+impl<'a> TargetRooms<'a> {
+    fn of(batch: &'a RecordBatch) -> Result<Self, BatchError> {
+        let get = |name: &str| -> Result<Option<(&'a ListArray, &'a StringArray)>, BatchError> {
+            let Some(c) = batch.column_by_name(name) else {
+                return Ok(None);
+            };
+            let list = c
+                .as_any()
+                .downcast_ref::<ListArray>()
+                .ok_or_else(|| BatchError::Format(format!("column `{name}` is not a list")))?;
+            let values = list
+                .values()
+                .as_any()
+                .downcast_ref::<StringArray>()
+                .ok_or_else(|| BatchError::Format(format!("column `{name}` is not list<utf8>")))?;
+            Ok(Some((list, values)))
+        };
+        Ok(TargetRooms {
+            columns: match (get("goal_room_ids")?, get("goal_room_classes")?) {
+                (Some(a), Some(b)) => Some([a, b]),
+                _ => None,
+            },
+        })
+    }
+
+    /// The room of target `j` of row `i` (`None` when unknown or not recorded).
+    fn get(&self, i: usize, j: usize) -> Result<Option<TargetRoom>, String> {
+        let Some(columns) = &self.columns else {
+            return Ok(None);
+        };
+        let mut parts = [None, None];
+        for (part, (list, values)) in parts.iter_mut().zip(columns) {
+            if list.is_null(i) {
+                return Err("null list".into());
+            }
+            let offsets = list.value_offsets();
+            let k = offsets[i] as usize + j;
+            if k >= offsets[i + 1] as usize || k >= values.len() {
+                return Err("fewer rooms than targets".into());
+            }
+            *part = (!values.is_null(k)).then(|| values.value(k).to_string());
+        }
+        Ok(match parts {
+            [Some(id), Some(class)] => Some(TargetRoom { id, class }),
+            _ => None,
+        })
+    }
+}
 
 /// Rows per record batch (and at most per row group) when writing.
 const BATCH_ROWS: usize = 65_536;
@@ -103,8 +161,16 @@ fn to_batch(eps: &[Episode]) -> Result<RecordBatch, arrow::error::ArrowError> {
     let mut ids = ListBuilder::new(StringBuilder::new());
     let mut positions = ListBuilder::new(point());
     let mut views = ListBuilder::new(ListBuilder::new(point()));
+    let mut room_ids = ListBuilder::new(StringBuilder::new());
+    let mut room_classes = ListBuilder::new(StringBuilder::new());
     for e in eps {
         for t in goal_targets(&e.goal).unwrap_or(&[]) {
+            room_ids
+                .values()
+                .append_option(t.room.as_ref().map(|r| r.id.as_str()));
+            room_classes
+                .values()
+                .append_option(t.room.as_ref().map(|r| r.class.as_str()));
             ids.values().append_value(&t.id);
             positions.values().values().append_slice(&t.position);
             positions.values().append(true);
@@ -118,6 +184,8 @@ fn to_batch(eps: &[Episode]) -> Result<RecordBatch, arrow::error::ArrowError> {
         ids.append(true);
         positions.append(true);
         views.append(true);
+        room_ids.append(true);
+        room_classes.append(true);
     }
 
     let columns: Vec<(&'static str, ArrayRef, bool)> = vec![
@@ -164,6 +232,8 @@ fn to_batch(eps: &[Episode]) -> Result<RecordBatch, arrow::error::ArrowError> {
         ("goal_ids", Arc::new(ids.finish()), false),
         ("goal_positions", Arc::new(positions.finish()), false),
         ("goal_view_points", Arc::new(views.finish()), false),
+        ("goal_room_ids", Arc::new(room_ids.finish()), false),
+        ("goal_room_classes", Arc::new(room_classes.finish()), false),
         ("euclidean_distance", f32s(&|e| e.euclidean_distance), false),
         ("geodesic_distance", f32s(&|e| e.geodesic_distance), false),
         ("path_num_doors", u32s(&|e| e.path_num_doors), false),
@@ -294,6 +364,7 @@ fn read_batch(
     let goal_ids = column::<ListArray>(batch, "goal_ids")?;
     let goal_positions = column::<ListArray>(batch, "goal_positions")?;
     let goal_views = column::<ListArray>(batch, "goal_view_points")?;
+    let target_rooms = TargetRooms::of(batch)?;
     let euclid = f32col("euclidean_distance")?;
     let geodesic = f32col("geodesic_distance")?;
     let doors = column::<UInt32Array>(batch, "path_num_doors")?;
@@ -417,6 +488,9 @@ fn read_batch(
                     id: id_values.value(k).to_string(),
                     position,
                     view_points,
+                    room: target_rooms
+                        .get(i, j)
+                        .map_err(|m| bad("goal_room_ids", format!("target {j}: {m}")))?,
                 });
             }
             if task_v == Task::ObjectGoal {
@@ -499,16 +573,22 @@ pub(crate) mod tests {
                         id: "0_12".into(),
                         position: [0.5, 0.45, 1.0],
                         view_points: vec![[0.0, 0.05, 1.0], [1.0, 0.05, 1.25]],
+                        room: Some(TargetRoom {
+                            id: "0_2".into(),
+                            class: "living_room".into(),
+                        }),
                     },
                     GoalTarget {
                         id: "0_13".into(),
                         position: [3.5, 0.45, -1.0],
                         view_points: vec![],
+                        room: None,
                     },
                     GoalTarget {
                         id: "0_14".into(),
                         position: [5.5, 0.45, -1.5],
                         view_points: vec![[5.0, 0.05, -1.5]],
+                        room: None,
                     },
                 ],
             },
@@ -533,12 +613,54 @@ pub(crate) mod tests {
                     id: "0_4".into(),
                     position: [7.0, 0.0, 7.0],
                     view_points: vec![[6.5, 0.0, 7.0], [7.5, 0.0, 7.0], [7.0, 0.0, 6.5]],
+                    room: Some(TargetRoom {
+                        id: "0_4".into(),
+                        class: "kitchen".into(),
+                    }),
                 }],
             },
             difficulty: Difficulty::Medium,
             ..base.clone()
         };
         vec![base, object, room]
+    }
+
+    #[test]
+    fn files_without_target_rooms_still_read_with_rooms_unknown() {
+        let dir = tempfile::tempdir().unwrap();
+        let a = dir.path().join("a.parquet");
+        let eps = sample_episodes();
+        write_episodes(&a, &eps).unwrap();
+        // Drop the two room columns, as a file written before they existed.
+        let batch = ParquetRecordBatchReaderBuilder::try_new(File::open(&a).unwrap())
+            .unwrap()
+            .build()
+            .unwrap()
+            .next()
+            .unwrap()
+            .unwrap();
+        let keep: Vec<usize> = (0..batch.num_columns())
+            .filter(|&c| {
+                !["goal_room_ids", "goal_room_classes"]
+                    .contains(&batch.schema().field(c).name().as_str())
+            })
+            .collect();
+        let old = batch.project(&keep).unwrap();
+        assert_eq!(old.num_columns() + 2, batch.num_columns());
+        let b = dir.path().join("old.parquet");
+        let mut w = ArrowWriter::try_new(File::create(&b).unwrap(), old.schema(), None).unwrap();
+        w.write(&old).unwrap();
+        w.close().unwrap();
+        let back = read_episodes(&b).unwrap();
+        let mut expected = eps;
+        for e in &mut expected {
+            if let Goal::Object { targets, .. } | Goal::Room { targets, .. } = &mut e.goal {
+                for t in targets {
+                    t.room = None;
+                }
+            }
+        }
+        assert_eq!(back, expected);
     }
 
     #[test]

@@ -32,7 +32,8 @@
 //!   expects. The key is Habitat's ([`goals_key`]): the last path component of `scene_id`,
 //!   extension included, `_`, the category. `object_name` is the id again; `object_name_id`
 //!   numbers the file's distinct `object_id`s in sorted order from 0; `room_id` and
-//!   `room_name` are null (the episode does not record an object's room). A view point's
+//!   `room_name` are the id and MINOS class of the room the object stands in (the room most of
+//!   its view points lie in; null when none is known, e.g. for imported episodes). A view point's
 //!   rotation faces the target's position.
 //! - RoomGoal (minos extension): exported like ObjectGoal with `object_category` = the room
 //!   class and the rooms as goals (`object_id`, `object_name` and `room_id` = the room id,
@@ -97,7 +98,7 @@ use super::interchange::{
     difficulty_for_geodesic, distance, read_text_bytes, yaw_from_y_w, yaw_to_quaternion,
     DEFAULT_MAX_STEPS,
 };
-use super::{Difficulty, Episode, Goal, GoalTarget, Task};
+use super::{Difficulty, Episode, Goal, GoalTarget, TargetRoom, Task};
 use crate::atomic::write_atomic;
 
 /// Success radius (m) of imported PointNav episodes without one (Habitat's PointNav default).
@@ -481,8 +482,14 @@ pub fn export_habitat(
                     object_name: &t.id,
                     object_name_id: 0,
                     object_category: label,
-                    room_id: rooms.then_some(t.id.as_str()),
-                    room_name: rooms.then_some(label),
+                    room_id: match &t.room {
+                        Some(r) => Some(r.id.as_str()),
+                        None => rooms.then_some(t.id.as_str()),
+                    },
+                    room_name: match &t.room {
+                        Some(r) => Some(r.class.as_str()),
+                        None => rooms.then_some(label),
+                    },
                     position: finite(e, "target position", t.position)?,
                     view_points,
                 });
@@ -719,10 +726,18 @@ fn read_targets(path: &str, list: &str, goals: &[Value]) -> Result<Vec<GoalTarge
                 .ok_or_else(|| v.err("agent_state", "missing (expected an object)"))?;
             view_points.push(state.position("position")?);
         }
+        let room = match (g.string("room_id")?, g.string("room_name")?) {
+            (Some(id), Some(class)) => Some(TargetRoom {
+                id: id.to_string(),
+                class: class.to_string(),
+            }),
+            _ => None,
+        };
         targets.push(GoalTarget {
             id,
             position,
             view_points,
+            room,
         });
     }
     Ok(targets)
@@ -875,6 +890,7 @@ fn read_episode(
                     id,
                     position: [f32::NAN; 3],
                     view_points: Vec::new(),
+                    room: None,
                 }]
             } else {
                 return Err(r.err(
@@ -1134,6 +1150,7 @@ mod tests {
                 id: "0_99".into(),
                 position: [9.0, 0.5, 9.0],
                 view_points: vec![],
+                room: None,
             });
         }
         eps.push(other);

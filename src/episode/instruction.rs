@@ -97,6 +97,7 @@ mod tests {
             id: "0_1".into(),
             position: [0.0; 3],
             view_points: vec![],
+            room: None,
         };
         let object = |c: &str| Goal::Object {
             category: c.into(),

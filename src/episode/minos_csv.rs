@@ -56,7 +56,7 @@ use std::io::BufRead;
 use std::path::Path;
 
 use super::interchange::{difficulty_for_geodesic, distance, open_text, DEFAULT_MAX_STEPS};
-use super::{Episode, Goal, GoalTarget, Task};
+use super::{Episode, Goal, GoalTarget, TargetRoom, Task};
 use crate::scene::RoomClass;
 
 /// Height (m) of MINOS's agent origin above the floor (half of its 1.09 m eye height), taken
@@ -396,6 +396,7 @@ impl RowReader<'_, '_> {
                         id,
                         position: goal_pos,
                         view_points: Vec::new(),
+                        room: None,
                     }],
                 }
             }
@@ -404,12 +405,16 @@ impl RowReader<'_, '_> {
                 let raw = required(c.room_type, "goalRoomType")?;
                 let class = RoomClass::from_name(&raw).map_or(raw, |k| k.name().to_string());
                 Goal::Room {
-                    class,
                     targets: vec![GoalTarget {
+                        room: Some(TargetRoom {
+                            id: id.clone(),
+                            class: class.clone(),
+                        }),
                         id,
                         position: goal_pos,
                         view_points: Vec::new(),
                     }],
+                    class,
                 }
             }
         };
@@ -520,7 +525,8 @@ mod tests {
                 targets: vec![GoalTarget {
                     id: "0_5".into(),
                     position: [4.0, 0.5, 3.0],
-                    view_points: vec![]
+                    view_points: vec![],
+                    room: None,
                 }]
             }
         );

@@ -53,6 +53,18 @@ pub struct GoalTarget {
     /// Walkable points from which the target counts as reached (Habitat's "view points":
     /// near an object, or inside a room), possibly subsampled; empty when not computed.
     pub view_points: Vec<[f32; 3]>,
+    /// The room the target is in (for a room target, itself), when known.
+    #[serde(default)]
+    pub room: Option<TargetRoom>,
+}
+
+/// The room of a goal target.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct TargetRoom {
+    /// Room id in the scene.
+    pub id: String,
+    /// MINOS room class name (`kitchen`, …).
+    pub class: String,
 }
 
 /// What the agent must reach.

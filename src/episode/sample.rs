@@ -25,7 +25,7 @@ use crate::navmesh::{NavGrid, NONE};
 use crate::scene::RoomClass;
 use crate::seed::{derive_seed, Rng};
 
-use super::{Difficulty, Episode, Goal, GoalTarget, Task};
+use super::{Difficulty, Episode, Goal, GoalTarget, TargetRoom, Task};
 
 /// Which instance(s) of the goal category count.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -187,6 +187,31 @@ fn view_points(grid: &NavGrid, spans: &[u32]) -> Vec<[f32; 3]> {
         .collect()
 }
 
+/// The room most of `spans` lie in (ties: the lowest room index), `None` when none is in a
+/// room.
+fn room_of(grid: &NavGrid, spans: &[u32]) -> Option<TargetRoom> {
+    let mut counts: BTreeMap<u32, usize> = BTreeMap::new();
+    for &s in spans {
+        let room = grid.spans.get(s as usize)?.room;
+        if (room as usize) < grid.rooms.len() {
+            *counts.entry(room).or_default() += 1;
+        }
+    }
+    let (&best, _) = counts
+        .iter()
+        .max_by(|a, b| a.1.cmp(b.1).then(b.0.cmp(a.0)))?;
+    let room = &grid.rooms[best as usize];
+    Some(TargetRoom {
+        id: room.id.clone(),
+        class: RoomClass::ALL
+            .iter()
+            .find(|c| c.index() == room.class)
+            .unwrap_or(&RoomClass::Other)
+            .name()
+            .to_string(),
+    })
+}
+
 /// The goal sets of a scene for the task: one per category (ObjectGoal) or room class (RoomGoal).
 fn goal_sets(grid: &NavGrid, cfg: &SampleConfig) -> Vec<GoalSet> {
     match cfg.task {
@@ -217,6 +242,7 @@ fn goal_sets(grid: &NavGrid, cfg: &SampleConfig) -> Vec<GoalSet> {
                         id: o.id.clone(),
                         position: centre,
                         view_points: view_points(grid, &spans),
+                        room: room_of(grid, &spans),
                     });
                     set.spans.push(spans);
                 }
@@ -250,6 +276,10 @@ fn goal_sets(grid: &NavGrid, cfg: &SampleConfig) -> Vec<GoalSet> {
                             id: r.id.clone(),
                             position: position_of(grid, &spans),
                             view_points: view_points(grid, &spans),
+                            room: Some(TargetRoom {
+                                id: r.id.clone(),
+                                class: class.name().to_string(),
+                            }),
                         });
                         set.spans.push(spans);
                     }

@@ -214,7 +214,7 @@ fn read_parquet_pairs(path: &Path) -> Result<Vec<(Vec3, Vec3)>, PairsError> {
             let row = pairs.len() + 1;
             let mut c = [0f32; 6];
             for (k, name) in PAIR_COLUMNS.iter().enumerate() {
-                let v = cols[k][i];
+                let v = cols[k].get(i).copied().flatten();
                 c[k] = v
                     .map(|v| v as f32)
                     .filter(|v| v.is_finite())

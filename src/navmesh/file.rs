@@ -764,8 +764,10 @@ mod tests {
     fn the_parameters_read_alone_from_the_header() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("g.nav");
-        let mut params = NavParams::default();
-        params.body = crate::body::AgentBody::MINOS;
+        let params = NavParams {
+            body: crate::body::AgentBody::MINOS,
+            ..NavParams::default()
+        };
         let rows = ["#####", "#...#", "#####"];
         let g = MapSpec::ascii(&rows, 0.1).build(params);
         let bytes = encode(&g).unwrap();
