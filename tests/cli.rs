@@ -372,6 +372,8 @@ fn demo_leaves_a_manifest_splits_and_statistics() {
         "episodes/pointgoal.parquet",
         "runs/oracle/trajectories.parquet",
         "runs/oracle/observations.parquet",
+        "runs/oracle/lerobot/meta/info.json",
+        "runs/oracle/lerobot/data/chunk-000/file-000.parquet",
         "episode.rrd",
     ] {
         let len = std::fs::metadata(dir.path().join(file)).map_or(0, |m| m.len());

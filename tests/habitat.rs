@@ -184,11 +184,15 @@ fn object_goals_name_the_room_their_object_stands_in() {
                 .room
                 .as_ref()
                 .unwrap_or_else(|| panic!("{}: no room", t.id));
-            // Independently: the room holding the most of the target's view points.
+            // Independently: the room holding the most of the spans (those in a room) from
+            // which the object counts as reached.
+            let object = g.objects.iter().position(|o| o.id == t.id).unwrap() as u32;
             let mut counts = std::collections::BTreeMap::new();
-            for v in &t.view_points {
-                let span = g.snap(glam::Vec3::from_array(*v)).unwrap();
-                *counts.entry(g.spans[span as usize].room).or_insert(0usize) += 1;
+            for span in g.object_spans(object, e.success_radius) {
+                let room = g.spans[span as usize].room;
+                if (room as usize) < g.rooms.len() {
+                    *counts.entry(room).or_insert(0usize) += 1;
+                }
             }
             let most = counts.values().copied().max().unwrap();
             let r = g.rooms.iter().position(|r| r.id == room.id).unwrap() as u32;

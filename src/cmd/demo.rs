@@ -198,7 +198,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         resume: true,
         reward: Reward::Geodesic,
         encoding: ImageEncoding::Raw,
-        lerobot: false,
+        lerobot: true,
         rerun: Some(RerunOutput {
             path: recording.clone(),
             episodes: 1,
@@ -217,8 +217,8 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         rollout(&run_cfg, &validation, &bar)?
     };
     ctx.say(format!(
-        "7/7 oracle rollouts (RGB-D-semantic 84², Habitat agent) of {} validation episodes -> {}, \
-         {} recorded -> {}",
+        "7/7 oracle rollouts (RGB-D-semantic 84², Habitat agent) of {} validation episodes -> {} \
+         (Parquet tables and a LeRobot v3.0 dataset in lerobot/), {} recorded -> {}",
         report.episodes.len(),
         run_dir.display(),
         report.recorded,
@@ -232,7 +232,8 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
          minos nav query --data {d} --scene {id} --from X,0,Z --to X,0,Z\n  \
          minos stats --data {d} --split multiroom\n  \
          minos export --data {d} --scene {id} --out house.glb   (open in Blender)\n  \
-         python: pandas.read_parquet(\"{e}\"), pyarrow.parquet.read_table(\"{r}\")",
+         python: pandas.read_parquet(\"{e}\"), pyarrow.parquet.read_table(\"{r}\")\n  \
+         lerobot: LeRobotDataset(\"minos/demo\", root=\"{lr}\")",
         start.elapsed().as_secs_f64(),
         rrd = recording.display(),
         nav = store.nav_dir().display(),
@@ -240,6 +241,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         id = ids.first().map(String::as_str).unwrap_or("ID"),
         e = episodes_dir.join("pointgoal.parquet").display(),
         r = run_dir.join("observations.parquet").display(),
+        lr = run_dir.join("lerobot").display(),
     ));
     Ok(if failed == 0 && bake_failed == 0 {
         ExitCode::SUCCESS

@@ -715,7 +715,8 @@ pub(crate) mod tests {
             .collect();
         let expected = "episode_id scene_id split task seed start_x start_y start_z start_yaw \
             goal_x goal_y goal_z goal_category goal_room_class goal_ids goal_positions \
-            goal_view_points euclidean_distance geodesic_distance path_num_doors \
+            goal_view_points goal_room_ids goal_room_classes euclidean_distance \
+            geodesic_distance path_num_doors \
             path_num_rooms difficulty success_radius max_steps";
         assert_eq!(names, expected.split_whitespace().collect::<Vec<_>>());
         let batch = reader.build().unwrap().next().unwrap().unwrap();

@@ -33,7 +33,8 @@
 //!   extension included, `_`, the category. `object_name` is the id again; `object_name_id`
 //!   numbers the file's distinct `object_id`s in sorted order from 0; `room_id` and
 //!   `room_name` are the id and MINOS class of the room the object stands in (the room most of
-//!   its view points lie in; null when none is known, e.g. for imported episodes). A view point's
+//!   the spans it counts as reached from lie in; null when none is known, e.g. for imported
+//!   episodes). A view point's
 //!   rotation faces the target's position.
 //! - RoomGoal (minos extension): exported like ObjectGoal with `object_category` = the room
 //!   class and the rooms as goals (`object_id`, `object_name` and `room_id` = the room id,
