@@ -51,13 +51,18 @@ pub fn write_bytes_atomic(path: &Path, bytes: &[u8]) -> io::Result<()> {
 /// The process id in a temporary name — `.<name>.tmp-<pid>`, or `.<name>.old-<pid>` for a
 /// folder being replaced — or `None` for any other name.
 pub fn temp_owner(file_name: &str) -> Option<u32> {
+    temp_of(file_name).map(|(_, pid)| pid)
+}
+
+/// The final name and the process id of a temporary name.
+fn temp_of(file_name: &str) -> Option<(&str, u32)> {
     let rest = file_name.strip_prefix('.')?;
     let (stem, pid) = rest.rsplit_once('-')?;
     let pid: u32 = pid.parse().ok()?;
     let name = stem
         .strip_suffix(".tmp")
         .or_else(|| stem.strip_suffix(".old"))?;
-    (!name.is_empty()).then_some(pid)
+    (!name.is_empty()).then_some((name, pid))
 }
 
 /// True when process `pid` is running, as far as this platform can tell without asking the
@@ -74,6 +79,25 @@ fn process_alive(pid: u32) -> bool {
 /// Every command that writes a folder calls it before writing, under the folder's lock
 /// ([`crate::lock`]), so files of a killed run never outlive the next run.
 pub fn sweep_stale(dir: &Path) -> io::Result<Vec<PathBuf>> {
+    sweep_where(dir, |_| true)
+}
+
+/// Removes the temporary files a process that is no longer running left while writing
+/// `path` (and nothing else of its folder): for a command that writes one file into a folder
+/// it does not own. Returns what was removed, sorted.
+pub fn sweep_stale_of(path: &Path) -> io::Result<Vec<PathBuf>> {
+    let Some(name) = path.file_name().map(|n| n.to_string_lossy().into_owned()) else {
+        return Ok(Vec::new());
+    };
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    sweep_where(dir, |of| of == name)
+}
+
+/// Removes the dead processes' temporary entries of `dir` whose final name `wanted` accepts.
+fn sweep_where(dir: &Path, wanted: impl Fn(&str) -> bool) -> io::Result<Vec<PathBuf>> {
     let entries = match fs::read_dir(dir) {
         Ok(entries) => entries,
         Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(Vec::new()),
@@ -84,10 +108,11 @@ pub fn sweep_stale(dir: &Path) -> io::Result<Vec<PathBuf>> {
     for entry in entries {
         let entry = entry?;
         let name = entry.file_name();
-        let Some(pid) = temp_owner(&name.to_string_lossy()) else {
+        let name = name.to_string_lossy();
+        let Some((of, pid)) = temp_of(&name) else {
             continue;
         };
-        if pid == me || process_alive(pid) {
+        if pid == me || !wanted(of) || process_alive(pid) {
             continue;
         }
         let path = entry.path();
@@ -159,6 +184,18 @@ mod tests {
             vec![format!(".b.nav.tmp-{mine}"), "a.nav".into(), "sub".into()]
         );
         assert!(sweep_stale(&d.join("missing")).unwrap().is_empty());
+    }
+
+    #[test]
+    fn sweeping_for_one_file_leaves_the_others_temps() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let dead = 4_194_305 + 18;
+        fs::write(d.join(format!(".e.parquet.tmp-{dead}")), b"x").unwrap();
+        fs::write(d.join(format!(".other.parquet.tmp-{dead}")), b"x").unwrap();
+        let removed = sweep_stale_of(&d.join("e.parquet")).unwrap();
+        assert_eq!(removed, vec![d.join(format!(".e.parquet.tmp-{dead}"))]);
+        assert!(d.join(format!(".other.parquet.tmp-{dead}")).exists());
     }
 
     #[test]

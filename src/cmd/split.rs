@@ -114,6 +114,7 @@ pub fn config(args: &Args) -> anyhow::Result<SplitJob> {
 /// Runs the subcommand.
 pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     let job = config(&args)?;
+    let _lock = job.data.lock("split", ctx.lock_mode)?;
     let (filter, dir) = (job.filter.as_ref(), &job.dir);
     let rows = job
         .data

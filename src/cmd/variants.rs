@@ -5,6 +5,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::{bail, Context as _};
+use minos::atomic::sweep_stale;
 use minos::pipeline::variants::{collect_stats, dry_run};
 use minos::scene::variants::materials::DEFAULT_FRACTIONS;
 use minos::scene::variants::{
@@ -134,6 +135,11 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         return Ok(ExitCode::SUCCESS);
     }
     let variants = config(&args)?;
+    let _lock = data.lock("variants", ctx.lock_mode)?;
+    for dir in [data.variants_dir(), data.stats_dir()] {
+        sweep_stale(&dir)
+            .with_context(|| format!("{}: removing stale temporary files", dir.display()))?;
+    }
     let ids = data.ingested_ids()?;
 
     let needs_stats = variants.iter().any(|(_, s)| s.retexture.is_some());

@@ -85,9 +85,14 @@ impl DataDir {
         self.variants_dir().join(format!("{name}.toml"))
     }
 
+    /// `DATA/stats/`.
+    pub fn stats_dir(&self) -> PathBuf {
+        self.root.join("stats")
+    }
+
     /// `DATA/stats/materials.json`.
     pub fn material_stats_path(&self) -> PathBuf {
-        self.root.join("stats").join("materials.json")
+        self.stats_dir().join("materials.json")
     }
 
     /// `DATA/splits/`.

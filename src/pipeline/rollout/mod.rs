@@ -19,11 +19,12 @@ use std::path::{Path, PathBuf};
 
 use rayon::prelude::*;
 
-use crate::atomic::write_bytes_atomic;
+use crate::atomic::{sweep_stale, write_bytes_atomic};
 use crate::body::AgentPreset;
 use crate::episode::Episode;
 use crate::io::rrd::RecordingError;
 use crate::io::tables::{merge, observation_schema, trajectory_schema, ImageEncoding};
+use crate::lock::{DirLock, LockError, LockMode};
 use crate::navmesh::geodesic::Geodesic;
 use crate::progress::Progress;
 use crate::run::agents::Decision;
@@ -111,6 +112,9 @@ pub struct Provenance {
 /// [`RunReport::failures`]).
 #[derive(Debug, thiserror::Error)]
 pub enum RolloutError {
+    /// Another process writes the output folder, or its lock cannot be taken.
+    #[error(transparent)]
+    Lock(#[from] LockError),
     /// A file or folder of the output could not be written.
     #[error("{}: {source}", path.display())]
     Io {
@@ -193,14 +197,39 @@ type Outcome = (usize, Result<(EpisodeMetrics, bool), String>);
 /// Runs the episodes, writes the tables, `metrics.json` and `manifest.json` into `cfg.out`.
 /// The scenes of this shard's episodes are checked first ([`RolloutError::NotReady`], with
 /// nothing written).
+/// Fails at once when another process writes `cfg.out` ([`run_with`] can wait instead).
 pub fn run(
     cfg: &RunConfig,
     episodes: &[Episode],
     progress: &dyn Progress,
 ) -> Result<RunReport, RolloutError> {
+    run_with(cfg, episodes, LockMode::Fail, progress)
+}
+
+/// [`run`], holding the output folder's writer lock (`OUT/.minos.lock`, taken as `mode` says)
+/// from the end of the preflight on, and removing first what a killed run left in `OUT/`, in
+/// `OUT/.parts/` and beside the recording.
+pub fn run_with(
+    cfg: &RunConfig,
+    episodes: &[Episode],
+    mode: LockMode,
+    progress: &dyn Progress,
+) -> Result<RunReport, RolloutError> {
     let mine = select(episodes, cfg.shard);
     preflight::check(cfg, &mine)?;
+    let _lock = DirLock::acquire(&cfg.out, "run", mode)?;
     let parts = cfg.out.join(".parts");
+    let recording_dir = cfg.rerun.as_ref().and_then(|r| r.path.parent());
+    for dir in [
+        Some(cfg.out.as_path()),
+        Some(parts.as_path()),
+        recording_dir,
+    ]
+    .into_iter()
+    .flatten()
+    {
+        sweep_stale(dir).map_err(io_error(dir))?;
+    }
     if !cfg.resume && parts.exists() {
         std::fs::remove_dir_all(&parts).map_err(io_error(&parts))?;
     }
