@@ -44,7 +44,7 @@ pub enum LockError {
         command: String,
     },
     /// The folder or its lock file cannot be created or locked.
-    #[error("{}: cannot lock: {source}", path.display())]
+    #[error("{}: cannot take the writer's lock: {source}", path.display())]
     Io {
         /// The lock file (or the folder).
         path: PathBuf,

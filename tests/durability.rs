@@ -351,6 +351,16 @@ impl Tmpfs {
         assert!(ok.success(), "remount {}", self.0.display());
     }
 
+    /// Remounts it `ro` or `rw`.
+    fn remount(&self, how: &str) {
+        let ok = Command::new("mount")
+            .args(["-o", &format!("remount,{how}")])
+            .arg(&self.0)
+            .status()
+            .unwrap();
+        assert!(ok.success(), "remount {how} {}", self.0.display());
+    }
+
     /// Bytes in use.
     fn used(&self) -> u64 {
         let out = Command::new("df")
@@ -381,6 +391,7 @@ fn fails_naming_a_file(args: &[&str], extra: &[&Path], under: &Path) {
     }
     let out = cmd.output().unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
+    eprint!("full disk, {}: {err}", args[1]);
     assert!(!out.status.success(), "{args:?} succeeded on a full disk");
     assert_eq!(err.lines().count(), 1, "{err}");
     assert!(err.contains("No space left on device"), "{err}");
@@ -464,4 +475,83 @@ fn a_full_disk_fails_with_one_line_naming_the_file_and_the_next_run_completes() 
         .arg(&data)
         .ok_output();
     assert!(tree_bytes(&data) == baked, "bake after a full disk differs");
+
+    // A read-only folder: one line naming it, nothing changed.
+    fs.remount("ro");
+    let out = minos()
+        .args(["-q", "bake", "--force", "--data"])
+        .arg(&data)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    eprint!("read-only, bake: {err}");
+    assert!(!out.status.success());
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(
+        err.contains("Read-only file system") && err.contains(&data.display().to_string()),
+        "{err}"
+    );
+    fs.remount("rw");
+    assert!(tree_bytes(&data) == baked, "a refused bake changed DATA");
+
+    // A run whose output folder fills up: its reference first, in the same place.
+    let eps = dir.path().join("point.parquet");
+    minos()
+        .args([
+            "-q",
+            "episodes",
+            "--task",
+            "pointgoal",
+            "--split",
+            "all",
+            "--per-scene",
+            "3",
+        ])
+        .arg("--data")
+        .arg(&data)
+        .arg("--out")
+        .arg(&eps)
+        .ok_output();
+    let out = mnt.join("OUT");
+    let run = || {
+        let mut cmd = minos();
+        cmd.args([
+            "-q",
+            "run",
+            "--agent",
+            "forward",
+            "--max-steps",
+            "12",
+            "--size",
+            "32",
+        ])
+        .arg("--data")
+        .arg(&data)
+        .arg("--episodes")
+        .arg(&eps)
+        .arg("--out")
+        .arg(&out);
+        cmd
+    };
+    run().ok_output();
+    let ran = tree_bytes(&out);
+    std::fs::remove_dir_all(&out).unwrap();
+    fs.resize(fs.used() + (24 << 10));
+    let failed = run().output().unwrap();
+    let err = String::from_utf8_lossy(&failed.stderr);
+    eprint!("full disk, run: {err}");
+    assert!(!failed.status.success(), "run succeeded on a full disk");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.contains("No space left on device"), "{err}");
+    assert!(err.contains(&out.display().to_string()), "{err}");
+    for table in [
+        "trajectories.parquet",
+        "observations.parquet",
+        "metrics.json",
+    ] {
+        assert!(!out.join(table).exists(), "{table} written on a full disk");
+    }
+    fs.resize(64 << 20);
+    run().ok_output();
+    assert!(tree_bytes(&out) == ran, "run after a full disk differs");
 }
