@@ -114,12 +114,13 @@ pub fn config(args: &Args) -> anyhow::Result<SplitJob> {
 /// Runs the subcommand.
 pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     let job = config(&args)?;
-    let _lock = job.data.lock("split", ctx.lock_mode)?;
     let (filter, dir) = (job.filter.as_ref(), &job.dir);
     let rows = job
         .data
         .read_manifest()
         .context("cannot read the manifest (run `minos ingest` first)")?;
+    // Taken once DATA is known to hold a manifest, so a wrong --data creates nothing.
+    let _lock = job.data.lock("split", ctx.lock_mode)?;
     let result = match &job.method {
         Method::Lists(lists_dir) => {
             let lists = split::read_lists(lists_dir).context("--lists")?;

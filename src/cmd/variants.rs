@@ -135,12 +135,13 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         return Ok(ExitCode::SUCCESS);
     }
     let variants = config(&args)?;
+    let ids = data.ingested_ids()?;
+    // Taken once DATA is known to hold a manifest, so a wrong --data creates nothing.
     let _lock = data.lock("variants", ctx.lock_mode)?;
     for dir in [data.variants_dir(), data.stats_dir()] {
         sweep_stale(&dir)
             .with_context(|| format!("{}: removing stale temporary files", dir.display()))?;
     }
-    let ids = data.ingested_ids()?;
 
     let needs_stats = variants.iter().any(|(_, s)| s.retexture.is_some());
     let stats = if needs_stats || args.refresh_stats {
