@@ -555,3 +555,92 @@ fn a_full_disk_fails_with_one_line_naming_the_file_and_the_next_run_completes() 
     run().ok_output();
     assert!(tree_bytes(&out) == ran, "run after a full disk differs");
 }
+
+#[test]
+fn two_runs_on_one_output_folder_the_second_names_the_first_and_a_killed_holder_frees_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = ingested(dir.path());
+    let eps = dir.path().join("point.parquet");
+    for args in [
+        vec![
+            "-q", "split", "--name", "all", "--ratios", "1,0,0", "--data",
+        ],
+        vec!["-q", "bake", "--no-preview", "--data"],
+    ] {
+        minos().args(&args).arg(&data).ok_output();
+    }
+    minos()
+        .args([
+            "-q",
+            "episodes",
+            "--task",
+            "pointgoal",
+            "--split",
+            "all",
+            "--per-scene",
+            "2",
+        ])
+        .arg("--data")
+        .arg(&data)
+        .arg("--out")
+        .arg(&eps)
+        .ok_output();
+    let out = dir.path().join("OUT");
+    let run = |agent: &str| {
+        let mut cmd = minos();
+        cmd.args([
+            "-q",
+            "run",
+            "--max-steps",
+            "5",
+            "--size",
+            "16",
+            "--agent",
+            agent,
+        ])
+        .arg("--data")
+        .arg(&data)
+        .arg("--episodes")
+        .arg(&eps)
+        .arg("--out")
+        .arg(&out);
+        cmd
+    };
+    // The first run's policy never answers (it reads until minos goes away), so the first
+    // run holds OUT until it is killed.
+    let mut first = run("external:cat > /dev/null").spawn().unwrap();
+    let holder = format!("{} run\n", first.id());
+    let lock = out.join(".minos.lock");
+    let start = Instant::now();
+    while std::fs::read_to_string(&lock).unwrap_or_default() != holder {
+        assert!(
+            start.elapsed() < Duration::from_secs(60),
+            "the first run never took the lock"
+        );
+        assert!(
+            first.try_wait().unwrap().is_none(),
+            "the first run ended early"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let second = run("forward").output().unwrap();
+    let err = String::from_utf8_lossy(&second.stderr);
+    assert!(!second.status.success(), "two runs wrote one folder");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(
+        err.contains(&format!("in use by pid {} (minos run)", first.id())),
+        "{err}"
+    );
+    // The run only reads DATA: a DATA writer goes on beside it.
+    minos()
+        .args(["-q", "split", "--name", "b", "--ratios", "1,0,0", "--data"])
+        .arg(&data)
+        .ok_output();
+    // Killed, the holder lets go: no stale lock.
+    first.kill().unwrap();
+    first.wait().unwrap();
+    run("forward").ok_output();
+    assert!(out.join("trajectories.parquet").is_file());
+    assert_eq!(temporaries(&out), Vec::<PathBuf>::new());
+    assert_eq!(std::fs::read(&lock).unwrap(), b"");
+}
