@@ -1,7 +1,9 @@
 //! Atomic file output: write to a temporary name beside the target, rename when complete.
 //!
 //! An interrupted run therefore never leaves a file under its final name that looks complete.
-//! Temporary files are named `.<name>.tmp-<pid>` and are ignored by every reader.
+//! Temporary files are named `.<name>.tmp-<pid>` and are ignored by every reader; those a
+//! killed process left behind are removed by the next run of a command that writes the same
+//! folder ([`sweep_stale`]).
 
 use std::fs::{self, File};
 use std::io::{self, BufWriter, Write};
@@ -46,9 +48,155 @@ pub fn write_bytes_atomic(path: &Path, bytes: &[u8]) -> io::Result<()> {
     write_atomic(path, |w| w.write_all(bytes))
 }
 
+/// The process id in a temporary name — `.<name>.tmp-<pid>`, or `.<name>.old-<pid>` for a
+/// folder being replaced — or `None` for any other name.
+pub fn temp_owner(file_name: &str) -> Option<u32> {
+    temp_of(file_name).map(|(_, pid)| pid)
+}
+
+/// The final name and the process id of a temporary name.
+fn temp_of(file_name: &str) -> Option<(&str, u32)> {
+    let rest = file_name.strip_prefix('.')?;
+    let (stem, pid) = rest.rsplit_once('-')?;
+    let pid: u32 = pid.parse().ok()?;
+    let name = stem
+        .strip_suffix(".tmp")
+        .or_else(|| stem.strip_suffix(".old"))?;
+    (!name.is_empty()).then_some((name, pid))
+}
+
+/// True when process `pid` is running, as far as this platform can tell without asking the
+/// kernel directly: on Linux, when `/proc/<pid>` exists; elsewhere never (the caller holds
+/// the folder's writer lock, so no other process writes there).
+fn process_alive(pid: u32) -> bool {
+    Path::new("/proc/self").exists() && Path::new("/proc").join(pid.to_string()).exists()
+}
+
+/// Removes the temporary files and folders in `dir` (not below it) that another process left
+/// behind: those of a process that is no longer running. This process's own and a live
+/// process's are kept. Returns what was removed, sorted; a missing `dir` has nothing to sweep.
+///
+/// Every command that writes a folder calls it before writing, under the folder's lock
+/// ([`crate::lock`]), so files of a killed run never outlive the next run.
+pub fn sweep_stale(dir: &Path) -> io::Result<Vec<PathBuf>> {
+    sweep_where(dir, |_| true)
+}
+
+/// Removes the temporary files a process that is no longer running left while writing
+/// `path` (and nothing else of its folder): for a command that writes one file into a folder
+/// it does not own. Returns what was removed, sorted.
+pub fn sweep_stale_of(path: &Path) -> io::Result<Vec<PathBuf>> {
+    let Some(name) = path.file_name().map(|n| n.to_string_lossy().into_owned()) else {
+        return Ok(Vec::new());
+    };
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    sweep_where(dir, |of| of == name)
+}
+
+/// Removes the dead processes' temporary entries of `dir` whose final name `wanted` accepts.
+fn sweep_where(dir: &Path, wanted: impl Fn(&str) -> bool) -> io::Result<Vec<PathBuf>> {
+    let entries = match fs::read_dir(dir) {
+        Ok(entries) => entries,
+        Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(Vec::new()),
+        Err(e) => return Err(e),
+    };
+    let me = std::process::id();
+    let mut removed = Vec::new();
+    for entry in entries {
+        let entry = entry?;
+        let name = entry.file_name();
+        let name = name.to_string_lossy();
+        let Some((of, pid)) = temp_of(&name) else {
+            continue;
+        };
+        if pid == me || !wanted(of) || process_alive(pid) {
+            continue;
+        }
+        let path = entry.path();
+        let gone = if entry.file_type()?.is_dir() {
+            fs::remove_dir_all(&path)
+        } else {
+            fs::remove_file(&path)
+        };
+        match gone {
+            Ok(()) => removed.push(path),
+            Err(e) if e.kind() == io::ErrorKind::NotFound => {}
+            Err(e) => return Err(e),
+        }
+    }
+    removed.sort();
+    Ok(removed)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn temp_names_are_recognised_and_nothing_else() {
+        assert_eq!(temp_owner(".h1.mscene.tmp-42"), Some(42));
+        assert_eq!(temp_owner(".lerobot.old-7"), Some(7));
+        for other in [
+            "h1.mscene",
+            ".h1.mscene",
+            ".tmp-42",
+            ".h1.tmp-x",
+            "h1.tmp-42",
+            ".minos.lock",
+            ".parts",
+        ] {
+            assert_eq!(temp_owner(other), None, "{other}");
+        }
+    }
+
+    #[test]
+    fn sweep_removes_dead_processes_temps_and_keeps_the_rest() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        // A pid no process has: above the Linux maximum (2^22).
+        let dead = 4_194_305 + 17;
+        let mine = std::process::id();
+        fs::write(d.join(format!(".a.nav.tmp-{dead}")), b"x").unwrap();
+        fs::create_dir(d.join(format!(".lerobot.tmp-{dead}"))).unwrap();
+        fs::write(d.join(format!(".lerobot.tmp-{dead}/f")), b"x").unwrap();
+        fs::write(d.join(format!(".b.nav.tmp-{mine}")), b"x").unwrap();
+        fs::write(d.join("a.nav"), b"keep").unwrap();
+        fs::create_dir(d.join("sub")).unwrap();
+        fs::write(d.join(format!("sub/.c.tmp-{dead}")), b"x").unwrap();
+        let removed = sweep_stale(d).unwrap();
+        assert_eq!(
+            removed,
+            vec![
+                d.join(format!(".a.nav.tmp-{dead}")),
+                d.join(format!(".lerobot.tmp-{dead}")),
+            ]
+        );
+        let mut left: Vec<String> = fs::read_dir(d)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        left.sort();
+        assert_eq!(
+            left,
+            vec![format!(".b.nav.tmp-{mine}"), "a.nav".into(), "sub".into()]
+        );
+        assert!(sweep_stale(&d.join("missing")).unwrap().is_empty());
+    }
+
+    #[test]
+    fn sweeping_for_one_file_leaves_the_others_temps() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let dead = 4_194_305 + 18;
+        fs::write(d.join(format!(".e.parquet.tmp-{dead}")), b"x").unwrap();
+        fs::write(d.join(format!(".other.parquet.tmp-{dead}")), b"x").unwrap();
+        let removed = sweep_stale_of(&d.join("e.parquet")).unwrap();
+        assert_eq!(removed, vec![d.join(format!(".e.parquet.tmp-{dead}"))]);
+        assert!(d.join(format!(".other.parquet.tmp-{dead}")).exists());
+    }
 
     #[test]
     fn failed_write_leaves_neither_file_nor_temp() {

@@ -3,8 +3,9 @@
 //! The modules stand on floors; each imports only from floors below it (enforced by
 //! `tests/layering.rs`, described in `docs/ARCHITECTURE.md`):
 //!
-//! 1. ground: [`atomic`] (files written under a temporary name), [`body`] (the agent's body
-//!    and presets), [`parquet_io`] (Parquet plumbing), [`seed`], [`shard`], [`progress`];
+//! 1. ground: [`atomic`] (files written under a temporary name), [`lock`] (one writer per
+//!    folder), [`body`] (the agent's body and presets), [`parquet_io`] (Parquet plumbing),
+//!    [`seed`], [`shard`], [`progress`];
 //! 2. the canonical model: [`scene`] (dataset loaders, variants as model operations);
 //! 3. algorithms, in the direction data flows: [`navmesh`] → [`episode`] → [`render`] →
 //!    [`sim`] → [`run`] (agents and metrics), plus [`generate`] (procedural houses);
@@ -21,6 +22,7 @@ pub mod body;
 pub mod episode;
 pub mod generate;
 pub mod io;
+pub mod lock;
 pub mod navmesh;
 pub mod parquet_io;
 pub mod pipeline;

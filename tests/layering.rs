@@ -6,13 +6,22 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 /// Ground: utilities every floor may use.
-const GROUND: &[&str] = &["atomic", "body", "parquet_io", "progress", "seed", "shard"];
+const GROUND: &[&str] = &[
+    "atomic",
+    "body",
+    "lock",
+    "parquet_io",
+    "progress",
+    "seed",
+    "shard",
+];
 
 /// Each top-level module of the library and the modules (beyond the ground) it may import.
 /// Read top to bottom, this is the floor plan of `docs/ARCHITECTURE.md`.
 const FLOORS: &[(&str, &[&str])] = &[
     ("atomic", &[]),
     ("body", &[]),
+    ("lock", &[]),
     ("parquet_io", &[]),
     ("progress", &[]),
     ("seed", &[]),

@@ -102,11 +102,15 @@ pub fn config(args: &Args) -> anyhow::Result<BakeConfig> {
 /// Runs `minos bake`.
 pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     let cfg = config(&args)?;
+    let _lock = cfg.data.lock("bake", ctx.lock_mode)?;
     let start = Instant::now();
     let report = {
         let bar = ctx.progress(cfg.scenes.len() as u64, "bake");
         bake_scenes(&cfg, &bar)
     };
+    if let Some(e) = report.write_failure() {
+        anyhow::bail!("{e}");
+    }
     let mut failed = 0;
     for (id, e) in report.failures() {
         eprintln!("error: scene {id}: {e}");

@@ -6,6 +6,7 @@ use std::path::Path;
 use anyhow::Context as _;
 use indicatif::{ProgressBar, ProgressStyle};
 use minos::body::AgentPreset;
+use minos::lock::LockMode;
 use minos::render::RendererChoice;
 use minos::sim::SensorSuite;
 use minos::split::read_split;
@@ -17,11 +18,13 @@ use tracing_subscriber::EnvFilter;
 pub struct Context {
     /// `-q`: print only errors.
     pub quiet: bool,
+    /// `--wait`: wait for another writer of the same folder instead of failing.
+    pub lock_mode: LockMode,
 }
 
 impl Context {
     /// Initialises tracing (RUST_LOG wins over -v/-q) and returns the context.
-    pub fn new(quiet: bool, verbose: u8) -> Self {
+    pub fn new(quiet: bool, verbose: u8, wait: bool) -> Self {
         let default = match (quiet, verbose) {
             (true, _) => "error",
             (false, 0) => "warn",
@@ -37,7 +40,8 @@ impl Context {
             .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
             .with_target(false)
             .try_init();
-        Context { quiet }
+        let lock_mode = if wait { LockMode::Wait } else { LockMode::Fail };
+        Context { quiet, lock_mode }
     }
 
     /// A progress bar over `total` items (hidden with -q or when stderr is not a terminal).

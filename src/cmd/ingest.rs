@@ -6,7 +6,7 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use anyhow::Context as _;
-use minos::pipeline::ingest::{ingest, read_id_list, DatasetFormat, IngestConfig, Outcome};
+use minos::pipeline::ingest::{ingest_with, read_id_list, DatasetFormat, IngestConfig, Outcome};
 use minos::store::DataDir;
 
 use super::Context;
@@ -99,7 +99,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     let start = Instant::now();
     let report = {
         let bar = ctx.progress(0, "ingest");
-        let job = || ingest(&cfg, &bar);
+        let job = || ingest_with(&cfg, ctx.lock_mode, &bar);
         match args.jobs {
             Some(n) => rayon::ThreadPoolBuilder::new()
                 .num_threads(n)

@@ -43,6 +43,10 @@ struct Cli {
     /// overrides), at most 1024. Outputs never depend on it.
     #[arg(long, global = true, value_name = "N", value_parser = common::parse_threads)]
     threads: Option<usize>,
+    /// When another minos process is writing the same DATA or output folder, wait for it to
+    /// finish instead of failing at once with its pid.
+    #[arg(long, global = true)]
+    wait: bool,
     #[command(subcommand)]
     command: Command,
 }
@@ -87,7 +91,7 @@ pub fn main() -> ExitCode {
         std::env::set_var(name, value);
     }
     let cli = Cli::parse();
-    let ctx = Context::new(cli.quiet, cli.verbose);
+    let ctx = Context::new(cli.quiet, cli.verbose, cli.wait);
     if let Some(n) = cli.threads {
         if let Err(e) = rayon::ThreadPoolBuilder::new()
             .num_threads(n)

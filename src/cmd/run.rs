@@ -11,7 +11,7 @@ use minos::episode::format::read_episodes;
 use minos::episode::Episode;
 use minos::io::tables::{read_replay, ImageEncoding};
 use minos::pipeline::rollout::{
-    run as run_episodes, select, AgentKind, Provenance, RerunOutput, RunConfig,
+    run_with as run_episodes, select, AgentKind, Provenance, RerunOutput, RunConfig,
 };
 use minos::run::metrics::{render_table, Reward};
 use minos::shard::Shard;
@@ -245,7 +245,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     let start = std::time::Instant::now();
     let report = {
         let bar = ctx.progress(episodes.len() as u64, "run");
-        run_episodes(&cfg, &episodes, &bar)?
+        run_episodes(&cfg, &episodes, ctx.lock_mode, &bar)?
     };
     for (id, e) in &report.failures {
         eprintln!("error: episode {id}: {e}");

@@ -119,6 +119,8 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         .data
         .read_manifest()
         .context("cannot read the manifest (run `minos ingest` first)")?;
+    // Taken once DATA is known to hold a manifest, so a wrong --data creates nothing.
+    let _lock = job.data.lock("split", ctx.lock_mode)?;
     let result = match &job.method {
         Method::Lists(lists_dir) => {
             let lists = split::read_lists(lists_dir).context("--lists")?;

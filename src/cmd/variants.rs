@@ -5,6 +5,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::{bail, Context as _};
+use minos::atomic::sweep_stale;
 use minos::pipeline::variants::{collect_stats, dry_run};
 use minos::scene::variants::materials::DEFAULT_FRACTIONS;
 use minos::scene::variants::{
@@ -135,6 +136,12 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     }
     let variants = config(&args)?;
     let ids = data.ingested_ids()?;
+    // Taken once DATA is known to hold a manifest, so a wrong --data creates nothing.
+    let _lock = data.lock("variants", ctx.lock_mode)?;
+    for dir in [data.variants_dir(), data.stats_dir()] {
+        sweep_stale(&dir)
+            .with_context(|| format!("{}: removing stale temporary files", dir.display()))?;
+    }
 
     let needs_stats = variants.iter().any(|(_, s)| s.retexture.is_some());
     let stats = if needs_stats || args.refresh_stats {

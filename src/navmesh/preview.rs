@@ -70,21 +70,35 @@ pub fn levels_present(grid: &NavGrid) -> Vec<u16> {
     levels
 }
 
-/// Writes one PNG per level next to `nav_file`: `<stem>.L<level>.png`. Returns the paths.
-pub fn write_previews(grid: &NavGrid, nav_file: &Path) -> std::io::Result<Vec<std::path::PathBuf>> {
+/// The preview of level `level` next to `nav_file`: `<stem>.L<level>.png`.
+pub fn preview_path(nav_file: &Path, level: u16) -> std::path::PathBuf {
     let stem = nav_file
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_default();
+    nav_file.with_file_name(format!("{stem}.L{level}.png"))
+}
+
+/// True when every level of `grid` has its preview next to `nav_file`.
+pub fn previews_present(grid: &NavGrid, nav_file: &Path) -> bool {
+    levels_present(grid)
+        .into_iter()
+        .all(|level| preview_path(nav_file, level).is_file())
+}
+
+/// Writes one PNG per level next to `nav_file`: `<stem>.L<level>.png`. Returns the paths; an
+/// error names the file.
+pub fn write_previews(grid: &NavGrid, nav_file: &Path) -> std::io::Result<Vec<std::path::PathBuf>> {
     let scale = if grid.cell() >= 0.1 { 4 } else { 2 };
     let mut out = Vec::new();
     for level in levels_present(grid) {
-        let path = nav_file.with_file_name(format!("{stem}.L{level}.png"));
+        let path = preview_path(nav_file, level);
         let img = render_level(grid, level, scale);
         write_atomic(&path, |w| {
             img.write_to(w, image::ImageFormat::Png)
                 .map_err(std::io::Error::other)
-        })?;
+        })
+        .map_err(|e| std::io::Error::new(e.kind(), format!("{}: {e}", path.display())))?;
         out.push(path);
     }
     Ok(out)

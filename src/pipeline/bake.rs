@@ -1,15 +1,21 @@
 //! Baking many scenes: load each compiled scene (applying its variant, if the id names one),
 //! build its grid, write `DATA/nav/<id>.nav`
 //! and its previews, in parallel. A scene that fails is reported and the others finish;
-//! grids newer than their scene and baked with the same parameters are kept.
+//! grids newer than their scene and baked with the same parameters are kept (and given the
+//! previews a killed bake did not write). A grid or preview that cannot be written (a full
+//! disk, a read-only folder) stops the batch: it is the folder's problem, not the scene's.
+//! Temporary files a killed bake left in `DATA/nav/` are removed first.
 
 use std::path::Path;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use rayon::prelude::*;
 
+use crate::atomic::sweep_stale;
 use crate::navmesh::build::build;
+use crate::navmesh::file::NavFileError;
 use crate::navmesh::file::{read_nav, write_nav};
-use crate::navmesh::preview::write_previews;
+use crate::navmesh::preview::{previews_present, write_previews};
 use crate::navmesh::NavParams;
 use crate::progress::Progress;
 use crate::scene::SceneRef;
@@ -29,6 +35,11 @@ pub enum BakeOutcome {
     UpToDate,
     /// It failed, with a one-line reason.
     Failed(String),
+    /// Its grid or a preview could not be written (the reason names the file); the batch
+    /// stops baking further scenes.
+    WriteFailed(String),
+    /// Not baked because a write failed for another scene first.
+    Stopped,
 }
 
 /// Result of a batch bake: one outcome per scene id, in input order.
@@ -42,7 +53,17 @@ impl BakeReport {
     /// The failures.
     pub fn failures(&self) -> impl Iterator<Item = (&str, &str)> {
         self.scenes.iter().filter_map(|(id, o)| match o {
-            BakeOutcome::Failed(e) => Some((id.as_str(), e.as_str())),
+            BakeOutcome::Failed(e) | BakeOutcome::WriteFailed(e) => Some((id.as_str(), e.as_str())),
+            BakeOutcome::Stopped => Some((id.as_str(), "not baked: a write failed")),
+            _ => None,
+        })
+    }
+
+    /// The first write failure in input order, naming the file: a problem of the whole batch
+    /// (a full disk, a read-only folder), reported as the one error of the command.
+    pub fn write_failure(&self) -> Option<&str> {
+        self.scenes.iter().find_map(|(_, o)| match o {
+            BakeOutcome::WriteFailed(e) => Some(e.as_str()),
             _ => None,
         })
     }
@@ -74,33 +95,64 @@ fn bake_one(cfg: &BakeConfig, id: &SceneRef) -> BakeOutcome {
     if !cfg.force && up_to_date(&cfg.data, &out, id) {
         if let Ok(g) = read_nav(&out) {
             if g.params == cfg.params {
+                // A bake killed between the grid and its previews left them missing.
+                if cfg.previews && !previews_present(&g, &out) {
+                    if let Err(e) = write_previews(&g, &out) {
+                        return BakeOutcome::WriteFailed(e.to_string());
+                    }
+                }
                 return BakeOutcome::UpToDate;
             }
         }
     }
-    let result = (|| -> Result<BakeOutcome, String> {
-        let (scene, _) = cfg.data.load_scene(id).map_err(|e| e.to_string())?;
-        let grid = build(&scene, &cfg.params).map_err(|e| e.to_string())?;
-        write_nav(&out, &grid).map_err(|e| e.to_string())?;
-        if cfg.previews {
-            write_previews(&grid, &out).map_err(|e| format!("{}: preview: {e}", out.display()))?;
+    let (scene, _) = match cfg.data.load_scene(id) {
+        Ok(s) => s,
+        Err(e) => return BakeOutcome::Failed(e.to_string()),
+    };
+    let grid = match build(&scene, &cfg.params) {
+        Ok(g) => g,
+        Err(e) => return BakeOutcome::Failed(e.to_string()),
+    };
+    match write_nav(&out, &grid) {
+        Ok(()) => {}
+        Err(e @ NavFileError::Io { .. }) => return BakeOutcome::WriteFailed(e.to_string()),
+        Err(e) => return BakeOutcome::Failed(e.to_string()),
+    }
+    if cfg.previews {
+        if let Err(e) = write_previews(&grid, &out) {
+            return BakeOutcome::WriteFailed(e.to_string());
         }
-        Ok(BakeOutcome::Baked {
-            walkable: grid.walkable_count(),
-            islands: grid.islands.len(),
-        })
-    })();
-    result.unwrap_or_else(BakeOutcome::Failed)
+    }
+    BakeOutcome::Baked {
+        walkable: grid.walkable_count(),
+        islands: grid.islands.len(),
+    }
 }
 
-/// Bakes every scene of `cfg.scenes` in parallel.
+/// Bakes every scene of `cfg.scenes` in parallel, after removing what a killed bake left in
+/// `DATA/nav/`. Once a write fails, the scenes not yet started are [`BakeOutcome::Stopped`].
 pub fn bake_scenes(cfg: &BakeConfig, progress: &dyn Progress) -> BakeReport {
     progress.set_total(cfg.scenes.len() as u64);
+    let nav = cfg.data.nav_dir();
+    if let Err(e) = sweep_stale(&nav) {
+        tracing::warn!(
+            "{}: cannot remove stale temporary files: {e}",
+            nav.display()
+        );
+    }
+    let stop = AtomicBool::new(false);
     let scenes = cfg
         .scenes
         .par_iter()
         .map(|id| {
-            let outcome = bake_one(cfg, id);
+            let outcome = if stop.load(Ordering::Relaxed) {
+                BakeOutcome::Stopped
+            } else {
+                bake_one(cfg, id)
+            };
+            if matches!(outcome, BakeOutcome::WriteFailed(_)) {
+                stop.store(true, Ordering::Relaxed);
+            }
             progress.advance(1);
             (id.to_string(), outcome)
         })

@@ -5,6 +5,11 @@
 //! all its sources is reused (unless `force`), so re-running resumes an interrupted ingest.
 //! Rows of scenes not in this run (another dataset, an `--ids` subset) are kept.
 //!
+//! Ingest holds the DATA folder's writer lock while it writes, removes what a killed ingest
+//! left (temporary files in `DATA/` and `DATA/scenes/`) before writing, and stops at the first
+//! compiled scene or manifest it cannot write (a full disk, a read-only folder), naming the
+//! file and leaving the manifest as it was.
+//!
 //! Every path ingest stores (the manifest's `source_path`, the compiled scene's `source` and
 //! `sources`, the mesh file names textures are found beside) is absolute: the dataset root,
 //! `--categories` and `--models` are made absolute (symbolic links resolved) before anything
@@ -16,6 +21,8 @@ use std::time::SystemTime;
 
 use rayon::prelude::*;
 
+use crate::atomic::sweep_stale;
+use crate::lock::{LockError, LockMode};
 use crate::progress::Progress;
 use crate::scene::formats::gltf_scene::GltfLoader;
 use crate::scene::formats::mp3d::Mp3dLoader;
@@ -23,7 +30,7 @@ use crate::scene::formats::suncg::SuncgLoader;
 use crate::scene::formats::threedfront::ThreeDFrontLoader;
 use crate::scene::formats::{DatasetLoader, LoadError, SceneEntry};
 use crate::store::manifest::{read_manifest, write_manifest, ManifestError, ManifestRow};
-use crate::store::scene_file::{read_header, read_scene, write_scene, SceneHeader};
+use crate::store::scene_file::{read_header, read_scene, write_scene, SceneFileError, SceneHeader};
 use crate::store::DataDir;
 
 /// Dataset formats ingest reads.
@@ -139,6 +146,20 @@ pub enum IngestError {
     /// An `--ids` file problem.
     #[error("{0}")]
     Ids(String),
+    /// Another process writes the DATA folder, or its lock cannot be taken.
+    #[error(transparent)]
+    Lock(#[from] LockError),
+    /// A compiled scene cannot be written (the message names it); nothing after it is.
+    #[error(transparent)]
+    Write(SceneFileError),
+    /// Stale temporary files cannot be removed from a folder.
+    #[error("{}: cannot remove stale temporary files: {source}", path.display())]
+    Sweep {
+        /// The folder.
+        path: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
     /// The root holds no scene of the format (nothing is written).
     #[error(
         "{}: no {dataset} scenes found (looked for {layout}; is this the dataset root, and \
@@ -192,7 +213,7 @@ fn ingest_one(
     house: &SceneEntry,
     data: &DataDir,
     force: bool,
-) -> (ManifestRow, Outcome, Vec<String>) {
+) -> Result<(ManifestRow, Outcome, Vec<String>), IngestError> {
     let dataset = loader.dataset().name();
     let compiled = data.scene_path(&house.id);
     let source = house.path.display().to_string();
@@ -207,16 +228,16 @@ fn ingest_one(
     };
     if !force && up_to_date(&compiled, &house.path) {
         if let Ok((header, scene)) = read_scene(&compiled) {
-            return (
+            return Ok((
                 ManifestRow::from_scene(&scene, &header.source),
                 Outcome::UpToDate,
                 Vec::new(),
-            );
+            ));
         }
     }
     let loaded = match loader.load(house) {
         Ok(l) => l,
-        Err(e) => return fail(e.to_string()),
+        Err(e) => return Ok(fail(e.to_string())),
     };
     let header = SceneHeader {
         id: house.id.clone(),
@@ -227,14 +248,27 @@ fn ingest_one(
             .map(|p| p.display().to_string())
             .collect(),
     };
-    if let Err(e) = write_scene(&compiled, &header, &loaded.scene) {
-        return fail(e.to_string());
+    match write_scene(&compiled, &header, &loaded.scene) {
+        Ok(()) => {}
+        // The folder's problem (a full disk, a read-only folder), not the scene's.
+        Err(e @ SceneFileError::Io { .. }) => return Err(IngestError::Write(e)),
+        Err(e) => return Ok(fail(e.to_string())),
     }
-    (
+    Ok((
         ManifestRow::from_scene(&loaded.scene, &source),
         Outcome::Compiled,
         loaded.warnings,
-    )
+    ))
+}
+
+/// Removes what a killed process left in `dir`.
+fn sweep(dir: &Path) -> Result<(), IngestError> {
+    sweep_stale(dir)
+        .map(drop)
+        .map_err(|source| IngestError::Sweep {
+            path: dir.to_path_buf(),
+            source,
+        })
 }
 
 /// `path` made absolute against the working directory, with symbolic links and `..` resolved
@@ -258,8 +292,19 @@ impl IngestConfig {
     }
 }
 
-/// Ingests every selected scene of the root into the DATA folder.
+/// Ingests every selected scene of the root into the DATA folder, failing at once when
+/// another process writes it ([`ingest_with`] can wait instead).
 pub fn ingest(cfg: &IngestConfig, progress: &dyn Progress) -> Result<IngestReport, IngestError> {
+    ingest_with(cfg, LockMode::Fail, progress)
+}
+
+/// Ingests every selected scene of the root into the DATA folder, holding its writer lock
+/// (taken as `mode` says) once scenes are found: a root without scenes writes nothing.
+pub fn ingest_with(
+    cfg: &IngestConfig,
+    mode: LockMode,
+    progress: &dyn Progress,
+) -> Result<IngestReport, IngestError> {
     let cfg = &cfg.with_absolute_paths();
     let loader = cfg.format.loader(cfg)?;
     let loader = loader.as_ref();
@@ -286,6 +331,9 @@ pub fn ingest(cfg: &IngestConfig, progress: &dyn Progress) -> Result<IngestRepor
             .collect();
         houses.retain(|h| wanted.contains(h.id.as_str()));
     }
+    let _lock = cfg.data.lock("ingest", mode)?;
+    sweep(cfg.data.root())?;
+    sweep(&cfg.data.scenes_dir())?;
     progress.set_total(houses.len() as u64);
     let results: Vec<(ManifestRow, Outcome, Vec<String>)> = houses
         .par_iter()
@@ -294,7 +342,7 @@ pub fn ingest(cfg: &IngestConfig, progress: &dyn Progress) -> Result<IngestRepor
             progress.advance(1);
             r
         })
-        .collect();
+        .collect::<Result<_, _>>()?;
     for (row, outcome, warnings) in results {
         report.warnings.extend(warnings);
         report.scenes.push((row, outcome));

@@ -8,7 +8,7 @@ use std::fs;
 use std::path::{Path, PathBuf};
 
 use super::{SplitError, SplitLists, Subset};
-use crate::atomic::write_bytes_atomic;
+use crate::atomic::{sweep_stale, write_bytes_atomic};
 use crate::store::DataDir;
 
 /// The ids of one list file's text: everything after a `#` is a comment; blank lines are
@@ -47,6 +47,11 @@ pub fn split_dir(data: &DataDir, name: &str) -> Result<PathBuf, SplitError> {
 /// distinct and atomically replaced; returns the folder.
 pub fn write_split(data: &DataDir, name: &str, lists: &SplitLists) -> Result<PathBuf, SplitError> {
     let dir = split_dir(data, name)?;
+    // What a killed `split` left in the folder.
+    sweep_stale(&dir).map_err(|source| SplitError::Io {
+        path: dir.display().to_string(),
+        source,
+    })?;
     let mut lists = lists.clone();
     lists.sort();
     for s in Subset::ALL {

@@ -20,6 +20,7 @@ pub mod variants;
 
 use std::path::{Path, PathBuf};
 
+use crate::lock::{DirLock, LockError, LockMode};
 use crate::scene::SceneRef;
 
 pub use manifest::{ManifestError, ManifestRow};
@@ -84,9 +85,14 @@ impl DataDir {
         self.variants_dir().join(format!("{name}.toml"))
     }
 
+    /// `DATA/stats/`.
+    pub fn stats_dir(&self) -> PathBuf {
+        self.root.join("stats")
+    }
+
     /// `DATA/stats/materials.json`.
     pub fn material_stats_path(&self) -> PathBuf {
-        self.root.join("stats").join("materials.json")
+        self.stats_dir().join("materials.json")
     }
 
     /// `DATA/splits/`.
@@ -103,6 +109,13 @@ impl DataDir {
             && !name.contains(['/', '\\'])
             && !name.chars().any(char::is_control);
         plain.then(|| self.splits_dir().join(name))
+    }
+
+    /// Takes the folder's writer lock (`DATA/.minos.lock`, the folder created if missing) for
+    /// `command`; every command that writes the folder holds it until it ends, and readers
+    /// never take it (see [`crate::lock`]).
+    pub fn lock(&self, command: &str, mode: LockMode) -> Result<DirLock, LockError> {
+        DirLock::acquire(&self.root, command, mode)
     }
 
     /// Every row of the manifest.

@@ -35,7 +35,7 @@ use parquet::arrow::ArrowWriter;
 use parquet::file::metadata::KeyValue;
 use parquet::file::properties::{EnabledStatistics, WriterProperties};
 
-use crate::atomic::write_bytes_atomic;
+use crate::atomic::{sweep_stale_of, write_bytes_atomic};
 use crate::parquet_io::ParquetFileError;
 use crate::progress::Progress;
 use data::{data_schema, episode_batch, EpisodeFrames};
@@ -226,6 +226,8 @@ pub fn write_dataset(
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_else(|| "lerobot".into());
+    // What a killed writer of this dataset left beside it.
+    sweep_stale_of(out).map_err(io(parent))?;
     let tmp = parent.join(format!(".{name}.tmp-{}", std::process::id()));
     if tmp.exists() {
         std::fs::remove_dir_all(&tmp).map_err(io(&tmp))?;

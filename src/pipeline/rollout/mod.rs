@@ -16,14 +16,16 @@ mod scene;
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use rayon::prelude::*;
 
-use crate::atomic::write_bytes_atomic;
+use crate::atomic::{sweep_stale, write_bytes_atomic};
 use crate::body::AgentPreset;
 use crate::episode::Episode;
 use crate::io::rrd::RecordingError;
 use crate::io::tables::{merge, observation_schema, trajectory_schema, ImageEncoding};
+use crate::lock::{DirLock, LockError, LockMode};
 use crate::navmesh::geodesic::Geodesic;
 use crate::progress::Progress;
 use crate::run::agents::Decision;
@@ -111,6 +113,9 @@ pub struct Provenance {
 /// [`RunReport::failures`]).
 #[derive(Debug, thiserror::Error)]
 pub enum RolloutError {
+    /// Another process writes the output folder, or its lock cannot be taken.
+    #[error(transparent)]
+    Lock(#[from] LockError),
     /// A file or folder of the output could not be written.
     #[error("{}: {source}", path.display())]
     Io {
@@ -122,6 +127,10 @@ pub enum RolloutError {
     /// A merged table could not be written (the message names the file).
     #[error("{0}")]
     Table(String),
+    /// An episode's part file could not be written (the message names it); the run stopped
+    /// before merging, so no final table was written.
+    #[error("{0}")]
+    Write(String),
     /// The joined recording could not be written.
     #[error(transparent)]
     Recording(#[from] RecordingError),
@@ -188,19 +197,64 @@ pub fn select(episodes: &[Episode], shard: Shard) -> Vec<(usize, Episode)> {
 }
 
 /// An episode's index and its metrics (and whether they were kept from an earlier run).
-type Outcome = (usize, Result<(EpisodeMetrics, bool), String>);
+type Outcome = (usize, Result<(EpisodeMetrics, bool), Failed>);
+
+/// Why an episode has no metrics.
+#[derive(Debug, Clone)]
+enum Failed {
+    /// The episode's own problem (its scene, its agent): the run goes on without it.
+    Episode(String),
+    /// One of its part files could not be written (the message names it): the output
+    /// folder's problem, which stops the run before anything is merged.
+    Write(String),
+}
+
+impl Failed {
+    fn of(e: episode::EpisodeError) -> Failed {
+        use episode::EpisodeError as E;
+        match e {
+            E::Table(_) | E::Part(_) | E::Recording(_) => Failed::Write(e.to_string()),
+            E::Agent(_) | E::Render(_) => Failed::Episode(e.to_string()),
+        }
+    }
+}
 
 /// Runs the episodes, writes the tables, `metrics.json` and `manifest.json` into `cfg.out`.
 /// The scenes of this shard's episodes are checked first ([`RolloutError::NotReady`], with
 /// nothing written).
+/// Fails at once when another process writes `cfg.out` ([`run_with`] can wait instead).
 pub fn run(
     cfg: &RunConfig,
     episodes: &[Episode],
     progress: &dyn Progress,
 ) -> Result<RunReport, RolloutError> {
+    run_with(cfg, episodes, LockMode::Fail, progress)
+}
+
+/// [`run`], holding the output folder's writer lock (`OUT/.minos.lock`, taken as `mode` says)
+/// from the end of the preflight on, and removing first what a killed run left in `OUT/`, in
+/// `OUT/.parts/` and beside the recording.
+pub fn run_with(
+    cfg: &RunConfig,
+    episodes: &[Episode],
+    mode: LockMode,
+    progress: &dyn Progress,
+) -> Result<RunReport, RolloutError> {
     let mine = select(episodes, cfg.shard);
     preflight::check(cfg, &mine)?;
+    let _lock = DirLock::acquire(&cfg.out, "run", mode)?;
     let parts = cfg.out.join(".parts");
+    let recording_dir = cfg.rerun.as_ref().and_then(|r| r.path.parent());
+    for dir in [
+        Some(cfg.out.as_path()),
+        Some(parts.as_path()),
+        recording_dir,
+    ]
+    .into_iter()
+    .flatten()
+    {
+        sweep_stale(dir).map_err(io_error(dir))?;
+    }
     if !cfg.resume && parts.exists() {
         std::fs::remove_dir_all(&parts).map_err(io_error(&parts))?;
     }
@@ -220,12 +274,21 @@ pub fn run(
             .push((*i, e.clone()));
     }
     let scenes: Vec<(String, Vec<(usize, Episode)>)> = by_scene.into_iter().collect();
+    // Set by the first part that cannot be written: no episode starts after it.
+    let stop = AtomicBool::new(false);
     let results: Vec<Vec<Outcome>> = scenes
         .par_iter()
-        .map(|(scene_id, eps)| run_scene(cfg, scene_id, eps, &parts, &recorded, progress))
+        .map(|(scene_id, eps)| run_scene(cfg, scene_id, eps, &parts, &recorded, &stop, progress))
         .collect();
-    let mut by_index: BTreeMap<usize, Result<(EpisodeMetrics, bool), String>> =
+    let mut by_index: BTreeMap<usize, Result<(EpisodeMetrics, bool), Failed>> =
         results.into_iter().flatten().collect();
+    // A part that could not be written stops the run: the first, in episode order.
+    if let Some(e) = by_index.values().find_map(|r| match r {
+        Err(Failed::Write(e)) => Some(e.clone()),
+        _ => None,
+    }) {
+        return Err(RolloutError::Write(e));
+    }
     let mut report = RunReport::default();
     for (i, ep) in &mine {
         match by_index.remove(i) {
@@ -233,7 +296,9 @@ pub fn run(
                 report.resumed += usize::from(resumed);
                 report.episodes.push((ep.clone(), m));
             }
-            Some(Err(e)) => report.failures.push((ep.episode_id.clone(), e)),
+            Some(Err(Failed::Episode(e) | Failed::Write(e))) => {
+                report.failures.push((ep.episode_id.clone(), e))
+            }
             None => report
                 .failures
                 .push((ep.episode_id.clone(), "not run".into())),
@@ -253,6 +318,7 @@ fn run_scene(
     eps: &[(usize, Episode)],
     parts: &Path,
     recorded: &BTreeSet<usize>,
+    stop: &AtomicBool,
     progress: &dyn Progress,
 ) -> Vec<Outcome> {
     // Finished earlier: metrics written and, when recorded, the recording too.
@@ -263,7 +329,8 @@ fn run_scene(
     };
     let mut out: Vec<Outcome> = Vec::new();
     for (i, _) in eps.iter().filter(|(i, _)| done(*i)) {
-        out.push((*i, parts::read_done(parts, *i).map(|m| (m, true))));
+        let kept = parts::read_done(parts, *i).map_err(Failed::Episode);
+        out.push((*i, kept.map(|m| (m, true))));
         progress.advance(1);
     }
     let pending: Vec<&(usize, Episode)> = eps.iter().filter(|(i, _)| !done(*i)).collect();
@@ -277,7 +344,7 @@ fn run_scene(
     match setup {
         Err(e) => {
             for (i, _) in pending {
-                out.push((*i, Err(e.clone())));
+                out.push((*i, Err(Failed::Episode(e.clone()))));
                 progress.advance(1);
             }
         }
@@ -288,8 +355,17 @@ fn run_scene(
                 geo: Geodesic::new(&assets.grid),
             };
             for (i, ep) in pending {
-                let r = episode::run_episode(&mut run, ep, cfg, parts, *i, recorded.contains(i));
-                out.push((*i, r.map(|m| (m, false)).map_err(|e| e.to_string())));
+                if stop.load(Ordering::Relaxed) {
+                    out.push((*i, Err(Failed::Episode("not run: a write failed".into()))));
+                    progress.advance(1);
+                    continue;
+                }
+                let r = episode::run_episode(&mut run, ep, cfg, parts, *i, recorded.contains(i))
+                    .map_err(Failed::of);
+                if matches!(r, Err(Failed::Write(_))) {
+                    stop.store(true, Ordering::Relaxed);
+                }
+                out.push((*i, r.map(|m| (m, false))));
                 progress.advance(1);
             }
         }

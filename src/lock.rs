@@ -1,0 +1,176 @@
+//! The writer's lock of a folder: one process at a time writes a DATA folder or a run's
+//! output folder.
+//!
+//! The lock is an advisory lock (`flock` on Unix, `LockFileEx` on Windows, through
+//! [`std::fs::File::try_lock`]) on `<folder>/.minos.lock`, taken by every command that writes
+//! the folder and held until it exits; the operating system releases it when the process dies,
+//! `kill -9` included, so a lock is never stale. While held, the file says who holds it
+//! (`<pid> <command>`), so a second writer fails at once with one line naming the holder, or
+//! waits for it ([`LockMode::Wait`]). On release the file is emptied, so an interrupted run and
+//! an uninterrupted one leave the same bytes. Readers never take it: a command that only reads
+//! a folder is never blocked.
+
+use std::fs::{File, OpenOptions, TryLockError};
+use std::io::{Read, Seek, SeekFrom, Write};
+use std::path::{Path, PathBuf};
+
+/// Name of the lock file inside a locked folder.
+pub const LOCK_FILE: &str = ".minos.lock";
+
+/// What a writer does when another process holds the lock.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum LockMode {
+    /// Fail at once, naming the holder (the default).
+    #[default]
+    Fail,
+    /// Block until the holder finishes.
+    Wait,
+}
+
+/// Why a folder could not be locked.
+#[derive(Debug, thiserror::Error)]
+pub enum LockError {
+    /// Another process writes the folder.
+    #[error(
+        "{}: in use by pid {holder} (minos {command}); wait for it to finish, or pass --wait",
+        folder.display()
+    )]
+    Held {
+        /// The locked folder.
+        folder: PathBuf,
+        /// The holder's process id, as its lock file says (`?` when it cannot be read).
+        holder: String,
+        /// The holder's command.
+        command: String,
+    },
+    /// The folder or its lock file cannot be created or locked.
+    #[error("{}: cannot take the writer's lock: {source}", path.display())]
+    Io {
+        /// The lock file (or the folder).
+        path: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+}
+
+/// A held writer's lock; released (and its file emptied) when dropped or when the process
+/// ends.
+#[derive(Debug)]
+pub struct DirLock {
+    file: File,
+    path: PathBuf,
+}
+
+impl DirLock {
+    /// Locks `folder` (created if missing) for `command`, a short name such as `ingest`.
+    pub fn acquire(folder: &Path, command: &str, mode: LockMode) -> Result<DirLock, LockError> {
+        let path = folder.join(LOCK_FILE);
+        let io = |source| LockError::Io {
+            path: path.clone(),
+            source,
+        };
+        std::fs::create_dir_all(folder).map_err(|source| LockError::Io {
+            path: folder.to_path_buf(),
+            source,
+        })?;
+        let mut file = OpenOptions::new()
+            .read(true)
+            .write(true)
+            .create(true)
+            .truncate(false)
+            .open(&path)
+            .map_err(io)?;
+        match file.try_lock() {
+            Ok(()) => {}
+            Err(TryLockError::WouldBlock) if mode == LockMode::Wait => file.lock().map_err(io)?,
+            Err(TryLockError::WouldBlock) => {
+                let (holder, command) = holder_of(&mut file);
+                return Err(LockError::Held {
+                    folder: folder.to_path_buf(),
+                    holder,
+                    command,
+                });
+            }
+            Err(TryLockError::Error(e)) => return Err(io(e)),
+        }
+        let me = format!("{} {command}\n", std::process::id());
+        (|| {
+            file.set_len(0)?;
+            file.seek(SeekFrom::Start(0))?;
+            file.write_all(me.as_bytes())?;
+            file.flush()
+        })()
+        .map_err(io)?;
+        Ok(DirLock { file, path })
+    }
+
+    /// The lock file.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+}
+
+impl Drop for DirLock {
+    fn drop(&mut self) {
+        // Emptied before the lock goes, so the next holder never reads a finished one's pid.
+        let _ = self.file.set_len(0);
+        let _ = self.file.unlock();
+    }
+}
+
+/// The pid and command a held lock file names (`?` for what cannot be read: the holder may
+/// not have written it yet).
+fn holder_of(file: &mut File) -> (String, String) {
+    let mut text = String::new();
+    let _ = file
+        .seek(SeekFrom::Start(0))
+        .and_then(|_| file.read_to_string(&mut text));
+    let mut words = text.split_whitespace();
+    let pid = words.next().unwrap_or("?").to_string();
+    let command = words.next().unwrap_or("?").to_string();
+    (pid, command)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_second_writer_fails_naming_the_holder_and_the_lock_is_released_on_drop() {
+        let dir = tempfile::tempdir().unwrap();
+        let first = DirLock::acquire(dir.path(), "bake", LockMode::Fail).unwrap();
+        let text = std::fs::read_to_string(first.path()).unwrap();
+        assert_eq!(text, format!("{} bake\n", std::process::id()));
+        // A second open file description conflicts even within one process.
+        let err = DirLock::acquire(dir.path(), "ingest", LockMode::Fail).unwrap_err();
+        let msg = err.to_string();
+        assert!(
+            msg.contains(&format!("pid {} (minos bake)", std::process::id())),
+            "{msg}"
+        );
+        assert!(!msg.contains('\n'), "{msg}");
+        drop(first);
+        assert_eq!(std::fs::read(dir.path().join(LOCK_FILE)).unwrap(), b"");
+        let again = DirLock::acquire(dir.path(), "ingest", LockMode::Fail).unwrap();
+        drop(again);
+    }
+
+    #[test]
+    fn a_waiting_writer_gets_the_lock_when_the_holder_lets_go() {
+        let dir = tempfile::tempdir().unwrap();
+        let first = DirLock::acquire(dir.path(), "bake", LockMode::Fail).unwrap();
+        let folder = dir.path().to_path_buf();
+        let waiter = std::thread::spawn(move || {
+            DirLock::acquire(&folder, "split", LockMode::Wait).map(|l| {
+                let text = std::fs::read_to_string(l.path()).unwrap_or_default();
+                drop(l);
+                text
+            })
+        });
+        std::thread::sleep(std::time::Duration::from_millis(100));
+        assert!(!waiter.is_finished(), "the waiter must block while held");
+        drop(first);
+        let text = waiter.join().unwrap().unwrap();
+        assert!(text.ends_with(" split\n"), "{text:?}");
+    }
+}
