@@ -694,15 +694,18 @@ fn corrupt_or_mismatched_run_tables_are_one_line_errors_naming_the_file() {
     // Observations cut short: the trajectories then have a step the observations lack.
     let bytes = std::fs::read(run.join("observations.parquet")).expect("read");
     std::fs::write(run.join("observations.parquet"), &bytes[..bytes.len() / 2]).expect("write");
-    let out = minos()
-        .args(["export-dataset", "--run"])
-        .arg(&run)
-        .arg("--out")
-        .arg(dir.path().join("lr"))
-        .output()
-        .expect("runs");
-    assert!(!out.status.success());
-    let err = String::from_utf8_lossy(&out.stderr);
+    let export_fails = || {
+        let out = minos()
+            .args(["export-dataset", "--run"])
+            .arg(&run)
+            .arg("--out")
+            .arg(dir.path().join("lr"))
+            .output()
+            .expect("runs");
+        assert!(!out.status.success());
+        String::from_utf8_lossy(&out.stderr).into_owned()
+    };
+    let err = export_fails();
     assert!(err.contains("observations.parquet"), "{err}");
     assert_eq!(err.trim().lines().count(), 1, "{err}");
     assert!(!dir.path().join("lr").exists());
@@ -715,15 +718,7 @@ fn corrupt_or_mismatched_run_tables_are_one_line_errors_naming_the_file() {
     let mut eps = std::fs::read(run_dir("raw").join("episodes.parquet")).expect("read");
     eps.truncate(eps.len() - 3);
     std::fs::write(run.join("episodes.parquet"), eps).expect("write");
-    let out = minos()
-        .args(["export-dataset", "--run"])
-        .arg(&run)
-        .arg("--out")
-        .arg(dir.path().join("lr"))
-        .output()
-        .expect("runs");
-    assert!(!out.status.success());
-    let err = String::from_utf8_lossy(&out.stderr);
+    let err = export_fails();
     assert!(err.contains("episodes.parquet"), "{err}");
 }
 

@@ -24,23 +24,18 @@ use serde_json::{json, Value};
 use super::stats::StatLayout;
 use crate::io::image_codec::{modality_name, CellFormat, PixelType};
 use crate::render::Modality;
+use crate::sim::Actions;
 
 /// Names of the state vector's elements.
 pub const STATE_NAMES: [&str; 5] = ["x", "y", "z", "yaw", "tilt"];
 
-/// Names of the action vector's elements: the eight strengths of MINOS's actions, then
-/// `stop` (1 when the agent declared the goal reached).
-pub const ACTION_NAMES: [&str; 9] = [
-    "forward",
-    "backward",
-    "strafe_left",
-    "strafe_right",
-    "turn_left",
-    "turn_right",
-    "look_up",
-    "look_down",
-    "stop",
-];
+/// Names of the action vector's elements: the eight strengths of MINOS's actions (the
+/// simulator's names, in the trajectory table's order), then `stop` (1 when the agent declared
+/// the goal reached).
+pub const ACTION_NAMES: [&str; 9] = {
+    let n = Actions::NAMES;
+    [n[0], n[1], n[2], n[3], n[4], n[5], n[6], n[7], "stop"]
+};
 
 /// A camera of the run, as its observation column describes it.
 #[derive(Debug, Clone, PartialEq)]
