@@ -529,4 +529,64 @@ fn bake_nav_query_and_episodes_from_the_command_line() {
         episodes.iter().map(|e| e.scene_id.as_str()).collect();
     assert_eq!(scenes.len(), 3, "{scenes:?}");
     assert!(episodes.iter().all(|e| e.split.is_empty()));
+    // --shard auto: a Slurm array task (--array=1-3, task 2) samples what --shard 1/3 does.
+    let shard_out = |name: &str, shard: &str, env: &[(&str, &str)]| {
+        let path = dir.path().join("eps").join(name);
+        let out = minos()
+            .args([
+                "episodes",
+                "--data",
+                d,
+                "--task",
+                "pointgoal",
+                "--per-scene",
+                "2",
+            ])
+            .args(["--shard", shard, "--out", path.to_str().unwrap()])
+            .env_remove("MINOS_SHARD")
+            .env_remove("SLURM_ARRAY_TASK_ID")
+            .env_remove("JOB_COMPLETION_INDEX")
+            .envs(env.iter().copied())
+            .output()
+            .unwrap();
+        (out, path)
+    };
+    let (fixed, fixed_path) = shard_out("fixed.parquet", "1/3", &[]);
+    assert!(fixed.status.success());
+    let (slurm, slurm_path) = shard_out(
+        "slurm.parquet",
+        "auto",
+        &[
+            ("SLURM_ARRAY_TASK_ID", "2"),
+            ("SLURM_ARRAY_TASK_COUNT", "3"),
+            ("SLURM_ARRAY_TASK_MIN", "1"),
+        ],
+    );
+    assert!(
+        slurm.status.success(),
+        "{}",
+        String::from_utf8_lossy(&slurm.stderr)
+    );
+    let one_scene = minos::episode::format::read_episodes(&fixed_path).unwrap();
+    assert!(!one_scene.is_empty() && one_scene.len() < episodes.len());
+    assert_eq!(
+        std::fs::read(&fixed_path).unwrap(),
+        std::fs::read(&slurm_path).unwrap()
+    );
+    let (k8s, k8s_path) = shard_out(
+        "k8s.parquet",
+        "auto",
+        &[("JOB_COMPLETION_INDEX", "1"), ("MINOS_SHARD_COUNT", "3")],
+    );
+    assert!(k8s.status.success());
+    assert_eq!(
+        std::fs::read(&fixed_path).unwrap(),
+        std::fs::read(&k8s_path).unwrap()
+    );
+    let (none, none_path) = shard_out("none.parquet", "auto", &[]);
+    assert!(!none.status.success());
+    let err = String::from_utf8_lossy(&none.stderr);
+    assert!(err.contains("no scheduler environment"), "{err}");
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(!none_path.exists());
 }

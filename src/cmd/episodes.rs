@@ -16,7 +16,7 @@ use minos::episode::sample::{SampleConfig, Select};
 use minos::episode::Task;
 use minos::pipeline::episodes::sample_scenes;
 use minos::scene::RoomClass;
-use minos::shard::Shard;
+use minos::shard::{Shard, ShardSpec};
 use minos::split::{read_split, Subset};
 use minos::store::DataDir;
 
@@ -173,9 +173,10 @@ pub struct SampleArgs {
     /// Step limit stored in each episode.
     #[arg(long, default_value_t = 500)]
     max_steps: u32,
-    /// Process every n-th scene: i/n.
-    #[arg(long, value_parser = Shard::parse, default_value = "0/1")]
-    shard: Shard,
+    /// Process every n-th scene: i/n, or `auto` from the scheduler (Slurm array, Kubernetes
+    /// Indexed Job with MINOS_SHARD_COUNT, or MINOS_SHARD=i/n).
+    #[arg(long, value_parser = ShardSpec::parse, default_value = "0/1")]
+    shard: ShardSpec,
     /// Also write Habitat-Lab's layout (DIR/<subset>/<subset>.json.gz + content/) into DIR.
     #[arg(long, num_args = 2, value_names = ["FORMAT", "DIR"])]
     export: Option<Vec<String>>,
@@ -337,7 +338,10 @@ pub fn config(a: &SampleArgs) -> anyhow::Result<EpisodesJob> {
             body: AgentPreset::from(a.preset).body(),
             allow_mismatch: a.allow_body_mismatch,
         },
-        shard: a.shard,
+        shard: a
+            .shard
+            .resolve(|k| std::env::var(k).ok())
+            .map_err(anyhow::Error::msg)?,
         out: out.clone(),
         habitat_export,
         scene_names,

@@ -14,7 +14,7 @@ use minos::pipeline::rollout::{
     run_with as run_episodes, select, AgentKind, Provenance, RerunOutput, RunConfig,
 };
 use minos::run::metrics::{render_table, Reward};
-use minos::shard::Shard;
+use minos::shard::{Shard, ShardSpec};
 use minos::sim::{AgentConfig, SensorSuite};
 use minos::store::DataDir;
 
@@ -110,9 +110,10 @@ pub struct Args {
     /// Seed of random agents and sensor noise.
     #[arg(long, default_value_t = 0)]
     seed: u64,
-    /// Every n-th episode: i/n.
-    #[arg(long, value_parser = Shard::parse, default_value = "0/1")]
-    shard: Shard,
+    /// Every n-th episode: i/n, or `auto` from the scheduler (Slurm array, Kubernetes Indexed
+    /// Job with MINOS_SHARD_COUNT, or MINOS_SHARD=i/n).
+    #[arg(long, value_parser = ShardSpec::parse, default_value = "0/1")]
+    shard: ShardSpec,
     /// Keep the finished episodes of an interrupted run.
     #[arg(long)]
     resume: bool,
@@ -201,7 +202,11 @@ pub fn config(args: &Args) -> anyhow::Result<(RunConfig, Vec<Episode>)> {
             .map_err(|e| anyhow::anyhow!("--variant {name}: {e}"))?;
         episodes = episodes.into_iter().map(|e| e.on_variant(name)).collect();
     }
-    check_replay(&agent, &args.agent, &episodes, args.shard)?;
+    let shard = args
+        .shard
+        .resolve(|k| std::env::var(k).ok())
+        .map_err(anyhow::Error::msg)?;
+    check_replay(&agent, &args.agent, &episodes, shard)?;
     let cfg = RunConfig {
         data,
         out: args.out.clone(),
@@ -211,7 +216,7 @@ pub fn config(args: &Args) -> anyhow::Result<(RunConfig, Vec<Episode>)> {
         renderer: args.renderer.into(),
         max_steps: args.max_steps,
         seed: args.seed,
-        shard: args.shard,
+        shard,
         resume: args.resume,
         reward: match args.reward {
             RewardArg::DistTime => Reward::DistTime,
