@@ -150,17 +150,37 @@ fn write_batches(
     parquet_io::write_batches(path, schema, props, batches.map(Ok)).map_err(|e| e.to_string())
 }
 
-/// Schema of the observation table for a sensor suite.
+/// Schema of the observation table for a sensor suite: each camera's column metadata is its
+/// [`CellFormat::metadata`], plus `depth_range` and `unit` for quantised depth.
 pub fn observation_schema(cameras: &[CameraSensor], encoding: ImageEncoding) -> SchemaRef {
     let mut fields = vec![
         Field::new("episode_id", DataType::Utf8, false),
         Field::new("step", DataType::UInt32, false),
     ];
     for c in cameras {
-        let meta = CellFormat::for_camera(c, encoding).metadata(c.modality);
+        let mut meta = CellFormat::for_camera(c, encoding).metadata(c.modality);
+        if let Some(unit) = quantised_depth_unit(c) {
+            meta.insert("depth_range".into(), format!("{:?}", c.depth_range));
+            meta.insert("unit".into(), unit);
+        }
         fields.push(Field::new(&c.name, DataType::Binary, false).with_metadata(meta));
     }
     Arc::new(Schema::new(fields))
+}
+
+/// How a quantised depth sensor's values map to metres (`None` for other sensors).
+fn quantised_depth_unit(c: &CameraSensor) -> Option<String> {
+    use crate::sim::sensors::DepthEncoding;
+    let max = match (c.modality, c.depth_encoding) {
+        (crate::render::Modality::Depth, DepthEncoding::U8) => 255,
+        (crate::render::Modality::Depth, DepthEncoding::U16) => 65535,
+        _ => return None,
+    };
+    let [lo, hi] = c.depth_range;
+    Some(format!(
+        "m = {lo} + value / {max} × {} (0 = no return; clipped to depth_range)",
+        hi - lo
+    ))
 }
 
 /// Streams one episode's observations into a part file, a row group at a time.
@@ -488,4 +508,30 @@ pub fn read_replay(path: &Path) -> Result<HashMap<String, Vec<Decision>>, TableE
             (k, v.into_iter().map(|(_, d)| d).collect())
         })
         .collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sim::sensors::DepthEncoding;
+    use crate::sim::SensorSuite;
+
+    #[test]
+    fn quantised_depth_columns_say_how_values_map_to_metres() {
+        let mut suite = SensorSuite::minos(8);
+        suite.cameras[1].depth_encoding = DepthEncoding::U16;
+        suite.cameras[1].depth_range = [0.0, 10.0];
+        let schema = observation_schema(&suite.cameras, ImageEncoding::Raw);
+        let depth = schema.field_with_name("depth").expect("depth").metadata();
+        assert_eq!(depth["dtype"], "uint16");
+        assert_eq!(depth["depth_range"], "[0.0, 10.0]");
+        assert!(depth["unit"].contains("/ 65535 × 10"), "{}", depth["unit"]);
+        // Float depth is already metres: no mapping to state.
+        let plain = observation_schema(&SensorSuite::minos(8).cameras, ImageEncoding::Raw);
+        let depth = plain.field_with_name("depth").expect("depth").metadata();
+        assert!(!depth.contains_key("unit") && depth["dtype"] == "float32");
+        let color = plain.field_with_name("color").expect("color").metadata();
+        assert_eq!(color["modality"], "color");
+        assert_eq!(color["lossless"], "true");
+    }
 }
