@@ -32,6 +32,11 @@ if [ ! -f "$GEN/done" ]; then
     "$MINOS" -q bake --data "$GEN/DATA"
     "$MINOS" -q episodes --data "$GEN/DATA" --task pointgoal --per-scene 5 --seed 1 \
         --out "$GEN/eps/points.parquet" --export habitat "$GEN/eps/habitat"
+    # Small grids (one or two rooms, 0.2 m cells) for the .nav corpus: tens of kB each.
+    printf 'cell_size = 0.2\n' > "$GEN/coarse.toml"
+    "$MINOS" -q generate --houses 3 --seed 5 --rooms 1..2 --levels 1..1 --out "$GEN/small"
+    "$MINOS" -q ingest --dataset suncg --root "$GEN/small" --out "$GEN/SMALL"
+    "$MINOS" -q bake --data "$GEN/SMALL" --config "$GEN/coarse.toml"
     "$MINOS" -q export --data "$GEN/DATA" --scene "$(ls "$GEN/DATA/scenes" | head -1 | sed 's/\.mscene$//')" \
         --out "$GEN/house.glb"
     touch "$GEN/done"
@@ -52,7 +57,7 @@ gunzip_to() { # gunzip_to DIR FILE... : plain copies of .json.gz files
 }
 
 corpus mscene "$GEN"/DATA/scenes/*.mscene
-corpus nav "$GEN"/DATA/nav/*.nav
+corpus nav "$GEN"/SMALL/nav/*.nav "$GEN"/DATA/nav/*.nav
 corpus suncg_house "$GEN"/suncg/house/*/house.json "$SHARED"/suncg/house/*/house.json
 mkdir -p "$WORK/objmtl"
 for obj in "$GEN"/suncg/object/*/*.obj "$GEN"/suncg/room/*/*.obj; do

@@ -71,9 +71,13 @@ fn an_mtl_colour_with_two_numbers_fails_its_house_only() {
 
 #[test]
 fn a_corrupt_compiled_scene_fails_its_bake_only_and_an_old_version_is_reingested() {
+    use minos::body::{AgentBody, BodyRule};
+    use minos::episode::sample::SampleConfig;
     use minos::navmesh::params::NavParams;
     use minos::pipeline::bake::{bake_scenes, BakeConfig};
+    use minos::pipeline::episodes::sample_scenes;
     use minos::progress::NoProgress;
+    use minos::shard::Shard;
 
     let dir = tempfile::tempdir().unwrap();
     let (root, data) = (dir.path().join("suncg"), dir.path().join("DATA"));
@@ -110,6 +114,39 @@ fn a_corrupt_compiled_scene_fails_its_bake_only_and_an_old_version_is_reingested
     for id in [&ids[0], &ids[2]] {
         assert!(data.join("nav").join(format!("{id}.nav")).is_file(), "{id}");
     }
+    // A flipped byte in the grid part of one `.nav` (the issue: `episodes` panicked): that
+    // scene's problem names the file; the other scene gets its episodes.
+    let nav = data.join("nav").join(format!("{}.nav", ids[2]));
+    let mut bytes = std::fs::read(&nav).unwrap();
+    bytes[40] ^= 0x08;
+    std::fs::write(&nav, &bytes).unwrap();
+    let scenes: Vec<(String, String)> = [&ids[0], &ids[2]]
+        .iter()
+        .map(|id| (id.to_string(), String::new()))
+        .collect();
+    let batch = sample_scenes(
+        &minos::store::DataDir::new(&data),
+        &scenes,
+        &SampleConfig {
+            per_scene: 3,
+            seed: 1,
+            ..SampleConfig::default()
+        },
+        BodyRule::strict(AgentBody::HABITAT),
+        Shard::ALL,
+        &NoProgress,
+    );
+    let problem = batch.scenes[&ids[2]].problem.clone().unwrap_or_default();
+    assert!(
+        problem.contains(&*nav.display().to_string()) && problem.contains("corrupt"),
+        "{problem}"
+    );
+    assert!(!problem.contains('\n'));
+    assert!(
+        batch.scenes[&ids[0]].episodes > 0,
+        "{:?}",
+        batch.scenes[&ids[0]]
+    );
     // A scene of an older format version is rebuilt by a plain re-ingest (and so is the
     // corrupt one, whose header still reads but whose body does not).
     let old = scene(&ids[0]);
