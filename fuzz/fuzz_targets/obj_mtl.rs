@@ -31,6 +31,7 @@ fuzz_target!(|data: &[u8]| {
             // `load_mesh_file` turns an invalid mesh into an error; it must not panic.
             let _ = mesh.validate();
         }
-        Err(e) => common::one_line_naming(&e.to_string(), "fuzz/m"),
+        // The file named may be the OBJ or an MTL library it names.
+        Err(e) => common::one_line_naming(&e.to_string(), ""),
     }
 });
