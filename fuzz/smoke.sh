@@ -4,6 +4,7 @@
 #
 #   fuzz/smoke.sh                 # every target, 20 s each
 #   SECONDS_PER_TARGET=600 fuzz/smoke.sh nav mscene
+#   FUZZ_CORPUS_ONLY=1 FUZZ_WORK=/tmp/fz fuzz/smoke.sh   # only build the corpora
 #
 # Needs the nightly toolchain and cargo-fuzz (`cargo install cargo-fuzz`). Corpora and
 # artifacts live under $FUZZ_WORK (default: a new temporary folder), never in the repository.
@@ -14,6 +15,8 @@ ROOT=$PWD
 WORK=${FUZZ_WORK:-$(mktemp -d -t minos-fuzz-XXXXXX)}
 SECS=${SECONDS_PER_TARGET:-20}
 SHARED=${MINOS_SHARED:-$ROOT/../shared/datasets}
+# A worktree under wt/ finds shared/ one level further up.
+[ -d "$SHARED" ] || SHARED=$ROOT/../../shared/datasets
 ALL=(mscene nav suncg_house obj_mtl gltf episodes_parquet habitat_json minos_csv config_toml
      external_reply mp3d_house mp3d_ply threedfront)
 TARGETS=("${@:-${ALL[@]}}")
@@ -88,6 +91,8 @@ corpus external_reply "$WORK"/replies/*
 corpus mp3d_house "$GEN"/mp3d/*/house_segmentations/*.house "$SHARED"/matterport3d/house/*.house
 corpus mp3d_ply $(find "$GEN/mp3d" "$SHARED/matterport3d" -name '*.ply' -size -256k 2>/dev/null | head -10)
 corpus threedfront $(find "$SHARED/3dfront" -name '*.json' -size -256k 2>/dev/null | head -20)
+
+[ -n "${FUZZ_CORPUS_ONLY:-}" ] && { echo "corpora in $WORK/corpus"; exit 0; }
 
 # --- run every target ----------------------------------------------------------------------
 export MINOS_FUZZ_SUNCG_ROOT=$GEN/suncg
