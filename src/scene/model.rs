@@ -263,6 +263,9 @@ impl Scene {
                 if !o.transform.is_finite() {
                     return Err(at("transform not finite".into()));
                 }
+                if !o.transform.row(3).abs_diff_eq(glam::Vec4::W, 1e-6) {
+                    return Err(at("transform not affine (last row is not 0 0 0 1)".into()));
+                }
                 check_box(&o.bbox).map_err(|e| at(format!("box: {e}")))?;
                 if o.materials
                     .iter()

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 
 use crate::scene::mesh::{Material, Mesh};
 
-use super::LoadError;
+use super::{guarded, LoadError};
 
 /// Loads an OBJ file and its MTL library. A missing MTL is not fatal: the mesh gets one grey
 /// material per name used (real datasets often lack MTL files). A malformed MTL line is an
@@ -124,18 +124,6 @@ pub fn load_obj_bytes(
     Ok(mesh)
 }
 
-/// Runs `f` (a call into `tobj`), turning a panic into an error naming `path`.
-fn guarded<T>(path: &Path, f: impl FnOnce() -> T) -> Result<T, LoadError> {
-    std::panic::catch_unwind(std::panic::AssertUnwindSafe(f)).map_err(|p| {
-        let what = p
-            .downcast_ref::<&str>()
-            .map(|s| s.to_string())
-            .or_else(|| p.downcast_ref::<String>().cloned())
-            .unwrap_or_else(|| "unknown cause".into());
-        LoadError::parse(path, format!("the OBJ/MTL reader failed: {what}"))
-    })
-}
-
 /// Keywords of MTL lines that `tobj` reads as three numbers.
 const MTL_COLOURS: [&str; 4] = ["Ka", "Kd", "Ks", "Ke"];
 
@@ -221,7 +209,7 @@ mod tests {
     #[test]
     fn a_panic_inside_the_reader_becomes_an_error_naming_the_file() {
         let err = guarded(Path::new("x.obj"), || -> u32 { panic!("boom") }).unwrap_err();
-        assert_eq!(err.to_string(), "x.obj: the OBJ/MTL reader failed: boom");
+        assert_eq!(err.to_string(), "x.obj: the reader failed: boom");
     }
 
     #[test]
