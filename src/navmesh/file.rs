@@ -608,8 +608,9 @@ fn read_from(file: impl Read, len: u64) -> Result<(NavGrid, Option<String>), Rea
             sparse_labels,
         },
     };
+    // Room ids quoted from the file may hold newlines: keep the error one line.
     grid.validate()
-        .map_err(|e| ReadError::Format(format!("corrupt: {e}")))?;
+        .map_err(|e| ReadError::Format(format!("corrupt: {}", e.replace('\n', "\\n"))))?;
     Ok((grid, warning))
 }
 

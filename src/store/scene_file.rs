@@ -142,9 +142,10 @@ fn split_prefix<'a>(path: &Path, bytes: &'a [u8]) -> Result<(&'a [u8], &'a [u8])
 /// encoding and [`Scene::validate`] must all check out.
 pub fn decode(path: &Path, bytes: &[u8]) -> Result<(SceneHeader, Scene), SceneFileError> {
     let (h, body) = split_prefix(path, bytes)?;
+    // Names quoted from the file (mesh names, ids) may hold newlines: keep the error one line.
     let bad = |message: String| SceneFileError::Format {
         path: path.to_path_buf(),
-        message,
+        message: message.replace('\n', "\\n"),
     };
     let stored = u64::from_le_bytes(bytes[16..PREFIX].try_into().unwrap_or([0; 8]));
     // Fuzzing skips the checksum so that the decoder and the validation behind it are reached.
@@ -375,5 +376,26 @@ mod tests {
                 "{err}"
             );
         }
+    }
+
+    #[test]
+    fn an_error_quoting_a_name_with_a_newline_stays_one_line() {
+        // Fuzzing regression (target `mscene`): a mesh name holding a newline was quoted into
+        // the error.
+        let mut s = scene();
+        s.meshes[0].name = "a\nb".into();
+        s.meshes[0].normals.clear();
+        let header = SceneHeader {
+            id: "h".into(),
+            source: String::new(),
+            sources: vec![],
+        };
+        let err = decode(Path::new("x.mscene"), &encode(&header, &s).unwrap())
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            err,
+            "x.mscene: invalid scene: mesh 0 (a\\nb): 0 normals for 3 vertices"
+        );
     }
 }
