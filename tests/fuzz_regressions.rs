@@ -33,11 +33,27 @@ fn episode_parquet_whose_schema_panicked_arrow_ipc() {
 }
 
 #[test]
+fn episode_parquet_whose_schema_panicked_arrow_ipc_type_none() {
+    // arrow-ipc 58 panicked: "not implemented: Type NONE not supported".
+    let path = input("episodes_parquet-arrow_ipc_type_none.parquet");
+    let r = std::panic::catch_unwind(|| read_episodes(&path)).expect("no panic");
+    one_line_error(r, "episodes_parquet-arrow_ipc_type_none.parquet");
+}
+
+#[test]
 fn glb_whose_accessor_panicked_gltf() {
     // gltf 1.4.1 panicked in accessor/util.rs (`assertion left == right`).
     let path = input("gltf-accessor_assert.glb");
     let r = std::panic::catch_unwind(|| load_mesh_file(&path)).expect("no panic");
     one_line_error(r, "gltf-accessor_assert.glb");
+}
+
+#[test]
+fn glb_whose_mesh_panicked_gltf_unreachable() {
+    // gltf 1.4.1 panicked in mesh/mod.rs:396 (`entered unreachable code`).
+    let path = input("gltf-mesh_unreachable.glb");
+    let r = std::panic::catch_unwind(|| load_mesh_file(&path)).expect("no panic");
+    one_line_error(r, "gltf-mesh_unreachable.glb");
 }
 
 #[test]

@@ -11,6 +11,7 @@ use libfuzzer_sys::fuzz_target;
 use minos::scene::formats::load_mesh_file;
 
 fuzz_target!(|data: &[u8]| {
+    common::count_only_uncaught_panics();
     let name = if data.first() == Some(&b'{') {
         "fuzz.gltf"
     } else {

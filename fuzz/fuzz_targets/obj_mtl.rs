@@ -18,6 +18,7 @@ use minos::scene::formats::obj_mesh::load_obj_bytes;
 const SEPARATOR: &[u8] = b"\n%%MTL\n";
 
 fuzz_target!(|data: &[u8]| {
+    common::count_only_uncaught_panics();
     let (obj, mtl) = match data.windows(SEPARATOR.len()).position(|w| w == SEPARATOR) {
         Some(at) => (&data[..at], Some(&data[at + SEPARATOR.len()..])),
         None => (data, None),
