@@ -252,7 +252,8 @@ fn stored_query_structures_give_the_answers_of_fresh_ones() {
         // end, the labels at the file's end): all dropped, rebuilt.
         let mut bytes = std::fs::read(&path).unwrap();
         let header = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
-        let base = 16
+        // Magic, version, header length and the grid's checksum: 24 bytes.
+        let base = 24
             + header
             + 4 * fresh.column_start.len()
             + 56 * fresh.spans.len()

@@ -265,8 +265,21 @@ pub fn write_episodes(path: &Path, episodes: &[Episode]) -> Result<(), EpisodeFi
     write_batches(path, schema, props, batches).map_err(EpisodeFileError::from)
 }
 
-/// Reads every episode of an episode file, in file order.
+/// Reads every episode of an episode file, in file order. A panic inside the Parquet or Arrow
+/// readers on a malformed file (arrow-ipc 58 panics on some schema metadata) is an error naming
+/// the file.
 pub fn read_episodes(path: &Path) -> Result<Vec<Episode>, EpisodeFileError> {
+    std::panic::catch_unwind(|| read_episodes_unguarded(path)).unwrap_or_else(|p| {
+        let what = p
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| p.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "unknown cause".into());
+        Err(ParquetFileError::format(path, format!("the Parquet reader failed: {what}")).into())
+    })
+}
+
+fn read_episodes_unguarded(path: &Path) -> Result<Vec<Episode>, EpisodeFileError> {
     let p = path.display().to_string();
     let format = |message: String| ParquetFileError::format(path, message);
     let reader = read_batches(path)?;

@@ -43,8 +43,11 @@ use super::params::NavParams;
 pub const MAGIC: &[u8; 8] = b"MINOSNAV";
 /// Bumped whenever the encoding of [`NavGrid`] changes (2: fixed-width span arrays; 3: the
 /// stored line-of-sight squares and sparse graph edges after them; 4: the sparse graph's
-/// labels after those).
-pub const FORMAT_VERSION: u32 = 4;
+/// labels after those; 5: a checksum of the header and the grid's arrays after the header
+/// length).
+pub const FORMAT_VERSION: u32 = 5;
+/// Bytes before the header: magic, version, header length, the grid's checksum.
+const PREFIX: usize = 24;
 /// Bytes of one span record.
 pub const SPAN_BYTES: usize = 56;
 
@@ -159,16 +162,65 @@ pub const SQUARES_BYTES: usize = 4;
 /// in by xor, multiplication by an odd constant and rotation. Every step is a bijection of
 /// the state, so changing any one word always changes the result; about a cycle per byte.
 pub fn checksum(bytes: &[u8]) -> u64 {
+    let mut c = Checksum::new(bytes.len() as u64);
+    c.update(bytes);
+    c.finish()
+}
+
+/// [`checksum`] of `len` bytes fed in pieces of any size (the grid's arrays are hashed as
+/// they are read, with no copy of the whole file).
+#[derive(Debug, Clone)]
+pub struct Checksum {
+    h: u64,
+    pending: [u8; 8],
+    n: usize,
+}
+
+impl Checksum {
     const K: u64 = 0x9E37_79B9_7F4A_7C15;
-    let mut h = 0xCBF2_9CE4_8422_2325 ^ bytes.len() as u64;
-    let (words, rest) = bytes.as_chunks::<8>();
-    for w in words {
-        h = (h ^ u64::from_le_bytes(*w)).wrapping_mul(K).rotate_left(29);
+
+    /// A checksum of `len` bytes in all.
+    pub fn new(len: u64) -> Self {
+        Checksum {
+            h: 0xCBF2_9CE4_8422_2325 ^ len,
+            pending: [0; 8],
+            n: 0,
+        }
     }
-    for &b in rest {
-        h = (h ^ u64::from(b)).wrapping_mul(K).rotate_left(29);
+
+    fn word(&mut self, w: u64) {
+        self.h = (self.h ^ w).wrapping_mul(Self::K).rotate_left(29);
     }
-    h ^ (h >> 32)
+
+    /// Feeds the next bytes.
+    pub fn update(&mut self, mut bytes: &[u8]) {
+        if self.n > 0 {
+            let k = (8 - self.n).min(bytes.len());
+            self.pending[self.n..self.n + k].copy_from_slice(&bytes[..k]);
+            self.n += k;
+            bytes = &bytes[k..];
+            if self.n < 8 {
+                return;
+            }
+            self.word(u64::from_le_bytes(self.pending));
+            self.n = 0;
+        }
+        let (words, rest) = bytes.as_chunks::<8>();
+        for w in words {
+            self.word(u64::from_le_bytes(*w));
+        }
+        self.pending[..rest.len()].copy_from_slice(rest);
+        self.n = rest.len();
+    }
+
+    /// The checksum of every byte fed.
+    pub fn finish(self) -> u64 {
+        let mut h = self.h;
+        for &b in &self.pending[..self.n] {
+            h = (h ^ u64::from(b)).wrapping_mul(Self::K).rotate_left(29);
+        }
+        h ^ (h >> 32)
+    }
 }
 
 /// The stored sections of a grid, built from the grid alone (whatever it carries in
@@ -255,7 +307,8 @@ fn encode(grid: &NavGrid) -> Result<Vec<u8>, postcard::Error> {
         span_objects: grid.span_objects.len() as u64,
     })?;
     let mut bytes = Vec::with_capacity(
-        16 + header.len()
+        PREFIX
+            + header.len()
             + 4 * grid.column_start.len()
             + SPAN_BYTES * grid.spans.len()
             + 8 * grid.span_objects.len(),
@@ -263,6 +316,7 @@ fn encode(grid: &NavGrid) -> Result<Vec<u8>, postcard::Error> {
     bytes.extend_from_slice(MAGIC);
     bytes.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
     bytes.extend_from_slice(&(header.len() as u32).to_le_bytes());
+    bytes.extend_from_slice(&[0; 8]);
     bytes.extend_from_slice(&header);
     for c in &grid.column_start {
         bytes.extend_from_slice(&c.to_le_bytes());
@@ -274,6 +328,8 @@ fn encode(grid: &NavGrid) -> Result<Vec<u8>, postcard::Error> {
         bytes.extend_from_slice(&s.to_le_bytes());
         bytes.extend_from_slice(&o.to_le_bytes());
     }
+    let sum = checksum(&bytes[PREFIX..]);
+    bytes[16..PREFIX].copy_from_slice(&sum.to_le_bytes());
     let (squares, graph, labels) = stored_sections(grid);
     bytes.extend_from_slice(&(grid.spans.len() as u64).to_le_bytes());
     bytes.extend_from_slice(&checksum(&squares).to_le_bytes());
@@ -329,6 +385,7 @@ const CHUNK_RECORDS: usize = 1024;
 /// when `ok` rejects one.
 fn read_records<const N: usize, T>(
     r: &mut impl Read,
+    sum: &mut Checksum,
     count: u64,
     f: impl Fn(&[u8; N]) -> T,
     ok: impl Fn(&[u8; N]) -> bool,
@@ -346,6 +403,7 @@ fn read_records<const N: usize, T>(
         let k = left.min(CHUNK_RECORDS);
         let chunk = &mut buf[..N * k];
         r.read_exact(chunk)?;
+        sum.update(chunk);
         let (records, _) = chunk.as_chunks::<N>();
         good &= records.iter().fold(true, |g, rec| g & ok(rec));
         out.extend(records.iter().map(&f));
@@ -372,13 +430,26 @@ pub fn read_nav(path: &Path) -> Result<NavGrid, NavFileError> {
     .map_err(|e| e.at(path))
 }
 
+/// Decodes a grid file's bytes as [`read_nav`] reads the file (`path` names it in errors and
+/// the warning); for fuzzing and tests.
+pub fn decode_nav(path: &Path, bytes: &[u8]) -> Result<NavGrid, NavFileError> {
+    read_from(bytes, bytes.len() as u64)
+        .map(|(grid, warning)| {
+            if let Some(w) = warning {
+                tracing::warn!("{}: {w}; rebuilding it in memory", path.display());
+            }
+            grid
+        })
+        .map_err(|e| e.at(path))
+}
+
 /// Reads only the parameters a grid was baked with (its body among them) from the file's
 /// header, without its arrays: a cheap check before a batch loads whole grids.
 pub fn read_nav_params(path: &Path) -> Result<NavParams, NavFileError> {
     open(path)
         .and_then(|(file, len)| {
             let mut r = std::io::BufReader::new(file);
-            read_header(&mut r, len).map(|(h, _)| h.params)
+            read_header(&mut r, len).map(|h| h.0.params)
         })
         .map_err(|e| e.at(path))
 }
@@ -406,10 +477,10 @@ impl ReadError {
     }
 }
 
-/// Reads the magic, the version and the header of a file of `len` bytes; returns the header
-/// and its length.
-fn read_header(r: &mut impl Read, len: u64) -> Result<(HeaderIn, u32), ReadError> {
-    let mut head = [0u8; 16];
+/// Reads the magic, the version and the header of a file of `len` bytes; returns the header,
+/// its bytes and the stored checksum of the header and the arrays.
+fn read_header(r: &mut impl Read, len: u64) -> Result<(HeaderIn, Vec<u8>, u64), ReadError> {
+    let mut head = [0u8; PREFIX];
     r.read_exact(&mut head[..12])
         .map_err(|_| ReadError::Format("not a minos navigation grid (too short)".into()))?;
     if &head[..8] != MAGIC {
@@ -424,23 +495,25 @@ fn read_header(r: &mut impl Read, len: u64) -> Result<(HeaderIn, u32), ReadError
              {FORMAT_VERSION}: rebake it (`minos bake`; `--variant NAME` for a variant's grid)"
         )));
     }
-    r.read_exact(&mut head[12..16])?;
+    r.read_exact(&mut head[12..PREFIX])?;
     let header_len = u32::from_le_bytes([head[12], head[13], head[14], head[15]]);
-    if u64::from(header_len) > len.saturating_sub(16) {
+    let sum = u64_at(&head, 16);
+    if u64::from(header_len) > len.saturating_sub(PREFIX as u64) {
         return Err(ReadError::Format("corrupt: header length".into()));
     }
     let mut header = vec![0u8; header_len as usize];
     r.read_exact(&mut header)?;
     let h: HeaderIn =
         postcard::from_bytes(&header).map_err(|e| ReadError::Format(format!("corrupt: {e}")))?;
-    Ok((h, header_len))
+    Ok((h, header, sum))
 }
 
 /// Decodes a grid file of `len` bytes from `file`, with a warning when its stored section
 /// was dropped.
-fn read_from(file: std::fs::File, len: u64) -> Result<(NavGrid, Option<String>), ReadError> {
+fn read_from(file: impl Read, len: u64) -> Result<(NavGrid, Option<String>), ReadError> {
     let mut r = std::io::BufReader::with_capacity(1 << 16, file);
-    let (h, header_len) = read_header(&mut r, len)?;
+    let (h, header, stored_sum) = read_header(&mut r, len)?;
+    let header_len = header.len() as u64;
     let body = h
         .columns
         .checked_mul(4)
@@ -450,7 +523,7 @@ fn read_from(file: std::fs::File, len: u64) -> Result<(NavGrid, Option<String>),
     // What follows the grid's arrays: nothing, or the stored line-of-sight section (16
     // bytes of count and checksum, then its records).
     let rest = body
-        .zip(len.checked_sub(16 + u64::from(header_len)))
+        .zip(len.checked_sub(PREFIX as u64 + header_len))
         .and_then(|(b, l)| l.checked_sub(b));
     let Some(rest) = rest.filter(|&r| r == 0 || r >= 16) else {
         return Err(ReadError::Format(
@@ -463,8 +536,11 @@ fn read_from(file: std::fs::File, len: u64) -> Result<(NavGrid, Option<String>),
             h.columns, h.nx, h.nz
         )));
     }
+    let mut sum = Checksum::new(body.map_or(0, |b| b + header_len));
+    sum.update(&header);
     let column_start = read_records::<4, u32>(
         &mut r,
+        &mut sum,
         h.columns,
         |b| u32::from_le_bytes(*b),
         |_| true,
@@ -477,14 +553,22 @@ fn read_from(file: std::fs::File, len: u64) -> Result<(NavGrid, Option<String>),
             "corrupt: column starts do not cover the spans in order".into(),
         ));
     }
-    let spans = read_records::<SPAN_BYTES, Span>(&mut r, h.spans, get_span, span_ok, "span")?;
+    let spans =
+        read_records::<SPAN_BYTES, Span>(&mut r, &mut sum, h.spans, get_span, span_ok, "span")?;
     let span_objects = read_records::<8, (u32, u32)>(
         &mut r,
+        &mut sum,
         h.span_objects,
         |b| (u32_at(b, 0), u32_at(b, 4)),
         |_| true,
         "span object",
     )?;
+    // Fuzzing skips the checksum so that the decoder and the validation behind it are reached.
+    if !cfg!(fuzzing) && sum.finish() != stored_sum {
+        return Err(ReadError::Format(
+            "corrupt: the grid fails its checksum (rebake it with `minos bake --force`)".into(),
+        ));
+    }
     let (sight_squares, rest, mut warning) = if rest == 0 {
         (Vec::new(), 0, None)
     } else {
@@ -524,6 +608,9 @@ fn read_from(file: std::fs::File, len: u64) -> Result<(NavGrid, Option<String>),
             sparse_labels,
         },
     };
+    // Room ids quoted from the file may hold newlines: keep the error one line.
+    grid.validate()
+        .map_err(|e| ReadError::Format(format!("corrupt: {}", e.replace('\n', "\\n"))))?;
     Ok((grid, warning))
 }
 
@@ -709,6 +796,7 @@ fn read_labels(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::navmesh::grid::NONE;
     use crate::navmesh::los::SightIndex;
     use crate::navmesh::testmaps::MapSpec;
 
@@ -773,7 +861,7 @@ mod tests {
         let bytes = encode(&g).unwrap();
         // The arrays are not read: a file cut after its header still gives its parameters.
         let header = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
-        std::fs::write(&path, &bytes[..16 + header]).unwrap();
+        std::fs::write(&path, &bytes[..PREFIX + header]).unwrap();
         assert_eq!(read_nav_params(&path).unwrap(), g.params);
         assert_eq!(g.params.body, crate::body::AgentBody::MINOS);
         assert!(read_nav(&path).is_err());
@@ -789,7 +877,8 @@ mod tests {
     /// Where the grid's arrays end in a file's bytes (the stored sections follow).
     fn arrays_end(bytes: &[u8], g: &NavGrid) -> usize {
         let header = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
-        16 + header
+        PREFIX
+            + header
             + 4 * g.column_start.len()
             + SPAN_BYTES * g.spans.len()
             + 8 * g.span_objects.len()
@@ -916,7 +1005,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("g.nav");
         let bytes = encode(&grid()).unwrap();
-        for v in [1u32, 2, 3] {
+        for v in [1u32, 2, 3, 4] {
             let mut old = bytes.clone();
             old[8..12].copy_from_slice(&v.to_le_bytes());
             std::fs::write(&path, &old).unwrap();
@@ -944,5 +1033,75 @@ mod tests {
             .unwrap_err()
             .to_string()
             .contains("bad span"));
+    }
+
+    #[test]
+    fn the_streamed_checksum_equals_the_whole_one_whatever_the_pieces() {
+        let bytes: Vec<u8> = (0..200u32).map(|i| (i * 37 % 251) as u8).collect();
+        for cut in [0, 1, 7, 8, 9, 63, 199, 200] {
+            for cut2 in [cut, (cut + 3).min(200), 200] {
+                let mut c = Checksum::new(200);
+                c.update(&bytes[..cut]);
+                c.update(&bytes[cut..cut2]);
+                c.update(&bytes[cut2..]);
+                assert_eq!(c.finish(), checksum(&bytes), "{cut} {cut2}");
+            }
+        }
+    }
+
+    #[test]
+    fn bit_flips_and_truncations_of_a_written_grid_are_errors_never_panics() {
+        let g = grid();
+        let bytes = encode(&g).unwrap();
+        let end = arrays_end(&bytes, &g);
+        let p = Path::new("g.nav");
+        let step = (end / 1500).max(1);
+        let mut flips = 0;
+        for at in (0..bytes.len()).step_by(step) {
+            for bit in [0, 5] {
+                let mut b = bytes.clone();
+                b[at] ^= 1 << bit;
+                let r = std::panic::catch_unwind(|| decode_nav(p, &b));
+                let r = r.unwrap_or_else(|_| panic!("panic at byte {at} bit {bit}"));
+                if at < end {
+                    // In the grid part: always caught.
+                    let e = r.expect_err("a flip in the grid is caught").to_string();
+                    assert!(e.starts_with("g.nav: ") && !e.contains('\n'), "{e}");
+                    flips += 1;
+                } else if let Ok(read) = r {
+                    // In a derived section: dropped or refused, never wrong.
+                    assert_eq!(read, g, "flip at {at}");
+                }
+            }
+        }
+        assert!(flips > 1000, "{flips}");
+        for len in (0..bytes.len()).step_by(step) {
+            let r = std::panic::catch_unwind(|| decode_nav(p, &bytes[..len]).map(|_| ()));
+            let r = r.unwrap_or_else(|_| panic!("panic when cut to {len}"));
+            if len < end {
+                assert!(r.is_err(), "cut to {len}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_checksummed_grid_with_a_link_out_of_range_is_refused_naming_the_span() {
+        let mut g = grid();
+        let s = g.spans.iter().position(|s| s.links[0] != NONE).unwrap();
+        g.spans[s].links[0] = g.spans.len() as u32 + 5;
+        let bytes = encode(&g).unwrap();
+        let e = decode_nav(Path::new("g.nav"), &bytes)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with(&format!("g.nav: corrupt: span {s}: link 0 to span")),
+            "{e}"
+        );
+        let mut g = grid();
+        g.spans[0].room = 99;
+        let e = decode_nav(Path::new("g.nav"), &encode(&g).unwrap())
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("span 0: room 99 out of range"), "{e}");
     }
 }

@@ -7,6 +7,7 @@
 //! `query` (snapping, sampling), `file` (the `.nav` format) and `preview` (PNG images).
 
 pub mod build;
+mod check;
 pub mod file;
 pub mod geodesic;
 pub mod grid;

@@ -155,7 +155,15 @@ impl WorldMesh {
     /// Places `mesh` with `transform`: the one place where mirrored instances get their
     /// winding flipped and normals get the inverse-transpose.
     pub fn place(mesh: &Mesh, transform: &Mat4) -> Self {
-        let normal_matrix = Mat3::from_mat4(*transform).inverse().transpose();
+        // A singular transform (a zero scale) has no inverse (glam asserts in debug builds):
+        // its normals are kept as they are, then normalised with the usual fallback.
+        let linear = Mat3::from_mat4(*transform);
+        let det = linear.determinant();
+        let normal_matrix = if det != 0.0 && det.is_finite() {
+            linear.inverse().transpose()
+        } else {
+            Mat3::IDENTITY
+        };
         let mirrored = transform.determinant() < 0.0;
         let positions = mesh
             .positions
@@ -234,6 +242,24 @@ mod tests {
         );
         let plain = WorldMesh::place(&m, &Mat4::IDENTITY);
         assert_eq!(plain.indices, vec![0, 1, 2]);
+    }
+
+    #[test]
+    fn a_singular_transform_places_without_a_panic() {
+        use glam::Vec4;
+        // Fuzzing regression (target `mscene`): an object scaled to zero in a compiled scene
+        // panicked in glam's `Mat3::inverse` (`det != 0.0`) in debug builds.
+        let m = one_triangle();
+        let zero = Mat4::from_cols(Vec4::ZERO, Vec4::ZERO, Vec4::ZERO, Vec4::W);
+        let flat = Mat4::from_cols(Vec4::X, Vec4::ZERO, Vec4::Z, Vec4::W);
+        for t in [zero, flat] {
+            let w = WorldMesh::place(&m, &t);
+            assert_eq!(w.positions.len(), 3);
+            assert!(w
+                .normals
+                .iter()
+                .all(|n| n.is_finite() && (n.length() - 1.0).abs() < 1e-5));
+        }
     }
 
     #[test]

@@ -203,28 +203,87 @@ impl Scene {
         WorldMesh::place(&self.meshes[mesh as usize], &Mat4::IDENTITY)
     }
 
-    /// Checks cross-references (mesh ids, room indices) and mesh invariants.
+    /// Checks what every later stage indexes or computes with: each mesh's invariants, every
+    /// mesh id (room surfaces, ground, objects) and room index in range, level indices equal
+    /// to their positions, and finite
+    /// numbers (transforms, heights, areas, outlines; boxes free of NaN, as the empty box is
+    /// infinite). Returns the first problem, naming the record (`level 0 room 0_3: …`).
     pub fn validate(&self) -> Result<(), String> {
-        let nmesh = self.meshes.len() as u32;
+        let nmesh = self.meshes.len();
+        let mesh_ok = |m: MeshId| (m as usize) < nmesh;
         for (i, m) in self.meshes.iter().enumerate() {
             m.validate()
                 .map_err(|e| format!("mesh {i} ({}): {e}", m.name))?;
         }
-        for l in &self.levels {
+        for (li, l) in self.levels.iter().enumerate() {
+            let at = |what: String| format!("level {li} {what}");
+            if l.index as usize != li {
+                return Err(at(format!("says it is level {}", l.index)));
+            }
+            check_box(&l.bbox).map_err(|e| at(format!("box: {e}")))?;
+            if !l.floor_heights.iter().all(|h| h.is_finite()) {
+                return Err(at("floor heights: not finite".into()));
+            }
+            if let Some(g) = l.ground.iter().find(|&&g| !mesh_ok(g)) {
+                return Err(at(format!(
+                    "ground: mesh {g} out of range for {nmesh} meshes"
+                )));
+            }
             for r in &l.rooms {
-                if let Some(s) = r.surfaces.iter().find(|s| s.mesh >= nmesh) {
-                    return Err(format!("room {}: mesh {} out of range", r.id, s.mesh));
+                let at = |what: String| at(format!("room {}: {what}", r.id));
+                if let Some(s) = r.surfaces.iter().find(|s| !mesh_ok(s.mesh)) {
+                    return Err(at(format!(
+                        "mesh {} out of range for {nmesh} meshes",
+                        s.mesh
+                    )));
                 }
+                if !r.area.is_finite() || !r.floor_height.is_finite() {
+                    return Err(at("area or floor height not finite".into()));
+                }
+                if r.floor_polygon
+                    .iter()
+                    .flatten()
+                    .any(|p| !p.iter().all(|v| v.is_finite()))
+                {
+                    return Err(at("floor outline not finite".into()));
+                }
+                check_box(&r.bbox).map_err(|e| at(format!("box: {e}")))?;
             }
             for o in &l.objects {
-                if o.mesh.is_some_and(|m| m >= nmesh) {
-                    return Err(format!("object {}: mesh out of range", o.id));
+                let at = |what: String| at(format!("object {}: {what}", o.id));
+                if let Some(m) = o.mesh.filter(|&m| !mesh_ok(m)) {
+                    return Err(at(format!("mesh {m} out of range for {nmesh} meshes")));
                 }
                 if let Some(r) = o.rooms.iter().find(|&&r| r as usize >= l.rooms.len()) {
-                    return Err(format!("object {}: room {r} out of range", o.id));
+                    return Err(at(format!(
+                        "room {r} out of range for {} rooms",
+                        l.rooms.len()
+                    )));
+                }
+                if !o.transform.is_finite() {
+                    return Err(at("transform not finite".into()));
+                }
+                if !o.transform.row(3).abs_diff_eq(glam::Vec4::W, 1e-6) {
+                    return Err(at("transform not affine (last row is not 0 0 0 1)".into()));
+                }
+                check_box(&o.bbox).map_err(|e| at(format!("box: {e}")))?;
+                if o.materials
+                    .iter()
+                    .flat_map(|m| m.diffuse.iter().flatten())
+                    .any(|v| !v.is_finite())
+                {
+                    return Err(at("material override colour not finite".into()));
                 }
             }
         }
         Ok(())
     }
+}
+
+/// A box is fine when it holds no NaN (the empty box is infinite).
+fn check_box(b: &Aabb) -> Result<(), String> {
+    if b.min.is_nan() || b.max.is_nan() {
+        return Err(format!("NaN in {:?}..{:?}", b.min, b.max));
+    }
+    Ok(())
 }

@@ -164,7 +164,9 @@ impl SensorSuite {
     /// Parses a TOML (or, when it starts with `{`, JSON) sensor file; `source` names it in errors.
     pub fn parse(text: &str, source: &str) -> Result<Self, String> {
         let suite: SensorSuite = if text.trim_start().starts_with('{') {
-            serde_json::from_str(text).map_err(|e| format!("{source}: {e}"))?
+            // A field name in the message may hold a newline: keep the error on one line.
+            serde_json::from_str(text)
+                .map_err(|e| format!("{source}: {}", e.to_string().replace('\n', " ")))?
         } else {
             toml::from_str(text)
                 .map_err(|e| format!("{source}: {}", e.to_string().replace('\n', " ")))?
@@ -316,6 +318,17 @@ fn apply_noise(depth: &mut [f32], noise: DepthNoise, rng: &mut Rng) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_json_field_name_holding_a_newline_gives_a_one_line_error() {
+        // Fuzzing regression (target `config_toml`): the unknown field's name was copied
+        // into the message with its newline.
+        let e = SensorSuite::parse("{\"[a\\\\\\n\"m", "s.json").unwrap_err();
+        assert!(
+            e.starts_with("s.json: unknown field") && !e.contains('\n'),
+            "{e}"
+        );
+    }
 
     #[test]
     fn sensor_files_parse_and_bad_ones_say_why() {

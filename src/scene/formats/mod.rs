@@ -102,6 +102,19 @@ impl LoadError {
     }
 }
 
+/// Runs `f`, a call into a dependency's reader (tobj, gltf), turning a panic inside it into
+/// an error naming `path`: a dependency's panic on bad data must not take a batch down.
+pub fn guarded<T>(path: &Path, f: impl FnOnce() -> T) -> Result<T, LoadError> {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(f)).map_err(|p| {
+        let what = p
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| p.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "unknown cause".into());
+        LoadError::parse(path, format!("the reader failed: {what}"))
+    })
+}
+
 fn one_line(s: String) -> String {
     if s.contains('\n') {
         s.split_whitespace().collect::<Vec<_>>().join(" ")
@@ -118,7 +131,7 @@ pub fn load_mesh_file(path: &Path) -> Result<Mesh, LoadError> {
         .unwrap_or_default();
     let mesh = match ext.as_str() {
         "obj" => obj_mesh::load_obj(path)?,
-        "gltf" | "glb" => gltf_mesh::load_gltf(path)?,
+        "gltf" | "glb" => guarded(path, || gltf_mesh::load_gltf(path))??,
         other => {
             return Err(LoadError::parse(
                 path,

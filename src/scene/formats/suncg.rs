@@ -522,6 +522,17 @@ impl HouseBuild<'_> {
             }
         }
         let m = Mat4::from_cols_array(&m);
+        // Column-major: the last row is elements 3, 7, 11 and 15 (glam's point transforms
+        // assert it is (0, 0, 0, 1)).
+        if !m.row(3).abs_diff_eq(glam::Vec4::W, 1e-6) {
+            return Err(self.node_err(
+                &node.id,
+                format!(
+                    "transform's last row is {:?}, expected [0, 0, 0, 1] (not affine)",
+                    m.row(3).to_array()
+                ),
+            ));
+        }
         if m.determinant().abs() < 1e-12 {
             return Err(self.node_err(&node.id, "transform is singular (determinant 0)"));
         }

@@ -1,0 +1,112 @@
+#!/usr/bin/env bash
+# Builds seed corpora from files minos makes itself (plus the real samples in
+# ../shared/datasets when present) and runs every cargo-fuzz target briefly.
+#
+#   fuzz/smoke.sh                 # every target, 20 s each
+#   SECONDS_PER_TARGET=600 fuzz/smoke.sh nav mscene
+#   FUZZ_CORPUS_ONLY=1 FUZZ_WORK=/tmp/fz fuzz/smoke.sh   # only build the corpora
+#
+# Needs the nightly toolchain and cargo-fuzz (`cargo install cargo-fuzz`). Corpora and
+# artifacts live under $FUZZ_WORK (default: a new temporary folder), never in the repository.
+# Exit status: non-zero when a target finds a crash (its input is under $FUZZ_WORK/artifacts).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+ROOT=$PWD
+WORK=${FUZZ_WORK:-$(mktemp -d -t minos-fuzz-XXXXXX)}
+SECS=${SECONDS_PER_TARGET:-20}
+SHARED=${MINOS_SHARED:-$ROOT/../shared/datasets}
+# A worktree under wt/ finds shared/ one level further up.
+[ -d "$SHARED" ] || SHARED=$ROOT/../../shared/datasets
+ALL=(mscene nav suncg_house obj_mtl gltf episodes_parquet habitat_json minos_csv config_toml
+     external_reply mp3d_house mp3d_ply threedfront)
+TARGETS=("${@:-${ALL[@]}}")
+mkdir -p "$WORK"
+echo "fuzz work folder: $WORK"
+
+# --- minos-made inputs: a few generated houses through the whole pipeline -----------------
+GEN=$WORK/gen
+if [ ! -f "$GEN/done" ]; then
+    cargo build --quiet
+    MINOS=${CARGO_TARGET_DIR:-$ROOT/target}/debug/minos
+    rm -rf "$GEN" && mkdir -p "$GEN"
+    "$MINOS" -q generate --houses 4 --seed 3 --rooms 1..4 --out "$GEN/suncg"
+    "$MINOS" -q generate --format mp3d --houses 2 --seed 3 --rooms 1..3 --out "$GEN/mp3d"
+    "$MINOS" -q ingest --dataset suncg --root "$GEN/suncg" --out "$GEN/DATA"
+    "$MINOS" -q bake --data "$GEN/DATA"
+    "$MINOS" -q episodes --data "$GEN/DATA" --task pointgoal --per-scene 5 --seed 1 \
+        --out "$GEN/eps/points.parquet" --export habitat "$GEN/eps/habitat"
+    # Small grids (one or two rooms, 0.2 m cells) for the .nav corpus: tens of kB each.
+    printf 'cell_size = 0.2\n' > "$GEN/coarse.toml"
+    "$MINOS" -q generate --houses 3 --seed 5 --rooms 1..2 --levels 1..1 --out "$GEN/small"
+    "$MINOS" -q ingest --dataset suncg --root "$GEN/small" --out "$GEN/SMALL"
+    "$MINOS" -q bake --data "$GEN/SMALL" --config "$GEN/coarse.toml"
+    "$MINOS" -q export --data "$GEN/DATA" --scene "$(ls "$GEN/DATA/scenes" | head -1 | sed 's/\.mscene$//')" \
+        --out "$GEN/house.glb"
+    touch "$GEN/done"
+fi
+
+corpus() { # corpus TARGET FILE... : copies files (at most 256 kB each) into TARGET's corpus
+    local t=$1; shift
+    mkdir -p "$WORK/corpus/$t"
+    for f in "$@"; do
+        [ -f "$f" ] || continue
+        [ "$(stat -c %s "$f")" -le 262144 ] || continue
+        cp "$f" "$WORK/corpus/$t/$(sha1sum "$f" | cut -c1-16)"
+    done
+}
+gunzip_to() { # gunzip_to DIR FILE... : plain copies of .json.gz files
+    mkdir -p "$1"; local d=$1; shift
+    for f in "$@"; do [ -f "$f" ] && gunzip -c "$f" | head -c 262144 > "$d/$(basename "$f" .gz)" || true; done
+}
+
+corpus mscene "$GEN"/DATA/scenes/*.mscene
+corpus nav "$GEN"/SMALL/nav/*.nav "$GEN"/DATA/nav/*.nav
+corpus suncg_house "$GEN"/suncg/house/*/house.json "$SHARED"/suncg/house/*/house.json
+mkdir -p "$WORK/objmtl"
+for obj in "$GEN"/suncg/object/*/*.obj "$GEN"/suncg/room/*/*.obj; do
+    [ -f "$obj" ] || continue
+    out="$WORK/objmtl/$(basename "$(dirname "$obj")")_$(basename "$obj")"
+    { cat "$obj"; printf '\n%%%%MTL\n'; cat "${obj%.obj}.mtl" 2>/dev/null || true; } > "$out"
+done
+corpus obj_mtl $(ls "$WORK"/objmtl/* | head -200)
+corpus gltf "$GEN/house.glb" $(find "$SHARED/gltf_habitat" -name '*.glb' -size -256k 2>/dev/null | head -20) \
+    $(find "$SHARED/gltf_habitat" -name '*.gltf' -size -256k 2>/dev/null | head -20)
+corpus episodes_parquet "$GEN"/eps/*.parquet
+gunzip_to "$WORK/habitat" $(find "$GEN/eps/habitat" "$SHARED/habitat_episodes" -name '*.json.gz' 2>/dev/null | head -20)
+corpus habitat_json "$WORK"/habitat/*
+mkdir -p "$WORK/csv"
+for f in "$SHARED"/minos/*.csv.bz2; do [ -f "$f" ] && bzcat "$f" | head -n 200 > "$WORK/csv/$(basename "$f" .bz2)"; done
+printf 'sceneId,level,startX,startY,startZ,startAngle,goalX,goalY,goalZ\nh,0,1,0,2,0.5,3,0,4\n' > "$WORK/csv/tiny.csv"
+corpus minos_csv "$WORK"/csv/*
+mkdir -p "$WORK/cfg"
+printf '\x00[[cameras]]\nname = "rgb"\nmodality = "color"\nwidth = 64\nheight = 48\nvfov = 60.0\n' > "$WORK/cfg/sensors"
+printf '\x01cell_size = 0.05\nagent_radius = 0.2\nagent_height = 1.5\n' > "$WORK/cfg/params"
+printf '\x02[empty]\nempty = true\n[open]\ndoors = "open"\n' > "$WORK/cfg/variants"
+for v in "$GEN"/DATA/variants/*.toml; do [ -f "$v" ] && { printf '\x02'; cat "$v"; } > "$WORK/cfg/$(basename "$v")"; done
+corpus config_toml "$WORK"/cfg/*
+mkdir -p "$WORK/replies"
+echo '{"stop": true}' > "$WORK/replies/a"; echo '{"action": "forward"}' > "$WORK/replies/b"
+echo '{"actions": {"forward": 1.0, "turn_left": 0.5}}' > "$WORK/replies/c"
+corpus external_reply "$WORK"/replies/*
+corpus mp3d_house "$GEN"/mp3d/*/house_segmentations/*.house "$SHARED"/matterport3d/house/*.house
+corpus mp3d_ply $(find "$GEN/mp3d" "$SHARED/matterport3d" -name '*.ply' -size -256k 2>/dev/null | head -10)
+corpus threedfront $(find "$SHARED/3dfront" -name '*.json' -size -256k 2>/dev/null | head -20)
+
+[ -n "${FUZZ_CORPUS_ONLY:-}" ] && { echo "corpora in $WORK/corpus"; exit 0; }
+
+# --- run every target ----------------------------------------------------------------------
+export MINOS_FUZZ_SUNCG_ROOT=$GEN/suncg
+status=0
+for t in "${TARGETS[@]}"; do
+    mkdir -p "$WORK/corpus/$t" "$WORK/artifacts/$t"
+    echo "== $t (${SECS}s)"
+    if ! cargo +nightly fuzz run -O --debug-assertions "$t" "$WORK/corpus/$t" -- \
+        -max_total_time="$SECS" -artifact_prefix="$WORK/artifacts/$t/" -max_len=262144 \
+        -rss_limit_mb=4096 -print_final_stats=1 2>&1 | tee "$WORK/$t.log" | tail -n 3; then
+        status=1
+    fi
+    if ls "$WORK/artifacts/$t"/crash-* "$WORK/artifacts/$t"/oom-* "$WORK/artifacts/$t"/timeout-* >/dev/null 2>&1; then
+        echo "!! $t: crash inputs in $WORK/artifacts/$t"; status=1
+    fi
+done
+exit $status

@@ -1,0 +1,93 @@
+//! Inputs the fuzz targets (`fuzz/`) found crashes with, kept as ordinary tests on the stable
+//! toolchain: each must give a one-line error, never a panic. The files are the fuzzers'
+//! crash inputs as found (`tests/data/fuzz/<target>-<what>.*`).
+
+mod common;
+
+use std::path::{Path, PathBuf};
+
+use common::generate_into;
+use minos::episode::format::read_episodes;
+use minos::generate::GenerateConfig;
+use minos::scene::formats::load_mesh_file;
+use minos::scene::formats::suncg::SuncgLoader;
+use minos::scene::formats::SceneEntry;
+
+fn input(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/fuzz")
+        .join(name)
+}
+
+fn one_line_error<T: std::fmt::Debug, E: std::fmt::Display>(r: Result<T, E>, names: &str) {
+    let e = r.expect_err("refused").to_string();
+    assert!(e.contains(names) && !e.contains('\n'), "{e}");
+}
+
+#[test]
+fn episode_parquet_whose_schema_panicked_arrow_ipc() {
+    // arrow-ipc 58 panicked: "Int type with bit width of 0 and signed of false not supported".
+    let path = input("episodes_parquet-arrow_ipc_int_width_0.parquet");
+    let r = std::panic::catch_unwind(|| read_episodes(&path)).expect("no panic");
+    one_line_error(r, "episodes_parquet-arrow_ipc_int_width_0.parquet");
+}
+
+#[test]
+fn episode_parquet_whose_schema_panicked_arrow_ipc_type_none() {
+    // arrow-ipc 58 panicked: "not implemented: Type NONE not supported".
+    let path = input("episodes_parquet-arrow_ipc_type_none.parquet");
+    let r = std::panic::catch_unwind(|| read_episodes(&path)).expect("no panic");
+    one_line_error(r, "episodes_parquet-arrow_ipc_type_none.parquet");
+}
+
+#[test]
+fn glb_whose_accessor_panicked_gltf() {
+    // gltf 1.4.1 panicked in accessor/util.rs (`assertion left == right`).
+    let path = input("gltf-accessor_assert.glb");
+    let r = std::panic::catch_unwind(|| load_mesh_file(&path)).expect("no panic");
+    one_line_error(r, "gltf-accessor_assert.glb");
+}
+
+#[test]
+fn glb_whose_mesh_panicked_gltf_unreachable() {
+    // gltf 1.4.1 panicked in mesh/mod.rs:396 (`entered unreachable code`).
+    let path = input("gltf-mesh_unreachable.glb");
+    let r = std::panic::catch_unwind(|| load_mesh_file(&path)).expect("no panic");
+    one_line_error(r, "gltf-mesh_unreachable.glb");
+}
+
+#[test]
+fn suncg_house_with_a_non_affine_transform() {
+    // glam panicked in `transform_point3` (debug builds): a transform whose last row is not
+    // (0, 0, 0, 1). The house's meshes come from a generated dataset.
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path().join("suncg");
+    generate_into(
+        &GenerateConfig {
+            houses: 4,
+            seed: 3,
+            rooms: (1, 4),
+            levels: (1, 2),
+            closed_door_prob: 0.25,
+        },
+        &root,
+    );
+    let house = root.join("house").join("fuzz");
+    std::fs::create_dir_all(&house).unwrap();
+    std::fs::copy(
+        input("suncg_house-not_affine.json"),
+        house.join("house.json"),
+    )
+    .unwrap();
+    let loader = SuncgLoader::open(&root, None).unwrap();
+    let entry = SceneEntry {
+        id: "fuzz".into(),
+        path: house.join("house.json"),
+    };
+    let r = std::panic::catch_unwind(|| loader.load(&entry).map(|_| ())).expect("no panic");
+    let e = r.expect_err("refused").to_string();
+    assert!(
+        e.contains("house.json") && e.contains("not affine") && !e.contains('\n'),
+        "{e}"
+    );
+}
