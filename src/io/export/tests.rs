@@ -464,7 +464,10 @@ fn io_errors_name_the_file() {
 #[test]
 fn non_finite_parts_are_skipped_not_written() {
     let mut scene = scene();
-    scene.levels[0].objects[0].transform = Mat4::from_translation(Vec3::new(f32::NAN, 0.0, 0.0));
+    // A finite transform whose placed vertices overflow f32 (a NaN or infinite transform is
+    // refused earlier, by the scene's validation).
+    scene.levels[0].objects[0].transform =
+        Mat4::from_translation(Vec3::new(3e38, 0.0, 0.0)) * Mat4::from_scale(Vec3::splat(1e38));
     let dir = tempfile::tempdir().expect("tempdir");
     let out = dir.path().join("house1.glb");
     let summary = export_scene(&scene, ExportFormat::Glb, &out).expect("export");
