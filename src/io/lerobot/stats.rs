@@ -46,17 +46,22 @@ pub struct FeatureStats {
 }
 
 impl FeatureStats {
-    /// Statistics of `channels[c]` (every value of channel c over the episode's frames),
-    /// counting `frames` frames. The value lists are reordered (partially sorted).
-    pub fn of_channels(channels: &mut [Vec<f64>], frames: u64) -> FeatureStats {
-        let mut s = FeatureStats {
+    /// No channels yet, covering `count` frames.
+    fn empty(count: u64) -> FeatureStats {
+        FeatureStats {
             min: Vec::new(),
             max: Vec::new(),
             mean: Vec::new(),
             std: Vec::new(),
-            count: frames,
+            count,
             quantiles: Default::default(),
-        };
+        }
+    }
+
+    /// Statistics of `channels[c]` (every value of channel c over the episode's frames),
+    /// counting `frames` frames. The value lists are reordered (partially sorted).
+    pub fn of_channels(channels: &mut [Vec<f64>], frames: u64) -> FeatureStats {
+        let mut s = FeatureStats::empty(frames);
         for values in channels.iter_mut() {
             let n = values.len().max(1) as f64;
             let mean = values.iter().sum::<f64>() / n;
@@ -77,14 +82,7 @@ impl FeatureStats {
     /// Statistics of 8-bit channels given as histograms (`histograms[c][v]` = how many
     /// pixels of channel c have value v), scaled by 1/255 as LeRobot scales images.
     pub fn of_histograms(histograms: &[[u64; 256]], frames: u64) -> FeatureStats {
-        let mut s = FeatureStats {
-            min: Vec::new(),
-            max: Vec::new(),
-            mean: Vec::new(),
-            std: Vec::new(),
-            count: frames,
-            quantiles: Default::default(),
-        };
+        let mut s = FeatureStats::empty(frames);
         for h in histograms {
             let n: u64 = h.iter().sum();
             let nf = n.max(1) as f64;
@@ -129,14 +127,7 @@ impl FeatureStats {
                 .sum::<f64>()
                 / total_f
         };
-        let mut out = FeatureStats {
-            min: Vec::new(),
-            max: Vec::new(),
-            mean: Vec::new(),
-            std: Vec::new(),
-            count: total,
-            quantiles: Default::default(),
-        };
+        let mut out = FeatureStats::empty(total);
         for c in 0..channels {
             let mean = weighted(&|p| &p.mean, c);
             let var = parts
