@@ -14,19 +14,17 @@ mod common;
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
-use common::{generate_into, ingest_into};
+use common::baked_houses;
 use minos::body::{AgentBody, BodyRule};
 use minos::episode::habitat::{export_habitat, import_habitat, yaw_from_quaternion, SceneIdStyle};
 use minos::episode::interchange::read_text_bytes;
 use minos::episode::sample::SampleConfig;
 use minos::episode::{Episode, Goal, Task};
 use minos::generate::GenerateConfig;
-use minos::navmesh::{NavGrid, NavParams};
-use minos::pipeline::bake::{bake_scenes, BakeConfig};
+use minos::navmesh::NavGrid;
 use minos::pipeline::episodes::sample_scenes;
 use minos::progress::NoProgress;
 use minos::shard::Shard;
-use minos::store::manifest::read_manifest;
 use minos::store::DataDir;
 use serde_json::Value;
 
@@ -45,7 +43,6 @@ fn fixture() -> &'static Fixture {
     static F: std::sync::OnceLock<Fixture> = std::sync::OnceLock::new();
     F.get_or_init(|| {
         let dir = tempfile::tempdir().unwrap();
-        let (root, data) = (dir.path().join("suncg"), dir.path().join("DATA"));
         let cfg = GenerateConfig {
             houses: 3,
             seed: 14,
@@ -53,25 +50,7 @@ fn fixture() -> &'static Fixture {
             levels: (1, 1),
             closed_door_prob: 0.0,
         };
-        generate_into(&cfg, &root);
-        ingest_into(&root, &data);
-        let data = DataDir::new(&data);
-        let ids: Vec<String> = read_manifest(&data.manifest_path())
-            .unwrap()
-            .into_iter()
-            .map(|r| r.id)
-            .collect();
-        let report = bake_scenes(
-            &BakeConfig {
-                data: data.clone(),
-                scenes: ids.iter().map(|id| id.parse().unwrap()).collect(),
-                params: NavParams::default(),
-                force: false,
-                previews: false,
-            },
-            &NoProgress,
-        );
-        assert_eq!(report.failures().count(), 0);
+        let (data, ids) = baked_houses(dir.path(), &cfg);
         let scenes: Vec<(String, String)> =
             ids.into_iter().map(|id| (id, "val".to_string())).collect();
         let style = SceneIdStyle {

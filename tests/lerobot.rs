@@ -13,13 +13,11 @@ use arrow::array::{
     Array, BinaryArray, BooleanArray, FixedSizeListArray, Float32Array, Float64Array, Int64Array,
     ListArray, RecordBatch, StringArray, StructArray, UInt16Array, UInt32Array, UInt8Array,
 };
-use common::{generate_into, ingest_into, minos, tree_bytes, RunOk};
+use common::{baked_houses, minos, tree_bytes, RunOk};
 use minos::episode::sample::SampleConfig;
 use minos::episode::{Episode, Task};
 use minos::generate::GenerateConfig;
 use minos::io::tables::ImageEncoding;
-use minos::navmesh::NavParams;
-use minos::pipeline::bake::{bake_scenes, BakeConfig};
 use minos::pipeline::episodes::sample_scenes;
 use minos::pipeline::rollout::{run, AgentKind, RunConfig};
 use minos::progress::NoProgress;
@@ -43,8 +41,8 @@ fn fixture() -> &'static Fixture {
     static F: std::sync::OnceLock<Fixture> = std::sync::OnceLock::new();
     F.get_or_init(|| {
         let dir = tempfile::tempdir().expect("tempdir");
-        let (root, data) = (dir.path().join("suncg"), dir.path().join("DATA"));
-        generate_into(
+        let (data_dir, ids) = baked_houses(
+            dir.path(),
             &GenerateConfig {
                 houses: 2,
                 seed: 8,
@@ -52,20 +50,6 @@ fn fixture() -> &'static Fixture {
                 levels: (1, 1),
                 closed_door_prob: 0.0,
             },
-            &root,
-        );
-        ingest_into(&root, &data);
-        let data_dir = minos::store::DataDir::new(&data);
-        let ids = data_dir.ingested_ids().expect("ids");
-        bake_scenes(
-            &BakeConfig {
-                data: data_dir.clone(),
-                scenes: ids.iter().map(|id| id.parse().expect("id")).collect(),
-                params: NavParams::default(),
-                force: false,
-                previews: false,
-            },
-            &NoProgress,
         );
         let scenes: Vec<(String, String)> =
             ids.into_iter().map(|id| (id, "val".to_string())).collect();

@@ -11,16 +11,12 @@ use std::sync::Arc;
 use arrow::array::{
     Array, ArrayRef, BooleanArray, Float32Array, Float64Array, ListArray, RecordBatch,
 };
-use common::{generate_into, ingest_into, minos, RunOk};
+use common::{baked_houses, minos, RunOk};
 use glam::Vec3;
 use minos::generate::GenerateConfig;
 use minos::navmesh::route::route;
-use minos::navmesh::{NavGrid, NavParams, NONE};
+use minos::navmesh::{NavGrid, NONE};
 use minos::parquet_io::{read_batches, write_batches, writer_properties};
-use minos::pipeline::bake::{bake_scenes, BakeConfig};
-use minos::progress::NoProgress;
-use minos::store::manifest::read_manifest;
-use minos::store::DataDir;
 
 struct Fixture {
     dir: tempfile::TempDir,
@@ -35,7 +31,6 @@ fn fixture() -> &'static Fixture {
     static F: std::sync::OnceLock<Fixture> = std::sync::OnceLock::new();
     F.get_or_init(|| {
         let dir = tempfile::tempdir().unwrap();
-        let (root, data) = (dir.path().join("suncg"), dir.path().join("DATA"));
         let cfg = GenerateConfig {
             houses: 1,
             seed: 21,
@@ -43,21 +38,8 @@ fn fixture() -> &'static Fixture {
             levels: (2, 2),
             closed_door_prob: 0.3,
         };
-        generate_into(&cfg, &root);
-        ingest_into(&root, &data);
-        let data = DataDir::new(&data);
-        let scene = read_manifest(&data.manifest_path()).unwrap()[0].id.clone();
-        let report = bake_scenes(
-            &BakeConfig {
-                data: data.clone(),
-                scenes: vec![scene.parse().unwrap()],
-                params: NavParams::default(),
-                force: false,
-                previews: false,
-            },
-            &NoProgress,
-        );
-        assert_eq!(report.failures().count(), 0);
+        let (data, ids) = baked_houses(dir.path(), &cfg);
+        let scene = ids[0].clone();
         let grid = data
             .read_grid(&minos::scene::SceneRef::parse(&scene))
             .unwrap();

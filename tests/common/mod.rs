@@ -21,6 +21,30 @@ pub fn ingest_into(root: &Path, data: &Path) -> IngestReport {
     ingest(&IngestConfig::suncg(root, data), &NoProgress).expect("ingest")
 }
 
+/// Generates `cfg` into `dir/suncg`, ingests it into `dir/DATA` and bakes every scene for
+/// the default (Habitat) body without previews; returns the DATA folder and the scene ids in
+/// manifest order. Fails the test if a scene does not bake.
+pub fn baked_houses(dir: &Path, cfg: &GenerateConfig) -> (minos::store::DataDir, Vec<String>) {
+    let (root, data) = (dir.join("suncg"), dir.join("DATA"));
+    generate_into(cfg, &root);
+    ingest_into(&root, &data);
+    let data = minos::store::DataDir::new(&data);
+    let ids = data.ingested_ids().expect("ingested ids");
+    let report = minos::pipeline::bake::bake_scenes(
+        &minos::pipeline::bake::BakeConfig {
+            data: data.clone(),
+            scenes: ids.iter().map(|id| id.parse().expect("scene id")).collect(),
+            params: minos::navmesh::NavParams::default(),
+            force: false,
+            previews: false,
+        },
+        &NoProgress,
+    );
+    let failures: Vec<_> = report.failures().collect();
+    assert!(failures.is_empty(), "{failures:?}");
+    (data, ids)
+}
+
 /// Every file under `dir` with its bytes, sorted by path.
 pub fn tree_bytes(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
     let mut out = Vec::new();
