@@ -4,24 +4,12 @@
 
 mod common;
 
-use common::{minos, RunOk};
+use common::{cli_ingested, minos, RunOk};
 use std::path::Path;
 
 /// Generates, ingests and splits two houses into `dir/DATA`, and bakes them for `preset`.
 fn baked_for(dir: &Path, preset: &str) -> std::path::PathBuf {
-    let (root, data) = (dir.join("suncg"), dir.join("DATA"));
-    minos()
-        .args([
-            "-q", "generate", "--houses", "2", "--seed", "4", "--rooms", "3..4", "--out",
-        ])
-        .arg(&root)
-        .ok_output();
-    minos()
-        .args(["-q", "ingest", "--dataset", "suncg", "--root"])
-        .arg(&root)
-        .arg("--out")
-        .arg(&data)
-        .ok_output();
+    let data = cli_ingested(dir, 2, 4);
     minos()
         .args([
             "-q", "split", "--name", "all", "--ratios", "1,0,0", "--data",

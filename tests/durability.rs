@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::{Duration, Instant};
 
-use common::{minos, tree_bytes, RunOk};
+use common::{cli_ingested, minos, tree_bytes, RunOk};
 use minos::seed::Rng;
 
 /// One step of the pipeline, with the folder it works in (always the same path, so stored
@@ -235,22 +235,9 @@ fn kill_9_at_varied_points_then_rerun_leaves_the_uninterrupted_bytes() {
     );
 }
 
-/// A DATA folder with three ingested houses, in `dir/DATA`.
+/// A DATA folder with two ingested houses, in `dir/DATA`.
 fn ingested(dir: &Path) -> PathBuf {
-    let (root, data) = (dir.join("suncg"), dir.join("DATA"));
-    minos()
-        .args([
-            "-q", "generate", "--houses", "2", "--seed", "3", "--rooms", "3..4", "--out",
-        ])
-        .arg(&root)
-        .ok_output();
-    minos()
-        .args(["-q", "ingest", "--dataset", "suncg", "--root"])
-        .arg(&root)
-        .arg("--out")
-        .arg(&data)
-        .ok_output();
-    data
+    cli_ingested(dir, 2, 3)
 }
 
 #[test]

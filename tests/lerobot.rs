@@ -13,12 +13,10 @@ use arrow::array::{
     Array, BinaryArray, BooleanArray, FixedSizeListArray, Float32Array, Float64Array, Int64Array,
     ListArray, RecordBatch, StringArray, StructArray, UInt16Array, UInt32Array, UInt8Array,
 };
-use common::{baked_houses, minos, tree_bytes, RunOk};
-use minos::episode::sample::SampleConfig;
-use minos::episode::{Episode, Task};
+use common::{baked_houses, every_task_episodes, minos, tree_bytes, RunOk};
+use minos::episode::Episode;
 use minos::generate::GenerateConfig;
 use minos::io::tables::ImageEncoding;
-use minos::pipeline::episodes::sample_scenes;
 use minos::pipeline::rollout::{run, AgentKind, RunConfig};
 use minos::progress::NoProgress;
 use minos::run::metrics::Reward;
@@ -53,25 +51,7 @@ fn fixture() -> &'static Fixture {
         );
         let scenes: Vec<(String, String)> =
             ids.into_iter().map(|id| (id, "val".to_string())).collect();
-        let mut episodes = Vec::new();
-        for task in [Task::PointGoal, Task::ObjectGoal, Task::RoomGoal] {
-            episodes.extend(
-                sample_scenes(
-                    &data_dir,
-                    &scenes,
-                    &SampleConfig {
-                        task,
-                        per_scene: 1,
-                        seed: 3,
-                        ..SampleConfig::default()
-                    },
-                    minos::body::BodyRule::strict(minos::body::AgentBody::HABITAT),
-                    Shard::ALL,
-                    &NoProgress,
-                )
-                .episodes,
-            );
-        }
+        let episodes = every_task_episodes(&data_dir, &scenes, 1, 3);
         assert!(episodes.len() >= 4, "{} episodes", episodes.len());
         let f = Fixture { dir, episodes };
         for (name, encoding) in [("raw", ImageEncoding::Raw), ("png", ImageEncoding::Png)] {

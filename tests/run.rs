@@ -8,21 +8,16 @@ use std::path::Path;
 use std::sync::Arc;
 
 use arrow::array::{Array, BinaryArray, Float32Array, StringArray, UInt32Array};
-use common::{generate_into, ingest_into};
-use minos::episode::sample::SampleConfig;
+use common::{baked_houses, every_task_episodes};
 use minos::episode::{Episode, Task};
 use minos::generate::GenerateConfig;
 use minos::io::tables::ImageEncoding;
-use minos::navmesh::NavParams;
-use minos::pipeline::bake::{bake_scenes, BakeConfig};
-use minos::pipeline::episodes::sample_scenes;
 use minos::pipeline::rollout::{run, AgentKind, RunConfig};
 use minos::progress::NoProgress;
 use minos::run::agents::Decision;
 use minos::run::metrics::Reward;
 use minos::shard::Shard;
 use minos::sim::{AgentConfig, RendererChoice, SensorSuite};
-use minos::store::manifest::read_manifest;
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 
 fn data() -> &'static (tempfile::TempDir, Vec<Episode>) {
@@ -30,8 +25,8 @@ fn data() -> &'static (tempfile::TempDir, Vec<Episode>) {
         std::sync::OnceLock::new();
     DATA.get_or_init(|| {
         let dir = tempfile::tempdir().unwrap();
-        let (root, data) = (dir.path().join("suncg"), dir.path().join("DATA"));
-        generate_into(
+        let (data, ids) = baked_houses(
+            dir.path(),
             &GenerateConfig {
                 houses: 5,
                 seed: 31,
@@ -39,45 +34,10 @@ fn data() -> &'static (tempfile::TempDir, Vec<Episode>) {
                 levels: (1, 2),
                 closed_door_prob: 0.25,
             },
-            &root,
-        );
-        ingest_into(&root, &data);
-        let ids: Vec<String> = read_manifest(&minos::store::DataDir::new(&data).manifest_path())
-            .unwrap()
-            .into_iter()
-            .map(|r| r.id)
-            .collect();
-        bake_scenes(
-            &BakeConfig {
-                data: minos::store::DataDir::new(&data),
-                scenes: ids.iter().map(|id| id.parse().unwrap()).collect(),
-                params: NavParams::default(),
-                force: false,
-                previews: false,
-            },
-            &NoProgress,
         );
         let scenes: Vec<(String, String)> =
             ids.into_iter().map(|id| (id, "val".to_string())).collect();
-        let mut episodes = Vec::new();
-        for task in [Task::PointGoal, Task::ObjectGoal, Task::RoomGoal] {
-            episodes.extend(
-                sample_scenes(
-                    &minos::store::DataDir::new(&data),
-                    &scenes,
-                    &SampleConfig {
-                        task,
-                        per_scene: 4,
-                        seed: 2,
-                        ..SampleConfig::default()
-                    },
-                    minos::body::BodyRule::strict(minos::body::AgentBody::HABITAT),
-                    Shard::ALL,
-                    &NoProgress,
-                )
-                .episodes,
-            );
-        }
+        let episodes = every_task_episodes(&data, &scenes, 4, 2);
         (dir, episodes)
     })
 }

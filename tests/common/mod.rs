@@ -45,6 +45,55 @@ pub fn baked_houses(dir: &Path, cfg: &GenerateConfig) -> (minos::store::DataDir,
     (data, ids)
 }
 
+/// Generates `houses` houses (3–4 rooms, `seed`) into `dir/suncg` and ingests them into
+/// `dir/DATA` with the binary, as a user would; returns the DATA folder.
+pub fn cli_ingested(dir: &Path, houses: usize, seed: u64) -> PathBuf {
+    let (root, data) = (dir.join("suncg"), dir.join("DATA"));
+    minos()
+        .args(["-q", "generate", "--houses", &houses.to_string()])
+        .args(["--seed", &seed.to_string(), "--rooms", "3..4", "--out"])
+        .arg(&root)
+        .ok_output();
+    minos()
+        .args(["-q", "ingest", "--dataset", "suncg", "--root"])
+        .arg(&root)
+        .arg("--out")
+        .arg(&data)
+        .ok_output();
+    data
+}
+
+/// `per_scene` episodes of every task (PointGoal, ObjectGoal, RoomGoal, in that order) on
+/// `scenes` (id, split) for Habitat's body, drawn with `seed`.
+pub fn every_task_episodes(
+    data: &minos::store::DataDir,
+    scenes: &[(String, String)],
+    per_scene: usize,
+    seed: u64,
+) -> Vec<minos::episode::Episode> {
+    use minos::episode::Task;
+    let mut episodes = Vec::new();
+    for task in [Task::PointGoal, Task::ObjectGoal, Task::RoomGoal] {
+        episodes.extend(
+            minos::pipeline::episodes::sample_scenes(
+                data,
+                scenes,
+                &minos::episode::sample::SampleConfig {
+                    task,
+                    per_scene,
+                    seed,
+                    ..Default::default()
+                },
+                minos::body::BodyRule::strict(minos::body::AgentBody::HABITAT),
+                minos::shard::Shard::ALL,
+                &NoProgress,
+            )
+            .episodes,
+        );
+    }
+    episodes
+}
+
 /// Every file under `dir` with its bytes, sorted by path.
 pub fn tree_bytes(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
     let mut out = Vec::new();
