@@ -14,7 +14,7 @@ use arrow::datatypes::{
 };
 use serde_json::json;
 
-use super::features::{Camera, Feature, FeatureKind, Scalar};
+use super::features::{Camera, Feature, FeatureKind, FrameValue, Scalar, VectorValue};
 use super::source::StepRow;
 use super::stats::FeatureStats;
 use crate::io::image_codec::{encode_cell, CellEncoding, CellFormat};
@@ -67,21 +67,18 @@ pub fn episode_batch(
     let mut stats = Vec::with_capacity(features.len());
     for f in features {
         let (column, s) = match &f.kind {
-            FeatureKind::Vector(names) => {
+            FeatureKind::Vector(v) => {
                 let rows: Vec<&[f32]> = ep
                     .steps
                     .iter()
-                    .map(|s| {
-                        if f.key == "observation.state" {
-                            &s.state[..]
-                        } else {
-                            &s.action[..]
-                        }
+                    .map(|s| match v {
+                        VectorValue::State => &s.state[..],
+                        VectorValue::Action => &s.action[..],
                     })
                     .collect();
-                vector_column(&rows, names.len(), frames)
+                vector_column(&rows, v.names().len(), frames)
             }
-            FeatureKind::Scalar(kind) => scalar_column(f, *kind, ep, frames),
+            FeatureKind::Frame(v) => frame_column(*v, ep, frames),
             FeatureKind::Image(c) => image_column(*c, &cameras[*c].format, ep, frames)?,
             FeatureKind::Array(c) => array_column(*c, &cameras[*c].format, ep, frames)?,
         };
@@ -110,34 +107,22 @@ fn vector_column(rows: &[&[f32]], len: usize, frames: u64) -> (ArrayRef, Feature
     )
 }
 
-fn scalar_column(
-    f: &Feature,
-    kind: Scalar,
-    ep: &EpisodeFrames,
-    frames: u64,
-) -> (ArrayRef, FeatureStats) {
+fn frame_column(value: FrameValue, ep: &EpisodeFrames, frames: u64) -> (ArrayRef, FeatureStats) {
     let n = ep.steps.len();
-    let values: Vec<f64> = match f.key.as_str() {
-        "next.reward" => ep.steps.iter().map(|s| f64::from(s.reward)).collect(),
-        "next.done" => ep
-            .steps
-            .iter()
-            .map(|s| f64::from(u8::from(s.done)))
-            .collect(),
-        "next.success" => ep
-            .steps
-            .iter()
-            .map(|s| f64::from(u8::from(s.success)))
-            .collect(),
-        "timestamp" => (0..n)
+    let flag = |b: bool| f64::from(u8::from(b));
+    let values: Vec<f64> = match value {
+        FrameValue::Reward => ep.steps.iter().map(|s| f64::from(s.reward)).collect(),
+        FrameValue::Done => ep.steps.iter().map(|s| flag(s.done)).collect(),
+        FrameValue::Success => ep.steps.iter().map(|s| flag(s.success)).collect(),
+        FrameValue::Timestamp => (0..n)
             .map(|i| f64::from(i as f32 / ep.fps as f32))
             .collect(),
-        "frame_index" => (0..n).map(|i| i as f64).collect(),
-        "episode_index" => vec![ep.episode_index as f64; n],
-        "index" => (0..n).map(|i| (ep.first_index + i as i64) as f64).collect(),
-        _ => vec![ep.task_index as f64; n],
+        FrameValue::FrameIndex => (0..n).map(|i| i as f64).collect(),
+        FrameValue::EpisodeIndex => vec![ep.episode_index as f64; n],
+        FrameValue::Index => (0..n).map(|i| (ep.first_index + i as i64) as f64).collect(),
+        FrameValue::TaskIndex => vec![ep.task_index as f64; n],
     };
-    let column: ArrayRef = match kind {
+    let column: ArrayRef = match value.scalar() {
         Scalar::F32 => Arc::new(values.iter().map(|v| *v as f32).collect::<Float32Array>()),
         Scalar::Bool => Arc::new(
             values

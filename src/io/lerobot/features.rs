@@ -69,13 +69,98 @@ pub enum Scalar {
     I64,
 }
 
+/// A fixed-length float32 vector of each frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum VectorValue {
+    /// `observation.state`: the pose before the action.
+    State,
+    /// `action`: the strengths and stop.
+    Action,
+}
+
+impl VectorValue {
+    /// The feature key.
+    pub fn key(self) -> &'static str {
+        match self {
+            VectorValue::State => "observation.state",
+            VectorValue::Action => "action",
+        }
+    }
+
+    /// Names of the elements.
+    pub fn names(self) -> &'static [&'static str] {
+        match self {
+            VectorValue::State => &STATE_NAMES,
+            VectorValue::Action => &ACTION_NAMES,
+        }
+    }
+}
+
+/// A single value of each frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FrameValue {
+    /// `next.reward`.
+    Reward,
+    /// `next.done`.
+    Done,
+    /// `next.success`.
+    Success,
+    /// `timestamp`: frame / fps.
+    Timestamp,
+    /// `frame_index`: frame in its episode.
+    FrameIndex,
+    /// `episode_index`.
+    EpisodeIndex,
+    /// `index`: frame in the dataset.
+    Index,
+    /// `task_index`.
+    TaskIndex,
+}
+
+impl FrameValue {
+    /// Every frame value, in column order.
+    pub const ALL: [FrameValue; 8] = [
+        FrameValue::Reward,
+        FrameValue::Done,
+        FrameValue::Success,
+        FrameValue::Timestamp,
+        FrameValue::FrameIndex,
+        FrameValue::EpisodeIndex,
+        FrameValue::Index,
+        FrameValue::TaskIndex,
+    ];
+
+    /// The feature key.
+    pub fn key(self) -> &'static str {
+        match self {
+            FrameValue::Reward => "next.reward",
+            FrameValue::Done => "next.done",
+            FrameValue::Success => "next.success",
+            FrameValue::Timestamp => "timestamp",
+            FrameValue::FrameIndex => "frame_index",
+            FrameValue::EpisodeIndex => "episode_index",
+            FrameValue::Index => "index",
+            FrameValue::TaskIndex => "task_index",
+        }
+    }
+
+    /// Its value type.
+    pub fn scalar(self) -> Scalar {
+        match self {
+            FrameValue::Reward | FrameValue::Timestamp => Scalar::F32,
+            FrameValue::Done | FrameValue::Success => Scalar::Bool,
+            _ => Scalar::I64,
+        }
+    }
+}
+
 /// What a feature holds.
 #[derive(Debug, Clone, PartialEq)]
 pub enum FeatureKind {
     /// A fixed-length float32 vector with named elements.
-    Vector(&'static [&'static str]),
+    Vector(VectorValue),
     /// One value per frame.
-    Scalar(Scalar),
+    Frame(FrameValue),
     /// The camera `cameras[i]` as PNG images.
     Image(usize),
     /// The camera `cameras[i]` as an [h, w, c] array of its dtype.
@@ -103,16 +188,13 @@ pub struct FeatureError {
 
 /// The dataset's features, in column order, for the run's cameras.
 pub fn features(cameras: &[Camera]) -> Result<Vec<Feature>, FeatureError> {
-    let mut out = vec![
-        Feature {
-            key: "observation.state".into(),
-            kind: FeatureKind::Vector(&STATE_NAMES),
-        },
-        Feature {
-            key: "action".into(),
-            kind: FeatureKind::Vector(&ACTION_NAMES),
-        },
-    ];
+    let mut out: Vec<Feature> = [VectorValue::State, VectorValue::Action]
+        .into_iter()
+        .map(|v| Feature {
+            key: v.key().into(),
+            kind: FeatureKind::Vector(v),
+        })
+        .collect();
     for (i, c) in cameras.iter().enumerate() {
         let bad = |message: &str| FeatureError {
             sensor: c.name.clone(),
@@ -140,21 +222,10 @@ pub fn features(cameras: &[Camera]) -> Result<Vec<Feature>, FeatureError> {
             });
         }
     }
-    for (key, s) in [
-        ("next.reward", Scalar::F32),
-        ("next.done", Scalar::Bool),
-        ("next.success", Scalar::Bool),
-        ("timestamp", Scalar::F32),
-        ("frame_index", Scalar::I64),
-        ("episode_index", Scalar::I64),
-        ("index", Scalar::I64),
-        ("task_index", Scalar::I64),
-    ] {
-        out.push(Feature {
-            key: key.into(),
-            kind: FeatureKind::Scalar(s),
-        });
-    }
+    out.extend(FrameValue::ALL.into_iter().map(|v| Feature {
+        key: v.key().into(),
+        kind: FeatureKind::Frame(v),
+    }));
     Ok(out)
 }
 
@@ -184,11 +255,11 @@ impl Feature {
     /// The entry in `meta/info.json`'s `features`.
     pub fn info(&self, cameras: &[Camera]) -> Value {
         match &self.kind {
-            FeatureKind::Vector(names) => {
-                json!({"dtype": "float32", "shape": [names.len()], "names": names})
+            FeatureKind::Vector(v) => {
+                json!({"dtype": "float32", "shape": [v.names().len()], "names": v.names()})
             }
-            FeatureKind::Scalar(s) => {
-                json!({"dtype": scalar_name(*s), "shape": [1], "names": null})
+            FeatureKind::Frame(v) => {
+                json!({"dtype": scalar_name(v.scalar()), "shape": [1], "names": null})
             }
             FeatureKind::Image(i) | FeatureKind::Array(i) => {
                 let c = &cameras[*i];
@@ -215,12 +286,12 @@ impl Feature {
     /// The Hugging Face `datasets` feature (the `huggingface` schema metadata).
     pub fn hf(&self, cameras: &[Camera]) -> Value {
         match &self.kind {
-            FeatureKind::Vector(names) => json!({
+            FeatureKind::Vector(v) => json!({
                 "feature": {"dtype": "float32", "_type": "Value"},
-                "length": names.len(),
+                "length": v.names().len(),
                 "_type": "List",
             }),
-            FeatureKind::Scalar(s) => json!({"dtype": scalar_name(*s), "_type": "Value"}),
+            FeatureKind::Frame(v) => json!({"dtype": scalar_name(v.scalar()), "_type": "Value"}),
             FeatureKind::Image(_) => json!({"_type": "Image"}),
             FeatureKind::Array(i) => {
                 let f = &cameras[*i].format;
@@ -236,13 +307,15 @@ impl Feature {
     /// The Arrow type of the column.
     pub fn arrow_type(&self, cameras: &[Camera]) -> DataType {
         match &self.kind {
-            FeatureKind::Vector(names) => DataType::FixedSizeList(
+            FeatureKind::Vector(v) => DataType::FixedSizeList(
                 Arc::new(Field::new("element", DataType::Float32, true)),
-                names.len() as i32,
+                v.names().len() as i32,
             ),
-            FeatureKind::Scalar(Scalar::F32) => DataType::Float32,
-            FeatureKind::Scalar(Scalar::Bool) => DataType::Boolean,
-            FeatureKind::Scalar(Scalar::I64) => DataType::Int64,
+            FeatureKind::Frame(v) => match v.scalar() {
+                Scalar::F32 => DataType::Float32,
+                Scalar::Bool => DataType::Boolean,
+                Scalar::I64 => DataType::Int64,
+            },
             FeatureKind::Image(_) => DataType::Struct(Fields::from(vec![
                 Field::new("bytes", DataType::Binary, true),
                 Field::new("path", DataType::Utf8, true),
