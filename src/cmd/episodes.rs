@@ -7,7 +7,6 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::{bail, Context as _};
-use minos::atomic::{sweep_stale_of, write_bytes_atomic};
 use minos::body::{AgentPreset, BodyRule};
 use minos::episode::format::{read_episodes, write_episodes};
 use minos::episode::habitat::{export_habitat, import_habitat, SceneIdStyle};
@@ -359,15 +358,9 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         let bar = ctx.progress(job.scenes.len() as u64, "episodes");
         sample_scenes(&job.data, &job.scenes, cfg, job.body, job.shard, &bar)
     };
-    let stats_path = PathBuf::from(format!("{}.stats.json", out.display()));
-    // What a killed `episodes` left beside the files it writes.
-    for path in [out, &stats_path] {
-        sweep_stale_of(path)
-            .with_context(|| format!("{}: removing stale temporary files", path.display()))?;
-    }
-    write_episodes(out, &batch.episodes).with_context(|| format!("writing {}", out.display()))?;
-    let stats = serde_json::to_vec_pretty(&batch).context("statistics")?;
-    write_bytes_atomic(&stats_path, &stats).with_context(|| stats_path.display().to_string())?;
+    let stats_path = batch
+        .write(out)
+        .with_context(|| format!("writing {}", out.display()))?;
     for (id, s) in &batch.scenes {
         if let Some(p) = &s.problem {
             tracing::warn!("scene {id}: {p}");

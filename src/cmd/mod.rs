@@ -14,6 +14,7 @@ mod export;
 mod export_dataset;
 mod generate;
 mod ingest;
+mod merge;
 mod nav;
 mod range;
 mod render;
@@ -77,6 +78,8 @@ enum Command {
     Export(export::Args),
     /// Write a run as a dataset other tools load (LeRobot v3.0).
     ExportDataset(export_dataset::Args),
+    /// Join the outputs of sharded `run` or `episodes` commands into one unsharded output.
+    Merge(merge::Args),
     /// Record a scene, its navigation grid and episodes' shortest paths for the rerun viewer.
     View(view::Args),
     /// Run the whole pipeline on generated houses into ./minos-demo/.
@@ -114,6 +117,7 @@ pub fn main() -> ExitCode {
         Command::Run(a) => run::run(a, &ctx),
         Command::Export(a) => export::run(a, &ctx),
         Command::ExportDataset(a) => export_dataset::run(a, &ctx),
+        Command::Merge(a) => merge::run(a, &ctx),
         Command::View(a) => view::run(a, &ctx),
         Command::Demo(a) => demo::run(a, &ctx),
     };

@@ -351,6 +351,30 @@ fn copy_row_groups(
     schema: SchemaRef,
     out: &Path,
 ) -> Result<(), TableError> {
+    let mut groups = Vec::new();
+    for p in parts {
+        let n = row_group_count(p)?;
+        groups.extend((0..n).map(|g| (p.as_path(), g)));
+    }
+    copy_row_groups_from(&groups, schema, out)
+}
+
+/// How many row groups the Parquet file `path` has.
+pub fn row_group_count(path: &Path) -> Result<usize, TableError> {
+    let perr = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
+    let f = File::open(path).map_err(|e| perr(&e))?;
+    let reader = SerializedFileReader::new(f).map_err(|e| perr(&e))?;
+    Ok(reader.metadata().num_row_groups())
+}
+
+/// Writes `out` (atomically) from row groups of other files, `(file, row group index)` in
+/// the order given, copied as they are (compressed column chunks, no decoding), under
+/// `schema`'s Arrow metadata. Every file must have the table's schema.
+pub fn copy_row_groups_from(
+    groups: &[(&Path, usize)],
+    schema: SchemaRef,
+    out: &Path,
+) -> Result<(), TableError> {
     let tmp = temp_path(out);
     let err = |e: &dyn std::fmt::Display| format!("{}: {e}", out.display());
     if let Some(dir) = out.parent() {
@@ -362,19 +386,34 @@ fn copy_row_groups(
         .convert(&schema)
         .map_err(|e| err(&e))?;
     let file = File::create(&tmp).map_err(|e| err(&e))?;
-    let mut w = SerializedFileWriter::new(file, descr.root_schema_ptr(), Arc::new(props))
-        .map_err(|e| err(&e))?;
-    for p in parts {
-        let perr = |e: &dyn std::fmt::Display| format!("{}: {e}", p.display());
-        let f = File::open(p).map_err(|e| perr(&e))?;
-        let reader = SerializedFileReader::new(f.try_clone().map_err(|e| perr(&e))?)
-            .map_err(|e| perr(&e))?;
-        let meta = reader.metadata();
-        if meta.file_metadata().schema_descr().root_schema() != descr.root_schema() {
-            return Err(perr(&"schema differs from the table's"));
-        }
-        for rg in meta.row_groups() {
-            let mut g = w.next_row_group().map_err(|e| err(&e))?;
+    let result = (|| {
+        let mut w = SerializedFileWriter::new(file, descr.root_schema_ptr(), Arc::new(props))
+            .map_err(|e| err(&e))?;
+        let mut open: HashMap<&Path, (File, SerializedFileReader<File>)> = HashMap::new();
+        for &(p, g) in groups {
+            let perr = |e: &dyn std::fmt::Display| format!("{}: {e}", p.display());
+            if !open.contains_key(p) {
+                let f = File::open(p).map_err(|e| perr(&e))?;
+                let reader = SerializedFileReader::new(f.try_clone().map_err(|e| perr(&e))?)
+                    .map_err(|e| perr(&e))?;
+                if reader
+                    .metadata()
+                    .file_metadata()
+                    .schema_descr()
+                    .root_schema()
+                    != descr.root_schema()
+                {
+                    return Err(perr(&"schema differs from the table's"));
+                }
+                open.insert(p, (f, reader));
+            }
+            let (f, reader) = &open[p];
+            let meta = reader.metadata();
+            let rg = meta
+                .row_groups()
+                .get(g)
+                .ok_or_else(|| perr(&format!("no row group {g}")))?;
+            let mut group = w.next_row_group().map_err(|e| err(&e))?;
             for col in rg.columns() {
                 let chunk = ColumnCloseResult {
                     bytes_written: col.compressed_size().max(0) as u64,
@@ -384,13 +423,91 @@ fn copy_row_groups(
                     column_index: None,
                     offset_index: None,
                 };
-                g.append_column(&f, chunk).map_err(|e| perr(&e))?;
+                group.append_column(f, chunk).map_err(|e| perr(&e))?;
             }
-            g.close().map_err(|e| err(&e))?;
+            group.close().map_err(|e| err(&e))?;
         }
+        w.close().map_err(|e| err(&e))?;
+        std::fs::rename(&tmp, out).map_err(|e| err(&e))
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
     }
-    w.close().map_err(|e| err(&e))?;
-    std::fs::rename(&tmp, out).map_err(|e| err(&e))
+    result
+}
+
+/// The `episode_id` of each row group of a run table (`observations.parquet`,
+/// `trajectories.parquet`), in file order; a row group holding rows of two episodes is an
+/// error (a run writes every episode's rows into row groups of their own).
+pub fn row_group_episodes(path: &Path) -> Result<Vec<String>, TableError> {
+    let perr = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
+    let f = File::open(path).map_err(|e| perr(&e))?;
+    let builder = ParquetRecordBatchReaderBuilder::try_new(f).map_err(|e| perr(&e))?;
+    let column = builder
+        .schema()
+        .index_of("episode_id")
+        .map_err(|_| perr(&"no episode_id column"))?;
+    let groups = builder.metadata().num_row_groups();
+    let mask = parquet::arrow::ProjectionMask::roots(builder.parquet_schema(), [column]);
+    let mut ids = Vec::with_capacity(groups);
+    for g in 0..groups {
+        let f = File::open(path).map_err(|e| perr(&e))?;
+        let batches = ParquetRecordBatchReaderBuilder::try_new(f)
+            .map_err(|e| perr(&e))?
+            .with_projection(mask.clone())
+            .with_row_groups(vec![g])
+            .build()
+            .map_err(|e| perr(&e))?;
+        let mut id: Option<String> = None;
+        for batch in batches {
+            let batch = batch.map_err(|e| perr(&e))?;
+            let col = batch
+                .column(0)
+                .as_any()
+                .downcast_ref::<StringArray>()
+                .ok_or_else(|| perr(&"episode_id is not a string column"))?;
+            for v in col.iter() {
+                let v = v.ok_or_else(|| perr(&format!("row group {g}: episode_id is null")))?;
+                match &id {
+                    None => id = Some(v.to_string()),
+                    Some(known) if known != v => {
+                        return Err(perr(&format!(
+                            "row group {g} holds rows of episodes `{known}` and `{v}`"
+                        )))
+                    }
+                    Some(_) => {}
+                }
+            }
+        }
+        ids.push(id.ok_or_else(|| perr(&format!("row group {g} is empty")))?);
+    }
+    Ok(ids)
+}
+
+/// Reads a whole run table into one batch (the small tables: trajectories, episodes).
+pub fn read_table(path: &Path) -> Result<RecordBatch, TableError> {
+    let perr = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
+    let reader = parquet_io::read_batches(path).map_err(|e| e.to_string())?;
+    let schema = arrow::array::RecordBatchReader::schema(&reader);
+    let batches: Vec<RecordBatch> = reader.collect::<Result<_, _>>().map_err(|e| perr(&e))?;
+    arrow::compute::concat_batches(&schema, &batches).map_err(|e| perr(&e))
+}
+
+/// Writes a trajectory table from episodes' rows, each piece one episode's rows in step
+/// order, re-batched exactly as [`merge`] re-batches episode part files: the same rows in
+/// the same order give the same bytes whichever files they came from.
+pub fn write_trajectory_pieces(
+    out: &Path,
+    pieces: impl IntoIterator<Item = RecordBatch>,
+) -> Result<(), TableError> {
+    let batches = pieces.into_iter().flat_map(|piece| {
+        let rows = piece.num_rows();
+        (0..rows)
+            .step_by(ROW_GROUP)
+            .map(move |at| piece.slice(at, ROW_GROUP.min(rows - at)))
+            .collect::<Vec<_>>()
+    });
+    write_batches(out, trajectory_schema(), batches)
 }
 
 /// Writes the episode table: the episodes' own columns that matter for analysis, their
@@ -457,9 +574,15 @@ pub fn write_episode_table(
         ),
         s(&crate::episode::instruction::instruction),
     ];
-    let batch = RecordBatch::try_new(schema.clone(), columns)
-        .map_err(|e| format!("{}: {e}", path.display()))?;
-    write_batches(path, schema, std::iter::once(batch))
+    let batch =
+        RecordBatch::try_new(schema, columns).map_err(|e| format!("{}: {e}", path.display()))?;
+    write_episode_batch(path, batch)
+}
+
+/// Writes the episode table from its rows in one batch (as [`write_episode_table`] does):
+/// `minos merge` writes the rows of its shards' tables with it.
+pub fn write_episode_batch(path: &Path, batch: RecordBatch) -> Result<(), TableError> {
+    write_batches(path, batch.schema(), std::iter::once(batch))
 }
 
 /// Reads the decisions of every episode of a trajectory table (`trajectories.parquet` of a

@@ -3,11 +3,14 @@
 //! sorted list, so the union of all shards equals one unsharded run.
 
 use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
 
 use rayon::prelude::*;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
+use crate::atomic::{sweep_stale_of, write_bytes_atomic};
 use crate::body::BodyRule;
+use crate::episode::format::{write_episodes, EpisodeFileError};
 use crate::episode::sample::{sample_scene, SampleConfig, SceneEpisodes};
 use crate::episode::Episode;
 use crate::progress::Progress;
@@ -16,7 +19,7 @@ use crate::shard::Shard;
 use crate::store::DataDir;
 
 /// Per-scene outcome in the statistics.
-#[derive(Debug, Clone, Default, Serialize)]
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
 pub struct SceneStats {
     /// Episodes sampled.
     pub episodes: usize,
@@ -26,12 +29,16 @@ pub struct SceneStats {
     pub problem: Option<String>,
 }
 
-/// What a batch produced.
-#[derive(Debug, Default, Serialize)]
+/// What a batch produced (its statistics are the `<out>.stats.json` beside the episode
+/// file).
+#[derive(Debug, Default, Serialize, Deserialize)]
 pub struct EpisodeBatch {
     /// All episodes, scene by scene in sorted scene order.
     #[serde(skip)]
     pub episodes: Vec<Episode>,
+    /// The shard of the scene list this batch sampled (`i/n`; `0/1` for all of it):
+    /// `minos merge` checks that shards make a whole.
+    pub shard: String,
     /// Total episodes.
     pub total: usize,
     /// Rejected draws by reason, over all scenes.
@@ -106,25 +113,76 @@ pub fn sample_scenes(
         }
         batch.scenes.insert(id, stats);
     }
-    batch.total = batch.episodes.len();
-    if batch.total > 0 {
-        let n = batch.total as f64;
-        let eps = &batch.episodes;
-        batch.mean_geodesic = eps
-            .iter()
-            .map(|e| f64::from(e.geodesic_distance))
-            .sum::<f64>()
-            / n;
-        batch.mean_euclidean = eps
-            .iter()
-            .map(|e| f64::from(e.euclidean_distance))
-            .sum::<f64>()
-            / n;
-        batch.mean_ratio = eps
-            .iter()
-            .map(|e| f64::from(e.geodesic_distance) / f64::from(e.euclidean_distance).max(1e-6))
-            .sum::<f64>()
-            / n;
-    }
+    batch.shard = shard.to_string();
+    batch.summarise();
     batch
+}
+
+impl EpisodeBatch {
+    /// Sets the totals and means from the episodes (in their order, so the same episodes
+    /// always give the same figures).
+    pub fn summarise(&mut self) {
+        let batch = self;
+        batch.total = batch.episodes.len();
+        batch.mean_geodesic = 0.0;
+        batch.mean_euclidean = 0.0;
+        batch.mean_ratio = 0.0;
+        if batch.total > 0 {
+            let n = batch.total as f64;
+            let eps = &batch.episodes;
+            batch.mean_geodesic = eps
+                .iter()
+                .map(|e| f64::from(e.geodesic_distance))
+                .sum::<f64>()
+                / n;
+            batch.mean_euclidean = eps
+                .iter()
+                .map(|e| f64::from(e.euclidean_distance))
+                .sum::<f64>()
+                / n;
+            batch.mean_ratio = eps
+                .iter()
+                .map(|e| f64::from(e.geodesic_distance) / f64::from(e.euclidean_distance).max(1e-6))
+                .sum::<f64>()
+                / n;
+        }
+    }
+
+    /// Writes the episode file `out` and its statistics `<out>.stats.json` (each atomically,
+    /// after removing what a killed writer left beside them); returns the statistics' path.
+    pub fn write(&self, out: &Path) -> Result<PathBuf, BatchWriteError> {
+        let stats_path = PathBuf::from(format!("{}.stats.json", out.display()));
+        for path in [out, stats_path.as_path()] {
+            sweep_stale_of(path).map_err(|source| BatchWriteError::Io {
+                path: path.to_path_buf(),
+                source,
+            })?;
+        }
+        write_episodes(out, &self.episodes)?;
+        let stats = serde_json::to_vec_pretty(self).map_err(|e| BatchWriteError::Io {
+            path: stats_path.clone(),
+            source: std::io::Error::other(e),
+        })?;
+        write_bytes_atomic(&stats_path, &stats).map_err(|source| BatchWriteError::Io {
+            path: stats_path.clone(),
+            source,
+        })?;
+        Ok(stats_path)
+    }
+}
+
+/// Why an episode batch could not be written.
+#[derive(Debug, thiserror::Error)]
+pub enum BatchWriteError {
+    /// The episode file.
+    #[error(transparent)]
+    Episodes(#[from] EpisodeFileError),
+    /// The statistics file, or sweeping stale temporaries.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// What went wrong.
+        source: std::io::Error,
+    },
 }

@@ -8,6 +8,7 @@
 pub mod bake;
 pub mod episodes;
 pub mod ingest;
+pub mod merge;
 pub mod rollout;
 pub mod variants;
 pub mod view;

@@ -300,22 +300,68 @@ impl Drop for RrdFile {
 /// (byte-wise concatenation would leave each part's footer pointing at the wrong offsets).
 /// The viewer lists each recording on its own.
 pub fn concat(parts: &[PathBuf], out: &Path) -> Result<(), RecordingError> {
+    write_messages(out, |append| {
+        for p in parts {
+            for msg in decode(p)? {
+                append(&msg)?;
+            }
+        }
+        Ok(())
+    })
+}
+
+/// The messages of a recording file, grouped by recording id (each group in file order).
+/// `minos merge` takes the episodes' recordings of shard files apart with it.
+pub fn recordings_of(path: &Path) -> Result<BTreeMap<String, Vec<LogMsg>>, RecordingError> {
+    let mut by_id: BTreeMap<String, Vec<LogMsg>> = BTreeMap::new();
+    for msg in decode(path).map_err(|e| RecordingError::File {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    })? {
+        let id = msg.store_id().recording_id().as_str().to_string();
+        by_id.entry(id).or_default().push(msg);
+    }
+    Ok(by_id)
+}
+
+/// Writes recordings (each a sequence of messages, in the order given) into one file `out`
+/// (atomically): [`concat`] of recordings already in memory.
+pub fn write_recordings<'a>(
+    out: &Path,
+    recordings: impl IntoIterator<Item = &'a [LogMsg]>,
+) -> Result<(), RecordingError> {
+    write_messages(out, |append| {
+        for msg in recordings.into_iter().flatten() {
+            append(msg)?;
+        }
+        Ok(())
+    })
+}
+
+/// Every message of the recording file `path`, in order.
+fn decode(path: &Path) -> std::io::Result<Vec<LogMsg>> {
     use re_log_encoding::DecoderApp;
-    let fail = |path: &Path, e: &dyn std::fmt::Display| {
-        std::io::Error::other(format!("{}: {e}", path.display()))
-    };
+    let fail =
+        |e: &dyn std::fmt::Display| std::io::Error::other(format!("{}: {e}", path.display()));
+    let reader = std::io::BufReader::new(File::open(path).map_err(|e| fail(&e))?);
+    DecoderApp::decode_eager(reader)
+        .map_err(|e| fail(&e))?
+        .map(|m| m.map_err(|e| fail(&e)))
+        .collect()
+}
+
+/// Encodes the messages `fill` appends into `out` (atomically, one footer at the end).
+fn write_messages(
+    out: &Path,
+    fill: impl FnOnce(&mut dyn FnMut(&LogMsg) -> std::io::Result<()>) -> std::io::Result<()>,
+) -> Result<(), RecordingError> {
+    let fail = |e: &dyn std::fmt::Display| std::io::Error::other(format!("{}: {e}", out.display()));
     write_atomic(out, |w| {
         let mut encoder =
             Encoder::new_eager(CrateVersion::LOCAL, EncodingOptions::PROTOBUF_COMPRESSED, w)
-                .map_err(|e| fail(out, &e))?;
-        for p in parts {
-            let reader = std::io::BufReader::new(File::open(p).map_err(|e| fail(p, &e))?);
-            for msg in DecoderApp::decode_eager(reader).map_err(|e| fail(p, &e))? {
-                let msg = msg.map_err(|e| fail(p, &e))?;
-                encoder.append(&msg).map_err(|e| fail(out, &e))?;
-            }
-        }
-        encoder.finish().map_err(|e| fail(out, &e))?;
+                .map_err(|e| fail(&e))?;
+        fill(&mut |msg: &LogMsg| encoder.append(msg).map(|_| ()).map_err(|e| fail(&e)))?;
+        encoder.finish().map_err(|e| fail(&e))?;
         drop(encoder);
         Ok(())
     })

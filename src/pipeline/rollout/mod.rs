@@ -426,15 +426,12 @@ fn finish(
     report.groups = aggregate(&rows);
     crate::io::tables::write_episode_table(&cfg.out.join("episodes.parquet"), &report.episodes)
         .map_err(RolloutError::Table)?;
-    let metrics = serde_json::json!({
-        "groups": report.groups,
-        "episodes": report.episodes.iter().map(|(e, m)| serde_json::json!({"episode_id": e.episode_id, "metrics": m})).collect::<Vec<_>>(),
-        "failures": report.failures.iter().map(|(id, e)| serde_json::json!({"episode_id": id, "error": e})).collect::<Vec<_>>(),
-    });
-    let path = cfg.out.join("metrics.json");
-    let bytes =
-        serde_json::to_vec_pretty(&metrics).map_err(|e| RolloutError::Table(e.to_string()))?;
-    write_bytes_atomic(&path, &bytes).map_err(io_error(&path))?;
+    let metrics: Vec<(&str, EpisodeMetrics)> = report
+        .episodes
+        .iter()
+        .map(|(e, m)| (e.episode_id.as_str(), *m))
+        .collect();
+    write_metrics(&cfg.out, &report.groups, &metrics, &report.failures)?;
     if let Some(rerun) = &cfg.rerun {
         let recordings: Vec<PathBuf> = kept
             .iter()
@@ -445,16 +442,42 @@ fn finish(
         report.recorded = recordings.len();
     }
     if cfg.lerobot {
-        let options = crate::io::lerobot::DatasetOptions {
-            fps: crate::io::lerobot::fps_of_step(cfg.body.dt),
-            robot_type: LEROBOT_ROBOT_TYPE.into(),
-        };
-        crate::io::lerobot::write_dataset(
-            &crate::io::lerobot::RunTables::in_dir(&cfg.out),
-            &cfg.out.join("lerobot"),
-            &options,
-            &crate::progress::NoProgress,
-        )?;
+        write_lerobot(&cfg.out, cfg.body.dt)?;
     }
     manifest::write(cfg)
+}
+
+/// Writes `out/metrics.json`: the groups' aggregates, each finished episode's metrics and
+/// each failure, in episode order (what [`run`] and `minos merge` write).
+pub fn write_metrics(
+    out: &Path,
+    groups: &BTreeMap<String, Aggregate>,
+    episodes: &[(&str, EpisodeMetrics)],
+    failures: &[(String, String)],
+) -> Result<(), RolloutError> {
+    let metrics = serde_json::json!({
+        "groups": groups,
+        "episodes": episodes.iter().map(|(id, m)| serde_json::json!({"episode_id": id, "metrics": m})).collect::<Vec<_>>(),
+        "failures": failures.iter().map(|(id, e)| serde_json::json!({"episode_id": id, "error": e})).collect::<Vec<_>>(),
+    });
+    let path = out.join("metrics.json");
+    let bytes =
+        serde_json::to_vec_pretty(&metrics).map_err(|e| RolloutError::Table(e.to_string()))?;
+    write_bytes_atomic(&path, &bytes).map_err(io_error(&path))
+}
+
+/// Writes the LeRobot copy of the run tables in `out` into `out/lerobot` (`dt`: the agent's
+/// time step, which gives the dataset's fps).
+pub fn write_lerobot(out: &Path, dt: f32) -> Result<(), RolloutError> {
+    let options = crate::io::lerobot::DatasetOptions {
+        fps: crate::io::lerobot::fps_of_step(dt),
+        robot_type: LEROBOT_ROBOT_TYPE.into(),
+    };
+    crate::io::lerobot::write_dataset(
+        &crate::io::lerobot::RunTables::in_dir(out),
+        &out.join("lerobot"),
+        &options,
+        &crate::progress::NoProgress,
+    )?;
+    Ok(())
 }

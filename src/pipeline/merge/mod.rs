@@ -1,0 +1,137 @@
+//! `minos merge`: joining the outputs of a sharded command into exactly the files one
+//! unsharded run writes. Shards split a sorted list (scenes for `episodes`, episode ids for
+//! `run`) and every random choice is seeded by its item, never by its position in a shard, so
+//! the union of the shards' rows, put back in the list's order, is the unsharded output.
+//!
+//! - [`episodes`]: episode files (`minos episodes --shard i/n --out part.parquet`) and their
+//!   `.stats.json`;
+//! - [`run`]: run folders (`minos run --shard i/n --out DIR`): the three tables,
+//!   `metrics.json`, `manifest.json`, the rerun recording and the LeRobot copy.
+//!
+//! Both check that the inputs are the shards `0/n … n−1/n` of one job, each once.
+
+pub mod episodes;
+pub mod run;
+
+use std::path::{Path, PathBuf};
+
+use crate::lock::LockError;
+use crate::shard::Shard;
+
+/// Why shards could not be merged (each message names the file and what is wrong).
+#[derive(Debug, thiserror::Error)]
+pub enum MergeError {
+    /// The inputs are not the shards of one job, or one of them is unreadable or incomplete.
+    #[error("{0}")]
+    Shards(String),
+    /// Writing the merged output failed.
+    #[error("{0}")]
+    Write(String),
+    /// Another process writes the output folder.
+    #[error(transparent)]
+    Lock(#[from] LockError),
+}
+
+/// What a merge joined.
+#[derive(Debug, Default, Clone, PartialEq, Eq)]
+pub struct MergeReport {
+    /// Shards joined.
+    pub shards: usize,
+    /// Episodes in the merged output.
+    pub episodes: usize,
+    /// Episodes that failed in their shard (listed in the merged `metrics.json`).
+    pub failures: usize,
+    /// Episodes in the merged rerun recording.
+    pub recorded: usize,
+    /// Files written.
+    pub written: Vec<PathBuf>,
+}
+
+/// Checks that `found` (each input with the shard it says it is) are the shards `0/n … n−1/n`
+/// of one job, each exactly once.
+pub fn check_shards(found: &[(PathBuf, Shard)]) -> Result<(), MergeError> {
+    let Some((first_path, first)) = found.first() else {
+        return Err(MergeError::Shards("no shards to merge".into()));
+    };
+    let n = first.count;
+    let mut seen: Vec<Option<&Path>> = vec![None; n];
+    for (path, s) in found {
+        if s.count != n {
+            return Err(MergeError::Shards(format!(
+                "{}: shard {s}, but {} is shard {first}: shards of different splits",
+                path.display(),
+                first_path.display()
+            )));
+        }
+        if let Some(other) = seen[s.index] {
+            return Err(MergeError::Shards(format!(
+                "{}: shard {s} is given twice (also {})",
+                path.display(),
+                other.display()
+            )));
+        }
+        seen[s.index] = Some(path);
+    }
+    let missing: Vec<String> = seen
+        .iter()
+        .enumerate()
+        .filter(|(_, p)| p.is_none())
+        .map(|(i, _)| format!("{i}/{n}"))
+        .collect();
+    if !missing.is_empty() {
+        return Err(MergeError::Shards(format!(
+            "shard{} {} missing: a merge needs all {n} shards",
+            if missing.len() > 1 { "s" } else { "" },
+            missing.join(", ")
+        )));
+    }
+    Ok(())
+}
+
+/// Parses the `shard` an output records (`i/n`).
+fn recorded_shard(path: &Path, value: Option<&str>) -> Result<Shard, MergeError> {
+    let v = value.ok_or_else(|| {
+        MergeError::Shards(format!(
+            "{}: no `shard` recorded (written by an older minos?)",
+            path.display()
+        ))
+    })?;
+    Shard::parse(v).map_err(|e| MergeError::Shards(format!("{}: shard {e}", path.display())))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn shards(list: &[&str]) -> Vec<(PathBuf, Shard)> {
+        list.iter()
+            .enumerate()
+            .map(|(i, s)| (PathBuf::from(format!("in{i}")), Shard::parse(s).unwrap()))
+            .collect()
+    }
+
+    #[test]
+    fn shards_must_make_a_whole() {
+        assert!(check_shards(&shards(&["1/3", "0/3", "2/3"])).is_ok());
+        assert!(check_shards(&shards(&["0/1"])).is_ok());
+        let twice = check_shards(&shards(&["0/2", "0/2"]))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            twice.contains("in1: shard 0/2 is given twice (also in0)"),
+            "{twice}"
+        );
+        let missing = check_shards(&shards(&["0/4", "2/4"]))
+            .unwrap_err()
+            .to_string();
+        assert!(missing.contains("shards 1/4, 3/4 missing"), "{missing}");
+        let mixed = check_shards(&shards(&["0/2", "1/3"]))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            mixed.contains("in1: shard 1/3, but in0 is shard 0/2"),
+            "{mixed}"
+        );
+        assert!(check_shards(&[]).is_err());
+    }
+}
