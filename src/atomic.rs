@@ -96,6 +96,13 @@ pub fn sweep_stale_of(path: &Path) -> io::Result<Vec<PathBuf>> {
     sweep_where(dir, |of| of == name)
 }
 
+/// Removes the temporary entries of `dir` that a process no longer running left while
+/// writing the entries whose final name `wanted` accepts (for a writer that shares `dir` with
+/// others, such as a bake shard).
+pub fn sweep_stale_where(dir: &Path, wanted: impl Fn(&str) -> bool) -> io::Result<Vec<PathBuf>> {
+    sweep_where(dir, wanted)
+}
+
 /// Removes the dead processes' temporary entries of `dir` whose final name `wanted` accepts.
 fn sweep_where(dir: &Path, wanted: impl Fn(&str) -> bool) -> io::Result<Vec<PathBuf>> {
     let entries = match fs::read_dir(dir) {

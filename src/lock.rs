@@ -59,6 +59,8 @@ pub enum LockError {
 pub struct DirLock {
     file: File,
     path: PathBuf,
+    /// Taken with [`DirLock::acquire_shared`]: the file is not this holder's to empty.
+    shared: bool,
 }
 
 impl DirLock {
@@ -101,7 +103,55 @@ impl DirLock {
             file.flush()
         })()
         .map_err(io)?;
-        Ok(DirLock { file, path })
+        Ok(DirLock {
+            file,
+            path,
+            shared: false,
+        })
+    }
+
+    /// Takes `folder`'s lock shared with other holders of the shared lock (the shards of one
+    /// sharded command writing disjoint files of the folder at once) and against every
+    /// exclusive writer: while any shard holds it, [`DirLock::acquire`] fails (or waits), and
+    /// while an exclusive writer holds it, so does this. Shared holders leave the file empty,
+    /// so an exclusive writer that finds them says "a sharded command".
+    pub fn acquire_shared(folder: &Path, mode: LockMode) -> Result<DirLock, LockError> {
+        let path = folder.join(LOCK_FILE);
+        let io = |source| LockError::Io {
+            path: path.clone(),
+            source,
+        };
+        std::fs::create_dir_all(folder).map_err(|source| LockError::Io {
+            path: folder.to_path_buf(),
+            source,
+        })?;
+        let mut file = OpenOptions::new()
+            .read(true)
+            .write(true)
+            .create(true)
+            .truncate(false)
+            .open(&path)
+            .map_err(io)?;
+        match file.try_lock_shared() {
+            Ok(()) => {}
+            Err(TryLockError::WouldBlock) if mode == LockMode::Wait => {
+                file.lock_shared().map_err(io)?
+            }
+            Err(TryLockError::WouldBlock) => {
+                let (holder, held_by) = holder_of(&mut file);
+                return Err(LockError::Held {
+                    folder: folder.to_path_buf(),
+                    holder,
+                    command: held_by,
+                });
+            }
+            Err(TryLockError::Error(e)) => return Err(io(e)),
+        }
+        Ok(DirLock {
+            file,
+            path,
+            shared: true,
+        })
     }
 
     /// The lock file.
@@ -113,7 +163,9 @@ impl DirLock {
 impl Drop for DirLock {
     fn drop(&mut self) {
         // Emptied before the lock goes, so the next holder never reads a finished one's pid.
-        let _ = self.file.set_len(0);
+        if !self.shared {
+            let _ = self.file.set_len(0);
+        }
         let _ = self.file.unlock();
     }
 }
@@ -126,7 +178,11 @@ fn holder_of(file: &mut File) -> (String, String) {
         .seek(SeekFrom::Start(0))
         .and_then(|_| file.read_to_string(&mut text));
     let mut words = text.split_whitespace();
-    let pid = words.next().unwrap_or("?").to_string();
+    let Some(pid) = words.next() else {
+        // Shared holders (shards) write nothing.
+        return ("?".into(), "shards of a sharded command".into());
+    };
+    let pid = pid.to_string();
     let command = words.next().unwrap_or("?").to_string();
     (pid, command)
 }
@@ -134,6 +190,27 @@ fn holder_of(file: &mut File) -> (String, String) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn shards_share_the_lock_and_exclude_exclusive_writers() {
+        let dir = tempfile::tempdir().unwrap();
+        let a = DirLock::acquire_shared(dir.path(), LockMode::Fail).unwrap();
+        let b = DirLock::acquire_shared(dir.path(), LockMode::Fail).unwrap();
+        let e = DirLock::acquire(dir.path(), "ingest", LockMode::Fail)
+            .err()
+            .expect("shards hold it")
+            .to_string();
+        assert!(e.contains("shards of a sharded command"), "{e}");
+        drop((a, b));
+        let x = DirLock::acquire(dir.path(), "ingest", LockMode::Fail).unwrap();
+        let e = DirLock::acquire_shared(dir.path(), LockMode::Fail)
+            .err()
+            .expect("a writer holds it")
+            .to_string();
+        assert!(e.contains("minos ingest"), "{e}");
+        drop(x);
+        assert!(DirLock::acquire_shared(dir.path(), LockMode::Fail).is_ok());
+    }
 
     #[test]
     fn a_second_writer_fails_naming_the_holder_and_the_lock_is_released_on_drop() {

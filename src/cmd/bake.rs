@@ -9,7 +9,8 @@ use anyhow::Context as _;
 use minos::body::AgentPreset;
 use minos::navmesh::params::params_from_toml;
 use minos::navmesh::NavParams;
-use minos::pipeline::bake::{bake_scenes, BakeConfig, BakeOutcome};
+use minos::pipeline::bake::{bake_scenes, bake_shard, BakeConfig, BakeOutcome};
+use minos::shard::{Shard, ShardSpec};
 use minos::store::DataDir;
 
 use super::common::{split_or_all, PresetArg};
@@ -60,6 +61,11 @@ pub struct Args {
     /// Skip the PNG previews.
     #[arg(long)]
     no_preview: bool,
+    /// Every n-th scene (sorted by name): i/n, or `auto` from the scheduler (Slurm array,
+    /// Kubernetes Indexed Job with MINOS_SHARD_COUNT, or MINOS_SHARD=i/n). Shards may bake
+    /// one DATA folder at once, from one machine or many sharing it.
+    #[arg(long, value_parser = ShardSpec::parse, default_value = "0/1")]
+    shard: ShardSpec,
 }
 
 /// The grid parameters the flags ask for (reads the `--config` file, if any).
@@ -102,11 +108,23 @@ pub fn config(args: &Args) -> anyhow::Result<BakeConfig> {
 /// Runs `minos bake`.
 pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     let cfg = config(&args)?;
-    let _lock = cfg.data.lock("bake", ctx.lock_mode)?;
+    let shard = args
+        .shard
+        .resolve(|k| std::env::var(k).ok())
+        .map_err(anyhow::Error::msg)?;
+    let _lock = if shard == Shard::ALL {
+        cfg.data.lock("bake", ctx.lock_mode)?
+    } else {
+        cfg.data.lock_shared(ctx.lock_mode)?
+    };
     let start = Instant::now();
     let report = {
         let bar = ctx.progress(cfg.scenes.len() as u64, "bake");
-        bake_scenes(&cfg, &bar)
+        if shard == Shard::ALL {
+            bake_scenes(&cfg, &bar)
+        } else {
+            bake_shard(&cfg, shard, &bar)
+        }
     };
     if let Some(e) = report.write_failure() {
         anyhow::bail!("{e}");

@@ -11,7 +11,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use rayon::prelude::*;
 
-use crate::atomic::sweep_stale;
+use crate::atomic::{sweep_stale, sweep_stale_where};
 use crate::navmesh::build::build;
 use crate::navmesh::file::NavFileError;
 use crate::navmesh::file::{read_nav, write_nav};
@@ -19,6 +19,7 @@ use crate::navmesh::preview::{previews_present, write_previews};
 use crate::navmesh::NavParams;
 use crate::progress::Progress;
 use crate::scene::SceneRef;
+use crate::shard::Shard;
 use crate::store::DataDir;
 
 /// How one scene's bake went.
@@ -132,7 +133,6 @@ fn bake_one(cfg: &BakeConfig, id: &SceneRef) -> BakeOutcome {
 /// Bakes every scene of `cfg.scenes` in parallel, after removing what a killed bake left in
 /// `DATA/nav/`. Once a write fails, the scenes not yet started are [`BakeOutcome::Stopped`].
 pub fn bake_scenes(cfg: &BakeConfig, progress: &dyn Progress) -> BakeReport {
-    progress.set_total(cfg.scenes.len() as u64);
     let nav = cfg.data.nav_dir();
     if let Err(e) = sweep_stale(&nav) {
         tracing::warn!(
@@ -140,9 +140,46 @@ pub fn bake_scenes(cfg: &BakeConfig, progress: &dyn Progress) -> BakeReport {
             nav.display()
         );
     }
+    bake_list(cfg, &cfg.scenes, progress)
+}
+
+/// Bakes shard `shard` of `cfg.scenes` (every n-th scene of the list sorted by name), for
+/// several shards baking one DATA folder at once, on one machine or many sharing it. Only the
+/// temporaries of this shard's own scenes' files are swept: another shard's files in the
+/// making, on another machine whose processes this one cannot see, are never touched.
+pub fn bake_shard(cfg: &BakeConfig, shard: Shard, progress: &dyn Progress) -> BakeReport {
+    let mut sorted: Vec<&SceneRef> = cfg.scenes.iter().collect();
+    sorted.sort_by_key(|s| s.to_string());
+    sorted.dedup_by_key(|s| s.to_string());
+    let mine: Vec<SceneRef> = sorted
+        .into_iter()
+        .enumerate()
+        .filter(|(i, _)| shard.keeps(*i))
+        .map(|(_, s)| s.clone())
+        .collect();
+    let nav = cfg.data.nav_dir();
+    for scene in &mine {
+        let path = cfg.data.nav_path(scene);
+        let Some(stem) = path
+            .file_stem()
+            .map(|s| format!("{}.", s.to_string_lossy()))
+        else {
+            continue;
+        };
+        if let Err(e) = sweep_stale_where(&nav, |of| of.starts_with(&stem)) {
+            tracing::warn!(
+                "{}: cannot remove stale temporary files: {e}",
+                nav.display()
+            );
+        }
+    }
+    bake_list(cfg, &mine, progress)
+}
+
+fn bake_list(cfg: &BakeConfig, list: &[SceneRef], progress: &dyn Progress) -> BakeReport {
+    progress.set_total(list.len() as u64);
     let stop = AtomicBool::new(false);
-    let scenes = cfg
-        .scenes
+    let scenes = list
         .par_iter()
         .map(|id| {
             let outcome = if stop.load(Ordering::Relaxed) {

@@ -118,6 +118,13 @@ impl DataDir {
         DirLock::acquire(&self.root, command, mode)
     }
 
+    /// Takes the folder's writer lock shared with the other shards of a sharded command
+    /// (`bake --shard`), which write disjoint files; exclusive writers wait for all of them
+    /// (see [`DirLock::acquire_shared`]).
+    pub fn lock_shared(&self, mode: LockMode) -> Result<DirLock, LockError> {
+        DirLock::acquire_shared(&self.root, mode)
+    }
+
     /// Every row of the manifest.
     pub fn read_manifest(&self) -> Result<Vec<ManifestRow>, ManifestError> {
         manifest::read_manifest(&self.manifest_path())

@@ -1,6 +1,7 @@
-//! `minos merge`: the shards of `episodes` and `run`, joined, are byte for byte what one
-//! unsharded command writes (for 1, 2, 3 and 7 shards, one of them killed and resumed), and
-//! inputs that are not the shards of one job are refused with a one-line error.
+//! Sharded commands give the bytes of unsharded ones: `bake` shards writing one DATA folder
+//! at once, and `minos merge` of the shards of `episodes` and `run` (for 1, 2, 3 and 7
+//! shards, one of them killed and resumed); inputs that are not the shards of one job are
+//! refused with a one-line error.
 
 mod common;
 
@@ -274,4 +275,51 @@ fn merged_run_shards_are_the_unsharded_run() {
         !o.status.success() && err.contains("r2/1/manifest.json") && err.contains("--resume"),
         "{err}"
     );
+}
+
+#[test]
+fn bake_shards_running_at_once_write_the_unsharded_grids() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = cli_ingested(dir.path(), 5, 13);
+    let copy = dir.path().join("DATA-sharded");
+    std::fs::create_dir_all(&copy).unwrap();
+    for (p, bytes) in tree_bytes(&data) {
+        let to = copy.join(&p);
+        std::fs::create_dir_all(to.parent().unwrap()).unwrap();
+        std::fs::write(to, bytes).unwrap();
+    }
+    minos()
+        .args(["-q", "bake", "--data"])
+        .arg(&data)
+        .ok_output();
+    // Three shards at once on one folder (the shared lock admits them all), one of them
+    // given its shard by a Slurm array's environment.
+    let children: Vec<_> = (0..3)
+        .map(|i| {
+            let mut c = minos();
+            c.args(["-q", "bake", "--data"]).arg(&copy);
+            if i == 2 {
+                c.args(["--shard", "auto"])
+                    .env("SLURM_ARRAY_TASK_ID", "3")
+                    .env("SLURM_ARRAY_TASK_MIN", "1")
+                    .env("SLURM_ARRAY_TASK_COUNT", "3");
+            } else {
+                c.args(["--shard", &format!("{i}/3")]);
+            }
+            c.spawn().unwrap()
+        })
+        .collect();
+    for mut c in children {
+        assert!(c.wait().unwrap().success());
+    }
+    let grids = |d: &Path| tree_bytes(&d.join("nav"));
+    let (a, b) = (grids(&data), grids(&copy));
+    assert!(a.len() >= 5, "{} files", a.len());
+    assert_eq!(
+        a.iter().map(|(p, _)| p).collect::<Vec<_>>(),
+        b.iter().map(|(p, _)| p).collect::<Vec<_>>()
+    );
+    for ((p, x), (_, y)) in a.iter().zip(&b) {
+        assert!(x == y, "{} differs", p.display());
+    }
 }
