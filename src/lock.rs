@@ -196,17 +196,17 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let a = DirLock::acquire_shared(dir.path(), LockMode::Fail).unwrap();
         let b = DirLock::acquire_shared(dir.path(), LockMode::Fail).unwrap();
-        let e = DirLock::acquire(dir.path(), "ingest", LockMode::Fail)
-            .err()
-            .expect("shards hold it")
-            .to_string();
+        let Err(e) = DirLock::acquire(dir.path(), "ingest", LockMode::Fail) else {
+            panic!("shards hold it")
+        };
+        let e = e.to_string();
         assert!(e.contains("shards of a sharded command"), "{e}");
         drop((a, b));
         let x = DirLock::acquire(dir.path(), "ingest", LockMode::Fail).unwrap();
-        let e = DirLock::acquire_shared(dir.path(), LockMode::Fail)
-            .err()
-            .expect("a writer holds it")
-            .to_string();
+        let Err(e) = DirLock::acquire_shared(dir.path(), LockMode::Fail) else {
+            panic!("a writer holds it")
+        };
+        let e = e.to_string();
         assert!(e.contains("minos ingest"), "{e}");
         drop(x);
         assert!(DirLock::acquire_shared(dir.path(), LockMode::Fail).is_ok());
