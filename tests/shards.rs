@@ -323,3 +323,61 @@ fn bake_shards_running_at_once_write_the_unsharded_grids() {
         assert!(x == y, "{} differs", p.display());
     }
 }
+
+#[test]
+fn ingest_shards_then_one_unsharded_ingest_give_the_one_process_folder() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path().join("suncg");
+    minos()
+        .args([
+            "-q", "generate", "--houses", "7", "--seed", "21", "--rooms", "2..4", "--out",
+        ])
+        .arg(&root)
+        .ok_output();
+    let ingest = |data: &Path, shard: Option<&str>| {
+        let mut c = minos();
+        c.args(["-q", "ingest", "--dataset", "suncg", "--root"])
+            .arg(&root)
+            .arg("--out")
+            .arg(data);
+        if let Some(s) = shard {
+            c.args(["--shard", s]);
+        }
+        c
+    };
+    let one = dir.path().join("DATA-one");
+    ingest(&one, None).ok_output();
+    let sharded = dir.path().join("DATA-sharded");
+    // Three shards at once (the shared lock admits them), then the manifest pass.
+    let children: Vec<_> = ["0/3", "1/3", "2/3"]
+        .iter()
+        .map(|s| ingest(&sharded, Some(s)).spawn().unwrap())
+        .collect();
+    for mut c in children {
+        assert!(c.wait().unwrap().success());
+    }
+    assert!(
+        !sharded.join("houses.parquet").exists(),
+        "a shard writes no manifest"
+    );
+    let mut last = minos();
+    last.args(["ingest", "--dataset", "suncg", "--root"])
+        .arg(&root)
+        .arg("--out")
+        .arg(&sharded);
+    let out = last.ok_output();
+    let said = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        said.contains("0 compiled, 7 up to date, 0 failed"),
+        "{said}"
+    );
+    let (a, b) = (tree_bytes(&one), tree_bytes(&sharded));
+    assert_eq!(
+        a.iter().map(|(p, _)| p).collect::<Vec<_>>(),
+        b.iter().map(|(p, _)| p).collect::<Vec<_>>()
+    );
+    assert!(a.len() >= 8, "{} files", a.len());
+    for ((p, x), (_, y)) in a.iter().zip(&b) {
+        assert!(x == y, "{} differs", p.display());
+    }
+}

@@ -6,7 +6,8 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use anyhow::Context as _;
-use minos::pipeline::ingest::{ingest_with, read_id_list, DatasetFormat, IngestConfig, Outcome};
+use minos::pipeline::ingest::{ingest_shard, read_id_list, DatasetFormat, IngestConfig, Outcome};
+use minos::shard::ShardSpec;
 use minos::store::DataDir;
 
 use super::Context;
@@ -56,6 +57,11 @@ pub struct Args {
     /// Only the scene ids listed in FILE (one per line).
     #[arg(long, value_name = "FILE")]
     ids: Option<PathBuf>,
+    /// Compile every n-th scene (sorted by id): i/n, or `auto` from the scheduler. Shards
+    /// compile into one DATA folder at once and write no manifest: when all are done, run
+    /// the same ingest without --shard (it reuses the compiled scenes) to write it.
+    #[arg(long, value_parser = ShardSpec::parse, default_value = "0/1")]
+    shard: ShardSpec,
     /// Parallel jobs (same as the global --threads: 0 means all cores, at most 1024).
     #[arg(long, value_name = "N", value_parser = super::common::parse_threads)]
     jobs: Option<usize>,
@@ -99,7 +105,11 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     let start = Instant::now();
     let report = {
         let bar = ctx.progress(0, "ingest");
-        let job = || ingest_with(&cfg, ctx.lock_mode, &bar);
+        let shard = args
+            .shard
+            .resolve(|k| std::env::var(k).ok())
+            .map_err(anyhow::Error::msg)?;
+        let job = || ingest_shard(&cfg, shard, ctx.lock_mode, &bar);
         match args.jobs {
             Some(n) => rayon::ThreadPoolBuilder::new()
                 .num_threads(n)
@@ -142,7 +152,15 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         report.count(Outcome::Compiled),
         report.count(Outcome::UpToDate),
         failed.len(),
-        report.manifest.display()
+        if report.manifest_written {
+            report.manifest.display().to_string()
+        } else {
+            format!(
+                "{} (a shard writes no manifest: when every shard is done, run this ingest \
+                 without --shard to write it)",
+                cfg.data.scenes_dir().display()
+            )
+        }
     ));
     Ok(if failed.is_empty() {
         ExitCode::SUCCESS

@@ -21,7 +21,7 @@ use std::time::SystemTime;
 
 use rayon::prelude::*;
 
-use crate::atomic::sweep_stale;
+use crate::atomic::{sweep_stale, sweep_stale_where};
 use crate::lock::{LockError, LockMode};
 use crate::progress::Progress;
 use crate::scene::formats::gltf_scene::GltfLoader;
@@ -29,6 +29,7 @@ use crate::scene::formats::mp3d::Mp3dLoader;
 use crate::scene::formats::suncg::SuncgLoader;
 use crate::scene::formats::threedfront::ThreeDFrontLoader;
 use crate::scene::formats::{DatasetLoader, LoadError, SceneEntry};
+use crate::shard::Shard;
 use crate::store::manifest::{read_manifest, write_manifest, ManifestError, ManifestRow};
 use crate::store::scene_file::{read_header, read_scene, write_scene, SceneFileError, SceneHeader};
 use crate::store::DataDir;
@@ -123,8 +124,10 @@ pub struct IngestReport {
     pub missing_ids: Vec<String>,
     /// Non-fatal remarks, one line each.
     pub warnings: Vec<String>,
-    /// The manifest written.
+    /// The manifest written (by an unsharded ingest; a shard writes none).
     pub manifest: PathBuf,
+    /// Whether the manifest was written: false for a shard ([`ingest_shard`]).
+    pub manifest_written: bool,
 }
 
 impl IngestReport {
@@ -305,6 +308,30 @@ pub fn ingest_with(
     mode: LockMode,
     progress: &dyn Progress,
 ) -> Result<IngestReport, IngestError> {
+    ingest_impl(cfg, Shard::ALL, mode, progress)
+}
+
+/// Compiles shard `shard` of the selected scenes (every n-th id in sorted order) into the
+/// DATA folder, for several shards ingesting one folder at once, on one machine or many
+/// sharing it: it holds the folder's lock shared with the other shards, sweeps only its own
+/// scenes' temporaries and writes no manifest. When every shard is done, an unsharded ingest
+/// with the same options finds every compiled scene up to date (it reads them, it does not
+/// load the sources again) and writes the manifest: the folder one ingest would write.
+pub fn ingest_shard(
+    cfg: &IngestConfig,
+    shard: Shard,
+    mode: LockMode,
+    progress: &dyn Progress,
+) -> Result<IngestReport, IngestError> {
+    ingest_impl(cfg, shard, mode, progress)
+}
+
+fn ingest_impl(
+    cfg: &IngestConfig,
+    shard: Shard,
+    mode: LockMode,
+    progress: &dyn Progress,
+) -> Result<IngestReport, IngestError> {
     let cfg = &cfg.with_absolute_paths();
     let loader = cfg.format.loader(cfg)?;
     let loader = loader.as_ref();
@@ -331,9 +358,35 @@ pub fn ingest_with(
             .collect();
         houses.retain(|h| wanted.contains(h.id.as_str()));
     }
-    let _lock = cfg.data.lock("ingest", mode)?;
-    sweep(cfg.data.root())?;
-    sweep(&cfg.data.scenes_dir())?;
+    let sharded = shard != Shard::ALL;
+    if sharded {
+        houses.sort_by(|a, b| a.id.cmp(&b.id));
+        let mut i = 0;
+        houses.retain(|_| {
+            i += 1;
+            shard.keeps(i - 1)
+        });
+    }
+    let _lock = if sharded {
+        let lock = cfg.data.lock_shared(mode)?;
+        let dir = cfg.data.scenes_dir();
+        for h in &houses {
+            let path = cfg.data.scene_path(&h.id);
+            let name = path.file_name().map(|n| n.to_string_lossy().into_owned());
+            sweep_stale_where(&dir, |of| Some(of) == name.as_deref()).map_err(|source| {
+                IngestError::Sweep {
+                    path: dir.clone(),
+                    source,
+                }
+            })?;
+        }
+        lock
+    } else {
+        let lock = cfg.data.lock("ingest", mode)?;
+        sweep(cfg.data.root())?;
+        sweep(&cfg.data.scenes_dir())?;
+        lock
+    };
     progress.set_total(houses.len() as u64);
     let results: Vec<(ManifestRow, Outcome, Vec<String>)> = houses
         .par_iter()
@@ -347,6 +400,9 @@ pub fn ingest_with(
         report.warnings.extend(warnings);
         report.scenes.push((row, outcome));
     }
+    if sharded {
+        return Ok(report);
+    }
     // Merge with the rows of scenes this run did not touch.
     let mut rows: BTreeMap<String, ManifestRow> = BTreeMap::new();
     if report.manifest.is_file() {
@@ -359,5 +415,6 @@ pub fn ingest_with(
     }
     let rows: Vec<ManifestRow> = rows.into_values().collect();
     write_manifest(&report.manifest, &rows)?;
+    report.manifest_written = true;
     Ok(report)
 }
