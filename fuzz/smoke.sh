@@ -90,7 +90,13 @@ echo '{"actions": {"forward": 1.0, "turn_left": 0.5}}' > "$WORK/replies/c"
 corpus external_reply "$WORK"/replies/*
 corpus mp3d_house "$GEN"/mp3d/*/house_segmentations/*.house "$SHARED"/matterport3d/house/*.house
 corpus mp3d_ply $(find "$GEN/mp3d" "$SHARED/matterport3d" -name '*.ply' -size -256k 2>/dev/null | head -10)
-corpus threedfront $(find "$SHARED/3dfront" -name '*.json' -size -256k 2>/dev/null | head -20)
+# 3D-FRONT scenes are pretty-printed and often over the 256 kB limit: minified copies.
+mkdir -p "$WORK/3dfront"
+for f in $(find "$SHARED/3dfront" -name '*.json' 2>/dev/null | head -20); do
+    python3 -c 'import json, sys; json.dump(json.load(open(sys.argv[1])), open(sys.argv[2], "w"), separators=(",", ":"))' \
+        "$f" "$WORK/3dfront/$(basename "$f")" 2>/dev/null || true
+done
+corpus threedfront $(find "$WORK/3dfront" -name '*.json' -size -256k 2>/dev/null)
 
 [ -n "${FUZZ_CORPUS_ONLY:-}" ] && { echo "corpora in $WORK/corpus"; exit 0; }
 

@@ -369,8 +369,10 @@ impl DatasetLoader for GltfLoader {
     fn discover(&self) -> Result<Vec<SceneEntry>, LoadError> {
         GltfLoader::discover(self)
     }
+    /// [`GltfLoader::load`], a panic inside the gltf crate on a malformed file becoming an
+    /// error naming the scene's file (the batch goes on).
     fn load(&self, entry: &SceneEntry) -> Result<LoadedScene, LoadError> {
-        GltfLoader::load(self, entry)
+        crate::scene::formats::guarded(&entry.path, || GltfLoader::load(self, entry))?
     }
     fn scene_layout(&self) -> &'static str {
         ".glb, .gltf or .scene_instance.json files in any folder"
