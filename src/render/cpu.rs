@@ -1,14 +1,24 @@
-//! The CPU rasteriser: a z-buffer rasteriser with the same camera model, clipping and fill
-//! rule (pixel centres, top-left) as the GPU path. Clusters outside the frustum are culled;
-//! large images are split into row bands rendered in parallel (rayon), and batches of cameras
-//! render in parallel too.
+//! The CPU renderer: a z-buffer rasteriser with the same camera model, clipping and fill
+//! rule (pixel centres, top-left) as the GPU path, and the choice between it and the ray
+//! caster ([`super::raycast`]), which produce the same frames. The rasteriser's cost grows
+//! with the triangles in the frustum, the ray caster's with the pixels (and only the
+//! logarithm of the triangles), so [`render`] casts rays when the scene has at least
+//! [`RAYCAST_TRIANGLES_PER_PIXEL`] triangles per pixel and rasterises otherwise. Clusters
+//! outside the frustum are culled; large images are split into row bands rendered in parallel
+//! (rayon), and batches of cameras render in parallel too.
 
 use glam::{Vec3, Vec4};
 use rayon::prelude::*;
 
 use super::camera::Camera;
 use super::frame::Frame;
+use super::raycast;
 use super::scene::RenderScene;
+
+/// Scenes with at least this many triangles per pixel of the image are ray cast, smaller
+/// ones rasterised: where the two cost about the same on one core (measured by
+/// `cargo bench --bench render`, see docs/PERFORMANCE.md).
+pub const RAYCAST_TRIANGLES_PER_PIXEL: f32 = 1.0;
 
 /// Images at least this many pixels are split into bands rendered in parallel.
 const PARALLEL_PIXELS: u32 = 256 * 256;
@@ -23,8 +33,38 @@ struct ScreenTri {
     id: u32,
 }
 
-/// Renders one camera.
+/// Which CPU method renders `camera` on `scene`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Method {
+    /// The z-buffer rasteriser.
+    Rasterise,
+    /// The BVH ray caster.
+    RayCast,
+}
+
+impl Method {
+    /// The faster method for this scene and image size.
+    pub fn choose(scene: &RenderScene, camera: &Camera) -> Method {
+        let pixels = camera.width as f32 * camera.height as f32;
+        if scene.triangle_count() as f32 >= RAYCAST_TRIANGLES_PER_PIXEL * pixels {
+            Method::RayCast
+        } else {
+            Method::Rasterise
+        }
+    }
+}
+
+/// Renders one camera with the faster method (see [`Method::choose`]); both give the same
+/// frame up to edge pixels and rounding.
 pub fn render(scene: &RenderScene, camera: &Camera) -> Frame {
+    match Method::choose(scene, camera) {
+        Method::Rasterise => rasterise(scene, camera),
+        Method::RayCast => raycast::render(scene, camera),
+    }
+}
+
+/// Renders one camera with the rasteriser.
+pub fn rasterise(scene: &RenderScene, camera: &Camera) -> Frame {
     let tris = project(scene, camera);
     let mut frame = Frame::new(camera.width, camera.height);
     let (w, h) = (camera.width, camera.height);

@@ -18,13 +18,15 @@ const AMBIENT: f32 = 0.35;
 
 /// World directions of the rays through pixel centres, split into a per-column and a
 /// per-row part (the same camera model the rasterisers sample).
-struct PixelRays {
+pub(super) struct PixelRays {
     columns: Vec<Vec3>,
     rows: Vec<Vec3>,
 }
 
 impl PixelRays {
-    fn new(camera: &Camera, width: u32, height: u32) -> Self {
+    /// The rays of `camera`'s pixels at `width` × `height`; each direction's component
+    /// along the viewing axis is 1, so a ray parameter is a camera-space depth.
+    pub(super) fn new(camera: &Camera, width: u32, height: u32) -> Self {
         let to_world = camera.view().inverse();
         let (right, up) = (
             to_world.transform_vector3(Vec3::X),
@@ -42,8 +44,9 @@ impl PixelRays {
         PixelRays { columns, rows }
     }
 
+    /// The (not normalised) direction through pixel (x, y).
     #[inline]
-    fn dir(&self, x: usize, y: usize) -> Vec3 {
+    pub(super) fn dir(&self, x: usize, y: usize) -> Vec3 {
         self.columns[x] + self.rows[y]
     }
 }

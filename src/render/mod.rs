@@ -3,12 +3,14 @@
 //! (`labels`), the images sensors produce (`image`), textures (`texture`, `texture_library`), and two renderers producing the same frames, chosen in `renderer`: the CPU rasteriser (`cpu`, always
 //! available) and wgpu (`gpu`, when an adapter exists).
 
+pub mod bvh;
 pub mod camera;
 pub mod cpu;
 pub mod frame;
 pub mod gpu;
 pub mod image;
 pub mod labels;
+pub mod raycast;
 pub mod renderer;
 pub mod scene;
 pub mod texture;

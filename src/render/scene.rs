@@ -5,10 +5,13 @@
 //! read from the triangle id a pixel shows, so one rasterisation pass serves colour, depth,
 //! normals and labels.
 
+use std::sync::OnceLock;
+
 use glam::Vec3;
 
 use crate::scene::{Aabb, MaterialOverride, Mesh, Scene, SurfaceKind, WorldMesh};
 
+use super::bvh::Bvh;
 use super::labels::Taxonomy;
 use super::texture::Texture;
 use super::texture_library::TextureLibrary;
@@ -68,6 +71,9 @@ pub struct RenderScene {
     pub uv_maps: Vec<UvMap>,
     /// Spatial clusters covering all triangles.
     pub clusters: Vec<Cluster>,
+    /// The ray caster's hierarchy over `positions`, built on first use and kept with the
+    /// scene (so `positions` must not change after the first ray-cast frame).
+    bvh: OnceLock<Bvh>,
 }
 
 /// The affine map from points of a triangle's plane to its texture coordinates, so a pixel's
@@ -262,6 +268,11 @@ impl RenderScene {
         }
         out.textures = std::mem::take(&mut library.textures);
         out
+    }
+
+    /// The BVH over the triangles (built on the first call, then cached).
+    pub fn bvh(&self) -> &Bvh {
+        self.bvh.get_or_init(|| Bvh::new(&self.positions))
     }
 
     /// Number of triangles.

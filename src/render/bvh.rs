@@ -1,0 +1,714 @@
+//! A bounding-volume hierarchy over a render scene's triangles, for casting the rays of small
+//! images (see [`super::raycast`]): a four-wide BVH built with the binned surface-area
+//! heuristic, traversed nearest child first with a watertight ray–triangle test.
+//!
+//! Hand-written rather than taken from a crate because it is specialised for one query —
+//! the nearest hit of a primary ray between the near and far planes, ties broken by the
+//! lowest triangle id so the answer is unique whatever order nodes are visited in — and the
+//! crates that exist fit it less well: `bvh` builds a binary tree over nalgebra types, its
+//! explicitly vectorised traversal needs a nightly compiler, and its ray query hands back
+//! candidate shapes for the caller to test rather than pruning by the nearest hit found so
+//! far; `obvhs` is closer (glam, CWBVH) but adds a dependency for ~400 lines. Here a node
+//! holds the boxes of its four children side by side (struct of arrays), so the four
+//! slab tests of a node compile to straight-line vector code on stable Rust without
+//! `unsafe`, and leaf triangles are stored in leaf order next to each other.
+//!
+//! Memory: a node is 128 bytes and there is about one node per seven triangles; each
+//! triangle is stored once more in leaf order (36 bytes of corners + a 4-byte id), about
+//! 57 MB per million triangles (measured by [`Bvh::memory_bytes`]).
+
+use glam::{DVec3, Vec3};
+
+/// Largest number of triangles in a leaf.
+const LEAF_MAX: usize = 4;
+/// SAH bins per axis.
+const BINS: usize = 16;
+/// Below this depth splits follow the SAH; deeper, they halve the triangles, which bounds
+/// the depth (and so the traversal stack) whatever the geometry.
+const MEDIAN_DEPTH: u32 = 40;
+/// Traversal stack entries: at most 3 per level plus one, and levels are bounded by
+/// [`MEDIAN_DEPTH`] plus the halving levels of 2³² triangles.
+const STACK: usize = 3 * (MEDIAN_DEPTH as usize + 34) + 1;
+/// `count` of an unused child slot.
+const EMPTY: u32 = u32::MAX;
+
+/// Four children's boxes side by side, and what each child is.
+#[derive(Debug, Clone, Copy)]
+#[repr(C, align(64))]
+struct Node {
+    /// `bounds[0]`: smallest x, y, z of each child's box; `bounds[1]`: largest.
+    bounds: [[[f32; 4]; 3]; 2],
+    /// Inner child: its node index; leaf child: its first triangle (leaf order).
+    child: [u32; 4],
+    /// 0 for an inner child, the triangle count for a leaf, [`EMPTY`] for an unused slot.
+    count: [u32; 4],
+}
+
+impl Node {
+    /// A node with four unused slots; their boxes (all corners at +∞) no ray meets.
+    const UNUSED: Node = Node {
+        bounds: [[[f32::INFINITY; 4]; 3]; 2],
+        child: [0; 4],
+        count: [EMPTY; 4],
+    };
+}
+
+/// The BVH of one scene's triangles.
+#[derive(Debug, Clone, Default)]
+pub struct Bvh {
+    nodes: Vec<Node>,
+    /// Corners of each triangle in leaf order.
+    corners: Vec<[Vec3; 3]>,
+    /// Scene triangle id of each triangle in leaf order.
+    ids: Vec<u32>,
+}
+
+/// The nearest hit of a ray.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Hit {
+    /// Ray parameter of the hit (`origin + t·dir`).
+    pub t: f32,
+    /// Scene triangle id.
+    pub tri: u32,
+    /// Position of the triangle in leaf order: a hint for the next ray of the same tile.
+    pub slot: u32,
+}
+
+/// A ray with everything its tests need precomputed.
+#[derive(Debug, Clone, Copy)]
+pub struct Ray {
+    origin: Vec3,
+    /// Reciprocal direction (components near zero replaced by a tiny number of their sign).
+    inv: Vec3,
+    /// `origin · inv`, so a slab distance is one multiply-subtract.
+    origin_inv: Vec3,
+    /// Per axis: which of a box's bounds the ray meets first (1, the largest coordinate,
+    /// where the direction is negative).
+    near_side: [usize; 3],
+    /// Watertight test: the rows of the shear that maps the direction to +z (rows 0 and 1
+    /// give the 2D coordinates, row 2 the scaled depth).
+    shear: [Vec3; 3],
+    /// The same rows in double precision, for the rare edge values of exactly 0.
+    shear64: [DVec3; 3],
+    t_min: f32,
+    t_max: f32,
+}
+
+impl Ray {
+    /// The ray `origin + t·dir` for `t` in `[t_min, t_max]` (`dir` need not be unit).
+    pub fn new(origin: Vec3, dir: Vec3, t_min: f32, t_max: f32) -> Ray {
+        let safe = |d: f32| {
+            if d.abs() < 1e-20 {
+                1e-20f32.copysign(d)
+            } else {
+                d
+            }
+        };
+        let inv = Vec3::new(1.0 / safe(dir.x), 1.0 / safe(dir.y), 1.0 / safe(dir.z));
+        // Watertight ray–triangle intersection (Woop, Benthin and Wald 2013): the axis where
+        // the direction is largest becomes z, the other two keep a right-handed order.
+        let a = dir.abs().to_array();
+        let kz = if a[0] >= a[1] && a[0] >= a[2] {
+            0
+        } else if a[1] >= a[2] {
+            1
+        } else {
+            2
+        };
+        let (mut kx, mut ky) = ((kz + 1) % 3, (kz + 2) % 3);
+        let d = dir.to_array();
+        if d[kz] < 0.0 {
+            std::mem::swap(&mut kx, &mut ky);
+        }
+        let (sx, sy, sz) = (d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]);
+        let unit = |k: usize| Vec3::from_array(std::array::from_fn(|i| f32::from(i == k)));
+        // Rows with one 1 and one −s (or one s): applied to a point they compute exactly
+        // `p[kx] − sx·p[kz]` etc., as the paper's permuted form does, so triangles sharing
+        // an edge see the same edge values and no ray slips between them.
+        let shear = [
+            unit(kx) - unit(kz) * sx,
+            unit(ky) - unit(kz) * sy,
+            unit(kz) * sz,
+        ];
+        Ray {
+            origin,
+            inv,
+            origin_inv: origin * inv,
+            near_side: [
+                usize::from(inv.x < 0.0),
+                usize::from(inv.y < 0.0),
+                usize::from(inv.z < 0.0),
+            ],
+            shear,
+            shear64: shear.map(|r| r.as_dvec3()),
+            t_min,
+            t_max,
+        }
+    }
+
+    /// The ray parameter where the ray meets the triangle, if within `[t_min, t_max]`;
+    /// both faces count. Watertight: a ray through a shared edge or vertex meets at least
+    /// one of the triangles.
+    #[inline]
+    fn triangle(&self, p: &[Vec3; 3], t_max: f32) -> Option<f32> {
+        let [r0, r1, r2] = self.shear;
+        let (a, b, c) = (p[0] - self.origin, p[1] - self.origin, p[2] - self.origin);
+        let (ax, ay) = (r0.dot(a), r1.dot(a));
+        let (bx, by) = (r0.dot(b), r1.dot(b));
+        let (cx, cy) = (r0.dot(c), r1.dot(c));
+        let mut u = cx * by - cy * bx;
+        let mut v = ax * cy - ay * cx;
+        let mut w = bx * ay - by * ax;
+        if u == 0.0 || v == 0.0 || w == 0.0 {
+            // On an edge in single precision: decide in double precision.
+            let [q0, q1, _] = self.shear64;
+            let o = self.origin.as_dvec3();
+            let (a, b, c) = (
+                p[0].as_dvec3() - o,
+                p[1].as_dvec3() - o,
+                p[2].as_dvec3() - o,
+            );
+            let (ax, ay, bx, by, cx, cy) = (
+                q0.dot(a),
+                q1.dot(a),
+                q0.dot(b),
+                q1.dot(b),
+                q0.dot(c),
+                q1.dot(c),
+            );
+            u = (cx * by - cy * bx) as f32;
+            v = (ax * cy - ay * cx) as f32;
+            w = (bx * ay - by * ax) as f32;
+        }
+        if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+            return None;
+        }
+        let det = u + v + w;
+        if det == 0.0 || !det.is_finite() {
+            return None;
+        }
+        let t = (u * r2.dot(a) + v * r2.dot(b) + w * r2.dot(c)) / det;
+        (t >= self.t_min && t <= t_max).then_some(t)
+    }
+}
+
+/// One triangle while building: its box and centroid.
+#[derive(Clone, Copy)]
+struct Prim {
+    lo: Vec3,
+    hi: Vec3,
+    centroid: Vec3,
+}
+
+/// A box while building.
+#[derive(Clone, Copy)]
+struct BuildBox {
+    lo: Vec3,
+    hi: Vec3,
+}
+
+impl BuildBox {
+    const EMPTY: BuildBox = BuildBox {
+        lo: Vec3::splat(f32::INFINITY),
+        hi: Vec3::splat(f32::NEG_INFINITY),
+    };
+
+    fn grow(&mut self, lo: Vec3, hi: Vec3) {
+        self.lo = self.lo.min(lo);
+        self.hi = self.hi.max(hi);
+    }
+
+    /// Half the surface area (the SAH only compares areas).
+    fn half_area(&self) -> f32 {
+        let e = (self.hi - self.lo).max(Vec3::ZERO);
+        e.x * e.y + e.y * e.z + e.z * e.x
+    }
+}
+
+/// A node waiting to be built: the slot of its parent that points to it and its triangles.
+struct Job {
+    parent: usize,
+    slot: usize,
+    start: usize,
+    end: usize,
+    depth: u32,
+}
+
+impl Bvh {
+    /// Builds the hierarchy over triangles given as three corners each (`positions.len()`
+    /// a multiple of 3; triangle `i` is `positions[3i..3i + 3]`). Deterministic: the same
+    /// triangles give the same tree.
+    pub fn new(positions: &[Vec3]) -> Bvh {
+        let tris = positions.len() / 3;
+        let prims: Vec<Prim> = (0..tris)
+            .map(|t| {
+                let p = &positions[3 * t..3 * t + 3];
+                let (lo, hi) = (p[0].min(p[1]).min(p[2]), p[0].max(p[1]).max(p[2]));
+                Prim {
+                    lo,
+                    hi,
+                    centroid: (lo + hi) * 0.5,
+                }
+            })
+            .collect();
+        let mut order: Vec<u32> = (0..tris as u32).collect();
+        let mut nodes = vec![Node::UNUSED];
+        if tris > 0 {
+            let mut jobs = vec![Job {
+                parent: usize::MAX,
+                slot: 0,
+                start: 0,
+                end: tris,
+                depth: 0,
+            }];
+            while let Some(job) = jobs.pop() {
+                let index = if job.parent == usize::MAX {
+                    0
+                } else {
+                    nodes.push(Node::UNUSED);
+                    let index = nodes.len() - 1;
+                    nodes[job.parent].child[job.slot] = index as u32;
+                    nodes[job.parent].count[job.slot] = 0;
+                    index
+                };
+                let parts = split_four(&prims, &mut order, job.start, job.end, job.depth);
+                for (slot, &(start, end)) in parts.iter().enumerate() {
+                    let b = bounds(&prims, &order[start..end]);
+                    // Pad the box so that rounding in the slab test never misses a
+                    // triangle on its face (flat boxes of walls and floors included).
+                    let pad = (b.lo.abs().max(b.hi.abs()).max_element() + 1.0) * 1e-5;
+                    let node = &mut nodes[index];
+                    for axis in 0..3 {
+                        node.bounds[0][axis][slot] = b.lo[axis] - pad;
+                        node.bounds[1][axis][slot] = b.hi[axis] + pad;
+                    }
+                    if end - start <= LEAF_MAX {
+                        node.child[slot] = start as u32;
+                        node.count[slot] = (end - start) as u32;
+                    } else {
+                        jobs.push(Job {
+                            parent: index,
+                            slot,
+                            start,
+                            end,
+                            depth: job.depth + 1,
+                        });
+                    }
+                }
+            }
+        }
+        let corners = order
+            .iter()
+            .map(|&t| {
+                let t = t as usize;
+                [positions[3 * t], positions[3 * t + 1], positions[3 * t + 2]]
+            })
+            .collect();
+        Bvh {
+            nodes,
+            corners,
+            ids: order,
+        }
+    }
+
+    /// Number of triangles.
+    pub fn triangle_count(&self) -> usize {
+        self.ids.len()
+    }
+
+    /// Bytes the hierarchy holds (nodes, corners in leaf order, ids).
+    pub fn memory_bytes(&self) -> usize {
+        self.nodes.len() * std::mem::size_of::<Node>()
+            + self.corners.len() * std::mem::size_of::<[Vec3; 3]>()
+            + self.ids.len() * 4
+    }
+
+    /// The nearest hit of `ray` (ties: the lowest triangle id), trying the triangle at leaf
+    /// position `hint` first (a neighbouring pixel's hit) so that farther nodes are skipped
+    /// from the start. The answer does not depend on the hint.
+    pub fn closest(&self, ray: &Ray, hint: Option<u32>) -> Option<Hit> {
+        self.closest_with(ray, hint, &mut Stack::default())
+    }
+
+    /// [`Bvh::closest`] with a traversal stack kept between rays.
+    pub fn closest_with(&self, ray: &Ray, hint: Option<u32>, stack: &mut Stack) -> Option<Hit> {
+        let mut best = Hit {
+            t: ray.t_max,
+            tri: u32::MAX,
+            slot: u32::MAX,
+        };
+        if self.ids.is_empty() {
+            return None;
+        }
+        if let Some(slot) = hint.filter(|&s| (s as usize) < self.ids.len()) {
+            if let Some(t) = ray.triangle(&self.corners[slot as usize], best.t) {
+                best = Hit {
+                    t,
+                    tri: self.ids[slot as usize],
+                    slot,
+                };
+            }
+        }
+        // Entries: (child, count, entry distance); count 0 is an inner node.
+        let stack = &mut stack.0;
+        stack.clear();
+        stack.push((0, 0, ray.t_min));
+        let (inv, oi) = (ray.inv.to_array(), ray.origin_inv.to_array());
+        let side = ray.near_side;
+        // Plain comparisons (not f32::max/min, which also order NaNs) vectorise to one
+        // instruction per lane group.
+        let max = |a: f32, b: f32| if a > b { a } else { b };
+        let min = |a: f32, b: f32| if a < b { a } else { b };
+        while let Some((child, count, entry)) = stack.pop() {
+            if entry > best.t {
+                continue;
+            }
+            if count > 0 {
+                for slot in child..child + count {
+                    let Some(t) = ray.triangle(&self.corners[slot as usize], best.t) else {
+                        continue;
+                    };
+                    let tri = self.ids[slot as usize];
+                    // `t ≤ best.t` here; equal distances go to the lowest id.
+                    if t < best.t || tri < best.tri {
+                        best = Hit { t, tri, slot };
+                    }
+                }
+                continue;
+            }
+            let node = &self.nodes[child as usize];
+            let mut t_near = [ray.t_min; 4];
+            let mut t_far = [best.t; 4];
+            for axis in 0..3 {
+                let near = &node.bounds[side[axis] & 1][axis];
+                let far = &node.bounds[(side[axis] ^ 1) & 1][axis];
+                for k in 0..4 {
+                    t_near[k] = max(t_near[k], near[k] * inv[axis] - oi[axis]);
+                    t_far[k] = min(t_far[k], far[k] * inv[axis] - oi[axis]);
+                }
+            }
+            // Hit children, farthest first onto the stack so the nearest is popped first.
+            let mut hits = [(0u32, 0u32, 0f32); 4];
+            let mut n = 0;
+            for k in 0..4 {
+                if node.count[k] != EMPTY && t_near[k] <= t_far[k] {
+                    let mut i = n;
+                    while i > 0 && hits[i - 1].2 < t_near[k] {
+                        hits[i] = hits[i - 1];
+                        i -= 1;
+                    }
+                    hits[i] = (node.child[k], node.count[k], t_near[k]);
+                    n += 1;
+                }
+            }
+            stack.extend_from_slice(&hits[..n]);
+        }
+        (best.tri != u32::MAX).then_some(best)
+    }
+}
+
+/// A traversal stack, kept between rays so that a ray allocates nothing.
+#[derive(Debug, Clone)]
+pub struct Stack(Vec<(u32, u32, f32)>);
+
+impl Default for Stack {
+    fn default() -> Self {
+        Stack(Vec::with_capacity(STACK))
+    }
+}
+
+/// The box of triangles `ids`.
+fn bounds(prims: &[Prim], ids: &[u32]) -> BuildBox {
+    let mut b = BuildBox::EMPTY;
+    for &i in ids {
+        let p = &prims[i as usize];
+        b.grow(p.lo, p.hi);
+    }
+    b
+}
+
+/// Splits `order[start..end]` into up to four ranges: the largest range (by box area) of more
+/// than [`LEAF_MAX`] triangles is split in two until there are four.
+fn split_four(
+    prims: &[Prim],
+    order: &mut [u32],
+    start: usize,
+    end: usize,
+    depth: u32,
+) -> Vec<(usize, usize)> {
+    let mut parts = vec![(start, end)];
+    while parts.len() < 4 {
+        let pick = parts
+            .iter()
+            .enumerate()
+            .filter(|(_, &(s, e))| e - s > LEAF_MAX)
+            .map(|(i, &(s, e))| (i, bounds(prims, &order[s..e]).half_area()))
+            .fold(None::<(usize, f32)>, |best, (i, a)| match best {
+                Some((_, b)) if b >= a => best,
+                _ => Some((i, a)),
+            });
+        let Some((i, _)) = pick else {
+            break;
+        };
+        let (s, e) = parts.remove(i);
+        let mid = split(prims, order, s, e, depth);
+        parts.insert(i, (mid, e));
+        parts.insert(i, (s, mid));
+    }
+    parts
+}
+
+/// Splits `order[start..end]` in two (binned SAH, or halving past [`MEDIAN_DEPTH`] or when
+/// the SAH finds nothing); returns the first index of the second half, strictly inside.
+fn split(prims: &[Prim], order: &mut [u32], start: usize, end: usize, depth: u32) -> usize {
+    let ids = &mut order[start..end];
+    let mut cb = BuildBox::EMPTY;
+    for &i in ids.iter() {
+        let c = prims[i as usize].centroid;
+        cb.grow(c, c);
+    }
+    let extent = cb.hi - cb.lo;
+    if depth < MEDIAN_DEPTH {
+        if let Some((axis, bin)) = sah_split(prims, ids, cb) {
+            let scale = BINS as f32 * (1.0 - 1e-6) / extent[axis];
+            let bin_of = |i: u32| {
+                (((prims[i as usize].centroid[axis] - cb.lo[axis]) * scale) as usize).min(BINS - 1)
+            };
+            let (mut lo, mut hi) = (0, ids.len());
+            while lo < hi {
+                if bin_of(ids[lo]) < bin {
+                    lo += 1;
+                } else {
+                    hi -= 1;
+                    ids.swap(lo, hi);
+                }
+            }
+            if lo > 0 && lo < ids.len() {
+                return start + lo;
+            }
+        }
+    }
+    // Halve along the widest centroid axis (ties by triangle id, so the result is unique).
+    let axis = extent.max_position();
+    let mid = ids.len() / 2;
+    ids.select_nth_unstable_by(mid, |&a, &b| {
+        let (ca, cb) = (
+            prims[a as usize].centroid[axis],
+            prims[b as usize].centroid[axis],
+        );
+        ca.total_cmp(&cb).then(a.cmp(&b))
+    });
+    start + mid
+}
+
+/// The best binned-SAH plane: (axis, first bin of the second half), or `None` when all
+/// centroids coincide.
+fn sah_split(prims: &[Prim], ids: &[u32], cb: BuildBox) -> Option<(usize, usize)> {
+    let extent = cb.hi - cb.lo;
+    let mut best: Option<(f32, usize, usize)> = None;
+    for axis in 0..3 {
+        if extent[axis] <= 0.0 || !extent[axis].is_finite() {
+            continue;
+        }
+        let scale = BINS as f32 * (1.0 - 1e-6) / extent[axis];
+        let mut boxes = [BuildBox::EMPTY; BINS];
+        let mut counts = [0usize; BINS];
+        for &i in ids {
+            let p = &prims[i as usize];
+            let b = (((p.centroid[axis] - cb.lo[axis]) * scale) as usize).min(BINS - 1);
+            boxes[b].grow(p.lo, p.hi);
+            counts[b] += 1;
+        }
+        // Areas and counts of every prefix and suffix of bins.
+        let mut right_area = [0f32; BINS];
+        let mut right_count = [0usize; BINS];
+        let (mut acc, mut n) = (BuildBox::EMPTY, 0);
+        for b in (1..BINS).rev() {
+            acc.grow(boxes[b].lo, boxes[b].hi);
+            n += counts[b];
+            right_area[b] = acc.half_area();
+            right_count[b] = n;
+        }
+        let (mut acc, mut n) = (BuildBox::EMPTY, 0);
+        for b in 1..BINS {
+            acc.grow(boxes[b - 1].lo, boxes[b - 1].hi);
+            n += counts[b - 1];
+            if n == 0 || right_count[b] == 0 {
+                continue;
+            }
+            let cost = acc.half_area() * n as f32 + right_area[b] * right_count[b] as f32;
+            if best.is_none_or(|(c, _, _)| cost < c) {
+                best = Some((cost, axis, b));
+            }
+        }
+    }
+    best.map(|(_, axis, bin)| (axis, bin))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::seed::Rng;
+
+    fn random_triangles(rng: &mut Rng, n: usize) -> Vec<Vec3> {
+        let mut r = || rng.range_f64(-1.0, 1.0) as f32;
+        let mut out = Vec::new();
+        for _ in 0..n {
+            let c = Vec3::new(r() * 5.0, r() * 5.0, r() * 5.0);
+            let size = 0.05 + 0.5 * r().abs();
+            for _ in 0..3 {
+                out.push(c + Vec3::new(r(), r(), r()) * size);
+            }
+        }
+        out
+    }
+
+    /// Möller–Trumbore in double precision over every triangle: an independent answer.
+    fn brute_force(positions: &[Vec3], o: Vec3, d: Vec3, t_min: f64, t_max: f64) -> Option<f64> {
+        let (o, d) = (o.as_dvec3(), d.as_dvec3());
+        let mut best: Option<f64> = None;
+        for p in positions.chunks_exact(3) {
+            let (a, b, c) = (p[0].as_dvec3(), p[1].as_dvec3(), p[2].as_dvec3());
+            let (e1, e2) = (b - a, c - a);
+            let h = d.cross(e2);
+            let det = e1.dot(h);
+            if det.abs() < 1e-15 {
+                continue;
+            }
+            let s = o - a;
+            let u = s.dot(h) / det;
+            let q = s.cross(e1);
+            let v = d.dot(q) / det;
+            if u < 0.0 || v < 0.0 || u + v > 1.0 {
+                continue;
+            }
+            let t = e2.dot(q) / det;
+            if t >= t_min && t <= t_max && best.is_none_or(|b| t < b) {
+                best = Some(t);
+            }
+        }
+        best
+    }
+
+    #[test]
+    fn nearest_hits_match_brute_force_on_random_rays() {
+        let mut rng = Rng::new(7);
+        let positions = random_triangles(&mut rng, 3000);
+        let bvh = Bvh::new(&positions);
+        assert_eq!(bvh.triangle_count(), 3000);
+        let (mut hits, mut near_edges) = (0, 0);
+        for _ in 0..4000 {
+            let mut r = || rng.range_f64(-1.0, 1.0) as f32;
+            let o = Vec3::new(r() * 7.0, r() * 7.0, r() * 7.0);
+            let d = Vec3::new(r(), r(), r());
+            if d.length() < 1e-3 {
+                continue;
+            }
+            let got = bvh.closest(&Ray::new(o, d, 0.01, 100.0), None);
+            let want = brute_force(&positions, o, d, 0.01, 100.0);
+            match (got, want) {
+                (Some(g), Some(w)) => {
+                    hits += 1;
+                    let tol = 1e-4 * (1.0 + w);
+                    if (f64::from(g.t) - w).abs() > tol {
+                        // Different triangles may be hit only where the ray grazes an edge;
+                        // the hit triangle must still be met at the reported distance.
+                        near_edges += 1;
+                    }
+                    let p = &positions[3 * g.tri as usize..3 * g.tri as usize + 3];
+                    let again = brute_force(p, o, d, 0.0, 1e9).expect("hit triangle is hit");
+                    assert!((again - f64::from(g.t)).abs() < 1e-3 * (1.0 + again));
+                }
+                (None, None) => {}
+                (g, w) => panic!("ray {o} {d}: bvh {g:?}, brute force {w:?}"),
+            }
+        }
+        assert!(hits > 500, "rays should often hit: {hits}");
+        assert!(near_edges <= 2, "{near_edges} rays disagree");
+    }
+
+    #[test]
+    fn a_hint_never_changes_the_answer_and_ties_go_to_the_lowest_id() {
+        // Two copies of the same quad: every hit ties, and the lower ids must win.
+        let quad = [
+            Vec3::new(-1.0, -1.0, -2.0),
+            Vec3::new(1.0, -1.0, -2.0),
+            Vec3::new(1.0, 1.0, -2.0),
+            Vec3::new(-1.0, -1.0, -2.0),
+            Vec3::new(1.0, 1.0, -2.0),
+            Vec3::new(-1.0, 1.0, -2.0),
+        ];
+        let positions: Vec<Vec3> = quad.iter().chain(quad.iter()).copied().collect();
+        let bvh = Bvh::new(&positions);
+        for (x, y) in [(0.5, -0.5), (-0.5, 0.5), (0.3, 0.1)] {
+            let ray = Ray::new(Vec3::ZERO, Vec3::new(x, y, -1.0), 0.1, 10.0);
+            let plain = bvh.closest(&ray, None).expect("hit");
+            assert!(plain.tri < 2, "lowest id wins a tie: {plain:?}");
+            assert!((plain.t - 2.0).abs() < 1e-5);
+            for hint in 0..4 {
+                assert_eq!(
+                    bvh.closest(&ray, Some(hint)).map(|h| h.tri),
+                    Some(plain.tri)
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn rays_through_shared_edges_and_vertices_never_slip_through() {
+        // A fan of thin triangles around the origin, all sharing the centre vertex; rays
+        // straight at the centre and along each spoke must hit.
+        let n = 64;
+        let mut positions = Vec::new();
+        for i in 0..n {
+            let angle = |k: usize| k as f32 / n as f32 * std::f32::consts::TAU;
+            positions.push(Vec3::new(0.0, 0.0, -3.0));
+            positions.push(Vec3::new(angle(i).cos(), angle(i).sin(), -3.0));
+            positions.push(Vec3::new(angle(i + 1).cos(), angle(i + 1).sin(), -3.0));
+        }
+        let bvh = Bvh::new(&positions);
+        let eye = Vec3::new(0.013, -0.021, 0.0);
+        let centre = Vec3::new(0.0, 0.0, -3.0) - eye;
+        assert!(bvh
+            .closest(&Ray::new(eye, centre, 0.0, 10.0), None)
+            .is_some());
+        for i in 0..n {
+            let p = positions[3 * i + 1] * 0.5 + Vec3::new(0.0, 0.0, -1.5);
+            assert!(
+                bvh.closest(&Ray::new(eye, p - eye, 0.0, 10.0), None)
+                    .is_some(),
+                "spoke {i}"
+            );
+        }
+    }
+
+    #[test]
+    fn empty_degenerate_and_coincident_triangles_do_not_panic() {
+        let empty = Bvh::new(&[]);
+        let ray = Ray::new(Vec3::ZERO, Vec3::NEG_Z, 0.0, 10.0);
+        assert_eq!(empty.closest(&ray, Some(3)), None);
+        // Zero-area triangles (a point, a line) are never hit; many coincident ones build.
+        let p = Vec3::new(0.0, 0.0, -1.0);
+        let mut positions = vec![p, p, p, p, p + Vec3::X, p + Vec3::X * 2.0];
+        for _ in 0..100 {
+            positions.extend([
+                Vec3::new(-1.0, -1.0, -5.0),
+                Vec3::new(1.0, -1.0, -5.0),
+                Vec3::new(0.0, 1.0, -5.0),
+            ]);
+        }
+        let bvh = Bvh::new(&positions);
+        let hit = bvh.closest(&ray, None).expect("the coincident triangles");
+        assert_eq!(hit.tri, 2, "lowest id of the coincident ones");
+        assert!((hit.t - 5.0).abs() < 1e-5);
+        // Outside [t_min, t_max] nothing counts.
+        assert_eq!(
+            bvh.closest(&Ray::new(Vec3::ZERO, Vec3::NEG_Z, 0.0, 4.0), None),
+            None
+        );
+        assert_eq!(
+            bvh.closest(&Ray::new(Vec3::ZERO, Vec3::NEG_Z, 6.0, 9.0), None),
+            None
+        );
+    }
+}
