@@ -466,3 +466,92 @@ fn cpu_and_wgpu_renderers_agree() {
     assert!(labels >= 0.995, "labels {labels}");
     assert!(mae < 3.0, "colour MAE {mae}");
 }
+
+#[test]
+fn wgpu_renders_views_of_several_scenes_in_one_batch() {
+    let mut gpu = match minos::render::gpu::GpuRenderer::new() {
+        Ok(g) => g,
+        Err(e) => {
+            eprintln!("skipped: {e}");
+            return;
+        }
+    };
+    use minos::render::gpu::View;
+    let dir = tempfile::tempdir().unwrap();
+    let (root, data) = (dir.path().join("suncg"), dir.path().join("DATA"));
+    let cfg = minos::generate::GenerateConfig {
+        houses: 2,
+        seed: 6,
+        rooms: (3, 5),
+        levels: (1, 1),
+        closed_door_prob: 0.25,
+    };
+    let plans = common::generate_into(&cfg, &root);
+    common::ingest_into(&root, &data);
+    let scenes: Vec<RenderScene> = plans
+        .iter()
+        .map(|p| {
+            RenderScene::new(
+                &minos::store::DataDir::new(&data)
+                    .read_scene(&p.id)
+                    .unwrap()
+                    .1,
+            )
+        })
+        .collect();
+    let slots: Vec<_> = scenes.iter().map(|s| gpu.add_scene(s)).collect();
+    assert_eq!(gpu.scene_count(), 2);
+    // Views alternate between the houses, several per room centre.
+    let mut views = Vec::new();
+    for (plan, slot) in plans.iter().zip(&slots) {
+        for (k, r) in plan.levels[0].rooms.iter().enumerate() {
+            let c = [
+                (r.rect.x0 + r.rect.x1) as f32 / 2.0,
+                (r.rect.z0 + r.rect.z1) as f32 / 2.0,
+            ];
+            views.push(minos::render::gpu::View {
+                scene: *slot,
+                camera: Camera {
+                    position: Vec3::new(c[0], 1.2, c[1]),
+                    yaw: k as f32 * 1.3,
+                    tilt: -0.1,
+                    vfov_deg: 60.0,
+                    width: 96,
+                    height: 72,
+                    near: 0.01,
+                    far: 50.0,
+                },
+            });
+        }
+    }
+    let (a, b): (Vec<View>, Vec<View>) = views.iter().partition(|v| v.scene == slots[0]);
+    let mixed: Vec<View> = a
+        .iter()
+        .zip(&b)
+        .flat_map(|(x, y)| [*x, *y])
+        .chain(a.iter().skip(b.len()).copied())
+        .chain(b.iter().skip(a.len()).copied())
+        .collect();
+    let frames = gpu.render_views(&mixed).unwrap();
+    assert_eq!(frames.len(), mixed.len());
+    let (mut equal, mut total) = (0usize, 0usize);
+    for (v, f) in mixed.iter().zip(&frames) {
+        let rs = &scenes[v.scene.0];
+        // The same view alone in its own batch gives the same frame.
+        let alone = gpu.render_views(std::slice::from_ref(v)).unwrap().remove(0);
+        assert_eq!(f.tri, alone.tri, "a frame does not depend on its batch");
+        // And it agrees with the CPU renderer as in the single-scene parity test.
+        let c = cpu::render(rs, &v.camera);
+        let (sc, sg) = (c.instance(rs), f.instance(rs));
+        equal += sc.iter().zip(&sg).filter(|(x, y)| x == y).count();
+        total += sc.len();
+        assert!(f.tri.iter().any(|&t| t != minos::render::NO_HIT));
+    }
+    let share = equal as f64 / total as f64;
+    eprintln!(
+        "multi-scene batch: instances equal {:.3}% ({})",
+        100.0 * share,
+        gpu.adapter_name()
+    );
+    assert!(share >= 0.995, "{share}");
+}

@@ -1,8 +1,11 @@
 //! The wgpu renderer: offscreen, headless (no surface or window), on any adapter wgpu finds —
 //! a GPU, or lavapipe on a CPU. One pass writes, per pixel, the triangle id and the depth
 //! (as bits, so it also works where float targets cannot be rendered or depth cannot be
-//! copied); the images are then derived exactly as for the CPU renderer. A batch of cameras
-//! renders into one atlas texture in one submission with one read-back.
+//! copied); the images are then derived exactly as for the CPU renderer. Several scenes can be
+//! uploaded side by side, and a batch of views — each a camera on one of them, all of one
+//! resolution — renders into one atlas texture (a grid of images) with one command encoder,
+//! one submission and one read-back buffer; batches larger than the atlas limit are split
+//! into as few submissions as fit.
 
 use wgpu::util::DeviceExt;
 
@@ -69,17 +72,34 @@ fn fs(i: VOut) -> FOut {
 }
 "#;
 
+/// Largest atlas edge (pixels).
+const ATLAS_MAX: u32 = 4096;
+
 /// Uniform block stride (dynamic offsets must be 256-aligned).
 const UNIFORM_STRIDE: u64 = 256;
 
-/// A wgpu device with the id/depth pipeline and the current scene's vertices.
+/// A wgpu device with the id/depth pipeline and the uploaded scenes' vertices.
 pub struct GpuRenderer {
     device: wgpu::Device,
     queue: wgpu::Queue,
     pipeline: wgpu::RenderPipeline,
     layout: wgpu::BindGroupLayout,
     adapter: wgpu::AdapterInfo,
-    vertices: Option<(wgpu::Buffer, u32)>,
+    /// Vertex buffer and vertex count of each uploaded scene, by [`SceneSlot`].
+    scenes: Vec<(wgpu::Buffer, u32)>,
+}
+
+/// An uploaded scene of a [`GpuRenderer`] (see [`GpuRenderer::add_scene`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct SceneSlot(pub usize);
+
+/// One image of a batch: a camera looking at an uploaded scene.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct View {
+    /// The scene.
+    pub scene: SceneSlot,
+    /// The camera (every view of a batch has the same resolution).
+    pub camera: Camera,
 }
 
 impl GpuRenderer {
@@ -195,7 +215,7 @@ impl GpuRenderer {
             pipeline,
             layout,
             adapter: info,
-            vertices: None,
+            scenes: Vec::new(),
         })
     }
 
@@ -207,8 +227,15 @@ impl GpuRenderer {
         )
     }
 
-    /// Uploads the scene's triangles (replacing any previous scene).
+    /// Uploads the scene's triangles, replacing every scene uploaded before; it becomes
+    /// `SceneSlot(0)`, the scene [`GpuRenderer::render_batch`] renders.
     pub fn upload(&mut self, scene: &RenderScene) {
+        self.scenes.clear();
+        self.add_scene(scene);
+    }
+
+    /// Uploads one more scene beside those already uploaded and returns its slot.
+    pub fn add_scene(&mut self, scene: &RenderScene) -> SceneSlot {
         let data: Vec<[f32; 3]> = scene.positions.iter().map(|p| p.to_array()).collect();
         let buffer = self
             .device
@@ -221,34 +248,85 @@ impl GpuRenderer {
                 }),
                 usage: wgpu::BufferUsages::VERTEX,
             });
-        self.vertices = Some((buffer, data.len() as u32));
+        self.scenes.push((buffer, data.len() as u32));
+        SceneSlot(self.scenes.len() - 1)
     }
 
-    /// Renders cameras of one resolution in one submission (call [`GpuRenderer::upload`]
-    /// first). Frames come back in camera order.
+    /// Number of uploaded scenes.
+    pub fn scene_count(&self) -> usize {
+        self.scenes.len()
+    }
+
+    /// Renders cameras of one resolution on the scene of [`GpuRenderer::upload`] (slot 0)
+    /// in one submission. Frames come back in camera order.
     pub fn render_batch(&self, cameras: &[Camera]) -> Result<Vec<Frame>, GpuError> {
-        let Some((vertices, count)) = &self.vertices else {
-            return Err(GpuError::Render("no scene uploaded".into()));
-        };
-        let Some(first) = cameras.first() else {
+        let views: Vec<View> = cameras
+            .iter()
+            .map(|&camera| View {
+                scene: SceneSlot(0),
+                camera,
+            })
+            .collect();
+        self.render_views(&views)
+    }
+
+    /// Renders views (cameras on any uploaded scenes, one resolution) with one command
+    /// encoder, one submission and one read-back per atlas of views; frames come back in
+    /// view order, each frame's triangle ids those of its own scene.
+    pub fn render_views(&self, views: &[View]) -> Result<Vec<Frame>, GpuError> {
+        let Some(first) = views.first() else {
             return Ok(Vec::new());
         };
-        let (w, h) = (first.width, first.height);
-        if cameras.iter().any(|c| c.width != w || c.height != h) {
+        let (w, h) = (first.camera.width, first.camera.height);
+        if views
+            .iter()
+            .any(|v| v.camera.width != w || v.camera.height != h)
+        {
             return Err(GpuError::Render(
                 "all cameras of a batch need the same resolution".into(),
             ));
         }
-        let n = cameras.len() as u32;
-        let max_dim = self.device.limits().max_texture_dimension_2d;
-        if w > max_dim || h * n > max_dim {
+        if let Some(v) = views.iter().find(|v| v.scene.0 >= self.scenes.len()) {
             return Err(GpuError::Render(format!(
-                "batch of {n} images {w}x{h} exceeds the texture limit {max_dim}"
+                "scene slot {} not uploaded ({} scenes)",
+                v.scene.0,
+                self.scenes.len()
             )));
         }
+        // Atlases up to 4096² (64 MB per target): larger ones cost memory, not speed.
+        let max_dim = self.device.limits().max_texture_dimension_2d.min(ATLAS_MAX);
+        if w == 0 || h == 0 {
+            return Ok(views.iter().map(|_| Frame::new(w, h)).collect());
+        }
+        if w > max_dim || h > max_dim {
+            return Err(GpuError::Render(format!(
+                "images {w}x{h} exceed the texture limit {max_dim}"
+            )));
+        }
+        // A grid of images: as many columns and rows as the texture limit allows.
+        let cols = (max_dim / w).max(1);
+        let per_atlas = (cols * (max_dim / h).max(1)) as usize;
+        let mut frames = Vec::with_capacity(views.len());
+        for chunk in views.chunks(per_atlas) {
+            frames.extend(self.render_atlas(chunk, w, h, cols)?);
+        }
+        Ok(frames)
+    }
+
+    /// Renders up to one atlas of views (`cols` images per row of the atlas).
+    fn render_atlas(
+        &self,
+        views: &[View],
+        w: u32,
+        h: u32,
+        cols: u32,
+    ) -> Result<Vec<Frame>, GpuError> {
+        let n = views.len() as u32;
+        let cols = cols.min(n);
+        let rows = n.div_ceil(cols);
         let atlas = wgpu::Extent3d {
-            width: w,
-            height: h * n,
+            width: w * cols,
+            height: h * rows,
             depth_or_array_layers: 1,
         };
         let texture = |format, usage, label| {
@@ -272,8 +350,8 @@ impl GpuRenderer {
             "depth",
         );
         let mut uniforms = vec![0u8; (UNIFORM_STRIDE * u64::from(n)) as usize];
-        for (i, c) in cameras.iter().enumerate() {
-            let m = c.view_projection().to_cols_array();
+        for (i, v) in views.iter().enumerate() {
+            let m = v.camera.view_projection().to_cols_array();
             let at = i * UNIFORM_STRIDE as usize;
             uniforms[at..at + 64].copy_from_slice(bytemuck::cast_slice(&m));
         }
@@ -296,7 +374,7 @@ impl GpuRenderer {
                 }),
             }],
         });
-        let views = [
+        let views_tex = [
             ids.create_view(&Default::default()),
             depth_bits.create_view(&Default::default()),
         ];
@@ -318,13 +396,13 @@ impl GpuRenderer {
             };
             let color = [
                 Some(wgpu::RenderPassColorAttachment {
-                    view: &views[0],
+                    view: &views_tex[0],
                     depth_slice: None,
                     resolve_target: None,
                     ops: clear(f64::from(u32::MAX)),
                 }),
                 Some(wgpu::RenderPassColorAttachment {
-                    view: &views[1],
+                    view: &views_tex[1],
                     depth_slice: None,
                     resolve_target: None,
                     ops: clear(f64::from(1.0f32.to_bits())),
@@ -346,25 +424,30 @@ impl GpuRenderer {
                 multiview_mask: None,
             });
             pass.set_pipeline(&self.pipeline);
-            pass.set_vertex_buffer(0, vertices.slice(..));
-            for i in 0..n {
-                pass.set_viewport(0.0, (i * h) as f32, w as f32, h as f32, 0.0, 1.0);
-                pass.set_scissor_rect(0, i * h, w, h);
-                pass.set_bind_group(0, &bind, &[(u64::from(i) * UNIFORM_STRIDE) as u32]);
+            let mut bound = usize::MAX;
+            for (i, v) in views.iter().enumerate() {
+                let (x, y) = ((i as u32 % cols) * w, (i as u32 / cols) * h);
+                let (buffer, count) = &self.scenes[v.scene.0];
+                if bound != v.scene.0 {
+                    pass.set_vertex_buffer(0, buffer.slice(..));
+                    bound = v.scene.0;
+                }
+                pass.set_viewport(x as f32, y as f32, w as f32, h as f32, 0.0, 1.0);
+                pass.set_scissor_rect(x, y, w, h);
+                pass.set_bind_group(0, &bind, &[(i as u64 * UNIFORM_STRIDE) as u32]);
                 pass.draw(0..*count, 0..1);
             }
         }
-        let row = (w * 4).div_ceil(256) * 256;
-        let readback = |label| {
-            self.device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some(label),
-                size: u64::from(row) * u64::from(h * n),
-                usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-                mapped_at_creation: false,
-            })
-        };
-        let (id_buf, depth_buf) = (readback("ids read-back"), readback("depth read-back"));
-        for (tex, buf) in [(&ids, &id_buf), (&depth_bits, &depth_buf)] {
+        // One read-back buffer: the ids, then the depth bits.
+        let row = (atlas.width * 4).div_ceil(256) * 256;
+        let plane = u64::from(row) * u64::from(atlas.height);
+        let readback = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("read-back"),
+            size: 2 * plane,
+            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+            mapped_at_creation: false,
+        });
+        for (k, tex) in [&ids, &depth_bits].into_iter().enumerate() {
             encoder.copy_texture_to_buffer(
                 wgpu::TexelCopyTextureInfo {
                     texture: tex,
@@ -373,54 +456,57 @@ impl GpuRenderer {
                     aspect: wgpu::TextureAspect::All,
                 },
                 wgpu::TexelCopyBufferInfo {
-                    buffer: buf,
+                    buffer: &readback,
                     layout: wgpu::TexelCopyBufferLayout {
-                        offset: 0,
+                        offset: k as u64 * plane,
                         bytes_per_row: Some(row),
-                        rows_per_image: Some(h * n),
+                        rows_per_image: Some(atlas.height),
                     },
                 },
                 atlas,
             );
         }
         self.queue.submit([encoder.finish()]);
-        let read = |buf: &wgpu::Buffer| -> Result<Vec<u32>, GpuError> {
-            let slice = buf.slice(..);
-            let (tx, rx) = std::sync::mpsc::channel();
-            slice.map_async(wgpu::MapMode::Read, move |r| {
-                let _ = tx.send(r);
-            });
-            self.device
-                .poll(wgpu::PollType::wait_indefinitely())
-                .map_err(|e| GpuError::Render(e.to_string()))?;
-            rx.recv()
-                .map_err(|e| GpuError::Render(e.to_string()))?
-                .map_err(|e| GpuError::Render(e.to_string()))?;
-            let view = slice
-                .get_mapped_range()
-                .map_err(|e| GpuError::Render(e.to_string()))?;
-            let mut out = Vec::with_capacity((w * h * n) as usize);
-            for y in 0..(h * n) as usize {
-                let start = y * row as usize;
-                out.extend_from_slice(bytemuck::cast_slice(&view[start..start + (w * 4) as usize]));
-            }
-            drop(view);
-            buf.unmap();
-            Ok(out)
-        };
-        let (tri, bits) = (read(&id_buf)?, read(&depth_buf)?);
-        let per = (w * h) as usize;
-        Ok((0..n as usize)
-            .map(|i| Frame {
-                width: w,
-                height: h,
-                tri: tri[i * per..(i + 1) * per].to_vec(),
-                depth: bits[i * per..(i + 1) * per]
-                    .iter()
-                    .map(|b| f32::from_bits(*b))
-                    .collect(),
+        let slice = readback.slice(..);
+        let (tx, rx) = std::sync::mpsc::channel();
+        slice.map_async(wgpu::MapMode::Read, move |r| {
+            let _ = tx.send(r);
+        });
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| GpuError::Render(e.to_string()))?;
+        rx.recv()
+            .map_err(|e| GpuError::Render(e.to_string()))?
+            .map_err(|e| GpuError::Render(e.to_string()))?;
+        let data = slice
+            .get_mapped_range()
+            .map_err(|e| GpuError::Render(e.to_string()))?;
+        let words: &[u32] = bytemuck::cast_slice(&data);
+        let (row_words, plane_words) = (row as usize / 4, plane as usize / 4);
+        let frames = (0..n as usize)
+            .map(|i| {
+                let (x0, y0) = (
+                    (i % cols as usize) * w as usize,
+                    (i / cols as usize) * h as usize,
+                );
+                let mut frame = Frame::new(w, h);
+                for y in 0..h as usize {
+                    let at = (y0 + y) * row_words + x0;
+                    let out = y * w as usize..(y + 1) * w as usize;
+                    frame.tri[out.clone()].copy_from_slice(&words[at..at + w as usize]);
+                    for (d, b) in frame.depth[out]
+                        .iter_mut()
+                        .zip(&words[plane_words + at..plane_words + at + w as usize])
+                    {
+                        *d = f32::from_bits(*b);
+                    }
+                }
+                frame
             })
-            .collect())
+            .collect();
+        drop(data);
+        readback.unmap();
+        Ok(frames)
     }
 }
 
