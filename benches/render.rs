@@ -1,8 +1,11 @@
 //! Rendering and simulation throughput: `cargo bench --bench render`.
 //!
-//! A furnished generated house; frames per second of the CPU rasteriser and of wgpu (when an
-//! adapter exists, e.g. lavapipe) at 84², 128² and 256², one camera at a time and batched;
-//! simulator steps per second with collisions, blind and with an RGB-D-semantic camera.
+//! A furnished generated house; frames per second of the CPU renderer (which rasterises a
+//! scene this small), the ray caster and wgpu (when an adapter exists, e.g. lavapipe) at 84²,
+//! 128² and 256², one camera at a time and batched; simulator steps per second with
+//! collisions, blind and with an RGB-D-semantic camera. Then rendering at scale: the house
+//! (multi-room) and its largest room made dense (every triangle split, clutter boxes added)
+//! from 4k to 3M triangles, the ray caster against the rasteriser.
 
 use std::hint::black_box;
 use std::sync::Arc;
@@ -15,10 +18,13 @@ use minos::navmesh::NavParams;
 use minos::pipeline::ingest::{ingest, IngestConfig};
 use minos::progress::NoProgress;
 use minos::render::gpu::GpuRenderer;
-use minos::render::{cpu, Camera, RenderScene};
+use minos::render::{cpu, raycast, Camera, Frame, RenderScene};
 use minos::seed::Rng;
 use minos::sim::simulator::Renderer;
 use minos::sim::{Actions, AgentConfig, RendererChoice, SceneAssets, SensorSuite, Simulator};
+
+#[path = "support/dense.rs"]
+mod dense;
 
 fn fps(frames: usize, mut f: impl FnMut()) -> f64 {
     f();
@@ -61,6 +67,11 @@ fn main() {
             (p, rng.range_f64(0.0, std::f64::consts::TAU) as f32)
         })
         .collect();
+    if std::env::args().any(|a| a == "gpu") {
+        // `scripts/gpu_bench.sh`: only the batched wgpu figures at scale.
+        gpu_at_scale(&rs, &grid, &poses);
+        return;
+    }
     let cams = |size: u32| -> Vec<Camera> {
         poses
             .iter()
@@ -102,6 +113,16 @@ fn main() {
         let batch = fps(c.len(), || drop(black_box(cpu::render_batch(&rs, &c))));
         println!(
             "| cpu (1 core / all cores batched) | {size}² | {single:.0} fps | {batch:.0} fps |"
+        );
+        let single = one.install(|| {
+            fps(c.len(), || {
+                c.iter()
+                    .for_each(|cam| drop(black_box(raycast::render(&rs, cam))))
+            })
+        });
+        let batch = fps(c.len(), || drop(black_box(raycast::render_batch(&rs, &c))));
+        println!(
+            "| ray caster (1 core / all cores batched) | {size}² | {single:.0} fps | {batch:.0} fps |"
         );
     }
     // The images a colour + depth + semantic camera needs: rasterise once, then derive the
@@ -193,5 +214,206 @@ fn main() {
             })
         });
         println!("| {name} | {rate:.0} |");
+    }
+    at_scale(&rs, &assets.grid, &poses, &one);
+}
+
+/// Colour + depth + semantic frames per second of `render` over `cams`, one core.
+fn images_fps(
+    one: &rayon::ThreadPool,
+    scene: &RenderScene,
+    cams: &[Camera],
+    render: fn(&RenderScene, &Camera) -> Frame,
+) -> f64 {
+    one.install(|| {
+        fps(cams.len(), || {
+            cams.iter().for_each(|cam| {
+                let f = render(scene, cam);
+                black_box(f.color(scene, cam));
+                black_box(f.linear_depth(cam));
+                black_box(f.semantic(scene, minos::render::Taxonomy::Nyu40));
+            })
+        })
+    })
+}
+
+/// The house and its largest room made dense, 4k → 3M triangles: ray caster and rasteriser
+/// at 84² (colour + depth + semantic, one core), the ray caster at 128² and 256² too, the
+/// BVH's build time and memory.
+fn at_scale(
+    rs: &RenderScene,
+    grid: &minos::navmesh::NavGrid,
+    poses: &[(Vec3, f32)],
+    one: &rayon::ThreadPool,
+) {
+    let (room, room_poses) = largest_room(rs, grid);
+    let room_scene = dense::single_room(rs, room);
+    println!(
+        "\n## Rendering at scale (colour + depth + semantic, one core; room {room}: {} poses)\n",
+        room_poses.len()
+    );
+    println!(
+        "| scene | triangles | BVH build | BVH MB | ray cast 84² | rasterised 84² | ray cast 128² | ray cast 256² |\n|---|---|---|---|---|---|---|---|"
+    );
+    for (name, base, poses, boxes) in [
+        ("multi-room house", rs, poses, 300usize),
+        ("single dense room", &room_scene, &room_poses[..], 100),
+    ] {
+        for target in [
+            0usize, 10_000, 30_000, 100_000, 300_000, 1_000_000, 3_000_000,
+        ] {
+            let scene = if target == 0 {
+                dense::densify(base, 0, 0, 1)
+            } else {
+                dense::densify(base, boxes, target, 1)
+            };
+            let t = Instant::now();
+            let bvh = scene.bvh();
+            let build = t.elapsed().as_secs_f64();
+            let mb = bvh.memory_bytes() as f64 / 1e6;
+            let at = |size: u32, n: usize| -> Vec<Camera> {
+                poses.iter().take(n).map(|&p| eye_camera(p, size)).collect()
+            };
+            let ray84 = images_fps(one, &scene, &at(84, 64), raycast::render);
+            // The rasteriser's cost grows with the triangles: fewer poses on big scenes.
+            let raster_poses = if scene.triangle_count() > 200_000 {
+                8
+            } else {
+                64
+            };
+            let raster84 = images_fps(one, &scene, &at(84, raster_poses), cpu::rasterise);
+            let big = if target == 1_000_000 || target == 0 {
+                let r128 = images_fps(one, &scene, &at(128, 64), raycast::render);
+                let r256 = images_fps(one, &scene, &at(256, 16), raycast::render);
+                (format!("{r128:.0} fps"), format!("{r256:.0} fps"))
+            } else {
+                ("".into(), "".into())
+            };
+            println!(
+                "| {name} | {} | {:.0} ms | {mb:.1} | {ray84:.0} fps | {raster84:.0} fps | {} | {} |",
+                scene.triangle_count(),
+                build * 1e3,
+                big.0,
+                big.1
+            );
+        }
+    }
+}
+
+/// A camera at eye height 1.09 m above a walkable point, looking level.
+fn eye_camera((p, yaw): (Vec3, f32), size: u32) -> Camera {
+    Camera {
+        position: p + Vec3::Y * 1.09,
+        yaw,
+        tilt: 0.0,
+        vfov_deg: 45.0,
+        width: size,
+        height: size,
+        near: 0.01,
+        far: 50.0,
+    }
+}
+
+/// The room most of 4,000 random walkable points fall in, and up to 64 of those points with
+/// random headings.
+fn largest_room(rs: &RenderScene, grid: &minos::navmesh::NavGrid) -> (u32, Vec<(Vec3, f32)>) {
+    let spans = grid.walkable_spans(None);
+    let mut rng = Rng::new(5);
+    let points: Vec<(Vec3, f32)> = (0..4000)
+        .filter_map(|_| {
+            let (_, p) = grid.random_point_from(&mut rng, &spans)?;
+            Some((p, rng.range_f64(0.0, std::f64::consts::TAU) as f32))
+        })
+        .collect();
+    let room_of = |p: Vec3| {
+        // The room of the floor triangle straight below, from the render scene itself.
+        let down = minos::render::bvh::Ray::new(p + Vec3::Y * 0.5, Vec3::NEG_Y, 0.0, 2.0);
+        rs.bvh()
+            .closest(&down, None)
+            .map_or(0, |h| rs.tris[h.tri as usize].room)
+    };
+    let mut counts = std::collections::BTreeMap::new();
+    for (p, _) in &points {
+        *counts.entry(room_of(*p)).or_insert(0usize) += 1;
+    }
+    let room = counts
+        .iter()
+        .filter(|(r, _)| **r != 0)
+        .max_by_key(|(r, n)| (**n, std::cmp::Reverse(**r)))
+        .map_or(1, |(r, _)| *r);
+    let poses = points
+        .iter()
+        .filter(|(p, _)| room_of(*p) == room)
+        .take(64)
+        .copied()
+        .collect();
+    (room, poses)
+}
+
+/// Batched wgpu frames per second at 128² on the 1M-triangle dense scenes (both uploaded,
+/// views alternating between them), batches of 1,024 views (or `MINOS_GPU_BENCH_VIEWS`): the id + depth pass with its
+/// one read-back, and with colour, linear depth and NYU-40 semantics derived on all cores.
+fn gpu_at_scale(rs: &RenderScene, grid: &minos::navmesh::NavGrid, poses: &[(Vec3, f32)]) {
+    let mut gpu = match GpuRenderer::new() {
+        Ok(g) => g,
+        Err(e) => {
+            println!("wgpu: skipped: {e}");
+            return;
+        }
+    };
+    let (room, room_poses) = largest_room(rs, grid);
+    let scenes = [
+        (
+            "multi-room house",
+            dense::densify(rs, 300, 1_000_000, 1),
+            poses.to_vec(),
+        ),
+        (
+            "single dense room",
+            dense::densify(&dense::single_room(rs, room), 100, 1_000_000, 1),
+            room_poses,
+        ),
+    ];
+    let slots: Vec<_> = scenes.iter().map(|(_, s, _)| gpu.add_scene(s)).collect();
+    println!(
+        "adapter: {}\nscenes: {}\n",
+        gpu.adapter_name(),
+        scenes
+            .iter()
+            .map(|(n, s, _)| format!("{n} ({} triangles)", s.triangle_count()))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    println!("| size | views per batch | ids + depth, one read-back | + colour, depth, semantic (all cores) |\n|---|---|---|---|");
+    for size in [84u32, 128, 256] {
+        // MINOS_GPU_BENCH_VIEWS: a smaller batch for a software adapter.
+        let batch = std::env::var("MINOS_GPU_BENCH_VIEWS")
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(1024usize);
+        let views: Vec<minos::render::gpu::View> = (0..batch)
+            .map(|i| {
+                let k = i % scenes.len();
+                let ps = &scenes[k].2;
+                minos::render::gpu::View {
+                    scene: slots[k],
+                    camera: eye_camera(ps[(i / scenes.len()) % ps.len()], size),
+                }
+            })
+            .collect();
+        let pass = fps(batch, || {
+            drop(black_box(gpu.render_views(&views).expect("render")))
+        });
+        let derived = fps(batch, || {
+            use rayon::prelude::*;
+            let frames = gpu.render_views(&views).expect("render");
+            frames.par_iter().zip(&views).for_each(|(f, v)| {
+                let s = &scenes[v.scene.0].1;
+                black_box(f.color(s, &v.camera));
+                black_box(f.linear_depth(&v.camera));
+                black_box(f.semantic(s, minos::render::Taxonomy::Nyu40));
+            });
+        });
+        println!("| {size}² | {batch} | {pass:.0} fps | {derived:.0} fps |");
     }
 }
