@@ -16,9 +16,11 @@ use super::raycast;
 use super::scene::RenderScene;
 
 /// Scenes with at least this many triangles per pixel of the image are ray cast, smaller
-/// ones rasterised: where the two cost about the same on one core (measured by
-/// `cargo bench --bench render`, see docs/PERFORMANCE.md).
-pub const RAYCAST_TRIANGLES_PER_PIXEL: f32 = 1.0;
+/// ones rasterised: about where the two cost the same on one core at 84² (`cargo bench
+/// --bench render`, "Rendering at scale" in docs/PERFORMANCE.md: between 4 and 16 triangles
+/// per pixel on the dense multi-room house, 14 to 40 in the single dense room). The
+/// generated houses (3.6k triangles) stay rasterised at every size.
+pub const RAYCAST_TRIANGLES_PER_PIXEL: f32 = 16.0;
 
 /// Images at least this many pixels are split into bands rendered in parallel.
 const PARALLEL_PIXELS: u32 = 256 * 256;
