@@ -65,13 +65,13 @@ fn scan_houses_ingest_with_their_triangles_labels_and_connected_levels() {
         let mesh = read_ply(&ply).unwrap();
         let n = mesh.triangles.len() as u64;
         assert!(
-            n <= TRIANGLES && n >= TRIANGLES * 9 / 10,
+            (TRIANGLES * 9 / 10..=TRIANGLES).contains(&n),
             "{id}: {n} triangles for a budget of {TRIANGLES}"
         );
         let (_, scene) = minos::store::DataDir::new(&data).read_scene(&id).unwrap();
         assert_eq!(scene.levels.len(), 3, "{id}");
         // Every written face is in the scene (none lost or added by ingest).
-        assert_eq!(scene.triangle_count() as u64, n, "{id}");
+        assert_eq!(scene.triangle_count(), n, "{id}");
         // Labels survive: the clutter and furniture classes are materials of room meshes,
         // and clutter objects carry their categories.
         let materials: BTreeSet<&str> = scene

@@ -5,7 +5,7 @@
 //! - `bake`: load the compiled scene, bake its grid (nothing is written);
 //! - `episodes`: read the scene's grid, sample PointGoal episodes;
 //! - `render`: load scene and grid, set up the simulator, render the sensors' images from
-//!   random walkable poses (every modality of every camera: one frame per camera);
+//!   random walkable poses (a frame is one observation: every image of every camera);
 //! - `run`: the rollout loop of `minos run` with the oracle — sample PointGoal episodes, reset,
 //!   plan, decide and step the simulator (nothing is written).
 //!
@@ -123,6 +123,8 @@ pub struct BenchReport {
     pub rss_after_load: u64,
     /// Resident memory the loading added, bytes.
     pub rss_of_load: u64,
+    /// Peak resident memory of the process at the end, bytes (0 where unknown).
+    pub rss_peak: u64,
     /// Whether stage times are thread CPU time (else wall time).
     pub cpu_time: bool,
     /// The stages, in order.
@@ -144,6 +146,7 @@ impl BenchReport {
             "walkable_spans": self.walkable_spans,
             "rss_after_load_bytes": self.rss_after_load,
             "rss_of_load_bytes": self.rss_of_load,
+            "rss_peak_bytes": self.rss_peak,
             "clock": if self.cpu_time { "thread-cpu" } else { "wall" },
             "stages": self.stages.iter().map(|s| serde_json::json!({
                 "stage": s.name,
@@ -158,7 +161,7 @@ impl BenchReport {
     /// The report as a Markdown table, with a header line.
     pub fn table(&self) -> String {
         let mut out = format!(
-            "{} on {}: {} triangles, {} walkable spans, {:.0} MB resident after loading ({:.0} MB for the scene); {} time of one thread\n\n\
+            "{} on {}: {} triangles, {} walkable spans, {:.0} MB resident after loading ({:.0} MB for the scene), {:.0} MB peak; {} time of one thread\n\n\
              | stage | count | unit | seconds | per second (1 core) |\n|---|---|---|---|---|\n",
             self.kind.name(),
             self.scene,
@@ -166,6 +169,7 @@ impl BenchReport {
             self.walkable_spans,
             self.rss_after_load as f64 / 1e6,
             self.rss_of_load as f64 / 1e6,
+            self.rss_peak as f64 / 1e6,
             if self.cpu_time { "CPU" } else { "wall" },
         );
         for s in &self.stages {
@@ -197,8 +201,13 @@ fn thread_cpu() -> Option<Duration> {
 
 /// Resident memory of the process in bytes, where the platform says (Linux).
 pub fn resident_bytes() -> Option<u64> {
+    status_bytes("VmRSS:")
+}
+
+/// A `kB` field of `/proc/self/status`, in bytes.
+fn status_bytes(field: &str) -> Option<u64> {
     let s = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = s.lines().find(|l| l.starts_with("VmRSS:"))?;
+    let line = s.lines().find(|l| l.starts_with(field))?;
     let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
     Some(kb * 1024)
 }
@@ -315,6 +324,7 @@ pub fn bench(cfg: &BenchConfig) -> Result<BenchReport, BenchError> {
             .map_or(0, |g| g.spans.iter().filter(|s| s.walkable).count() as u64),
         rss_after_load,
         rss_of_load: rss_after_load.saturating_sub(rss0),
+        rss_peak: 0,
         cpu_time: timer.cpu,
         stages: Vec::new(),
     };
@@ -388,6 +398,7 @@ pub fn bench(cfg: &BenchConfig) -> Result<BenchReport, BenchError> {
         }
     }
     report.stages = timer.stages;
+    report.rss_peak = status_bytes("VmHWM:").unwrap_or(0);
     Ok(report)
 }
 
@@ -453,12 +464,12 @@ fn render(
     sim: &mut Simulator,
     poses: &[(Vec3, f32)],
 ) -> Result<(), BenchError> {
-    let cameras = cfg.sensors.cameras.len() as u64;
+    let _ = cfg;
     for (p, yaw) in poses {
         sim.reset(*p, *yaw, None, "bench");
         let (r, s) = timer.measure(|| sim.observe());
         r.map_err(|e| BenchError(e.to_string()))?;
-        timer.add("render", "frames", cameras, s);
+        timer.add("render", "frames", 1, s);
     }
     Ok(())
 }
