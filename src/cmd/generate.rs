@@ -5,7 +5,7 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use anyhow::Context as _;
-use minos::generate::{generate, GenerateConfig, OutputFormat};
+use minos::generate::{generate, GenerateConfig, OutputFormat, ScanOptions};
 
 use super::range::parse_range;
 use super::Context;
@@ -29,12 +29,13 @@ pub enum Format {
 #[derive(Debug, clap::Args)]
 #[command(
     after_help = "Examples:\n  minos generate --houses 100 --seed 1 --out gen/suncg\n  \
-    minos generate --houses 20 --rooms 2..2 --levels 1 --out gen/two-rooms"
+    minos generate --houses 20 --rooms 2..2 --levels 1 --out gen/two-rooms\n  \
+    minos generate --scan --houses 2 --scan-triangles 3000000 --out gen/scans"
 )]
 pub struct Args {
-    /// Output format.
-    #[arg(long, value_enum, default_value = "suncg")]
-    format: Format,
+    /// Output format [default: suncg; with --scan mp3d].
+    #[arg(long, value_enum)]
+    format: Option<Format>,
     /// Number of houses.
     #[arg(long, default_value_t = 10)]
     houses: usize,
@@ -44,39 +45,72 @@ pub struct Args {
     /// Output root (the dataset folder), e.g. gen/suncg.
     #[arg(long)]
     out: PathBuf,
-    /// Rooms per house as MIN..MAX (stair halls count), e.g. 1..12.
-    #[arg(long, default_value = "3..8", value_parser = parse_range)]
-    rooms: (usize, usize),
-    /// Levels per house as MIN..MAX (1 or 2), e.g. 1..2 or 1.
-    #[arg(long, default_value = "1..2", value_parser = parse_range)]
-    levels: (usize, usize),
+    /// Rooms per house as MIN..MAX (stair halls count), e.g. 1..12 [default: 3..8; with
+    /// --scan 9..12].
+    #[arg(long, value_parser = parse_range)]
+    rooms: Option<(usize, usize)>,
+    /// Levels per house as MIN..MAX (1 or 2; up to 3 with --scan), e.g. 1..2 or 1 [default:
+    /// 1..2; with --scan 3].
+    #[arg(long, value_parser = parse_range)]
+    levels: Option<(usize, usize)>,
     /// Probability that the only door of a dead-end room is closed.
     #[arg(long, default_value_t = 0.25)]
     closed_doors: f64,
     /// Rewrite houses that already exist.
     #[arg(long)]
     force: bool,
+    /// Write scan-like Matterport3D houses (implies --format mp3d): every surface a dense
+    /// grid of small triangles with vertex noise, small holes and clutter, faces split into
+    /// ~1 m segments; up to three levels joined by stairs.
+    #[arg(long)]
+    scan: bool,
+    /// Triangles per scan house to aim for (each house gets at most this many, within a few
+    /// per cent); 2,000,000 makes cells of about 2 cm.
+    #[arg(long, default_value_t = minos::generate::scan::DEFAULT_TRIANGLES, requires = "scan")]
+    scan_triangles: u64,
+    /// Standard deviation of a scan's vertex noise along surface normals, in metres.
+    #[arg(long, default_value_t = minos::generate::scan::DEFAULT_NOISE, requires = "scan")]
+    scan_noise: f64,
 }
 
-/// Flags → what to generate and in which format.
-pub fn config(args: &Args) -> (GenerateConfig, OutputFormat) {
+/// Flags → what to generate and in which format (`--scan` with `--format suncg` is an
+/// error; ranges are checked by the library).
+pub fn config(args: &Args) -> anyhow::Result<(GenerateConfig, OutputFormat)> {
+    let chosen = args.format.unwrap_or(if args.scan {
+        Format::Mp3d
+    } else {
+        Format::Suncg
+    });
+    let format = match (chosen, args.scan) {
+        (Format::Suncg, false) => OutputFormat::Suncg,
+        (Format::Mp3d, false) => OutputFormat::Mp3d,
+        (Format::Mp3d, true) => OutputFormat::Mp3dScan(ScanOptions {
+            triangles: args.scan_triangles,
+            noise: args.scan_noise,
+        }),
+        (Format::Suncg, true) => {
+            anyhow::bail!("--scan writes Matterport3D houses: use it with --format mp3d")
+        }
+    };
+    let (rooms, levels) = if args.scan {
+        ((9, 12), (3, 3))
+    } else {
+        ((3, 8), (1, 2))
+    };
     let cfg = GenerateConfig {
         houses: args.houses,
         seed: args.seed,
-        rooms: args.rooms,
-        levels: args.levels,
+        rooms: args.rooms.unwrap_or(rooms),
+        levels: args.levels.unwrap_or(levels),
         closed_door_prob: args.closed_doors,
     };
-    let format = match args.format {
-        Format::Suncg => OutputFormat::Suncg,
-        Format::Mp3d => OutputFormat::Mp3d,
-    };
-    (cfg, format)
+    cfg.validate_for(format)?;
+    Ok((cfg, format))
 }
 
 /// Runs `minos generate`.
 pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
-    let (cfg, format) = config(&args);
+    let (cfg, format) = config(&args)?;
     let start = Instant::now();
     let bar = ctx.progress(cfg.houses as u64, "generate");
     let report = generate(&cfg, format, &args.out, args.force, &bar)
@@ -92,4 +126,48 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         args.out.display()
     ));
     Ok(ExitCode::SUCCESS)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cmd::common::parse_flags;
+
+    fn parse(line: &str) -> anyhow::Result<(GenerateConfig, OutputFormat)> {
+        config(&parse_flags::<Args>(line)?)
+    }
+
+    #[test]
+    fn scan_implies_mp3d_and_its_own_defaults() {
+        let (cfg, format) = parse("--out o --scan --scan-triangles 50000").unwrap();
+        assert_eq!(
+            format,
+            OutputFormat::Mp3dScan(ScanOptions {
+                triangles: 50_000,
+                noise: minos::generate::scan::DEFAULT_NOISE
+            })
+        );
+        assert_eq!((cfg.rooms, cfg.levels), ((9, 12), (3, 3)));
+        let (cfg, format) = parse("--out o").unwrap();
+        assert_eq!(format, OutputFormat::Suncg);
+        assert_eq!((cfg.rooms, cfg.levels), ((3, 8), (1, 2)));
+    }
+
+    #[test]
+    fn bad_scan_options_are_one_line_errors() {
+        for (line, needle) in [
+            ("--out o --format suncg --scan", "--format mp3d"),
+            ("--out o --scan --scan-triangles 10", "scan triangles 10"),
+            ("--out o --scan --scan-noise 0.5", "scan noise"),
+            ("--out o --scan --levels 4", "levels 4..4"),
+            ("--out o --levels 3", "levels 3..3"),
+        ] {
+            let e = parse(line).unwrap_err().to_string();
+            assert!(e.contains(needle) && !e.contains('\n'), "{line}: {e}");
+        }
+        assert!(
+            parse("--out o --scan-triangles 5000").is_err(),
+            "requires --scan"
+        );
+    }
 }

@@ -7,6 +7,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 mod bake;
+mod bench;
 mod common;
 mod demo;
 mod episodes;
@@ -84,6 +85,8 @@ enum Command {
     View(view::Args),
     /// Run the whole pipeline on generated houses into ./minos-demo/.
     Demo(demo::Args),
+    /// Measure bake, episode sampling, rendering or rollouts on one ingested scene.
+    Bench(bench::Args),
 }
 
 /// Parses the command line, sets up logging and threads, and runs the subcommand.
@@ -120,6 +123,7 @@ pub fn main() -> ExitCode {
         Command::Merge(a) => merge::run(a, &ctx),
         Command::View(a) => view::run(a, &ctx),
         Command::Demo(a) => demo::run(a, &ctx),
+        Command::Bench(a) => bench::run(a, &ctx),
     };
     match result {
         Ok(code) => code,

@@ -50,6 +50,12 @@ pub const STAIR_HALL: RoomType = rt("Hallway", RoomClass::Hallway, 0.0, 0.0);
 
 /// Width of the stair hall strip along the west side of two-level houses.
 const STRIP_W: f64 = 2.4;
+/// Width of the stair hall strip of houses with three levels: two flights side by side (the
+/// first along the west wall rising towards +Z, the second beside it rising towards −Z) and a
+/// walkway along the hall's east wall, where its doors are.
+const STRIP_W3: f64 = 3.6;
+/// West edge of the second lane of stairs (three-level houses).
+const LANE_B_X: f64 = 1.2;
 /// Landing in front of the bottom step.
 const LANDING: f64 = 1.2;
 /// Shortest room side.
@@ -269,7 +275,12 @@ pub fn layout(
     closed_door_prob: f64,
     scale: f64,
 ) -> Option<Vec<LevelPlan>> {
-    let two_levels = programmes.len() == 2;
+    let multi_level = programmes.len() >= 2;
+    let strip_w = if programmes.len() > 2 {
+        STRIP_W3
+    } else {
+        STRIP_W
+    };
     let areas: Vec<Vec<f64>> = programmes
         .iter()
         .map(|p| {
@@ -285,20 +296,20 @@ pub fn layout(
     let aspect = rng.range_f64(1.0, 1.6);
     let mut w = (total * aspect).sqrt();
     let mut d = total / w;
-    if two_levels && d < 7.6 {
+    if multi_level && d < 7.6 {
         d = 7.6;
         w = (total / d).max(MIN_SIDE);
     }
     let (w, d) = (cm(w.max(MIN_SIDE)), cm(d.max(MIN_SIDE)));
-    let x_start = if two_levels { STRIP_W } else { 0.0 };
+    let x_start = if multi_level { strip_w } else { 0.0 };
     let region = Rect::new(x_start, 0.0, x_start + w, d);
     let footprint = Rect::new(0.0, 0.0, x_start + w, d);
     let mut levels = Vec::new();
     for (li, programme) in programmes.iter().enumerate() {
         let rects = subdivide(region, &areas[li], rng)?;
         let mut rooms = rooms_from(&rects, programme);
-        if two_levels {
-            rooms.push(rooms_from(&[Rect::new(0.0, 0.0, STRIP_W, d)], &[STAIR_HALL]).remove(0));
+        if multi_level {
+            rooms.push(rooms_from(&[Rect::new(0.0, 0.0, strip_w, d)], &[STAIR_HALL]).remove(0));
         }
         levels.push(LevelPlan {
             base_y: li as f64 * LEVEL_HEIGHT,
@@ -308,9 +319,9 @@ pub fn layout(
         });
     }
     for level in &mut levels {
-        connect_rooms(rng, level, closed_door_prob, two_levels)?;
+        connect_rooms(rng, level, closed_door_prob, multi_level)?;
     }
-    if two_levels {
+    if multi_level {
         place_stairs(&mut levels, d);
     }
     front_door(rng, &mut levels[0], &footprint);
@@ -611,28 +622,34 @@ fn windows(rng: &mut Rng, level: &mut LevelPlan, footprint: &Rect) {
     }
 }
 
-/// Puts a flight of stairs along the west wall of the level-0 stair hall, rising towards +Z,
-/// and cuts the matching holes in the level-0 ceiling and the level-1 floor.
+/// Puts a flight of stairs between each pair of consecutive levels in their stair halls and
+/// cuts the matching holes in the lower ceiling and the upper floor: from level 0 along the
+/// west wall rising towards +Z, from level 1 (three-level houses) in the lane beside it rising
+/// towards −Z, alternating from there.
 fn place_stairs(levels: &mut [LevelPlan], depth: f64) {
     let len = STAIR_STEPS as f64 * STAIR_RUN;
-    let x = WALL_T + 0.02 + STAIR_WIDTH / 2.0;
     let z_bottom = LANDING;
     let z_top = z_bottom + len;
     debug_assert!(z_top + LANDING <= depth + 1e-9);
-    let hall0 = levels[0].rooms.len() - 1;
-    let hall1 = levels[1].rooms.len() - 1;
-    // The model rises towards its -Z: turn it half-way so it rises towards +Z.
-    levels[0].objects.push(PlacedObject {
-        model: model_index("g_stairs_0"),
-        pos: [cm(x), levels[0].base_y, cm((z_bottom + z_top) / 2.0)],
-        quarter_turns: 2,
-        mirrored: false,
-        rooms: vec![hall0],
-        colors: Vec::new(),
-    });
-    let hole = Rect::new(WALL_T, z_bottom, WALL_T + 0.04 + STAIR_WIDTH, z_top);
-    levels[0].rooms[hall0].ceiling_holes.push(hole);
-    levels[1].rooms[hall1].floor_holes.push(hole);
+    for lower in 0..levels.len().saturating_sub(1) {
+        let lane_a = lower % 2 == 0;
+        let x0 = if lane_a { WALL_T } else { LANE_B_X };
+        let x = x0 + 0.02 + STAIR_WIDTH / 2.0;
+        let hall0 = levels[lower].rooms.len() - 1;
+        let hall1 = levels[lower + 1].rooms.len() - 1;
+        // The model rises towards its -Z: turn it half-way so it rises towards +Z.
+        levels[lower].objects.push(PlacedObject {
+            model: model_index("g_stairs_0"),
+            pos: [cm(x), levels[lower].base_y, cm((z_bottom + z_top) / 2.0)],
+            quarter_turns: if lane_a { 2 } else { 0 },
+            mirrored: false,
+            rooms: vec![hall0],
+            colors: Vec::new(),
+        });
+        let hole = Rect::new(x0, z_bottom, x0 + 0.04 + STAIR_WIDTH, z_top);
+        levels[lower].rooms[hall0].ceiling_holes.push(hole);
+        levels[lower + 1].rooms[hall1].floor_holes.push(hole);
+    }
 }
 
 /// Where furniture must not go in a room: in front of its doors and arches, and on the stairs

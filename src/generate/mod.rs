@@ -12,6 +12,7 @@ pub mod layout;
 pub mod mp3d_writer;
 mod objwrite;
 pub mod plan;
+pub mod scan;
 pub mod suncg_writer;
 pub mod textures;
 
@@ -28,12 +29,43 @@ pub use plan::HousePlan;
 pub const GENERATOR_VERSION: u32 = 2;
 
 /// The on-disk format to write.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub enum OutputFormat {
     /// SUNCG: `house/`, `room/`, `object/`, `metadata/`.
     Suncg,
     /// Matterport3D: `<id>/house_segmentations/<id>.house` and `.ply`.
     Mp3d,
+    /// Matterport3D laid out as [`OutputFormat::Mp3d`], the mesh a dense, noisy scan with
+    /// holes and clutter ([`scan`]); up to three levels.
+    Mp3dScan(ScanOptions),
+}
+
+/// What a scan house looks like (see [`scan`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ScanOptions {
+    /// Triangles per house to aim for (at most this many, within a few per cent).
+    pub triangles: u64,
+    /// Standard deviation of the vertex noise along surface normals (m).
+    pub noise: f64,
+}
+
+impl Default for ScanOptions {
+    fn default() -> Self {
+        ScanOptions {
+            triangles: scan::DEFAULT_TRIANGLES,
+            noise: scan::DEFAULT_NOISE,
+        }
+    }
+}
+
+impl OutputFormat {
+    /// Most levels a house of this format may have.
+    pub fn max_levels(&self) -> usize {
+        match self {
+            OutputFormat::Mp3dScan(_) => 3,
+            _ => 2,
+        }
+    }
 }
 
 /// What to generate.
@@ -82,18 +114,30 @@ pub enum GenerateError {
 impl GenerateConfig {
     /// Checks ranges: 1 ≤ rooms ≤ 24, levels in 1..=2, probability in [0, 1].
     pub fn validate(&self) -> Result<(), GenerateError> {
+        self.validate_for(OutputFormat::Suncg)
+    }
+
+    /// Checks ranges for `format`: 1 ≤ rooms ≤ 24, levels in 1..=2 (1..=3 for scans),
+    /// probability in [0, 1], and a scan's triangles and noise.
+    pub fn validate_for(&self, format: OutputFormat) -> Result<(), GenerateError> {
         let bad = |m: String| Err(GenerateError::Config(m));
+        let max_levels = format.max_levels();
         if self.rooms.0 < 1 || self.rooms.0 > self.rooms.1 || self.rooms.1 > 24 {
             return bad(format!(
                 "rooms {}..{}: need 1 <= MIN <= MAX <= 24",
                 self.rooms.0, self.rooms.1
             ));
         }
-        if self.levels.0 < 1 || self.levels.0 > self.levels.1 || self.levels.1 > 2 {
+        if self.levels.0 < 1 || self.levels.0 > self.levels.1 || self.levels.1 > max_levels {
             return bad(format!(
-                "levels {}..{}: need 1 <= MIN <= MAX <= 2",
+                "levels {}..{}: need 1 <= MIN <= MAX <= {max_levels}",
                 self.levels.0, self.levels.1
             ));
+        }
+        if let OutputFormat::Mp3dScan(o) = format {
+            self.scan_params(o)
+                .validate()
+                .map_err(GenerateError::Config)?;
         }
         if !(0.0..=1.0).contains(&self.closed_door_prob) {
             return bad(format!(
@@ -112,9 +156,35 @@ impl GenerateConfig {
     }
 }
 
+impl GenerateConfig {
+    fn scan_params(&self, o: ScanOptions) -> scan::ScanParams {
+        scan::ScanParams {
+            triangles: o.triangles,
+            noise: o.noise,
+            seed: self.seed,
+        }
+    }
+}
+
 /// The id of house `index`: 32 hex digits fixed by the seed, the index and the configuration.
 pub fn house_id(cfg: &GenerateConfig, index: usize) -> String {
-    let fp = cfg.fingerprint();
+    id_from(cfg, index, cfg.fingerprint())
+}
+
+/// The id of house `index` written in `format`: [`house_id`], except for scan houses, whose
+/// ids also depend on the scan options.
+pub fn house_id_for(cfg: &GenerateConfig, format: OutputFormat, index: usize) -> String {
+    match format {
+        OutputFormat::Mp3dScan(o) => id_from(
+            cfg,
+            index,
+            format!("{}:scan{}:{}", cfg.fingerprint(), o.triangles, o.noise),
+        ),
+        _ => house_id(cfg, index),
+    }
+}
+
+fn id_from(cfg: &GenerateConfig, index: usize, fp: String) -> String {
     let i = index.to_string();
     let hi = derive_seed(cfg.seed, &["house-id-hi", &i, &fp]);
     let lo = derive_seed(cfg.seed, &["house-id-lo", &i, &fp]);
@@ -123,24 +193,44 @@ pub fn house_id(cfg: &GenerateConfig, index: usize) -> String {
 
 /// Plans house `index` in memory (deterministic in `(cfg, index)`).
 pub fn plan_house(cfg: &GenerateConfig, index: usize) -> HousePlan {
-    let id = house_id(cfg, index);
+    plan_with_id(cfg, house_id(cfg, index))
+}
+
+/// Plans the house with id `id` (all randomness derives from `(cfg.seed, id)`). Three levels
+/// (scan houses) need six rooms or more (one stair hall per level), two need four.
+pub fn plan_with_id(cfg: &GenerateConfig, id: String) -> HousePlan {
     let mut rng = Rng::new(derive_seed(cfg.seed, &[&id, "generate"]));
     for attempt in 0..16 {
         let mut nlevels = rng.range_usize(cfg.levels.0, cfg.levels.1);
         let n = rng.range_usize(cfg.rooms.0, cfg.rooms.1);
+        if nlevels == 3 && n < 6 {
+            nlevels = 2;
+        }
         // Two levels need a stair hall on each and at least one room on each.
         if nlevels == 2 && n < 4 {
             nlevels = 1;
         }
-        let programmes = if nlevels == 1 {
-            vec![layout::programme(&mut rng, n, false)]
-        } else {
-            let k0 = (n - 1) / 2;
-            let k1 = n - 2 - k0;
-            vec![
-                layout::programme(&mut rng, k0, false),
-                layout::programme(&mut rng, k1, true),
-            ]
+        let programmes = match nlevels {
+            1 => vec![layout::programme(&mut rng, n, false)],
+            2 => {
+                let k0 = (n - 1) / 2;
+                let k1 = n - 2 - k0;
+                vec![
+                    layout::programme(&mut rng, k0, false),
+                    layout::programme(&mut rng, k1, true),
+                ]
+            }
+            _ => {
+                let k = n - 3;
+                let k0 = k.div_ceil(3);
+                let k1 = (k - k0).div_ceil(2);
+                let k2 = k - k0 - k1;
+                vec![
+                    layout::programme(&mut rng, k0, false),
+                    layout::programme(&mut rng, k1, true),
+                    layout::programme(&mut rng, k2, true),
+                ]
+            }
         };
         let scale = 1.0 + 0.12 * attempt as f64;
         if let Some(mut levels) = layout::layout(&mut rng, &programmes, cfg.closed_door_prob, scale)
@@ -179,7 +269,7 @@ pub fn generate(
     force: bool,
     progress: &dyn Progress,
 ) -> Result<GenerateReport, GenerateError> {
-    cfg.validate()?;
+    cfg.validate_for(format)?;
     let io_err = |path: &Path| {
         let path = path.display().to_string();
         move |source| GenerateError::Io { path, source }
@@ -191,20 +281,24 @@ pub fn generate(
     let results: Vec<Result<(String, bool), GenerateError>> = (0..cfg.houses)
         .into_par_iter()
         .map(|i| {
-            let id = house_id(cfg, i);
+            let id = house_id_for(cfg, format, i);
             let done = match format {
                 OutputFormat::Suncg => out.join("house").join(&id).join("house.json"),
-                OutputFormat::Mp3d => mp3d_writer::house_path(out, &id),
+                OutputFormat::Mp3d | OutputFormat::Mp3dScan(_) => mp3d_writer::house_path(out, &id),
             };
             let r = if !force && done.is_file() {
                 Ok((id, false))
             } else {
-                let plan = plan_house(cfg, i);
+                let plan = plan_with_id(cfg, id.clone());
                 match format {
                     OutputFormat::Suncg => suncg_writer::write_house(out, &plan)
                         .map_err(io_err(&out.join("house").join(&plan.id))),
                     OutputFormat::Mp3d => {
                         mp3d_writer::write_house(out, &plan).map_err(io_err(&out.join(&plan.id)))
+                    }
+                    OutputFormat::Mp3dScan(o) => {
+                        mp3d_writer::write_house_with(out, &plan, Some(&cfg.scan_params(o)))
+                            .map_err(io_err(&out.join(&plan.id)))
                     }
                 }
                 .map(|()| (id, true))

@@ -24,6 +24,8 @@ use crate::scene::formats::mp3d::ply::write_ply;
 use crate::scene::RoomClass;
 
 use super::catalog::catalog;
+use crate::seed::{derive_seed, Rng};
+
 use super::plan::{HousePlan, PlacedObject, Rect, RoomPlan, Side, WALL_T};
 
 /// Camera height of written panoramas above their room's floor (m).
@@ -118,7 +120,7 @@ fn nums(vals: &[f64]) -> String {
 }
 
 /// y-up → z-up.
-fn zup(p: [f64; 3]) -> [f64; 3] {
+pub(super) fn zup(p: [f64; 3]) -> [f64; 3] {
     [p[0], -p[2], p[1]]
 }
 
@@ -135,62 +137,114 @@ fn zbox(a: [f64; 3], b: [f64; 3]) -> [f64; 6] {
     ]
 }
 
-/// The mesh being written, with per-segment areas and boxes.
+/// What a quad of the written mesh is (scan tessellation treats them differently).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum QuadKind {
+    /// Floors and stairs: walked on, never holed.
+    Floor,
+    /// Ceilings.
+    Ceiling,
+    /// Walls.
+    Wall,
+    /// Furniture, doors, windows, clutter.
+    Object,
+}
+
+/// One quad of the mesh, counter-clockwise seen from its front, in y-up coordinates.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Quad {
+    /// Corners; `c[2] = c[1] + c[3] − c[0]` (every quad written is a rectangle).
+    pub(super) c: [[f64; 3]; 4],
+    /// `category_id` of its faces.
+    pub(super) category: i32,
+    /// `segment_id` of its faces (ids from 100000 are objects: `id − 100000`).
+    pub(super) segment: i32,
+    /// What it is.
+    pub(super) kind: QuadKind,
+}
+
+/// An `E` record: a segment, the object it belongs to (`-1`: none), its area and z-up box.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct SegmentRec {
+    pub(super) id: i32,
+    pub(super) object: i64,
+    pub(super) area: f64,
+    pub(super) bbox: [f64; 6],
+}
+
+/// The mesh to write: triangles with `[material, segment, category]` labels, and its segments.
+#[derive(Debug, Default)]
+pub(super) struct MeshData {
+    pub(super) positions: Vec<[f32; 3]>,
+    pub(super) triangles: Vec<[u32; 3]>,
+    pub(super) labels: Vec<[i32; 3]>,
+    /// Sorted by id.
+    pub(super) segments: Vec<SegmentRec>,
+}
+
+/// An empty z-up box, to be grown.
+pub(super) const EMPTY_BOX: [f64; 6] = [
+    f64::INFINITY,
+    f64::INFINITY,
+    f64::INFINITY,
+    f64::NEG_INFINITY,
+    f64::NEG_INFINITY,
+    f64::NEG_INFINITY,
+];
+
+/// Grows a z-up box by a y-up point.
+pub(super) fn grow(b: &mut [f64; 6], p: [f64; 3]) {
+    for (k, v) in zup(p).into_iter().enumerate() {
+        b[k] = b[k].min(v);
+        b[k + 3] = b[k + 3].max(v);
+    }
+}
+
+/// The object of a segment id of the plain mesh.
+pub(super) fn segment_object(id: i32) -> i64 {
+    if id >= 100_000 {
+        i64::from(id - 100_000)
+    } else {
+        -1
+    }
+}
+
+/// The quads being written, with per-segment areas and boxes.
 #[derive(Default)]
-struct MeshOut {
-    positions: Vec<[f32; 3]>,
-    triangles: Vec<[u32; 3]>,
-    labels: Vec<[i32; 3]>,
+pub(super) struct MeshOut {
+    pub(super) quads: Vec<Quad>,
     /// Per segment id: area and z-up box.
     segments: HashMap<i32, (f64, [f64; 6])>,
 }
 
 impl MeshOut {
     /// A quad given counter-clockwise seen from its front, in y-up coordinates.
-    fn quad(&mut self, c: [[f64; 3]; 4], category: i32, segment: i32) {
-        let base = self.positions.len() as u32;
-        for p in c {
-            let z = zup(p);
-            self.positions.push([z[0] as f32, z[1] as f32, z[2] as f32]);
-        }
-        for t in [[0, 1, 2], [0, 2, 3]] {
-            self.triangles.push([base + t[0], base + t[1], base + t[2]]);
-            self.labels.push([0, segment, category]);
-        }
-        let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
-        let cross = |u: [f64; 3], v: [f64; 3]| {
-            [
-                u[1] * v[2] - u[2] * v[1],
-                u[2] * v[0] - u[0] * v[2],
-                u[0] * v[1] - u[1] * v[0],
-            ]
-        };
-        let len = |v: [f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    fn quad(&mut self, c: [[f64; 3]; 4], category: i32, segment: i32, kind: QuadKind) {
+        self.quads.push(Quad {
+            c,
+            category,
+            segment,
+            kind,
+        });
         let area = 0.5
-            * (len(cross(sub(c[1], c[0]), sub(c[2], c[0])))
-                + len(cross(sub(c[2], c[0]), sub(c[3], c[0]))));
-        let e = self.segments.entry(segment).or_insert((
-            0.0,
-            [
-                f64::INFINITY,
-                f64::INFINITY,
-                f64::INFINITY,
-                f64::NEG_INFINITY,
-                f64::NEG_INFINITY,
-                f64::NEG_INFINITY,
-            ],
-        ));
+            * (len3(cross3(sub3(c[1], c[0]), sub3(c[2], c[0])))
+                + len3(cross3(sub3(c[2], c[0]), sub3(c[3], c[0]))));
+        let e = self.segments.entry(segment).or_insert((0.0, EMPTY_BOX));
         e.0 += area;
         for p in c {
-            for (k, v) in zup(p).into_iter().enumerate() {
-                e.1[k] = e.1[k].min(v);
-                e.1[k + 3] = e.1[k + 3].max(v);
-            }
+            grow(&mut e.1, p);
         }
     }
 
     /// A closed axis-aligned box (y-up), faces counter-clockwise seen from outside.
-    fn aabox(&mut self, min: [f64; 3], max: [f64; 3], category: i32, segment: i32) {
+    pub(super) fn aabox(
+        &mut self,
+        min: [f64; 3],
+        max: [f64; 3],
+        category: i32,
+        segment: i32,
+        kind: QuadKind,
+    ) {
         let v = |k: usize| {
             [
                 if k & 1 == 0 { min[0] } else { max[0] },
@@ -206,12 +260,17 @@ impl MeshOut {
             [0, 2, 3, 1],
             [4, 5, 7, 6],
         ] {
-            self.quad([v(f[0]), v(f[1]), v(f[2]), v(f[3])], category, segment);
+            self.quad(
+                [v(f[0]), v(f[1]), v(f[2]), v(f[3])],
+                category,
+                segment,
+                kind,
+            );
         }
     }
 
     /// A horizontal rectangle at height `y`, facing up or down.
-    fn flat(&mut self, r: &Rect, y: f64, up: bool, category: i32, segment: i32) {
+    fn flat(&mut self, r: &Rect, y: f64, up: bool, category: i32, segment: i32, kind: QuadKind) {
         let c = [
             [r.x0, y, r.z0],
             [r.x0, y, r.z1],
@@ -219,11 +278,58 @@ impl MeshOut {
             [r.x1, y, r.z0],
         ];
         if up {
-            self.quad(c, category, segment);
+            self.quad(c, category, segment, kind);
         } else {
-            self.quad([c[0], c[3], c[2], c[1]], category, segment);
+            self.quad([c[0], c[3], c[2], c[1]], category, segment, kind);
         }
     }
+
+    /// Two triangles per quad, in quad order; one segment per segment id.
+    fn plain(&self) -> MeshData {
+        let mut out = MeshData::default();
+        for q in &self.quads {
+            let base = out.positions.len() as u32;
+            for p in q.c {
+                let z = zup(p);
+                out.positions.push([z[0] as f32, z[1] as f32, z[2] as f32]);
+            }
+            for t in [[0, 1, 2], [0, 2, 3]] {
+                out.triangles.push([base + t[0], base + t[1], base + t[2]]);
+                out.labels.push([0, q.segment, q.category]);
+            }
+        }
+        let mut ids: Vec<i32> = self.segments.keys().copied().collect();
+        ids.sort_unstable();
+        out.segments = ids
+            .into_iter()
+            .map(|id| {
+                let (area, bbox) = self.segments[&id];
+                SegmentRec {
+                    id,
+                    object: segment_object(id),
+                    area,
+                    bbox,
+                }
+            })
+            .collect();
+        out
+    }
+}
+
+pub(super) fn sub3(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+pub(super) fn cross3(u: [f64; 3], v: [f64; 3]) -> [f64; 3] {
+    [
+        u[1] * v[2] - u[2] * v[1],
+        u[2] * v[0] - u[0] * v[2],
+        u[0] * v[1] - u[1] * v[0],
+    ]
+}
+
+pub(super) fn len3(v: [f64; 3]) -> f64 {
+    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
 }
 
 fn minus_all(r: Rect, holes: &[Rect]) -> Vec<Rect> {
@@ -284,7 +390,29 @@ fn panorama_spot(room: &RoomPlan, objects: &[&PlacedObject]) -> Option<(f64, f64
 
 /// Writes one house (mesh first, `.house` last).
 pub fn write_house(root: &Path, plan: &HousePlan) -> io::Result<()> {
-    let cats = category_names();
+    write_house_with(root, plan, None)
+}
+
+/// An object record to write: level, region of its room (global index), fine category, and
+/// its oriented box (y-up centre, first axis, radii along the model's x, y, z).
+struct ObjectRec {
+    region: i64,
+    fine: &'static str,
+    centre: [f64; 3],
+    axis0: [f64; 3],
+    radii: [f64; 3],
+}
+
+/// Writes one house, as a scan when `scan` says so (see [`super::scan`]).
+pub(super) fn write_house_with(
+    root: &Path,
+    plan: &HousePlan,
+    scan: Option<&super::scan::ScanParams>,
+) -> io::Result<()> {
+    let mut cats = category_names();
+    if scan.is_some() {
+        cats.extend(super::scan::CLUTTER_CATEGORIES);
+    }
     let cat_index: HashMap<&str, usize> = cats.iter().enumerate().map(|(i, c)| (*c, i)).collect();
     // category_id in the mesh: the C record's mapping index (index + 1).
     let cat_id = |fine: &str| cat_index.get(fine).map_or(-1, |&i| i as i32 + 1);
@@ -311,7 +439,7 @@ pub fn write_house(root: &Path, plan: &HousePlan) -> io::Result<()> {
         let base = level.base_y;
         let seg = 3 * g as i32;
         for part in minus_all(room.rect, &room.floor_holes) {
-            mesh.flat(&part, base, true, cat_id("floor"), seg + 1);
+            mesh.flat(&part, base, true, cat_id("floor"), seg + 1, QuadKind::Floor);
         }
         if !room.hide_ceiling {
             for part in minus_all(room.rect, &room.ceiling_holes) {
@@ -321,12 +449,13 @@ pub fn write_house(root: &Path, plan: &HousePlan) -> io::Result<()> {
                     false,
                     cat_id("ceiling"),
                     seg + 2,
+                    QuadKind::Ceiling,
                 );
             }
         }
         for side in Side::ALL {
             for (min, max) in room.wall_boxes(side, base) {
-                mesh.aabox(min, max, cat_id("wall"), seg + 3);
+                mesh.aabox(min, max, cat_id("wall"), seg + 3, QuadKind::Wall);
             }
         }
     }
@@ -337,13 +466,73 @@ pub fn write_house(root: &Path, plan: &HousePlan) -> io::Result<()> {
             let b = o.apply(p.max);
             let min = [a[0].min(b[0]), a[1].min(b[1]), a[2].min(b[2])];
             let max = [a[0].max(b[0]), a[1].max(b[1]), a[2].max(b[2])];
-            mesh.aabox(min, max, cat_id(o.spec().fine), seg);
+            let fine = o.spec().fine;
+            let kind = if fine == "stairs" {
+                QuadKind::Floor
+            } else {
+                QuadKind::Object
+            };
+            mesh.aabox(min, max, cat_id(fine), seg, kind);
         }
     }
+    let mut records: Vec<ObjectRec> = objects
+        .iter()
+        .map(|(li, o)| {
+            let (lo, hi) = model_box(o);
+            let c = o.apply([
+                (lo[0] + hi[0]) / 2.0,
+                (lo[1] + hi[1]) / 2.0,
+                (lo[2] + hi[2]) / 2.0,
+            ]);
+            let origin = o.apply([0.0; 3]);
+            let xdir = o.apply([1.0, 0.0, 0.0]);
+            ObjectRec {
+                region: o
+                    .rooms
+                    .first()
+                    .map_or(-1, |&k| (region_base[*li] + k) as i64),
+                fine: o.spec().fine,
+                centre: c,
+                axis0: sub3(xdir, origin),
+                radii: [
+                    (hi[0] - lo[0]) / 2.0,
+                    (hi[1] - lo[1]) / 2.0,
+                    (hi[2] - lo[2]) / 2.0,
+                ],
+            }
+        })
+        .collect();
+    let data = match scan {
+        None => mesh.plain(),
+        Some(params) => {
+            let mut rng = Rng::new(derive_seed(params.seed, &[&plan.id, "scan"]));
+            for c in super::scan::clutter(plan, &mut rng) {
+                let seg = 100_000 + records.len() as i32;
+                mesh.aabox(c.min, c.max, cat_id(c.fine), seg, QuadKind::Object);
+                records.push(ObjectRec {
+                    region: (region_base[c.level] + c.room) as i64,
+                    fine: c.fine,
+                    centre: [
+                        (c.min[0] + c.max[0]) / 2.0,
+                        (c.min[1] + c.max[1]) / 2.0,
+                        (c.min[2] + c.max[2]) / 2.0,
+                    ],
+                    axis0: [1.0, 0.0, 0.0],
+                    radii: [
+                        (c.max[0] - c.min[0]) / 2.0,
+                        (c.max[1] - c.min[1]) / 2.0,
+                        (c.max[2] - c.min[2]) / 2.0,
+                    ],
+                });
+            }
+            super::scan::tessellate(&mesh.quads, params, &mut rng)
+        }
+    };
+    drop(mesh);
     let dir = root.join(&plan.id).join("house_segmentations");
     write_bytes_atomic(
         &dir.join(format!("{}.ply", plan.id)),
-        &write_ply(&mesh.positions, &mesh.triangles, &mesh.labels),
+        &write_ply(&data.positions, &data.triangles, &data.labels),
     )?;
 
     let mut body = String::new();
@@ -436,59 +625,41 @@ pub fn write_house(root: &Path, plan: &HousePlan) -> io::Result<()> {
         }
     }
     // Objects.
-    let mut object_lines = Vec::new();
-    for (oi, (li, o)) in objects.iter().enumerate() {
-        let (lo, hi) = model_box(o);
-        let c = o.apply([
-            (lo[0] + hi[0]) / 2.0,
-            (lo[1] + hi[1]) / 2.0,
-            (lo[2] + hi[2]) / 2.0,
-        ]);
-        let origin = o.apply([0.0; 3]);
-        let xdir = o.apply([1.0, 0.0, 0.0]);
-        let a0 = [
-            xdir[0] - origin[0],
-            xdir[1] - origin[1],
-            xdir[2] - origin[2],
-        ];
-        let region = o
-            .rooms
-            .first()
-            .map_or(-1, |&k| (region_base[*li] + k) as i64);
-        object_lines.push(format!(
-            "O  {oi} {region} {}  {}  {}  0 0 1  {}  0 0 0 0 0 0 0 0",
-            cat_index.get(o.spec().fine).map_or(-1, |&i| i as i64),
-            nums(&zup(c)),
-            nums(&zup(a0)),
-            nums(&[
-                (hi[0] - lo[0]) / 2.0,
-                (hi[1] - lo[1]) / 2.0,
-                (hi[2] - lo[2]) / 2.0
-            ])
-        ));
-    }
+    let object_lines: Vec<String> = records
+        .iter()
+        .enumerate()
+        .map(|(oi, r)| {
+            format!(
+                "O  {oi} {} {}  {}  {}  0 0 1  {}  0 0 0 0 0 0 0 0",
+                r.region,
+                cat_index.get(r.fine).map_or(-1, |&i| i as i64),
+                nums(&zup(r.centre)),
+                nums(&zup(r.axis0)),
+                nums(&r.radii)
+            )
+        })
+        .collect();
     // Segments, sorted by id.
-    let mut seg_ids: Vec<i32> = mesh.segments.keys().copied().collect();
-    seg_ids.sort_unstable();
-    let mut segment_lines = Vec::new();
-    for (si, id) in seg_ids.iter().enumerate() {
-        let (area, b) = mesh.segments[id];
-        let object = if *id >= 100_000 {
-            i64::from(*id - 100_000)
-        } else {
-            -1
-        };
-        segment_lines.push(format!(
-            "E  {si} {object} {id}  {}  {}  {}  0 0 0 0 0",
-            num(area),
-            nums(&[
-                (b[0] + b[3]) / 2.0,
-                (b[1] + b[4]) / 2.0,
-                (b[2] + b[5]) / 2.0
-            ]),
-            nums(&b)
-        ));
-    }
+    let segment_lines: Vec<String> = data
+        .segments
+        .iter()
+        .enumerate()
+        .map(|(si, e)| {
+            let b = e.bbox;
+            format!(
+                "E  {si} {} {}  {}  {}  {}  0 0 0 0 0",
+                e.object,
+                e.id,
+                num(e.area),
+                nums(&[
+                    (b[0] + b[3]) / 2.0,
+                    (b[1] + b[4]) / 2.0,
+                    (b[2] + b[5]) / 2.0
+                ]),
+                nums(&b)
+            )
+        })
+        .collect();
     let _ = writeln!(body, "ASCII 1.1");
     let _ = writeln!(
         body,

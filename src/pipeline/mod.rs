@@ -6,6 +6,7 @@
 //! `rollout` (agents over episodes into datasets) and `view` (a scene for the rerun viewer).
 
 pub mod bake;
+pub mod bench;
 pub mod episodes;
 pub mod ingest;
 pub mod merge;

@@ -1,0 +1,147 @@
+//! `minos bench`: flags → [`minos::pipeline::bench::BenchConfig`], then the table or JSON.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use minos::body::AgentPreset;
+use minos::pipeline::bench::{bench, BenchConfig, BenchKind};
+use minos::scene::SceneRef;
+use minos::sim::{AgentConfig, SensorSuite};
+use minos::store::DataDir;
+
+use super::common::{sensor_suite, PresetArg, RendererArg};
+use super::Context;
+
+/// Benchmarks `bench` can run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Which {
+    /// Load the compiled scene and bake its grid (nothing written).
+    Bake,
+    /// Sample PointGoal episodes on the scene's grid.
+    Episodes,
+    /// Render the sensors from random walkable poses.
+    Render,
+    /// The oracle's rollout loop: reset, plan, decide, step (nothing written).
+    Run,
+}
+
+/// Measure minos on one ingested scene (yours): a table of stages with items per second on
+/// one core, or JSON for scripts.
+///
+/// Everything runs on one thread, so figures are per core; stage times are the thread's CPU
+/// time where the system reports it. `render` and `run` need the scene baked (`minos bake`)
+/// for --preset's body.
+#[derive(Debug, clap::Args)]
+#[command(
+    after_help = "Examples:\n  minos bench bake --data DATA --scene 17DRP5sb8fy\n  \
+    minos bench render --data DATA --size 128 --frames 500\n  \
+    minos bench run --data DATA --episodes 20 --json"
+)]
+pub struct Args {
+    /// What to measure.
+    #[arg(value_enum)]
+    which: Which,
+    /// The DATA folder.
+    #[arg(long)]
+    data: PathBuf,
+    /// Scene id (or `<scene>@<variant>`); default: the first ingested scene.
+    #[arg(long)]
+    scene: Option<SceneRef>,
+    /// Print JSON instead of a table.
+    #[arg(long)]
+    json: bool,
+    /// Agent preset (the grid must be baked for its body).
+    #[arg(long, value_enum, default_value_t)]
+    preset: PresetArg,
+    /// Use a grid baked for another body than --preset's.
+    #[arg(long)]
+    allow_body_mismatch: bool,
+    /// Renderer of `render` and `run`.
+    #[arg(long, value_enum, default_value = "cpu")]
+    renderer: RendererArg,
+    /// Sensor file (TOML or JSON); default: RGB, depth and semantic cameras at --size.
+    #[arg(long)]
+    sensors: Option<PathBuf>,
+    /// Image size of the default sensors.
+    #[arg(long, default_value_t = 84)]
+    size: u32,
+    /// Poses `render` renders.
+    #[arg(long, default_value_t = 200)]
+    frames: usize,
+    /// Episodes `episodes` samples and `run` rolls out.
+    #[arg(long, default_value_t = 100)]
+    episodes: usize,
+    /// Seed of poses and episodes.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+}
+
+/// Flags → the benchmark (reads the sensor file, if any).
+pub fn config(args: &Args) -> anyhow::Result<BenchConfig> {
+    if args.frames == 0 || args.episodes == 0 {
+        anyhow::bail!("--frames and --episodes must be at least 1");
+    }
+    if args.size == 0 || args.size > 4096 {
+        anyhow::bail!("--size {}: need 1 <= SIZE <= 4096", args.size);
+    }
+    Ok(BenchConfig {
+        data: DataDir::new(&args.data),
+        scene: args.scene.clone(),
+        kind: match args.which {
+            Which::Bake => BenchKind::Bake,
+            Which::Episodes => BenchKind::Episodes,
+            Which::Render => BenchKind::Render,
+            Which::Run => BenchKind::Run,
+        },
+        agent: AgentConfig::preset(AgentPreset::from(args.preset)),
+        sensors: sensor_suite(args.sensors.as_deref(), || SensorSuite::minos(args.size))?,
+        renderer: args.renderer.into(),
+        frames: args.frames,
+        episodes: args.episodes,
+        seed: args.seed,
+        allow_body_mismatch: args.allow_body_mismatch,
+    })
+}
+
+/// Runs `minos bench`.
+pub fn run(args: Args, _ctx: &Context) -> anyhow::Result<ExitCode> {
+    let cfg = config(&args)?;
+    let report = bench(&cfg)?;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&report.to_json())?);
+    } else {
+        print!("{}", report.table());
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cmd::common::parse_flags;
+    use minos::body::AgentBody;
+    use minos::sim::RendererChoice;
+
+    #[test]
+    fn flags_become_the_benchmark() {
+        let c = config(&parse_flags::<Args>("render --data D").unwrap()).unwrap();
+        assert_eq!(c.kind, BenchKind::Render);
+        assert_eq!(c.scene, None);
+        assert_eq!(c.renderer, RendererChoice::Cpu);
+        assert_eq!(c.agent.body, AgentBody::HABITAT);
+        assert_eq!(c.sensors, SensorSuite::minos(84));
+        let c = config(
+            &parse_flags::<Args>("run --data D --scene h@v --preset minos --episodes 7").unwrap(),
+        )
+        .unwrap();
+        assert_eq!(c.kind, BenchKind::Run);
+        assert_eq!(c.scene.unwrap().to_string(), "h@v");
+        assert_eq!(c.agent.body, AgentBody::MINOS);
+        assert_eq!(c.episodes, 7);
+        for bad in ["render --data D --frames 0", "render --data D --size 0"] {
+            let e = config(&parse_flags::<Args>(bad).unwrap()).unwrap_err();
+            assert!(!e.to_string().contains('\n'), "{bad}: {e}");
+        }
+        assert!(parse_flags::<Args>("paint --data D").is_err());
+    }
+}

@@ -1,0 +1,537 @@
+//! `minos bench`: how fast minos runs on one ingested scene — anyone's own data — stage by
+//! stage, on the calling thread (so figures are per core).
+//!
+//! Four benchmarks share the stages they need:
+//! - `bake`: load the compiled scene, bake its grid (nothing is written);
+//! - `episodes`: read the scene's grid, sample PointGoal episodes;
+//! - `render`: load scene and grid, set up the simulator, render the sensors' images from
+//!   random walkable poses (a frame is one observation: every image of every camera);
+//! - `run`: the rollout loop of `minos run` with the oracle — sample PointGoal episodes, reset,
+//!   plan, decide and step the simulator (nothing is written).
+//!
+//! Each stage reports how many items it did (scenes, episodes, frames, steps) and the CPU
+//! time of this thread (wall time where the platform does not say). Random choices (poses,
+//! episodes) derive from `(seed, scene id, purpose)`, so the counts of two runs agree; only
+//! the timings differ. The resident memory after loading the scene is reported too.
+
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use glam::Vec3;
+
+use crate::body::BodyRule;
+use crate::episode::sample::{sample_scene, SampleConfig};
+use crate::episode::{Episode, Task};
+use crate::navmesh::build::build;
+use crate::navmesh::geodesic::Geodesic;
+use crate::navmesh::{NavGrid, NavParams};
+use crate::render::Renderer;
+use crate::run::agents::{Agent, Decision};
+use crate::run::oracle::OracleAgent;
+use crate::scene::{Scene, SceneRef};
+use crate::seed::{derive_seed, Rng};
+use crate::sim::{AgentConfig, RendererChoice, SceneAssets, SensorSuite, Simulator};
+use crate::store::DataDir;
+
+/// Which benchmark to run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BenchKind {
+    /// Loading and baking the scene's grid.
+    Bake,
+    /// Sampling PointGoal episodes.
+    Episodes,
+    /// Rendering the sensors' images.
+    Render,
+    /// The oracle's rollout loop.
+    Run,
+}
+
+impl BenchKind {
+    /// The name used on the command line and in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            BenchKind::Bake => "bake",
+            BenchKind::Episodes => "episodes",
+            BenchKind::Render => "render",
+            BenchKind::Run => "run",
+        }
+    }
+}
+
+/// What to measure.
+#[derive(Debug, Clone)]
+pub struct BenchConfig {
+    /// The DATA folder.
+    pub data: DataDir,
+    /// The scene (`None`: the first scene of the manifest ingested without error).
+    pub scene: Option<SceneRef>,
+    /// The benchmark.
+    pub kind: BenchKind,
+    /// The agent (its body is the one the grid must be baked for; `bake` bakes for it).
+    pub agent: AgentConfig,
+    /// Sensors of `render` and `run`.
+    pub sensors: SensorSuite,
+    /// Renderer of `render` and `run`.
+    pub renderer: RendererChoice,
+    /// Poses rendered by `render`.
+    pub frames: usize,
+    /// Episodes sampled by `episodes` and rolled out by `run`.
+    pub episodes: usize,
+    /// Seed of poses and episodes.
+    pub seed: u64,
+    /// Accept a grid baked for another body.
+    pub allow_body_mismatch: bool,
+}
+
+/// One measured stage.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Stage {
+    /// What was done (`load scene`, `bake`, `sample`, `render`, `sim step`, …).
+    pub name: &'static str,
+    /// How many items.
+    pub count: u64,
+    /// What the items are (`scenes`, `episodes`, `frames`, `steps`).
+    pub unit: &'static str,
+    /// Seconds of this thread's CPU time (wall time where that is unavailable).
+    pub seconds: f64,
+}
+
+impl Stage {
+    /// Items per second (per core); 0 when nothing was timed.
+    pub fn per_second(&self) -> f64 {
+        if self.seconds > 0.0 {
+            self.count as f64 / self.seconds
+        } else {
+            0.0
+        }
+    }
+}
+
+/// What a benchmark measured.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BenchReport {
+    /// The benchmark.
+    pub kind: BenchKind,
+    /// The scene measured.
+    pub scene: String,
+    /// Its triangles.
+    pub triangles: u64,
+    /// Walkable spans of its grid (baked or read).
+    pub walkable_spans: u64,
+    /// Resident memory of the process after loading the scene (and grid), bytes (0 where the
+    /// platform does not say).
+    pub rss_after_load: u64,
+    /// Resident memory the loading added, bytes.
+    pub rss_of_load: u64,
+    /// Peak resident memory of the process at the end, bytes (0 where unknown).
+    pub rss_peak: u64,
+    /// Whether stage times are thread CPU time (else wall time).
+    pub cpu_time: bool,
+    /// The stages, in order.
+    pub stages: Vec<Stage>,
+}
+
+impl BenchReport {
+    /// The stage named `name`.
+    pub fn stage(&self, name: &str) -> Option<&Stage> {
+        self.stages.iter().find(|s| s.name == name)
+    }
+
+    /// The report as JSON (for scripts).
+    pub fn to_json(&self) -> serde_json::Value {
+        serde_json::json!({
+            "bench": self.kind.name(),
+            "scene": self.scene,
+            "triangles": self.triangles,
+            "walkable_spans": self.walkable_spans,
+            "rss_after_load_bytes": self.rss_after_load,
+            "rss_of_load_bytes": self.rss_of_load,
+            "rss_peak_bytes": self.rss_peak,
+            "clock": if self.cpu_time { "thread-cpu" } else { "wall" },
+            "stages": self.stages.iter().map(|s| serde_json::json!({
+                "stage": s.name,
+                "count": s.count,
+                "unit": s.unit,
+                "seconds": s.seconds,
+                "per_second": s.per_second(),
+            })).collect::<Vec<_>>(),
+        })
+    }
+
+    /// The report as a Markdown table, with a header line.
+    pub fn table(&self) -> String {
+        let mut out = format!(
+            "{} on {}: {} triangles, {} walkable spans, {:.0} MB resident after loading ({:.0} MB for the scene), {:.0} MB peak; {} time of one thread\n\n\
+             | stage | count | unit | seconds | per second (1 core) |\n|---|---|---|---|---|\n",
+            self.kind.name(),
+            self.scene,
+            self.triangles,
+            self.walkable_spans,
+            self.rss_after_load as f64 / 1e6,
+            self.rss_of_load as f64 / 1e6,
+            self.rss_peak as f64 / 1e6,
+            if self.cpu_time { "CPU" } else { "wall" },
+        );
+        for s in &self.stages {
+            out.push_str(&format!(
+                "| {} | {} | {} | {:.4} | {:.1} |\n",
+                s.name,
+                s.count,
+                s.unit,
+                s.seconds,
+                s.per_second()
+            ));
+        }
+        out
+    }
+}
+
+/// Why a benchmark could not run (one line).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{0}")]
+pub struct BenchError(pub String);
+
+/// This thread's CPU time, where the platform says (Linux).
+fn thread_cpu() -> Option<Duration> {
+    let s = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
+    Some(Duration::from_nanos(
+        s.split_whitespace().next()?.parse().ok()?,
+    ))
+}
+
+/// Resident memory of the process in bytes, where the platform says (Linux).
+pub fn resident_bytes() -> Option<u64> {
+    status_bytes("VmRSS:")
+}
+
+/// A `kB` field of `/proc/self/status`, in bytes.
+fn status_bytes(field: &str) -> Option<u64> {
+    let s = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = s.lines().find(|l| l.starts_with(field))?;
+    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024)
+}
+
+/// Times closures in thread CPU time (wall time where unavailable) into stages.
+struct Timer {
+    stages: Vec<Stage>,
+    cpu: bool,
+}
+
+impl Timer {
+    fn new() -> Self {
+        Timer {
+            stages: Vec::new(),
+            cpu: thread_cpu().is_some(),
+        }
+    }
+
+    /// Seconds `f` took.
+    fn measure<R>(&self, f: impl FnOnce() -> R) -> (R, f64) {
+        let (c0, w0) = (thread_cpu(), Instant::now());
+        let r = f();
+        let s = match (c0, thread_cpu()) {
+            (Some(a), Some(b)) if self.cpu => b.saturating_sub(a).as_secs_f64(),
+            _ => w0.elapsed().as_secs_f64(),
+        };
+        (r, s)
+    }
+
+    /// Runs `f` as one stage of `count(&result)` items.
+    fn stage<R>(
+        &mut self,
+        name: &'static str,
+        unit: &'static str,
+        count: impl FnOnce(&R) -> u64,
+        f: impl FnOnce() -> R,
+    ) -> R {
+        let (r, seconds) = self.measure(f);
+        self.stages.push(Stage {
+            name,
+            count: count(&r),
+            unit,
+            seconds,
+        });
+        r
+    }
+
+    /// Adds time to a stage accumulated over a loop.
+    fn add(&mut self, name: &'static str, unit: &'static str, count: u64, seconds: f64) {
+        match self.stages.iter_mut().find(|s| s.name == name) {
+            Some(s) => {
+                s.count += count;
+                s.seconds += seconds;
+            }
+            None => self.stages.push(Stage {
+                name,
+                count,
+                unit,
+                seconds,
+            }),
+        }
+    }
+}
+
+fn one<T>(_: &T) -> u64 {
+    1
+}
+
+/// Runs the benchmark `cfg.kind` on the calling thread.
+pub fn bench(cfg: &BenchConfig) -> Result<BenchReport, BenchError> {
+    let err = |e: &dyn std::fmt::Display| BenchError(e.to_string());
+    let scene_ref = match &cfg.scene {
+        Some(s) => s.clone(),
+        None => {
+            let ids = cfg.data.ingested_ids().map_err(|e| err(&e))?;
+            let first = ids.first().ok_or_else(|| {
+                BenchError(format!(
+                    "{}: no scene ingested without error (run `minos ingest`)",
+                    cfg.data.manifest_path().display()
+                ))
+            })?;
+            SceneRef::parse(first)
+        }
+    };
+    let mut timer = Timer::new();
+    let rss0 = resident_bytes().unwrap_or(0);
+    let needs_scene = cfg.kind != BenchKind::Episodes;
+    let scene: Option<Scene> = if needs_scene {
+        let (scene, _) = timer.stage("load scene", "scenes", one, || {
+            cfg.data
+                .load_scene(&scene_ref)
+                .map_err(|e| BenchError(format!("{e} (run `minos ingest`)")))
+        })?;
+        Some(scene)
+    } else {
+        None
+    };
+    let grid: Option<NavGrid> = if cfg.kind != BenchKind::Bake {
+        Some(timer.stage("load grid", "grids", one, || {
+            cfg.data
+                .read_grid(&scene_ref)
+                .map_err(|e| BenchError(format!("{e} (run `minos bake`)")))
+        })?)
+    } else {
+        None
+    };
+    let rss_after_load = resident_bytes().unwrap_or(0);
+    let mut report = BenchReport {
+        kind: cfg.kind,
+        scene: scene_ref.to_string(),
+        triangles: scene.as_ref().map_or(0, |s| s.triangle_count()),
+        walkable_spans: grid
+            .as_ref()
+            .map_or(0, |g| g.spans.iter().filter(|s| s.walkable).count() as u64),
+        rss_after_load,
+        rss_of_load: rss_after_load.saturating_sub(rss0),
+        rss_peak: 0,
+        cpu_time: timer.cpu,
+        stages: Vec::new(),
+    };
+    if let Some(g) = &grid {
+        BodyRule {
+            body: cfg.agent.body,
+            allow_mismatch: cfg.allow_body_mismatch,
+        }
+        .check(&g.params.body)
+        .map_err(|e| BenchError(format!("{scene_ref}: {e}")))?;
+    }
+    match cfg.kind {
+        BenchKind::Bake => {
+            let scene = scene
+                .as_ref()
+                .ok_or_else(|| BenchError("no scene".into()))?;
+            let params = NavParams::for_body(cfg.agent.body);
+            let grid = timer.stage("bake", "scenes", one, || {
+                build(scene, &params).map_err(|e| err(&e))
+            })?;
+            report.walkable_spans = grid.spans.iter().filter(|s| s.walkable).count() as u64;
+        }
+        BenchKind::Episodes => {
+            let grid = grid.as_ref().ok_or_else(|| BenchError("no grid".into()))?;
+            let sampled = timer.stage(
+                "sample",
+                "episodes",
+                |e: &Vec<Episode>| e.len() as u64,
+                || episodes(cfg, grid, &scene_ref),
+            );
+            if sampled.is_empty() {
+                return Err(BenchError(format!(
+                    "{scene_ref}: no PointGoal episode could be sampled"
+                )));
+            }
+        }
+        BenchKind::Render | BenchKind::Run => {
+            let (scene, grid) = match (scene, grid) {
+                (Some(s), Some(g)) => (s, g),
+                _ => return Err(BenchError("no scene or grid".into())),
+            };
+            let eps = if cfg.kind == BenchKind::Run {
+                let eps = timer.stage(
+                    "sample",
+                    "episodes",
+                    |e: &Vec<Episode>| e.len() as u64,
+                    || episodes(cfg, &grid, &scene_ref),
+                );
+                if eps.is_empty() {
+                    return Err(BenchError(format!(
+                        "{scene_ref}: no PointGoal episode could be sampled"
+                    )));
+                }
+                eps
+            } else {
+                Vec::new()
+            };
+            let poses = if cfg.kind == BenchKind::Render {
+                poses(cfg, &grid, &scene_ref)?
+            } else {
+                Vec::new()
+            };
+            let (mut sim, assets) =
+                timer.stage("prepare", "scenes", one, || prepare(cfg, &scene, grid))?;
+            drop(scene);
+            if cfg.kind == BenchKind::Render {
+                render(cfg, &mut timer, &mut sim, &poses)?;
+            } else {
+                rollout(&mut timer, &mut sim, &assets.grid, &eps)?;
+            }
+        }
+    }
+    report.stages = timer.stages;
+    report.rss_peak = status_bytes("VmHWM:").unwrap_or(0);
+    Ok(report)
+}
+
+/// PointGoal episodes of the scene (`cfg.episodes` wanted).
+fn episodes(cfg: &BenchConfig, grid: &NavGrid, scene: &SceneRef) -> Vec<Episode> {
+    let sample = SampleConfig {
+        task: Task::PointGoal,
+        per_scene: cfg.episodes,
+        seed: cfg.seed,
+        ..SampleConfig::default()
+    };
+    sample_scene(grid, &scene.to_string(), "bench", &sample).episodes
+}
+
+/// `cfg.frames` random walkable poses (position on the floor, yaw).
+fn poses(
+    cfg: &BenchConfig,
+    grid: &NavGrid,
+    scene: &SceneRef,
+) -> Result<Vec<(Vec3, f32)>, BenchError> {
+    let mut rng = Rng::new(derive_seed(cfg.seed, &[&scene.to_string(), "bench-poses"]));
+    let spans = grid.walkable_spans(None);
+    (0..cfg.frames)
+        .map(|_| {
+            let (_, p) = grid
+                .random_point_from(&mut rng, &spans)
+                .ok_or_else(|| BenchError(format!("{scene}: the grid has no walkable floor")))?;
+            Ok((p, rng.range_f64(0.0, std::f64::consts::TAU) as f32))
+        })
+        .collect()
+}
+
+/// The simulator of the scene (assets, renderer).
+fn prepare(
+    cfg: &BenchConfig,
+    scene: &Scene,
+    grid: NavGrid,
+) -> Result<(Simulator, Arc<SceneAssets>), BenchError> {
+    let assets = if cfg.allow_body_mismatch {
+        SceneAssets::new_allowing_body_mismatch(scene, grid, &cfg.agent)
+    } else {
+        SceneAssets::new(scene, grid, &cfg.agent)
+    };
+    let assets = Arc::new(assets.map_err(|e| BenchError(e.to_string()))?);
+    let renderer = Arc::new(
+        Renderer::new(cfg.renderer, &assets.render).map_err(|e| BenchError(e.to_string()))?,
+    );
+    let sim = Simulator::new(
+        assets.clone(),
+        renderer,
+        cfg.agent,
+        cfg.sensors.clone(),
+        500,
+        cfg.seed,
+    );
+    Ok((sim, assets))
+}
+
+/// Renders every camera from each pose.
+fn render(
+    cfg: &BenchConfig,
+    timer: &mut Timer,
+    sim: &mut Simulator,
+    poses: &[(Vec3, f32)],
+) -> Result<(), BenchError> {
+    let _ = cfg;
+    for (p, yaw) in poses {
+        sim.reset(*p, *yaw, None, "bench");
+        let (r, s) = timer.measure(|| sim.observe());
+        r.map_err(|e| BenchError(e.to_string()))?;
+        timer.add("render", "frames", 1, s);
+    }
+    Ok(())
+}
+
+/// The oracle's loop over the episodes: reset (goal field), plan, decide, step.
+fn rollout(
+    timer: &mut Timer,
+    sim: &mut Simulator,
+    grid: &NavGrid,
+    eps: &[Episode],
+) -> Result<(), BenchError> {
+    let e = |e: &dyn std::fmt::Display| BenchError(e.to_string());
+    let (geo, s) = timer.measure(|| Geodesic::new(grid));
+    timer.add("geodesic setup", "scenes", 1, s);
+    let mut agent = OracleAgent::new();
+    for ep in eps {
+        let ((), s) = timer.measure(|| sim.reset_episode_in(ep, Some(&geo)));
+        timer.add("reset (goal field)", "episodes", 1, s);
+        let (r, s) = timer.measure(|| agent.reset(ep, sim));
+        r.map_err(|x| e(&x))?;
+        timer.add("oracle plan", "episodes", 1, s);
+        let (obs, s) = timer.measure(|| sim.observe());
+        let mut obs = obs.map_err(|x| e(&x))?;
+        timer.add("observe first", "episodes", 1, s);
+        for _ in 0..ep.max_steps {
+            let (d, s) = timer.measure(|| agent.decide(&obs, sim));
+            let d = d.map_err(|x| e(&x))?;
+            timer.add("oracle decide", "steps", 1, s);
+            let Decision::Act(a) = d else { break };
+            let (o, s) = timer.measure(|| sim.step(a));
+            obs = o.map_err(|x| e(&x))?;
+            timer.add("sim step", "steps", 1, s);
+        }
+    }
+    // The whole loop as one figure: steps per second of reset, planning, deciding and
+    // stepping together.
+    let steps = timer
+        .stages
+        .iter()
+        .find(|s| s.name == "sim step")
+        .map_or(0, |s| s.count);
+    let loop_s: f64 = timer
+        .stages
+        .iter()
+        .filter(|s| {
+            matches!(
+                s.name,
+                "geodesic setup"
+                    | "reset (goal field)"
+                    | "oracle plan"
+                    | "observe first"
+                    | "oracle decide"
+                    | "sim step"
+            )
+        })
+        .map(|s| s.seconds)
+        .sum();
+    timer.stages.push(Stage {
+        name: "rollout loop",
+        count: steps,
+        unit: "steps",
+        seconds: loop_s,
+    });
+    Ok(())
+}

@@ -1,0 +1,133 @@
+//! `minos bench` as a script meets it: the JSON's structure, and counts that agree with each
+//! other and with the flags (never timings).
+
+mod common;
+
+use common::{baked_houses, minos, RunOk};
+use minos::generate::GenerateConfig;
+use serde_json::Value;
+
+fn bench_json(data: &std::path::Path, args: &[&str]) -> Value {
+    let out = minos()
+        .arg("bench")
+        .args(args)
+        .arg("--data")
+        .arg(data)
+        .arg("--json")
+        .ok_output();
+    serde_json::from_slice(&out.stdout).expect("bench --json prints JSON")
+}
+
+fn stages(v: &Value) -> Vec<(String, u64, String, f64, f64)> {
+    v["stages"]
+        .as_array()
+        .expect("stages")
+        .iter()
+        .map(|s| {
+            (
+                s["stage"].as_str().unwrap().to_string(),
+                s["count"].as_u64().unwrap(),
+                s["unit"].as_str().unwrap().to_string(),
+                s["seconds"].as_f64().unwrap(),
+                s["per_second"].as_f64().unwrap(),
+            )
+        })
+        .collect()
+}
+
+fn count(v: &Value, name: &str) -> u64 {
+    stages(v)
+        .into_iter()
+        .find(|s| s.0 == name)
+        .unwrap_or_else(|| panic!("no stage {name} in {v}"))
+        .1
+}
+
+#[test]
+fn bench_json_has_consistent_counts_for_every_benchmark() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = GenerateConfig {
+        houses: 2,
+        seed: 12,
+        rooms: (3, 4),
+        levels: (1, 1),
+        closed_door_prob: 0.0,
+    };
+    let (data, ids) = baked_houses(dir.path(), &cfg);
+    let root = data.root().to_path_buf();
+    let rows = data.read_manifest().unwrap();
+    // The default scene is the manifest's first; --scene picks another.
+    let bake = bench_json(&root, &["bake"]);
+    assert_eq!(bake["bench"], "bake");
+    assert_eq!(bake["scene"], ids[0].as_str());
+    assert_eq!(bake["triangles"].as_u64().unwrap(), rows[0].ntriangles);
+    assert!(bake["walkable_spans"].as_u64().unwrap() > 0);
+    assert!(bake["rss_after_load_bytes"].as_u64().unwrap() > 0);
+    assert!(bake["rss_peak_bytes"].as_u64() >= bake["rss_after_load_bytes"].as_u64());
+    let names: Vec<String> = stages(&bake).into_iter().map(|s| s.0).collect();
+    assert_eq!(names, ["load scene", "bake"]);
+    for (name, n, _, secs, rate) in stages(&bake) {
+        assert_eq!(n, 1, "{name}");
+        assert!(secs >= 0.0 && (secs == 0.0 || (rate - 1.0 / secs).abs() < 1e-6 * rate));
+    }
+    // The bake of the bench finds the grid `minos bake` wrote.
+    let grid = data.read_grid(&ids[0].parse().unwrap()).unwrap();
+    let walkable = grid.spans.iter().filter(|s| s.walkable).count() as u64;
+    assert_eq!(bake["walkable_spans"].as_u64().unwrap(), walkable);
+
+    let eps = bench_json(&root, &["episodes", "--scene", &ids[1], "--episodes", "30"]);
+    assert_eq!(eps["scene"], ids[1].as_str());
+    assert_eq!(count(&eps, "sample"), 30);
+    assert_eq!(eps["triangles"], 0, "episodes never load the scene");
+
+    let render = bench_json(&root, &["render", "--frames", "12", "--size", "32"]);
+    assert_eq!(count(&render, "render"), 12, "a frame is one observation");
+    assert_eq!(count(&render, "prepare"), 1);
+    assert_eq!(render["triangles"], bake["triangles"]);
+
+    let run = bench_json(&root, &["run", "--episodes", "3", "--size", "32"]);
+    let (sampled, steps) = (count(&run, "sample"), count(&run, "sim step"));
+    assert_eq!(sampled, 3);
+    assert_eq!(count(&run, "reset (goal field)"), sampled);
+    assert_eq!(count(&run, "oracle plan"), sampled);
+    assert!(steps > 0);
+    // Each episode ends with a stop decision or at its step limit: one decision per step,
+    // plus at most one per episode.
+    let decisions = count(&run, "oracle decide");
+    assert!(decisions >= steps && decisions <= steps + sampled, "{run}");
+    assert_eq!(count(&run, "rollout loop"), steps);
+    // Same seed, same counts.
+    let again = bench_json(&root, &["run", "--episodes", "3", "--size", "32"]);
+    assert_eq!(count(&again, "sim step"), steps);
+}
+
+#[test]
+fn bench_prints_a_table_and_one_line_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = common::cli_ingested(dir.path(), 1, 4);
+    let out = minos()
+        .args(["bench", "bake", "--data"])
+        .arg(&data)
+        .ok_output();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("| stage | count |") && text.contains("| bake | 1 |"),
+        "{text}"
+    );
+    for (args, needle) in [
+        (vec!["render"], "minos bake"),
+        (vec!["bake", "--scene", "nope"], "nope"),
+    ] {
+        let out = minos()
+            .arg("bench")
+            .args(&args)
+            .arg("--data")
+            .arg(&data)
+            .output()
+            .unwrap();
+        assert!(!out.status.success(), "{args:?}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(err.trim().lines().count(), 1, "{args:?}: {err}");
+        assert!(err.contains(needle), "{args:?}: {err}");
+    }
+}
