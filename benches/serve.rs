@@ -97,7 +97,9 @@ async fn session(
     duration: Duration,
     steps: usize,
 ) -> (Vec<f64>, Vec<u8>) {
-    let token = tokio::task::spawn_blocking(move || create(addr)).await.unwrap();
+    let token = tokio::task::spawn_blocking(move || create(addr))
+        .await
+        .unwrap();
     let url = format!("ws://{addr}/api/sessions/{token}/ws");
     let (mut ws, _) = tokio_tungstenite::connect_async(url).await.unwrap();
     let mut last = frame(&mut ws).await.expect("first frame");
@@ -199,8 +201,16 @@ fn main() {
         std::thread::available_parallelism().map_or(0, |n| n.get())
     );
     let steps = env("MINOS_BENCH_STEPS", 200) as usize;
-    let (one, pixels) = rt.block_on(session(addr, Duration::ZERO, Duration::from_secs(600), steps));
-    println!("key press -> frame, 1 session, back to back: {}", summary(one));
+    let (one, pixels) = rt.block_on(session(
+        addr,
+        Duration::ZERO,
+        Duration::from_secs(600),
+        steps,
+    ));
+    println!(
+        "key press -> frame, 1 session, back to back: {}",
+        summary(one)
+    );
     let seconds = env("MINOS_BENCH_SECONDS", 20);
     let period = Duration::from_millis(100);
     let t = Instant::now();
@@ -222,7 +232,10 @@ fn main() {
         out
     });
     let wall = t.elapsed().as_secs_f64();
-    let fps: Vec<f64> = all.iter().map(|l| l.len() as f64 / seconds as f64).collect();
+    let fps: Vec<f64> = all
+        .iter()
+        .map(|l| l.len() as f64 / seconds as f64)
+        .collect();
     let min_fps = fps.iter().copied().fold(f64::INFINITY, f64::min);
     println!(
         "{sessions} sessions at up to 10 frames/s for {seconds} s ({wall:.1} s with set-up): \

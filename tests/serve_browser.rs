@@ -83,7 +83,10 @@ impl Cdp {
     /// Evaluates `expr` in the page and returns its value.
     async fn eval(&mut self, expr: &str) -> Value {
         let r = self
-            .call("Runtime.evaluate", json!({"expression": expr, "returnByValue": true}))
+            .call(
+                "Runtime.evaluate",
+                json!({"expression": expr, "returnByValue": true}),
+            )
             .await;
         r["result"]["value"].clone()
     }
@@ -156,7 +159,10 @@ fn launch(browser: &Path, profile: &Path, url: &str) -> (Browser, u16) {
         if let Ok(Some(status)) = child.try_wait() {
             panic!("chromium exited: {status}");
         }
-        assert!(t.elapsed() < Duration::from_secs(60), "chromium gave no DevTools port");
+        assert!(
+            t.elapsed() < Duration::from_secs(60),
+            "chromium gave no DevTools port"
+        );
         std::thread::sleep(Duration::from_millis(100));
     };
     (Browser(child), port)
@@ -219,7 +225,12 @@ fn a_person_in_chromium_reaches_the_goal_and_the_demo_replays() {
     };
     // The oracle's actions are the keys to press.
     let oracle_dir = dir.path().join("oracle");
-    run(&cfg(oracle_dir.clone(), AgentKind::Oracle), &episodes, &NoProgress).unwrap();
+    run(
+        &cfg(oracle_dir.clone(), AgentKind::Oracle),
+        &episodes,
+        &NoProgress,
+    )
+    .unwrap();
     let decisions = read_replay(&oracle_dir.join("trajectories.parquet")).unwrap()
         [&episodes[0].episode_id]
         .clone();
@@ -274,21 +285,29 @@ fn a_person_in_chromium_reaches_the_goal_and_the_demo_replays() {
         .build()
         .unwrap();
     let name = rt.block_on(async {
-        let (ws, _) = tokio_tungstenite::connect_async(page).await.expect("DevTools socket");
+        let (ws, _) = tokio_tungstenite::connect_async(page)
+            .await
+            .expect("DevTools socket");
         let mut cdp = Cdp { ws, next: 0 };
         cdp.until("window.minos && window.minos.step !== null && window.minos.frames > 0")
             .await;
-        let text = cdp.eval("document.getElementById('instruction').textContent").await;
+        let text = cdp
+            .eval("document.getElementById('instruction').textContent")
+            .await;
         assert!(text.as_str().unwrap().starts_with("Find "), "{text}");
         // Depth and semantic views on (keys 1 and 2): they come with the next frames.
         cdp.press("1", "Digit1", 49).await;
         cdp.press("2", "Digit2", 50).await;
         for d in &decisions {
             if *d == Decision::Stop {
-                let shown = cdp.eval("document.getElementById('atgoal').textContent").await;
+                let shown = cdp
+                    .eval("document.getElementById('atgoal').textContent")
+                    .await;
                 assert!(shown.as_str().unwrap().starts_with("yes"), "{shown}");
                 if let Some(file) = std::env::var_os("MINOS_SCREENSHOT") {
-                    let shot = cdp.call("Page.captureScreenshot", json!({"format": "png"})).await;
+                    let shot = cdp
+                        .call("Page.captureScreenshot", json!({"format": "png"}))
+                        .await;
                     use base64::Engine as _;
                     let png = base64::engine::general_purpose::STANDARD
                         .decode(shot["data"].as_str().unwrap())
@@ -307,24 +326,39 @@ fn a_person_in_chromium_reaches_the_goal_and_the_demo_replays() {
         }
         let result = cdp.eval("window.minos.results[0].metrics.success").await;
         assert_eq!(result, Value::Bool(true));
-        let shown = cdp.eval("document.getElementById('result').textContent").await;
+        let shown = cdp
+            .eval("document.getElementById('result').textContent")
+            .await;
         assert!(shown.as_str().unwrap().starts_with("Success!"), "{shown}");
         let latency = cdp.eval("window.minos.latencies.length").await;
         assert_eq!(latency.as_u64(), Some(decisions.len() as u64 - 1));
-        let depth_shown = cdp.eval("!document.getElementById('fig-depth').classList.contains('off')").await;
+        let depth_shown = cdp
+            .eval("!document.getElementById('fig-depth').classList.contains('off')")
+            .await;
         assert_eq!(depth_shown, Value::Bool(true));
-        cdp.eval("window.minos.session").await.as_str().unwrap().to_string()
+        cdp.eval("window.minos.session")
+            .await
+            .as_str()
+            .unwrap()
+            .to_string()
     });
     drop(_browser);
     // The browser is gone: its session ends.
     let t = Instant::now();
     while running.sessions() > 0 {
-        assert!(t.elapsed() < Duration::from_secs(30), "the session did not end");
+        assert!(
+            t.elapsed() < Duration::from_secs(30),
+            "the session did not end"
+        );
         std::thread::sleep(Duration::from_millis(50));
     }
     let session = out.join(&name);
     let read = |p: PathBuf| std::fs::read(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
-    for file in ["trajectories.parquet", "observations.parquet", "episodes.parquet"] {
+    for file in [
+        "trajectories.parquet",
+        "observations.parquet",
+        "episodes.parquet",
+    ] {
         assert!(
             read(session.join(file)) == read(oracle_dir.join(file)),
             "{file}: the key presses did not record the oracle's episode"
@@ -333,9 +367,22 @@ fn a_person_in_chromium_reaches_the_goal_and_the_demo_replays() {
     let played = minos::episode::format::read_episodes(&session.join(PLAYED)).unwrap();
     let steps = read_replay(&session.join("trajectories.parquet")).unwrap();
     let replay_dir = dir.path().join("replay");
-    run(&cfg(replay_dir.clone(), AgentKind::Replay(steps)), &played, &NoProgress).unwrap();
-    for file in ["trajectories.parquet", "observations.parquet", "episodes.parquet", "metrics.json"] {
-        assert!(read(session.join(file)) == read(replay_dir.join(file)), "{file}: replay differs");
+    run(
+        &cfg(replay_dir.clone(), AgentKind::Replay(steps)),
+        &played,
+        &NoProgress,
+    )
+    .unwrap();
+    for file in [
+        "trajectories.parquet",
+        "observations.parquet",
+        "episodes.parquet",
+        "metrics.json",
+    ] {
+        assert!(
+            read(session.join(file)) == read(replay_dir.join(file)),
+            "{file}: replay differs"
+        );
     }
     running.stop();
 }

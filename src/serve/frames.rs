@@ -2,6 +2,8 @@
 //! depth grey — near is bright —, labels in their fixed colours), the top-down map of the
 //! navigation grid as a PNG, and the binary WebSocket messages that carry them.
 
+use image::ImageEncoder as _;
+
 use crate::navmesh::preview::render_level;
 use crate::navmesh::NavGrid;
 use crate::render::visualize::label_color;
@@ -128,8 +130,6 @@ pub fn map(grid: &NavGrid, level: u16) -> Result<Map, image::ImageError> {
         pixels_per_metre: scale as f32 / grid.cell(),
     })
 }
-
-use image::ImageEncoder as _;
 
 #[cfg(test)]
 mod tests {

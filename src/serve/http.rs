@@ -65,11 +65,17 @@ async fn guard(State(app): State<Arc<App>>, req: Request, next: Next) -> Respons
             .and_then(|q| q.0.get("access").cloned());
         let given = from_header.or(from_query).unwrap_or_default();
         if !same(&given, expected) {
-            return error(StatusCode::UNAUTHORIZED, "this server needs its access token");
+            return error(
+                StatusCode::UNAUTHORIZED,
+                "this server needs its access token",
+            );
         }
     }
     if !same_origin(req.headers()) {
-        return error(StatusCode::FORBIDDEN, "request from a page of another origin");
+        return error(
+            StatusCode::FORBIDDEN,
+            "request from a page of another origin",
+        );
     }
     next.run(req).await
 }
@@ -80,7 +86,11 @@ fn same_origin(headers: &HeaderMap) -> bool {
         return true;
     };
     let host = headers.get(header::HOST).and_then(|h| h.to_str().ok());
-    let origin = origin.to_str().ok().and_then(|o| o.split_once("://")).map(|(_, rest)| rest);
+    let origin = origin
+        .to_str()
+        .ok()
+        .and_then(|o| o.split_once("://"))
+        .map(|(_, rest)| rest);
     matches!((origin, host), (Some(o), Some(h)) if o == h)
 }
 
@@ -139,12 +149,22 @@ struct CreateRequest {
 }
 
 /// Creates a session: its token (the only way to its socket) and its name (its folder).
-async fn create(State(app): State<Arc<App>>, body: Option<Json<CreateRequest>>) -> Response {
-    let req = body.map(|Json(r)| r).unwrap_or_default();
+async fn create(State(app): State<Arc<App>>, body: axum::body::Bytes) -> Response {
+    let req: CreateRequest = if body.iter().all(u8::is_ascii_whitespace) {
+        CreateRequest::default()
+    } else {
+        match serde_json::from_slice(&body) {
+            Ok(r) => r,
+            Err(e) => return error(StatusCode::BAD_REQUEST, format!("request body: {e}")),
+        }
+    };
     let s = &app.shared;
     let (start, scene) = match (&req.episode, &req.scene) {
         (Some(_), Some(_)) => {
-            return error(StatusCode::BAD_REQUEST, "give an episode or a scene, not both")
+            return error(
+                StatusCode::BAD_REQUEST,
+                "give an episode or a scene, not both",
+            )
         }
         (Some(id), None) => match s.episodes.iter().position(|e| &e.episode_id == id) {
             Some(i) => (Start::Episode(i), s.episodes[i].scene_id.clone()),
@@ -167,7 +187,12 @@ async fn create(State(app): State<Arc<App>>, body: Option<Json<CreateRequest>>) 
     }
     let (token, suffix, seed) = match (session_token(), random_hex(4), random_hex(8)) {
         (Ok(t), Ok(s), Ok(seed)) => (t, s, u64::from_str_radix(&seed, 16).unwrap_or(0)),
-        _ => return error(StatusCode::INTERNAL_SERVER_ERROR, "no randomness from the OS"),
+        _ => {
+            return error(
+                StatusCode::INTERNAL_SERVER_ERROR,
+                "no randomness from the OS",
+            )
+        }
     };
     let secs = std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
@@ -193,7 +218,11 @@ async fn create(State(app): State<Arc<App>>, body: Option<Json<CreateRequest>>) 
         );
     }
     tracing::info!("session {name} created");
-    (StatusCode::CREATED, Json(json!({"token": token, "name": name}))).into_response()
+    (
+        StatusCode::CREATED,
+        Json(json!({"token": token, "name": name})),
+    )
+        .into_response()
 }
 
 /// The session's WebSocket (once per session).

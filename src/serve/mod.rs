@@ -219,8 +219,8 @@ pub fn start(cfg: ServeConfig, bind: SocketAddr) -> Result<Running, ServeError> 
     shared.out = canonical(&shared.out)?;
     let data_root = canonical(shared.data.root())?;
     shared.episodes = playable_episodes(std::mem::take(&mut shared.episodes), &shared.scenes);
-    let listener =
-        std::net::TcpListener::bind(bind).map_err(|source| ServeError::Bind { addr: bind, source })?;
+    let listener = std::net::TcpListener::bind(bind)
+        .map_err(|source| ServeError::Bind { addr: bind, source })?;
     let addr = listener
         .local_addr()
         .map_err(|source| ServeError::Bind { addr: bind, source })?;

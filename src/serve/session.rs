@@ -221,10 +221,7 @@ pub fn run(shared: Arc<Shared>, name: &str, start: Start, link: Arc<Link>, sessi
 
 /// The episode file a session's replay reads: its own `played.parquet`.
 fn cfg_episodes_file(shared: &Shared, name: &str) -> PathBuf {
-    shared
-        .out
-        .join(name)
-        .join(crate::pipeline::rollout::PLAYED)
+    shared.out.join(name).join(crate::pipeline::rollout::PLAYED)
 }
 
 /// The person at the page, as the run's agent.

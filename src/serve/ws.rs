@@ -29,7 +29,9 @@ fn parse(text: &str, shared: &Shared) -> Result<Parsed, String> {
         return Ok(Parsed::Command(Command::Act(d)));
     }
     if let Some(n) = v.get("next") {
-        return Ok(Parsed::Command(Command::Next(n.as_str().map(str::to_string))));
+        return Ok(Parsed::Command(Command::Next(
+            n.as_str().map(str::to_string),
+        )));
     }
     if let Some(list) = v.get("views") {
         let names: Vec<String> = list
@@ -161,9 +163,15 @@ mod tests {
             parse(r#"{"next":"a:b:1"}"#, &s),
             Ok(Parsed::Command(Command::Next(Some("a:b:1".into()))))
         );
-        assert_eq!(parse(r#"{"end":true}"#, &s), Ok(Parsed::Command(Command::End)));
+        assert_eq!(
+            parse(r#"{"end":true}"#, &s),
+            Ok(Parsed::Command(Command::End))
+        );
         // colour is camera 0, depth 1, semantic 2.
-        assert_eq!(parse(r#"{"views":["semantic"]}"#, &s), Ok(Parsed::Views(0b101)));
+        assert_eq!(
+            parse(r#"{"views":["semantic"]}"#, &s),
+            Ok(Parsed::Views(0b101))
+        );
         assert_eq!(parse(r#"{"views":["../x"]}"#, &s), Ok(Parsed::Views(0b001)));
         assert!(parse(r#"{"action":"fly"}"#, &s).is_err());
         assert!(parse("not json", &s).is_err());

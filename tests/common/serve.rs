@@ -47,7 +47,10 @@ pub fn http(
         .nth(1)
         .and_then(|c| c.parse().ok())
         .unwrap_or(0);
-    let body = text.split_once("\r\n\r\n").map(|(_, b)| b.to_string()).unwrap_or_default();
+    let body = text
+        .split_once("\r\n\r\n")
+        .map(|(_, b)| b.to_string())
+        .unwrap_or_default();
     (status, body)
 }
 
@@ -65,7 +68,10 @@ pub fn create(addr: SocketAddr, body: &str, headers: &[(&str, &str)]) -> (String
 /// Connects the WebSocket of session `token`.
 pub async fn connect(addr: SocketAddr, token: &str, query: &str) -> Ws {
     let url = format!("ws://{addr}/api/sessions/{token}/ws{query}");
-    tokio_tungstenite::connect_async(url).await.expect("websocket").0
+    tokio_tungstenite::connect_async(url)
+        .await
+        .expect("websocket")
+        .0
 }
 
 /// A message of the server.

@@ -129,7 +129,11 @@ struct Live<'c> {
 impl Live<'_> {
     /// Whether `ep` can be played: not played yet, its scene ingested and baked for the body.
     fn playable(&self, ep: &Episode) -> Result<(), String> {
-        if self.played.iter().any(|(_, e, _)| e.episode_id == ep.episode_id) {
+        if self
+            .played
+            .iter()
+            .any(|(_, e, _)| e.episode_id == ep.episode_id)
+        {
             return Err(format!("episode {} was played already", ep.episode_id));
         }
         preflight::check(self.cfg, &[(0, ep.clone())]).map_err(|e| e.to_string())
@@ -145,8 +149,14 @@ impl Live<'_> {
         sorted.sort_by(|a, b| a.1.episode_id.cmp(&b.1.episode_id));
         let mine: Vec<(usize, Episode)> = sorted.iter().map(|(i, e, _)| (*i, e.clone())).collect();
         self.report.episodes = sorted.iter().map(|(_, e, m)| (e.clone(), *m)).collect();
-        finish(self.cfg, &mine, self.parts, &BTreeSet::new(), &mut self.report)
-            .map_err(|e| Failed::Write(e.to_string()))?;
+        finish(
+            self.cfg,
+            &mine,
+            self.parts,
+            &BTreeSet::new(),
+            &mut self.report,
+        )
+        .map_err(|e| Failed::Write(e.to_string()))?;
         let played: Vec<Episode> = self.played.iter().map(|(_, e, _)| e.clone()).collect();
         crate::episode::format::write_episodes(&self.cfg.out.join(PLAYED), &played)
             .map_err(|e| Failed::Write(e.to_string()))?;
