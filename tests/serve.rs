@@ -534,7 +534,7 @@ fn a_server_killed_mid_episode_leaves_the_finished_episodes_whole() {
     let replay_dir = f.dir.path().join("replay-killed");
     run(
         &run_config(&f.data, &replay_dir, AgentKind::Replay(steps)),
-        &[first.clone()],
+        std::slice::from_ref(first),
         &NoProgress,
     )
     .unwrap();

@@ -8,7 +8,7 @@
 
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicU32, Ordering};
-use std::sync::mpsc::{Receiver, RecvTimeoutError};
+use std::sync::mpsc::Receiver;
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::Duration;
 
@@ -159,10 +159,8 @@ impl Link {
     /// The next message, or `None` when the page closed or said nothing for the idle time.
     fn wait(&self) -> Option<Command> {
         let rx = self.commands.lock().unwrap_or_else(PoisonError::into_inner);
-        match rx.recv_timeout(self.idle) {
-            Ok(c) => Some(c),
-            Err(RecvTimeoutError::Timeout | RecvTimeoutError::Disconnected) => None,
-        }
+        // Timeout or disconnected: the page is gone either way.
+        rx.recv_timeout(self.idle).ok()
     }
 }
 
