@@ -31,6 +31,7 @@ pub mod render;
 pub mod run;
 pub mod scene;
 pub mod seed;
+pub mod serve;
 pub mod shard;
 pub mod sim;
 pub mod split;

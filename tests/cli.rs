@@ -336,6 +336,12 @@ fn demo_leaves_a_manifest_splits_and_statistics() {
         stdout.contains("houses") && stdout.contains("living_room"),
         "{stdout}"
     );
+    // It ends with the command that serves its episodes in a browser.
+    let last = stdout.lines().last().unwrap_or_default();
+    assert!(
+        last.contains("minos serve --data") && last.contains("pointgoal.parquet"),
+        "{last}"
+    );
     // The oracle demonstrated validation episodes of all three tasks and reached every goal.
     let metrics: serde_json::Value = serde_json::from_slice(
         &std::fs::read(dir.path().join("runs/oracle/metrics.json")).unwrap(),

@@ -51,6 +51,13 @@ const FLOORS: &[(&str, &[&str])] = &[
             "split", "stats",
         ],
     ),
+    // Front doors: the web server drives the pipeline (`minos serve`).
+    (
+        "serve",
+        &[
+            "scene", "navmesh", "episode", "render", "sim", "run", "store", "io", "pipeline",
+        ],
+    ),
 ];
 
 fn allowed(module: &str) -> Option<BTreeSet<&'static str>> {

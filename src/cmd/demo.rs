@@ -233,7 +233,8 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
          minos stats --data {d} --split multiroom\n  \
          minos export --data {d} --scene {id} --out house.glb   (open in Blender)\n  \
          python: pandas.read_parquet(\"{e}\"), pyarrow.parquet.read_table(\"{r}\")\n  \
-         lerobot: LeRobotDataset(\"minos/demo\", root=\"{lr}\")",
+         lerobot: LeRobotDataset(\"minos/demo\", root=\"{lr}\")\n  \
+         minos serve --data {d} --episodes {e} --out {demos}   (play the episodes in a browser and record demonstrations)",
         start.elapsed().as_secs_f64(),
         rrd = recording.display(),
         nav = store.nav_dir().display(),
@@ -242,6 +243,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         e = episodes_dir.join("pointgoal.parquet").display(),
         r = run_dir.join("observations.parquet").display(),
         lr = run_dir.join("lerobot").display(),
+        demos = args.out.join("demos").display(),
     ));
     Ok(if failed == 0 && bake_failed == 0 {
         ExitCode::SUCCESS

@@ -20,6 +20,7 @@ mod nav;
 mod range;
 mod render;
 mod run;
+mod serve;
 mod split;
 mod stats;
 mod variants;
@@ -83,6 +84,8 @@ enum Command {
     Merge(merge::Args),
     /// Record a scene, its navigation grid and episodes' shortest paths for the rerun viewer.
     View(view::Args),
+    /// Serve a web page to explore scenes and record human demonstrations.
+    Serve(serve::Args),
     /// Run the whole pipeline on generated houses into ./minos-demo/.
     Demo(demo::Args),
     /// Measure bake, episode sampling, rendering or rollouts on one ingested scene.
@@ -122,6 +125,7 @@ pub fn main() -> ExitCode {
         Command::ExportDataset(a) => export_dataset::run(a, &ctx),
         Command::Merge(a) => merge::run(a, &ctx),
         Command::View(a) => view::run(a, &ctx),
+        Command::Serve(a) => serve::run(a, &ctx),
         Command::Demo(a) => demo::run(a, &ctx),
         Command::Bench(a) => bench::run(a, &ctx),
     };

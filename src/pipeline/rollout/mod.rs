@@ -9,6 +9,7 @@
 //! file) and joined into one `.rrd` at the end; recording never changes the tables.
 
 mod episode;
+mod live;
 mod manifest;
 mod parts;
 mod preflight;
@@ -36,6 +37,7 @@ use crate::store::DataDir;
 
 pub use crate::render::RendererChoice;
 pub use episode::EpisodeError;
+pub use live::{run_live, EpisodeSource, PLAYED};
 use parts::part;
 use scene::SceneRun;
 

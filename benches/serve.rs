@@ -1,0 +1,279 @@
+//! Responsiveness of `minos serve`: `cargo bench --bench serve`.
+//!
+//! One generated furnished house (default configuration), PointGoal episodes, the Habitat
+//! agent and MINOS's RGB-D-semantic sensors at 256² on the CPU renderer, observations written
+//! raw to Parquet, the server in this process, clients over real WebSockets on localhost.
+//!
+//! 1. Latency: one session; the time from sending a key press (an action) to receiving the
+//!    new colour frame, over many steps (median, 90th and 99th percentile).
+//! 2. Concurrency: N sessions (`MINOS_BENCH_SESSIONS`, default 8), each pressing a key
+//!    every 100 ms (a person holding a key at 10 presses/s; as on the page, one action in
+//!    flight, so a late frame delays the next press and later ones catch up); the frames
+//!    per second each session gets and its latencies.
+//! 3. Frame encodings: building the raw RGB message of a 256² frame vs encoding it as PNG.
+//!
+//! `MINOS_BENCH_STEPS` (default 200) sets the steps of the latency run, `MINOS_BENCH_SECONDS`
+//! (default 20) the length of the concurrency run.
+
+mod support;
+
+use std::net::SocketAddr;
+use std::time::{Duration, Instant};
+
+use futures_util::{SinkExt, StreamExt};
+use minos::body::{AgentPreset, BodyRule};
+use minos::episode::sample::SampleConfig;
+use minos::episode::Task;
+use minos::io::tables::ImageEncoding;
+use minos::pipeline::episodes::sample_scenes;
+use minos::progress::NoProgress;
+use minos::run::metrics::Reward;
+use minos::serve::{start, ServeConfig, Shared};
+use minos::shard::Shard;
+use minos::sim::{AgentConfig, RendererChoice, SensorSuite};
+use minos::store::DataDir;
+use tokio_tungstenite::tungstenite::Message;
+
+type Ws =
+    tokio_tungstenite::WebSocketStream<tokio_tungstenite::MaybeTlsStream<tokio::net::TcpStream>>;
+
+fn env(name: &str, default: u64) -> u64 {
+    std::env::var(name)
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(default)
+}
+
+/// A session's token from `POST /api/sessions` (a minimal HTTP/1.1 request).
+fn create(addr: SocketAddr) -> String {
+    use std::io::{Read, Write};
+    let mut s = std::net::TcpStream::connect(addr).unwrap();
+    let body = "{}";
+    write!(
+        s,
+        "POST /api/sessions HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\nContent-Type: application/json\r\nContent-Length: {}\r\n\r\n{body}",
+        body.len()
+    )
+    .unwrap();
+    let mut out = String::new();
+    s.read_to_string(&mut out).unwrap();
+    let json = out.split_once("\r\n\r\n").expect("a body").1;
+    let v: serde_json::Value = serde_json::from_str(json).expect("JSON");
+    v["token"].as_str().expect("a token").to_string()
+}
+
+/// Actions of a wandering person: mostly forward, some turns.
+const WALK: [&str; 8] = [
+    "forward",
+    "forward",
+    "turn_left",
+    "forward",
+    "forward",
+    "turn_right",
+    "forward",
+    "turn_right",
+];
+
+/// Waits for the next colour frame (answering an episode's end with "next"); its RGB pixels.
+async fn frame(ws: &mut Ws) -> Option<Vec<u8>> {
+    while let Some(Ok(m)) = ws.next().await {
+        match m {
+            Message::Binary(b) if b[0] == 1 && b[1] == 0 => return Some(b[8..].to_vec()),
+            Message::Text(t) if t.as_str().contains("\"type\":\"done\"") => {
+                ws.send(Message::Text(r#"{"next":null}"#.into()))
+                    .await
+                    .unwrap();
+            }
+            _ => {}
+        }
+    }
+    None
+}
+
+/// One session: actions at most every `period`, for `duration` or `steps`; the latencies
+/// and the last frame.
+async fn session(
+    addr: SocketAddr,
+    period: Duration,
+    duration: Duration,
+    steps: usize,
+) -> (Vec<f64>, Vec<u8>) {
+    let token = tokio::task::spawn_blocking(move || create(addr))
+        .await
+        .unwrap();
+    let url = format!("ws://{addr}/api/sessions/{token}/ws");
+    let (mut ws, _) = tokio_tungstenite::connect_async(url).await.unwrap();
+    let mut last = frame(&mut ws).await.expect("first frame");
+    let mut latencies = Vec::new();
+    let begin = Instant::now();
+    // Key presses on a fixed schedule, every `period` (like a key held down), one in flight
+    // as the page does: a late frame delays the next press, later presses catch up.
+    let mut due = tokio::time::Instant::now();
+    let mut i = 0;
+    while begin.elapsed() < duration && latencies.len() < steps {
+        tokio::time::sleep_until(due).await;
+        due += period;
+        let sent = Instant::now();
+        let action = format!(r#"{{"action":"{}"}}"#, WALK[i % WALK.len()]);
+        i += 1;
+        ws.send(Message::Text(action.into())).await.unwrap();
+        match frame(&mut ws).await {
+            Some(f) => last = f,
+            None => break,
+        }
+        latencies.push(sent.elapsed().as_secs_f64() * 1e3);
+    }
+    let _ = ws.send(Message::Text(r#"{"end":true}"#.into())).await;
+    (latencies, last)
+}
+
+fn percentile(sorted: &[f64], p: f64) -> f64 {
+    if sorted.is_empty() {
+        return f64::NAN;
+    }
+    sorted[((sorted.len() - 1) as f64 * p).round() as usize]
+}
+
+fn summary(mut v: Vec<f64>) -> String {
+    v.sort_by(f64::total_cmp);
+    format!(
+        "median {:.1} ms, p90 {:.1} ms, p99 {:.1} ms, max {:.1} ms ({} frames)",
+        percentile(&v, 0.5),
+        percentile(&v, 0.9),
+        percentile(&v, 0.99),
+        v.last().copied().unwrap_or(f64::NAN),
+        v.len()
+    )
+}
+
+fn main() {
+    let dir = tempfile::tempdir().unwrap();
+    let body = AgentConfig::habitat();
+    let (data, ids) = support::baked_houses(dir.path(), 1, 1, body.body);
+    let data = DataDir::new(&data);
+    let episodes = sample_scenes(
+        &data,
+        &[(ids[0].clone(), "val".into())],
+        &SampleConfig {
+            task: Task::PointGoal,
+            per_scene: 40,
+            seed: 1,
+            ..Default::default()
+        },
+        BodyRule::strict(body.body),
+        Shard::ALL,
+        &NoProgress,
+    )
+    .episodes;
+    let size = env("MINOS_BENCH_SIZE", 256) as u32;
+    let sessions = env("MINOS_BENCH_SESSIONS", 8) as usize;
+    let running = start(
+        ServeConfig {
+            shared: Shared {
+                data: data.clone(),
+                episodes,
+                episodes_file: None,
+                scenes: ids.clone(),
+                out: dir.path().join("demos"),
+                preset: AgentPreset::Habitat,
+                body,
+                sensors: SensorSuite::minos(size),
+                renderer: RendererChoice::Cpu,
+                reward: Reward::DistTime,
+                encoding: ImageEncoding::Raw,
+                seed: 0,
+                idle: Duration::from_secs(60),
+                command: Vec::new(),
+            },
+            access_token: None,
+            max_sessions: sessions.max(1) + 1,
+            connect_timeout: Duration::from_secs(30),
+            send_timeout: Duration::from_secs(10),
+        },
+        "127.0.0.1:0".parse().unwrap(),
+    )
+    .expect("server");
+    let addr = running.addr;
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .unwrap();
+    println!(
+        "serve: 1 house ({}), RGB-D-semantic {size}² on the CPU renderer, raw Parquet, {} cores",
+        ids[0],
+        std::thread::available_parallelism().map_or(0, |n| n.get())
+    );
+    let steps = env("MINOS_BENCH_STEPS", 200) as usize;
+    let (one, pixels) = rt.block_on(session(
+        addr,
+        Duration::ZERO,
+        Duration::from_secs(600),
+        steps,
+    ));
+    println!(
+        "key press -> frame, 1 session, back to back: {}",
+        summary(one)
+    );
+    let seconds = env("MINOS_BENCH_SECONDS", 20);
+    let period = Duration::from_millis(100);
+    let t = Instant::now();
+    let all: Vec<Vec<f64>> = rt.block_on(async {
+        let tasks: Vec<_> = (0..sessions)
+            .map(|_| {
+                tokio::spawn(session(
+                    addr,
+                    period,
+                    Duration::from_secs(seconds),
+                    usize::MAX,
+                ))
+            })
+            .collect();
+        let mut out = Vec::new();
+        for t in tasks {
+            out.push(t.await.unwrap().0);
+        }
+        out
+    });
+    let wall = t.elapsed().as_secs_f64();
+    let fps: Vec<f64> = all
+        .iter()
+        .map(|l| l.len() as f64 / seconds as f64)
+        .collect();
+    let min_fps = fps.iter().copied().fold(f64::INFINITY, f64::min);
+    println!(
+        "{sessions} sessions pressing 10 keys/s for {seconds} s ({wall:.1} s with set-up): \
+         {:.1} frames/s per session (min {min_fps:.1}), {:.0} frames/s in all; latency {}",
+        fps.iter().sum::<f64>() / fps.len() as f64,
+        fps.iter().sum::<f64>(),
+        summary(all.into_iter().flatten().collect())
+    );
+    // Frame encodings: what the server sends (raw RGB) against PNG.
+    let n = 200;
+    let t = Instant::now();
+    let mut bytes = 0;
+    for _ in 0..n {
+        bytes = minos::serve::frames::message(1, 0, size, size, &pixels).len();
+    }
+    let raw = t.elapsed().as_secs_f64() / n as f64 * 1e3;
+    let t = Instant::now();
+    let mut png_bytes = 0;
+    for _ in 0..n {
+        let mut png = Vec::new();
+        use image::ImageEncoder as _;
+        image::codecs::png::PngEncoder::new_with_quality(
+            &mut png,
+            image::codecs::png::CompressionType::Fast,
+            image::codecs::png::FilterType::Sub,
+        )
+        .write_image(&pixels, size, size, image::ExtendedColorType::Rgb8)
+        .unwrap();
+        png_bytes = png.len();
+    }
+    let png = t.elapsed().as_secs_f64() / n as f64 * 1e3;
+    println!(
+        "a {size}² colour frame: raw message {raw:.3} ms ({bytes} bytes), PNG (fast) {png:.2} ms \
+         ({png_bytes} bytes; the last frame seen)"
+    );
+    running.stop();
+}

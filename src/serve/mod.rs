@@ -1,0 +1,283 @@
+//! `minos serve`: a web page to explore scenes and record human demonstrations. An HTTP +
+//! WebSocket server (axum on tokio) serves one self-contained page (HTML, CSS and script
+//! compiled into the binary; nothing is fetched from elsewhere) and runs sessions: each
+//! session is a thread with its own simulator that plays episodes into its own output folder
+//! exactly as `minos run` would write them (see [`run_live`](crate::pipeline::rollout::run_live)),
+//! the person at the page being the agent.
+//!
+//! Requests: `GET /` (the page), `GET /api/info` (preset, actions, sensors, scenes,
+//! episodes), `POST /api/sessions` (`{"episode": ID}` or `{"scene": ID}` → a session token),
+//! `GET /api/sessions/<token>/ws` (the session's WebSocket: JSON commands in; JSON state,
+//! camera images and the map out, see [`frames`]). Nothing in a request names a file: scenes
+//! and episodes are looked up among those the server loaded, session folders are named by
+//! the server. Security: session tokens are 256 random bits from the OS; with an access
+//! token every request must carry it (`?access=` or the `x-minos-access` header); a request
+//! from a page of another origin is refused; a socket that does not connect in time, a page
+//! idle too long or one that stops reading ends its session.
+
+pub mod frames;
+mod http;
+pub mod session;
+pub mod token;
+mod ws;
+
+use std::collections::HashMap;
+use std::net::SocketAddr;
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex, PoisonError};
+use std::time::{Duration, Instant};
+
+use crate::episode::Episode;
+use crate::scene::SceneRef;
+pub use session::{Shared, Start};
+
+/// How a server runs, beyond what its sessions share.
+#[derive(Debug)]
+pub struct ServeConfig {
+    /// What sessions share (DATA, episodes, output folder, agent, sensors, …).
+    pub shared: Shared,
+    /// A token every request must carry (for a server reachable from other machines).
+    pub access_token: Option<String>,
+    /// Sessions at once, at most (each holds a simulator).
+    pub max_sessions: usize,
+    /// A created session whose WebSocket does not connect within this is dropped.
+    pub connect_timeout: Duration,
+    /// A page that does not take a message within this is disconnected.
+    pub send_timeout: Duration,
+}
+
+/// Why a server could not start.
+#[derive(Debug, thiserror::Error)]
+pub enum ServeError {
+    /// The address could not be bound.
+    #[error("--bind {addr}: {source}")]
+    Bind {
+        /// The address.
+        addr: SocketAddr,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// A folder could not be created or read.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The folder.
+        path: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// The tokio runtime could not start.
+    #[error("runtime: {0}")]
+    Runtime(std::io::Error),
+}
+
+/// A session: created by `POST /api/sessions`, started when its WebSocket connects.
+#[derive(Debug)]
+struct Slot {
+    /// The session's name (its output folder).
+    name: String,
+    /// What it plays; taken when the socket connects (a second socket is refused).
+    start: Option<Start>,
+    /// When it was created.
+    created: Instant,
+    /// Seed of its free-exploration episodes.
+    seed: u64,
+}
+
+/// The server's state.
+#[derive(Debug)]
+struct App {
+    shared: Arc<Shared>,
+    access_token: Option<String>,
+    max_sessions: usize,
+    connect_timeout: Duration,
+    send_timeout: Duration,
+    /// The page, with its style and script inlined.
+    page: String,
+    /// Sessions by token.
+    slots: Mutex<HashMap<String, Slot>>,
+    /// `shared.data`'s root and `shared.out`, canonical.
+    data_root: PathBuf,
+}
+
+impl App {
+    fn slots(&self) -> std::sync::MutexGuard<'_, HashMap<String, Slot>> {
+        self.slots.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+
+    /// Forgets a session (its thread ended).
+    fn remove(&self, token: &str) {
+        self.slots().remove(token);
+    }
+
+    /// Drops the sessions whose socket did not connect in time.
+    fn reap(&self) {
+        let timeout = self.connect_timeout;
+        self.slots()
+            .retain(|_, s| s.start.is_none() || s.created.elapsed() < timeout);
+    }
+
+    /// Whether the files scene `id` is loaded from lie inside the DATA folder (a symbolic
+    /// link out of it is refused).
+    fn contained(&self, id: &str) -> Result<(), String> {
+        let scene = SceneRef::parse(id);
+        let data = &self.shared.data;
+        for path in [data.scene_path(&scene.scene), data.grid_path(&scene)] {
+            let real = path
+                .canonicalize()
+                .map_err(|e| format!("scene {id}: {}: {e}", path.display()))?;
+            if !real.starts_with(&self.data_root) {
+                return Err(format!(
+                    "scene {id}: {} leads outside the DATA folder",
+                    path.display()
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A running server.
+pub struct Running {
+    /// The address it listens on.
+    pub addr: SocketAddr,
+    app: Arc<App>,
+    shutdown: Option<tokio::sync::oneshot::Sender<()>>,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+impl Running {
+    /// Sessions created and not ended (connected or waiting for their socket).
+    pub fn sessions(&self) -> usize {
+        self.app.slots().len()
+    }
+
+    /// Blocks until the server stops (it runs until the process ends).
+    pub fn wait(mut self) {
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+
+    /// Stops listening and closes every socket (sessions then end as if their page left).
+    pub fn stop(mut self) {
+        self.halt();
+    }
+
+    fn halt(&mut self) {
+        if let Some(tx) = self.shutdown.take() {
+            let _ = tx.send(());
+        }
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+impl Drop for Running {
+    fn drop(&mut self) {
+        self.halt();
+    }
+}
+
+/// Episodes whose scene is not an ingested scene are dropped (with a warning): a session
+/// loads only scenes of the DATA folder's manifest.
+fn playable_episodes(episodes: Vec<Episode>, scenes: &[String]) -> Vec<Episode> {
+    let (keep, drop): (Vec<Episode>, Vec<Episode>) = episodes
+        .into_iter()
+        .partition(|e| scenes.contains(&SceneRef::parse(&e.scene_id).scene));
+    if let Some(first) = drop.first() {
+        tracing::warn!(
+            "{} episodes name scenes that are not ingested and cannot be played (first: {} on {})",
+            drop.len(),
+            first.episode_id,
+            first.scene_id
+        );
+    }
+    keep
+}
+
+fn canonical(path: &Path) -> Result<PathBuf, ServeError> {
+    path.canonicalize().map_err(|source| ServeError::Io {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+/// Binds `bind` and serves `cfg` on a thread of its own until stopped.
+pub fn start(cfg: ServeConfig, bind: SocketAddr) -> Result<Running, ServeError> {
+    let ServeConfig {
+        mut shared,
+        access_token,
+        max_sessions,
+        connect_timeout,
+        send_timeout,
+    } = cfg;
+    std::fs::create_dir_all(&shared.out).map_err(|source| ServeError::Io {
+        path: shared.out.clone(),
+        source,
+    })?;
+    shared.out = canonical(&shared.out)?;
+    let data_root = canonical(shared.data.root())?;
+    shared.episodes = playable_episodes(std::mem::take(&mut shared.episodes), &shared.scenes);
+    let listener = std::net::TcpListener::bind(bind)
+        .map_err(|source| ServeError::Bind { addr: bind, source })?;
+    let addr = listener
+        .local_addr()
+        .map_err(|source| ServeError::Bind { addr: bind, source })?;
+    listener
+        .set_nonblocking(true)
+        .map_err(|source| ServeError::Bind { addr: bind, source })?;
+    let app = Arc::new(App {
+        shared: Arc::new(shared),
+        access_token: access_token.filter(|t| !t.is_empty()),
+        max_sessions: max_sessions.max(1),
+        connect_timeout,
+        send_timeout,
+        page: http::page(),
+        slots: Mutex::new(HashMap::new()),
+        data_root,
+    });
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .thread_name("minos-serve")
+        .enable_all()
+        .build()
+        .map_err(ServeError::Runtime)?;
+    let (tx, rx) = tokio::sync::oneshot::channel::<()>();
+    let router = http::router(app.clone());
+    let reaper = app.clone();
+    let thread = std::thread::Builder::new()
+        .name("minos-serve".into())
+        .spawn(move || {
+            runtime.block_on(async move {
+                let listener = match tokio::net::TcpListener::from_std(listener) {
+                    Ok(l) => l,
+                    Err(e) => {
+                        tracing::error!("listener: {e}");
+                        return;
+                    }
+                };
+                tokio::spawn(async move {
+                    let mut tick = tokio::time::interval(Duration::from_millis(250));
+                    loop {
+                        tick.tick().await;
+                        reaper.reap();
+                    }
+                });
+                let serve = axum::serve(listener, router).with_graceful_shutdown(async {
+                    let _ = rx.await;
+                });
+                if let Err(e) = serve.await {
+                    tracing::error!("server: {e}");
+                }
+            });
+            // Dropping the runtime here cancels the open sockets: their sessions end.
+        })
+        .map_err(ServeError::Runtime)?;
+    Ok(Running {
+        addr,
+        app,
+        shutdown: Some(tx),
+        thread: Some(thread),
+    })
+}

@@ -1,0 +1,456 @@
+//! One session: a thread of its own that plays episodes with [`run_live`] (its own
+//! simulator, its own output folder `OUT/<name>/`), driven by a person through the session's
+//! WebSocket. The person is the run's agent ([`HumanAgent`]): before each step it sends the
+//! page the step's state and images and waits for an action; the episode source waits for
+//! "next episode". A closed socket or no message for the idle timeout ends the session: the
+//! agent gives up, the unfinished episode is left out, and the thread ends, freeing the
+//! simulator.
+
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicU32, Ordering};
+use std::sync::mpsc::Receiver;
+use std::sync::{Arc, Mutex, PoisonError};
+use std::time::Duration;
+
+use serde_json::json;
+
+use super::frames::{self, display_rgb, KIND_CAMERA, KIND_MAP};
+use crate::body::{AgentPreset, BodyRule};
+use crate::episode::goal::{goal_positions, shortest_path};
+use crate::episode::instruction::instruction;
+use crate::episode::sample::SampleConfig;
+use crate::episode::{Episode, Task};
+use crate::io::tables::ImageEncoding;
+use crate::lock::LockMode;
+use crate::pipeline::episodes::sample_scenes;
+use crate::pipeline::rollout::{
+    run_live, AgentKind, EpisodeSource, Provenance, RendererChoice, RunConfig,
+};
+use crate::progress::NoProgress;
+use crate::run::agents::{Agent, AgentError, Decision};
+use crate::run::metrics::{reached, EpisodeMetrics, Reward};
+use crate::shard::Shard;
+use crate::sim::{Actions, AgentConfig, Observation, SensorSuite, Simulator};
+use crate::store::DataDir;
+
+/// Step limit of a free-exploration episode.
+pub const EXPLORE_STEPS: u32 = 2000;
+
+/// What every session of a server shares (read-only).
+#[derive(Debug)]
+pub struct Shared {
+    /// The DATA folder.
+    pub data: DataDir,
+    /// The episodes sessions play, in file order.
+    pub episodes: Vec<Episode>,
+    /// The episode file they came from.
+    pub episodes_file: Option<PathBuf>,
+    /// Ingested scenes (the only scenes a session may load).
+    pub scenes: Vec<String>,
+    /// The output folder (one folder per session inside).
+    pub out: PathBuf,
+    /// The agent preset.
+    pub preset: AgentPreset,
+    /// Body and motion.
+    pub body: AgentConfig,
+    /// Sensors recorded (and shown).
+    pub sensors: SensorSuite,
+    /// Renderer.
+    pub renderer: RendererChoice,
+    /// Reward.
+    pub reward: Reward,
+    /// Image storage of the observations.
+    pub encoding: ImageEncoding,
+    /// Seed of sensor noise.
+    pub seed: u64,
+    /// A session ends after this long without a message from its page.
+    pub idle: Duration,
+    /// The server's command line (for each session's manifest).
+    pub command: Vec<String>,
+}
+
+impl Shared {
+    /// The single actions of the page, `stop` last.
+    pub fn actions() -> Vec<&'static str> {
+        let mut names: Vec<&str> = Actions::NAMES
+            .iter()
+            .copied()
+            .filter(|n| *n != "idle")
+            .collect();
+        names.push("stop");
+        names
+    }
+
+    /// Bit mask of the cameras sent with every step: the first colour camera (or the first).
+    pub fn default_views(&self) -> u32 {
+        let i = self
+            .sensors
+            .cameras
+            .iter()
+            .position(|c| c.modality == crate::render::Modality::Color)
+            .unwrap_or(0);
+        1 << i.min(31)
+    }
+
+    /// The bit mask of the cameras named `names` plus the default ones.
+    pub fn views_of(&self, names: &[String]) -> u32 {
+        self.sensors
+            .cameras
+            .iter()
+            .enumerate()
+            .filter(|(i, c)| *i < 32 && names.contains(&c.name))
+            .fold(self.default_views(), |m, (i, _)| m | 1 << i)
+    }
+}
+
+/// What a session starts with.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Start {
+    /// The episode at this index of [`Shared::episodes`].
+    Episode(usize),
+    /// Free exploration of this scene (a random start and a point goal one may ignore).
+    Explore(String),
+}
+
+/// A message from the page.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Command {
+    /// Take this decision (an action or stop).
+    Act(Decision),
+    /// Play the next episode: this one (by id), or the next in the file (or a new
+    /// exploration episode).
+    Next(Option<String>),
+    /// End the session.
+    End,
+}
+
+/// A message to the page.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Update {
+    /// JSON.
+    Text(String),
+    /// A camera image or the map (see [`frames`]).
+    Binary(Vec<u8>),
+}
+
+/// The session thread's end of its WebSocket.
+pub struct Link {
+    /// Messages from the page.
+    pub commands: Mutex<Receiver<Command>>,
+    /// Messages to the page.
+    pub updates: tokio::sync::mpsc::Sender<Update>,
+    /// Cameras to send with each step (bit i: camera i).
+    pub views: Arc<AtomicU32>,
+    /// How long to wait for the page.
+    pub idle: Duration,
+}
+
+impl Link {
+    /// Sends `update`; false when the page is gone.
+    fn send(&self, update: Update) -> bool {
+        self.updates.blocking_send(update).is_ok()
+    }
+
+    /// Sends a JSON message; false when the page is gone.
+    fn text(&self, value: serde_json::Value) -> bool {
+        self.send(Update::Text(value.to_string()))
+    }
+
+    /// The next message, or `None` when the page closed or said nothing for the idle time.
+    fn wait(&self) -> Option<Command> {
+        let rx = self.commands.lock().unwrap_or_else(PoisonError::into_inner);
+        // Timeout or disconnected: the page is gone either way.
+        rx.recv_timeout(self.idle).ok()
+    }
+}
+
+/// Runs session `name` until its page leaves; writes into `shared.out/<name>/`. Tells the
+/// page how it ended.
+pub fn run(shared: Arc<Shared>, name: &str, start: Start, link: Arc<Link>, session_seed: u64) {
+    let cfg = RunConfig {
+        data: shared.data.clone(),
+        out: shared.out.join(name),
+        // Not used by a live run: the agent is the person.
+        agent: AgentKind::Replay(Default::default()),
+        body: shared.body,
+        sensors: shared.sensors.clone(),
+        renderer: shared.renderer,
+        max_steps: None,
+        seed: shared.seed,
+        shard: Shard::ALL,
+        resume: false,
+        reward: shared.reward,
+        encoding: shared.encoding,
+        lerobot: false,
+        rerun: None,
+        allow_body_mismatch: false,
+        provenance: Provenance {
+            command: shared.command.clone(),
+            episodes_file: Some(cfg_episodes_file(&shared, name)),
+            variant: None,
+            agent: format!("human:{name}"),
+            preset: Some(shared.preset),
+        },
+    };
+    let mut source = Source {
+        shared: shared.clone(),
+        link: link.clone(),
+        start: Some(start),
+        cursor: 0,
+        scene: None,
+        explored: 0,
+        session_seed,
+        played: 0,
+    };
+    let agent = Box::new(HumanAgent {
+        link: link.clone(),
+        episode: None,
+        map: None,
+    });
+    let end = match run_live(&cfg, &mut source, agent, LockMode::Fail) {
+        Ok(report) => json!({"type": "end", "episodes": report.episodes.len(), "session": name}),
+        Err(e) => {
+            tracing::error!("session {name}: {e}");
+            json!({"type": "error", "message": e.to_string(), "fatal": true})
+        }
+    };
+    link.text(end);
+}
+
+/// The episode file a session's replay reads: its own `played.parquet`.
+fn cfg_episodes_file(shared: &Shared, name: &str) -> PathBuf {
+    shared.out.join(name).join(crate::pipeline::rollout::PLAYED)
+}
+
+/// The person at the page, as the run's agent.
+struct HumanAgent {
+    link: Arc<Link>,
+    episode: Option<Episode>,
+    /// The map last sent: scene, level.
+    map: Option<(String, u16)>,
+}
+
+fn gone() -> AgentError {
+    AgentError::External {
+        command: "human".into(),
+        message: "the page left or was idle too long".into(),
+    }
+}
+
+impl Agent for HumanAgent {
+    fn reset(&mut self, episode: &Episode, sim: &Simulator) -> Result<(), AgentError> {
+        let grid = &sim.assets().grid;
+        let start = glam::Vec3::from_array(episode.start_position);
+        let level = grid
+            .snap(start)
+            .map(|s| grid.spans[s as usize].level)
+            .unwrap_or(0);
+        let map = frames::map(grid, level).map_err(|e| AgentError::External {
+            command: "human".into(),
+            message: format!("map of {}: {e}", episode.scene_id),
+        })?;
+        let path: Vec<[f32; 3]> = shortest_path(grid, episode)
+            .unwrap_or_default()
+            .iter()
+            .map(|p| p.to_array())
+            .collect();
+        let agent = sim.agent();
+        let ok = self.link.text(json!({
+            "type": "episode",
+            "episode_id": episode.episode_id,
+            "scene_id": episode.scene_id,
+            "task": episode.task.name(),
+            "instruction": instruction(episode),
+            "max_steps": episode.max_steps,
+            "success_radius": episode.success_radius,
+            "geodesic_distance": episode.geodesic_distance,
+            "start": episode.start_position,
+            "start_yaw": episode.start_yaw,
+            "goals": goal_positions(episode),
+            "path": path,
+            "dt": agent.dt,
+            "radius": agent.body.radius,
+            "map": {"size": map.size, "origin": map.origin, "pixels_per_metre": map.pixels_per_metre, "level": map.level},
+        }));
+        let key = (episode.scene_id.clone(), level);
+        let sent = if self.map.as_ref() == Some(&key) {
+            true
+        } else {
+            self.link.send(Update::Binary(frames::message(
+                KIND_MAP,
+                0,
+                map.size[0],
+                map.size[1],
+                &map.png,
+            )))
+        };
+        if !(ok && sent) {
+            return Err(gone());
+        }
+        self.map = Some(key);
+        self.episode = Some(episode.clone());
+        Ok(())
+    }
+
+    fn decide(&mut self, obs: &Observation, sim: &Simulator) -> Result<Decision, AgentError> {
+        let episode = self.episode.as_ref().ok_or(AgentError::NotReset("human"))?;
+        let state = sim.state();
+        let m = &obs.measurements;
+        let step = json!({
+            "type": "step",
+            "step": m.step,
+            "time": m.step as f32 * sim.agent().dt,
+            "position": state.position,
+            "yaw": state.yaw,
+            "tilt": state.tilt,
+            "euclidean": m.goal_euclidean,
+            "geodesic": m.goal_geodesic,
+            "collision": m.collision,
+            "at_goal": reached(sim, episode, &state),
+        });
+        if !self.link.text(step) {
+            return Err(gone());
+        }
+        let views = self.link.views.load(Ordering::Relaxed);
+        let cameras = &sim.sensor_suite().cameras;
+        for (i, ((_, image), cam)) in obs.images.iter().zip(cameras).enumerate() {
+            if i >= 32 || views & (1 << i) == 0 {
+                continue;
+            }
+            let Some(rgb) = display_rgb(cam.modality, image, cam.depth_range) else {
+                continue;
+            };
+            let [w, h] = cam.resolution;
+            let msg = frames::message(KIND_CAMERA, i as u8, w, h, &rgb);
+            if !self.link.send(Update::Binary(msg)) {
+                return Err(gone());
+            }
+        }
+        loop {
+            match self.link.wait() {
+                Some(Command::Act(d)) => return Ok(d),
+                // "Next" only means something between episodes.
+                Some(Command::Next(_)) => continue,
+                Some(Command::End) | None => return Err(gone()),
+            }
+        }
+    }
+
+    fn stops(&self) -> bool {
+        // As for the oracle and replays: success needs an explicit stop at the goal.
+        true
+    }
+}
+
+/// The episodes of a session: the one it started with, then what the page asks for.
+struct Source {
+    shared: Arc<Shared>,
+    link: Arc<Link>,
+    start: Option<Start>,
+    /// Index in the episode file after the last episode handed out.
+    cursor: usize,
+    /// Scene of free exploration.
+    scene: Option<String>,
+    /// Exploration episodes drawn.
+    explored: u32,
+    session_seed: u64,
+    /// Episodes finished.
+    played: usize,
+}
+
+impl Source {
+    fn episode_at(&mut self, i: usize) -> Episode {
+        self.cursor = i + 1;
+        self.shared.episodes[i].clone()
+    }
+
+    /// A new free-exploration episode of `scene`: a PointGoal episode drawn with the
+    /// session's seed, its id `<scene>:explore:<n>`.
+    fn explore(&mut self, scene: &str) -> Result<Episode, String> {
+        let n = self.explored;
+        self.explored += 1;
+        let seed = crate::seed::derive_seed(self.session_seed, &[scene, &n.to_string(), "explore"]);
+        let batch = sample_scenes(
+            &self.shared.data,
+            &[(scene.to_string(), String::new())],
+            &SampleConfig {
+                task: Task::PointGoal,
+                per_scene: 1,
+                seed,
+                max_steps: EXPLORE_STEPS,
+                ..Default::default()
+            },
+            BodyRule::strict(self.shared.body.body),
+            Shard::ALL,
+            &NoProgress,
+        );
+        let mut ep = batch
+            .episodes
+            .into_iter()
+            .next()
+            .ok_or_else(|| format!("scene {scene}: no start could be drawn (is it baked?)"))?;
+        ep.episode_id = format!("{scene}:explore:{n:05}");
+        Ok(ep)
+    }
+
+    fn error(&self, message: &str) {
+        self.link
+            .text(json!({"type": "error", "message": message, "fatal": false}));
+    }
+}
+
+impl EpisodeSource for Source {
+    fn next(&mut self) -> Option<Episode> {
+        if let Some(start) = self.start.take() {
+            match start {
+                Start::Episode(i) => return Some(self.episode_at(i)),
+                Start::Explore(scene) => {
+                    self.scene = Some(scene.clone());
+                    match self.explore(&scene) {
+                        Ok(e) => return Some(e),
+                        Err(m) => self.error(&m),
+                    }
+                }
+            }
+        }
+        loop {
+            match self.link.wait()? {
+                Command::Act(_) => continue,
+                Command::End => return None,
+                Command::Next(Some(id)) => {
+                    match self.shared.episodes.iter().position(|e| e.episode_id == id) {
+                        Some(i) => return Some(self.episode_at(i)),
+                        None => self.error(&format!("no episode `{id}` in the episode file")),
+                    }
+                }
+                Command::Next(None) => {
+                    if let Some(scene) = self.scene.clone() {
+                        match self.explore(&scene) {
+                            Ok(e) => return Some(e),
+                            Err(m) => self.error(&m),
+                        }
+                    } else if self.cursor < self.shared.episodes.len() {
+                        return Some(self.episode_at(self.cursor));
+                    } else {
+                        self.error("that was the last episode of the file");
+                    }
+                }
+            }
+        }
+    }
+
+    fn finished(&mut self, episode: &Episode, outcome: Result<&EpisodeMetrics, String>) {
+        let msg = match outcome {
+            Ok(m) => {
+                self.played += 1;
+                json!({"type": "done", "episode_id": episode.episode_id, "metrics": m,
+                       "played": self.played,
+                       "more": self.scene.is_some() || self.cursor < self.shared.episodes.len()})
+            }
+            Err(problem) => {
+                json!({"type": "error", "episode_id": episode.episode_id, "message": problem, "fatal": false})
+            }
+        };
+        self.link.text(msg);
+    }
+}

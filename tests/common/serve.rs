@@ -1,0 +1,135 @@
+//! A client of `minos serve` for the tests: raw HTTP/1.1 requests (so paths reach the server
+//! exactly as written) and the session WebSocket.
+
+use std::io::{Read, Write};
+use std::net::{SocketAddr, TcpStream};
+use std::time::Duration;
+
+use futures_util::{SinkExt, StreamExt};
+use minos::run::agents::Decision;
+use serde_json::Value;
+use tokio_tungstenite::tungstenite::Message;
+
+/// A session socket.
+pub type Ws =
+    tokio_tungstenite::WebSocketStream<tokio_tungstenite::MaybeTlsStream<tokio::net::TcpStream>>;
+
+/// Sends `method target` with `headers` and `body` on a fresh connection; returns the status
+/// and the body.
+pub fn http(
+    addr: SocketAddr,
+    method: &str,
+    target: &str,
+    headers: &[(&str, &str)],
+    body: Option<&str>,
+) -> (u16, String) {
+    let mut s = TcpStream::connect(addr).expect("connect");
+    s.set_read_timeout(Some(Duration::from_secs(30))).unwrap();
+    let mut req = format!("{method} {target} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n");
+    for (k, v) in headers {
+        req.push_str(&format!("{k}: {v}\r\n"));
+    }
+    let body = body.unwrap_or("");
+    if !body.is_empty() {
+        req.push_str(&format!(
+            "Content-Type: application/json\r\nContent-Length: {}\r\n",
+            body.len()
+        ));
+    }
+    req.push_str("\r\n");
+    req.push_str(body);
+    s.write_all(req.as_bytes()).expect("send");
+    let mut out = Vec::new();
+    let _ = s.read_to_end(&mut out);
+    let text = String::from_utf8_lossy(&out).to_string();
+    let status = text
+        .split_whitespace()
+        .nth(1)
+        .and_then(|c| c.parse().ok())
+        .unwrap_or(0);
+    let body = text
+        .split_once("\r\n\r\n")
+        .map(|(_, b)| b.to_string())
+        .unwrap_or_default();
+    (status, body)
+}
+
+/// Creates a session with `body` (JSON); returns its token and name.
+pub fn create(addr: SocketAddr, body: &str, headers: &[(&str, &str)]) -> (String, String) {
+    let (status, reply) = http(addr, "POST", "/api/sessions", headers, Some(body));
+    assert_eq!(status, 201, "{reply}");
+    let v: Value = serde_json::from_str(&reply).expect("JSON reply");
+    (
+        v["token"].as_str().expect("token").to_string(),
+        v["name"].as_str().expect("name").to_string(),
+    )
+}
+
+/// Connects the WebSocket of session `token`.
+pub async fn connect(addr: SocketAddr, token: &str, query: &str) -> Ws {
+    let url = format!("ws://{addr}/api/sessions/{token}/ws{query}");
+    tokio_tungstenite::connect_async(url)
+        .await
+        .expect("websocket")
+        .0
+}
+
+/// A message of the server.
+#[derive(Debug)]
+pub enum Msg {
+    /// JSON.
+    Json(Value),
+    /// A binary message: kind, index, width, height, payload length.
+    Binary(u8, u8, u16, u16, usize),
+}
+
+/// The next message (`None` when the socket closed); fails the test after 60 s.
+pub async fn recv(ws: &mut Ws) -> Option<Msg> {
+    loop {
+        let m = tokio::time::timeout(Duration::from_secs(60), ws.next())
+            .await
+            .expect("a message within 60 s");
+        match m {
+            None | Some(Err(_)) | Some(Ok(Message::Close(_))) => return None,
+            Some(Ok(Message::Text(t))) => {
+                return Some(Msg::Json(serde_json::from_str(t.as_str()).expect("JSON")))
+            }
+            Some(Ok(Message::Binary(b))) => {
+                let u16_at = |i: usize| u16::from_le_bytes([b[i], b[i + 1]]);
+                return Some(Msg::Binary(b[0], b[1], u16_at(2), u16_at(4), b.len() - 8));
+            }
+            Some(Ok(_)) => continue,
+        }
+    }
+}
+
+/// Sends a JSON command.
+pub async fn send(ws: &mut Ws, json: &str) {
+    ws.send(Message::Text(json.to_string().into()))
+        .await
+        .expect("send");
+}
+
+/// Plays the current episode with `decisions` (one per step, after each step's colour frame)
+/// and returns the `done` message.
+pub async fn play(ws: &mut Ws, decisions: &[Decision]) -> Value {
+    let mut next = 0;
+    let mut stepped = false;
+    loop {
+        match recv(ws).await.expect("the session goes on") {
+            Msg::Json(v) => match v["type"].as_str() {
+                Some("step") => stepped = true,
+                Some("done") => return v,
+                Some("error") => panic!("server error: {v}"),
+                _ => {}
+            },
+            Msg::Binary(1, 0, ..) if stepped => {
+                stepped = false;
+                let d = decisions.get(next).copied().unwrap_or(Decision::Stop);
+                next += 1;
+                send(ws, &format!(r#"{{"action":"{}"}}"#, d.name())).await;
+            }
+            Msg::Binary(..) => {}
+        }
+    }
+}

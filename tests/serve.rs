@@ -1,0 +1,547 @@
+//! `minos serve` without a browser: a session driven over its WebSocket records exactly what
+//! `minos run` writes (the oracle's actions sent as key presses give the oracle's tables, and
+//! replaying the session gives the session's), sessions are isolated, tokens and the access
+//! token are enforced, no request reaches a file outside DATA and the output folder, a
+//! vanished or idle page frees its simulator, and a server killed mid-episode leaves the
+//! finished episodes complete.
+
+mod common;
+
+use std::collections::HashMap;
+use std::net::SocketAddr;
+use std::path::Path;
+use std::sync::OnceLock;
+use std::time::{Duration, Instant};
+
+use common::serve::{connect, create, http, play, recv, send, Msg};
+use common::{baked_houses, every_task_episodes, minos};
+use minos::body::AgentPreset;
+use minos::episode::format::read_episodes;
+use minos::episode::Episode;
+use minos::generate::GenerateConfig;
+use minos::io::tables::{read_replay, ImageEncoding};
+use minos::pipeline::rollout::{run, AgentKind, Provenance, RunConfig, PLAYED};
+use minos::progress::NoProgress;
+use minos::run::agents::Decision;
+use minos::run::metrics::Reward;
+use minos::serve::{start, Running, ServeConfig, Shared};
+use minos::shard::Shard;
+use minos::sim::{AgentConfig, RendererChoice, SensorSuite};
+use minos::store::DataDir;
+
+/// Files a run writes that must match byte for byte (the manifest names the agent).
+const TABLES: [&str; 4] = [
+    "trajectories.parquet",
+    "observations.parquet",
+    "episodes.parquet",
+    "metrics.json",
+];
+
+struct Fixture {
+    dir: tempfile::TempDir,
+    data: DataDir,
+    episodes: Vec<Episode>,
+    /// The oracle's decisions per episode (from its own run, in `dir/oracle`).
+    oracle: HashMap<String, Vec<Decision>>,
+}
+
+fn sensors() -> SensorSuite {
+    SensorSuite::minos(32)
+}
+
+fn run_config(data: &DataDir, out: &Path, agent: AgentKind) -> RunConfig {
+    RunConfig {
+        data: data.clone(),
+        out: out.to_path_buf(),
+        agent,
+        body: AgentConfig::habitat(),
+        sensors: sensors(),
+        renderer: RendererChoice::Cpu,
+        max_steps: None,
+        seed: 0,
+        shard: Shard::ALL,
+        resume: false,
+        reward: Reward::DistTime,
+        encoding: ImageEncoding::Raw,
+        lerobot: false,
+        rerun: None,
+        allow_body_mismatch: false,
+        provenance: Provenance::default(),
+    }
+}
+
+/// One generated house, baked; one episode of each task on it; the oracle run over them.
+fn fixture() -> &'static Fixture {
+    static F: OnceLock<Fixture> = OnceLock::new();
+    F.get_or_init(|| {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let (data, ids) = baked_houses(
+            dir.path(),
+            &GenerateConfig {
+                houses: 1,
+                seed: 5,
+                rooms: (3, 4),
+                levels: (1, 1),
+                closed_door_prob: 0.0,
+            },
+        );
+        let scenes: Vec<(String, String)> = ids.into_iter().map(|id| (id, "val".into())).collect();
+        let episodes = every_task_episodes(&data, &scenes, 1, 3);
+        assert_eq!(episodes.len(), 3, "one episode per task");
+        let out = dir.path().join("oracle");
+        let report = run(
+            &run_config(&data, &out, AgentKind::Oracle),
+            &episodes,
+            &NoProgress,
+        )
+        .expect("oracle run");
+        assert!(report.failures.is_empty(), "{:?}", report.failures);
+        let oracle = read_replay(&out.join("trajectories.parquet")).expect("oracle steps");
+        Fixture {
+            dir,
+            data,
+            episodes,
+            oracle,
+        }
+    })
+}
+
+fn shared(f: &Fixture, out: &Path, idle: Duration) -> Shared {
+    Shared {
+        data: f.data.clone(),
+        episodes: f.episodes.clone(),
+        episodes_file: None,
+        scenes: f.data.ingested_ids().expect("ids"),
+        out: out.to_path_buf(),
+        preset: AgentPreset::Habitat,
+        body: AgentConfig::habitat(),
+        sensors: sensors(),
+        renderer: RendererChoice::Cpu,
+        reward: Reward::DistTime,
+        encoding: ImageEncoding::Raw,
+        seed: 0,
+        idle,
+        command: vec!["minos".into(), "serve".into()],
+    }
+}
+
+fn server(f: &Fixture, out: &Path, access: Option<&str>, idle: Duration) -> Running {
+    start(
+        ServeConfig {
+            shared: shared(f, out, idle),
+            access_token: access.map(str::to_string),
+            max_sessions: 4,
+            connect_timeout: Duration::from_millis(800),
+            send_timeout: Duration::from_secs(5),
+        },
+        "127.0.0.1:0".parse().unwrap(),
+    )
+    .expect("server starts")
+}
+
+fn runtime() -> tokio::runtime::Runtime {
+    tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .expect("runtime")
+}
+
+/// Waits up to 20 s for `running` to hold `n` sessions.
+fn sessions_become(running: &Running, n: usize) {
+    let t = Instant::now();
+    while running.sessions() != n {
+        assert!(
+            t.elapsed() < Duration::from_secs(20),
+            "{} sessions, not {n}",
+            running.sessions()
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+fn bytes(path: &Path) -> Vec<u8> {
+    std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+#[test]
+fn a_session_records_what_minos_run_writes_and_replays_byte_for_byte() {
+    let f = fixture();
+    let out = f.dir.path().join("demos-replay");
+    let running = server(f, &out, None, Duration::from_secs(60));
+    let addr = running.addr;
+    let (token, name) = create(addr, r#"{"episode":null}"#, &[]);
+    // A second session at the same time: its own simulator and counters.
+    let (other, other_name) = create(
+        addr,
+        &format!(r#"{{"episode":"{}"}}"#, f.episodes[0].episode_id),
+        &[],
+    );
+    assert_ne!(name, other_name);
+    runtime().block_on(async {
+        let mut ws = connect(addr, &token, "").await;
+        let mut bystander = connect(addr, &other, "").await;
+        send(&mut bystander, r#"{"action":"turn_left"}"#).await;
+        // Every episode of the file, in file order, with the oracle's actions as key presses.
+        for (i, ep) in f.episodes.iter().enumerate() {
+            if i > 0 {
+                send(&mut ws, r#"{"next":null}"#).await;
+            }
+            let done = play(&mut ws, &f.oracle[&ep.episode_id]).await;
+            assert_eq!(done["episode_id"], ep.episode_id.as_str());
+            assert_eq!(done["metrics"]["success"], true, "{done}");
+            assert_eq!(done["played"], i + 1);
+        }
+        // The bystander's first step is still step 0 plus its one turn: untouched.
+        let mut steps = Vec::new();
+        while steps.len() < 2 {
+            if let Some(Msg::Json(v)) = recv(&mut bystander).await {
+                if v["type"] == "step" {
+                    steps.push(v["step"].as_u64().expect("step"));
+                }
+            }
+        }
+        assert_eq!(steps, vec![0, 1]);
+        send(&mut ws, r#"{"end":true}"#).await;
+        send(&mut bystander, r#"{"end":true}"#).await;
+        while recv(&mut ws).await.is_some() {}
+    });
+    sessions_become(&running, 0);
+    let session = out.join(&name);
+    // The oracle's key presses gave the oracle's tables.
+    for file in TABLES {
+        assert!(
+            bytes(&session.join(file)) == bytes(&f.dir.path().join("oracle").join(file)),
+            "{file} differs from the oracle run's"
+        );
+    }
+    let manifest: serde_json::Value =
+        serde_json::from_slice(&bytes(&session.join("manifest.json"))).expect("manifest");
+    assert_eq!(manifest["agent"], format!("human:{name}").as_str());
+    assert!(
+        !session.join(".parts").exists(),
+        "parts are removed at the end"
+    );
+    // The bystander ended mid-episode: nothing finished, nothing written as a table.
+    assert!(!out.join(&other_name).join("trajectories.parquet").exists());
+    // `minos run --agent replay:` over the session's played episodes gives the same bytes.
+    let played = read_episodes(&session.join(PLAYED)).expect("played episodes");
+    assert_eq!(played, f.episodes);
+    let replay_dir = f.dir.path().join("replay");
+    let steps = read_replay(&session.join("trajectories.parquet")).expect("session steps");
+    run(
+        &run_config(&f.data, &replay_dir, AgentKind::Replay(steps)),
+        &played,
+        &NoProgress,
+    )
+    .expect("replay run");
+    for file in TABLES {
+        assert!(
+            bytes(&session.join(file)) == bytes(&replay_dir.join(file)),
+            "{file}: replay differs"
+        );
+    }
+    // And the LeRobot export takes it as it is.
+    minos::io::lerobot::write_dataset(
+        &minos::io::lerobot::RunTables::in_dir(&session),
+        &f.dir.path().join("lerobot"),
+        &minos::io::lerobot::DatasetOptions {
+            fps: 10,
+            robot_type: "human".into(),
+        },
+        &NoProgress,
+    )
+    .expect("LeRobot export of a session");
+    running.stop();
+}
+
+#[test]
+fn tokens_access_and_origins_are_enforced() {
+    let f = fixture();
+    let out = f.dir.path().join("demos-tokens");
+    let running = server(f, &out, Some("s3cret"), Duration::from_secs(60));
+    let a = running.addr;
+    let host = a.to_string();
+    assert_eq!(http(a, "GET", "/", &[], None).0, 401);
+    assert_eq!(http(a, "GET", "/?access=s3cre", &[], None).0, 401);
+    assert_eq!(
+        http(a, "GET", "/api/info", &[("x-minos-access", "nope")], None).0,
+        401
+    );
+    let (status, page) = http(a, "GET", "/?access=s3cret", &[], None);
+    assert_eq!(status, 200);
+    assert!(
+        page.contains("<canvas") && page.contains("api/sessions"),
+        "the page, inlined"
+    );
+    assert!(
+        !page.contains("http://") && !page.contains("https://"),
+        "nothing from elsewhere"
+    );
+    let auth = [("x-minos-access", "s3cret")];
+    let (status, info) = http(a, "GET", "/api/info", &auth, None);
+    assert_eq!(status, 200);
+    let info: serde_json::Value = serde_json::from_str(&info).unwrap();
+    assert_eq!(info["episodes"].as_array().unwrap().len(), 3);
+    assert_eq!(info["preset"], "habitat");
+    // Another origin cannot create sessions.
+    let evil = [
+        ("x-minos-access", "s3cret"),
+        ("Origin", "http://evil.example"),
+    ];
+    assert_eq!(http(a, "POST", "/api/sessions", &evil, Some("{}")).0, 403);
+    let same = format!("http://{host}");
+    let ok = [("x-minos-access", "s3cret"), ("Origin", same.as_str())];
+    let (token, _) = create(a, "{}", &ok);
+    assert_eq!(token.len(), 64);
+    runtime().block_on(async {
+        // Without the access token, the socket is refused; a made-up token is unknown.
+        let url = format!("ws://{a}/api/sessions/{token}/ws");
+        assert!(tokio_tungstenite::connect_async(url).await.is_err());
+        let fake = "0".repeat(64);
+        let url = format!("ws://{a}/api/sessions/{fake}/ws?access=s3cret");
+        assert!(tokio_tungstenite::connect_async(url).await.is_err());
+        let mut ws = connect(a, &token, "?access=s3cret").await;
+        match recv(&mut ws).await {
+            Some(Msg::Json(v)) => assert_eq!(v["type"], "episode"),
+            other => panic!("{other:?}"),
+        }
+        // One socket per session.
+        let url = format!("ws://{a}/api/sessions/{token}/ws?access=s3cret");
+        assert!(tokio_tungstenite::connect_async(url).await.is_err());
+        send(&mut ws, r#"{"action":"fly"}"#).await;
+        loop {
+            if let Some(Msg::Json(v)) = recv(&mut ws).await {
+                if v["type"] == "error" {
+                    assert!(v["message"].as_str().unwrap().contains("fly"), "{v}");
+                    break;
+                }
+            }
+        }
+        // Too many sessions: the fifth is refused (4 at most; this one is live).
+        for _ in 0..3 {
+            create(a, "{}", &auth);
+        }
+        assert_eq!(http(a, "POST", "/api/sessions", &auth, Some("{}")).0, 503);
+        // Sessions whose socket never connects are dropped; this one goes on.
+        sessions_become(&running, 1);
+    });
+    // Its socket closed with the runtime: it ends too.
+    sessions_become(&running, 0);
+    running.stop();
+}
+
+#[test]
+fn no_request_reaches_outside_data_and_the_output_folder() {
+    let f = fixture();
+    let root = tempfile::tempdir().unwrap();
+    // A copy of the DATA folder whose one scene file is a link to a file outside it.
+    let data = root.path().join("DATA");
+    copy_tree(f.data.root(), &data);
+    let id = f.data.ingested_ids().unwrap()[0].clone();
+    let scene_file = DataDir::new(&data).scene_path(&id);
+    let outside = root.path().join("outside.mscene");
+    std::fs::rename(&scene_file, &outside).unwrap();
+    std::os::unix::fs::symlink(&outside, &scene_file).unwrap();
+    let secret = root.path().join("secret.txt");
+    std::fs::write(&secret, "TOP-SECRET").unwrap();
+    let out = root.path().join("demos");
+    let mut s = shared(f, &out, Duration::from_secs(60));
+    s.data = DataDir::new(&data);
+    let running = start(
+        ServeConfig {
+            shared: s,
+            access_token: None,
+            max_sessions: 4,
+            connect_timeout: Duration::from_secs(5),
+            send_timeout: Duration::from_secs(5),
+        },
+        "127.0.0.1:0".parse().unwrap(),
+    )
+    .unwrap();
+    let a = running.addr;
+    let secret_s = secret.display().to_string();
+    let enc = secret_s.replace('/', "%2f");
+    let targets = [
+        "/../secret.txt".to_string(),
+        "/../../../../../../etc/passwd".into(),
+        "/%2e%2e/%2e%2e/etc/passwd".into(),
+        "/..%2f..%2f..%2fetc%2fpasswd".into(),
+        format!("/{enc}"),
+        format!("/{secret_s}"),
+        "//etc/passwd".into(),
+        "/api/../../etc/passwd".into(),
+        "/api/sessions/..%2f..%2fetc%2fpasswd/ws".into(),
+        "/api/sessions/../../../etc/passwd/ws".into(),
+        "/api/info/../../secret.txt".into(),
+        "/%252e%252e/secret.txt".into(),
+    ];
+    for t in &targets {
+        let (status, body) = http(a, "GET", t, &[], None);
+        assert!(status == 404 || status == 400, "{t}: {status}");
+        assert!(
+            !body.contains("TOP-SECRET") && !body.contains("root:"),
+            "{t}"
+        );
+    }
+    for body in [
+        r#"{"scene":"../../secret"}"#.to_string(),
+        r#"{"scene":"/etc/passwd"}"#.into(),
+        format!(r#"{{"scene":"{}"}}"#, secret_s),
+        r#"{"scene":"..%2f..%2fsecret"}"#.into(),
+        r#"{"episode":"../../secret"}"#.into(),
+        r#"{"out":"/tmp/x"}"#.into(),
+    ] {
+        let (status, reply) = http(a, "POST", "/api/sessions", &[], Some(&body));
+        assert!(
+            status == 404 || status == 400 || status == 422,
+            "{body}: {status} {reply}"
+        );
+    }
+    // The scene whose file links out of DATA is refused, naming the file.
+    let (status, reply) = http(
+        a,
+        "POST",
+        "/api/sessions",
+        &[],
+        Some(&format!(r#"{{"scene":"{id}"}}"#)),
+    );
+    assert_eq!(status, 403, "{reply}");
+    assert!(reply.contains("outside the DATA folder"), "{reply}");
+    running.stop();
+    // Nothing was written beside DATA and the output folder.
+    let mut names: Vec<String> = std::fs::read_dir(root.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().to_string())
+        .collect();
+    names.sort();
+    assert_eq!(names, ["DATA", "demos", "outside.mscene", "secret.txt"]);
+    assert_eq!(
+        std::fs::read_dir(&out).unwrap().count(),
+        0,
+        "no session folder"
+    );
+}
+
+fn copy_tree(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for e in std::fs::read_dir(from).unwrap() {
+        let e = e.unwrap();
+        let target = to.join(e.file_name());
+        if e.file_type().unwrap().is_dir() {
+            copy_tree(&e.path(), &target);
+        } else {
+            std::fs::copy(e.path(), target).unwrap();
+        }
+    }
+}
+
+#[test]
+fn a_vanished_or_idle_page_frees_its_simulator() {
+    let f = fixture();
+    let out = f.dir.path().join("demos-vanish");
+    let running = server(f, &out, None, Duration::from_secs(1));
+    let a = running.addr;
+    // Vanished: the socket's connection is dropped without a close.
+    let (token, _) = create(a, "{}", &[]);
+    runtime().block_on(async {
+        let mut ws = connect(a, &token, "").await;
+        while !matches!(recv(&mut ws).await, Some(Msg::Binary(1, ..))) {}
+        drop(ws);
+    });
+    sessions_become(&running, 0);
+    // Idle: connected, never presses a key; the session ends and says so.
+    let (token, name) = create(a, "{}", &[]);
+    let t = Instant::now();
+    runtime().block_on(async {
+        let mut ws = connect(a, &token, "").await;
+        let mut ended = false;
+        while let Some(m) = recv(&mut ws).await {
+            if let Msg::Json(v) = m {
+                ended |= v["type"] == "end" && v["episodes"] == 0 && v["session"] == name.as_str();
+            }
+        }
+        assert!(ended, "the page hears that the session ended");
+    });
+    assert!(t.elapsed() < Duration::from_secs(15));
+    sessions_become(&running, 0);
+    // Never connected: dropped after the connect timeout.
+    create(a, "{}", &[]);
+    assert_eq!(running.sessions(), 1);
+    sessions_become(&running, 0);
+    running.stop();
+}
+
+#[test]
+fn a_server_killed_mid_episode_leaves_the_finished_episodes_whole() {
+    use std::io::BufRead;
+    let f = fixture();
+    let out = f.dir.path().join("demos-killed");
+    let episodes = f.dir.path().join("episodes.parquet");
+    minos::episode::format::write_episodes(&episodes, &f.episodes).unwrap();
+    let mut child = minos()
+        .args(["serve", "--bind", "127.0.0.1:0", "--size", "32", "--data"])
+        .arg(f.data.root())
+        .arg("--episodes")
+        .arg(&episodes)
+        .arg("--out")
+        .arg(&out)
+        .stdout(std::process::Stdio::piped())
+        .spawn()
+        .expect("minos serve starts");
+    let mut lines = std::io::BufReader::new(child.stdout.take().unwrap()).lines();
+    let addr: SocketAddr = loop {
+        let line = lines.next().expect("a line").expect("text");
+        if let Some(rest) = line.trim().strip_prefix("open http://") {
+            break rest.split('/').next().unwrap().parse().expect("address");
+        }
+    };
+    let (token, name) = create(addr, "{}", &[]);
+    let first = &f.episodes[0];
+    runtime().block_on(async {
+        let mut ws = connect(addr, &token, "").await;
+        let done = play(&mut ws, &f.oracle[&first.episode_id]).await;
+        assert_eq!(done["metrics"]["success"], true);
+        send(&mut ws, r#"{"next":null}"#).await;
+        // A few steps into the second episode, then the server dies.
+        let mut steps = 0;
+        while steps < 3 {
+            if let Some(Msg::Binary(1, ..)) = recv(&mut ws).await {
+                steps += 1;
+                send(&mut ws, r#"{"action":"turn_left"}"#).await;
+            }
+        }
+        child.kill().expect("kill -9");
+        child.wait().unwrap();
+    });
+    let session = out.join(&name);
+    // Exactly the finished episode, in whole files.
+    let steps = read_replay(&session.join("trajectories.parquet")).expect("readable table");
+    assert_eq!(steps.keys().collect::<Vec<_>>(), vec![&first.episode_id]);
+    assert_eq!(
+        read_episodes(&session.join(PLAYED)).unwrap(),
+        vec![first.clone()]
+    );
+    for file in TABLES {
+        assert!(session.join(file).is_file(), "{file}");
+    }
+    let stray: Vec<String> = std::fs::read_dir(&session)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().to_string())
+        .filter(|n| n.contains(".tmp-"))
+        .collect();
+    assert!(stray.is_empty(), "{stray:?}");
+    // Its replay gives the same tables.
+    let replay_dir = f.dir.path().join("replay-killed");
+    run(
+        &run_config(&f.data, &replay_dir, AgentKind::Replay(steps)),
+        std::slice::from_ref(first),
+        &NoProgress,
+    )
+    .unwrap();
+    for file in TABLES {
+        assert!(
+            bytes(&session.join(file)) == bytes(&replay_dir.join(file)),
+            "{file}"
+        );
+    }
+}
