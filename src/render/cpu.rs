@@ -47,8 +47,13 @@ pub enum Method {
 impl Method {
     /// The faster method for this scene and image size.
     pub fn choose(scene: &RenderScene, camera: &Camera) -> Method {
-        let pixels = camera.width as f32 * camera.height as f32;
-        if scene.triangle_count() as f32 >= RAYCAST_TRIANGLES_PER_PIXEL * pixels {
+        Method::for_size(scene.triangle_count(), camera.width, camera.height)
+    }
+
+    /// The faster method for a scene of `triangles` at `width` × `height` pixels.
+    pub fn for_size(triangles: usize, width: u32, height: u32) -> Method {
+        let pixels = width as f32 * height as f32;
+        if triangles as f32 >= RAYCAST_TRIANGLES_PER_PIXEL * pixels {
             Method::RayCast
         } else {
             Method::Rasterise

@@ -12,6 +12,7 @@ use crate::navmesh::path::{path_from_field, PathResult};
 use crate::navmesh::NavGrid;
 use crate::render::gpu::GpuError;
 pub use crate::render::renderer::{Renderer, RendererChoice};
+use crate::render::cpu::Method;
 use crate::render::{Camera, RenderScene};
 use crate::scene::Scene;
 use crate::seed::{derive_seed, Rng};
@@ -174,6 +175,15 @@ impl Simulator {
         max_steps: u32,
         seed: u64,
     ) -> Self {
+        // A scene the CPU renderer will ray cast gets its BVH now (seconds for millions of
+        // triangles), so set-up pays for it and the first observation does not.
+        let ray_cast = |c: &crate::sim::sensors::CameraSensor| {
+            let [w, h] = c.resolution;
+            Method::for_size(assets.render.triangle_count(), w, h) == Method::RayCast
+        };
+        if matches!(*renderer, Renderer::Cpu) && sensors.cameras.iter().any(ray_cast) {
+            let _ = assets.render.bvh();
+        }
         Simulator {
             assets,
             renderer,
