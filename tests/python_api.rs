@@ -33,7 +33,19 @@ fn target_dir() -> PathBuf {
         .map_or_else(|| root().join("target"), Path::to_path_buf)
 }
 
+/// Runs `cmd` in the repository root without the variables `cargo test` sets for this test
+/// (`CARGO_MANIFEST_DIR`, `CARGO_PKG_*`, …): build scripts of dependencies track some of them,
+/// so the extension's cargo build would otherwise see changed inputs and rebuild them.
 fn run(cmd: &mut Command) -> std::io::Result<Output> {
+    for (name, _) in std::env::vars_os() {
+        let name = name.to_string_lossy();
+        if (name == "CARGO" || name.starts_with("CARGO_") || name == "OUT_DIR")
+            && name != "CARGO_HOME"
+            && name != "CARGO_TARGET_DIR"
+        {
+            cmd.env_remove(name.as_ref());
+        }
+    }
     cmd.current_dir(root()).output()
 }
 
@@ -94,6 +106,14 @@ fn venv() -> Result<PathBuf, String> {
     Ok(python)
 }
 
+/// `PATH` with the environment's `bin/` first (pip runs the `maturin` found there).
+fn path_with(python: &Path) -> std::ffi::OsString {
+    let bin = python.parent().map(Path::to_path_buf).unwrap_or_default();
+    let rest = std::env::var_os("PATH").unwrap_or_default();
+    std::env::join_paths(std::iter::once(bin).chain(std::env::split_paths(&rest)))
+        .unwrap_or(rest)
+}
+
 #[test]
 fn the_python_package_builds_and_its_tests_pass() {
     let python = match venv() {
@@ -116,7 +136,8 @@ fn the_python_package_builds_and_its_tests_pass() {
             "--force-reinstall",
             "./python",
         ])
-        .env("CARGO_TARGET_DIR", target_dir()))
+        .env("CARGO_TARGET_DIR", target_dir())
+        .env("PATH", path_with(&python)))
     .expect("pip runs");
     assert!(
         o.status.success(),
