@@ -110,8 +110,7 @@ fn venv() -> Result<PathBuf, String> {
 fn path_with(python: &Path) -> std::ffi::OsString {
     let bin = python.parent().map(Path::to_path_buf).unwrap_or_default();
     let rest = std::env::var_os("PATH").unwrap_or_default();
-    std::env::join_paths(std::iter::once(bin).chain(std::env::split_paths(&rest)))
-        .unwrap_or(rest)
+    std::env::join_paths(std::iter::once(bin).chain(std::env::split_paths(&rest))).unwrap_or(rest)
 }
 
 #[test]
