@@ -278,6 +278,7 @@ impl Simulator {
     /// `reset(episode)` with an `Episode` of `minos.read_episodes`, or `reset(start=(x, y, z),
     /// yaw=0.0, goal=(x, y, z) or None, success_radius=0.2, episode_id="")`.
     #[pyo3(signature = (episode = None, *, start = None, yaw = 0.0, goal = None, success_radius = 0.2, episode_id = ""))]
+    #[allow(clippy::too_many_arguments)]
     fn reset<'py>(
         &mut self,
         py: Python<'py>,
