@@ -140,3 +140,28 @@ def test_unknown_presets_and_scenes_are_errors(world):
         minos.Simulator(world.data, ep.scene_id, agent="minos")
     assert "rebake" in str(e.value) or "bake" in str(e.value)
     minos.Simulator(world.data, ep.scene_id, agent="minos", allow_body_mismatch=True)
+
+
+def test_variants_like_the_cli(world, minos_bin):
+    from conftest import cli
+
+    cli(minos_bin, "variants", "--data", world.data, "--name", "empty", "--empty")
+    baked = minos.bake(world.data, variant="empty", previews=False)
+    assert baked["failed"] == {} and baked["baked"] == 2
+    ep = world.episodes[0]
+    full = minos.Simulator(world.data, ep.scene_id, sensors="all", size=48)
+    empty = minos.Simulator(world.data, f"{ep.scene_id}@empty", sensors="all", size=48)
+    assert empty.scene_id == f"{ep.scene_id}@empty"
+    seen_full, seen_empty = set(), set()
+    for yaw in np.linspace(0, 2 * np.pi, 8, endpoint=False):
+        seen_full |= set(np.unique(full.reset(start=ep.start_position, yaw=yaw)["instance"]))
+        seen_empty |= set(np.unique(empty.reset(start=ep.start_position, yaw=yaw)["instance"]))
+    # The empty house keeps walls and floors (no instance) but shows fewer objects.
+    assert len(seen_empty) < len(seen_full)
+    env_eps = [e.on_variant("empty") for e in world.episodes[:2]]
+    assert all(e.scene_id.endswith("@empty") for e in env_eps)
+    from minos.gym import NavEnv
+
+    env = NavEnv(data=world.data, episodes=world.point, variant="empty", size=8)
+    env.reset()
+    assert env.episode.scene_id.endswith("@empty")
