@@ -323,3 +323,59 @@ fn the_floor_plan_has_no_cycle() {
         }
     }
 }
+
+/// The Python bindings (python/src/, crate `minos-python`) are a front door like the CLI:
+/// they stand above every floor. The library never refers to them or to PyO3, and the
+/// bindings reach the library only through its public modules (`minos::<module>`).
+#[test]
+fn the_python_bindings_stand_above_the_library() {
+    let here = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut lib = Vec::new();
+    rust_files(&here.join("src"), &mut lib);
+    for file in &lib {
+        let text = std::fs::read_to_string(file).expect("readable source");
+        let code: String = text.lines().map(code_of).collect::<Vec<_>>().join("\n");
+        for word in ["pyo3", "numpy::", "minos_python"] {
+            assert!(
+                !code.contains(word),
+                "{}: the library refers to `{word}`",
+                file.display()
+            );
+        }
+    }
+    let mut bindings = Vec::new();
+    rust_files(&here.join("python/src"), &mut bindings);
+    assert!(!bindings.is_empty(), "python/src holds the bindings");
+    let modules: BTreeSet<&str> = FLOORS.iter().map(|(m, _)| *m).collect();
+    for file in &bindings {
+        let text = std::fs::read_to_string(file).expect("readable source");
+        let code: String = text.lines().map(code_of).collect::<Vec<_>>().join("\n");
+        for (at, _) in code.match_indices("minos::") {
+            if code[..at]
+                .chars()
+                .last()
+                .is_some_and(|c| c.is_ascii_alphanumeric() || c == '_')
+            {
+                continue;
+            }
+            let rest = &code[at + "minos::".len()..];
+            let names: Vec<String> = match rest.strip_prefix('{') {
+                Some(group) => group
+                    .split('}')
+                    .next()
+                    .unwrap_or("")
+                    .split(',')
+                    .map(|s| ident_at(s.trim()))
+                    .collect(),
+                None => vec![ident_at(rest)],
+            };
+            for m in names.iter().filter(|m| !m.is_empty()) {
+                assert!(
+                    modules.contains(m.as_str()),
+                    "{}: `minos::{m}` is not a module of the library",
+                    file.display()
+                );
+            }
+        }
+    }
+}

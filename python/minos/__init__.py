@@ -1,0 +1,56 @@
+"""minos in Python: the simulator, path queries, Gymnasium environments and the dataset
+pipeline of minos, in-process (bindings of the Rust library, built with PyO3 + maturin).
+
+    import minos
+    minos.generate("gen", houses=2, seed=1)
+    minos.ingest("gen", "DATA")
+    minos.bake("DATA")
+    minos.sample_episodes("DATA", "pointgoal", "eps.parquet", per_scene=5)
+    sim = minos.Simulator("DATA", minos.read_episodes("eps.parquet")[0].scene_id)
+
+Errors raise :class:`MinosError` with the one-line message the command line prints. See
+docs/PYTHON.md.
+"""
+
+from ._minos import (
+    Episode,
+    MinosError,
+    PathFinder,
+    Simulator,
+    __version__,
+    bake,
+    generate,
+    ingest,
+    read_episodes,
+    run,
+    sample_episodes,
+)
+
+
+class GreedyFollower:
+    """Habitat's ``GreedyFollower``: the next action towards the simulator's goal, from the
+    oracle (it plans over the agent's reachable states with the simulator's own motion, so
+    it never gets stuck on a reachable goal). ``next_action()`` returns an action name, or
+    ``"stop"`` once the success test holds."""
+
+    def __init__(self, sim: Simulator):
+        self.sim = sim
+
+    def next_action(self) -> str:
+        return self.sim.oracle_action()
+
+
+__all__ = [
+    "Episode",
+    "GreedyFollower",
+    "MinosError",
+    "PathFinder",
+    "Simulator",
+    "__version__",
+    "bake",
+    "generate",
+    "ingest",
+    "read_episodes",
+    "run",
+    "sample_episodes",
+]

@@ -1,0 +1,189 @@
+//! Translations shared by every binding: errors as `MinosError` with the CLI's one-line
+//! message, points, agent presets, renderers, sensor suites, thread pools, and the progress
+//! sink that forwards to a Python callback or a tqdm bar.
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use anyhow::Context as _;
+use glam::Vec3;
+use numpy::PyReadonlyArray1;
+use pyo3::prelude::*;
+use pyo3::types::PyString;
+
+use minos::body::AgentPreset;
+use minos::progress::Progress;
+use minos::render::RendererChoice;
+use minos::shard::{Shard, ShardSpec};
+use minos::sim::SensorSuite;
+
+use crate::MinosError;
+
+/// The error and its causes on one line, skipping causes whose text the line already holds:
+/// exactly what `minos` prints after `error: `.
+pub fn one_line(e: &anyhow::Error) -> String {
+    let mut line = e.to_string();
+    for cause in e.chain().skip(1) {
+        let text = cause.to_string();
+        if !line.contains(&text) {
+            line.push_str(": ");
+            line.push_str(&text);
+        }
+    }
+    line.replace('\n', " ")
+}
+
+/// An anyhow error as a `MinosError`.
+pub fn py_err(e: anyhow::Error) -> PyErr {
+    MinosError::new_err(one_line(&e))
+}
+
+/// Any displayable error as a `MinosError`.
+pub fn msg_err(e: impl std::fmt::Display) -> PyErr {
+    MinosError::new_err(e.to_string().replace('\n', " "))
+}
+
+/// A point `(x, y, z)` from any sequence of three numbers (tuple, list, NumPy array).
+pub fn point(obj: &Bound<'_, PyAny>) -> PyResult<Vec3> {
+    let v: Vec<f32> = if let Ok(a) = obj.extract::<PyReadonlyArray1<'_, f32>>() {
+        a.as_slice()?.to_vec()
+    } else {
+        obj.extract()?
+    };
+    match v[..] {
+        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok(Vec3::new(x, y, z)),
+        _ => Err(pyo3::exceptions::PyValueError::new_err(
+            "expected a point: three finite numbers (x, y, z)",
+        )),
+    }
+}
+
+/// An agent preset by name (`habitat`, `minos`/`minos-continuous`, `minos-gridworld`).
+pub fn preset(name: &str) -> PyResult<AgentPreset> {
+    name.parse::<AgentPreset>().map_err(msg_err)
+}
+
+/// A renderer by name (`cpu`, `wgpu`, `auto`).
+pub fn renderer(name: &str) -> PyResult<RendererChoice> {
+    match name {
+        "cpu" => Ok(RendererChoice::Cpu),
+        "wgpu" => Ok(RendererChoice::Wgpu),
+        "auto" => Ok(RendererChoice::Auto),
+        other => Err(msg_err(format!(
+            "renderer: unknown renderer `{other}` (cpu, wgpu, auto)"
+        ))),
+    }
+}
+
+/// A path argument (`str` or `os.PathLike`).
+pub fn path_of(obj: &Bound<'_, PyAny>) -> PyResult<PathBuf> {
+    obj.extract::<PathBuf>()
+}
+
+/// The sensor suite `sensors` names: `None` or `"minos"` (MINOS's RGB, depth and semantic
+/// at `size`² with 4 contacts, the CLI's default), `"all"` (every modality), or a sensor
+/// file (TOML/JSON, as `--sensors FILE`).
+pub fn sensor_suite(sensors: Option<&Bound<'_, PyAny>>, size: u32) -> PyResult<SensorSuite> {
+    let Some(obj) = sensors.filter(|o| !o.is_none()) else {
+        return Ok(SensorSuite::minos(size));
+    };
+    if let Ok(s) = obj.cast::<PyString>() {
+        match s.to_str()? {
+            "minos" => return Ok(SensorSuite::minos(size)),
+            "all" => return Ok(SensorSuite::all(size)),
+            _ => {}
+        }
+    }
+    let p = path_of(obj)?;
+    read_sensor_file(&p).map_err(py_err)
+}
+
+/// Reads a sensor file as the CLI's `--sensors FILE` does.
+fn read_sensor_file(p: &Path) -> anyhow::Result<SensorSuite> {
+    let text = std::fs::read_to_string(p).with_context(|| p.display().to_string())?;
+    SensorSuite::parse(&text, &p.display().to_string()).map_err(anyhow::Error::msg)
+}
+
+/// A shard `i/n` or `auto` (from the scheduler's environment), as `--shard`.
+pub fn shard(spec: &str) -> PyResult<Shard> {
+    ShardSpec::parse(spec)
+        .and_then(|s| s.resolve(|k| std::env::var(k).ok()))
+        .map_err(|e| msg_err(format!("shard: {e}")))
+}
+
+/// Runs `f` on a pool of `threads` workers (0: all cores), or on rayon's global pool.
+pub fn with_threads<R: Send>(
+    threads: Option<usize>,
+    f: impl FnOnce() -> R + Send,
+) -> Result<R, String> {
+    match threads {
+        None => Ok(f()),
+        Some(n) => Ok(rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build()
+            .map_err(|e| format!("threads: {e}"))?
+            .install(f)),
+    }
+}
+
+/// Forwards the library's progress to Python: a tqdm-like object (`update(n)`, `total`) or a
+/// callable `f(done, total)`; `None` reports nothing. Errors the callback raises are printed
+/// as unraisable and do not stop the work.
+pub struct PyProgress {
+    target: Option<Py<PyAny>>,
+    done: AtomicU64,
+    total: AtomicU64,
+}
+
+impl PyProgress {
+    /// A sink for `target` (may be `None`), starting with `total` units.
+    pub fn new(target: Option<Bound<'_, PyAny>>, total: u64) -> Self {
+        let p = PyProgress {
+            target: target.filter(|t| !t.is_none()).map(Bound::unbind),
+            done: AtomicU64::new(0),
+            total: AtomicU64::new(0),
+        };
+        if total > 0 {
+            p.set_total(total);
+        }
+        p
+    }
+
+    fn call(&self, f: impl FnOnce(&Bound<'_, PyAny>) -> PyResult<()>) {
+        if let Some(t) = &self.target {
+            Python::attach(|py| {
+                if let Err(e) = f(t.bind(py)) {
+                    e.write_unraisable(py, Some(t.bind(py)));
+                }
+            });
+        }
+    }
+}
+
+impl Progress for PyProgress {
+    fn set_total(&self, total: u64) {
+        self.total.store(total, Ordering::Relaxed);
+        self.call(|t| {
+            if t.hasattr("update")? && t.hasattr("total")? {
+                t.setattr("total", total)?;
+                if t.hasattr("refresh")? {
+                    t.call_method0("refresh")?;
+                }
+            }
+            Ok(())
+        });
+    }
+
+    fn advance(&self, n: u64) {
+        let done = self.done.fetch_add(n, Ordering::Relaxed) + n;
+        let total = self.total.load(Ordering::Relaxed);
+        self.call(|t| {
+            if t.hasattr("update")? {
+                t.call_method1("update", (n,))?;
+            } else {
+                t.call1((done, total))?;
+            }
+            Ok(())
+        });
+    }
+}

@@ -1,0 +1,695 @@
+//! The pipeline for scripts: `generate`, `ingest`, `bake`, `sample_episodes` and `run`, with
+//! the CLI's options (same names, Python types), calling the library functions the CLI calls
+//! and raising `MinosError` with the CLI's one-line message when the command as a whole fails.
+//! Per-scene or per-episode problems are returned in the report, as the CLI prints them and
+//! goes on. `progress` takes a tqdm bar (`update`, `total`) or a callable `f(done, total)`.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use anyhow::{anyhow, bail, Context as _};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use minos::atomic::{sweep_stale_of, write_bytes_atomic};
+use minos::body::BodyRule;
+use minos::episode::format::{read_episodes, write_episodes};
+use minos::episode::habitat::SceneIdStyle;
+use minos::episode::sample::{SampleConfig, Select};
+use minos::episode::{Episode, Task};
+use minos::generate::{GenerateConfig, OutputFormat};
+use minos::io::tables::{read_replay, ImageEncoding};
+use minos::lock::LockMode;
+use minos::navmesh::params::params_from_toml;
+use minos::navmesh::NavParams;
+use minos::pipeline::bake::{bake_scenes, BakeConfig, BakeOutcome};
+use minos::pipeline::episodes::sample_scenes;
+use minos::pipeline::ingest::{ingest_with, read_id_list, DatasetFormat, IngestConfig, Outcome};
+use minos::pipeline::rollout::{select, AgentKind, Provenance, RerunOutput, RunConfig};
+use minos::run::metrics::Reward;
+use minos::scene::RoomClass;
+use minos::shard::Shard;
+use minos::sim::AgentConfig;
+use minos::split::{read_split, Subset};
+use minos::store::DataDir;
+
+use crate::convert::{msg_err, path_of, py_err, sensor_suite, with_threads, PyProgress};
+
+fn lock_mode(wait: bool) -> LockMode {
+    if wait {
+        LockMode::Wait
+    } else {
+        LockMode::Fail
+    }
+}
+
+fn to_py<'py>(py: Python<'py>, v: &serde_json::Value) -> PyResult<Bound<'py, PyAny>> {
+    let json = py.import("json")?;
+    json.call_method1("loads", (v.to_string(),))
+}
+
+/// The scenes of split `name` (all subsets, sorted, distinct), or every ingested scene.
+fn split_or_all(data: &DataDir, split: Option<&str>) -> anyhow::Result<Vec<String>> {
+    Ok(match split {
+        Some(name) => {
+            let lists = read_split(data, name).with_context(|| format!("--split {name}"))?;
+            let mut ids: Vec<String> = lists
+                .train
+                .into_iter()
+                .chain(lists.val)
+                .chain(lists.test)
+                .collect();
+            ids.sort();
+            ids.dedup();
+            ids
+        }
+        None => data.ingested_ids()?,
+    })
+}
+
+/// `minos generate`: procedural houses in SUNCG's (or Matterport3D's) layout into `out`.
+/// Returns `{"written": [ids], "skipped": [ids]}`.
+#[pyfunction]
+#[pyo3(signature = (out, houses = 10, seed = 0, rooms = (3, 8), levels = (1, 2), closed_doors = 0.25, format = "suncg", force = false, progress = None))]
+#[allow(clippy::too_many_arguments)]
+pub fn generate<'py>(
+    py: Python<'py>,
+    out: &Bound<'py, PyAny>,
+    houses: usize,
+    seed: u64,
+    rooms: (usize, usize),
+    levels: (usize, usize),
+    closed_doors: f64,
+    format: &str,
+    force: bool,
+    progress: Option<Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let out = path_of(out)?;
+    let format = match format {
+        "suncg" => OutputFormat::Suncg,
+        "mp3d" => OutputFormat::Mp3d,
+        other => {
+            return Err(msg_err(format!(
+                "format: unknown format `{other}` (suncg, mp3d)"
+            )))
+        }
+    };
+    let cfg = GenerateConfig {
+        houses,
+        seed,
+        rooms,
+        levels,
+        closed_door_prob: closed_doors,
+    };
+    let bar = PyProgress::new(progress, houses as u64);
+    let report = py
+        .detach(|| {
+            minos::generate::generate(&cfg, format, &out, force, &bar)
+                .with_context(|| format!("generating into {}", out.display()))
+        })
+        .map_err(py_err)?;
+    let d = PyDict::new(py);
+    d.set_item("written", report.written)?;
+    d.set_item("skipped", report.skipped)?;
+    Ok(d)
+}
+
+/// `minos ingest`: compiles the scenes of a dataset root into the DATA folder `data`.
+/// `ids` is a file of ids (as `--ids`) or a list of ids. Returns the scenes with their outcome
+/// (`compiled`, `up_to_date`, `failed`) and error, missing ids, warnings and the manifest.
+#[pyfunction]
+#[pyo3(signature = (root, data, dataset = "suncg", ids = None, jobs = None, categories = None, models = None, force = false, wait = false, progress = None))]
+#[allow(clippy::too_many_arguments)]
+pub fn ingest<'py>(
+    py: Python<'py>,
+    root: &Bound<'py, PyAny>,
+    data: &Bound<'py, PyAny>,
+    dataset: &str,
+    ids: Option<&Bound<'py, PyAny>>,
+    jobs: Option<usize>,
+    categories: Option<&Bound<'py, PyAny>>,
+    models: Option<&Bound<'py, PyAny>>,
+    force: bool,
+    wait: bool,
+    progress: Option<Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let root = path_of(root)?;
+    let format = match dataset {
+        "suncg" => DatasetFormat::Suncg,
+        "3dfront" => DatasetFormat::ThreeDFront,
+        "gltf" => DatasetFormat::Gltf,
+        "mp3d" => DatasetFormat::Mp3d,
+        other => {
+            return Err(msg_err(format!(
+                "dataset: unknown dataset `{other}` (suncg, 3dfront, gltf, mp3d)"
+            )))
+        }
+    };
+    let ids = match ids.filter(|i| !i.is_none()) {
+        None => None,
+        Some(obj) => match obj.extract::<Vec<String>>() {
+            Ok(list) if !obj.is_instance_of::<pyo3::types::PyString>() => Some(list),
+            _ => Some(read_id_list(&path_of(obj)?).map_err(|e| py_err(e.into()))?),
+        },
+    };
+    let opt_path = |o: Option<&Bound<'py, PyAny>>| -> PyResult<Option<PathBuf>> {
+        o.filter(|o| !o.is_none()).map(path_of).transpose()
+    };
+    let cfg = IngestConfig {
+        format,
+        root: root.clone(),
+        data: DataDir::new(path_of(data)?),
+        ids,
+        force,
+        categories: opt_path(categories)?,
+        models: opt_path(models)?,
+    };
+    let bar = PyProgress::new(progress, 0);
+    let report = py
+        .detach(|| {
+            with_threads(jobs, || {
+                ingest_with(&cfg, lock_mode(wait), &bar)
+                    .with_context(|| format!("ingesting {}", root.display()))
+            })
+            .map_err(|e| anyhow!("--jobs: {e}"))?
+        })
+        .map_err(py_err)?;
+    for w in &report.warnings {
+        tracing::warn!("{w}");
+    }
+    let d = PyDict::new(py);
+    let scenes: Vec<Bound<'py, PyDict>> = report
+        .scenes
+        .iter()
+        .map(|(row, o)| {
+            let e = PyDict::new(py);
+            e.set_item("id", &row.id)?;
+            e.set_item(
+                "outcome",
+                match o {
+                    Outcome::Compiled => "compiled",
+                    Outcome::UpToDate => "up_to_date",
+                    Outcome::Failed => "failed",
+                },
+            )?;
+            e.set_item("error", row.error.clone())?;
+            Ok(e)
+        })
+        .collect::<PyResult<_>>()?;
+    d.set_item("scenes", scenes)?;
+    d.set_item("compiled", report.count(Outcome::Compiled))?;
+    d.set_item("up_to_date", report.count(Outcome::UpToDate))?;
+    d.set_item("failed", report.count(Outcome::Failed))?;
+    d.set_item("missing_ids", report.missing_ids.clone())?;
+    d.set_item("warnings", report.warnings.clone())?;
+    d.set_item("manifest", report.manifest.clone())?;
+    Ok(d)
+}
+
+/// The grid parameters of `bake` (as the CLI's flags and `--config` file).
+fn bake_params(
+    preset_name: &str,
+    cell_size: Option<f32>,
+    config: Option<&Path>,
+) -> anyhow::Result<NavParams> {
+    let p = preset_name.parse().map_err(anyhow::Error::msg)?;
+    let mut params = NavParams::preset(p);
+    if let Some(cell) = cell_size {
+        params.cell_size = cell;
+    }
+    if let Some(path) = config {
+        let text = std::fs::read_to_string(path).with_context(|| format!("{}", path.display()))?;
+        params = params_from_toml(&text, params).map_err(|e| anyhow!("{}: {e}", path.display()))?;
+    }
+    params.validate().map_err(|e| anyhow!("--cell-size: {e}"))?;
+    Ok(params)
+}
+
+/// `minos bake`: navigation grids for the ingested scenes (of `split`, on `variant`).
+/// Returns `{"baked": n, "up_to_date": n, "failed": {id: error}}`; a grid that cannot be
+/// written raises MinosError.
+#[pyfunction]
+#[pyo3(signature = (data, split = None, preset = "habitat", cell_size = None, config = None, variant = None, force = false, previews = true, wait = false, threads = None, progress = None))]
+#[allow(clippy::too_many_arguments)]
+pub fn bake<'py>(
+    py: Python<'py>,
+    data: &Bound<'py, PyAny>,
+    split: Option<&str>,
+    preset: &str,
+    cell_size: Option<f32>,
+    config: Option<&Bound<'py, PyAny>>,
+    variant: Option<&str>,
+    force: bool,
+    previews: bool,
+    wait: bool,
+    threads: Option<usize>,
+    progress: Option<Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let data = DataDir::new(path_of(data)?);
+    let config = config.filter(|c| !c.is_none()).map(path_of).transpose()?;
+    let bar = PyProgress::new(progress, 0);
+    let report = py
+        .detach(|| -> anyhow::Result<_> {
+            let ids = split_or_all(&data, split)?;
+            let scenes = data
+                .refs(&ids, variant)
+                .map_err(|e| anyhow!("--variant {}: {e}", variant.unwrap_or_default()))?;
+            let cfg = BakeConfig {
+                params: bake_params(preset, cell_size, config.as_deref())?,
+                scenes,
+                data: data.clone(),
+                force,
+                previews,
+            };
+            let _lock = cfg.data.lock("bake", lock_mode(wait))?;
+            minos::progress::Progress::set_total(&bar, cfg.scenes.len() as u64);
+            let report =
+                with_threads(threads, || bake_scenes(&cfg, &bar)).map_err(anyhow::Error::msg)?;
+            if let Some(e) = report.write_failure() {
+                bail!("{e}");
+            }
+            Ok(report)
+        })
+        .map_err(py_err)?;
+    let failed: BTreeMap<&str, &str> = report.failures().collect();
+    let baked = report
+        .scenes
+        .iter()
+        .filter(|(_, o)| matches!(o, BakeOutcome::Baked { .. }))
+        .count();
+    let d = PyDict::new(py);
+    d.set_item("baked", baked)?;
+    d.set_item("up_to_date", report.scenes.len() - baked - failed.len())?;
+    d.set_item("failed", failed)?;
+    Ok(d)
+}
+
+/// `minos episodes`: samples `task` (`pointgoal`, `objectgoal`, `roomgoal`) episodes into
+/// the Parquet file `out` (statistics in `out.stats.json`; with `export_habitat=DIR`,
+/// Habitat-Lab's layout too). Options as the CLI's flags. Returns the statistics (total,
+/// means, rejected draws, per scene) with `out` and `stats`.
+#[pyfunction]
+#[pyo3(signature = (data, task, out, split = None, subset = None, variant = None, preset = "habitat", allow_body_mismatch = false, per_scene = 10, seed = 0, min_island_radius = 1.5, success_radius = 0.2, categories = vec!["door".to_string(), "arch".to_string()], room_types = vec!["any".to_string()], select = "any", min_geodesic = 1.0, max_geodesic = 30.0, ratio_rule = true, min_doors = 0, min_rooms = 0, same_level = false, bins = (3.0, 6.0), stratify = "auto", max_steps = 500, shard = "0/1", export_habitat = None, scene_prefix = "", scene_suffix = "", threads = None, progress = None))]
+#[allow(clippy::too_many_arguments)]
+pub fn sample_episodes<'py>(
+    py: Python<'py>,
+    data: &Bound<'py, PyAny>,
+    task: &str,
+    out: &Bound<'py, PyAny>,
+    split: Option<&str>,
+    subset: Option<&str>,
+    variant: Option<&str>,
+    preset: &str,
+    allow_body_mismatch: bool,
+    per_scene: usize,
+    seed: u64,
+    min_island_radius: f32,
+    success_radius: f32,
+    categories: Vec<String>,
+    room_types: Vec<String>,
+    select: &str,
+    min_geodesic: f32,
+    max_geodesic: f32,
+    ratio_rule: bool,
+    min_doors: u32,
+    min_rooms: u32,
+    same_level: bool,
+    bins: (f32, f32),
+    stratify: &str,
+    max_steps: u32,
+    shard: &str,
+    export_habitat: Option<&Bound<'py, PyAny>>,
+    scene_prefix: &str,
+    scene_suffix: &str,
+    threads: Option<usize>,
+    progress: Option<Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let data = DataDir::new(path_of(data)?);
+    let out = path_of(out)?;
+    let task = Task::from_name(task).ok_or_else(|| {
+        msg_err(format!(
+            "task: unknown task `{task}` (pointgoal, objectgoal, roomgoal)"
+        ))
+    })?;
+    let subset = match subset {
+        None => None,
+        Some("train") => Some(Subset::Train),
+        Some("val") => Some(Subset::Val),
+        Some("test") => Some(Subset::Test),
+        Some(other) => {
+            return Err(msg_err(format!(
+                "subset: unknown subset `{other}` (train, val, test)"
+            )))
+        }
+    };
+    if subset.is_some() && split.is_none() {
+        return Err(msg_err(
+            "--subset needs --split (without one, every ingested scene is used)",
+        ));
+    }
+    if bins.0 > bins.1 {
+        return Err(msg_err(
+            "--bins: expected two increasing distances, e.g. 3,6",
+        ));
+    }
+    let select = match select {
+        "any" => Select::Any,
+        "random" => Select::Random,
+        "closest" => Select::Closest,
+        other => {
+            return Err(msg_err(format!(
+                "select: unknown selection `{other}` (any, random, closest)"
+            )))
+        }
+    };
+    let stratified = match stratify {
+        "on" => true,
+        "off" => false,
+        "auto" => matches!(subset, Some(Subset::Val | Subset::Test)),
+        other => {
+            return Err(msg_err(format!(
+                "stratify: unknown value `{other}` (auto, on, off)"
+            )))
+        }
+    };
+    let body = crate::convert::preset(preset)?.body();
+    let shard: Shard = crate::convert::shard(shard)?;
+    let habitat_export = export_habitat
+        .filter(|e| !e.is_none())
+        .map(path_of)
+        .transpose()?;
+    let scene_names = SceneIdStyle {
+        prefix: scene_prefix.to_string(),
+        suffix: scene_suffix.to_string(),
+    };
+    let bar = PyProgress::new(progress, 0);
+    let (batch, stats_path) = py
+        .detach(|| -> anyhow::Result<_> {
+            scene_names
+                .check()
+                .map_err(|e| anyhow!("--scene-suffix: {e}"))?;
+            let room_classes = if room_types.iter().any(|t| t == "any") {
+                None
+            } else {
+                Some(
+                    room_types
+                        .iter()
+                        .map(|t| {
+                            RoomClass::from_name(t)
+                                .with_context(|| format!("--room-types: unknown class `{t}`"))
+                        })
+                        .collect::<anyhow::Result<Vec<_>>>()?,
+                )
+            };
+            let refs = |ids: &[String]| {
+                data.refs(ids, variant)
+                    .map_err(|e| anyhow!("--variant {}: {e}", variant.unwrap_or_default()))
+            };
+            let mut scenes = Vec::new();
+            match split {
+                Some(split) => {
+                    let lists =
+                        read_split(&data, split).with_context(|| format!("--split {split}"))?;
+                    for part in Subset::ALL {
+                        if subset.is_none_or(|s| s == part) {
+                            scenes.extend(
+                                refs(lists.get(part))?
+                                    .into_iter()
+                                    .map(|r| (r.to_string(), part.name().to_string())),
+                            );
+                        }
+                    }
+                }
+                None => scenes.extend(
+                    refs(&data.ingested_ids()?)?
+                        .into_iter()
+                        .map(|r| (r.to_string(), String::new())),
+                ),
+            }
+            let cfg = SampleConfig {
+                task,
+                per_scene,
+                seed,
+                min_island_radius,
+                success_radius,
+                categories,
+                room_classes,
+                select,
+                min_geodesic,
+                max_geodesic,
+                ratio_rule,
+                min_doors,
+                min_rooms,
+                same_level,
+                bins: [bins.0, bins.1],
+                stratified,
+                max_steps,
+                ..SampleConfig::default()
+            };
+            let rule = BodyRule {
+                body,
+                allow_mismatch: allow_body_mismatch,
+            };
+            minos::progress::Progress::set_total(&bar, scenes.len() as u64);
+            let batch = with_threads(threads, || {
+                sample_scenes(&data, &scenes, &cfg, rule, shard, &bar)
+            })
+            .map_err(anyhow::Error::msg)?;
+            let stats_path = PathBuf::from(format!("{}.stats.json", out.display()));
+            for path in [&out, &stats_path] {
+                sweep_stale_of(path).with_context(|| {
+                    format!("{}: removing stale temporary files", path.display())
+                })?;
+            }
+            write_episodes(&out, &batch.episodes)
+                .with_context(|| format!("writing {}", out.display()))?;
+            let stats = serde_json::to_vec_pretty(&batch).context("statistics")?;
+            write_bytes_atomic(&stats_path, &stats)
+                .with_context(|| stats_path.display().to_string())?;
+            if let Some(dir) = &habitat_export {
+                for (subset, habitat_split) in [
+                    ("train", "train"),
+                    ("val", "val"),
+                    ("test", "test"),
+                    ("", "all"),
+                ] {
+                    let eps: Vec<Episode> = batch
+                        .episodes
+                        .iter()
+                        .filter(|e| e.split == subset)
+                        .cloned()
+                        .collect();
+                    if !eps.is_empty() {
+                        minos::episode::habitat::export_habitat(
+                            dir,
+                            habitat_split,
+                            &scene_names,
+                            &eps,
+                        )?;
+                    }
+                }
+            }
+            Ok((batch, stats_path))
+        })
+        .map_err(py_err)?;
+    let stats = serde_json::to_value(&batch).map_err(msg_err)?;
+    let d = to_py(py, &stats)?.cast_into::<PyDict>()?;
+    d.set_item("out", out)?;
+    d.set_item("stats", stats_path)?;
+    Ok(d)
+}
+
+/// The agent `agent` names (`random`, `forward`, `oracle`, `replay:FILE`, `external:CMD`).
+fn agent_kind(name: &str) -> anyhow::Result<AgentKind> {
+    Ok(match name {
+        "random" => AgentKind::Random,
+        "forward" => AgentKind::Forward,
+        "oracle" => AgentKind::Oracle,
+        other => match (other.strip_prefix("replay:"), other.strip_prefix("external:")) {
+            (Some(file), _) => {
+                AgentKind::Replay(read_replay(Path::new(file)).map_err(anyhow::Error::msg)?)
+            }
+            (_, Some(cmd)) if !cmd.trim().is_empty() => AgentKind::External(cmd.to_string()),
+            _ => bail!(
+                "--agent: unknown agent `{other}` (random, forward, oracle, replay:FILE, external:CMD)"
+            ),
+        },
+    })
+}
+
+/// Refuses a replay file without steps for some episode to run, as the CLI does.
+fn check_replay(
+    agent: &AgentKind,
+    name: &str,
+    episodes: &[Episode],
+    shard: Shard,
+) -> anyhow::Result<()> {
+    let (AgentKind::Replay(by_episode), Some(file)) = (agent, name.strip_prefix("replay:")) else {
+        return Ok(());
+    };
+    let mine = select(episodes, shard);
+    let missing: Vec<&str> = mine
+        .iter()
+        .map(|(_, e)| e.episode_id.as_str())
+        .filter(|id| !by_episode.contains_key(*id))
+        .collect();
+    if let Some(first) = missing.first() {
+        bail!(
+            "--agent replay:{file}: {file} has no steps for {} of the {} episodes to run (first: \
+             {first}); replay the trajectories.parquet of a run over the same episodes",
+            missing.len(),
+            mine.len()
+        );
+    }
+    Ok(())
+}
+
+/// `minos run`: rolls out the episodes of `episodes` (a file) with `agent` into `out`
+/// (Parquet tables, metrics.json, manifest.json; LeRobot with `format="lerobot"`; a rerun
+/// recording with `rerun=FILE`). Returns `{"episodes": n, "resumed": n, "steps": n,
+/// "seconds": s, "failures": [(id, error)], "groups": {group: aggregates}, "metrics": [per
+/// episode]}`; a run that cannot start raises MinosError.
+#[pyfunction]
+#[pyo3(signature = (data, episodes, agent, out, variant = None, preset = "habitat", allow_body_mismatch = false, sensors = None, size = 84, max_steps = None, seed = 0, shard = "0/1", resume = false, reward = "dist_time", image_encoding = "raw", format = "parquet", renderer = "cpu", rerun = None, rerun_episodes = 1, threads = None, wait = false, progress = None))]
+#[allow(clippy::too_many_arguments)]
+pub fn run<'py>(
+    py: Python<'py>,
+    data: &Bound<'py, PyAny>,
+    episodes: &Bound<'py, PyAny>,
+    agent: &str,
+    out: &Bound<'py, PyAny>,
+    variant: Option<&str>,
+    preset: &str,
+    allow_body_mismatch: bool,
+    sensors: Option<&Bound<'py, PyAny>>,
+    size: u32,
+    max_steps: Option<u32>,
+    seed: u64,
+    shard: &str,
+    resume: bool,
+    reward: &str,
+    image_encoding: &str,
+    format: &str,
+    renderer: &str,
+    rerun: Option<&Bound<'py, PyAny>>,
+    rerun_episodes: usize,
+    threads: Option<usize>,
+    wait: bool,
+    progress: Option<Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let data = DataDir::new(path_of(data)?);
+    let episodes_file = path_of(episodes)?;
+    let out = path_of(out)?;
+    let preset_value = crate::convert::preset(preset)?;
+    let sensors = sensor_suite(sensors, size)?;
+    let shard = crate::convert::shard(shard)?;
+    let reward = Reward::from_name(reward).ok_or_else(|| {
+        msg_err(format!(
+            "reward: unknown reward `{reward}` (dist_time, path_delta, geodesic)"
+        ))
+    })?;
+    let encoding = match image_encoding {
+        "raw" => ImageEncoding::Raw,
+        "png" => ImageEncoding::Png,
+        other => {
+            return Err(msg_err(format!(
+                "image_encoding: unknown encoding `{other}` (raw, png)"
+            )))
+        }
+    };
+    let lerobot = match format {
+        "parquet" => false,
+        "lerobot" => true,
+        other => {
+            return Err(msg_err(format!(
+                "format: unknown format `{other}` (parquet, lerobot)"
+            )))
+        }
+    };
+    let renderer = crate::convert::renderer(renderer)?;
+    let rerun = rerun
+        .filter(|r| !r.is_none())
+        .map(path_of)
+        .transpose()?
+        .map(|path| RerunOutput {
+            path,
+            episodes: rerun_episodes,
+        });
+    let command: Vec<String> = py
+        .import("sys")?
+        .getattr("argv")?
+        .extract()
+        .unwrap_or_default();
+    let bar = PyProgress::new(progress, 0);
+    let start = std::time::Instant::now();
+    let report = py
+        .detach(|| -> anyhow::Result<_> {
+            let kind = agent_kind(agent)?;
+            let mut eps = read_episodes(&episodes_file)?;
+            if let Some(name) = variant {
+                data.read_variant(name)
+                    .map_err(|e| anyhow!("--variant {name}: {e}"))?;
+                eps = eps.into_iter().map(|e| e.on_variant(name)).collect();
+            }
+            check_replay(&kind, agent, &eps, shard)?;
+            let cfg = RunConfig {
+                data: data.clone(),
+                out: out.clone(),
+                agent: kind,
+                body: AgentConfig::preset(preset_value),
+                sensors,
+                renderer,
+                max_steps,
+                seed,
+                shard,
+                resume,
+                reward,
+                encoding,
+                lerobot,
+                rerun,
+                allow_body_mismatch,
+                provenance: Provenance {
+                    command,
+                    episodes_file: Some(episodes_file.clone()),
+                    variant: variant.map(String::from),
+                    agent: agent.to_string(),
+                    preset: Some(preset_value),
+                },
+            };
+            minos::progress::Progress::set_total(&bar, eps.len() as u64);
+            let r = with_threads(threads, || {
+                minos::pipeline::rollout::run_with(&cfg, &eps, lock_mode(wait), &bar)
+            })
+            .map_err(anyhow::Error::msg)??;
+            Ok(r)
+        })
+        .map_err(py_err)?;
+    let seconds = start.elapsed().as_secs_f64();
+    let steps: u64 = report
+        .episodes
+        .iter()
+        .map(|(_, m)| u64::from(m.steps))
+        .sum();
+    let d = PyDict::new(py);
+    d.set_item("episodes", report.episodes.len())?;
+    d.set_item("resumed", report.resumed)?;
+    d.set_item("steps", steps)?;
+    d.set_item("seconds", seconds)?;
+    d.set_item("failures", report.failures.clone())?;
+    d.set_item("recorded", report.recorded)?;
+    let groups = serde_json::to_value(&report.groups).map_err(msg_err)?;
+    d.set_item("groups", to_py(py, &groups)?)?;
+    let per: Vec<serde_json::Value> = report
+        .episodes
+        .iter()
+        .map(|(e, m)| {
+            let mut v = serde_json::to_value(m).unwrap_or_default();
+            if let Some(o) = v.as_object_mut() {
+                o.insert("episode_id".into(), e.episode_id.clone().into());
+            }
+            v
+        })
+        .collect();
+    d.set_item("metrics", to_py(py, &serde_json::Value::Array(per))?)?;
+    Ok(d)
+}

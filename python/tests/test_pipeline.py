@@ -1,0 +1,110 @@
+"""minos.generate / ingest / bake / sample_episodes / run: the CLI's results and messages,
+progress to Python."""
+
+import json
+from pathlib import Path
+
+import pytest
+
+import minos
+from conftest import cli, cli_error
+
+
+class Bar:
+    """A tqdm-like progress bar."""
+
+    def __init__(self):
+        self.total, self.n = None, 0
+
+    def update(self, n):
+        self.n += n
+
+    def refresh(self):
+        pass
+
+
+def test_generate_resumes_and_reports_progress(world, tmp_path):
+    assert len(world.generated["written"]) == 2 and world.generated["skipped"] == []
+    seen = []
+    again = minos.generate(world.gen, houses=2, seed=3, rooms=(2, 3), levels=(1, 1),
+                           progress=lambda done, total: seen.append((done, total)))
+    assert again["written"] == [] and sorted(again["skipped"]) == sorted(world.generated["written"])
+    assert seen and seen[-1] == (2, 2)
+    bar = Bar()
+    out = tmp_path / "g"
+    minos.generate(out, houses=1, seed=8, rooms=(1, 1), levels=(1, 1), progress=bar)
+    assert (bar.total, bar.n) == (1, 1)
+    assert (out / "house").is_dir()
+
+
+def test_generate_is_deterministic(tmp_path):
+    a, b = tmp_path / "a", tmp_path / "b"
+    for d in (a, b):
+        minos.generate(d, houses=1, seed=4, rooms=(2, 2), levels=(1, 1))
+    fa = sorted(p.relative_to(a) for p in a.rglob("*") if p.is_file())
+    assert fa == sorted(p.relative_to(b) for p in b.rglob("*") if p.is_file())
+    assert all((a / f).read_bytes() == (b / f).read_bytes() for f in fa)
+
+
+def test_ingest_and_bake_report_like_the_cli(world):
+    ing = world.ingested
+    assert ing["compiled"] == 2 and ing["failed"] == 0
+    assert sorted(s["id"] for s in ing["scenes"]) == world.scenes
+    assert Path(ing["manifest"]).is_file()
+    assert world.baked == {"baked": 2, "up_to_date": 0, "failed": {}}
+    bar = Bar()
+    again = minos.bake(world.data, previews=False, progress=bar)
+    assert again == {"baked": 0, "up_to_date": 2, "failed": {}}
+    assert (bar.total, bar.n) == (2, 2)
+    minos.ingest(world.gen, world.data)  # generate above rewrote the category table
+    up = minos.ingest(world.gen, world.data)
+    assert up["up_to_date"] == 2 and up["compiled"] == 0
+
+
+def test_errors_carry_the_cli_message(world, tmp_path, minos_bin):
+    missing = tmp_path / "missing"
+    with pytest.raises(minos.MinosError) as e:
+        minos.ingest(missing, tmp_path / "D")
+    p = cli(minos_bin, "ingest", "--root", missing, "--out", tmp_path / "D2", ok=False)
+    assert str(e.value) == cli_error(p).replace("D2", "D")
+    with pytest.raises(minos.MinosError) as e:
+        minos.bake(tmp_path / "nodata")
+    p = cli(minos_bin, "bake", "--data", tmp_path / "nodata", ok=False)
+    assert str(e.value) == cli_error(p)
+    with pytest.raises(minos.MinosError) as e:
+        minos.run(world.data, world.point, "greedy", tmp_path / "r")
+    p = cli(minos_bin, "run", "--data", world.data, "--episodes", world.point,
+            "--agent", "greedy", "--out", tmp_path / "r", ok=False)
+    assert str(e.value) == cli_error(p)
+    with pytest.raises(minos.MinosError) as e:
+        minos.sample_episodes(world.data, "pointgoal", tmp_path / "e.parquet", split="nosplit")
+    p = cli(minos_bin, "episodes", "--data", world.data, "--task", "pointgoal",
+            "--split", "nosplit", "--out", tmp_path / "e.parquet", ok=False)
+    assert str(e.value) == cli_error(p)
+
+
+def test_episodes_equal_the_cli(world, tmp_path, minos_bin):
+    out = tmp_path / "cli.parquet"
+    cli(minos_bin, "episodes", "--data", world.data, "--task", "pointgoal", "--per-scene", "3",
+        "--seed", "1", "--max-steps", "300", "--out", out)
+    assert out.read_bytes() == world.point.read_bytes()
+    stats = json.loads(Path(str(world.point) + ".stats.json").read_text())
+    assert stats["total"] == len(world.episodes) == 6
+    s = minos.sample_episodes(world.data, "roomgoal", tmp_path / "r.parquet", per_scene=2,
+                              room_types=["bedroom", "kitchen", "living_room", "bathroom"])
+    assert s["total"] == len(minos.read_episodes(tmp_path / "r.parquet"))
+    assert all(e.task == "roomgoal" for e in minos.read_episodes(tmp_path / "r.parquet"))
+
+
+def test_run_writes_what_the_cli_writes(world, tmp_path, minos_bin):
+    bar = Bar()
+    rep = minos.run(world.data, world.objects, "oracle", tmp_path / "py", size=16, seed=2,
+                    progress=bar)
+    assert rep["failures"] == [] and rep["groups"]["all"]["success"] == 1.0
+    assert (bar.total, bar.n) == (rep["episodes"], rep["episodes"])
+    assert rep["steps"] == sum(m["steps"] for m in rep["metrics"])
+    cli(minos_bin, "run", "--data", world.data, "--episodes", world.objects, "--agent",
+        "oracle", "--size", "16", "--seed", "2", "--out", tmp_path / "cli")
+    for name in ["trajectories.parquet", "observations.parquet", "episodes.parquet",
+                 "metrics.json"]:
+        assert (tmp_path / "py" / name).read_bytes() == (tmp_path / "cli" / name).read_bytes(), name
