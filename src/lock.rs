@@ -66,22 +66,11 @@ pub struct DirLock {
 impl DirLock {
     /// Locks `folder` (created if missing) for `command`, a short name such as `ingest`.
     pub fn acquire(folder: &Path, command: &str, mode: LockMode) -> Result<DirLock, LockError> {
-        let path = folder.join(LOCK_FILE);
+        let (mut file, path) = open_lock_file(folder)?;
         let io = |source| LockError::Io {
             path: path.clone(),
             source,
         };
-        std::fs::create_dir_all(folder).map_err(|source| LockError::Io {
-            path: folder.to_path_buf(),
-            source,
-        })?;
-        let mut file = OpenOptions::new()
-            .read(true)
-            .write(true)
-            .create(true)
-            .truncate(false)
-            .open(&path)
-            .map_err(io)?;
         match file.try_lock() {
             Ok(()) => {}
             Err(TryLockError::WouldBlock) if mode == LockMode::Wait => file.lock().map_err(io)?,
@@ -116,22 +105,11 @@ impl DirLock {
     /// while an exclusive writer holds it, so does this. Shared holders leave the file empty,
     /// so an exclusive writer that finds them says "a sharded command".
     pub fn acquire_shared(folder: &Path, mode: LockMode) -> Result<DirLock, LockError> {
-        let path = folder.join(LOCK_FILE);
+        let (mut file, path) = open_lock_file(folder)?;
         let io = |source| LockError::Io {
             path: path.clone(),
             source,
         };
-        std::fs::create_dir_all(folder).map_err(|source| LockError::Io {
-            path: folder.to_path_buf(),
-            source,
-        })?;
-        let mut file = OpenOptions::new()
-            .read(true)
-            .write(true)
-            .create(true)
-            .truncate(false)
-            .open(&path)
-            .map_err(io)?;
         match file.try_lock_shared() {
             Ok(()) => {}
             Err(TryLockError::WouldBlock) if mode == LockMode::Wait => {
@@ -168,6 +146,26 @@ impl Drop for DirLock {
         }
         let _ = self.file.unlock();
     }
+}
+
+/// Opens (creating it and its folder if missing) `folder`'s lock file, unlocked.
+fn open_lock_file(folder: &Path) -> Result<(File, PathBuf), LockError> {
+    let path = folder.join(LOCK_FILE);
+    std::fs::create_dir_all(folder).map_err(|source| LockError::Io {
+        path: folder.to_path_buf(),
+        source,
+    })?;
+    let file = OpenOptions::new()
+        .read(true)
+        .write(true)
+        .create(true)
+        .truncate(false)
+        .open(&path)
+        .map_err(|source| LockError::Io {
+            path: path.clone(),
+            source,
+        })?;
+    Ok((file, path))
 }
 
 /// The pid and command a held lock file names (`?` for what cannot be read: the holder may
