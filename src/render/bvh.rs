@@ -18,7 +18,7 @@
 //! 60 MB per million triangles (59.7 MB measured by [`Bvh::memory_bytes`] on the dense
 //! bench scenes).
 
-use glam::{DVec3, Vec3};
+use glam::{Vec3, Vec4};
 
 /// Largest number of triangles in a leaf.
 const LEAF_MAX: usize = 4;
@@ -37,8 +37,9 @@ const EMPTY: u32 = u32::MAX;
 #[derive(Debug, Clone, Copy)]
 #[repr(C, align(64))]
 struct Node {
-    /// `bounds[0]`: smallest x, y, z of each child's box; `bounds[1]`: largest.
-    bounds: [[[f32; 4]; 3]; 2],
+    /// `bounds[0]`: smallest x, y, z of each child's box; `bounds[1]`: largest (four
+    /// children per lane group, so one slab test covers all four).
+    bounds: [[Vec4; 3]; 2],
     /// Inner child: its node index; leaf child: its first triangle (leaf order).
     child: [u32; 4],
     /// 0 for an inner child, the triangle count for a leaf, [`EMPTY`] for an unused slot.
@@ -48,7 +49,7 @@ struct Node {
 impl Node {
     /// A node with four unused slots; their boxes (all corners at +∞) no ray meets.
     const UNUSED: Node = Node {
-        bounds: [[[f32::INFINITY; 4]; 3]; 2],
+        bounds: [[Vec4::INFINITY; 3]; 2],
         child: [0; 4],
         count: [EMPTY; 4],
     };
@@ -89,8 +90,6 @@ pub struct Ray {
     /// Watertight test: the rows of the shear that maps the direction to +z (rows 0 and 1
     /// give the 2D coordinates, row 2 the scaled depth).
     shear: [Vec3; 3],
-    /// The same rows in double precision, for the rare edge values of exactly 0.
-    shear64: [DVec3; 3],
     t_min: f32,
     t_max: f32,
 }
@@ -141,7 +140,6 @@ impl Ray {
                 usize::from(inv.z < 0.0),
             ],
             shear,
-            shear64: shear.map(|r| r.as_dvec3()),
             t_min,
             t_max,
         }
@@ -161,8 +159,9 @@ impl Ray {
         let mut v = ax * cy - ay * cx;
         let mut w = bx * ay - by * ax;
         if u == 0.0 || v == 0.0 || w == 0.0 {
-            // On an edge in single precision: decide in double precision.
-            let [q0, q1, _] = self.shear64;
+            // On an edge in single precision: decide in double precision (the same rows,
+            // widened).
+            let [q0, q1] = [r0.as_dvec3(), r1.as_dvec3()];
             let o = self.origin.as_dvec3();
             let (a, b, c) = (
                 p[0].as_dvec3() - o,
@@ -350,21 +349,66 @@ impl Bvh {
                 };
             }
         }
-        // Entries: (child, count, entry distance); count 0 is an inner node.
-        let stack = &mut stack.0;
-        stack.clear();
-        stack.push((0, 0, ray.t_min));
-        let (inv, oi) = (ray.inv.to_array(), ray.origin_inv.to_array());
-        let side = ray.near_side;
-        // Plain comparisons (not f32::max/min, which also order NaNs) vectorise to one
-        // instruction per lane group.
-        let max = |a: f32, b: f32| if a > b { a } else { b };
-        let min = |a: f32, b: f32| if a < b { a } else { b };
-        while let Some((child, count, entry)) = stack.pop() {
-            if entry > best.t {
-                continue;
-            }
-            if count > 0 {
+        // Entries: (child, count, entry distance); count 0 is an inner node. A fixed-size
+        // array with its own top, so pushing is a store.
+        let entries = &mut stack.0;
+        let mut top = 0;
+        let (inv, oi) = (ray.inv, ray.origin_inv);
+        let (ix, iy, iz) = (Vec4::splat(inv.x), Vec4::splat(inv.y), Vec4::splat(inv.z));
+        let (ox, oy, oz) = (Vec4::splat(oi.x), Vec4::splat(oi.y), Vec4::splat(oi.z));
+        let [sx, sy, sz] = ray.near_side;
+        let t_min = Vec4::splat(ray.t_min);
+        // The node or leaf being visited: (child, count) as in the entries.
+        let (mut child, mut count) = (0u32, 0u32);
+        'visit: loop {
+            if count == 0 {
+                // An inner node: the four slab tests side by side, a bit per child hit.
+                let node = &self.nodes[child as usize];
+                let b = &node.bounds;
+                let near = (b[sx][0] * ix - ox)
+                    .max(b[sy][1] * iy - oy)
+                    .max(b[sz][2] * iz - oz)
+                    .max(t_min);
+                let far = (b[sx ^ 1][0] * ix - ox)
+                    .min(b[sy ^ 1][1] * iy - oy)
+                    .min(b[sz ^ 1][2] * iz - oz)
+                    .min(Vec4::splat(best.t));
+                let mut mask = near.cmple(far).bitmask();
+                if mask != 0 {
+                    let near = near.to_array();
+                    // The nearest hit child is visited next; the others are pushed,
+                    // farthest deepest, each above the (this node's) farther ones.
+                    let base = top;
+                    let mut next: Option<(u32, u32, f32)> = None;
+                    while mask != 0 {
+                        let k = mask.trailing_zeros() as usize;
+                        mask &= mask - 1;
+                        if node.count[k] == EMPTY {
+                            continue;
+                        }
+                        let mut e = (node.child[k], node.count[k], near[k]);
+                        if let Some(n) = next {
+                            if e.2 < n.2 {
+                                next = Some(e);
+                                e = n;
+                            }
+                            let mut i = top;
+                            while i > base && entries[i - 1].2 < e.2 {
+                                entries[i] = entries[i - 1];
+                                i -= 1;
+                            }
+                            entries[i] = e;
+                            top += 1;
+                        } else {
+                            next = Some(e);
+                        }
+                    }
+                    if let Some((c, n, _)) = next {
+                        (child, count) = (c, n);
+                        continue 'visit;
+                    }
+                }
+            } else {
                 for slot in child..child + count {
                     let Some(t) = ray.triangle(&self.corners[slot as usize], best.t) else {
                         continue;
@@ -375,34 +419,19 @@ impl Bvh {
                         best = Hit { t, tri, slot };
                     }
                 }
-                continue;
             }
-            let node = &self.nodes[child as usize];
-            let mut t_near = [ray.t_min; 4];
-            let mut t_far = [best.t; 4];
-            for axis in 0..3 {
-                let near = &node.bounds[side[axis] & 1][axis];
-                let far = &node.bounds[(side[axis] ^ 1) & 1][axis];
-                for k in 0..4 {
-                    t_near[k] = max(t_near[k], near[k] * inv[axis] - oi[axis]);
-                    t_far[k] = min(t_far[k], far[k] * inv[axis] - oi[axis]);
+            // Next: the nearest pushed entry the ray may still reach before its best hit.
+            loop {
+                if top == 0 {
+                    break 'visit;
+                }
+                top -= 1;
+                let (c, n, entry) = entries[top];
+                if entry <= best.t {
+                    (child, count) = (c, n);
+                    continue 'visit;
                 }
             }
-            // Hit children, farthest first onto the stack so the nearest is popped first.
-            let mut hits = [(0u32, 0u32, 0f32); 4];
-            let mut n = 0;
-            for k in 0..4 {
-                if node.count[k] != EMPTY && t_near[k] <= t_far[k] {
-                    let mut i = n;
-                    while i > 0 && hits[i - 1].2 < t_near[k] {
-                        hits[i] = hits[i - 1];
-                        i -= 1;
-                    }
-                    hits[i] = (node.child[k], node.count[k], t_near[k]);
-                    n += 1;
-                }
-            }
-            stack.extend_from_slice(&hits[..n]);
         }
         (best.tri != u32::MAX).then_some(best)
     }
@@ -410,11 +439,11 @@ impl Bvh {
 
 /// A traversal stack, kept between rays so that a ray allocates nothing.
 #[derive(Debug, Clone)]
-pub struct Stack(Vec<(u32, u32, f32)>);
+pub struct Stack(Box<[(u32, u32, f32); STACK]>);
 
 impl Default for Stack {
     fn default() -> Self {
-        Stack(Vec::with_capacity(STACK))
+        Stack(Box::new([(0, 0, 0.0); STACK]))
     }
 }
 
