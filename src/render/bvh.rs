@@ -467,40 +467,39 @@ impl Bvh {
                     .min(b[sy ^ 1][1] * iy - oy)
                     .min(b[sz ^ 1][2] * iz - oz)
                     .min(Vec4::splat(best.t));
+                // Unused slots are never hit (their boxes are empty at +∞), and were one
+                // reached it would only test leaf 0's real triangles once more.
                 let mut mask = near.cmple(far).bitmask();
                 if mask != 0 {
-                    let near = near.to_array();
+                    let k = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    if mask == 0 {
+                        // One child hit (the common case deep in the tree): no ordering.
+                        (child, count) = (node.child[k], node.count[k]);
+                        continue 'visit;
+                    }
                     // The nearest hit child is visited next; the others are pushed,
                     // farthest deepest, each above the (this node's) farther ones.
+                    let near = near.to_array();
                     let base = top;
-                    let mut next: Option<(u32, u32, f32)> = None;
+                    let mut next = (node.child[k], node.count[k], near[k]);
                     while mask != 0 {
                         let k = mask.trailing_zeros() as usize;
                         mask &= mask - 1;
-                        if node.count[k] == EMPTY {
-                            continue;
-                        }
                         let mut e = (node.child[k], node.count[k], near[k]);
-                        if let Some(n) = next {
-                            if e.2 < n.2 {
-                                next = Some(e);
-                                e = n;
-                            }
-                            let mut i = top;
-                            while i > base && entries[i - 1].2 < e.2 {
-                                entries[i] = entries[i - 1];
-                                i -= 1;
-                            }
-                            entries[i] = e;
-                            top += 1;
-                        } else {
-                            next = Some(e);
+                        if e.2 < next.2 {
+                            std::mem::swap(&mut e, &mut next);
                         }
+                        let mut i = top;
+                        while i > base && entries[i - 1].2 < e.2 {
+                            entries[i] = entries[i - 1];
+                            i -= 1;
+                        }
+                        entries[i] = e;
+                        top += 1;
                     }
-                    if let Some((c, n, _)) = next {
-                        (child, count) = (c, n);
-                        continue 'visit;
-                    }
+                    (child, count) = (next.0, next.1);
+                    continue 'visit;
                 }
             } else {
                 ray.leaf(&self.leaves[child as usize], child, &mut best);
