@@ -9,16 +9,20 @@
 //! explicitly vectorised traversal needs a nightly compiler, and its ray query hands back
 //! candidate shapes for the caller to test rather than pruning by the nearest hit found so
 //! far; `obvhs` is closer (glam, CWBVH) but adds a dependency for ~400 lines. Here a node
-//! holds the boxes of its four children side by side (struct of arrays), so the four
-//! slab tests of a node compile to straight-line vector code on stable Rust without
-//! `unsafe`, and leaf triangles are stored in leaf order next to each other.
+//! holds the boxes of its four children side by side and a leaf its (up to four) triangles
+//! side by side (struct of arrays, glam's `Vec4`), so the four slab tests of a node and the
+//! four triangle tests of a leaf are straight-line vector code on stable Rust without
+//! `unsafe`. [`packet`] traces the four rays of a 2×2 pixel block together.
 //!
-//! Memory: a node is 128 bytes and there is about one node per seven triangles; each
-//! triangle is stored once more in leaf order (36 bytes of corners + a 4-byte id), about
-//! 60 MB per million triangles (59.7 MB measured by [`Bvh::memory_bytes`] on the dense
-//! bench scenes).
+//! Memory: a node is 128 bytes and there is about one node per seven triangles; a leaf is
+//! 160 bytes (four triangles' corners and ids; a partly filled leaf repeats its first
+//! triangle), about 70 MB per million triangles (71.6 MB measured by
+//! [`Bvh::memory_bytes`] on the 1M-triangle dense bench house).
 
 use glam::{Vec3, Vec4};
+
+mod packet;
+pub use packet::{Packet, PacketStack};
 
 /// Largest number of triangles in a leaf.
 const LEAF_MAX: usize = 4;

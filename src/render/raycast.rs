@@ -8,14 +8,15 @@
 //! Same rules as the rasteriser: a pixel shows the triangle nearest along its centre's ray
 //! with camera-space depth in `[near, far]` (the ray parameter is that depth, the direction
 //! having unit length along the viewing axis), both faces count, and the depth-buffer value
-//! is the perspective projection's `z/w` of that depth. Pixels are cast in 4×4 tiles, each
-//! ray first trying the triangle its tile's previous ray hit (that only prunes; the answer is
-//! the nearest hit, ties to the lowest id, whatever the order), and large images are split into
-//! bands rendered in parallel, so frames are identical for any thread count.
+//! is the perspective projection's `z/w` of that depth. Pixels are cast in 4×4 tiles of 2×2
+//! packets (four rays traced together, [`super::bvh::Packet`]), each ray first trying the
+//! leaf its corner of the previous packet hit (that only prunes; the answer is each ray's
+//! nearest hit, ties to the lowest id, whatever the order or grouping), and large images are
+//! split into bands rendered in parallel, so frames are identical for any thread count.
 
 use rayon::prelude::*;
 
-use super::bvh::{Bvh, Ray, Stack};
+use super::bvh::{Bvh, Packet, PacketStack};
 use super::camera::Camera;
 use super::frame::{Frame, PixelRays};
 use super::scene::RenderScene;
@@ -81,25 +82,38 @@ impl<'a> Cast<'a> {
         }
     }
 
-    /// Casts rows `y0..y1` (buffers hold those rows only).
+    /// Casts rows `y0..y1` (buffers hold those rows only): tile by tile, each tile as
+    /// 2×2 packets, each ray first trying what the same corner of the previous packet hit.
     fn rows(&self, width: u32, y0: u32, y1: u32, ids: &mut [u32], depth: &mut [f32]) {
         let (near, far) = (self.camera.near, self.camera.far);
-        let mut stack = Stack::default();
+        let mut stack = PacketStack::default();
         for ty in (y0..y1).step_by(TILE as usize) {
             for tx in (0..width).step_by(TILE as usize) {
-                let mut hint = None;
-                for y in ty..(ty + TILE).min(y1) {
-                    for x in tx..(tx + TILE).min(width) {
-                        let dir = self.rays.dir(x as usize, y as usize);
-                        let ray = Ray::new(self.camera.position, dir, near, far);
-                        let Some(hit) = self.bvh.closest_with(&ray, hint, &mut stack) else {
-                            continue;
+                let mut hints = [None; 4];
+                for py in (ty..(ty + TILE).min(y1)).step_by(2) {
+                    for px in (tx..(tx + TILE).min(width)).step_by(2) {
+                        // Lane i is pixel (px + i % 2, py + i / 2); lanes off the image
+                        // repeat lane 0 and are not written.
+                        let pixel = |i: u32| {
+                            let (x, y) = (px + i % 2, py + i / 2);
+                            (x < width && y < y1).then_some((x, y))
                         };
-                        hint = Some(hit.slot);
-                        let i = ((y - y0) * width + x) as usize;
-                        ids[i] = hit.tri;
-                        // z/w of the projection at view depth t (view z = −t).
-                        depth[i] = ((self.b - self.a * hit.t) / hit.t).clamp(0.0, 1.0);
+                        let dirs = std::array::from_fn(|i| {
+                            let (x, y) = pixel(i as u32).unwrap_or((px, py));
+                            self.rays.dir(x as usize, y as usize)
+                        });
+                        let packet = Packet::new(self.camera.position, dirs, near, far);
+                        let hits = self.bvh.closest_packet(&packet, hints, &mut stack);
+                        for (i, hit) in hits.iter().enumerate() {
+                            let (Some(hit), Some((x, y))) = (hit, pixel(i as u32)) else {
+                                continue;
+                            };
+                            hints[i] = Some(hit.slot);
+                            let p = ((y - y0) * width + x) as usize;
+                            ids[p] = hit.tri;
+                            // z/w of the projection at view depth t (view z = −t).
+                            depth[p] = ((self.b - self.a * hit.t) / hit.t).clamp(0.0, 1.0);
+                        }
                     }
                 }
             }
