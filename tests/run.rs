@@ -820,3 +820,54 @@ fn a_replay_without_some_episode_is_refused_up_front_naming_the_file() {
         String::from_utf8_lossy(&ok.stderr)
     );
 }
+
+#[test]
+fn one_scenes_episodes_split_across_threads_give_the_one_thread_bytes() {
+    // A scan-sized scene is often the only one: its episodes are shared among the threads,
+    // each with its own simulator and agent. Random agents (an RNG per episode) and cameras
+    // make any dependence on the split visible.
+    let dir = tempfile::tempdir().unwrap();
+    let scene = data().1[0].scene_id.clone();
+    let episodes: Vec<Episode> = data()
+        .1
+        .iter()
+        .filter(|e| e.scene_id == scene)
+        .take(7)
+        .cloned()
+        .collect();
+    assert!(episodes.len() >= 5, "{} episodes", episodes.len());
+    let sensors = SensorSuite::minos(16);
+    let out = |threads: usize| {
+        let out = dir.path().join(format!("t{threads}"));
+        let report = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| {
+                run(
+                    &config(&out, AgentKind::Random, sensors.clone()),
+                    &episodes,
+                    &NoProgress,
+                )
+            })
+            .unwrap();
+        assert!(report.failures.is_empty(), "{:?}", report.failures);
+        out
+    };
+    let one = out(1);
+    for threads in [2, 3] {
+        let many = out(threads);
+        for file in [
+            "episodes.parquet",
+            "trajectories.parquet",
+            "observations.parquet",
+            "metrics.json",
+        ] {
+            assert_eq!(
+                std::fs::read(one.join(file)).unwrap(),
+                std::fs::read(many.join(file)).unwrap(),
+                "{file} with {threads} threads"
+            );
+        }
+    }
+}

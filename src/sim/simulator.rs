@@ -200,6 +200,20 @@ impl Simulator {
         }
     }
 
+    /// A fresh simulator on the same shared assets, renderer, body, sensors, step limit and
+    /// seed (e.g. one per thread running a scene's episodes): episodes it runs give what
+    /// they give on this one, since every episode is seeded from its own id.
+    pub fn sibling(&self) -> Simulator {
+        Simulator::new(
+            self.assets.clone(),
+            self.renderer.clone(),
+            self.agent,
+            self.sensors.clone(),
+            self.max_steps,
+            self.seed,
+        )
+    }
+
     /// The agent's state.
     pub fn state(&self) -> AgentState {
         self.state

@@ -351,26 +351,76 @@ fn run_scene(
             }
         }
         Ok((sim, assets, agent)) => {
-            let mut run = SceneRun {
-                sim,
-                agent,
-                geo: Geodesic::new(&assets.grid),
+            // Up to one chunk of the scene's episodes per thread (a scan-sized scene is
+            // often the only one), each with its own simulator and agent on the shared
+            // assets. Every episode is seeded from its own id, so the split changes no
+            // output. External agents stay one process per scene.
+            let threads = if matches!(cfg.agent, AgentKind::External(_)) {
+                1
+            } else {
+                rayon::current_num_threads()
             };
-            for (i, ep) in pending {
-                if stop.load(Ordering::Relaxed) {
-                    out.push((*i, Err(Failed::Episode("not run: a write failed".into()))));
-                    progress.advance(1);
-                    continue;
-                }
-                let r = episode::run_episode(&mut run, ep, cfg, parts, *i, recorded.contains(i))
-                    .map_err(Failed::of);
-                if matches!(r, Err(Failed::Write(_))) {
-                    stop.store(true, Ordering::Relaxed);
-                }
-                out.push((*i, r.map(|m| (m, false))));
-                progress.advance(1);
-            }
+            let size = pending.len().div_ceil(threads.clamp(1, pending.len()));
+            let chunks: Vec<&[&(usize, Episode)]> = pending.chunks(size).collect();
+            let mut workers: Vec<Result<_, String>> = (1..chunks.len())
+                .map(|_| {
+                    scene::make_agent(&cfg.agent, cfg.seed)
+                        .map(|agent| (sim.sibling(), agent))
+                        .map_err(|e| e.to_string())
+                })
+                .collect();
+            workers.insert(0, Ok((sim, agent)));
+            let done: Vec<Vec<Outcome>> = chunks
+                .into_par_iter()
+                .zip(workers)
+                .map(|(chunk, worker)| match worker {
+                    Ok((sim, agent)) => {
+                        let mut run = SceneRun {
+                            sim,
+                            agent,
+                            geo: Geodesic::new(&assets.grid),
+                        };
+                        run_chunk(&mut run, chunk, cfg, parts, recorded, stop, progress)
+                    }
+                    Err(e) => chunk
+                        .iter()
+                        .map(|(i, _)| {
+                            progress.advance(1);
+                            (*i, Err(Failed::Episode(e.clone())))
+                        })
+                        .collect(),
+                })
+                .collect();
+            out.extend(done.into_iter().flatten());
         }
+    }
+    out
+}
+
+/// Runs `chunk`'s episodes in order on one simulator and agent.
+fn run_chunk(
+    run: &mut SceneRun<'_>,
+    chunk: &[&(usize, Episode)],
+    cfg: &RunConfig,
+    parts: &Path,
+    recorded: &BTreeSet<usize>,
+    stop: &AtomicBool,
+    progress: &dyn Progress,
+) -> Vec<Outcome> {
+    let mut out = Vec::with_capacity(chunk.len());
+    for (i, ep) in chunk.iter().map(|e| (&e.0, &e.1)) {
+        if stop.load(Ordering::Relaxed) {
+            out.push((*i, Err(Failed::Episode("not run: a write failed".into()))));
+            progress.advance(1);
+            continue;
+        }
+        let r =
+            episode::run_episode(run, ep, cfg, parts, *i, recorded.contains(i)).map_err(Failed::of);
+        if matches!(r, Err(Failed::Write(_))) {
+            stop.store(true, Ordering::Relaxed);
+        }
+        out.push((*i, r.map(|m| (m, false))));
+        progress.advance(1);
     }
     out
 }
