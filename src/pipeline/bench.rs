@@ -276,8 +276,19 @@ fn one<T>(_: &T) -> u64 {
     1
 }
 
-/// Runs the benchmark `cfg.kind` on the calling thread.
+/// Runs the benchmark `cfg.kind` on one thread: a one-thread pool, so that the parts that
+/// run in parallel elsewhere (large images are rendered in bands) stay on the thread whose
+/// CPU time is measured, and every figure is per core.
 pub fn bench(cfg: &BenchConfig) -> Result<BenchReport, BenchError> {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .map_err(|e| BenchError(format!("a one-thread pool: {e}")))?
+        .install(|| bench_on_this_thread(cfg))
+}
+
+/// [`bench`] on the calling thread (and whatever pool it is in).
+fn bench_on_this_thread(cfg: &BenchConfig) -> Result<BenchReport, BenchError> {
     let err = |e: &dyn std::fmt::Display| BenchError(e.to_string());
     let scene_ref = match &cfg.scene {
         Some(s) => s.clone(),
