@@ -75,7 +75,10 @@ corpus episodes_parquet "$GEN"/eps/*.parquet
 gunzip_to "$WORK/habitat" $(find "$GEN/eps/habitat" "$SHARED/habitat_episodes" -name '*.json.gz' 2>/dev/null | head -20)
 corpus habitat_json "$WORK"/habitat/*
 mkdir -p "$WORK/csv"
-for f in "$SHARED"/minos/*.csv.bz2; do [ -f "$f" ] && bzcat "$f" | head -n 200 > "$WORK/csv/$(basename "$f" .bz2)"; done
+# (`head` closing the pipe early makes bzcat exit with SIGPIPE: not a failure here.)
+for f in "$SHARED"/minos/*.csv.bz2; do
+    [ -f "$f" ] && { bzcat "$f" | head -n 200 > "$WORK/csv/$(basename "$f" .bz2)" || true; }
+done
 printf 'sceneId,level,startX,startY,startZ,startAngle,goalX,goalY,goalZ\nh,0,1,0,2,0.5,3,0,4\n' > "$WORK/csv/tiny.csv"
 corpus minos_csv "$WORK"/csv/*
 mkdir -p "$WORK/cfg"
