@@ -17,7 +17,7 @@ SECS=${SECONDS_PER_TARGET:-20}
 SHARED=${MINOS_SHARED:-$ROOT/../shared/datasets}
 # A worktree under wt/ finds shared/ one level further up.
 [ -d "$SHARED" ] || SHARED=$ROOT/../../shared/datasets
-ALL=(mscene nav suncg_house obj_mtl gltf episodes_parquet habitat_json minos_csv config_toml
+ALL=(mscene nav suncg_house obj_mtl gltf gltf_scene episodes_parquet habitat_json minos_csv config_toml
      external_reply mp3d_house mp3d_ply threedfront)
 TARGETS=("${@:-${ALL[@]}}")
 mkdir -p "$WORK"
@@ -71,6 +71,37 @@ done
 corpus obj_mtl $(ls "$WORK"/objmtl/* | head -200)
 corpus gltf "$GEN/house.glb" $(find "$SHARED/gltf_habitat" -name '*.glb' -size -256k 2>/dev/null | head -20) \
     $(find "$SHARED/gltf_habitat" -name '*.gltf' -size -256k 2>/dev/null | head -20)
+# A glTF scene root (gltf_scene replaces one of its files per input): a minos-made house as a
+# stage with a scene instance placing an object, a semantic config, and Habitat's test dataset.
+GROOT=$WORK/gltfroot
+if [ ! -d "$GROOT" ]; then
+    mkdir -p "$GROOT/stages" "$GROOT/objects"
+    cp "$GEN/house.glb" "$GROOT/stages/house.glb"
+    echo '{"render_asset": "house.glb", "up": [0, 1, 0], "front": [0, 0, -1]}' > "$GROOT/stages/house.stage_config.json"
+    cp "$(find "$SHARED/gltf_habitat" -name 5boxes.glb 2>/dev/null | head -1 || true)" "$GROOT/objects/box.glb" 2>/dev/null \
+        || cp "$GEN/house.glb" "$GROOT/objects/box.glb"
+    echo '{"render_asset": "box.glb", "mass": 1}' > "$GROOT/objects/box.object_config.json"
+    cat > "$GROOT/house.scene_instance.json" <<'JSON'
+{"translation_origin": "com", "stage_instance": {"template_name": "house"},
+ "object_instances": [{"template_name": "box", "translation": [1.0, 0.0, 2.0],
+   "rotation": [0.7071, 0.0, 0.7071, 0.0], "non_uniform_scale": [2.0, 1.0, 1.0],
+   "motion_type": "STATIC"}],
+ "semantic_scene_instance": "house"}
+JSON
+    cat > "$GROOT/house.semantic_config.json" <<'JSON'
+{"region_annotations": [{"name": "r0", "label": "bedroom",
+  "poly_loop": [[0, 0, 0], [4, 0, 0], [4, 0, 4], [0, 0, 4]], "floor_height": 0.0,
+  "extrusion_height": 2.5, "min_bounds": [0, 0, 0], "max_bounds": [4, 2.5, 4]}]}
+JSON
+    printf 'raw_category\tcategory\tmpcat40\nchair\tchair\tchair\n' > "$GROOT/fuzz_category_mappings.tsv"
+    d0=$(find "$SHARED/gltf_habitat" -type d -name dataset_0 2>/dev/null | head -1 || true)
+    [ -n "$d0" ] && cp -r "$d0" "$GROOT/dataset_0" && chmod -R u+w "$GROOT/dataset_0"
+fi
+mkdir -p "$WORK/gltfscene"
+(cd "$GROOT" && find . -type f | sed 's|^\./||') | while read -r rel; do
+    { printf '%s\n' "$rel"; cat "$GROOT/$rel"; } > "$WORK/gltfscene/$(echo "$rel" | tr / _)"
+done
+corpus gltf_scene "$WORK"/gltfscene/*
 corpus episodes_parquet "$GEN"/eps/*.parquet
 gunzip_to "$WORK/habitat" $(find "$GEN/eps/habitat" "$SHARED/habitat_episodes" -name '*.json.gz' 2>/dev/null | head -20)
 corpus habitat_json "$WORK"/habitat/*
@@ -104,7 +135,7 @@ corpus threedfront $(find "$WORK/3dfront" -name '*.json' -size -256k 2>/dev/null
 [ -n "${FUZZ_CORPUS_ONLY:-}" ] && { echo "corpora in $WORK/corpus"; exit 0; }
 
 # --- run every target ----------------------------------------------------------------------
-export MINOS_FUZZ_SUNCG_ROOT=$GEN/suncg
+export MINOS_FUZZ_SUNCG_ROOT=$GEN/suncg MINOS_FUZZ_GLTF_ROOT=$GROOT
 status=0
 for t in "${TARGETS[@]}"; do
     mkdir -p "$WORK/corpus/$t" "$WORK/artifacts/$t"

@@ -540,6 +540,9 @@ fn read_batch(
             success_radius: get!(success_radius, "success_radius"),
             max_steps: get!(max_steps, "max_steps"),
         });
+        if let Some(Err((column, message))) = out.last().map(Episode::validate) {
+            return Err(bad(column, message));
+        }
     }
     Ok(())
 }
@@ -799,6 +802,21 @@ pub(crate) mod tests {
         let err = read_episodes(&p).unwrap_err().to_string();
         assert!(
             err.contains("row 0: difficulty: unknown difficulty `brutal`"),
+            "{err}"
+        );
+
+        // Numbers later stages compute with are checked: a NaN start, a negative radius.
+        let mut eps = sample_episodes();
+        eps[1].start_position[1] = f32::NAN;
+        write_episodes(&p, &eps).unwrap();
+        let err = read_episodes(&p).unwrap_err().to_string();
+        assert!(err.contains("row 1: start_y: NaN is not finite"), "{err}");
+        let mut eps = sample_episodes();
+        eps[0].success_radius = -0.5;
+        write_episodes(&p, &eps).unwrap();
+        let err = read_episodes(&p).unwrap_err().to_string();
+        assert!(
+            err.contains("row 0: success_radius: -0.5 is not a finite radius"),
             "{err}"
         );
 

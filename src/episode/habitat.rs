@@ -629,10 +629,17 @@ impl<'a> Record<'a> {
         Ok(Some(out))
     }
 
+    /// Three numbers that fit an `f32` (JSON numbers beyond ±3.4e38 would become infinite).
     fn position(&self, field: &str) -> Result<[f32; 3], HabitatError> {
-        self.numbers::<3>(field)?
+        let p = self
+            .numbers::<3>(field)?
             .map(|p| p.map(|c| c as f32))
-            .ok_or_else(|| self.err(field, "missing (expected 3 numbers)"))
+            .ok_or_else(|| self.err(field, "missing (expected 3 numbers)"))?;
+        if p.iter().all(|c| c.is_finite()) {
+            Ok(p)
+        } else {
+            Err(self.err(field, format!("{p:?} is out of range for 32-bit floats")))
+        }
     }
 
     fn array(&self, field: &str) -> Result<&'a [Value], HabitatError> {
@@ -797,7 +804,13 @@ pub fn import_habitat(path: &Path) -> Result<Vec<Episode>, HabitatError> {
     let mut out = Vec::with_capacity(episodes.len());
     for (i, ep) in episodes.iter().enumerate() {
         let r = element(&p, "episodes", i, ep)?;
-        out.push(read_episode(&r, &goals_by_category)?);
+        let episode = read_episode(&r, &goals_by_category)?;
+        // Positions are range-checked where read; this catches the rest (a radius or distance
+        // beyond f32, a negative radius).
+        episode
+            .validate()
+            .map_err(|(field, message)| r.err(field, message))?;
+        out.push(episode);
     }
     Ok(out)
 }
@@ -1346,6 +1359,16 @@ mod tests {
                     "\"info\": {\"difficulty\": \"extreme\"}, \"goals\"",
                 ),
                 "episodes[12].info.difficulty: unknown difficulty `extreme`",
+            ),
+            (
+                "huge",
+                ok.replace("[3, 0, 4]", "[3, 1e39, 4]"),
+                "episodes[12].goals[0].position: [3.0, inf, 4.0] is out of range for 32-bit floats",
+            ),
+            (
+                "radius",
+                ok.replace("0.36", "-1"),
+                "episodes[12].success_radius: -1 is not a finite radius",
             ),
             (
                 "notobject",

@@ -159,6 +159,51 @@ pub struct Episode {
 }
 
 impl Episode {
+    /// Checks what later stages compute with: start, goal, target and view-point positions and
+    /// the start yaw finite; the success radius finite and not negative; the distances not
+    /// negative (NaN stands for "not known", as Habitat files without them give). Returns the
+    /// first problem as (field, message), the field named as the Parquet column holding it.
+    pub fn validate(&self) -> Result<(), (&'static str, String)> {
+        // The first coordinate that is not finite, named by its column.
+        let point =
+            |fields: [&'static str; 3], p: &[f32; 3]| match p.iter().position(|v| !v.is_finite()) {
+                None => Ok(()),
+                Some(k) => Err((fields[k], format!("{} is not finite", p[k]))),
+            };
+        point(["start_x", "start_y", "start_z"], &self.start_position)?;
+        if !self.start_yaw.is_finite() {
+            return Err(("start_yaw", format!("{} is not finite", self.start_yaw)));
+        }
+        match &self.goal {
+            Goal::Point { position } => point(["goal_x", "goal_y", "goal_z"], position)?,
+            Goal::Object { targets, .. } | Goal::Room { targets, .. } => {
+                for (j, t) in targets.iter().enumerate() {
+                    point(["goal_positions"; 3], &t.position)
+                        .map_err(|(f, m)| (f, format!("target {j}: {m}")))?;
+                    for (v, p) in t.view_points.iter().enumerate() {
+                        point(["goal_view_points"; 3], p)
+                            .map_err(|(f, m)| (f, format!("target {j}: view point {v}: {m}")))?;
+                    }
+                }
+            }
+        }
+        if !(self.success_radius.is_finite() && self.success_radius >= 0.0) {
+            return Err((
+                "success_radius",
+                format!("{} is not a finite radius", self.success_radius),
+            ));
+        }
+        for (field, d) in [
+            ("euclidean_distance", self.euclidean_distance),
+            ("geodesic_distance", self.geodesic_distance),
+        ] {
+            if d < 0.0 {
+                return Err((field, format!("{d} is negative")));
+            }
+        }
+        Ok(())
+    }
+
     /// The same episode on variant `name` of its scene: the scene id becomes `<scene>@<name>`
     /// (replacing any variant it had) and the episode id follows it. Positions stay: variants
     /// that only remove clutter, open doors or retexture keep every start and goal walkable.
