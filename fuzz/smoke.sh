@@ -4,6 +4,8 @@
 #
 #   fuzz/smoke.sh                 # every target, 20 s each
 #   SECONDS_PER_TARGET=600 fuzz/smoke.sh nav mscene
+#   SECONDS_PER_TARGET=10800 RUNS_PER_TARGET=10000000 CPU_SECONDS_PER_TARGET=1800 fuzz/smoke.sh
+#                                 # the long runs of docs/RELIABILITY.md
 #   FUZZ_CORPUS_ONLY=1 FUZZ_WORK=/tmp/fz fuzz/smoke.sh   # only build the corpora
 #
 # Needs the nightly toolchain and cargo-fuzz (`cargo install cargo-fuzz`). Corpora and
@@ -135,18 +137,34 @@ corpus threedfront $(find "$WORK/3dfront" -name '*.json' -size -256k 2>/dev/null
 [ -n "${FUZZ_CORPUS_ONLY:-}" ] && { echo "corpora in $WORK/corpus"; exit 0; }
 
 # --- run every target ----------------------------------------------------------------------
+# Each target runs for SECONDS_PER_TARGET of wall time, or stops earlier at RUNS_PER_TARGET
+# executions or CPU_SECONDS_PER_TARGET of its own CPU time (a fair limit when other work
+# shares the machine; libFuzzer is interrupted and prints its final statistics).
 export MINOS_FUZZ_SUNCG_ROOT=$GEN/suncg MINOS_FUZZ_GLTF_ROOT=$GROOT
+HOST=$(rustc -vV | sed -n 's/^host: //p')
+BIN=${CARGO_TARGET_DIR:-$ROOT/fuzz/target}/$HOST/release
 status=0
 for t in "${TARGETS[@]}"; do
     mkdir -p "$WORK/corpus/$t" "$WORK/artifacts/$t"
-    echo "== $t (${SECS}s)"
-    if ! cargo +nightly fuzz run -O --debug-assertions "$t" "$WORK/corpus/$t" -- \
-        -max_total_time="$SECS" -artifact_prefix="$WORK/artifacts/$t/" -max_len=262144 \
-        -rss_limit_mb=4096 -print_final_stats=1 2>&1 | tee "$WORK/$t.log" | tail -n 3; then
-        status=1
-    fi
+    echo "== $t (${SECS}s${RUNS_PER_TARGET:+, at most $RUNS_PER_TARGET runs}${CPU_SECONDS_PER_TARGET:+, at most ${CPU_SECONDS_PER_TARGET}s of CPU})"
+    cargo +nightly fuzz build -O --debug-assertions "$t"
+    args=(-max_total_time="$SECS" -artifact_prefix="$WORK/artifacts/$t/" -max_len=262144
+          -rss_limit_mb=4096 -print_final_stats=1)
+    [ -n "${RUNS_PER_TARGET:-}" ] && args+=(-runs="$RUNS_PER_TARGET")
+    "$BIN/$t" "$WORK/corpus/$t" "${args[@]}" > "$WORK/$t.log" 2>&1 &
+    pid=$!
+    while kill -0 "$pid" 2>/dev/null; do
+        sleep 2
+        if [ -n "${CPU_SECONDS_PER_TARGET:-}" ]; then
+            ticks=$(awk '{print $14 + $15}' "/proc/$pid/stat" 2>/dev/null || echo 0)
+            [ "${ticks:-0}" -ge $((CPU_SECONDS_PER_TARGET * $(getconf CLK_TCK))) ] && kill -INT "$pid"
+        fi
+    done
+    # Interrupted at the CPU limit is a clean stop; anything else non-zero is a finding.
+    wait "$pid" || grep -q 'run interrupted' "$WORK/$t.log" || status=1
+    grep -E '^(stat::number_of_executed_units|Done)' "$WORK/$t.log" || true
     if ls "$WORK/artifacts/$t"/crash-* "$WORK/artifacts/$t"/oom-* "$WORK/artifacts/$t"/timeout-* >/dev/null 2>&1; then
-        echo "!! $t: crash inputs in $WORK/artifacts/$t"; status=1
+        echo "!! $t: crash inputs in $WORK/artifacts/$t (log: $WORK/$t.log)"; status=1
     fi
 done
 exit $status

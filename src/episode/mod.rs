@@ -161,7 +161,8 @@ pub struct Episode {
 impl Episode {
     /// Checks what later stages compute with: start, goal, target and view-point positions and
     /// the start yaw finite; the success radius finite and not negative; the distances not
-    /// negative (NaN stands for "not known", as Habitat files without them give). Returns the
+    /// negative (NaN stands for "not known", as Habitat files without them give; a target whose
+    /// three coordinates are all NaN is known by id only, as Habitat's `object_id`). Returns the
     /// first problem as (field, message), the field named as the Parquet column holding it.
     pub fn validate(&self) -> Result<(), (&'static str, String)> {
         // The first coordinate that is not finite, named by its column.
@@ -178,8 +179,11 @@ impl Episode {
             Goal::Point { position } => point(["goal_x", "goal_y", "goal_z"], position)?,
             Goal::Object { targets, .. } | Goal::Room { targets, .. } => {
                 for (j, t) in targets.iter().enumerate() {
-                    point(["goal_positions"; 3], &t.position)
-                        .map_err(|(f, m)| (f, format!("target {j}: {m}")))?;
+                    // All three NaN is a target known by id only (Habitat's `object_id`).
+                    if !t.position.iter().all(|v| v.is_nan()) {
+                        point(["goal_positions"; 3], &t.position)
+                            .map_err(|(f, m)| (f, format!("target {j}: {m}")))?;
+                    }
                     for (v, p) in t.view_points.iter().enumerate() {
                         point(["goal_view_points"; 3], p)
                             .map_err(|(f, m)| (f, format!("target {j}: view point {v}: {m}")))?;
@@ -249,5 +253,55 @@ mod tests {
         .on_variant("empty");
         assert_eq!(e.scene_id, "h1@empty");
         assert_eq!(e.episode_id, "h1@empty:pointgoal:00003");
+    }
+
+    #[test]
+    fn a_target_known_by_id_only_is_valid_but_a_partly_unknown_one_is_not() {
+        let target = |position: [f32; 3]| GoalTarget {
+            id: "4".into(),
+            position,
+            view_points: Vec::new(),
+            room: None,
+        };
+        let mut e = Episode {
+            episode_id: "h1:objectgoal:0".into(),
+            scene_id: "h1".into(),
+            split: "val".into(),
+            task: Task::ObjectGoal,
+            seed: 1,
+            start_position: [0.0; 3],
+            start_yaw: 0.0,
+            goal: Goal::Object {
+                category: "toilet".into(),
+                targets: vec![target([f32::NAN; 3])],
+            },
+            euclidean_distance: f32::NAN,
+            geodesic_distance: f32::NAN,
+            path_num_doors: 0,
+            path_num_rooms: 1,
+            difficulty: Difficulty::Medium,
+            success_radius: 1.0,
+            max_steps: 500,
+        };
+        assert_eq!(e.validate(), Ok(()));
+        for (bad, what) in [
+            ([1.0, f32::NAN, 2.0], "target 0: NaN is not finite"),
+            ([f32::INFINITY, 0.0, 0.0], "target 0: inf is not finite"),
+        ] {
+            e.goal = Goal::Object {
+                category: "toilet".into(),
+                targets: vec![target(bad)],
+            };
+            assert_eq!(e.validate(), Err(("goal_positions", what.to_string())));
+        }
+        e.goal = Goal::Object {
+            category: "toilet".into(),
+            targets: vec![target([1.0, 0.0, 2.0])],
+        };
+        e.geodesic_distance = -1.0;
+        assert_eq!(
+            e.validate(),
+            Err(("geodesic_distance", "-1 is negative".to_string()))
+        );
     }
 }
