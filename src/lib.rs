@@ -20,6 +20,7 @@
 pub mod atomic;
 pub mod body;
 pub mod episode;
+pub mod escape;
 pub mod generate;
 pub mod io;
 pub mod lock;

@@ -37,11 +37,12 @@ pub enum ParquetFileError {
 }
 
 impl ParquetFileError {
-    /// A format error of `path`.
+    /// A format error of `path`. Control characters in `message` (a column name or value
+    /// quoted from a corrupt file may hold a newline) are escaped: the error stays one line.
     pub fn format(path: &Path, message: impl ToString) -> Self {
         ParquetFileError::Format {
             path: path.display().to_string(),
-            message: message.to_string(),
+            message: crate::escape::escape_controls(&message.to_string()),
         }
     }
 }
@@ -129,6 +130,12 @@ mod tests {
     use arrow::array::{BinaryArray, StringArray, UInt32Array};
     use arrow::datatypes::Field;
     use std::sync::Arc;
+
+    #[test]
+    fn format_errors_escape_control_characters() {
+        let e = ParquetFileError::format(Path::new("t.parquet"), "field `a\nb\u{1}c` é");
+        assert_eq!(e.to_string(), "t.parquet: field `a\\nb\\u{1}c` é");
+    }
 
     fn table() -> (SchemaRef, RecordBatch) {
         let schema = Arc::new(Schema::new(vec![

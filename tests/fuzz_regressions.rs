@@ -41,6 +41,23 @@ fn episode_parquet_whose_schema_panicked_arrow_ipc_type_none() {
 }
 
 #[test]
+fn episode_parquet_whose_field_name_holds_a_newline() {
+    // The error quoted a corrupt schema's field name (`euclidean_d`, 1, 0, 0, newline, `nce`)
+    // raw: two lines. Control characters are now escaped.
+    let path = input("episodes_parquet-newline_in_field_name.parquet");
+    let r = std::panic::catch_unwind(|| read_episodes(&path)).expect("no panic");
+    let e = r.expect_err("refused").to_string();
+    assert!(
+        e.contains("expected field named euclidean_d\\u{1}\\u{0}\\u{0}\\nnce"),
+        "{e}"
+    );
+    one_line_error(
+        Err::<(), _>(e),
+        "episodes_parquet-newline_in_field_name.parquet",
+    );
+}
+
+#[test]
 fn glb_whose_accessor_panicked_gltf() {
     // gltf 1.4.1 panicked in accessor/util.rs (`assertion left == right`).
     let path = input("gltf-accessor_assert.glb");
@@ -54,6 +71,40 @@ fn glb_whose_mesh_panicked_gltf_unreachable() {
     let path = input("gltf-mesh_unreachable.glb");
     let r = std::panic::catch_unwind(|| load_mesh_file(&path)).expect("no panic");
     one_line_error(r, "gltf-mesh_unreachable.glb");
+}
+
+#[test]
+fn gltf_whose_node_is_its_own_child_is_refused_at_once() {
+    // A mutated GLB (target `gltf`) whose node listed itself as a child took 24 s and 1.7 GB:
+    // the traversal expanded the cycle to a million mesh instances before calling it cyclic.
+    // The same hierarchy, one triangle, written here (the found input came from a test asset).
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("cycle.gltf");
+    let gltf = r#"{"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [1]}],
+        "nodes": [{"mesh": 0, "children": [0]}, {"children": [0]}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+        "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                       "min": [0, 0, 0], "max": [1, 0, 1]}],
+        "bufferViews": [{"buffer": 0, "byteLength": 36}],
+        "buffers": [{"byteLength": 36, "uri":
+            "data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAAAAAAIA/"}]}"#;
+    std::fs::write(&path, gltf).unwrap();
+    // Refused by the hierarchy check before any traversal (the traversal's own limit says
+    // "node hierarchy too deep or cyclic" after a million instances).
+    let e = load_mesh_file(&path).expect_err("refused").to_string();
+    assert!(
+        e.contains("cycle.gltf") && e.contains("nodes[0]: the node is its own ancestor"),
+        "{e}"
+    );
+    assert!(!e.contains('\n'), "{e}");
+
+    // Without the cycle the same file loads: one triangle.
+    std::fs::write(
+        &path,
+        gltf.replace(r#""children": [0]}, {"#, r#""children": []}, {"#),
+    )
+    .unwrap();
+    assert_eq!(load_mesh_file(&path).unwrap().triangle_count(), 1);
 }
 
 #[test]

@@ -9,6 +9,7 @@ use std::path::{Path, PathBuf};
 const GROUND: &[&str] = &[
     "atomic",
     "body",
+    "escape",
     "lock",
     "parquet_io",
     "progress",
@@ -21,6 +22,7 @@ const GROUND: &[&str] = &[
 const FLOORS: &[(&str, &[&str])] = &[
     ("atomic", &[]),
     ("body", &[]),
+    ("escape", &[]),
     ("lock", &[]),
     ("parquet_io", &[]),
     ("progress", &[]),

@@ -297,7 +297,7 @@ fn read_episodes_unguarded(path: &Path) -> Result<Vec<Episode>, EpisodeFileError
                 path: p.clone(),
                 row,
                 column,
-                message,
+                message: crate::escape::escape_controls(&message),
             },
         })?;
     }
@@ -802,6 +802,15 @@ pub(crate) mod tests {
         let err = read_episodes(&p).unwrap_err().to_string();
         assert!(
             err.contains("row 0: difficulty: unknown difficulty `brutal`"),
+            "{err}"
+        );
+
+        // Text quoted from the file stays on one line.
+        write_episodes(&p, &sample_episodes()).unwrap();
+        with_string_column(&p, "task", "fly\ngoal");
+        let err = read_episodes(&p).unwrap_err().to_string();
+        assert!(
+            err.contains("row 0: task: unknown task `fly\\ngoal`") && !err.contains('\n'),
             "{err}"
         );
 

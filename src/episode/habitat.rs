@@ -101,6 +101,7 @@ use super::interchange::{
 };
 use super::{Difficulty, Episode, Goal, GoalTarget, TargetRoom, Task};
 use crate::atomic::write_atomic;
+use crate::escape::escape_controls;
 
 /// Success radius (m) of imported PointNav episodes without one (Habitat's PointNav default).
 pub const DEFAULT_POINT_SUCCESS_RADIUS: f32 = 0.2;
@@ -127,7 +128,7 @@ pub enum HabitatError {
         source: std::io::Error,
     },
     /// The file is not JSON, or not an object with an `episodes` list.
-    #[error("{path}: {message}")]
+    #[error("{path}: {}", escape_controls(.message))]
     Shape {
         /// The file.
         path: String,
@@ -135,7 +136,11 @@ pub enum HabitatError {
         message: String,
     },
     /// A bad value in one record of the file.
-    #[error("{path}: {}: {message}", join(.record, .field))]
+    #[error(
+        "{path}: {}: {}",
+        escape_controls(&join(.record, .field)),
+        escape_controls(.message)
+    )]
     Entry {
         /// The file.
         path: String,
@@ -147,7 +152,11 @@ pub enum HabitatError {
         message: String,
     },
     /// An episode that cannot be exported.
-    #[error("{path}: episode `{episode_id}`: {message}")]
+    #[error(
+        "{path}: episode `{}`: {}",
+        escape_controls(.episode_id),
+        escape_controls(.message)
+    )]
     Export {
         /// The file it was bound for.
         path: String,
@@ -1359,6 +1368,15 @@ mod tests {
                     "\"info\": {\"difficulty\": \"extreme\"}, \"goals\"",
                 ),
                 "episodes[12].info.difficulty: unknown difficulty `extreme`",
+            ),
+            (
+                // Text quoted from the file stays on one line.
+                "newline",
+                ok.replace(
+                    "\"goals\"",
+                    "\"info\": {\"difficulty\": \"ex\\ntreme\"}, \"goals\"",
+                ),
+                "episodes[12].info.difficulty: unknown difficulty `ex\\ntreme`",
             ),
             (
                 "huge",

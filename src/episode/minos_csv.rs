@@ -57,6 +57,7 @@ use std::path::Path;
 
 use super::interchange::{difficulty_for_geodesic, distance, open_text, DEFAULT_MAX_STEPS};
 use super::{Episode, Goal, GoalTarget, TargetRoom, Task};
+use crate::escape::escape_controls;
 use crate::scene::RoomClass;
 
 /// Height (m) of MINOS's agent origin above the floor (half of its 1.09 m eye height), taken
@@ -79,7 +80,7 @@ pub enum MinosCsvError {
         source: std::io::Error,
     },
     /// The header line lacks required columns (or the file is empty).
-    #[error("{path}: line 1: {message}")]
+    #[error("{path}: line 1: {}", escape_controls(.message))]
     Header {
         /// The table.
         path: String,
@@ -87,7 +88,11 @@ pub enum MinosCsvError {
         message: String,
     },
     /// A bad row.
-    #[error("{path}: line {line}: {column}: {message}")]
+    #[error(
+        "{path}: line {line}: {}: {}",
+        escape_controls(.column),
+        escape_controls(.message)
+    )]
     Row {
         /// The table.
         path: String,
@@ -560,6 +565,11 @@ mod tests {
             (
                 SUNCG_ROW.replace("-37.105", "abc"),
                 "line 17: startX: `abc` is not a number",
+            ),
+            (
+                // Control characters quoted from the file are escaped.
+                SUNCG_ROW.replace("-37.105", "ab\u{1}c"),
+                "line 17: startX: `ab\\u{1}c` is not a number",
             ),
             (
                 SUNCG_ROW.replace(",2,0_11", ",-1,0_11"),

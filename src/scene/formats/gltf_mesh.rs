@@ -119,6 +119,7 @@ impl GltfFile {
             }
         })?;
         check_views(path, &document, &buffers)?;
+        super::gltf_hierarchy::check_hierarchy(path, &document)?;
         Ok(GltfFile {
             path: path.to_path_buf(),
             document,

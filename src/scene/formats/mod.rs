@@ -3,6 +3,7 @@
 //! Loaders never panic on data: every problem becomes a [`LoadError`] whose one-line message
 //! names the file, the record (node id, line) and what is wrong.
 
+mod gltf_hierarchy;
 pub mod gltf_mesh;
 pub mod gltf_scene;
 pub mod mp3d;
