@@ -115,7 +115,10 @@ pub enum EpisodeFileError {
     #[error(transparent)]
     File(#[from] ParquetFileError),
     /// A value that cannot be turned back into an episode.
-    #[error("{path}: row {row}: {column}: {message}")]
+    #[error(
+        "{path}: row {row}: {column}: {}",
+        crate::escape::escape_controls(.message)
+    )]
     Value {
         /// The episode file.
         path: String,
@@ -297,7 +300,7 @@ fn read_episodes_unguarded(path: &Path) -> Result<Vec<Episode>, EpisodeFileError
                 path: p.clone(),
                 row,
                 column,
-                message: crate::escape::escape_controls(&message),
+                message,
             },
         })?;
     }

@@ -42,7 +42,9 @@ pub enum AgentError {
 
 /// A reply of an external agent that is not a decision.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("{0}")]
+/// Its message may quote the reply (an action name): control characters are escaped when
+/// shown, so the error is one line whatever the reply holds.
+#[error("{}", crate::escape::escape_controls(.0))]
 pub struct ReplyError(pub String);
 
 /// What an agent does next.

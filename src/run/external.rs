@@ -88,28 +88,21 @@ impl Drop for ExternalAgent {
 }
 
 /// Parses a reply: `{"stop": true}`, `{"action": "forward"}` or `{"actions": {"forward": 1.0, …}}`.
-/// Names quoted in errors are escaped: an error is one line whatever the reply holds.
 pub fn parse_reply(v: &Value) -> Result<Decision, ReplyError> {
     if v.get("stop").and_then(Value::as_bool) == Some(true) {
         return Ok(Decision::Stop);
     }
     if let Some(name) = v.get("action").and_then(Value::as_str) {
-        return Decision::from_name(name).ok_or_else(|| {
-            ReplyError(format!(
-                "unknown action `{}`",
-                crate::escape::escape_controls(name)
-            ))
-        });
+        return Decision::from_name(name)
+            .ok_or_else(|| ReplyError(format!("unknown action `{name}`")));
     }
     if let Some(map) = v.get("actions").and_then(Value::as_object) {
         let mut a = Actions::IDLE;
         for (k, val) in map {
-            let s = val.as_f64().ok_or_else(|| {
-                ReplyError(format!(
-                    "actions.{}: not a number",
-                    crate::escape::escape_controls(k)
-                ))
-            })? as f32;
+            let s = val
+                .as_f64()
+                .ok_or_else(|| ReplyError(format!("actions.{k}: not a number")))?
+                as f32;
             match k.as_str() {
                 "forward" => a.forward = s,
                 "backward" => a.backward = s,
@@ -119,12 +112,7 @@ pub fn parse_reply(v: &Value) -> Result<Decision, ReplyError> {
                 "turn_right" => a.turn_right = s,
                 "look_up" => a.look_up = s,
                 "look_down" => a.look_down = s,
-                other => {
-                    return Err(ReplyError(format!(
-                        "actions: unknown action `{}`",
-                        crate::escape::escape_controls(other)
-                    )))
-                }
+                other => return Err(ReplyError(format!("actions: unknown action `{other}`"))),
             }
         }
         return Ok(Decision::Act(a.clamped()));
@@ -225,7 +213,7 @@ mod tests {
             json!({"action": "f\ng"}),
             json!({"actions": {"f\ng": "x"}}),
         ] {
-            let e = parse_reply(&reply).unwrap_err().0;
+            let e = parse_reply(&reply).unwrap_err().to_string();
             assert!(e.contains("f\\ng") && !e.contains('\n'), "{e}");
         }
     }

@@ -145,7 +145,7 @@ pub fn decode(path: &Path, bytes: &[u8]) -> Result<(SceneHeader, Scene), SceneFi
     // Names quoted from the file (mesh names, ids) may hold newlines: keep the error one line.
     let bad = |message: String| SceneFileError::Format {
         path: path.to_path_buf(),
-        message: message.replace('\n', "\\n"),
+        message: crate::escape::escape_controls(&message),
     };
     let stored = u64::from_le_bytes(bytes[16..PREFIX].try_into().unwrap_or([0; 8]));
     // Fuzzing skips the checksum so that the decoder and the validation behind it are reached.

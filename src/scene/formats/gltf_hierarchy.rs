@@ -30,26 +30,36 @@ pub(crate) fn check_hierarchy(path: &Path, document: &gltf::Document) -> Result<
             format!("{what} expands to more than {MAX_NODE_VISITS} node instances"),
         )
     };
-    let total = |roots: &mut dyn Iterator<Item = usize>| {
-        roots.fold(0usize, |sum, n| {
-            sum.saturating_add(instances.get(n).copied().unwrap_or(0))
-        })
-    };
     for scene in document.scenes() {
-        if total(&mut scene.nodes().map(|n| n.index())) > MAX_NODE_VISITS {
+        if expansion(&instances, scene.nodes().map(|n| n.index())) > MAX_NODE_VISITS {
             return Err(too_many(format!("scenes[{}]", scene.index())));
         }
     }
-    let mut has_parent = vec![false; children.len()];
-    for c in children.iter().flatten() {
-        if let Some(flag) = has_parent.get_mut(*c) {
-            *flag = true;
-        }
-    }
-    if total(&mut (0..children.len()).filter(|&n| !has_parent[n])) > MAX_NODE_VISITS {
+    let has_parent = has_parent(document);
+    let roots = (0..children.len()).filter(|&n| !has_parent[n]);
+    if expansion(&instances, roots) > MAX_NODE_VISITS {
         return Err(too_many("the node hierarchy".into()));
     }
     Ok(())
+}
+
+/// For every node, whether another node lists it as a child (the roots of a file without
+/// scenes are the nodes without a parent).
+pub(crate) fn has_parent(document: &gltf::Document) -> Vec<bool> {
+    let mut has_parent = vec![false; document.nodes().len()];
+    for c in document.nodes().flat_map(|n| n.children()) {
+        if let Some(flag) = has_parent.get_mut(c.index()) {
+            *flag = true;
+        }
+    }
+    has_parent
+}
+
+/// How many node instances `roots` expand to, saturating.
+fn expansion(instances: &[usize], roots: impl Iterator<Item = usize>) -> usize {
+    roots.fold(0usize, |sum, n| {
+        sum.saturating_add(instances.get(n).copied().unwrap_or(0))
+    })
 }
 
 /// For every node, how many node instances its subtree expands to (itself and its

@@ -137,17 +137,10 @@ impl GltfFile {
         {
             Some(scene) => scene.nodes().collect(),
             None => {
-                let mut is_child = vec![false; self.document.nodes().len()];
-                for n in self.document.nodes() {
-                    for c in n.children() {
-                        if let Some(flag) = is_child.get_mut(c.index()) {
-                            *flag = true;
-                        }
-                    }
-                }
+                let has_parent = super::gltf_hierarchy::has_parent(&self.document);
                 self.document
                     .nodes()
-                    .filter(|n| !is_child.get(n.index()).copied().unwrap_or(false))
+                    .filter(|n| !has_parent[n.index()])
                     .collect()
             }
         }
