@@ -12,7 +12,8 @@
 //! holds the boxes of its four children side by side and a leaf its (up to four) triangles
 //! side by side (struct of arrays, glam's `Vec4`), so the four slab tests of a node and the
 //! four triangle tests of a leaf are straight-line vector code on stable Rust without
-//! `unsafe`. [`packet`] traces the four rays of a 2×2 pixel block together.
+//! `unsafe`. [`packet`] traces the four rays of a 2×2 pixel block together; [`build`] builds
+//! the tree, large subtrees in parallel, the same tree on any number of threads.
 //!
 //! Memory: a node is 128 bytes and there is about one node per seven triangles; a leaf is
 //! 160 bytes (four triangles' corners and ids; a partly filled leaf repeats its first
@@ -21,13 +22,12 @@
 
 use glam::{Vec3, Vec4};
 
+mod build;
 mod packet;
 pub use packet::{Packet, PacketStack};
 
 /// Largest number of triangles in a leaf.
 const LEAF_MAX: usize = 4;
-/// SAH bins per axis.
-const BINS: usize = 16;
 /// Below this depth splits follow the SAH; deeper, they halve the triangles, which bounds
 /// the depth (and so the traversal stack) whatever the geometry.
 const MEDIAN_DEPTH: u32 = 40;
@@ -38,7 +38,7 @@ const STACK: usize = 3 * (MEDIAN_DEPTH as usize + 34) + 1;
 const EMPTY: u32 = u32::MAX;
 
 /// Four children's boxes side by side, and what each child is.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 #[repr(C, align(64))]
 struct Node {
     /// `bounds[0]`: smallest x, y, z of each child's box; `bounds[1]`: largest (four
@@ -46,7 +46,8 @@ struct Node {
     bounds: [[Vec4; 3]; 2],
     /// Inner child: its node index; leaf child: its first triangle (leaf order).
     child: [u32; 4],
-    /// 0 for an inner child, the triangle count for a leaf, [`EMPTY`] for an unused slot.
+    /// 0 for an inner child, the triangle count for a leaf, [`EMPTY`] for an unused slot
+    /// (unused slots come after the used ones).
     count: [u32; 4],
 }
 
@@ -61,7 +62,7 @@ impl Node {
 
 /// The (up to four) triangles of one leaf side by side, so that one ray meets all four in
 /// one pass of four-lane arithmetic.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 #[repr(C, align(16))]
 struct Leaf {
     /// `corners[c][axis]`: lane `i` holds that coordinate of corner `c` of triangle `i`.
@@ -94,7 +95,7 @@ impl Leaf {
 }
 
 /// The BVH of one scene's triangles.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone, Default, PartialEq)]
 pub struct Bvh {
     nodes: Vec<Node>,
     /// The leaves' triangles, four lanes per leaf.
@@ -300,120 +301,7 @@ impl Ray {
     }
 }
 
-/// One triangle while building: its box and centroid.
-#[derive(Clone, Copy)]
-struct Prim {
-    lo: Vec3,
-    hi: Vec3,
-    centroid: Vec3,
-}
-
-/// A box while building.
-#[derive(Clone, Copy)]
-struct BuildBox {
-    lo: Vec3,
-    hi: Vec3,
-}
-
-impl BuildBox {
-    const EMPTY: BuildBox = BuildBox {
-        lo: Vec3::splat(f32::INFINITY),
-        hi: Vec3::splat(f32::NEG_INFINITY),
-    };
-
-    fn grow(&mut self, lo: Vec3, hi: Vec3) {
-        self.lo = self.lo.min(lo);
-        self.hi = self.hi.max(hi);
-    }
-
-    /// Half the surface area (the SAH only compares areas).
-    fn half_area(&self) -> f32 {
-        let e = (self.hi - self.lo).max(Vec3::ZERO);
-        e.x * e.y + e.y * e.z + e.z * e.x
-    }
-}
-
-/// A node waiting to be built: the slot of its parent that points to it and its triangles.
-struct Job {
-    parent: usize,
-    slot: usize,
-    start: usize,
-    end: usize,
-    depth: u32,
-}
-
 impl Bvh {
-    /// Builds the hierarchy over triangles given as three corners each (`positions.len()`
-    /// a multiple of 3; triangle `i` is `positions[3i..3i + 3]`). Deterministic: the same
-    /// triangles give the same tree.
-    pub fn new(positions: &[Vec3]) -> Bvh {
-        let tris = positions.len() / 3;
-        let prims: Vec<Prim> = (0..tris)
-            .map(|t| {
-                let p = &positions[3 * t..3 * t + 3];
-                let (lo, hi) = (p[0].min(p[1]).min(p[2]), p[0].max(p[1]).max(p[2]));
-                Prim {
-                    lo,
-                    hi,
-                    centroid: (lo + hi) * 0.5,
-                }
-            })
-            .collect();
-        let mut order: Vec<u32> = (0..tris as u32).collect();
-        let mut nodes = vec![Node::UNUSED];
-        let mut leaves = Vec::new();
-        if tris > 0 {
-            let mut jobs = vec![Job {
-                parent: usize::MAX,
-                slot: 0,
-                start: 0,
-                end: tris,
-                depth: 0,
-            }];
-            while let Some(job) = jobs.pop() {
-                let index = if job.parent == usize::MAX {
-                    0
-                } else {
-                    nodes.push(Node::UNUSED);
-                    let index = nodes.len() - 1;
-                    nodes[job.parent].child[job.slot] = index as u32;
-                    nodes[job.parent].count[job.slot] = 0;
-                    index
-                };
-                let parts = split_four(&prims, &mut order, job.start, job.end, job.depth);
-                for (slot, &(start, end)) in parts.iter().enumerate() {
-                    let b = bounds(&prims, &order[start..end]);
-                    // Pad the box so that rounding in the slab test never misses a
-                    // triangle on its face (flat boxes of walls and floors included).
-                    let pad = (b.lo.abs().max(b.hi.abs()).max_element() + 1.0) * 1e-5;
-                    let node = &mut nodes[index];
-                    for axis in 0..3 {
-                        node.bounds[0][axis][slot] = b.lo[axis] - pad;
-                        node.bounds[1][axis][slot] = b.hi[axis] + pad;
-                    }
-                    if end - start <= LEAF_MAX {
-                        node.child[slot] = leaves.len() as u32;
-                        node.count[slot] = (end - start) as u32;
-                        leaves.push(Leaf::new(positions, &order[start..end]));
-                    } else {
-                        jobs.push(Job {
-                            parent: index,
-                            slot,
-                            start,
-                            end,
-                            depth: job.depth + 1,
-                        });
-                    }
-                }
-            }
-        }
-        Bvh {
-            nodes,
-            leaves,
-            triangles: tris,
-        }
-    }
-
     /// Number of triangles.
     pub fn triangle_count(&self) -> usize {
         self.triangles
@@ -533,134 +421,6 @@ impl Default for Stack {
     fn default() -> Self {
         Stack(Box::new([(0, 0, 0.0); STACK]))
     }
-}
-
-/// The box of triangles `ids`.
-fn bounds(prims: &[Prim], ids: &[u32]) -> BuildBox {
-    let mut b = BuildBox::EMPTY;
-    for &i in ids {
-        let p = &prims[i as usize];
-        b.grow(p.lo, p.hi);
-    }
-    b
-}
-
-/// Splits `order[start..end]` into up to four ranges: the largest range (by box area) of more
-/// than [`LEAF_MAX`] triangles is split in two until there are four.
-fn split_four(
-    prims: &[Prim],
-    order: &mut [u32],
-    start: usize,
-    end: usize,
-    depth: u32,
-) -> Vec<(usize, usize)> {
-    let mut parts = vec![(start, end)];
-    while parts.len() < 4 {
-        let pick = parts
-            .iter()
-            .enumerate()
-            .filter(|(_, &(s, e))| e - s > LEAF_MAX)
-            .map(|(i, &(s, e))| (i, bounds(prims, &order[s..e]).half_area()))
-            .fold(None::<(usize, f32)>, |best, (i, a)| match best {
-                Some((_, b)) if b >= a => best,
-                _ => Some((i, a)),
-            });
-        let Some((i, _)) = pick else {
-            break;
-        };
-        let (s, e) = parts.remove(i);
-        let mid = split(prims, order, s, e, depth);
-        parts.insert(i, (mid, e));
-        parts.insert(i, (s, mid));
-    }
-    parts
-}
-
-/// Splits `order[start..end]` in two (binned SAH, or halving past [`MEDIAN_DEPTH`] or when
-/// the SAH finds nothing); returns the first index of the second half, strictly inside.
-fn split(prims: &[Prim], order: &mut [u32], start: usize, end: usize, depth: u32) -> usize {
-    let ids = &mut order[start..end];
-    let mut cb = BuildBox::EMPTY;
-    for &i in ids.iter() {
-        let c = prims[i as usize].centroid;
-        cb.grow(c, c);
-    }
-    let extent = cb.hi - cb.lo;
-    if depth < MEDIAN_DEPTH {
-        if let Some((axis, bin)) = sah_split(prims, ids, cb) {
-            let scale = BINS as f32 * (1.0 - 1e-6) / extent[axis];
-            let bin_of = |i: u32| {
-                (((prims[i as usize].centroid[axis] - cb.lo[axis]) * scale) as usize).min(BINS - 1)
-            };
-            let (mut lo, mut hi) = (0, ids.len());
-            while lo < hi {
-                if bin_of(ids[lo]) < bin {
-                    lo += 1;
-                } else {
-                    hi -= 1;
-                    ids.swap(lo, hi);
-                }
-            }
-            if lo > 0 && lo < ids.len() {
-                return start + lo;
-            }
-        }
-    }
-    // Halve along the widest centroid axis (ties by triangle id, so the result is unique).
-    let axis = extent.max_position();
-    let mid = ids.len() / 2;
-    ids.select_nth_unstable_by(mid, |&a, &b| {
-        let (ca, cb) = (
-            prims[a as usize].centroid[axis],
-            prims[b as usize].centroid[axis],
-        );
-        ca.total_cmp(&cb).then(a.cmp(&b))
-    });
-    start + mid
-}
-
-/// The best binned-SAH plane: (axis, first bin of the second half), or `None` when all
-/// centroids coincide.
-fn sah_split(prims: &[Prim], ids: &[u32], cb: BuildBox) -> Option<(usize, usize)> {
-    let extent = cb.hi - cb.lo;
-    let mut best: Option<(f32, usize, usize)> = None;
-    for axis in 0..3 {
-        if extent[axis] <= 0.0 || !extent[axis].is_finite() {
-            continue;
-        }
-        let scale = BINS as f32 * (1.0 - 1e-6) / extent[axis];
-        let mut boxes = [BuildBox::EMPTY; BINS];
-        let mut counts = [0usize; BINS];
-        for &i in ids {
-            let p = &prims[i as usize];
-            let b = (((p.centroid[axis] - cb.lo[axis]) * scale) as usize).min(BINS - 1);
-            boxes[b].grow(p.lo, p.hi);
-            counts[b] += 1;
-        }
-        // Areas and counts of every prefix and suffix of bins.
-        let mut right_area = [0f32; BINS];
-        let mut right_count = [0usize; BINS];
-        let (mut acc, mut n) = (BuildBox::EMPTY, 0);
-        for b in (1..BINS).rev() {
-            acc.grow(boxes[b].lo, boxes[b].hi);
-            n += counts[b];
-            right_area[b] = acc.half_area();
-            right_count[b] = n;
-        }
-        let (mut acc, mut n) = (BuildBox::EMPTY, 0);
-        for b in 1..BINS {
-            acc.grow(boxes[b - 1].lo, boxes[b - 1].hi);
-            n += counts[b - 1];
-            if n == 0 || right_count[b] == 0 {
-                continue;
-            }
-            let cost = acc.half_area() * n as f32 + right_area[b] * right_count[b] as f32;
-            if best.is_none_or(|(c, _, _)| cost < c) {
-                best = Some((cost, axis, b));
-            }
-        }
-    }
-    best.map(|(_, axis, bin)| (axis, bin))
 }
 
 #[cfg(test)]

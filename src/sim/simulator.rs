@@ -63,16 +63,22 @@ impl SceneAssets {
         grid: NavGrid,
         agent: &AgentConfig,
     ) -> Result<Self, SimError> {
+        // Independent structures of the same scene: built side by side.
+        let (render, collision) = rayon::join(
+            || RenderScene::new(scene),
+            || {
+                CollisionWorld::new(
+                    scene,
+                    agent.body.radius,
+                    agent.body.height,
+                    agent.body.max_climb,
+                )
+            },
+        );
         Ok(SceneAssets {
             id: scene.id.clone(),
-            render: RenderScene::new(scene),
-            collision: CollisionWorld::new(
-                scene,
-                agent.body.radius,
-                agent.body.height,
-                agent.body.max_climb,
-            )
-            .map_err(SimError::Scene)?,
+            render,
+            collision: collision.map_err(SimError::Scene)?,
             grid,
         })
     }

@@ -13,7 +13,7 @@
 
 use glam::{BVec4A, Vec3, Vec4};
 
-use super::{Bvh, Hit, Ray, STACK};
+use super::{Bvh, Hit, Ray, EMPTY, STACK};
 
 /// Four rays sharing an origin, with their slab-test constants a lane per ray.
 #[derive(Debug, Clone, Copy)]
@@ -27,24 +27,94 @@ pub struct Packet {
 }
 
 impl Packet {
-    /// The rays `origin + t·dirs[i]` for `t` in `[t_min, t_max]`.
+    /// The rays `origin + t·dirs[i]` for `t` in `[t_min, t_max]`: each ray exactly as
+    /// [`Ray::new`] makes it, the divisions done four lanes at a time.
     pub fn new(origin: Vec3, dirs: [Vec3; 4], t_min: f32, t_max: f32) -> Packet {
-        let rays = dirs.map(|d| Ray::new(origin, d, t_min, t_max));
-        let [r0, r1, r2, r3] = &rays;
-        let lanes = |a: Vec3, b: Vec3, c: Vec3, d: Vec3| {
-            [
-                Vec4::new(a.x, b.x, c.x, d.x),
-                Vec4::new(a.y, b.y, c.y, d.y),
-                Vec4::new(a.z, b.z, c.z, d.z),
-            ]
+        let lanes = |axis: usize| Vec4::from_array(dirs.map(|d| d[axis]));
+        let d = [lanes(0), lanes(1), lanes(2)];
+        // Ray::new's `safe` and reciprocal, lane by lane (the same IEEE operations).
+        let tiny = Vec4::splat(1e-20);
+        let safe = |v: Vec4| Vec4::select(v.abs().cmplt(tiny), tiny.copysign(v), v);
+        let inv = d.map(|v| Vec4::ONE / safe(v));
+        let origin_inv = [
+            Vec4::splat(origin.x) * inv[0],
+            Vec4::splat(origin.y) * inv[1],
+            Vec4::splat(origin.z) * inv[2],
+        ];
+        let rays = match shared_axes(&dirs) {
+            Some(axes) => shear_lanes(origin, &d, &inv, &origin_inv, axes, t_min, t_max),
+            None => dirs.map(|dir| Ray::new(origin, dir, t_min, t_max)),
         };
         Packet {
-            inv: lanes(r0.inv, r1.inv, r2.inv, r3.inv),
-            origin_inv: lanes(r0.origin_inv, r1.origin_inv, r2.origin_inv, r3.origin_inv),
+            inv,
+            origin_inv,
             t_min: Vec4::splat(t_min),
             rays,
         }
     }
+}
+
+/// The axes `(kx, ky, kz)` of [`Ray::new`]'s watertight shear, when all four directions
+/// share them (the rule is Ray::new's: z is the largest component, x and y follow it
+/// cyclically, swapped when the z component is negative).
+fn shared_axes(dirs: &[Vec3; 4]) -> Option<[usize; 3]> {
+    let axes = |dir: &Vec3| {
+        let a = dir.abs().to_array();
+        let kz = if a[0] >= a[1] && a[0] >= a[2] {
+            0
+        } else if a[1] >= a[2] {
+            1
+        } else {
+            2
+        };
+        let (kx, ky) = ((kz + 1) % 3, (kz + 2) % 3);
+        if dir[kz] < 0.0 {
+            [ky, kx, kz]
+        } else {
+            [kx, ky, kz]
+        }
+    };
+    let first = axes(&dirs[0]);
+    dirs[1..].iter().all(|d| axes(d) == first).then_some(first)
+}
+
+/// The four rays of directions `d` (lanes per axis) sharing shear axes `[kx, ky, kz]`:
+/// [`Ray::new`]'s values computed four lanes at a time with the same operations.
+fn shear_lanes(
+    origin: Vec3,
+    d: &[Vec4; 3],
+    inv: &[Vec4; 3],
+    origin_inv: &[Vec4; 3],
+    [kx, ky, kz]: [usize; 3],
+    t_min: f32,
+    t_max: f32,
+) -> [Ray; 4] {
+    let (sx, sy, sz) = (d[kx] / d[kz], d[ky] / d[kz], Vec4::ONE / d[kz]);
+    let unit = |k: usize, c: usize| Vec4::splat(f32::from(k == c));
+    // Row r, component c, exactly as `unit(k) - unit(kz) * s` (row 2: `unit(kz) * sz`).
+    let row = |k: usize, s: Vec4| -> [[f32; 4]; 3] {
+        std::array::from_fn(|c| (unit(k, c) - unit(kz, c) * s).to_array())
+    };
+    let last: [[f32; 4]; 3] = std::array::from_fn(|c| (unit(kz, c) * sz).to_array());
+    let (r0, r1) = (row(kx, sx), row(ky, sy));
+    let at = |v: &[Vec4; 3], i: usize| Vec3::new(v[0][i], v[1][i], v[2][i]);
+    let of = |r: &[[f32; 4]; 3], i: usize| Vec3::new(r[0][i], r[1][i], r[2][i]);
+    std::array::from_fn(|i| {
+        let inv_i = at(inv, i);
+        Ray {
+            origin,
+            inv: inv_i,
+            origin_inv: at(origin_inv, i),
+            near_side: [
+                usize::from(inv_i.x < 0.0),
+                usize::from(inv_i.y < 0.0),
+                usize::from(inv_i.z < 0.0),
+            ],
+            shear: [of(&r0, i), of(&r1, i), of(&last, i)],
+            t_min,
+            t_max,
+        }
+    })
 }
 
 /// A traversal stack for packets, kept between packets so that a packet allocates nothing.
@@ -116,6 +186,10 @@ impl Bvh {
                 // the others are pushed, farthest deepest.
                 let mut next: Option<Entry> = None;
                 for (k, (&child, &count)) in node.child.iter().zip(&node.count).enumerate() {
+                    if count == EMPTY {
+                        // Slots are filled in order: the rest are unused too.
+                        break;
+                    }
                     let slab = |axis: usize, inv: Vec4, oi: Vec4| {
                         let lo = Vec4::splat(b[0][axis][k]) * inv - oi;
                         let hi = Vec4::splat(b[1][axis][k]) * inv - oi;
@@ -250,5 +324,49 @@ mod tests {
             packets > 1400 && hits > 1500,
             "{packets} packets, {hits} hits"
         );
+    }
+
+    #[test]
+    fn packet_rays_are_the_single_rays_bit_for_bit() {
+        let mut rng = Rng::new(5);
+        let mut r = move || rng.range_f64(-1.0, 1.0) as f32;
+        let mut shared = 0;
+        for case in 0..4000 {
+            let base = Vec3::new(r(), r(), r());
+            let dirs: [Vec3; 4] = std::array::from_fn(|i| match case % 4 {
+                // A 2x2 block of pixels (usually one axis order for all four).
+                0 => base + Vec3::new((i % 2) as f32, (i / 2) as f32, 0.0) * 0.01,
+                // Components of zero (either sign), tiny and exactly tied magnitudes.
+                1 => [
+                    Vec3::new(0.0, -0.0, 1.0),
+                    Vec3::new(1e-30, base.y, -1e-25),
+                    Vec3::new(base.x, base.x, -base.x),
+                    Vec3::new(-0.0, base.y, base.y),
+                ][i],
+                // Directions straddling an axis swap.
+                2 => Vec3::new(0.5 + 0.001 * i as f32, 0.5, -0.5 + 0.0004 * i as f32),
+                _ => Vec3::new(r(), r(), r()),
+            });
+            let origin = Vec3::new(r() * 9.0, r(), r() * 9.0);
+            let packet = Packet::new(origin, dirs, 0.05, 30.0);
+            shared += usize::from(shared_axes(&dirs).is_some());
+            for (i, dir) in dirs.iter().enumerate() {
+                let want = Ray::new(origin, *dir, 0.05, 30.0);
+                // Debug prints the sign of zero and NaN, so equal text is equal bits here.
+                assert_eq!(
+                    format!("{:?}", packet.rays[i]),
+                    format!("{want:?}"),
+                    "case {case} ray {i}"
+                );
+                for axis in 0..3 {
+                    assert_eq!(packet.inv[axis][i].to_bits(), want.inv[axis].to_bits());
+                    assert_eq!(
+                        packet.origin_inv[axis][i].to_bits(),
+                        want.origin_inv[axis].to_bits()
+                    );
+                }
+            }
+        }
+        assert!(shared > 1500, "most cases share their axes: {shared}");
     }
 }
