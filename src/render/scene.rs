@@ -8,6 +8,7 @@
 use std::sync::OnceLock;
 
 use glam::Vec3;
+use rayon::prelude::*;
 
 use crate::scene::{Aabb, MaterialOverride, Mesh, Scene, SurfaceKind, WorldMesh};
 
@@ -233,13 +234,14 @@ impl RenderScene {
             room_base += level.rooms.len() as u32;
         }
         // Cluster by the cell of each triangle's centroid; a stable sort keeps the order
-        // within a cell, so the result is deterministic.
+        // within a cell, so the result is deterministic (keys computed once per triangle,
+        // sorted on the rayon pool).
         let key = |t: &[Vec3; 3]| {
             let c = (t[0] + t[1] + t[2]) / 3.0;
             let cell = |v: f32| (v / CLUSTER_CELL).floor() as i64;
             (cell(c.y), cell(c.z), cell(c.x))
         };
-        soup.sort_by_key(|(t, _, _)| key(t));
+        soup.par_sort_by_cached_key(|(t, _, _)| key(t));
         let mut out = RenderScene::default();
         let mut i = 0;
         while i < soup.len() {
