@@ -27,18 +27,12 @@ use super::LoadError;
 const IMAGE_ONLY_EXTENSIONS: [&str; 3] =
     ["KHR_texture_basisu", "EXT_texture_webp", "MSFT_texture_dds"];
 
-/// Loads every triangle primitive of the default scene (or of all root nodes when there is
-/// no scene), applying node transforms.
+/// Loads every triangle primitive of the default scene (or, in a file without scenes, of
+/// every node that is no other node's child: [`GltfFile::root_nodes`]), applying node
+/// transforms.
 pub fn load_gltf(path: &Path) -> Result<Mesh, LoadError> {
     let file = GltfFile::open(path)?;
-    let roots: Vec<gltf::Node> = match file
-        .document
-        .default_scene()
-        .or_else(|| file.document.scenes().next())
-    {
-        Some(scene) => scene.nodes().collect(),
-        None => file.document.nodes().collect(),
-    };
+    let roots = file.root_nodes();
     let mut builder = MeshBuilder::new(path.display().to_string());
     let mut stack: Vec<(gltf::Node, Mat4)> =
         roots.into_iter().map(|n| (n, Mat4::IDENTITY)).collect();
@@ -483,5 +477,35 @@ fn to_material(m: &gltf::Material) -> Material {
             .unwrap_or_else(|| format!("material_{}", m.index().unwrap_or(0))),
         diffuse: pbr.base_color_factor(),
         texture,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_file_without_scenes_loads_each_parentless_hierarchy_once() {
+        // Node 0 (moved 10 m along x) holds node 1, which holds the one triangle. Without
+        // scenes the roots are the parentless nodes: node 1 is reached only through node 0.
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("sceneless.gltf");
+        let gltf = r#"{"asset": {"version": "2.0"},
+            "nodes": [{"translation": [10, 0, 0], "children": [1]}, {"mesh": 0}],
+            "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+            "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                           "min": [0, 0, 0], "max": [1, 0, 1]}],
+            "bufferViews": [{"buffer": 0, "byteLength": 36}],
+            "buffers": [{"byteLength": 36, "uri":
+                "data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAAAAAAIA/"}]}"#;
+        std::fs::write(&path, gltf).unwrap();
+        let mesh = load_gltf(&path).unwrap();
+        assert_eq!(
+            mesh.triangle_count(),
+            1,
+            "the child's mesh once, not again as a root"
+        );
+        let xs: Vec<f32> = mesh.positions.iter().map(|p| p[0]).collect();
+        assert!(xs.iter().all(|&x| (10.0..=11.0).contains(&x)), "{xs:?}");
     }
 }
