@@ -1,7 +1,7 @@
 //! How one camera image is stored in a table cell, and how it is read back.
 //!
 //! Every stored form either keeps the sensor's pixels exactly or is lossy in one documented
-//! way, and the column metadata (see [`CellEncoding::metadata`]) always states the pixels'
+//! way, and the column metadata (see [`CellFormat::metadata`]) always states the pixels'
 //! real dtype and shape, the encoding, and the quantisation of a lossy one, so a reader can
 //! get the raw arrays back with [`decode_cell`]:
 //!

@@ -12,7 +12,7 @@
 //! holds the boxes of its four children side by side and a leaf its (up to four) triangles
 //! side by side (struct of arrays, glam's `Vec4`), so the four slab tests of a node and the
 //! four triangle tests of a leaf are straight-line vector code on stable Rust without
-//! `unsafe`. [`packet`] traces the four rays of a 2×2 pixel block together; [`build`] builds
+//! `unsafe`. `packet` traces the four rays of a 2×2 pixel block together; `build` builds
 //! the tree, large subtrees in parallel, the same tree on any number of threads.
 //!
 //! Memory: a node is 128 bytes and there is about one node per seven triangles; a leaf is

@@ -106,7 +106,7 @@ pub struct Map {
 const MAP_SIDE: u32 = 512;
 
 /// The map of `level` of `grid` (the navigation grid's preview: rooms coloured by class,
-/// doors marked), scaled to about [`MAP_SIDE`] pixels.
+/// doors marked), scaled to about `MAP_SIDE` pixels.
 pub fn map(grid: &NavGrid, level: u16) -> Result<Map, image::ImageError> {
     let scale = (MAP_SIDE / grid.nx.max(grid.nz).max(1)).max(1);
     let img = render_level(grid, level, scale);

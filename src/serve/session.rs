@@ -1,6 +1,6 @@
 //! One session: a thread of its own that plays episodes with [`run_live`] (its own
 //! simulator, its own output folder `OUT/<name>/`), driven by a person through the session's
-//! WebSocket. The person is the run's agent ([`HumanAgent`]): before each step it sends the
+//! WebSocket. The person is the run's agent (`HumanAgent`): before each step it sends the
 //! page the step's state and images and waits for an action; the episode source waits for
 //! "next episode". A closed socket or no message for the idle timeout ends the session: the
 //! agent gives up, the unfinished episode is left out, and the thread ends, freeing the

@@ -1,5 +1,5 @@
 //! Simulation: the agent's body and dynamics (`agent`), collisions with the scene (`collision`),
-//! sensors (`sensors`) and the [`Simulator`](simulator::Simulator) that steps an agent and
+//! sensors (`sensors`) and the [`Simulator`] that steps an agent and
 //! observes through a renderer.
 
 pub mod agent;

@@ -166,7 +166,7 @@ impl DataDir {
         files
     }
 
-    /// The newest modification time of [`inputs_of`], or `None` when one is missing.
+    /// The newest modification time of [`Self::inputs_of`], or `None` when one is missing.
     pub fn newest_input(&self, scene_ref: &SceneRef) -> Option<SystemTime> {
         self.inputs_of(scene_ref)
             .iter()

@@ -4,11 +4,11 @@
 //!
 //! | key | LeRobot dtype, shape | from |
 //! |---|---|---|
-//! | `observation.state` | float32 [5]: x, y, z, yaw, tilt | the pose before the action |
-//! | `action` | float32 [9]: the eight action strengths and `stop` | the decision |
+//! | `observation.state` | float32 \[5\]: x, y, z, yaw, tilt | the pose before the action |
+//! | `action` | float32 \[9\]: the eight action strengths and `stop` | the decision |
 //! | `observation.images.<sensor>` | `image` [h, w, c] (PNG) | colour and grey cameras |
 //! | `observation.<sensor>` | the sensor's dtype [h, w, c], lossless | depth (metres), normals, semantic, instance, room and room-class ids |
-//! | `next.reward`, `next.done`, `next.success` | float32 / bool [1] | the step's outcome |
+//! | `next.reward`, `next.done`, `next.success` | float32 / bool \[1\] | the step's outcome |
 //! | `timestamp`, `frame_index`, `episode_index`, `index`, `task_index` | LeRobot's own | |
 //!
 //! Label and depth images are arrays, not `image` features, because LeRobot turns `image`

@@ -18,7 +18,7 @@
 //! [`scene`] logs what does not change over time (meshes, the navigation grid, an episode's
 //! start, goal and shortest path), [`episode`] what does (the agent, its cameras and
 //! measurements per step), and [`view`] writes a scene's recording for `minos view`.
-//! Several recordings are joined into one file ([`concat`]); the viewer lists each as a
+//! Several recordings are joined into one file ([`concat()`]); the viewer lists each as a
 //! recording of its own. The entity paths are listed in `docs/FORMATS.md`.
 
 pub mod episode;
@@ -325,7 +325,7 @@ pub fn recordings_of(path: &Path) -> Result<BTreeMap<String, Vec<LogMsg>>, Recor
 }
 
 /// Writes recordings (each a sequence of messages, in the order given) into one file `out`
-/// (atomically): [`concat`] of recordings already in memory.
+/// (atomically): [`concat()`] of recordings already in memory.
 pub fn write_recordings<'a>(
     out: &Path,
     recordings: impl IntoIterator<Item = &'a [LogMsg]>,

@@ -1,4 +1,4 @@
-//! Dataset loaders: each turns one on-disk format into the canonical [`Scene`](super::Scene).
+//! Dataset loaders: each turns one on-disk format into the canonical [`Scene`].
 //!
 //! Loaders never panic on data: every problem becomes a [`LoadError`] whose one-line message
 //! names the file, the record (node id, line) and what is wrong.

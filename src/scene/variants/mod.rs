@@ -2,7 +2,7 @@
 //! doors and semantically consistent retexturing, described by a small [`VariantSpec`] and
 //! applied to a loaded scene, never stored as copies of meshes.
 //!
-//! A variant is addressed as `<scene>@<variant>` ([`SceneRef`](crate::scene::SceneRef)). [`apply_variant`] runs the
+//! A variant is addressed as `<scene>@<variant>` ([`SceneRef`]). [`apply_variant`] runs the
 //! operations in a fixed order — clutter, doors, retexture — on the canonical model, so every
 //! later stage (navigation grids, episodes, rendering, rollouts) sees the variant like any other
 //! scene. Retexturing draws from [`MaterialStats`] computed over the ingested scenes.
