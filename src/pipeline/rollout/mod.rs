@@ -17,7 +17,7 @@ mod scene;
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 use rayon::prelude::*;
 
@@ -313,7 +313,8 @@ pub fn run_with(
     Ok(report)
 }
 
-/// Runs the episodes of one scene (keeping those an earlier run finished), in episode order.
+/// Runs the episodes of one scene (keeping those an earlier run finished), claimed in
+/// episode order by one worker per thread.
 fn run_scene(
     cfg: &RunConfig,
     scene_id: &str,
@@ -351,44 +352,39 @@ fn run_scene(
             }
         }
         Ok((sim, assets, agent)) => {
-            // Up to one chunk of the scene's episodes per thread (a scan-sized scene is
-            // often the only one), each with its own simulator and agent on the shared
-            // assets. Every episode is seeded from its own id, so the split changes no
-            // output. External agents stay one process per scene.
+            // One worker per thread (a scan-sized scene is often the only one), each with its
+            // own simulator and agent on the shared assets, taking the next unclaimed episode
+            // until none is left, so episodes of uneven lengths keep every thread busy to the
+            // end. Every episode is seeded from its own id and the simulator and agent are
+            // reset for each, so which worker runs it changes no output. External agents stay
+            // one process per scene.
             let threads = if matches!(cfg.agent, AgentKind::External(_)) {
                 1
             } else {
                 rayon::current_num_threads()
             };
-            let size = pending.len().div_ceil(threads.clamp(1, pending.len()));
-            let chunks: Vec<&[&(usize, Episode)]> = pending.chunks(size).collect();
-            let mut workers: Vec<Result<_, String>> = (1..chunks.len())
-                .map(|_| {
-                    scene::make_agent(&cfg.agent, cfg.seed)
-                        .map(|agent| (sim.sibling(), agent))
-                        .map_err(|e| e.to_string())
-                })
-                .collect();
-            workers.insert(0, Ok((sim, agent)));
-            let done: Vec<Vec<Outcome>> = chunks
+            let mut workers = vec![(sim, agent)];
+            for _ in 1..threads.clamp(1, pending.len()) {
+                match scene::make_agent(&cfg.agent, cfg.seed) {
+                    Ok(agent) => workers.push((workers[0].0.sibling(), agent)),
+                    // The workers made so far run every episode.
+                    Err(e) => tracing::warn!("{scene_id}: one worker fewer: {e}"),
+                }
+            }
+            let next = AtomicUsize::new(0);
+            let done: Vec<Vec<Outcome>> = workers
                 .into_par_iter()
-                .zip(workers)
-                .map(|(chunk, worker)| match worker {
-                    Ok((sim, agent)) => {
-                        let mut run = SceneRun {
-                            sim,
-                            agent,
-                            geo: Geodesic::new(&assets.grid),
-                        };
-                        run_chunk(&mut run, chunk, cfg, parts, recorded, stop, progress)
-                    }
-                    Err(e) => chunk
-                        .iter()
-                        .map(|(i, _)| {
-                            progress.advance(1);
-                            (*i, Err(Failed::Episode(e.clone())))
-                        })
-                        .collect(),
+                .map(|(sim, agent)| {
+                    let mut run = SceneRun {
+                        sim,
+                        agent,
+                        geo: Geodesic::new(&assets.grid),
+                    };
+                    let queue = Queue {
+                        episodes: &pending,
+                        next: &next,
+                    };
+                    run_queue(&mut run, queue, cfg, parts, recorded, stop, progress)
                 })
                 .collect();
             out.extend(done.into_iter().flatten());
@@ -397,18 +393,34 @@ fn run_scene(
     out
 }
 
-/// Runs `chunk`'s episodes in order on one simulator and agent.
-fn run_chunk(
+/// A scene's pending episodes, shared by its workers: each claims the next one.
+#[derive(Clone, Copy)]
+struct Queue<'a> {
+    episodes: &'a [&'a (usize, Episode)],
+    /// Index of the next unclaimed episode.
+    next: &'a AtomicUsize,
+}
+
+impl<'a> Queue<'a> {
+    /// Claims the next episode, if any is left.
+    fn claim(&self) -> Option<&'a (usize, Episode)> {
+        let k = self.next.fetch_add(1, Ordering::Relaxed);
+        self.episodes.get(k).copied()
+    }
+}
+
+/// Runs episodes claimed from `queue` on one simulator and agent until none is left.
+fn run_queue(
     run: &mut SceneRun<'_>,
-    chunk: &[&(usize, Episode)],
+    queue: Queue<'_>,
     cfg: &RunConfig,
     parts: &Path,
     recorded: &BTreeSet<usize>,
     stop: &AtomicBool,
     progress: &dyn Progress,
 ) -> Vec<Outcome> {
-    let mut out = Vec::with_capacity(chunk.len());
-    for (i, ep) in chunk.iter().map(|e| (&e.0, &e.1)) {
+    let mut out = Vec::new();
+    while let Some((i, ep)) = queue.claim() {
         if stop.load(Ordering::Relaxed) {
             out.push((*i, Err(Failed::Episode("not run: a write failed".into()))));
             progress.advance(1);
