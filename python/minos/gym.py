@@ -170,6 +170,14 @@ class NavEnv(gym.Env):
         return self._core.current_episodes()[0]
 
 
+def _with_masks(info: dict, n: int) -> dict:
+    """Adds gymnasium's vector-info masks: ``info["_k"]`` says which of the ``n``
+    environments report ``info["k"]`` (all of them: every minos key is set every step)."""
+    for key in [k for k in info if not k.startswith("_")]:
+        info["_" + key] = np.ones(n, dtype=bool)
+    return info
+
+
 class VectorNavEnv(gym.vector.VectorEnv):
     """N ``NavEnv`` stepped together in Rust threads: ``VectorNavEnv(data=..., episodes=...,
     num_envs=N, threads=None, **NavEnv options)``.
@@ -178,8 +186,9 @@ class VectorNavEnv(gym.vector.VectorEnv):
     next step (``metadata["autoreset_mode"]`` is next-step). Observations are a dict of
     ``(N, …)`` arrays; infos a dict of ``(N,)`` arrays (``success``, ``collision``,
     ``geodesic`` (NaN when unknown), ``euclidean``, ``steps``, ``reset`` (this step was a
-    reset), ``episode_index``, ``episode_id``, ``position``, ``yaw``). ``threads`` sets the
-    Rust worker threads (default: all cores).
+    reset), ``episode_index``, ``episode_id``, ``position``, ``yaw``), each with gymnasium's
+    mask ``_<key>`` (a boolean ``(N,)`` array: which environments report the key; every one
+    does). ``threads`` sets the Rust worker threads (default: all cores).
     """
 
     metadata = {"autoreset_mode": _NEXT_STEP, "render_modes": []}
@@ -206,7 +215,8 @@ class VectorNavEnv(gym.vector.VectorEnv):
         if isinstance(seed, (list, tuple)):
             seed = seed[0] if seed else None
         super().reset(seed=seed)
-        return self._core.reset(seed)
+        obs, info = self._core.reset(seed)
+        return obs, _with_masks(info, self.num_envs)
 
     def step(self, actions):
         a = np.asarray(actions, dtype=np.int64).reshape(self.num_envs)
@@ -224,7 +234,7 @@ class VectorNavEnv(gym.vector.VectorEnv):
                 rewards[k], term[k], trunc[k] = self._hooks.apply(
                     o, i, self.action_names[a[k]], float(rewards[k]), bool(term[k]), bool(trunc[k]))
             self._core.set_done(term | trunc)
-        return obs, rewards, term, trunc, info
+        return obs, rewards, term, trunc, _with_masks(info, self.num_envs)
 
     def oracle_actions(self) -> np.ndarray:
         """The oracle's next action of every environment, as an (N,) int64 array."""

@@ -118,6 +118,13 @@ def test_auto_reset_starts_the_next_episode(world):
     assert info["reset"][0] and not info["reset"][1] and rew[0] == 0.0
     assert info["episode_id"][0] != first[0] and info["episode_id"][1] == first[1]
     assert info["steps"][0] == 0 and info["steps"][1] == 2
+    # gymnasium's vector-info convention: a boolean mask per key, every environment set.
+    keys = [k for k in info if not k.startswith("_")]
+    assert {"success", "reset", "episode_id", "geodesic"} <= set(keys)
+    for k in keys:
+        mask = info["_" + k]
+        assert mask.dtype == np.bool_ and mask.shape == (2,) and mask.all(), k
+    assert set(info) == set(keys) | {"_" + k for k in keys}
 
 
 def test_python_success_and_reward_hooks(world):
