@@ -273,11 +273,7 @@ pub fn write_episodes(path: &Path, episodes: &[Episode]) -> Result<(), EpisodeFi
 /// the file.
 pub fn read_episodes(path: &Path) -> Result<Vec<Episode>, EpisodeFileError> {
     std::panic::catch_unwind(|| read_episodes_unguarded(path)).unwrap_or_else(|p| {
-        let what = p
-            .downcast_ref::<&str>()
-            .map(|s| s.to_string())
-            .or_else(|| p.downcast_ref::<String>().cloned())
-            .unwrap_or_else(|| "unknown cause".into());
+        let what = crate::escape::panic_message(p.as_ref());
         Err(ParquetFileError::format(path, format!("the Parquet reader failed: {what}")).into())
     })
 }

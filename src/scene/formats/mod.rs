@@ -107,11 +107,7 @@ impl LoadError {
 /// an error naming `path`: a dependency's panic on bad data must not take a batch down.
 pub fn guarded<T>(path: &Path, f: impl FnOnce() -> T) -> Result<T, LoadError> {
     std::panic::catch_unwind(std::panic::AssertUnwindSafe(f)).map_err(|p| {
-        let what = p
-            .downcast_ref::<&str>()
-            .map(|s| s.to_string())
-            .or_else(|| p.downcast_ref::<String>().cloned())
-            .unwrap_or_else(|| "unknown cause".into());
+        let what = crate::escape::panic_message(p.as_ref());
         LoadError::parse(path, format!("the reader failed: {what}"))
     })
 }
