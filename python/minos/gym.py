@@ -170,10 +170,16 @@ class NavEnv(gym.Env):
         return self._core.current_episodes()[0]
 
 
-def _with_masks(info: dict, n: int) -> dict:
-    """Adds gymnasium's vector-info masks: ``info["_k"]`` says which of the ``n``
-    environments report ``info["k"]`` (all of them: every minos key is set every step)."""
+def _vector_info(info: dict, n: int) -> dict:
+    """``info`` in gymnasium's vector-info form: every value an ``(n, …)`` array (lists, e.g.
+    of episode ids, become object arrays) with its mask ``info["_k"]`` saying which of the
+    ``n`` environments report ``info["k"]`` (all of them: every minos key is set every
+    step)."""
     for key in [k for k in info if not k.startswith("_")]:
+        if isinstance(info[key], list):
+            column = np.empty(len(info[key]), dtype=object)
+            column[:] = info[key]
+            info[key] = column
         info["_" + key] = np.ones(n, dtype=bool)
     return info
 
@@ -188,7 +194,7 @@ class VectorNavEnv(gym.vector.VectorEnv):
     ``geodesic`` (NaN when unknown), ``euclidean``, ``steps``, ``reset`` (this step was a
     reset), ``episode_index``, ``episode_id``, ``position``, ``yaw``), each with gymnasium's
     mask ``_<key>`` (a boolean ``(N,)`` array: which environments report the key; every one
-    does). ``threads`` sets the Rust worker threads (default: all cores).
+    does), as gymnasium's vector wrappers expect (``episode_id`` is an object array). ``threads`` sets the Rust worker threads (default: all cores).
     """
 
     metadata = {"autoreset_mode": _NEXT_STEP, "render_modes": []}
@@ -216,7 +222,7 @@ class VectorNavEnv(gym.vector.VectorEnv):
             seed = seed[0] if seed else None
         super().reset(seed=seed)
         obs, info = self._core.reset(seed)
-        return obs, _with_masks(info, self.num_envs)
+        return obs, _vector_info(info, self.num_envs)
 
     def step(self, actions):
         a = np.asarray(actions, dtype=np.int64).reshape(self.num_envs)
@@ -234,7 +240,7 @@ class VectorNavEnv(gym.vector.VectorEnv):
                 rewards[k], term[k], trunc[k] = self._hooks.apply(
                     o, i, self.action_names[a[k]], float(rewards[k]), bool(term[k]), bool(trunc[k]))
             self._core.set_done(term | trunc)
-        return obs, rewards, term, trunc, _with_masks(info, self.num_envs)
+        return obs, rewards, term, trunc, _vector_info(info, self.num_envs)
 
     def oracle_actions(self) -> np.ndarray:
         """The oracle's next action of every environment, as an (N,) int64 array."""

@@ -160,3 +160,19 @@ def test_same_seed_same_vector_observations(world):
         return out
     a, b = run(), run()
     assert all(np.array_equal(x, y) for x, y in zip(a, b))
+
+
+def test_gymnasium_vector_wrappers_read_the_infos(world):
+    # Real consumers of the vector infos: DictInfoToList reads every `_<key>` mask (a
+    # missing one is a KeyError) and RecordEpisodeStatistics adds its episode statistics.
+    from gymnasium.wrappers.vector import DictInfoToList, RecordEpisodeStatistics
+    venv = DictInfoToList(RecordEpisodeStatistics(
+        VectorNavEnv(data=world.data, episodes=world.point, num_envs=2, size=8)))
+    obs, infos = venv.reset(seed=1)
+    assert len(infos) == 2 and [i["steps"] for i in infos] == [0, 0]
+    stop = venv.unwrapped.action_names.index("stop")
+    obs, rew, term, trunc, infos = venv.step(np.array([stop, 0]))
+    assert term[0] and not term[1]
+    assert infos[1]["steps"] == 1
+    assert isinstance(infos[1]["episode_id"], str) and infos[0]["success"] in (True, False)
+    assert infos[0]["episode"]["l"] == 1 and "episode" not in infos[1]
