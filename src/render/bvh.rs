@@ -145,21 +145,8 @@ impl Ray {
             }
         };
         let inv = Vec3::new(1.0 / safe(dir.x), 1.0 / safe(dir.y), 1.0 / safe(dir.z));
-        // Watertight ray–triangle intersection (Woop, Benthin and Wald 2013): the axis where
-        // the direction is largest becomes z, the other two keep a right-handed order.
-        let a = dir.abs().to_array();
-        let kz = if a[0] >= a[1] && a[0] >= a[2] {
-            0
-        } else if a[1] >= a[2] {
-            1
-        } else {
-            2
-        };
-        let (mut kx, mut ky) = ((kz + 1) % 3, (kz + 2) % 3);
+        let [kx, ky, kz] = shear_axes(dir);
         let d = dir.to_array();
-        if d[kz] < 0.0 {
-            std::mem::swap(&mut kx, &mut ky);
-        }
         let (sx, sy, sz) = (d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]);
         let unit = |k: usize| Vec3::from_array(std::array::from_fn(|i| f32::from(i == k)));
         // Rows with one 1 and one −s (or one s): applied to a point they compute exactly
@@ -229,6 +216,26 @@ impl Ray {
         }
         let t = (u * r2.dot(a) + v * r2.dot(b) + w * r2.dot(c)) / det;
         (t >= self.t_min && t <= t_max).then_some(t)
+    }
+}
+
+/// The axes `[kx, ky, kz]` of the watertight ray–triangle test (Woop, Benthin and Wald
+/// 2013) for direction `dir`: the axis where the direction is largest becomes z, the other
+/// two keep a right-handed order (swapped when the z component is negative).
+fn shear_axes(dir: Vec3) -> [usize; 3] {
+    let a = dir.abs().to_array();
+    let kz = if a[0] >= a[1] && a[0] >= a[2] {
+        0
+    } else if a[1] >= a[2] {
+        1
+    } else {
+        2
+    };
+    let (kx, ky) = ((kz + 1) % 3, (kz + 2) % 3);
+    if dir[kz] < 0.0 {
+        [ky, kx, kz]
+    } else {
+        [kx, ky, kz]
     }
 }
 

@@ -94,7 +94,8 @@ impl Bvh {
         if tris == 0 {
             nodes.push(Node::UNUSED);
         } else {
-            let root = children(&mut prims, 0, 0);
+            let whole = bounds(&prims);
+            let root = children(&mut prims, 0, 0, whole);
             let ids: Vec<u32> = prims.iter().map(|p| p.id).collect();
             drop(prims);
             nodes.reserve(tris / 3);
@@ -109,27 +110,32 @@ impl Bvh {
     }
 }
 
-/// The children of the node over `prims` (which are `offset..` of the final order): up to
-/// four parts, each a leaf or, recursively, an inner node. Reorders `prims`.
-fn children(prims: &mut [Prim], offset: usize, depth: u32) -> Vec<(BuildBox, Built)> {
+/// The children of the node over `prims` (which are `offset..` of the final order, inside
+/// the box `whole`): up to four parts, each a leaf or, recursively, an inner node. Reorders
+/// `prims`.
+fn children(
+    prims: &mut [Prim],
+    offset: usize,
+    depth: u32,
+    whole: BuildBox,
+) -> Vec<(BuildBox, Built)> {
     let parallel = prims.len() >= PARALLEL_SUBTREE;
-    let parts = split_four(prims, depth);
+    let parts = split_four(prims, depth, whole);
     let mut slices = Vec::with_capacity(parts.len());
     let mut rest = prims;
-    for &(start, end) in &parts {
+    for &(start, end, b) in &parts {
         let (part, tail) = rest.split_at_mut(end - start);
-        slices.push((offset + start, part));
+        slices.push((offset + start, b, part));
         rest = tail;
     }
-    let child = |(start, part): (usize, &mut [Prim])| {
-        let b = bounds(part);
+    let child = |(start, b, part): (usize, BuildBox, &mut [Prim])| {
         let built = if part.len() <= LEAF_MAX {
             Built::Leaf {
                 start,
                 end: start + part.len(),
             }
         } else {
-            Built::Inner(children(part, start, depth + 1))
+            Built::Inner(children(part, start, depth + 1, b))
         };
         (b, built)
     };
@@ -201,17 +207,18 @@ fn fold_boxes(prims: &[Prim], grow: impl Fn(&mut BuildBox, &Prim) + Sync) -> Bui
     }
 }
 
-/// Splits `prims` into up to four consecutive ranges: the largest range (by box area) of
-/// more than [`LEAF_MAX`] triangles is split in two until there are four (ties: the first).
-fn split_four(prims: &mut [Prim], depth: u32) -> Vec<(usize, usize)> {
-    let area = |prims: &[Prim], s: usize, e: usize| bounds(&prims[s..e]).half_area();
-    let mut parts = vec![(0, prims.len(), area(prims, 0, prims.len()))];
+/// Splits `prims` (inside the box `whole`) into up to four consecutive ranges, each with its
+/// box: the largest range (by box area) of more than [`LEAF_MAX`] triangles is split in two
+/// until there are four (ties: the first).
+fn split_four(prims: &mut [Prim], depth: u32, whole: BuildBox) -> Vec<(usize, usize, BuildBox)> {
+    let mut parts = vec![(0, prims.len(), whole)];
     while parts.len() < 4 {
         let pick = parts
             .iter()
             .enumerate()
             .filter(|(_, &(s, e, _))| e - s > LEAF_MAX)
-            .fold(None::<(usize, f32)>, |best, (i, &(_, _, a))| match best {
+            .map(|(i, (_, _, b))| (i, b.half_area()))
+            .fold(None::<(usize, f32)>, |best, (i, a)| match best {
                 Some((_, b)) if b >= a => best,
                 _ => Some((i, a)),
             });
@@ -220,10 +227,10 @@ fn split_four(prims: &mut [Prim], depth: u32) -> Vec<(usize, usize)> {
         };
         let (s, e, _) = parts.remove(i);
         let mid = s + split(&mut prims[s..e], depth);
-        parts.insert(i, (mid, e, area(prims, mid, e)));
-        parts.insert(i, (s, mid, area(prims, s, mid)));
+        parts.insert(i, (mid, e, bounds(&prims[mid..e])));
+        parts.insert(i, (s, mid, bounds(&prims[s..mid])));
     }
-    parts.into_iter().map(|(s, e, _)| (s, e)).collect()
+    parts
 }
 
 /// Splits `prims` in two (binned SAH, or halving past [`MEDIAN_DEPTH`] or when the SAH finds

@@ -13,7 +13,7 @@
 
 use glam::{BVec4A, Vec3, Vec4};
 
-use super::{Bvh, Hit, Ray, EMPTY, STACK};
+use super::{shear_axes, Bvh, Hit, Ray, EMPTY, STACK};
 
 /// Four rays sharing an origin, with their slab-test constants a lane per ray.
 #[derive(Debug, Clone, Copy)]
@@ -54,28 +54,14 @@ impl Packet {
     }
 }
 
-/// The axes `(kx, ky, kz)` of [`Ray::new`]'s watertight shear, when all four directions
-/// share them (the rule is Ray::new's: z is the largest component, x and y follow it
-/// cyclically, swapped when the z component is negative).
+/// The axes of [`Ray::new`]'s watertight shear ([`shear_axes`]), when all four directions
+/// share them.
 fn shared_axes(dirs: &[Vec3; 4]) -> Option<[usize; 3]> {
-    let axes = |dir: &Vec3| {
-        let a = dir.abs().to_array();
-        let kz = if a[0] >= a[1] && a[0] >= a[2] {
-            0
-        } else if a[1] >= a[2] {
-            1
-        } else {
-            2
-        };
-        let (kx, ky) = ((kz + 1) % 3, (kz + 2) % 3);
-        if dir[kz] < 0.0 {
-            [ky, kx, kz]
-        } else {
-            [kx, ky, kz]
-        }
-    };
-    let first = axes(&dirs[0]);
-    dirs[1..].iter().all(|d| axes(d) == first).then_some(first)
+    let first = shear_axes(dirs[0]);
+    dirs[1..]
+        .iter()
+        .all(|&d| shear_axes(d) == first)
+        .then_some(first)
 }
 
 /// The four rays of directions `d` (lanes per axis) sharing shear axes `[kx, ky, kz]`:
