@@ -194,7 +194,8 @@ class VectorNavEnv(gym.vector.VectorEnv):
     ``geodesic`` (NaN when unknown), ``euclidean``, ``steps``, ``reset`` (this step was a
     reset), ``episode_index``, ``episode_id``, ``position``, ``yaw``), each with gymnasium's
     mask ``_<key>`` (a boolean ``(N,)`` array: which environments report the key; every one
-    does), as gymnasium's vector wrappers expect (``episode_id`` is an object array). ``threads`` sets the Rust worker threads (default: all cores).
+    does), as gymnasium's vector wrappers expect (``episode_id`` is an object array).
+    ``threads`` sets the Rust worker threads (default: all cores).
     """
 
     metadata = {"autoreset_mode": _NEXT_STEP, "render_modes": []}
