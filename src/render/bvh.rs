@@ -22,6 +22,8 @@
 
 use glam::{Vec3, Vec4};
 
+#[cfg(target_arch = "x86_64")]
+mod avx;
 mod build;
 mod packet;
 pub use packet::{Packet, PacketStack};
@@ -245,7 +247,7 @@ impl Ray {
     /// [`Ray::triangle`] computes one triangle (same operations in the same order), and a
     /// lane with an edge value of exactly 0 is handed to it for the double-precision
     /// decision, so both give the same answer bit for bit.
-    #[inline]
+    #[inline(always)]
     fn leaf(&self, leaf: &Leaf, index: u32, best: &mut Hit) {
         let [r0, r1, r2] = self.shear;
         let o = self.origin;
@@ -278,11 +280,23 @@ impl Ray {
             & det.abs().cmplt(Vec4::INFINITY)
             & t.cmpge(Vec4::splat(self.t_min))
             & t.cmple(Vec4::splat(best.t));
-        let mut lanes = (met.bitmask() & !on_edge) | on_edge;
-        if lanes == 0 {
-            return;
-        }
-        let t = t.to_array();
+        self.fold(
+            leaf,
+            index,
+            t.to_array(),
+            met.bitmask() | on_edge,
+            on_edge,
+            best,
+        );
+    }
+
+    /// Folds a leaf's lanes into `best` (leaf number `index`): `t` holds each lane's
+    /// single-precision distance, `lanes` the lanes met or `on_edge`, and `on_edge` those
+    /// to decide again in double precision with [`Ray::triangle`]. Nearest hit, ties to the
+    /// lowest triangle id.
+    #[inline(always)]
+    fn fold(&self, leaf: &Leaf, index: u32, t: [f32; 4], lanes: u32, on_edge: u32, best: &mut Hit) {
+        let mut lanes = lanes;
         while lanes != 0 {
             let lane = lanes.trailing_zeros() as usize;
             lanes &= lanes - 1;

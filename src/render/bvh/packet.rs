@@ -1,29 +1,36 @@
 //! Four rays from one origin traced through the BVH together: the rays of a 2×2 block of
-//! pixels. Each node is fetched and ordered once for the four, its children's boxes are
-//! tested against the four rays side by side (a lane per ray), and a leaf is met only by
-//! the rays whose own box test reached it. Primary rays of neighbouring pixels visit
-//! nearly the same nodes, so the packet pays the memory traffic and the hard-to-predict
-//! branches of a traversal once instead of four times.
+//! pixels. Each node is fetched and ordered once for the four: every ray tests the node's
+//! four children's boxes side by side (a lane per child) exactly as a single ray does, two
+//! rays per instruction where the CPU has AVX ([`super::avx`]), and a leaf is met only by
+//! the rays whose own box test reached it. Primary rays of neighbouring pixels visit nearly
+//! the same nodes, so the packet pays the memory traffic and the hard-to-predict branches of
+//! a traversal once instead of four times.
 //!
 //! The answer is each ray's own nearest hit, ties to the lowest triangle id, exactly as
-//! [`Bvh::closest`] gives it: a ray's box tests compute the same values as the single-ray
-//! test (the near side is the smaller of the two slab distances, the same rounded
-//! products), every ancestor of a ray's nearest triangle passes that ray's test, and a
-//! leaf's triangles are met with the same four-lane test.
+//! [`Bvh::closest`] gives it, with or without AVX: a ray's box tests compute the same values
+//! as the single-ray test (the same rounded operations in the same order), every ancestor of
+//! a ray's nearest triangle passes that ray's test, and a leaf's triangles are met with the
+//! same four-lane test.
 
-use glam::{BVec4A, Vec3, Vec4};
+use glam::{Mat4, Vec3, Vec4};
 
-use super::{shear_axes, Bvh, Hit, Ray, EMPTY, STACK};
+use super::{shear_axes, Bvh, Hit, Leaf, Node, Ray, STACK};
 
-/// Four rays sharing an origin, with their slab-test constants a lane per ray.
+/// Rows of [`Packet::lanes`]: the reciprocal direction (x, y, z), then `origin · inv`
+/// (x, y, z), then the shear's rows (row × 3 + component).
+pub(super) const INV: usize = 0;
+/// First row of `origin · inv` in [`Packet::lanes`].
+pub(super) const ORIGIN_INV: usize = 3;
+/// First row of the shear in [`Packet::lanes`].
+pub(super) const SHEAR: usize = 6;
+
+/// Four rays sharing an origin, with their constants also a lane per ray.
 #[derive(Debug, Clone, Copy)]
 pub struct Packet {
-    rays: [Ray; 4],
-    /// Per axis: the rays' reciprocal directions.
-    inv: [Vec4; 3],
-    /// Per axis: `origin · inv` of each ray.
-    origin_inv: [Vec4; 3],
-    t_min: Vec4,
+    pub(super) rays: [Ray; 4],
+    /// `lanes[q]`: quantity `q` (see [`INV`], [`ORIGIN_INV`], [`SHEAR`]) of the four rays,
+    /// lane `r` for ray `r`.
+    pub(super) lanes: [Vec4; 15],
 }
 
 impl Packet {
@@ -41,31 +48,39 @@ impl Packet {
             Vec4::splat(origin.y) * inv[1],
             Vec4::splat(origin.z) * inv[2],
         ];
-        let rays = match shared_axes(&dirs) {
+        let (rays, shear) = match shared_axes(&dirs) {
             Some(axes) => shear_lanes(origin, &d, &inv, &origin_inv, axes, t_min, t_max),
-            None => dirs.map(|dir| Ray::new(origin, dir, t_min, t_max)),
+            None => {
+                let rays = dirs.map(|dir| Ray::new(origin, dir, t_min, t_max));
+                let shear = std::array::from_fn(|row| {
+                    std::array::from_fn(|c| Vec4::from_array(rays.map(|r| r.shear[row][c])))
+                });
+                (rays, shear)
+            }
         };
+        let [[s0, s1, s2], [s3, s4, s5], [s6, s7, s8]] = shear;
+        let [i0, i1, i2] = inv;
+        let [o0, o1, o2] = origin_inv;
         Packet {
-            inv,
-            origin_inv,
-            t_min: Vec4::splat(t_min),
             rays,
+            lanes: [i0, i1, i2, o0, o1, o2, s0, s1, s2, s3, s4, s5, s6, s7, s8],
         }
     }
 }
 
 /// The axes of [`Ray::new`]'s watertight shear ([`shear_axes`]), when all four directions
 /// share them.
+#[inline]
 fn shared_axes(dirs: &[Vec3; 4]) -> Option<[usize; 3]> {
     let first = shear_axes(dirs[0]);
-    dirs[1..]
-        .iter()
-        .all(|&d| shear_axes(d) == first)
+    (shear_axes(dirs[1]) == first && shear_axes(dirs[2]) == first && shear_axes(dirs[3]) == first)
         .then_some(first)
 }
 
 /// The four rays of directions `d` (lanes per axis) sharing shear axes `[kx, ky, kz]`:
-/// [`Ray::new`]'s values computed four lanes at a time with the same operations.
+/// [`Ray::new`]'s values computed four lanes at a time with the same operations; also
+/// their shear rows' components, lanes per ray (`[row][component]`).
+#[inline]
 fn shear_lanes(
     origin: Vec3,
     d: &[Vec4; 3],
@@ -74,7 +89,7 @@ fn shear_lanes(
     [kx, ky, kz]: [usize; 3],
     t_min: f32,
     t_max: f32,
-) -> [Ray; 4] {
+) -> ([Ray; 4], [[Vec4; 3]; 3]) {
     let (sx, sy, sz) = (d[kx] / d[kz], d[ky] / d[kz], Vec4::ONE / d[kz]);
     let unit = |k: usize, c: usize| Vec4::splat(f32::from(k == c));
     // Row r, component c, exactly as `unit(k) - unit(kz) * s` (row 2: `unit(kz) * sz`).
@@ -85,7 +100,7 @@ fn shear_lanes(
     let (r0, r1) = (row(kx, sx), row(ky, sy));
     let at = |v: &[Vec4; 3], i: usize| Vec3::new(v[0][i], v[1][i], v[2][i]);
     let of = |r: &[[f32; 4]; 3], i: usize| Vec3::new(r[0][i], r[1][i], r[2][i]);
-    std::array::from_fn(|i| {
+    let rays = std::array::from_fn(|i| {
         let inv_i = at(inv, i);
         Ray {
             origin,
@@ -100,31 +115,113 @@ fn shear_lanes(
             t_min,
             t_max,
         }
-    })
+    });
+    let lanes = |r: &[[f32; 4]; 3]| r.map(Vec4::from_array);
+    (rays, [lanes(&r0), lanes(&r1), lanes(&last)])
 }
 
-/// A traversal stack for packets, kept between packets so that a packet allocates nothing.
+/// A traversal stack for packets, kept between packets so that a packet allocates nothing;
+/// it also holds the choice of instructions (AVX where the CPU has it), made once.
 #[derive(Debug, Clone)]
-pub struct PacketStack(Box<[Entry; STACK]>);
+pub struct PacketStack {
+    entries: Box<[Entry; STACK]>,
+    avx: bool,
+}
 
 impl Default for PacketStack {
+    /// A stack that traces with AVX where this CPU has it.
     fn default() -> Self {
-        PacketStack(Box::new([Entry::default(); STACK]))
+        #[cfg(target_arch = "x86_64")]
+        let avx = std::is_x86_feature_detected!("avx");
+        #[cfg(not(target_arch = "x86_64"))]
+        let avx = false;
+        PacketStack {
+            entries: Box::new([Entry::default(); STACK]),
+            avx,
+        }
     }
 }
 
-/// A child waiting on the stack: what it is, which rays reached it and where they enter.
+impl PacketStack {
+    /// A stack that traces without AVX on any CPU (the answers are the same bit for bit;
+    /// for tests and comparisons).
+    pub fn portable() -> Self {
+        PacketStack {
+            avx: false,
+            ..PacketStack::default()
+        }
+    }
+
+    /// Whether packets traced with this stack use AVX.
+    pub fn uses_avx(&self) -> bool {
+        self.avx
+    }
+}
+
+/// A node or leaf to visit: what it is and where each ray enters it.
 #[derive(Debug, Clone, Copy, Default)]
 struct Entry {
     child: u32,
     /// 0 for an inner node, else a leaf's triangle count.
     count: u32,
-    /// The smallest entry distance of the rays that reached it (the visiting order).
+    /// The smallest entry distance of its rays (the visiting order).
     first: f32,
-    /// Lane `i`: ray `i`'s box test reached the child.
-    rays: BVec4A,
-    /// Each ray's entry distance.
+    /// Each ray's entry distance; +∞ for a ray whose box test did not reach it.
     near: Vec4,
+}
+
+/// What a packet's rays make of one node: `near[r]` holds ray `r`'s entry distance to each
+/// child (lane = child), +∞ where its box test misses.
+pub(super) type NodeHits = [Vec4; 4];
+
+/// The two tests of a packet traversal, with what they precompute per packet.
+pub(super) trait Kernels {
+    /// Each ray's test of `node`'s four children, as [`Bvh::closest`] tests them.
+    /// `limit[r]` is ray `r`'s best hit so far, or −∞ for a ray not to test.
+    fn node(&self, packet: &Packet, node: &Node, limit: Vec4) -> NodeHits;
+    /// Folds leaf number `index` into the best hits of the rays in the bit mask `rays`.
+    fn leaf(&self, packet: &Packet, leaf: &Leaf, index: u32, rays: u32, best: &mut [Hit; 4]);
+}
+
+/// The kernels for any CPU: a ray at a time, four lanes wide.
+struct Portable;
+
+impl Kernels for Portable {
+    #[inline(always)]
+    fn node(&self, packet: &Packet, node: &Node, limit: Vec4) -> NodeHits {
+        let b = &node.bounds;
+        let q = &packet.lanes;
+        let t_min = Vec4::splat(packet.rays[0].t_min);
+        let lane = |v: Vec4, r: usize| Vec4::splat(v[r]);
+        std::array::from_fn(|r| {
+            let [sx, sy, sz] = packet.rays[r].near_side.map(|s| s & 1);
+            let (ix, iy, iz) = (lane(q[INV], r), lane(q[INV + 1], r), lane(q[INV + 2], r));
+            let (ox, oy, oz) = (
+                lane(q[ORIGIN_INV], r),
+                lane(q[ORIGIN_INV + 1], r),
+                lane(q[ORIGIN_INV + 2], r),
+            );
+            let n = (b[sx][0] * ix - ox)
+                .max(b[sy][1] * iy - oy)
+                .max(b[sz][2] * iz - oz)
+                .max(t_min);
+            let f = (b[sx ^ 1][0] * ix - ox)
+                .min(b[sy ^ 1][1] * iy - oy)
+                .min(b[sz ^ 1][2] * iz - oz)
+                .min(lane(limit, r));
+            Vec4::select(n.cmple(f), n, Vec4::INFINITY)
+        })
+    }
+
+    #[inline(always)]
+    fn leaf(&self, packet: &Packet, leaf: &Leaf, index: u32, rays: u32, best: &mut [Hit; 4]) {
+        let mut rays = rays;
+        while rays != 0 {
+            let i = rays.trailing_zeros() as usize;
+            rays &= rays - 1;
+            packet.rays[i].leaf(leaf, index, &mut best[i]);
+        }
+    }
 }
 
 impl Bvh {
@@ -132,6 +229,40 @@ impl Bvh {
     /// are tried first, per ray (they only prune, never change an answer).
     pub fn closest_packet(
         &self,
+        packet: &Packet,
+        hints: [Option<u32>; 4],
+        stack: &mut PacketStack,
+    ) -> [Option<Hit>; 4] {
+        #[cfg(target_arch = "x86_64")]
+        if stack.avx {
+            // SAFETY: `avx` is set only where the CPU has AVX.
+            return unsafe { self.closest_packet_avx(packet, hints, stack) };
+        }
+        self.trace(&Portable, packet, hints, stack)
+    }
+
+    /// [`Bvh::closest_packet`] compiled for AVX, with AVX's kernels.
+    ///
+    /// # Safety
+    /// The CPU must have AVX.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    unsafe fn closest_packet_avx(
+        &self,
+        packet: &Packet,
+        hints: [Option<u32>; 4],
+        stack: &mut PacketStack,
+    ) -> [Option<Hit>; 4] {
+        // SAFETY: the caller's CPU has AVX.
+        let kernels = unsafe { super::avx::Avx::new(packet) };
+        self.trace(&kernels, packet, hints, stack)
+    }
+
+    /// The traversal, with the given kernels.
+    #[inline(always)]
+    fn trace<K: Kernels>(
+        &self,
+        kernels: &K,
         packet: &Packet,
         hints: [Option<u32>; 4],
         stack: &mut PacketStack,
@@ -152,79 +283,62 @@ impl Bvh {
             }
         }
         let mut best_t = Vec4::from_array(best.map(|h| h.t));
-        let entries = &mut stack.0;
+        let entries = &mut stack.entries;
         let mut top = 0;
-        let [ix, iy, iz] = packet.inv;
-        let [ox, oy, oz] = packet.origin_inv;
+        let t_min = packet.rays[0].t_min;
         let mut at = Entry {
             child: 0,
             count: 0,
-            first: packet.rays[0].t_min,
-            rays: BVec4A::splat(true),
-            near: packet.t_min,
+            first: t_min,
+            near: Vec4::splat(t_min),
         };
         'visit: loop {
+            // The rays that may still meet something here before their best hit.
+            let rays = at.near.cmple(best_t);
             if at.count == 0 {
                 let node = &self.nodes[at.child as usize];
-                let b = &node.bounds;
-                let base = top;
-                // The nearest reached child (by its rays' smallest entry) is visited next;
-                // the others are pushed, farthest deepest.
-                let mut next: Option<Entry> = None;
-                for (k, (&child, &count)) in node.child.iter().zip(&node.count).enumerate() {
-                    if count == EMPTY {
-                        // Slots are filled in order: the rest are unused too.
-                        break;
-                    }
-                    let slab = |axis: usize, inv: Vec4, oi: Vec4| {
-                        let lo = Vec4::splat(b[0][axis][k]) * inv - oi;
-                        let hi = Vec4::splat(b[1][axis][k]) * inv - oi;
-                        (lo.min(hi), lo.max(hi))
+                let limit = Vec4::select(rays, best_t, Vec4::NEG_INFINITY);
+                let near = kernels.node(packet, node, limit);
+                // Lane k of `first`: the smallest entry of a ray into child k (+∞: none).
+                let first = near[0].min(near[1]).min(near[2]).min(near[3]);
+                let mut children = first.cmplt(Vec4::INFINITY).bitmask();
+                if children != 0 {
+                    // Column k: each ray's entry into child k.
+                    let columns = Mat4::from_cols(near[0], near[1], near[2], near[3])
+                        .transpose()
+                        .to_cols_array_2d();
+                    let first = first.to_array();
+                    let entry = |k: usize| Entry {
+                        child: node.child[k],
+                        count: node.count[k],
+                        first: first[k],
+                        near: Vec4::from_array(columns[k]),
                     };
-                    let (nx, fx) = slab(0, ix, ox);
-                    let (ny, fy) = slab(1, iy, oy);
-                    let (nz, fz) = slab(2, iz, oz);
-                    let near = nx.max(ny).max(nz).max(packet.t_min);
-                    let far = fx.min(fy).min(fz).min(best_t);
-                    let rays = near.cmple(far) & at.rays;
-                    if !rays.any() {
-                        continue;
-                    }
-                    let mut e = Entry {
-                        child,
-                        count,
-                        first: Vec4::select(rays, near, Vec4::INFINITY).min_element(),
-                        rays,
-                        near,
-                    };
-                    match &mut next {
-                        None => next = Some(e),
-                        Some(n) => {
-                            if e.first < n.first {
-                                std::mem::swap(&mut e, n);
-                            }
-                            let mut i = top;
-                            while i > base && entries[i - 1].first < e.first {
-                                entries[i] = entries[i - 1];
-                                i -= 1;
-                            }
-                            entries[i] = e;
-                            top += 1;
+                    // The nearest reached child is visited next; the others are pushed,
+                    // farthest deepest, each above this node's farther ones.
+                    let mut next = entry(children.trailing_zeros() as usize);
+                    children &= children - 1;
+                    let base = top;
+                    while children != 0 {
+                        let mut e = entry(children.trailing_zeros() as usize);
+                        children &= children - 1;
+                        if e.first < next.first {
+                            std::mem::swap(&mut e, &mut next);
                         }
+                        let mut i = top;
+                        while i > base && entries[i - 1].first < e.first {
+                            entries[i] = entries[i - 1];
+                            i -= 1;
+                        }
+                        entries[i] = e;
+                        top += 1;
                     }
-                }
-                if let Some(e) = next {
-                    at = e;
+                    at = next;
                     continue 'visit;
                 }
             } else {
                 let leaf = &self.leaves[at.child as usize];
-                let mut rays = at.rays.bitmask();
-                while rays != 0 {
-                    let i = rays.trailing_zeros() as usize;
-                    rays &= rays - 1;
-                    packet.rays[i].leaf(leaf, at.child, &mut best[i]);
-                }
+                kernels.leaf(packet, leaf, at.child, rays.bitmask(), &mut best);
                 best_t = Vec4::from_array(best.map(|h| h.t));
             }
             // Next: the nearest pushed entry that one of its rays may still reach before
@@ -235,9 +349,8 @@ impl Bvh {
                 }
                 top -= 1;
                 let e = entries[top];
-                let rays = e.rays & e.near.cmple(best_t);
-                if rays.any() {
-                    at = Entry { rays, ..e };
+                if e.near.cmple(best_t).any() {
+                    at = e;
                     continue 'visit;
                 }
             }
@@ -274,7 +387,12 @@ mod tests {
             ]);
         }
         let bvh = Bvh::new(&positions);
+        // This CPU's kernels (AVX where it has it) and the portable ones.
         let mut stack = PacketStack::default();
+        let mut portable_stack = PacketStack::portable();
+        if !stack.uses_avx() {
+            eprintln!("no AVX on this CPU: only the portable kernels are compared");
+        }
         let (mut hits, mut packets) = (0, 0);
         for case in 0..1500 {
             let origin = Vec3::new(r() * 6.0, r() * 6.0, r() * 6.0);
@@ -295,13 +413,12 @@ mod tests {
             });
             let packet = Packet::new(origin, dirs, 0.01, 60.0);
             let got = bvh.closest_packet(&packet, hints, &mut stack);
+            let portable = bvh.closest_packet(&packet, hints, &mut portable_stack);
             for i in 0..4 {
                 let want = bvh.closest(&Ray::new(origin, dirs[i], 0.01, 60.0), None);
-                assert_eq!(
-                    got[i].map(|h| (h.t.to_bits(), h.tri, h.slot)),
-                    want.map(|h| (h.t.to_bits(), h.tri, h.slot)),
-                    "case {case} ray {i}"
-                );
+                let bits = |h: Option<Hit>| h.map(|h| (h.t.to_bits(), h.tri, h.slot));
+                assert_eq!(bits(got[i]), bits(want), "case {case} ray {i}");
+                assert_eq!(bits(portable[i]), bits(want), "case {case} ray {i}, portable");
                 hits += usize::from(want.is_some());
             }
             packets += 1;
@@ -345,11 +462,16 @@ mod tests {
                     "case {case} ray {i}"
                 );
                 for axis in 0..3 {
-                    assert_eq!(packet.inv[axis][i].to_bits(), want.inv[axis].to_bits());
-                    assert_eq!(
-                        packet.origin_inv[axis][i].to_bits(),
-                        want.origin_inv[axis].to_bits()
-                    );
+                    let rows = [
+                        (INV + axis, want.inv[axis]),
+                        (ORIGIN_INV + axis, want.origin_inv[axis]),
+                        (SHEAR + axis, want.shear[0][axis]),
+                        (SHEAR + 3 + axis, want.shear[1][axis]),
+                        (SHEAR + 6 + axis, want.shear[2][axis]),
+                    ];
+                    for (q, value) in rows {
+                        assert_eq!(packet.lanes[q][i].to_bits(), value.to_bits());
+                    }
                 }
             }
         }
