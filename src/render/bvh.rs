@@ -280,44 +280,61 @@ impl Ray {
             & det.abs().cmplt(Vec4::INFINITY)
             & t.cmpge(Vec4::splat(self.t_min))
             & t.cmple(Vec4::splat(best.t));
-        self.fold(
+        fold(
             leaf,
             index,
             t.to_array(),
             met.bitmask() | on_edge,
             on_edge,
             best,
+            |lane, t_max| self.edge_lane(leaf, lane, t_max),
         );
     }
 
-    /// Folds a leaf's lanes into `best` (leaf number `index`): `t` holds each lane's
-    /// single-precision distance, `lanes` the lanes met or `on_edge`, and `on_edge` those
-    /// to decide again in double precision with [`Ray::triangle`]. Nearest hit, ties to the
-    /// lowest triangle id.
-    #[inline(always)]
-    fn fold(&self, leaf: &Leaf, index: u32, t: [f32; 4], lanes: u32, on_edge: u32, best: &mut Hit) {
-        let mut lanes = lanes;
-        while lanes != 0 {
-            let lane = lanes.trailing_zeros() as usize;
-            lanes &= lanes - 1;
-            let t = if on_edge & (1 << lane) != 0 {
-                match self.triangle(&leaf.triangle(lane), best.t) {
-                    Some(t) => t,
-                    None => continue,
-                }
-            } else {
-                t[lane]
-            };
-            let tri = leaf.ids[lane];
-            // Earlier lanes may have moved `best` nearer: only as near or nearer counts,
-            // and equal distances go to the lowest id.
-            if t < best.t || (t == best.t && tri < best.tri) {
-                *best = Hit {
-                    t,
-                    tri,
-                    slot: index * 4 + lane as u32,
-                };
+    /// [`Ray::triangle`] on the triangle in `leaf`'s `lane`: the rare lanes with an edge
+    /// value of exactly 0, kept out of line so the common path stays small.
+    #[cold]
+    #[inline(never)]
+    fn edge_lane(&self, leaf: &Leaf, lane: usize, t_max: f32) -> Option<f32> {
+        self.triangle(&leaf.triangle(lane), t_max)
+    }
+}
+
+/// Folds a leaf's lanes into `best` (leaf number `index`): `t` holds each lane's
+/// single-precision distance, `lanes` the lanes met or `on_edge`, and `on_edge` those to
+/// decide again with `edge(lane, t_max)` (the ray's [`Ray::triangle`] in double precision).
+/// Nearest hit, ties to the lowest triangle id.
+#[inline(always)]
+fn fold(
+    leaf: &Leaf,
+    index: u32,
+    t: [f32; 4],
+    lanes: u32,
+    on_edge: u32,
+    best: &mut Hit,
+    edge: impl Fn(usize, f32) -> Option<f32>,
+) {
+    let mut lanes = lanes;
+    while lanes != 0 {
+        let lane = lanes.trailing_zeros() as usize;
+        lanes &= lanes - 1;
+        let t = if on_edge & (1 << lane) != 0 {
+            match edge(lane, best.t) {
+                Some(t) => t,
+                None => continue,
             }
+        } else {
+            t[lane]
+        };
+        let tri = leaf.ids[lane];
+        // Earlier lanes may have moved `best` nearer: only as near or nearer counts, and
+        // equal distances go to the lowest id.
+        if t < best.t || (t == best.t && tri < best.tri) {
+            *best = Hit {
+                t,
+                tri,
+                slot: index * 4 + lane as u32,
+            };
         }
     }
 }

@@ -12,7 +12,7 @@ use std::arch::x86_64::*;
 use glam::Vec4;
 
 use super::packet::{Kernels, NodeHits, Packet, INV, ORIGIN_INV, SHEAR};
-use super::{Hit, Leaf, Node};
+use super::{fold, Hit, Leaf, Node};
 
 /// The AVX kernels, with each of the packet's constants splatted for the two pairs of
 /// rays: `pairs[p][q]` holds quantity `q` (a row of [`Packet::lanes`]) of ray `2p` in
@@ -33,13 +33,10 @@ impl Avx {
     #[target_feature(enable = "avx")]
     pub(super) unsafe fn new(packet: &Packet) -> Avx {
         let pair = |v: Vec4, p: usize| halves(Vec4::splat(v[2 * p]), Vec4::splat(v[2 * p + 1]));
-        let sides = packet.rays[0].near_side;
+        let shared = packet.sides.iter().all(|&s| s == 0 || s == 0xF);
         Avx {
             pairs: [0, 1].map(|p| packet.lanes.map(|v| pair(v, p))),
-            sides: packet.rays[1..]
-                .iter()
-                .all(|r| r.near_side == sides)
-                .then_some(sides),
+            sides: shared.then(|| packet.near_side(0)),
         }
     }
 }
@@ -80,12 +77,9 @@ fn node_hits(avx: &Avx, packet: &Packet, node: &Node, limit: Vec4) -> NodeHits {
                 halves(v, v)
             }),
             None => {
-                let (r0, r1) = (&packet.rays[2 * p], &packet.rays[2 * p + 1]);
+                let (s0, s1) = (packet.near_side(2 * p), packet.near_side(2 * p + 1));
                 box_pass(&avx.pairs[p], packet, lim, |axis, flip| {
-                    halves(
-                        b[(r0.near_side[axis] ^ flip) & 1][axis],
-                        b[(r1.near_side[axis] ^ flip) & 1][axis],
-                    )
+                    halves(b[s0[axis] ^ flip][axis], b[s1[axis] ^ flip][axis])
                 })
             }
         };
@@ -115,7 +109,7 @@ fn box_pass(
     };
     let n = _mm256_max_ps(
         _mm256_max_ps(_mm256_max_ps(slab(0, 0), slab(1, 0)), slab(2, 0)),
-        _mm256_set1_ps(packet.rays[0].t_min),
+        _mm256_set1_ps(packet.t_min),
     );
     let f = _mm256_min_ps(
         _mm256_min_ps(_mm256_min_ps(slab(0, 1), slab(1, 1)), slab(2, 1)),
@@ -147,7 +141,7 @@ fn any_of<const PREDICATE: i32>(u: __m256, v: __m256, w: __m256) -> __m256 {
 #[inline]
 #[target_feature(enable = "avx")]
 fn leaf_hits(avx: &Avx, packet: &Packet, leaf: &Leaf, index: u32, rays: u32, best: &mut [Hit; 4]) {
-    let o = packet.rays[0].origin;
+    let o = packet.origin;
     // The corners relative to the rays' shared origin, the same for both halves.
     let rel = |c: usize| -> [__m256; 3] {
         std::array::from_fn(|axis| {
@@ -157,7 +151,7 @@ fn leaf_hits(avx: &Avx, packet: &Packet, leaf: &Leaf, index: u32, rays: u32, bes
     };
     let (a, b, c) = (rel(0), rel(1), rel(2));
     let zero = _mm256_setzero_ps();
-    let t_min = _mm256_set1_ps(packet.rays[0].t_min);
+    let t_min = _mm256_set1_ps(packet.t_min);
     for p in 0..2 {
         let lanes = (((rays >> (2 * p)) & 1) * 0x0F) | (((rays >> (2 * p + 1)) & 1) * 0xF0);
         if lanes == 0 {
@@ -212,13 +206,14 @@ fn leaf_hits(avx: &Avx, packet: &Packet, leaf: &Leaf, index: u32, rays: u32, bes
             let shift = 4 * half;
             let r = 2 * p + half;
             let t4 = [ts[shift], ts[shift + 1], ts[shift + 2], ts[shift + 3]];
-            packet.rays[r].fold(
+            fold(
                 leaf,
                 index,
                 t4,
                 (found >> shift) & 0xF,
                 (on_edge >> shift) & 0xF,
                 &mut best[r],
+                |lane, t_max| packet.ray(r).edge_lane(leaf, lane, t_max),
             );
         }
     }

@@ -14,7 +14,7 @@
 
 use glam::{Mat4, Vec3, Vec4};
 
-use super::{shear_axes, Bvh, Hit, Leaf, Node, Ray, STACK};
+use super::{Bvh, Hit, Leaf, Node, Ray, STACK};
 
 /// Rows of [`Packet::lanes`]: the reciprocal direction (x, y, z), then `origin · inv`
 /// (x, y, z), then the shear's rows (row × 3 + component).
@@ -24,10 +24,15 @@ pub(super) const ORIGIN_INV: usize = 3;
 /// First row of the shear in [`Packet::lanes`].
 pub(super) const SHEAR: usize = 6;
 
-/// Four rays sharing an origin, with their constants also a lane per ray.
+/// Four rays sharing an origin, their constants a lane per ray.
 #[derive(Debug, Clone, Copy)]
 pub struct Packet {
-    pub(super) rays: [Ray; 4],
+    pub(super) origin: Vec3,
+    pub(super) t_min: f32,
+    pub(super) t_max: f32,
+    /// Per axis, a bit per ray: set where the ray meets a box's largest coordinate first
+    /// (its direction is negative; [`Ray`]'s `near_side`).
+    pub(super) sides: [u32; 3],
     /// `lanes[q]`: quantity `q` (see [`INV`], [`ORIGIN_INV`], [`SHEAR`]) of the four rays,
     /// lane `r` for ray `r`.
     pub(super) lanes: [Vec4; 15],
@@ -35,7 +40,7 @@ pub struct Packet {
 
 impl Packet {
     /// The rays `origin + t·dirs[i]` for `t` in `[t_min, t_max]`: each ray exactly as
-    /// [`Ray::new`] makes it, the divisions done four lanes at a time.
+    /// [`Ray::new`] makes it, four lanes at a time with the same operations.
     pub fn new(origin: Vec3, dirs: [Vec3; 4], t_min: f32, t_max: f32) -> Packet {
         let lanes = |axis: usize| Vec4::from_array(dirs.map(|d| d[axis]));
         let d = [lanes(0), lanes(1), lanes(2)];
@@ -48,76 +53,84 @@ impl Packet {
             Vec4::splat(origin.y) * inv[1],
             Vec4::splat(origin.z) * inv[2],
         ];
-        let (rays, shear) = match shared_axes(&dirs) {
-            Some(axes) => shear_lanes(origin, &d, &inv, &origin_inv, axes, t_min, t_max),
+        let shear = match shared_axes(&d) {
+            Some(axes) => shear_lanes(&d, axes),
             None => {
                 let rays = dirs.map(|dir| Ray::new(origin, dir, t_min, t_max));
-                let shear = std::array::from_fn(|row| {
+                std::array::from_fn(|row| {
                     std::array::from_fn(|c| Vec4::from_array(rays.map(|r| r.shear[row][c])))
-                });
-                (rays, shear)
+                })
             }
         };
         let [[s0, s1, s2], [s3, s4, s5], [s6, s7, s8]] = shear;
         let [i0, i1, i2] = inv;
         let [o0, o1, o2] = origin_inv;
         Packet {
-            rays,
+            origin,
+            t_min,
+            t_max,
+            sides: inv.map(|v| v.cmplt(Vec4::ZERO).bitmask()),
             lanes: [i0, i1, i2, o0, o1, o2, s0, s1, s2, s3, s4, s5, s6, s7, s8],
         }
     }
+
+    /// Ray `r`, as [`Ray::new`] makes it.
+    pub(super) fn ray(&self, r: usize) -> Ray {
+        let v = |q: usize| Vec3::new(self.lanes[q][r], self.lanes[q + 1][r], self.lanes[q + 2][r]);
+        Ray {
+            origin: self.origin,
+            inv: v(INV),
+            origin_inv: v(ORIGIN_INV),
+            near_side: self.near_side(r),
+            shear: [v(SHEAR), v(SHEAR + 3), v(SHEAR + 6)],
+            t_min: self.t_min,
+            t_max: self.t_max,
+        }
+    }
+
+    /// Ray `r`'s `near_side` ([`Ray`]).
+    #[inline]
+    pub(super) fn near_side(&self, r: usize) -> [usize; 3] {
+        self.sides.map(|s| ((s >> r) & 1) as usize)
+    }
 }
 
-/// The axes of [`Ray::new`]'s watertight shear ([`shear_axes`]), when all four directions
-/// share them.
+/// The axes of [`Ray::new`]'s watertight shear ([`super::shear_axes`]) for directions `d` (lanes
+/// per axis), when all four share them.
 #[inline]
-fn shared_axes(dirs: &[Vec3; 4]) -> Option<[usize; 3]> {
-    let first = shear_axes(dirs[0]);
-    (shear_axes(dirs[1]) == first && shear_axes(dirs[2]) == first && shear_axes(dirs[3]) == first)
-        .then_some(first)
+fn shared_axes(d: &[Vec4; 3]) -> Option<[usize; 3]> {
+    let a = d.map(Vec4::abs);
+    // shear_axes lane by lane: z is x where x is largest, else y where y ≥ z, else z.
+    let x = (a[0].cmpge(a[1]) & a[0].cmpge(a[2])).bitmask();
+    let y = !x & a[1].cmpge(a[2]).bitmask() & 0xF;
+    let kz = match (x, y) {
+        (0xF, _) => 0,
+        (0, 0xF) => 1,
+        (0, 0) => 2,
+        _ => return None,
+    };
+    let (kx, ky) = ((kz + 1) % 3, (kz + 2) % 3);
+    match d[kz].cmplt(Vec4::ZERO).bitmask() {
+        0 => Some([kx, ky, kz]),
+        0xF => Some([ky, kx, kz]),
+        _ => None,
+    }
 }
 
-/// The four rays of directions `d` (lanes per axis) sharing shear axes `[kx, ky, kz]`:
-/// [`Ray::new`]'s values computed four lanes at a time with the same operations; also
-/// their shear rows' components, lanes per ray (`[row][component]`).
+/// The shear rows of the four rays of directions `d` (lanes per axis) sharing shear axes
+/// `[kx, ky, kz]`, `[row][component]` a lane per ray: [`Ray::new`]'s values with the same
+/// operations.
 #[inline]
-fn shear_lanes(
-    origin: Vec3,
-    d: &[Vec4; 3],
-    inv: &[Vec4; 3],
-    origin_inv: &[Vec4; 3],
-    [kx, ky, kz]: [usize; 3],
-    t_min: f32,
-    t_max: f32,
-) -> ([Ray; 4], [[Vec4; 3]; 3]) {
+fn shear_lanes(d: &[Vec4; 3], [kx, ky, kz]: [usize; 3]) -> [[Vec4; 3]; 3] {
     let (sx, sy, sz) = (d[kx] / d[kz], d[ky] / d[kz], Vec4::ONE / d[kz]);
     let unit = |k: usize, c: usize| Vec4::splat(f32::from(k == c));
     // Row r, component c, exactly as `unit(k) - unit(kz) * s` (row 2: `unit(kz) * sz`).
-    let row = |k: usize, s: Vec4| -> [[f32; 4]; 3] {
-        std::array::from_fn(|c| (unit(k, c) - unit(kz, c) * s).to_array())
-    };
-    let last: [[f32; 4]; 3] = std::array::from_fn(|c| (unit(kz, c) * sz).to_array());
-    let (r0, r1) = (row(kx, sx), row(ky, sy));
-    let at = |v: &[Vec4; 3], i: usize| Vec3::new(v[0][i], v[1][i], v[2][i]);
-    let of = |r: &[[f32; 4]; 3], i: usize| Vec3::new(r[0][i], r[1][i], r[2][i]);
-    let rays = std::array::from_fn(|i| {
-        let inv_i = at(inv, i);
-        Ray {
-            origin,
-            inv: inv_i,
-            origin_inv: at(origin_inv, i),
-            near_side: [
-                usize::from(inv_i.x < 0.0),
-                usize::from(inv_i.y < 0.0),
-                usize::from(inv_i.z < 0.0),
-            ],
-            shear: [of(&r0, i), of(&r1, i), of(&last, i)],
-            t_min,
-            t_max,
-        }
-    });
-    let lanes = |r: &[[f32; 4]; 3]| r.map(Vec4::from_array);
-    (rays, [lanes(&r0), lanes(&r1), lanes(&last)])
+    let row = |k: usize, s: Vec4| std::array::from_fn(|c| unit(k, c) - unit(kz, c) * s);
+    [
+        row(kx, sx),
+        row(ky, sy),
+        std::array::from_fn(|c| unit(kz, c) * sz),
+    ]
 }
 
 /// A traversal stack for packets, kept between packets so that a packet allocates nothing;
@@ -191,10 +204,10 @@ impl Kernels for Portable {
     fn node(&self, packet: &Packet, node: &Node, limit: Vec4) -> NodeHits {
         let b = &node.bounds;
         let q = &packet.lanes;
-        let t_min = Vec4::splat(packet.rays[0].t_min);
+        let t_min = Vec4::splat(packet.t_min);
         let lane = |v: Vec4, r: usize| Vec4::splat(v[r]);
         std::array::from_fn(|r| {
-            let [sx, sy, sz] = packet.rays[r].near_side.map(|s| s & 1);
+            let [sx, sy, sz] = packet.near_side(r);
             let (ix, iy, iz) = (lane(q[INV], r), lane(q[INV + 1], r), lane(q[INV + 2], r));
             let (ox, oy, oz) = (
                 lane(q[ORIGIN_INV], r),
@@ -219,12 +232,38 @@ impl Kernels for Portable {
         while rays != 0 {
             let i = rays.trailing_zeros() as usize;
             rays &= rays - 1;
-            packet.rays[i].leaf(leaf, index, &mut best[i]);
+            packet.ray(i).leaf(leaf, index, &mut best[i]);
         }
     }
 }
 
 impl Bvh {
+    /// Asks the CPU to start loading the children of `node` in the bit mask `children`
+    /// (the next is visited after the others are ordered, the rest later).
+    #[inline(always)]
+    fn prefetch(&self, node: &Node, children: u32) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+            let mut children = children;
+            while children != 0 {
+                let k = children.trailing_zeros() as usize;
+                children &= children - 1;
+                let child = node.child[k] as usize;
+                // Pointers only to hint at; a prefetch never faults.
+                let (at, lines) = if node.count[k] == 0 {
+                    (self.nodes.as_ptr().wrapping_add(child).cast::<i8>(), 2)
+                } else {
+                    (self.leaves.as_ptr().wrapping_add(child).cast::<i8>(), 3)
+                };
+                for line in 0..lines {
+                    // SAFETY: prefetching reads nothing the program sees.
+                    unsafe { _mm_prefetch::<_MM_HINT_T0>(at.wrapping_add(64 * line)) };
+                }
+            }
+        }
+    }
+
     /// The nearest hit of each of the packet's rays, as [`Bvh::closest`] finds it; `hints`
     /// are tried first, per ray (they only prune, never change an answer).
     pub fn closest_packet(
@@ -267,25 +306,25 @@ impl Bvh {
         hints: [Option<u32>; 4],
         stack: &mut PacketStack,
     ) -> [Option<Hit>; 4] {
-        let mut best = packet.rays.map(|r| Hit {
-            t: r.t_max,
+        let mut best = [Hit {
+            t: packet.t_max,
             tri: u32::MAX,
             slot: u32::MAX,
-        });
+        }; 4];
         if self.leaves.is_empty() {
             return [None; 4];
         }
-        for ((ray, hint), best) in packet.rays.iter().zip(hints).zip(&mut best) {
+        for (r, hint) in hints.iter().enumerate() {
             if let Some(leaf) = hint.map(|slot| slot / 4) {
                 if let Some(l) = self.leaves.get(leaf as usize) {
-                    ray.leaf(l, leaf, best);
+                    kernels.leaf(packet, l, leaf, 1 << r, &mut best);
                 }
             }
         }
         let mut best_t = Vec4::from_array(best.map(|h| h.t));
         let entries = &mut stack.entries;
         let mut top = 0;
-        let t_min = packet.rays[0].t_min;
+        let t_min = packet.t_min;
         let mut at = Entry {
             child: 0,
             count: 0,
@@ -303,6 +342,7 @@ impl Bvh {
                 let first = near[0].min(near[1]).min(near[2]).min(near[3]);
                 let mut children = first.cmplt(Vec4::INFINITY).bitmask();
                 if children != 0 {
+                    self.prefetch(node, children);
                     // Column k: each ray's entry into child k.
                     let columns = Mat4::from_cols(near[0], near[1], near[2], near[3])
                         .transpose()
@@ -418,7 +458,11 @@ mod tests {
                 let want = bvh.closest(&Ray::new(origin, dirs[i], 0.01, 60.0), None);
                 let bits = |h: Option<Hit>| h.map(|h| (h.t.to_bits(), h.tri, h.slot));
                 assert_eq!(bits(got[i]), bits(want), "case {case} ray {i}");
-                assert_eq!(bits(portable[i]), bits(want), "case {case} ray {i}, portable");
+                assert_eq!(
+                    bits(portable[i]),
+                    bits(want),
+                    "case {case} ray {i}, portable"
+                );
                 hits += usize::from(want.is_some());
             }
             packets += 1;
@@ -452,27 +496,16 @@ mod tests {
             });
             let origin = Vec3::new(r() * 9.0, r(), r() * 9.0);
             let packet = Packet::new(origin, dirs, 0.05, 30.0);
-            shared += usize::from(shared_axes(&dirs).is_some());
+            let d = [0, 1, 2].map(|axis| Vec4::from_array(dirs.map(|d| d[axis])));
+            shared += usize::from(shared_axes(&d).is_some());
             for (i, dir) in dirs.iter().enumerate() {
                 let want = Ray::new(origin, *dir, 0.05, 30.0);
                 // Debug prints the sign of zero and NaN, so equal text is equal bits here.
                 assert_eq!(
-                    format!("{:?}", packet.rays[i]),
+                    format!("{:?}", packet.ray(i)),
                     format!("{want:?}"),
                     "case {case} ray {i}"
                 );
-                for axis in 0..3 {
-                    let rows = [
-                        (INV + axis, want.inv[axis]),
-                        (ORIGIN_INV + axis, want.origin_inv[axis]),
-                        (SHEAR + axis, want.shear[0][axis]),
-                        (SHEAR + 3 + axis, want.shear[1][axis]),
-                        (SHEAR + 6 + axis, want.shear[2][axis]),
-                    ];
-                    for (q, value) in rows {
-                        assert_eq!(packet.lanes[q][i].to_bits(), value.to_bits());
-                    }
-                }
             }
         }
         assert!(shared > 1500, "most cases share their axes: {shared}");
