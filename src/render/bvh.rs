@@ -113,8 +113,8 @@ pub struct Hit {
     pub t: f32,
     /// Scene triangle id.
     pub tri: u32,
-    /// Where the triangle is stored (leaf × 4 + lane): a hint for the next ray of the same
-    /// tile.
+    /// Where the triangle is stored (leaf × 4 + lane): a hint for [`Bvh::closest`] of a
+    /// neighbouring ray.
     pub slot: u32,
 }
 

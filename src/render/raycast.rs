@@ -9,8 +9,7 @@
 //! with camera-space depth in `[near, far]` (the ray parameter is that depth, the direction
 //! having unit length along the viewing axis), both faces count, and the depth-buffer value
 //! is the perspective projection's `z/w` of that depth. Pixels are cast in 4×4 tiles of 2×2
-//! packets (four rays traced together, [`super::bvh::Packet`]), each ray first trying the
-//! leaf its corner of the previous packet hit (that only prunes; the answer is each ray's
+//! packets (four rays traced together, [`super::bvh::Packet`]; the answer is each ray's
 //! nearest hit, ties to the lowest id, whatever the order or grouping), and large images are
 //! split into bands rendered in parallel, so frames are identical for any thread count.
 
@@ -83,13 +82,12 @@ impl<'a> Cast<'a> {
     }
 
     /// Casts rows `y0..y1` (buffers hold those rows only): tile by tile, each tile as
-    /// 2×2 packets, each ray first trying what the same corner of the previous packet hit.
+    /// 2×2 packets.
     fn rows(&self, width: u32, y0: u32, y1: u32, ids: &mut [u32], depth: &mut [f32]) {
         let (near, far) = (self.camera.near, self.camera.far);
         let mut stack = PacketStack::default();
         for ty in (y0..y1).step_by(TILE as usize) {
             for tx in (0..width).step_by(TILE as usize) {
-                let mut hints = [None; 4];
                 for py in (ty..(ty + TILE).min(y1)).step_by(2) {
                     for px in (tx..(tx + TILE).min(width)).step_by(2) {
                         // Lane i is pixel (px + i % 2, py + i / 2); lanes off the image
@@ -103,12 +101,11 @@ impl<'a> Cast<'a> {
                             self.rays.dir(x as usize, y as usize)
                         });
                         let packet = Packet::new(self.camera.position, dirs, near, far);
-                        let hits = self.bvh.closest_packet(&packet, hints, &mut stack);
+                        let hits = self.bvh.closest_packet(&packet, &mut stack);
                         for (i, hit) in hits.iter().enumerate() {
                             let (Some(hit), Some((x, y))) = (hit, pixel(i as u32)) else {
                                 continue;
                             };
-                            hints[i] = Some(hit.slot);
                             let p = ((y - y0) * width + x) as usize;
                             ids[p] = hit.tri;
                             // z/w of the projection at view depth t (view z = −t).

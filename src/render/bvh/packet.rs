@@ -264,20 +264,18 @@ impl Bvh {
         }
     }
 
-    /// The nearest hit of each of the packet's rays, as [`Bvh::closest`] finds it; `hints`
-    /// are tried first, per ray (they only prune, never change an answer).
+    /// The nearest hit of each of the packet's rays, as [`Bvh::closest`] finds it.
     pub fn closest_packet(
         &self,
         packet: &Packet,
-        hints: [Option<u32>; 4],
         stack: &mut PacketStack,
     ) -> [Option<Hit>; 4] {
         #[cfg(target_arch = "x86_64")]
         if stack.avx {
             // SAFETY: `avx` is set only where the CPU has AVX.
-            return unsafe { self.closest_packet_avx(packet, hints, stack) };
+            return unsafe { self.closest_packet_avx(packet, stack) };
         }
-        self.trace(&Portable, packet, hints, stack)
+        self.trace(&Portable, packet, stack)
     }
 
     /// [`Bvh::closest_packet`] compiled for AVX, with AVX's kernels.
@@ -289,12 +287,11 @@ impl Bvh {
     unsafe fn closest_packet_avx(
         &self,
         packet: &Packet,
-        hints: [Option<u32>; 4],
         stack: &mut PacketStack,
     ) -> [Option<Hit>; 4] {
         // SAFETY: the caller's CPU has AVX.
         let kernels = unsafe { super::avx::Avx::new(packet) };
-        self.trace(&kernels, packet, hints, stack)
+        self.trace(&kernels, packet, stack)
     }
 
     /// The traversal, with the given kernels.
@@ -303,7 +300,6 @@ impl Bvh {
         &self,
         kernels: &K,
         packet: &Packet,
-        hints: [Option<u32>; 4],
         stack: &mut PacketStack,
     ) -> [Option<Hit>; 4] {
         let mut best = [Hit {
@@ -313,13 +309,6 @@ impl Bvh {
         }; 4];
         if self.leaves.is_empty() {
             return [None; 4];
-        }
-        for (r, hint) in hints.iter().enumerate() {
-            if let Some(leaf) = hint.map(|slot| slot / 4) {
-                if let Some(l) = self.leaves.get(leaf as usize) {
-                    kernels.leaf(packet, l, leaf, 1 << r, &mut best);
-                }
-            }
         }
         let mut best_t = Vec4::from_array(best.map(|h| h.t));
         let entries = &mut stack.entries;
@@ -448,12 +437,9 @@ mod tests {
             if dirs.iter().any(|d| d.length() < 1e-3) {
                 continue;
             }
-            let hints: [Option<u32>; 4] = std::array::from_fn(|i| {
-                (case % 2 == 0).then_some(((case * 7 + i * 13) % 2100) as u32)
-            });
             let packet = Packet::new(origin, dirs, 0.01, 60.0);
-            let got = bvh.closest_packet(&packet, hints, &mut stack);
-            let portable = bvh.closest_packet(&packet, hints, &mut portable_stack);
+            let got = bvh.closest_packet(&packet, &mut stack);
+            let portable = bvh.closest_packet(&packet, &mut portable_stack);
             for i in 0..4 {
                 let want = bvh.closest(&Ray::new(origin, dirs[i], 0.01, 60.0), None);
                 let bits = |h: Option<Hit>| h.map(|h| (h.t.to_bits(), h.tri, h.slot));
