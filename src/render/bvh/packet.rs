@@ -265,11 +265,7 @@ impl Bvh {
     }
 
     /// The nearest hit of each of the packet's rays, as [`Bvh::closest`] finds it.
-    pub fn closest_packet(
-        &self,
-        packet: &Packet,
-        stack: &mut PacketStack,
-    ) -> [Option<Hit>; 4] {
+    pub fn closest_packet(&self, packet: &Packet, stack: &mut PacketStack) -> [Option<Hit>; 4] {
         #[cfg(target_arch = "x86_64")]
         if stack.avx {
             // SAFETY: `avx` is set only where the CPU has AVX.
