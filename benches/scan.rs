@@ -96,6 +96,7 @@ fn main() {
             episodes,
             seed: 0,
             allow_body_mismatch: false,
+            threads: 1,
         };
         let report = one.install(|| bench(&cfg)).expect("bench");
         println!("{}", report.table());

@@ -97,8 +97,23 @@ fn bench_json_has_consistent_counts_for_every_benchmark() {
     assert!(decisions >= steps && decisions <= steps + sampled, "{run}");
     assert_eq!(count(&run, "rollout loop"), steps);
     // Same seed, same counts.
-    let again = bench_json(&root, &["run", "--episodes", "3", "--size", "32"]);
+    let again = bench_json(
+        &root,
+        &["run", "--episodes", "3", "--size", "32", "--threads", "1"],
+    );
     assert_eq!(count(&again, "sim step"), steps);
+    // One thread: no all-threads row. Two: the same episodes once more on both threads at
+    // once, each run once (every episode is seeded from its id, so the steps agree).
+    assert_eq!(again["threads"], 1);
+    assert!(stages(&again)
+        .iter()
+        .all(|s| s.0 != "rollout loop, all threads"));
+    let both = bench_json(
+        &root,
+        &["run", "--episodes", "3", "--size", "32", "--threads", "2"],
+    );
+    assert_eq!(both["threads"], 2);
+    assert_eq!(count(&both, "rollout loop, all threads"), steps);
 }
 
 #[test]

@@ -21,7 +21,8 @@ pub enum Which {
     Episodes,
     /// Render the sensors from random walkable poses.
     Render,
-    /// The oracle's rollout loop: reset, plan, decide, step (nothing written).
+    /// The oracle's rollout loop: reset, plan, decide, step (nothing written); then again on
+    /// all --threads at once, timed by the wall clock.
     Run,
 }
 
@@ -29,7 +30,8 @@ pub enum Which {
 /// one core, or JSON for scripts.
 ///
 /// Everything runs on one thread, so figures are per core; stage times are the thread's CPU
-/// time where the system reports it. `render` and `run` need the scene baked (`minos bake`)
+/// time where the system reports it. `run` adds one row of the machine's throughput: the
+/// rollout loop on --threads threads at once, wall clock. `render` and `run` need the scene baked (`minos bake`)
 /// for --preset's body.
 #[derive(Debug, clap::Args)]
 #[command(
@@ -100,6 +102,7 @@ pub fn config(args: &Args) -> anyhow::Result<BenchConfig> {
         episodes: args.episodes,
         seed: args.seed,
         allow_body_mismatch: args.allow_body_mismatch,
+        threads: rayon::current_num_threads(),
     })
 }
 

@@ -7,13 +7,17 @@
 //! - `render`: load scene and grid, set up the simulator, render the sensors' images from
 //!   random walkable poses (a frame is one observation: every image of every camera);
 //! - `run`: the rollout loop of `minos run` with the oracle — sample PointGoal episodes, reset,
-//!   plan, decide and step the simulator (nothing is written).
+//!   plan, decide and step the simulator (nothing is written); with more than one thread
+//!   asked for, the same loop once more on that many threads at once (each its own
+//!   simulator and oracle on the shared scene, claiming the next episode, as `minos run`
+//!   does), timed by the wall clock: the machine's throughput.
 //!
 //! Each stage reports how many items it did (scenes, episodes, frames, steps) and the CPU
 //! time of this thread (wall time where the platform does not say). Random choices (poses,
 //! episodes) derive from `(seed, scene id, purpose)`, so the counts of two runs agree; only
 //! the timings differ. The resident memory after loading the scene is reported too.
 
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -81,7 +85,13 @@ pub struct BenchConfig {
     pub seed: u64,
     /// Accept a grid baked for another body.
     pub allow_body_mismatch: bool,
+    /// Threads of `run`'s last stage, the rollout loop on that many threads at once (wall
+    /// clock); 1: no such stage.
+    pub threads: usize,
 }
+
+/// Name of `run`'s stage on all threads.
+pub const ALL_THREADS: &str = "rollout loop, all threads";
 
 /// One measured stage.
 #[derive(Debug, Clone, PartialEq)]
@@ -127,6 +137,8 @@ pub struct BenchReport {
     pub rss_peak: u64,
     /// Whether stage times are thread CPU time (else wall time).
     pub cpu_time: bool,
+    /// Threads of the [`ALL_THREADS`] stage (timed by the wall clock); 1 when there is none.
+    pub threads: usize,
     /// The stages, in order.
     pub stages: Vec<Stage>,
 }
@@ -148,6 +160,7 @@ impl BenchReport {
             "rss_of_load_bytes": self.rss_of_load,
             "rss_peak_bytes": self.rss_peak,
             "clock": if self.cpu_time { "thread-cpu" } else { "wall" },
+            "threads": self.threads,
             "stages": self.stages.iter().map(|s| serde_json::json!({
                 "stage": s.name,
                 "count": s.count,
@@ -172,6 +185,12 @@ impl BenchReport {
             self.rss_peak as f64 / 1e6,
             if self.cpu_time { "CPU" } else { "wall" },
         );
+        if self.threads > 1 {
+            out.insert_str(
+                out.find('\n').unwrap_or(out.len()),
+                &format!("; `{ALL_THREADS}`: {} threads, wall clock", self.threads),
+            );
+        }
         for s in &self.stages {
             out.push_str(&format!(
                 "| {} | {} | {} | {:.4} | {:.1} |\n",
@@ -337,6 +356,7 @@ fn bench_on_this_thread(cfg: &BenchConfig) -> Result<BenchReport, BenchError> {
         rss_of_load: rss_after_load.saturating_sub(rss0),
         rss_peak: 0,
         cpu_time: timer.cpu,
+        threads: 1,
         stages: Vec::new(),
     };
     if let Some(g) = &grid {
@@ -405,6 +425,16 @@ fn bench_on_this_thread(cfg: &BenchConfig) -> Result<BenchReport, BenchError> {
                 render(cfg, &mut timer, &mut sim, &poses)?;
             } else {
                 rollout(&mut timer, &mut sim, &assets.grid, &eps)?;
+                if cfg.threads > 1 {
+                    let (steps, wall) = rollout_on_threads(&sim, &assets.grid, &eps, cfg.threads)?;
+                    timer.stages.push(Stage {
+                        name: ALL_THREADS,
+                        count: steps,
+                        unit: "steps",
+                        seconds: wall,
+                    });
+                    report.threads = cfg.threads;
+                }
             }
         }
     }
@@ -483,6 +513,59 @@ fn render(
         timer.add("render", "frames", 1, s);
     }
     Ok(())
+}
+
+/// [`rollout`]'s loop on `threads` threads at once, each with its own simulator (a sibling
+/// of `sim`), goal fields and oracle, claiming the next episode until none is left: the
+/// steps taken and the wall-clock seconds they took.
+fn rollout_on_threads(
+    sim: &Simulator,
+    grid: &NavGrid,
+    eps: &[Episode],
+    threads: usize,
+) -> Result<(u64, f64), BenchError> {
+    let next = AtomicUsize::new(0);
+    let start = Instant::now();
+    let results: Vec<Result<u64, BenchError>> = std::thread::scope(|scope| {
+        let workers: Vec<_> = (0..threads)
+            .map(|_| {
+                let (mut sim, next) = (sim.sibling(), &next);
+                scope.spawn(move || {
+                    let e = |x: &dyn std::fmt::Display| BenchError(x.to_string());
+                    let geo = Geodesic::new(grid);
+                    let mut agent = OracleAgent::new();
+                    let mut steps = 0;
+                    while let Some(ep) = eps.get(next.fetch_add(1, Ordering::Relaxed)) {
+                        sim.reset_episode_in(ep, Some(&geo));
+                        agent.reset(ep, &sim).map_err(|x| e(&x))?;
+                        let mut obs = sim.observe().map_err(|x| e(&x))?;
+                        for _ in 0..ep.max_steps {
+                            let Decision::Act(a) = agent.decide(&obs, &sim).map_err(|x| e(&x))?
+                            else {
+                                break;
+                            };
+                            obs = sim.step(a).map_err(|x| e(&x))?;
+                            steps += 1;
+                        }
+                    }
+                    Ok(steps)
+                })
+            })
+            .collect();
+        workers
+            .into_iter()
+            .map(|w| {
+                w.join()
+                    .unwrap_or_else(|_| Err(BenchError("a rollout thread panicked".into())))
+            })
+            .collect()
+    });
+    let wall = start.elapsed().as_secs_f64();
+    let mut steps = 0;
+    for r in results {
+        steps += r?;
+    }
+    Ok((steps, wall))
 }
 
 /// The oracle's loop over the episodes: reset (goal field), plan, decide, step.
