@@ -11,9 +11,12 @@
 //! far; `obvhs` is closer (glam, CWBVH) but adds a dependency for ~400 lines. Here a node
 //! holds the boxes of its four children side by side and a leaf its (up to four) triangles
 //! side by side (struct of arrays, glam's `Vec4`), so the four slab tests of a node and the
-//! four triangle tests of a leaf are straight-line vector code on stable Rust without
-//! `unsafe`. `packet` traces the four rays of a 2×2 pixel block together; `build` builds
-//! the tree, large subtrees in parallel, the same tree on any number of threads.
+//! four triangle tests of a leaf are straight-line vector code on stable Rust. `packet`
+//! traces the four rays of a 2×2 pixel block together; `avx` does its node and leaf tests
+//! two rays per 8-lane instruction where the CPU has AVX (detected at run time, the only
+//! `unsafe` here: calling those functions and their loads), with the same answers bit for
+//! bit; `build` builds the tree, large subtrees in parallel, the same tree on any number of
+//! threads.
 //!
 //! Memory: a node is 128 bytes and there is about one node per seven triangles; a leaf is
 //! 160 bytes (four triangles' corners and ids; a partly filled leaf repeats its first

@@ -16,11 +16,12 @@ use super::raycast;
 use super::scene::RenderScene;
 
 /// Scenes with at least this many triangles per pixel of the image are ray cast, smaller
-/// ones rasterised: about where the two cost the same on one core at 84² (`cargo bench
-/// --bench render`, "Rendering at scale" in docs/PERFORMANCE.md: between 4 and 16 triangles
-/// per pixel on the dense multi-room house, 14 to 40 in the single dense room). The
-/// generated houses (3.6k triangles) stay rasterised at every size.
-pub const RAYCAST_TRIANGLES_PER_PIXEL: f32 = 16.0;
+/// ones rasterised: at or above where the two cost the same on one core at 84² (`cargo
+/// bench --bench render`, "Rendering at scale" in docs/PERFORMANCE.md: the ray caster is
+/// ahead from 0.5 triangles per pixel on the dense multi-room house and from between 1.1
+/// and 4.5 in the single dense room). The generated houses (3.6k triangles) stay
+/// rasterised from 30² up.
+pub const RAYCAST_TRIANGLES_PER_PIXEL: f32 = 4.0;
 
 /// Images at least this many pixels are split into bands rendered in parallel.
 const PARALLEL_PIXELS: u32 = 256 * 256;
