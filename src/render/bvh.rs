@@ -303,6 +303,32 @@ impl Ray {
     }
 }
 
+/// A ray's entry and exit distances for each of `node`'s four children (lane = child),
+/// clipped to `[t_min, limit]` (the box is met where entry ≤ exit): `near_side` and the
+/// reciprocal direction and `origin · inv` (splatted per axis) are the ray's. The one box
+/// test of every traversal, so single rays and packets compute the same values; the AVX
+/// kernels (`avx.rs`) repeat its operations in the same order.
+#[inline(always)]
+fn slabs(
+    node: &Node,
+    [sx, sy, sz]: [usize; 3],
+    [ix, iy, iz]: [Vec4; 3],
+    [ox, oy, oz]: [Vec4; 3],
+    t_min: Vec4,
+    limit: Vec4,
+) -> (Vec4, Vec4) {
+    let b = &node.bounds;
+    let near = (b[sx][0] * ix - ox)
+        .max(b[sy][1] * iy - oy)
+        .max(b[sz][2] * iz - oz)
+        .max(t_min);
+    let far = (b[sx ^ 1][0] * ix - ox)
+        .min(b[sy ^ 1][1] * iy - oy)
+        .min(b[sz ^ 1][2] * iz - oz)
+        .min(limit);
+    (near, far)
+}
+
 /// Folds a leaf's lanes into `best` (leaf number `index`): `t` holds each lane's
 /// single-precision distance, `lanes` the lanes met or `on_edge`, and `on_edge` those to
 /// decide again with `edge(lane, t_max)` (the ray's [`Ray::triangle`] in double precision).
@@ -380,10 +406,8 @@ impl Bvh {
         // array with its own top, so pushing is a store.
         let entries = &mut stack.0;
         let mut top = 0;
-        let (inv, oi) = (ray.inv, ray.origin_inv);
-        let (ix, iy, iz) = (Vec4::splat(inv.x), Vec4::splat(inv.y), Vec4::splat(inv.z));
-        let (ox, oy, oz) = (Vec4::splat(oi.x), Vec4::splat(oi.y), Vec4::splat(oi.z));
-        let [sx, sy, sz] = ray.near_side;
+        let inv = ray.inv.to_array().map(Vec4::splat);
+        let origin_inv = ray.origin_inv.to_array().map(Vec4::splat);
         let t_min = Vec4::splat(ray.t_min);
         // The node or leaf being visited: (child, count) as in the entries.
         let (mut child, mut count) = (0u32, 0u32);
@@ -391,15 +415,8 @@ impl Bvh {
             if count == 0 {
                 // An inner node: the four slab tests side by side, a bit per child hit.
                 let node = &self.nodes[child as usize];
-                let b = &node.bounds;
-                let near = (b[sx][0] * ix - ox)
-                    .max(b[sy][1] * iy - oy)
-                    .max(b[sz][2] * iz - oz)
-                    .max(t_min);
-                let far = (b[sx ^ 1][0] * ix - ox)
-                    .min(b[sy ^ 1][1] * iy - oy)
-                    .min(b[sz ^ 1][2] * iz - oz)
-                    .min(Vec4::splat(best.t));
+                let limit = Vec4::splat(best.t);
+                let (near, far) = slabs(node, ray.near_side, inv, origin_inv, t_min, limit);
                 // Unused slots are never hit (their boxes are empty at +∞), and were one
                 // reached it would only test leaf 0's real triangles once more.
                 let mut mask = near.cmple(far).bitmask();

@@ -32,10 +32,17 @@ impl Avx {
     #[inline]
     #[target_feature(enable = "avx")]
     pub(super) unsafe fn new(packet: &Packet) -> Avx {
-        let pair = |v: Vec4, p: usize| halves(Vec4::splat(v[2 * p]), Vec4::splat(v[2 * p + 1]));
+        // Plain loops: built through `array::map` closures, which the compiler may decide
+        // not to inline, this set-up once cost more than the traversal gained.
+        let mut pairs = [[_mm256_setzero_ps(); 15]; 2];
+        for (p, row) in pairs.iter_mut().enumerate() {
+            for (pair, v) in row.iter_mut().zip(&packet.lanes) {
+                *pair = halves(Vec4::splat(v[2 * p]), Vec4::splat(v[2 * p + 1]));
+            }
+        }
         let shared = packet.sides.iter().all(|&s| s == 0 || s == 0xF);
         Avx {
-            pairs: [0, 1].map(|p| packet.lanes.map(|v| pair(v, p))),
+            pairs,
             sides: shared.then(|| packet.near_side(0)),
         }
     }

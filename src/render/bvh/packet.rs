@@ -14,7 +14,7 @@
 
 use glam::{Mat4, Vec3, Vec4};
 
-use super::{Bvh, Hit, Leaf, Node, Ray, STACK};
+use super::{slabs, Bvh, Hit, Leaf, Node, Ray, STACK};
 
 /// Rows of [`Packet::lanes`]: the reciprocal direction (x, y, z), then `origin · inv`
 /// (x, y, z), then the shear's rows (row × 3 + component).
@@ -202,26 +202,21 @@ struct Portable;
 impl Kernels for Portable {
     #[inline(always)]
     fn node(&self, packet: &Packet, node: &Node, limit: Vec4) -> NodeHits {
-        let b = &node.bounds;
         let q = &packet.lanes;
         let t_min = Vec4::splat(packet.t_min);
         let lane = |v: Vec4, r: usize| Vec4::splat(v[r]);
         std::array::from_fn(|r| {
-            let [sx, sy, sz] = packet.near_side(r);
-            let (ix, iy, iz) = (lane(q[INV], r), lane(q[INV + 1], r), lane(q[INV + 2], r));
-            let (ox, oy, oz) = (
-                lane(q[ORIGIN_INV], r),
-                lane(q[ORIGIN_INV + 1], r),
-                lane(q[ORIGIN_INV + 2], r),
+            let inv = [q[INV], q[INV + 1], q[INV + 2]].map(|v| lane(v, r));
+            let origin_inv =
+                [q[ORIGIN_INV], q[ORIGIN_INV + 1], q[ORIGIN_INV + 2]].map(|v| lane(v, r));
+            let (n, f) = slabs(
+                node,
+                packet.near_side(r),
+                inv,
+                origin_inv,
+                t_min,
+                lane(limit, r),
             );
-            let n = (b[sx][0] * ix - ox)
-                .max(b[sy][1] * iy - oy)
-                .max(b[sz][2] * iz - oz)
-                .max(t_min);
-            let f = (b[sx ^ 1][0] * ix - ox)
-                .min(b[sy ^ 1][1] * iy - oy)
-                .min(b[sz ^ 1][2] * iz - oz)
-                .min(lane(limit, r));
             Vec4::select(n.cmple(f), n, Vec4::INFINITY)
         })
     }
