@@ -4,6 +4,7 @@
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Mutex, PoisonError};
 
 use anyhow::Context as _;
 use glam::Vec3;
@@ -128,10 +129,12 @@ pub fn with_threads<R: Send>(
 
 /// Forwards the library's progress to Python: a tqdm-like object (`update(n)`, `total`) or a
 /// callable `f(done, total)`; `None` reports nothing. Errors the callback raises are printed
-/// as unraisable and do not stop the work.
+/// as unraisable and do not stop the work. Calls come one at a time, in the order the work
+/// was counted, so `done` never goes back (workers on several threads finish at once).
 pub struct PyProgress {
     target: Option<Py<PyAny>>,
-    done: AtomicU64,
+    /// Units done; held while the callback runs.
+    done: Mutex<u64>,
     total: AtomicU64,
 }
 
@@ -140,7 +143,7 @@ impl PyProgress {
     pub fn new(target: Option<Bound<'_, PyAny>>, total: u64) -> Self {
         let p = PyProgress {
             target: target.filter(|t| !t.is_none()).map(Bound::unbind),
-            done: AtomicU64::new(0),
+            done: Mutex::new(0),
             total: AtomicU64::new(0),
         };
         if total > 0 {
@@ -175,8 +178,11 @@ impl Progress for PyProgress {
     }
 
     fn advance(&self, n: u64) {
-        let done = self.done.fetch_add(n, Ordering::Relaxed) + n;
-        let total = self.total.load(Ordering::Relaxed);
+        // Counted and reported under one lock (taken before the interpreter, never inside
+        // it), so two threads cannot report their counts in the opposite order.
+        let mut count = self.done.lock().unwrap_or_else(PoisonError::into_inner);
+        *count += n;
+        let (done, total) = (*count, self.total.load(Ordering::Relaxed));
         self.call(|t| {
             if t.hasattr("update")? {
                 t.call_method1("update", (n,))?;
