@@ -257,6 +257,8 @@ impl Bvh {
                 }
             }
         }
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = (node, children);
     }
 
     /// The nearest hit of each of the packet's rays, as [`Bvh::closest`] finds it.
