@@ -6,6 +6,7 @@ use glam::Vec3;
 
 use super::camera::Camera;
 use super::labels::Taxonomy;
+use super::prefetch::prefetch;
 use super::scene::RenderScene;
 
 /// Pixel shows no triangle.
@@ -20,19 +21,6 @@ const AMBIENT: f32 = 0.35;
 /// show triangles scattered over the scene's arrays, and each would otherwise wait on memory
 /// in turn.
 const PREFETCH_AHEAD: usize = 16;
-
-/// Asks the CPU to start loading `items[i]` (nothing where it cannot; never reads it).
-#[inline(always)]
-fn prefetch<T>(items: &[T], i: u32) {
-    #[cfg(target_arch = "x86_64")]
-    if let Some(item) = items.get(i as usize) {
-        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-        // SAFETY: a prefetch reads nothing the program sees, and `item` is a valid address.
-        unsafe { _mm_prefetch::<_MM_HINT_T0>((item as *const T).cast::<i8>()) };
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = (items, i);
-}
 
 /// World directions of the rays through pixel centres, split into a per-column and a
 /// per-row part (the same camera model the rasterisers sample).
@@ -106,7 +94,7 @@ impl Frame {
         for (y, row) in self.tri.chunks(width).enumerate() {
             for (x, &t) in row.iter().enumerate() {
                 if let Some(&ahead) = self.tri.get(y * width + x + PREFETCH_AHEAD) {
-                    prefetch(&scene.tris, ahead);
+                    prefetch(&scene.tris, ahead as usize);
                 }
                 if t == NO_HIT {
                     out.push([0, 0, 0]);

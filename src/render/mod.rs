@@ -10,6 +10,7 @@ pub mod frame;
 pub mod gpu;
 pub mod image;
 pub mod labels;
+mod prefetch;
 pub mod raycast;
 pub mod renderer;
 pub mod scene;

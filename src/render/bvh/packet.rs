@@ -15,6 +15,7 @@
 use glam::{Mat4, Vec3, Vec4};
 
 use super::{slabs, Bvh, Hit, Leaf, Node, Ray, STACK};
+use crate::render::prefetch::prefetch;
 
 /// Rows of [`Packet::lanes`]: the reciprocal direction (x, y, z), then `origin · inv`
 /// (x, y, z), then the shear's rows (row × 3 + component).
@@ -237,28 +238,17 @@ impl Bvh {
     /// (the next is visited after the others are ordered, the rest later).
     #[inline(always)]
     fn prefetch(&self, node: &Node, children: u32) {
-        #[cfg(target_arch = "x86_64")]
-        {
-            use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-            let mut children = children;
-            while children != 0 {
-                let k = children.trailing_zeros() as usize;
-                children &= children - 1;
-                let child = node.child[k] as usize;
-                // Pointers only to hint at; a prefetch never faults.
-                let (at, lines) = if node.count[k] == 0 {
-                    (self.nodes.as_ptr().wrapping_add(child).cast::<i8>(), 2)
-                } else {
-                    (self.leaves.as_ptr().wrapping_add(child).cast::<i8>(), 3)
-                };
-                for line in 0..lines {
-                    // SAFETY: prefetching reads nothing the program sees.
-                    unsafe { _mm_prefetch::<_MM_HINT_T0>(at.wrapping_add(64 * line)) };
-                }
+        let mut children = children;
+        while children != 0 {
+            let k = children.trailing_zeros() as usize;
+            children &= children - 1;
+            let child = node.child[k] as usize;
+            if node.count[k] == 0 {
+                prefetch(&self.nodes, child);
+            } else {
+                prefetch(&self.leaves, child);
             }
         }
-        #[cfg(not(target_arch = "x86_64"))]
-        let _ = (node, children);
     }
 
     /// The nearest hit of each of the packet's rays, as [`Bvh::closest`] finds it.
