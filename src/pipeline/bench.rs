@@ -531,24 +531,10 @@ fn rollout_on_threads(
             .map(|_| {
                 let (mut sim, next) = (sim.sibling(), &next);
                 scope.spawn(move || {
-                    let e = |x: &dyn std::fmt::Display| BenchError(x.to_string());
                     let geo = Geodesic::new(grid);
-                    let mut agent = OracleAgent::new();
-                    let mut steps = 0;
-                    while let Some(ep) = eps.get(next.fetch_add(1, Ordering::Relaxed)) {
-                        sim.reset_episode_in(ep, Some(&geo));
-                        agent.reset(ep, &sim).map_err(|x| e(&x))?;
-                        let mut obs = sim.observe().map_err(|x| e(&x))?;
-                        for _ in 0..ep.max_steps {
-                            let Decision::Act(a) = agent.decide(&obs, &sim).map_err(|x| e(&x))?
-                            else {
-                                break;
-                            };
-                            obs = sim.step(a).map_err(|x| e(&x))?;
-                            steps += 1;
-                        }
-                    }
-                    Ok(steps)
+                    let claimed =
+                        std::iter::from_fn(|| eps.get(next.fetch_add(1, Ordering::Relaxed)));
+                    episode_loop(&mut Untimed, &mut sim, &geo, claimed)
                 })
             })
             .collect();
@@ -568,6 +554,65 @@ fn rollout_on_threads(
     Ok((steps, wall))
 }
 
+/// Where [`episode_loop`] reports how long each of its stages took.
+trait Clock {
+    /// Runs `f`, one item (`unit`) of stage `name`.
+    fn time<R>(&mut self, name: &'static str, unit: &'static str, f: impl FnOnce() -> R) -> R;
+}
+
+impl Clock for Timer {
+    fn time<R>(&mut self, name: &'static str, unit: &'static str, f: impl FnOnce() -> R) -> R {
+        let (r, seconds) = self.measure(f);
+        self.add(name, unit, 1, seconds);
+        r
+    }
+}
+
+/// No clock: the stages are not timed one by one (the all-threads row times the whole loop).
+struct Untimed;
+
+impl Clock for Untimed {
+    fn time<R>(&mut self, _: &'static str, _: &'static str, f: impl FnOnce() -> R) -> R {
+        f()
+    }
+}
+
+/// The oracle's loop over `eps` on `sim` with goal fields from `geo`: reset (goal field),
+/// plan, observe, then decide and step until it stops; each stage timed by `clock`. The
+/// steps taken.
+fn episode_loop<'a>(
+    clock: &mut impl Clock,
+    sim: &mut Simulator,
+    geo: &Geodesic,
+    eps: impl Iterator<Item = &'a Episode>,
+) -> Result<u64, BenchError> {
+    let e = |e: &dyn std::fmt::Display| BenchError(e.to_string());
+    let mut agent = OracleAgent::new();
+    let mut steps = 0;
+    for ep in eps {
+        clock.time("reset (goal field)", "episodes", || {
+            sim.reset_episode_in(ep, Some(geo))
+        });
+        clock
+            .time("oracle plan", "episodes", || agent.reset(ep, sim))
+            .map_err(|x| e(&x))?;
+        let mut obs = clock
+            .time("observe first", "episodes", || sim.observe())
+            .map_err(|x| e(&x))?;
+        for _ in 0..ep.max_steps {
+            let d = clock
+                .time("oracle decide", "steps", || agent.decide(&obs, sim))
+                .map_err(|x| e(&x))?;
+            let Decision::Act(a) = d else { break };
+            obs = clock
+                .time("sim step", "steps", || sim.step(a))
+                .map_err(|x| e(&x))?;
+            steps += 1;
+        }
+    }
+    Ok(steps)
+}
+
 /// The oracle's loop over the episodes: reset (goal field), plan, decide, step.
 fn rollout(
     timer: &mut Timer,
@@ -575,29 +620,9 @@ fn rollout(
     grid: &NavGrid,
     eps: &[Episode],
 ) -> Result<(), BenchError> {
-    let e = |e: &dyn std::fmt::Display| BenchError(e.to_string());
     let (geo, s) = timer.measure(|| Geodesic::new(grid));
     timer.add("geodesic setup", "scenes", 1, s);
-    let mut agent = OracleAgent::new();
-    for ep in eps {
-        let ((), s) = timer.measure(|| sim.reset_episode_in(ep, Some(&geo)));
-        timer.add("reset (goal field)", "episodes", 1, s);
-        let (r, s) = timer.measure(|| agent.reset(ep, sim));
-        r.map_err(|x| e(&x))?;
-        timer.add("oracle plan", "episodes", 1, s);
-        let (obs, s) = timer.measure(|| sim.observe());
-        let mut obs = obs.map_err(|x| e(&x))?;
-        timer.add("observe first", "episodes", 1, s);
-        for _ in 0..ep.max_steps {
-            let (d, s) = timer.measure(|| agent.decide(&obs, sim));
-            let d = d.map_err(|x| e(&x))?;
-            timer.add("oracle decide", "steps", 1, s);
-            let Decision::Act(a) = d else { break };
-            let (o, s) = timer.measure(|| sim.step(a));
-            obs = o.map_err(|x| e(&x))?;
-            timer.add("sim step", "steps", 1, s);
-        }
-    }
+    episode_loop(timer, sim, &geo, eps.iter())?;
     // The whole loop as one figure: steps per second of reset, planning, deciding and
     // stepping together.
     let steps = timer
