@@ -172,7 +172,7 @@ fn main() {
     }
     match GpuRenderer::new() {
         Ok(mut gpu) => {
-            gpu.upload(&rs);
+            gpu.upload(&rs).expect("upload");
             for size in [84, 128, 256] {
                 let c = cams(size);
                 let single = fps(c.len(), || {
@@ -399,7 +399,10 @@ fn gpu_at_scale(rs: &RenderScene, grid: &minos::navmesh::NavGrid, poses: &[(Vec3
             room_poses,
         ),
     ];
-    let slots: Vec<_> = scenes.iter().map(|(_, s, _)| gpu.add_scene(s)).collect();
+    let slots: Vec<_> = scenes
+        .iter()
+        .map(|(_, s, _)| gpu.add_scene(s).expect("upload"))
+        .collect();
     println!(
         "adapter: {}\nscenes: {}\n",
         gpu.adapter_name(),

@@ -97,6 +97,7 @@ fn main() {
             seed: 0,
             allow_body_mismatch: false,
             threads: 1,
+            batch: 0,
         };
         let report = one.install(|| bench(&cfg)).expect("bench");
         println!("{}", report.table());

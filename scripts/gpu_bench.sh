@@ -1,10 +1,84 @@
-#!/usr/bin/env sh
-# Batched wgpu frames per second (84², 128², 256²; batches of 1,024 views over two
-# 1M-triangle dense scenes uploaded side by side) with the adapter's name: the id + depth
-# pass with its one read-back, and with colour, depth and semantics derived on all cores.
-# Needs a GPU (or lavapipe) that wgpu finds; prints why it skipped otherwise.
-#   scripts/gpu_bench.sh            (CARGO_TARGET_DIR is honoured;
-#   MINOS_GPU_BENCH_VIEWS=64 for a smaller batch on a software adapter such as lavapipe)
-set -eu
+#!/usr/bin/env bash
+# The GPU figures of docs/PERFORMANCE.md, with the CPU baseline measured in the same run:
+# scan-like Matterport3D houses of 1 M and 3 M triangles (`minos generate --scan`), then
+#   - the CPU ray caster, one core, colour + depth + semantic per size (`bench render`);
+#   - the GPU (`bench render --renderer wgpu`): one observation at a time, batches of $BATCH
+#     views with one submission and read-back (ids + depth), and the same with colour, depth
+#     and semantic images derived on all threads — every GPU figure by the wall clock;
+#   - the oracle's rollout loop on all threads, CPU and wgpu (`bench run`).
+# Prints the adapter and a Markdown table; the JSON of every bench goes to $WORK/json/.
+#
+#   scripts/gpu_bench.sh                      # needs a release build (cargo build --release)
+#   MINOS=path/to/minos SCANS="1000000" SIZES="84 128" BATCH=256 scripts/gpu_bench.sh
+#
+# Without a GPU, wgpu finds lavapipe where Mesa's Vulkan drivers are installed (slow: use a
+# small BATCH); with no adapter at all the GPU rows say why they are missing.
+set -euo pipefail
 cd "$(dirname "$0")/.."
-exec cargo bench --bench render -- gpu
+MINOS=${MINOS:-${CARGO_TARGET_DIR:-$PWD/target}/release/minos}
+WORK=${WORK:-$(mktemp -d -t minos-gpu-XXXXXX)}
+SCANS=${SCANS:-"1000000 3000000"}
+SIZES=${SIZES:-"64 84 128 256"}
+BATCH=${BATCH:-1024}
+EPISODES=${EPISODES:-40}
+PYTHON=${PYTHON:-python3}
+mkdir -p "$WORK/json"
+echo "work folder: $WORK; $(nproc) cores; batches of $BATCH views"
+
+for tris in $SCANS; do
+    d="$WORK/scan-$tris"
+    if [ ! -f "$d/DATA/houses.parquet" ]; then
+        "$MINOS" -q generate --scan --houses 1 --seed 1 --scan-triangles "$tris" --out "$d/gen"
+        "$MINOS" -q ingest --dataset mp3d --root "$d/gen" --out "$d/DATA"
+        "$MINOS" -q bake --data "$d/DATA" --no-preview
+    fi
+    for s in $SIZES; do
+        "$MINOS" --threads 1 bench render --data "$d/DATA" --size "$s" --frames 200 --json \
+            >"$WORK/json/render-cpu-$tris-$s.json"
+        "$MINOS" bench render --data "$d/DATA" --size "$s" --frames 64 --renderer wgpu \
+            --batch "$BATCH" --json >"$WORK/json/render-wgpu-$tris-$s.json" 2>"$WORK/json/render-wgpu-$tris-$s.err" ||
+            echo "wgpu render $tris $s: $(tail -1 "$WORK/json/render-wgpu-$tris-$s.err")"
+    done
+    "$MINOS" bench run --data "$d/DATA" --episodes "$EPISODES" --json >"$WORK/json/run-cpu-$tris.json"
+    "$MINOS" bench run --data "$d/DATA" --episodes "$EPISODES" --renderer wgpu --json \
+        >"$WORK/json/run-wgpu-$tris.json" 2>"$WORK/json/run-wgpu-$tris.err" ||
+        echo "wgpu run $tris: $(tail -1 "$WORK/json/run-wgpu-$tris.err")"
+done
+
+"$PYTHON" - "$WORK/json" <<'EOF'
+import json, pathlib, sys
+folder = pathlib.Path(sys.argv[1])
+def load(name):
+    p = folder / name
+    try:
+        return json.loads(p.read_text())
+    except (OSError, ValueError):
+        return None
+def rate(report, stage):
+    if report is None:
+        return "–"
+    for s in report["stages"]:
+        if s["stage"] == stage:
+            return f'{s["per_second"]:,.0f}'
+    return "–"
+files = sorted(folder.glob("render-cpu-*.json"))
+adapter = next((r["adapter"] for f in folder.glob("render-wgpu-*.json") if (r := load(f.name)) and r.get("adapter")), None)
+print(f"adapter: {adapter or 'none (wgpu rows missing)'}\n")
+print("| scene | triangles | size | CPU, 1 core (fps) | GPU, one view at a time (fps, wall) | GPU batch, ids + depth (fps, wall) | GPU batch + colour, depth, semantic, all threads (fps, wall) |")
+print("|---|---|---|---|---|---|---|")
+keys = sorted({tuple(map(int, f.stem.split("-")[2:4])) for f in files})
+for tris, size in keys:
+    cpu = load(f"render-cpu-{tris}-{size}.json")
+    gpu = load(f"render-wgpu-{tris}-{size}.json")
+    stages = [s["stage"] for s in (gpu or {"stages": []})["stages"]]
+    batch = next((s for s in stages if s.startswith("gpu batch:")), None)
+    images = next((s for s in stages if s.startswith("gpu batch +")), None)
+    print(f'| scan {tris:,} | {cpu["triangles"]:,} | {size}² | {rate(cpu, "render")} | {rate(gpu, "render")} | {rate(gpu, batch)} | {rate(gpu, images)} |')
+print()
+print("| scene | oracle rollout, 1 core, CPU (steps/s) | all threads, CPU | all threads, wgpu |")
+print("|---|---|---|---|")
+for f in sorted(folder.glob("run-cpu-*.json")):
+    tris = int(f.stem.split("-")[2])
+    cpu, gpu = load(f.name), load(f"run-wgpu-{tris}.json")
+    print(f'| scan {tris:,} ({cpu["threads"]} threads) | {rate(cpu, "rollout loop")} | {rate(cpu, "rollout loop, all threads")} | {rate(gpu, "rollout loop, all threads")} |')
+EOF

@@ -375,8 +375,18 @@ fn the_geodesic_measurement_equals_the_navigation_query() {
 }
 
 #[test]
-fn cpu_and_wgpu_renderers_agree() {
-    let mut gpu = match minos::render::gpu::GpuRenderer::new() {
+fn cpu_and_wgpu_ray_tracer_agree() {
+    cpu_and_wgpu_agree(minos::render::gpu::GpuMethod::RayTrace);
+}
+
+#[test]
+fn cpu_and_wgpu_rasteriser_agree() {
+    cpu_and_wgpu_agree(minos::render::gpu::GpuMethod::Rasterise);
+}
+
+/// The CPU renderer and wgpu's `method` give the same images within the parity tolerances.
+fn cpu_and_wgpu_agree(method: minos::render::gpu::GpuMethod) {
+    let mut gpu = match minos::render::gpu::GpuRenderer::with_method(method) {
         Ok(g) => g,
         Err(e) => {
             eprintln!("skipped: {e}");
@@ -407,7 +417,7 @@ fn cpu_and_wgpu_renderers_agree() {
                 .any(|t| t.texture != minos::render::scene::NO_TEXTURE),
             "generated houses are textured, so parity covers textures"
         );
-        gpu.upload(&rs);
+        gpu.upload(&rs).unwrap();
         for size in [84u32, 128] {
             let cams: Vec<Camera> = plan.levels[0]
                 .rooms
@@ -458,7 +468,8 @@ fn cpu_and_wgpu_renderers_agree() {
     let labels = label_eq as f64 / label_n as f64;
     let mae = color_ae / color_n as f64;
     eprintln!(
-        "parity: depth RMSE {rmse:.5} m, labels equal {:.3}%, colour MAE {mae:.3}/255 ({})",
+        "parity ({}): depth RMSE {rmse:.5} m, labels equal {:.3}%, colour MAE {mae:.3}/255 ({})",
+        method.name(),
         100.0 * labels,
         gpu.adapter_name()
     );
@@ -499,7 +510,7 @@ fn wgpu_renders_views_of_several_scenes_in_one_batch() {
             )
         })
         .collect();
-    let slots: Vec<_> = scenes.iter().map(|s| gpu.add_scene(s)).collect();
+    let slots: Vec<_> = scenes.iter().map(|s| gpu.add_scene(s).unwrap()).collect();
     assert_eq!(gpu.scene_count(), 2);
     // Views alternate between the houses, several per room centre.
     let mut views = Vec::new();

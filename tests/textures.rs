@@ -89,7 +89,7 @@ fn render_all(rs: &RenderScene, cam: &Camera) -> Vec<(&'static str, Vec<[u8; 3]>
     let mut out = vec![("cpu", cpu::render(rs, cam).color(rs, cam))];
     match GpuRenderer::new() {
         Ok(mut g) => {
-            g.upload(rs);
+            g.upload(rs).unwrap();
             let frame = g.render_batch(&[*cam]).unwrap().remove(0);
             out.push(("wgpu", frame.color(rs, cam)));
         }

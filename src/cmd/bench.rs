@@ -31,12 +31,15 @@ pub enum Which {
 ///
 /// Everything runs on one thread, so figures are per core; stage times are the thread's CPU
 /// time where the system reports it. `run` adds one row of the machine's throughput: the
-/// rollout loop on --threads threads at once, wall clock. `render` and `run` need the scene baked (`minos bake`)
-/// for --preset's body.
+/// rollout loop on --threads threads at once, wall clock. With a GPU renderer, `render` adds
+/// batched stages (--batch views per submission and read-back, then with the images derived on
+/// all threads), wall clock, and names the adapter. `render` and `run` need the scene baked
+/// (`minos bake`) for --preset's body.
 #[derive(Debug, clap::Args)]
 #[command(
     after_help = "Examples:\n  minos bench bake --data DATA --scene 17DRP5sb8fy\n  \
     minos bench render --data DATA --size 128 --frames 500\n  \
+    minos bench render --data DATA --renderer wgpu --size 128 --batch 1024\n  \
     minos bench run --data DATA --episodes 20 --json"
 )]
 pub struct Args {
@@ -76,6 +79,9 @@ pub struct Args {
     /// Seed of poses and episodes.
     #[arg(long, default_value_t = 0)]
     seed: u64,
+    /// Views per batch of `render`'s batched GPU stages (with a GPU renderer; 0: none).
+    #[arg(long, default_value_t = 1024)]
+    batch: usize,
 }
 
 /// Flags → the benchmark (reads the sensor file, if any).
@@ -103,6 +109,7 @@ pub fn config(args: &Args) -> anyhow::Result<BenchConfig> {
         seed: args.seed,
         allow_body_mismatch: args.allow_body_mismatch,
         threads: rayon::current_num_threads(),
+        batch: args.batch,
     })
 }
 

@@ -12,6 +12,10 @@
 //!   simulator and oracle on the shared scene, claiming the next episode, as `minos run`
 //!   does), timed by the wall clock: the machine's throughput.
 //!
+//! With a GPU renderer, `render` adds batched stages ([`gpu`]): batches of views rendered
+//! with one submission and read-back, and the same with colour, depth and semantic images
+//! derived on all threads, timed by the wall clock.
+//!
 //! Each stage reports how many items it did (scenes, episodes, frames, steps) and the CPU
 //! time of this thread (wall time where the platform does not say). Random choices (poses,
 //! episodes) derive from `(seed, scene id, purpose)`, so the counts of two runs agree; only
@@ -36,6 +40,8 @@ use crate::scene::{Scene, SceneRef};
 use crate::seed::{derive_seed, Rng};
 use crate::sim::{AgentConfig, RendererChoice, SceneAssets, SensorSuite, Simulator};
 use crate::store::DataDir;
+
+mod gpu;
 
 /// Which benchmark to run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -86,8 +92,10 @@ pub struct BenchConfig {
     /// Accept a grid baked for another body.
     pub allow_body_mismatch: bool,
     /// Threads of `run`'s last stage, the rollout loop on that many threads at once (wall
-    /// clock); 1: no such stage.
+    /// clock), and of `render`'s GPU stage that derives images; 1: no `run` stage.
     pub threads: usize,
+    /// Views per batch of `render`'s batched GPU stages (with a GPU renderer; 0: none).
+    pub batch: usize,
 }
 
 /// Name of `run`'s stage on all threads.
@@ -102,8 +110,12 @@ pub struct Stage {
     pub count: u64,
     /// What the items are (`scenes`, `episodes`, `frames`, `steps`).
     pub unit: &'static str,
-    /// Seconds of this thread's CPU time (wall time where that is unavailable).
+    /// Seconds of this thread's CPU time (wall time where that is unavailable, or where
+    /// [`Stage::wall`] says).
     pub seconds: f64,
+    /// Timed by the wall clock (stages on several threads, or waiting for a GPU), whatever
+    /// the report's clock.
+    pub wall: bool,
 }
 
 impl Stage {
@@ -139,6 +151,10 @@ pub struct BenchReport {
     pub cpu_time: bool,
     /// Threads of the [`ALL_THREADS`] stage (timed by the wall clock); 1 when there is none.
     pub threads: usize,
+    /// The GPU adapter of the GPU stages, if any.
+    pub adapter: Option<String>,
+    /// Views per batch of the batched GPU stages (0: none).
+    pub batch: usize,
     /// The stages, in order.
     pub stages: Vec<Stage>,
 }
@@ -161,12 +177,15 @@ impl BenchReport {
             "rss_peak_bytes": self.rss_peak,
             "clock": if self.cpu_time { "thread-cpu" } else { "wall" },
             "threads": self.threads,
+            "adapter": self.adapter,
+            "views_per_batch": self.batch,
             "stages": self.stages.iter().map(|s| serde_json::json!({
                 "stage": s.name,
                 "count": s.count,
                 "unit": s.unit,
                 "seconds": s.seconds,
                 "per_second": s.per_second(),
+                "clock": if s.wall || !self.cpu_time { "wall" } else { "thread-cpu" },
             })).collect::<Vec<_>>(),
         })
     }
@@ -191,9 +210,23 @@ impl BenchReport {
                 &format!("; `{ALL_THREADS}`: {} threads, wall clock", self.threads),
             );
         }
+        if let Some(adapter) = &self.adapter {
+            out.insert_str(
+                out.find('\n').unwrap_or(out.len()),
+                &format!(
+                    "; GPU: {adapter}, {} views per batch; stages marked (wall) by the wall clock",
+                    self.batch
+                ),
+            );
+        }
         for s in &self.stages {
+            let wall = if s.wall && self.cpu_time {
+                " (wall)"
+            } else {
+                ""
+            };
             out.push_str(&format!(
-                "| {} | {} | {} | {:.4} | {:.1} |\n",
+                "| {}{wall} | {} | {} | {:.4} | {:.1} |\n",
                 s.name,
                 s.count,
                 s.unit,
@@ -270,6 +303,7 @@ impl Timer {
             count: count(&r),
             unit,
             seconds,
+            wall: false,
         });
         r
     }
@@ -286,6 +320,7 @@ impl Timer {
                 count,
                 unit,
                 seconds,
+                wall: false,
             }),
         }
     }
@@ -357,6 +392,8 @@ fn bench_on_this_thread(cfg: &BenchConfig) -> Result<BenchReport, BenchError> {
         rss_peak: 0,
         cpu_time: timer.cpu,
         threads: 1,
+        adapter: None,
+        batch: 0,
         stages: Vec::new(),
     };
     if let Some(g) = &grid {
@@ -422,7 +459,15 @@ fn bench_on_this_thread(cfg: &BenchConfig) -> Result<BenchReport, BenchError> {
                 timer.stage("prepare", "scenes", one, || prepare(cfg, &scene, grid))?;
             drop(scene);
             if cfg.kind == BenchKind::Render {
-                render(cfg, &mut timer, &mut sim, &poses)?;
+                render(&mut timer, &mut sim, &poses)?;
+                let renderer = sim.renderer().clone();
+                if let (Renderer::Gpu(g), true) = (&*renderer, cfg.batch > 0) {
+                    timer
+                        .stages
+                        .extend(gpu::batches(cfg, &mut sim, &poses, g, &assets.render)?);
+                    report.adapter = Some(g.adapter_name());
+                    report.batch = cfg.batch;
+                }
             } else {
                 rollout(&mut timer, &mut sim, &assets.grid, &eps)?;
                 if cfg.threads > 1 {
@@ -432,6 +477,7 @@ fn bench_on_this_thread(cfg: &BenchConfig) -> Result<BenchReport, BenchError> {
                         count: steps,
                         unit: "steps",
                         seconds: wall,
+                        wall: true,
                     });
                     report.threads = cfg.threads;
                 }
@@ -498,19 +544,22 @@ fn prepare(
     Ok((sim, assets))
 }
 
-/// Renders every camera from each pose.
-fn render(
-    cfg: &BenchConfig,
-    timer: &mut Timer,
-    sim: &mut Simulator,
-    poses: &[(Vec3, f32)],
-) -> Result<(), BenchError> {
-    let _ = cfg;
+/// Renders every camera from each pose, one observation at a time (timed by the wall
+/// clock with a GPU renderer, whose work this thread's CPU time does not see).
+fn render(timer: &mut Timer, sim: &mut Simulator, poses: &[(Vec3, f32)]) -> Result<(), BenchError> {
+    let wall = matches!(**sim.renderer(), Renderer::Gpu(_));
     for (p, yaw) in poses {
         sim.reset(*p, *yaw, None, "bench");
+        let t = Instant::now();
         let (r, s) = timer.measure(|| sim.observe());
+        let s = if wall { t.elapsed().as_secs_f64() } else { s };
         r.map_err(|e| BenchError(e.to_string()))?;
         timer.add("render", "frames", 1, s);
+    }
+    if wall {
+        if let Some(stage) = timer.stages.iter_mut().find(|s| s.name == "render") {
+            stage.wall = true;
+        }
     }
     Ok(())
 }
@@ -651,6 +700,7 @@ fn rollout(
         count: steps,
         unit: "steps",
         seconds: loop_s,
+        wall: false,
     });
     Ok(())
 }

@@ -28,7 +28,9 @@ use glam::{Vec3, Vec4};
 #[cfg(target_arch = "x86_64")]
 mod avx;
 mod build;
+mod flat;
 mod packet;
+pub use flat::{FLAT_EMPTY, LEAF_WORDS, NODE_WORDS};
 pub use packet::{Packet, PacketStack};
 
 /// Largest number of triangles in a leaf.

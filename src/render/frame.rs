@@ -29,18 +29,48 @@ pub(super) struct PixelRays {
     rows: Vec<Vec3>,
 }
 
+/// A camera's ray basis at an image size: the world right, up and viewing directions and the
+/// lens's extent, from which [`PixelRays`] (and the GPU ray tracer, with the same formula) make
+/// each pixel centre's ray.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct RayBasis {
+    /// World direction of the image's +x.
+    pub right: Vec3,
+    /// World direction of the image's up.
+    pub up: Vec3,
+    /// World viewing direction (unit).
+    pub forward: Vec3,
+    /// `tan(vfov / 2)`.
+    pub tan: f32,
+    /// Width over height.
+    pub aspect: f32,
+}
+
+impl RayBasis {
+    /// The basis of `camera` at `width` × `height`.
+    pub(crate) fn new(camera: &Camera, width: u32, height: u32) -> Self {
+        let to_world = camera.view().inverse();
+        RayBasis {
+            right: to_world.transform_vector3(Vec3::X),
+            up: to_world.transform_vector3(Vec3::Y),
+            forward: to_world.transform_vector3(Vec3::NEG_Z),
+            tan: (camera.vfov_deg.to_radians() * 0.5).tan(),
+            aspect: width as f32 / height.max(1) as f32,
+        }
+    }
+}
+
 impl PixelRays {
     /// The rays of `camera`'s pixels at `width` × `height`; each direction's component
     /// along the viewing axis is 1, so a ray parameter is a camera-space depth.
     pub(super) fn new(camera: &Camera, width: u32, height: u32) -> Self {
-        let to_world = camera.view().inverse();
-        let (right, up) = (
-            to_world.transform_vector3(Vec3::X),
-            to_world.transform_vector3(Vec3::Y),
-        );
-        let forward = to_world.transform_vector3(Vec3::NEG_Z);
-        let tan = (camera.vfov_deg.to_radians() * 0.5).tan();
-        let aspect = width as f32 / height.max(1) as f32;
+        let RayBasis {
+            right,
+            up,
+            forward,
+            tan,
+            aspect,
+        } = RayBasis::new(camera, width, height);
         let columns = (0..width)
             .map(|x| right * (((x as f32 + 0.5) / width as f32 * 2.0 - 1.0) * tan * aspect))
             .collect();

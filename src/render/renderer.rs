@@ -1,5 +1,5 @@
-//! Choosing a renderer: the CPU rasteriser, wgpu, or `auto` (wgpu when an adapter exists,
-//! else the CPU, saying why in the log). Both produce the same frames.
+//! Choosing a renderer: the CPU renderer, wgpu, or `auto` (wgpu when a hardware adapter
+//! exists, else the CPU, saying why in the log). Both produce the same frames.
 
 use super::gpu::{GpuError, GpuRenderer};
 use super::{cpu, Camera, Frame, RenderScene};
@@ -11,7 +11,8 @@ pub enum RendererChoice {
     Cpu,
     /// wgpu (fails when no adapter exists).
     Wgpu,
-    /// wgpu when an adapter exists, else the CPU rasteriser.
+    /// wgpu when a hardware adapter exists, else the CPU renderer (a software adapter such
+    /// as lavapipe is slower than the CPU renderer it would replace).
     #[default]
     Auto,
 }
@@ -29,16 +30,32 @@ impl Renderer {
     pub fn new(choice: RendererChoice, scene: &RenderScene) -> Result<Renderer, GpuError> {
         let gpu = || -> Result<Renderer, GpuError> {
             let mut g = GpuRenderer::new()?;
-            g.upload(scene);
+            g.upload(scene)?;
             Ok(Renderer::Gpu(Box::new(g)))
         };
         match choice {
             RendererChoice::Cpu => Ok(Renderer::Cpu),
             RendererChoice::Wgpu => gpu(),
-            RendererChoice::Auto => Ok(gpu().unwrap_or_else(|e| {
-                tracing::info!("renderer auto: no usable GPU ({e}); using the CPU rasteriser");
-                Renderer::Cpu
-            })),
+            RendererChoice::Auto => Ok(match GpuRenderer::new() {
+                Ok(g) if g.is_software() => {
+                    tracing::info!(
+                        "renderer auto: the only adapter is a software one ({}); using the CPU renderer",
+                        g.adapter_name()
+                    );
+                    Renderer::Cpu
+                }
+                Ok(mut g) => match g.upload(scene) {
+                    Ok(()) => Renderer::Gpu(Box::new(g)),
+                    Err(e) => {
+                        tracing::info!("renderer auto: the GPU cannot hold the scene ({e}); using the CPU renderer");
+                        Renderer::Cpu
+                    }
+                },
+                Err(e) => {
+                    tracing::info!("renderer auto: no usable GPU ({e}); using the CPU renderer");
+                    Renderer::Cpu
+                }
+            }),
         }
     }
 

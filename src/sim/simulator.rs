@@ -220,6 +220,11 @@ impl Simulator {
         )
     }
 
+    /// The renderer the simulator observes with (shared with its siblings).
+    pub fn renderer(&self) -> &Arc<Renderer> {
+        &self.renderer
+    }
+
     /// The agent's state.
     pub fn state(&self) -> AgentState {
         self.state

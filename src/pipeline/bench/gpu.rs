@@ -1,0 +1,126 @@
+//! `bench render`'s batched GPU stages: the scene's views rendered in batches of
+//! [`BenchConfig::batch`] views with one submission and one read-back each, as batched
+//! stepping renders, then the same with colour, linear depth and semantic images derived from
+//! the frames on all threads. Both are timed by the wall clock, which — unlike this thread's
+//! CPU time — includes waiting for the GPU.
+
+use std::hint::black_box;
+use std::time::Instant;
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use super::{BenchConfig, BenchError, Stage};
+use crate::render::gpu::{GpuRenderer, SceneSlot, View};
+use crate::render::{Camera, RenderScene, Taxonomy};
+use crate::sim::Simulator;
+
+/// Name of the stage that renders batches (triangle ids and depth, read back).
+pub const GPU_BATCH: &str = "gpu batch: ids + depth";
+/// Name of the stage that renders batches and derives the images on all threads.
+pub const GPU_IMAGES: &str = "gpu batch + colour, depth, semantic (all threads)";
+
+/// Batches are repeated for at least this long (seconds), after one batch to warm up.
+const MIN_SECONDS: f64 = 1.0;
+
+/// The batched stages on `gpu` (whose slot 0 is `scene`, the simulator's scene): each pose's
+/// distinct cameras (those of the first camera's resolution), poses in turn until a batch is
+/// full.
+pub(super) fn batches(
+    cfg: &BenchConfig,
+    sim: &mut Simulator,
+    poses: &[(Vec3, f32)],
+    gpu: &GpuRenderer,
+    scene: &RenderScene,
+) -> Result<Vec<Stage>, BenchError> {
+    let views = batch_views(sim, poses, cfg.batch)?;
+    let err = |e: &dyn std::fmt::Display| BenchError(format!("GPU batch: {e}"));
+    // Both on all threads: frames are copied out of the read-back buffer in parallel.
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(cfg.threads.max(1))
+        .build()
+        .map_err(|e| err(&e))?;
+    let ids = pool.install(|| {
+        repeat(views.len(), || {
+            gpu.render_views(&views).map(drop).map_err(|e| err(&e))
+        })
+    })?;
+    let images = pool.install(|| {
+        repeat(views.len(), || {
+            let frames = gpu.render_views(&views).map_err(|e| err(&e))?;
+            frames.par_iter().zip(&views).for_each(|(f, v)| {
+                black_box(f.color(scene, &v.camera));
+                black_box(f.linear_depth(&v.camera));
+                black_box(f.semantic(scene, Taxonomy::Nyu40));
+            });
+            Ok(())
+        })
+    })?;
+    Ok(vec![stage(GPU_BATCH, ids), stage(GPU_IMAGES, images)])
+}
+
+/// A wall-clock stage of `(frames, seconds)`.
+fn stage(name: &'static str, (count, seconds): (u64, f64)) -> Stage {
+    Stage {
+        name,
+        count,
+        unit: "frames",
+        seconds,
+        wall: true,
+    }
+}
+
+/// Runs `batch` once to warm up, then again until [`MIN_SECONDS`] have passed (at least
+/// twice): the frames rendered (`views` per batch) and the wall-clock seconds.
+fn repeat(
+    views: usize,
+    mut batch: impl FnMut() -> Result<(), BenchError>,
+) -> Result<(u64, f64), BenchError> {
+    batch()?;
+    let start = Instant::now();
+    let mut runs = 0u64;
+    while runs < 2 || start.elapsed().as_secs_f64() < MIN_SECONDS {
+        batch()?;
+        runs += 1;
+    }
+    Ok((runs * views as u64, start.elapsed().as_secs_f64()))
+}
+
+/// `size` views of scene slot 0: the distinct cameras of each pose in turn (those of the
+/// first camera's resolution, as a batch has one resolution).
+fn batch_views(
+    sim: &mut Simulator,
+    poses: &[(Vec3, f32)],
+    size: usize,
+) -> Result<Vec<View>, BenchError> {
+    let mut views: Vec<View> = Vec::with_capacity(size);
+    let mut resolution = None;
+    for (p, yaw) in poses.iter().cycle() {
+        sim.reset(*p, *yaw, None, "bench");
+        let mut cameras: Vec<Camera> = Vec::new();
+        for c in sim.cameras() {
+            let r = *resolution.get_or_insert((c.width, c.height));
+            if (c.width, c.height) == r && !cameras.contains(&c) {
+                cameras.push(c);
+            }
+        }
+        if cameras.is_empty() {
+            return Err(BenchError(
+                "GPU batch: the sensors have no camera to render".into(),
+            ));
+        }
+        for camera in cameras {
+            if views.len() == size {
+                return Ok(views);
+            }
+            views.push(View {
+                scene: SceneSlot(0),
+                camera,
+            });
+        }
+        if views.len() == size {
+            return Ok(views);
+        }
+    }
+    Err(BenchError("GPU batch: no pose to render from".into()))
+}

@@ -1,0 +1,480 @@
+//! The ray-tracing path of the wgpu renderer: the BVH the CPU ray caster builds
+//! ([`crate::render::bvh`]) uploaded as two storage buffers per scene and traversed by a
+//! compute shader (`trace.wgsl`), one invocation per pixel, 8×8 pixels per workgroup, one
+//! workgroup layer per view. A batch's views — on any uploaded scenes — are sorted by scene
+//! and rendered by one dispatch per scene in one compute pass, then read back with one copy:
+//! so the cost follows the pixels (and the logarithm of the triangles), not the triangles.
+//!
+//! The shader computes each pixel centre's ray with [`RayBasis`]'s formula, tests triangles
+//! with the same watertight test as the CPU (in single precision only: WGSL has no double, so
+//! a ray through an edge value of exactly 0 counts as inside) and keeps the nearest hit, ties
+//! to the lowest id; frames therefore agree with the CPU ray caster's within the parity
+//! tolerances (`tests/sim.rs`), not bit for bit. Its traversal stack holds [`STACK`] entries;
+//! a scene whose tree is deeper than that guarantees keeps a CPU copy of its hierarchy, and
+//! the rare pixels whose stack overflowed are cast again on the CPU.
+
+use rayon::prelude::*;
+use wgpu::util::DeviceExt;
+
+use super::{GpuError, View};
+use crate::render::bvh::{Bvh, Ray};
+use crate::render::frame::{Frame, PixelRays, RayBasis, NO_HIT};
+
+/// The shader.
+const SHADER: &str = include_str!("trace.wgsl");
+/// Pixels per workgroup edge (`@workgroup_size(8, 8, 1)`).
+const TILE: u32 = 8;
+/// Traversal stack entries of the shader (`STACK` there).
+const STACK: usize = 64;
+/// Triangle id the shader writes where a ray's stack overflowed.
+const OVERFLOW: u32 = 0xffff_fffe;
+/// Stride of the per-dispatch uniform blocks (dynamic offsets must be 256-aligned).
+const BATCH_STRIDE: u64 = 256;
+
+/// One view as the shader reads it (`View` in `trace.wgsl`).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct ViewRecord {
+    origin: [f32; 4],
+    right: [f32; 4],
+    up: [f32; 4],
+    forward: [f32; 4],
+    /// near, far, tan(vfov / 2), aspect.
+    lens: [f32; 4],
+    /// The projection's depth row (a, b).
+    depth: [f32; 4],
+    /// The view's place in the batch.
+    slot: [u32; 4],
+}
+
+/// One dispatch's uniform block (`Batch` in `trace.wgsl`).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct BatchRecord {
+    first: u32,
+    total: u32,
+    width: u32,
+    height: u32,
+}
+
+/// The compute pipeline and its bind group layouts.
+pub(super) struct Tracer {
+    pipeline: wgpu::ComputePipeline,
+    scene_layout: wgpu::BindGroupLayout,
+    batch_layout: wgpu::BindGroupLayout,
+    /// Entries of the shader's traversal stack.
+    stack: usize,
+    /// Buffer sets of earlier batches, reused by later ones (one per batch in flight).
+    pool: std::sync::Mutex<Vec<BufferSet>>,
+}
+
+/// The buffers of one batch in flight and their bind group.
+struct BufferSet {
+    /// Views it has room for.
+    views_capacity: usize,
+    /// Output bytes it has room for.
+    out_capacity: u64,
+    /// Dispatches (uniform blocks) it has room for.
+    groups_capacity: usize,
+    views: wgpu::Buffer,
+    uniform: wgpu::Buffer,
+    out: wgpu::Buffer,
+    readback: wgpu::Buffer,
+    bind: wgpu::BindGroup,
+}
+
+/// A scene uploaded for ray tracing.
+pub(super) struct TracedScene {
+    bind: wgpu::BindGroup,
+    /// The hierarchy, kept on the CPU only when it is deeper than the shader's stack
+    /// guarantees (to cast the pixels whose stack overflowed).
+    fallback: Option<Bvh>,
+}
+
+/// A storage-buffer binding of the layouts.
+fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+impl Tracer {
+    /// Builds the pipeline on `device`.
+    pub(super) fn new(device: &wgpu::Device) -> Tracer {
+        Tracer::with_stack(device, STACK)
+    }
+
+    /// Builds the pipeline with a traversal stack of `stack` entries (tests make it small
+    /// to reach the overflow path).
+    pub(super) fn with_stack(device: &wgpu::Device, stack: usize) -> Tracer {
+        let source = SHADER.replace(
+            &format!("const STACK: u32 = {STACK}u;"),
+            &format!("const STACK: u32 = {stack}u;"),
+        );
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("minos trace"),
+            source: wgpu::ShaderSource::Wgsl(source.into()),
+        });
+        let scene_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("trace scene"),
+            entries: &[storage(0, true), storage(1, true)],
+        });
+        let batch_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("trace batch"),
+            entries: &[
+                storage(0, true),
+                storage(1, false),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 2,
+                    visibility: wgpu::ShaderStages::COMPUTE,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Uniform,
+                        has_dynamic_offset: true,
+                        min_binding_size: wgpu::BufferSize::new(
+                            std::mem::size_of::<BatchRecord>() as u64
+                        ),
+                    },
+                    count: None,
+                },
+            ],
+        });
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("minos trace"),
+            bind_group_layouts: &[Some(&scene_layout), Some(&batch_layout)],
+            immediate_size: 0,
+        });
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("minos trace"),
+            layout: Some(&layout),
+            module: &module,
+            entry_point: Some("main"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        Tracer {
+            pipeline,
+            scene_layout,
+            batch_layout,
+            stack,
+            pool: std::sync::Mutex::new(Vec::new()),
+        }
+    }
+
+    /// A buffer set with room for `views` views, `out_bytes` of output and `groups`
+    /// dispatches: one from the pool, or a new one.
+    fn buffers(
+        &self,
+        device: &wgpu::Device,
+        views: usize,
+        out_bytes: u64,
+        groups: usize,
+    ) -> BufferSet {
+        let fits = |s: &BufferSet| {
+            s.views_capacity >= views && s.out_capacity >= out_bytes && s.groups_capacity >= groups
+        };
+        {
+            let mut pool = self.pool.lock().unwrap_or_else(|e| e.into_inner());
+            if let Some(i) = pool.iter().position(fits) {
+                return pool.swap_remove(i);
+            }
+        }
+        let buffer = |label, size: u64, usage| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size,
+                usage,
+                mapped_at_creation: false,
+            })
+        };
+        use wgpu::BufferUsages as U;
+        let view_bytes = (views * std::mem::size_of::<ViewRecord>()) as u64;
+        let views_buffer = buffer("trace views", view_bytes, U::STORAGE | U::COPY_DST);
+        let uniform = buffer(
+            "trace batches",
+            groups as u64 * BATCH_STRIDE,
+            U::UNIFORM | U::COPY_DST,
+        );
+        let out = buffer("trace output", out_bytes, U::STORAGE | U::COPY_SRC);
+        let readback = buffer("trace read-back", out_bytes, U::COPY_DST | U::MAP_READ);
+        let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("trace batch"),
+            layout: &self.batch_layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: views_buffer.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: out.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                        buffer: &uniform,
+                        offset: 0,
+                        size: wgpu::BufferSize::new(std::mem::size_of::<BatchRecord>() as u64),
+                    }),
+                },
+            ],
+        });
+        BufferSet {
+            views_capacity: views,
+            out_capacity: out_bytes,
+            groups_capacity: groups,
+            views: views_buffer,
+            uniform,
+            out,
+            readback,
+            bind,
+        }
+    }
+
+    /// Returns a buffer set to the pool (keeping at most a few).
+    fn give_back(&self, set: BufferSet) {
+        let mut pool = self.pool.lock().unwrap_or_else(|e| e.into_inner());
+        if pool.len() < 4 {
+            pool.push(set);
+        }
+    }
+
+    /// Uploads the scene's hierarchy (`bvh`); fails when a buffer exceeds the device's
+    /// storage-binding limit.
+    pub(super) fn upload(&self, device: &wgpu::Device, bvh: &Bvh) -> Result<TracedScene, GpuError> {
+        let limit = device.limits().max_storage_buffer_binding_size;
+        let buffer = |label, words: Vec<u32>| {
+            let bytes = 4 * words.len() as u64;
+            if bytes > limit {
+                return Err(GpuError::Render(format!(
+                    "the scene's {label} take {bytes} bytes, over the device's storage-buffer \
+                     limit of {limit} bytes ({} triangles)",
+                    bvh.triangle_count()
+                )));
+            }
+            Ok(
+                device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some(label),
+                    contents: bytemuck::cast_slice(&words),
+                    usage: wgpu::BufferUsages::STORAGE,
+                }),
+            )
+        };
+        let nodes = buffer("BVH nodes", bvh.flat_nodes())?;
+        let leaves = buffer("BVH leaves", bvh.flat_leaves())?;
+        let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("trace scene"),
+            layout: &self.scene_layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: nodes.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: leaves.as_entire_binding(),
+                },
+            ],
+        });
+        // At most three entries are pushed per level of the path being visited.
+        let fallback = (3 * bvh.depth() > self.stack).then(|| bvh.clone());
+        Ok(TracedScene { bind, fallback })
+    }
+
+    /// Renders views of one resolution `w` × `h` (both non-zero) on uploaded `scenes`: as
+    /// many views per submission as the output buffer's binding limit allows.
+    pub(super) fn render(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        scenes: &[&TracedScene],
+        views: &[View],
+        (w, h): (u32, u32),
+    ) -> Result<Vec<Frame>, GpuError> {
+        let frame_bytes = 8 * u64::from(w) * u64::from(h);
+        let limits = device.limits();
+        let per_submission = (limits.max_storage_buffer_binding_size / frame_bytes)
+            .min(u64::from(limits.max_compute_workgroups_per_dimension))
+            .max(1) as usize;
+        let mut frames = Vec::with_capacity(views.len());
+        for chunk in views.chunks(per_submission) {
+            frames.extend(self.render_chunk(device, queue, scenes, chunk, (w, h))?);
+        }
+        Ok(frames)
+    }
+
+    /// One submission: a dispatch per scene, one copy back.
+    fn render_chunk(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        scenes: &[&TracedScene],
+        views: &[View],
+        (w, h): (u32, u32),
+    ) -> Result<Vec<Frame>, GpuError> {
+        let n = views.len();
+        // Views sorted by scene (stably), so each scene's views are one dispatch.
+        let mut order: Vec<usize> = (0..n).collect();
+        order.sort_by_key(|&i| views[i].scene.0);
+        let records: Vec<ViewRecord> = order
+            .iter()
+            .map(|&i| view_record(&views[i], i as u32))
+            .collect();
+        let mut groups: Vec<(usize, u32, u32)> = Vec::new(); // (scene, first, count)
+        for (k, &i) in order.iter().enumerate() {
+            match groups.last_mut() {
+                Some((s, _, count)) if *s == views[i].scene.0 => *count += 1,
+                _ => groups.push((views[i].scene.0, k as u32, 1)),
+            }
+        }
+        let mut uniforms = vec![0u8; groups.len() * BATCH_STRIDE as usize];
+        for (g, &(_, first, _)) in groups.iter().enumerate() {
+            let record = BatchRecord {
+                first,
+                total: n as u32,
+                width: w,
+                height: h,
+            };
+            let at = g * BATCH_STRIDE as usize;
+            uniforms[at..at + std::mem::size_of::<BatchRecord>()]
+                .copy_from_slice(bytemuck::bytes_of(&record));
+        }
+        let pixels = w as usize * h as usize;
+        let out_bytes = (2 * n * pixels * 4) as u64;
+        let set = self.buffers(device, n, out_bytes, groups.len());
+        queue.write_buffer(&set.views, 0, bytemuck::cast_slice(&records));
+        queue.write_buffer(&set.uniform, 0, &uniforms);
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("trace"),
+        });
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("trace"),
+                timestamp_writes: None,
+            });
+            pass.set_pipeline(&self.pipeline);
+            for (g, &(scene, _, count)) in groups.iter().enumerate() {
+                pass.set_bind_group(0, &scenes[scene].bind, &[]);
+                pass.set_bind_group(1, &set.bind, &[(g as u64 * BATCH_STRIDE) as u32]);
+                pass.dispatch_workgroups(w.div_ceil(TILE), h.div_ceil(TILE), count);
+            }
+        }
+        encoder.copy_buffer_to_buffer(&set.out, 0, &set.readback, 0, out_bytes);
+        queue.submit([encoder.finish()]);
+        let slice = set.readback.slice(..out_bytes);
+        let (tx, rx) = std::sync::mpsc::channel();
+        slice.map_async(wgpu::MapMode::Read, move |r| {
+            let _ = tx.send(r);
+        });
+        device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| GpuError::Render(e.to_string()))?;
+        rx.recv()
+            .map_err(|e| GpuError::Render(e.to_string()))?
+            .map_err(|e| GpuError::Render(e.to_string()))?;
+        let data = slice
+            .get_mapped_range()
+            .map_err(|e| GpuError::Render(e.to_string()))?;
+        let words: &[u32] = bytemuck::cast_slice(&data);
+        let (ids, depths) = words.split_at(n * pixels);
+        let frames: Vec<Frame> = (0..n)
+            .into_par_iter()
+            .map(|i| {
+                let mut frame = Frame::new(w, h);
+                frame
+                    .tri
+                    .copy_from_slice(&ids[i * pixels..(i + 1) * pixels]);
+                for (d, b) in frame
+                    .depth
+                    .iter_mut()
+                    .zip(&depths[i * pixels..(i + 1) * pixels])
+                {
+                    *d = f32::from_bits(*b);
+                }
+                frame
+            })
+            .collect();
+        drop(data);
+        set.readback.unmap();
+        self.give_back(set);
+        frames
+            .into_iter()
+            .zip(views)
+            .map(|(mut frame, view)| {
+                if frame.tri.contains(&OVERFLOW) {
+                    let bvh = scenes[view.scene.0].fallback.as_ref().ok_or_else(|| {
+                        GpuError::Render(
+                            "a ray overflowed the traversal stack of a shallow tree".into(),
+                        )
+                    })?;
+                    recast_overflowed(bvh, &view.camera, &mut frame);
+                }
+                Ok(frame)
+            })
+            .collect()
+    }
+}
+
+/// The shader's record of `view`, output slot `slot`.
+fn view_record(view: &View, slot: u32) -> ViewRecord {
+    let c = &view.camera;
+    let b = RayBasis::new(c, c.width, c.height);
+    let p = c.projection();
+    let v4 = |v: glam::Vec3| [v.x, v.y, v.z, 0.0];
+    ViewRecord {
+        origin: v4(c.position),
+        right: v4(b.right),
+        up: v4(b.up),
+        forward: v4(b.forward),
+        lens: [c.near, c.far, b.tan, b.aspect],
+        depth: [p.z_axis.z, p.w_axis.z, 0.0, 0.0],
+        slot: [slot, 0, 0, 0],
+    }
+}
+
+/// Casts the pixels marked [`OVERFLOW`] again on the CPU (the single-ray traversal, whose
+/// stack has no such limit), as the CPU ray caster would.
+fn recast_overflowed(bvh: &Bvh, camera: &crate::render::Camera, frame: &mut Frame) {
+    let (w, h) = (frame.width, frame.height);
+    let rays = PixelRays::new(camera, w, h);
+    let p = camera.projection();
+    let (a, b) = (p.z_axis.z, p.w_axis.z);
+    for y in 0..h as usize {
+        for x in 0..w as usize {
+            let i = y * w as usize + x;
+            if frame.tri[i] != OVERFLOW {
+                continue;
+            }
+            let ray = Ray::new(camera.position, rays.dir(x, y), camera.near, camera.far);
+            match bvh.closest(&ray, None) {
+                Some(hit) => {
+                    frame.tri[i] = hit.tri;
+                    frame.depth[i] = ((b - a * hit.t) / hit.t).clamp(0.0, 1.0);
+                }
+                None => {
+                    frame.tri[i] = NO_HIT;
+                    frame.depth[i] = 1.0;
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_shader_declares_the_stack_size_the_host_assumes() {
+        assert!(SHADER.contains(&format!("const STACK: u32 = {STACK}u;")));
+        assert!(SHADER.contains(&format!("const OVERFLOW: u32 = 0x{OVERFLOW:x}u;")));
+        assert!(SHADER.contains(&format!("@workgroup_size({TILE}, {TILE}, 1)")));
+        assert_eq!(std::mem::size_of::<ViewRecord>(), 7 * 16);
+    }
+}
