@@ -98,6 +98,7 @@ fn main() {
             allow_body_mismatch: false,
             threads: 1,
             batch: 0,
+            envs: 0,
         };
         let report = one.install(|| bench(&cfg)).expect("bench");
         println!("{}", report.table());

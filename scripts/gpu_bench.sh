@@ -5,7 +5,9 @@
 #   - the GPU (`bench render --renderer wgpu`): one observation at a time, batches of $BATCH
 #     views with one submission and read-back (ids + depth), and the same with colour, depth
 #     and semantic images derived on all threads — every GPU figure by the wall clock;
-#   - the oracle's rollout loop on all threads, CPU and wgpu (`bench run`).
+#   - the oracle's rollout loop on all threads, CPU and wgpu (`bench run`): each thread its
+#     own simulator, and $ENVS environments stepped together (one render call per step).
+# SIZES="" skips the rendering rows, EPISODES=0 the rollout rows.
 # Prints the adapter and a Markdown table; the JSON of every bench goes to $WORK/json/.
 #
 #   scripts/gpu_bench.sh                      # needs a release build (cargo build --release)
@@ -21,6 +23,7 @@ SCANS=${SCANS:-"1000000 3000000"}
 SIZES=${SIZES:-"64 84 128 256"}
 BATCH=${BATCH:-1024}
 EPISODES=${EPISODES:-40}
+ENVS=${ENVS:-256}
 PYTHON=${PYTHON:-python3}
 mkdir -p "$WORK/json"
 echo "work folder: $WORK; $(nproc) cores; batches of $BATCH views"
@@ -39,8 +42,9 @@ for tris in $SCANS; do
             --batch "$BATCH" --json >"$WORK/json/render-wgpu-$tris-$s.json" 2>"$WORK/json/render-wgpu-$tris-$s.err" ||
             echo "wgpu render $tris $s: $(tail -1 "$WORK/json/render-wgpu-$tris-$s.err")"
     done
-    "$MINOS" bench run --data "$d/DATA" --episodes "$EPISODES" --json >"$WORK/json/run-cpu-$tris.json"
-    "$MINOS" bench run --data "$d/DATA" --episodes "$EPISODES" --renderer wgpu --json \
+    [ "$EPISODES" -gt 0 ] || continue
+    "$MINOS" bench run --data "$d/DATA" --episodes "$EPISODES" --envs "$ENVS" --json >"$WORK/json/run-cpu-$tris.json"
+    "$MINOS" bench run --data "$d/DATA" --episodes "$EPISODES" --renderer wgpu --envs "$ENVS" --json \
         >"$WORK/json/run-wgpu-$tris.json" 2>"$WORK/json/run-wgpu-$tris.err" ||
         echo "wgpu run $tris: $(tail -1 "$WORK/json/run-wgpu-$tris.err")"
 done
@@ -75,10 +79,10 @@ for tris, size in keys:
     images = next((s for s in stages if s.startswith("gpu batch +")), None)
     print(f'| scan {tris:,} | {cpu["triangles"]:,} | {size}² | {rate(cpu, "render")} | {rate(gpu, "render")} | {rate(gpu, batch)} | {rate(gpu, images)} |')
 print()
-print("| scene | oracle rollout, 1 core, CPU (steps/s) | all threads, CPU | all threads, wgpu |")
-print("|---|---|---|---|")
+print("| scene | oracle rollout, 1 core, CPU (steps/s) | all threads, CPU | all threads, wgpu | batched envs, CPU | batched envs, wgpu |")
+print("|---|---|---|---|---|---|")
 for f in sorted(folder.glob("run-cpu-*.json")):
     tris = int(f.stem.split("-")[2])
     cpu, gpu = load(f.name), load(f"run-wgpu-{tris}.json")
-    print(f'| scan {tris:,} ({cpu["threads"]} threads) | {rate(cpu, "rollout loop")} | {rate(cpu, "rollout loop, all threads")} | {rate(gpu, "rollout loop, all threads")} |')
+    print(f'| scan {tris:,} ({cpu["threads"]} threads, {cpu.get("envs", 0)} envs) | {rate(cpu, "rollout loop")} | {rate(cpu, "rollout loop, all threads")} | {rate(gpu, "rollout loop, all threads")} | {rate(cpu, "rollout loop, batched")} | {rate(gpu, "rollout loop, batched")} |')
 EOF

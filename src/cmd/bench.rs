@@ -31,7 +31,8 @@ pub enum Which {
 ///
 /// Everything runs on one thread, so figures are per core; stage times are the thread's CPU
 /// time where the system reports it. `run` adds one row of the machine's throughput: the
-/// rollout loop on --threads threads at once, wall clock. With a GPU renderer, `render` adds
+/// rollout loop on --threads threads at once, wall clock, and with --envs the loop with that
+/// many environments stepped together (wall clock). With a GPU renderer, `render` adds
 /// batched stages (--batch views per submission and read-back, then with the images derived on
 /// all threads), wall clock, and names the adapter. `render` and `run` need the scene baked
 /// (`minos bake`) for --preset's body.
@@ -40,7 +41,8 @@ pub enum Which {
     after_help = "Examples:\n  minos bench bake --data DATA --scene 17DRP5sb8fy\n  \
     minos bench render --data DATA --size 128 --frames 500\n  \
     minos bench render --data DATA --renderer wgpu --size 128 --batch 1024\n  \
-    minos bench run --data DATA --episodes 20 --json"
+    minos bench run --data DATA --episodes 20 --json\n  \
+    minos bench run --data DATA --renderer wgpu --envs 1024 --episodes 400"
 )]
 pub struct Args {
     /// What to measure.
@@ -82,6 +84,10 @@ pub struct Args {
     /// Views per batch of `render`'s batched GPU stages (with a GPU renderer; 0: none).
     #[arg(long, default_value_t = 1024)]
     batch: usize,
+    /// Environments of `run`'s batched rollout stage, stepped together (every camera of a
+    /// step in one render call); default 256 with a GPU renderer, none with the CPU; 0: none.
+    #[arg(long)]
+    envs: Option<usize>,
 }
 
 /// Flags → the benchmark (reads the sensor file, if any).
@@ -110,6 +116,11 @@ pub fn config(args: &Args) -> anyhow::Result<BenchConfig> {
         allow_body_mismatch: args.allow_body_mismatch,
         threads: rayon::current_num_threads(),
         batch: args.batch,
+        envs: args.envs.unwrap_or(if args.renderer == RendererArg::Cpu {
+            0
+        } else {
+            256
+        }),
     })
 }
 

@@ -115,7 +115,7 @@ impl From<PresetArg> for AgentPreset {
 /// Renderers of `--renderer`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum RendererArg {
-    /// wgpu when an adapter exists, else the CPU rasteriser (the log says why).
+    /// wgpu when a hardware GPU adapter exists, else the CPU renderer (the log says why).
     Auto,
     /// The built-in CPU rasteriser.
     Cpu,

@@ -14,7 +14,10 @@
 //!
 //! With a GPU renderer, `render` adds batched stages ([`gpu`]): batches of views rendered
 //! with one submission and read-back, and the same with colour, depth and semantic images
-//! derived on all threads, timed by the wall clock.
+//! derived on all threads, timed by the wall clock; `run` with `envs` adds the rollout loop
+//! with that many environments stepped together ([`batched`]: every environment's cameras
+//! in one render call per step), wall clock. Stages after set-up are timed by the wall clock
+//! with a GPU renderer, whose work this thread's CPU time does not see.
 //!
 //! Each stage reports how many items it did (scenes, episodes, frames, steps) and the CPU
 //! time of this thread (wall time where the platform does not say). Random choices (poses,
@@ -41,7 +44,10 @@ use crate::seed::{derive_seed, Rng};
 use crate::sim::{AgentConfig, RendererChoice, SceneAssets, SensorSuite, Simulator};
 use crate::store::DataDir;
 
+mod batched;
 mod gpu;
+pub use batched::BATCHED;
+pub use gpu::{GPU_BATCH, GPU_IMAGES};
 
 /// Which benchmark to run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -96,6 +102,9 @@ pub struct BenchConfig {
     pub threads: usize,
     /// Views per batch of `render`'s batched GPU stages (with a GPU renderer; 0: none).
     pub batch: usize,
+    /// Environments of `run`'s batched rollout stage, stepped together on `threads`
+    /// threads (0: none).
+    pub envs: usize,
 }
 
 /// Name of `run`'s stage on all threads.
@@ -155,6 +164,8 @@ pub struct BenchReport {
     pub adapter: Option<String>,
     /// Views per batch of the batched GPU stages (0: none).
     pub batch: usize,
+    /// Environments of the [`BATCHED`] stage (0: none).
+    pub envs: usize,
     /// The stages, in order.
     pub stages: Vec<Stage>,
 }
@@ -179,6 +190,7 @@ impl BenchReport {
             "threads": self.threads,
             "adapter": self.adapter,
             "views_per_batch": self.batch,
+            "envs": self.envs,
             "stages": self.stages.iter().map(|s| serde_json::json!({
                 "stage": s.name,
                 "count": s.count,
@@ -210,13 +222,21 @@ impl BenchReport {
                 &format!("; `{ALL_THREADS}`: {} threads, wall clock", self.threads),
             );
         }
-        if let Some(adapter) = &self.adapter {
+        if self.envs > 0 {
             out.insert_str(
                 out.find('\n').unwrap_or(out.len()),
-                &format!(
-                    "; GPU: {adapter}, {} views per batch; stages marked (wall) by the wall clock",
-                    self.batch
-                ),
+                &format!("; `{BATCHED}`: {} environments stepped together", self.envs),
+            );
+        }
+        if let Some(adapter) = &self.adapter {
+            let batch = if self.batch > 0 {
+                format!(", {} views per batch", self.batch)
+            } else {
+                String::new()
+            };
+            out.insert_str(
+                out.find('\n').unwrap_or(out.len()),
+                &format!("; GPU: {adapter}{batch}; stages marked (wall) by the wall clock"),
             );
         }
         for s in &self.stages {
@@ -264,10 +284,14 @@ fn status_bytes(field: &str) -> Option<u64> {
     Some(kb * 1024)
 }
 
-/// Times closures in thread CPU time (wall time where unavailable) into stages.
+/// Times closures in thread CPU time (wall time where unavailable, or once `wall` is set)
+/// into stages.
 struct Timer {
     stages: Vec<Stage>,
     cpu: bool,
+    /// Time by the wall clock from now on (work on a GPU, which this thread's CPU time does
+    /// not see), marking the stages so.
+    wall: bool,
 }
 
 impl Timer {
@@ -275,6 +299,7 @@ impl Timer {
         Timer {
             stages: Vec::new(),
             cpu: thread_cpu().is_some(),
+            wall: false,
         }
     }
 
@@ -283,7 +308,7 @@ impl Timer {
         let (c0, w0) = (thread_cpu(), Instant::now());
         let r = f();
         let s = match (c0, thread_cpu()) {
-            (Some(a), Some(b)) if self.cpu => b.saturating_sub(a).as_secs_f64(),
+            (Some(a), Some(b)) if self.cpu && !self.wall => b.saturating_sub(a).as_secs_f64(),
             _ => w0.elapsed().as_secs_f64(),
         };
         (r, s)
@@ -303,7 +328,7 @@ impl Timer {
             count: count(&r),
             unit,
             seconds,
-            wall: false,
+            wall: self.wall,
         });
         r
     }
@@ -320,7 +345,7 @@ impl Timer {
                 count,
                 unit,
                 seconds,
-                wall: false,
+                wall: self.wall,
             }),
         }
     }
@@ -394,6 +419,7 @@ fn bench_on_this_thread(cfg: &BenchConfig) -> Result<BenchReport, BenchError> {
         threads: 1,
         adapter: None,
         batch: 0,
+        envs: 0,
         stages: Vec::new(),
     };
     if let Some(g) = &grid {
@@ -458,6 +484,7 @@ fn bench_on_this_thread(cfg: &BenchConfig) -> Result<BenchReport, BenchError> {
             let (mut sim, assets) =
                 timer.stage("prepare", "scenes", one, || prepare(cfg, &scene, grid))?;
             drop(scene);
+            timer.wall = matches!(**sim.renderer(), Renderer::Gpu(_));
             if cfg.kind == BenchKind::Render {
                 render(&mut timer, &mut sim, &poses)?;
                 let renderer = sim.renderer().clone();
@@ -480,6 +507,26 @@ fn bench_on_this_thread(cfg: &BenchConfig) -> Result<BenchReport, BenchError> {
                         wall: true,
                     });
                     report.threads = cfg.threads;
+                }
+                if cfg.envs > 0 {
+                    let pool = rayon::ThreadPoolBuilder::new()
+                        .num_threads(cfg.threads.max(1))
+                        .build()
+                        .map_err(|e| BenchError(format!("a {}-thread pool: {e}", cfg.threads)))?;
+                    let (steps, wall) = pool
+                        .install(|| batched::rollout_batched(&sim, &assets.grid, &eps, cfg.envs))?;
+                    timer.stages.push(Stage {
+                        name: batched::BATCHED,
+                        count: steps,
+                        unit: "steps",
+                        seconds: wall,
+                        wall: true,
+                    });
+                    report.threads = cfg.threads;
+                    report.envs = cfg.envs;
+                    if let Renderer::Gpu(g) = &**sim.renderer() {
+                        report.adapter = Some(g.adapter_name());
+                    }
                 }
             }
         }
@@ -700,7 +747,7 @@ fn rollout(
         count: steps,
         unit: "steps",
         seconds: loop_s,
-        wall: false,
+        wall: timer.wall,
     });
     Ok(())
 }

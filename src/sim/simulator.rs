@@ -13,7 +13,7 @@ use crate::navmesh::NavGrid;
 use crate::render::cpu::Method;
 use crate::render::gpu::GpuError;
 pub use crate::render::renderer::{Renderer, RendererChoice};
-use crate::render::{Camera, RenderScene};
+use crate::render::{Camera, Frame, RenderScene};
 use crate::scene::Scene;
 use crate::seed::{derive_seed, Rng};
 
@@ -336,12 +336,18 @@ impl Simulator {
 
     /// Applies `actions` for one time step and observes.
     pub fn step(&mut self, actions: Actions) -> Result<Observation, GpuError> {
+        self.advance(actions);
+        self.observe()
+    }
+
+    /// Applies `actions` for one time step without observing ([`Simulator::step`] is this,
+    /// then [`Simulator::observe`]; [`super::batch::step_many`] observes many at once).
+    pub fn advance(&mut self, actions: Actions) {
         let t = self.transition(&self.state, actions);
         self.state = t.state;
         self.last_velocity = t.intended_velocity;
         self.last_collision = t.collided;
         self.step += 1;
-        self.observe()
     }
 
     /// What `actions` would do from `state`, without changing the simulator (planners use it).
@@ -462,8 +468,14 @@ impl Simulator {
 
     /// Observes the current state (sensors and measurements) without stepping.
     pub fn observe(&mut self) -> Result<Observation, GpuError> {
-        // Sensors that share a camera (colour, depth and labels of one eye) share one frame:
-        // every modality comes from the same rasterisation pass.
+        let views = self.views();
+        let frames = self.renderer.render(&self.assets.render, &views.unique)?;
+        Ok(self.observation_from(&views, &frames))
+    }
+
+    /// The cameras to render for an observation. Sensors that share a camera (colour,
+    /// depth and labels of one eye) share one frame: every modality comes from one pass.
+    pub(super) fn views(&self) -> Views {
         let cams = self.cameras();
         let mut unique: Vec<Camera> = Vec::new();
         let which: Vec<usize> = cams
@@ -476,9 +488,18 @@ impl Simulator {
                 }
             })
             .collect();
-        let frames = self.renderer.render(&self.assets.render, &unique)?;
+        Views {
+            cams,
+            unique,
+            which,
+        }
+    }
+
+    /// The observation of the current state from the frames of `views.unique`.
+    pub(super) fn observation_from(&mut self, views: &Views, frames: &[Frame]) -> Observation {
+        let Views { cams, which, .. } = views;
         let mut images = Vec::with_capacity(cams.len());
-        for ((sensor, &k), cam) in self.sensors.cameras.iter().zip(&which).zip(&cams) {
+        for ((sensor, &k), cam) in self.sensors.cameras.iter().zip(which).zip(cams) {
             images.push((
                 sensor.name.clone(),
                 sensor.image(&frames[k], &self.assets.render, cam, &mut self.rng),
@@ -535,9 +556,18 @@ impl Simulator {
                 m.waypoint_direction = pts.get(1).and_then(|&w| self.agent_frame(w - base));
             }
         }
-        Ok(Observation {
+        Observation {
             images,
             measurements: m,
-        })
+        }
     }
+}
+
+/// The cameras of one observation: every sensor's camera, the distinct ones to render, and
+/// which distinct camera each sensor uses.
+pub(super) struct Views {
+    cams: Vec<Camera>,
+    /// The distinct cameras, rendered once each.
+    pub(super) unique: Vec<Camera>,
+    which: Vec<usize>,
 }

@@ -1,0 +1,78 @@
+//! Many simulators stepped and observed at once, the shape batched rendering needs: the
+//! motion of every simulator on all threads, then every simulator's cameras rendered together
+//! — one call per renderer they share, so one submission and one read-back for all the
+//! simulators of a scene on a GPU renderer —, then the images and measurements derived on all
+//! threads. Each observation is the one [`Simulator::step`] / [`Simulator::observe`] gives
+//! on that simulator alone (a frame does not depend on the batch it was rendered in).
+
+use std::sync::Arc;
+
+use rayon::prelude::*;
+
+use super::agent::Actions;
+use super::simulator::{Observation, Renderer, Simulator, Views};
+use crate::render::gpu::GpuError;
+use crate::render::{Camera, Frame};
+
+/// Applies each simulator's actions (`actions[i]` to `sims[i]`) and observes them all.
+pub fn step_many(
+    sims: &mut [&mut Simulator],
+    actions: &[Actions],
+) -> Vec<Result<Observation, GpuError>> {
+    sims.par_iter_mut()
+        .zip(actions.par_iter())
+        .for_each(|(sim, a)| sim.advance(*a));
+    observe_many(sims)
+}
+
+/// Observes every simulator: the cameras of simulators sharing a GPU renderer in one render
+/// call, the others (CPU renderer) each on its own, in parallel.
+pub fn observe_many(sims: &mut [&mut Simulator]) -> Vec<Result<Observation, GpuError>> {
+    let views: Vec<Views> = sims.par_iter().map(|s| s.views()).collect();
+    let mut frames: Vec<Option<Result<Vec<Frame>, String>>> = sims.iter().map(|_| None).collect();
+    // Simulators sharing a GPU renderer (and so its scene), in order of first appearance.
+    let mut groups: Vec<(*const Renderer, Vec<usize>)> = Vec::new();
+    for (i, sim) in sims.iter().enumerate() {
+        if !matches!(**sim.renderer(), Renderer::Gpu(_)) {
+            continue;
+        }
+        let key = Arc::as_ptr(sim.renderer());
+        match groups.iter_mut().find(|(k, _)| *k == key) {
+            Some((_, members)) => members.push(i),
+            None => groups.push((key, vec![i])),
+        }
+    }
+    for (_, members) in &groups {
+        let first = &sims[members[0]];
+        let cameras: Vec<Camera> = members
+            .iter()
+            .flat_map(|&i| views[i].unique.iter().copied())
+            .collect();
+        match first.renderer().render(&first.assets().render, &cameras) {
+            Ok(rendered) => {
+                let mut rendered = rendered.into_iter();
+                for &i in members {
+                    let own = rendered.by_ref().take(views[i].unique.len()).collect();
+                    frames[i] = Some(Ok(own));
+                }
+            }
+            Err(e) => {
+                for &i in members {
+                    frames[i] = Some(Err(e.to_string()));
+                }
+            }
+        }
+    }
+    sims.par_iter_mut()
+        .zip(views.par_iter())
+        .zip(frames.into_par_iter())
+        .map(|((sim, v), rendered)| {
+            let frames = match rendered {
+                Some(Ok(f)) => f,
+                Some(Err(e)) => return Err(GpuError::Render(e)),
+                None => sim.renderer().render(&sim.assets().render, &v.unique)?,
+            };
+            Ok(sim.observation_from(v, &frames))
+        })
+        .collect()
+}
