@@ -99,6 +99,7 @@ fn main() {
             threads: 1,
             batch: 0,
             envs: 0,
+            per_core: true,
         };
         let report = one.install(|| bench(&cfg)).expect("bench");
         println!("{}", report.table());

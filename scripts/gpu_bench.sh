@@ -24,6 +24,8 @@ SIZES=${SIZES:-"64 84 128 256"}
 BATCH=${BATCH:-1024}
 EPISODES=${EPISODES:-40}
 ENVS=${ENVS:-256}
+# THROUGHPUT_ONLY=1: bench run without its per-core loop (for many episodes).
+RUN_FLAGS=${THROUGHPUT_ONLY:+--throughput-only}
 PYTHON=${PYTHON:-python3}
 mkdir -p "$WORK/json"
 echo "work folder: $WORK; $(nproc) cores; batches of $BATCH views"
@@ -43,8 +45,8 @@ for tris in $SCANS; do
             echo "wgpu render $tris $s: $(tail -1 "$WORK/json/render-wgpu-$tris-$s.err")"
     done
     [ "$EPISODES" -gt 0 ] || continue
-    "$MINOS" bench run --data "$d/DATA" --episodes "$EPISODES" --envs "$ENVS" --json >"$WORK/json/run-cpu-$tris.json"
-    "$MINOS" bench run --data "$d/DATA" --episodes "$EPISODES" --renderer wgpu --envs "$ENVS" --json \
+    "$MINOS" bench run --data "$d/DATA" --episodes "$EPISODES" --envs "$ENVS" $RUN_FLAGS --json >"$WORK/json/run-cpu-$tris.json"
+    "$MINOS" bench run --data "$d/DATA" --episodes "$EPISODES" --renderer wgpu --envs "$ENVS" $RUN_FLAGS --json \
         >"$WORK/json/run-wgpu-$tris.json" 2>"$WORK/json/run-wgpu-$tris.err" ||
         echo "wgpu run $tris: $(tail -1 "$WORK/json/run-wgpu-$tris.err")"
 done

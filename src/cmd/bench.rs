@@ -88,6 +88,10 @@ pub struct Args {
     /// step in one render call); default 256 with a GPU renderer, none with the CPU; 0: none.
     #[arg(long)]
     envs: Option<usize>,
+    /// `run`: only the machine's throughput (all threads, and --envs), without the per-core
+    /// loop.
+    #[arg(long)]
+    throughput_only: bool,
 }
 
 /// Flags → the benchmark (reads the sensor file, if any).
@@ -121,6 +125,7 @@ pub fn config(args: &Args) -> anyhow::Result<BenchConfig> {
         } else {
             256
         }),
+        per_core: !args.throughput_only,
     })
 }
 

@@ -105,6 +105,9 @@ pub struct BenchConfig {
     /// Environments of `run`'s batched rollout stage, stepped together on `threads`
     /// threads (0: none).
     pub envs: usize,
+    /// Run `run`'s per-core stages (else only the all-threads and batched rows, the
+    /// machine's throughput).
+    pub per_core: bool,
 }
 
 /// Name of `run`'s stage on all threads.
@@ -496,8 +499,10 @@ fn bench_on_this_thread(cfg: &BenchConfig) -> Result<BenchReport, BenchError> {
                     report.batch = cfg.batch;
                 }
             } else {
-                rollout(&mut timer, &mut sim, &assets.grid, &eps)?;
-                if cfg.threads > 1 {
+                if cfg.per_core {
+                    rollout(&mut timer, &mut sim, &assets.grid, &eps)?;
+                }
+                if cfg.threads > 1 || !cfg.per_core {
                     let (steps, wall) = rollout_on_threads(&sim, &assets.grid, &eps, cfg.threads)?;
                     timer.stages.push(Stage {
                         name: ALL_THREADS,
