@@ -114,6 +114,95 @@ fn bench_json_has_consistent_counts_for_every_benchmark() {
     );
     assert_eq!(both["threads"], 2);
     assert_eq!(count(&both, "rollout loop, all threads"), steps);
+    // Environments stepped together take the same steps; by the wall clock.
+    let batched = bench_json(
+        &root,
+        &[
+            "run",
+            "--episodes",
+            "3",
+            "--size",
+            "32",
+            "--envs",
+            "2",
+            "--throughput-only",
+        ],
+    );
+    assert_eq!(batched["envs"], 2);
+    assert_eq!(count(&batched, "rollout loop, batched"), steps);
+    assert_eq!(clock(&batched, "rollout loop, batched"), "wall");
+    assert!(
+        stages(&batched).iter().all(|s| s.0 != "rollout loop"),
+        "--throughput-only has no per-core loop"
+    );
+    assert_eq!(clock(&run, "rollout loop"), clock(&run, "sample"));
+    assert_eq!(
+        render["adapter"],
+        Value::Null,
+        "the CPU renderer names no adapter"
+    );
+}
+
+/// The clock a stage was timed by (`wall` or `thread-cpu`).
+fn clock(v: &Value, name: &str) -> String {
+    v["stages"]
+        .as_array()
+        .expect("stages")
+        .iter()
+        .find(|s| s["stage"] == name)
+        .and_then(|s| s["clock"].as_str())
+        .unwrap_or_else(|| panic!("no clock for {name} in {v}"))
+        .to_string()
+}
+
+/// With a GPU renderer (lavapipe in CI), `bench render` adds the batched stages, by the
+/// wall clock, with whole batches of views and the adapter named.
+#[test]
+fn bench_render_on_wgpu_times_batches_by_the_wall_clock() {
+    if let Err(e) = minos::render::gpu::GpuRenderer::new() {
+        eprintln!("skipped: {e}");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = GenerateConfig {
+        houses: 1,
+        seed: 5,
+        rooms: (2, 3),
+        levels: (1, 1),
+        closed_door_prob: 0.0,
+    };
+    let (data, _) = baked_houses(dir.path(), &cfg);
+    let root = data.root().to_path_buf();
+    let v = bench_json(
+        &root,
+        &[
+            "render",
+            "--renderer",
+            "wgpu",
+            "--frames",
+            "3",
+            "--size",
+            "16",
+            "--batch",
+            "5",
+        ],
+    );
+    assert_eq!(v["views_per_batch"], 5);
+    assert!(v["adapter"].as_str().is_some_and(|a| !a.is_empty()), "{v}");
+    for name in [
+        "render",
+        "gpu batch: ids + depth",
+        "gpu batch + colour, depth, semantic (all threads)",
+    ] {
+        assert_eq!(clock(&v, name), "wall", "{name}");
+    }
+    assert_eq!(count(&v, "render"), 3);
+    let frames = count(&v, "gpu batch: ids + depth");
+    assert!(
+        frames >= 10 && frames % 5 == 0,
+        "whole batches, at least two: {frames}"
+    );
+    assert_eq!(clock(&v, "prepare"), "thread-cpu");
 }
 
 #[test]
