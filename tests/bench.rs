@@ -199,7 +199,7 @@ fn bench_render_on_wgpu_times_batches_by_the_wall_clock() {
     assert_eq!(count(&v, "render"), 3);
     let frames = count(&v, "gpu batch: ids + depth");
     assert!(
-        frames >= 10 && frames % 5 == 0,
+        frames >= 10 && frames.is_multiple_of(5),
         "whole batches, at least two: {frames}"
     );
     assert_eq!(clock(&v, "prepare"), "thread-cpu");
