@@ -1126,7 +1126,7 @@ fn vector_envs_of_1_to_32_environments_on_1_to_32_threads_reset_and_step() {
         reward: Reward::Geodesic,
         seed: 5,
         max_steps: Some(3),
-        require_stop: false,
+        require_stop: true,
         allow_body_mismatch: false,
         threads: None,
     };
@@ -1150,12 +1150,11 @@ fn vector_envs_of_1_to_32_environments_on_1_to_32_threads_reset_and_step() {
                 let outs = env.reset(None).unwrap();
                 assert_eq!(outs.len(), num_envs);
                 assert!(outs.iter().all(|o| o.reset));
-                for _ in 0..4 {
+                for _ in 0..2 {
                     let outs = env.step(&vec![0; num_envs]).unwrap();
                     assert_eq!(outs.len(), num_envs);
+                    assert!(outs.iter().all(|o| !o.reset));
                 }
-                let oracle = env.oracle_actions().unwrap();
-                assert_eq!(oracle.len(), num_envs);
                 done.fetch_add(1, Ordering::Relaxed);
             }
             let _ = tx.send(());
@@ -1191,4 +1190,76 @@ fn vector_envs_of_1_to_32_environments_on_1_to_32_threads_reset_and_step() {
         }
     }
     assert_eq!(done.load(Ordering::Relaxed), grid.len());
+}
+
+#[test]
+fn the_stepper_numbers_actions_once_and_refuses_steps_outside_an_episode() {
+    use minos::run::stepper::{
+        step_many, ActionSet, Command, EpisodeStepper, StepError, StepperConfig, DEFAULT_MAX_STEPS,
+    };
+    // The action set: the motion model's single actions, then stop; indices round-trip.
+    for body in [AgentConfig::habitat(), AgentConfig::minos_continuous()] {
+        let set = ActionSet::of(&body.motion);
+        let names = set.names();
+        assert_eq!(names.len(), set.len());
+        assert_eq!(names.last(), Some(&"stop"));
+        assert_eq!(&names[..names.len() - 1], body.motion.actions());
+        for i in 0..set.len() {
+            let d = set.decision(i).unwrap();
+            assert_eq!(set.index_of(&d), Some(i), "{}", names[i]);
+            assert_eq!(d.name(), names[i]);
+        }
+        assert_eq!(set.decision(set.len()), None);
+    }
+    assert_eq!(
+        ActionSet::of(&AgentConfig::habitat().motion).names(),
+        ["forward", "turn_left", "turn_right", "stop"]
+    );
+    // Stepping before a reset, after the end, or a batch of the wrong size is an error.
+    let ep = first_episodes(|t| t == Task::PointGoal, 1).remove(0);
+    let body = AgentConfig::habitat();
+    let (assets, renderer) = minos::pipeline::rollout::load_scene_assets(
+        &minos::store::DataDir::new(data().0.path().join("DATA")),
+        &ep.scene_id,
+        &body,
+        RendererChoice::Cpu,
+        false,
+    )
+    .unwrap();
+    let sim = minos::sim::Simulator::new(assets, renderer, body, blind(), DEFAULT_MAX_STEPS, 0);
+    let cfg = StepperConfig {
+        max_steps: Some(2),
+        ..StepperConfig::default()
+    };
+    let mut stepper = EpisodeStepper::new(sim, cfg);
+    let turn = Decision::from_name("turn_left").unwrap();
+    assert!(matches!(stepper.step(turn), Err(StepError::NotReset)));
+    assert!(matches!(stepper.metrics(), Err(StepError::NotReset)));
+    stepper.reset(&ep).unwrap();
+    let first = stepper.step(turn).unwrap();
+    assert!(!first.done() && first.steps == 1 && !first.reset);
+    let last = stepper.step(turn).unwrap();
+    assert!(
+        last.truncated && !last.terminated && !last.success,
+        "{last:?}"
+    );
+    assert!(matches!(stepper.step(turn), Err(StepError::Ended(id)) if id == ep.episode_id));
+    let m = stepper.metrics().unwrap();
+    assert_eq!((m.steps, m.success), (2, false));
+    // A stop ends the episode without moving; a reset command starts it over.
+    let restarted = stepper.run(Command::Reset(&ep)).unwrap();
+    assert!(restarted.reset && restarted.reward == 0.0 && restarted.steps == 0);
+    let stopped = stepper.step(Decision::Stop).unwrap();
+    assert!(stopped.stopped && stopped.terminated && !stopped.success);
+    assert_eq!(stepper.metrics().unwrap().path_length, 0.0);
+    let mut batch = vec![stepper];
+    assert!(matches!(
+        step_many(&mut batch, &[]),
+        Err(StepError::Batch {
+            steppers: 1,
+            commands: 0
+        })
+    ));
+    let outs = step_many(&mut batch, &[Command::Reset(&ep)]).unwrap();
+    assert!(outs[0].reset);
 }
