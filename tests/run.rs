@@ -1204,10 +1204,10 @@ fn the_stepper_numbers_actions_once_and_refuses_steps_outside_an_episode() {
         assert_eq!(names.len(), set.len());
         assert_eq!(names.last(), Some(&"stop"));
         assert_eq!(&names[..names.len() - 1], body.motion.actions());
-        for i in 0..set.len() {
+        for (i, name) in names.iter().enumerate() {
             let d = set.decision(i).unwrap();
-            assert_eq!(set.index_of(&d), Some(i), "{}", names[i]);
-            assert_eq!(d.name(), names[i]);
+            assert_eq!(set.index_of(&d), Some(i), "{name}");
+            assert_eq!(&d.name(), name);
         }
         assert_eq!(set.decision(set.len()), None);
     }
