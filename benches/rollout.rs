@@ -22,6 +22,7 @@ use minos::progress::NoProgress;
 use minos::run::agents::{Agent, Decision};
 use minos::run::metrics::Reward;
 use minos::run::oracle::OracleAgent;
+use minos::run::stepper::{EpisodeStepper, StepperConfig, DEFAULT_MAX_STEPS};
 use minos::shard::Shard;
 use minos::sim::simulator::Renderer;
 use minos::sim::{AgentConfig, RendererChoice, SceneAssets, SensorSuite, Simulator};
@@ -161,8 +162,8 @@ fn main() {
     breakdown(&data, &tasks, dir.path());
 }
 
-/// Times the parts of a rollout on the same episodes: scene setup, simulator reset (goal
-/// field), oracle planning, simulation steps (motion, rendering, sensors, measurements) and
+/// Times the parts of a rollout on the same episodes, stepped by the episode stepper: scene
+/// setup, reset (goal field and first frame), oracle planning, simulation steps (motion, rendering, sensors, measurements) and
 /// observation writing.
 fn breakdown(data: &std::path::Path, tasks: &[(Task, Vec<Episode>)], dir: &std::path::Path) {
     let sensors = SensorSuite::minos(84);
@@ -180,7 +181,7 @@ fn breakdown(data: &std::path::Path, tasks: &[(Task, Vec<Episode>)], dir: &std::
     scene_ids.sort();
     scene_ids.dedup();
     for id in scene_ids {
-        let (mut sim, assets) = Clock::time(&mut setup, || {
+        let (sim, assets) = Clock::time(&mut setup, || {
             let (_, scene) = minos::store::DataDir::new(data)
                 .read_scene(id)
                 .expect("scene");
@@ -191,15 +192,31 @@ fn breakdown(data: &std::path::Path, tasks: &[(Task, Vec<Episode>)], dir: &std::
             let assets = Arc::new(SceneAssets::new(&scene, grid, &body).expect("assets"));
             let renderer =
                 Arc::new(Renderer::new(RendererChoice::Cpu, &assets.render).expect("renderer"));
-            let sim = Simulator::new(assets.clone(), renderer, body, sensors.clone(), 500, 0);
+            let sim = Simulator::new(
+                assets.clone(),
+                renderer,
+                body,
+                sensors.clone(),
+                DEFAULT_MAX_STEPS,
+                0,
+            );
             (sim, assets)
         });
+        // The oracle's rules, as `minos run` steps it: success needs its stop.
+        let mut stepper = EpisodeStepper::new(
+            sim,
+            StepperConfig {
+                require_stop: true,
+                ..StepperConfig::default()
+            },
+        );
         let geo = Clock::time(&mut setup, || Geodesic::new(&assets.grid));
         for ep in all.iter().filter(|e| e.scene_id == id) {
-            Clock::time(&mut reset, || sim.reset_episode_in(ep, Some(&geo)));
+            Clock::time(&mut reset, || {
+                stepper.reset_in(ep, Some(&geo)).expect("reset");
+            });
             let mut agent = OracleAgent::new();
-            Clock::time(&mut plan, || agent.reset(ep, &sim).expect("plan"));
-            let mut obs = sim.observe().expect("observe");
+            Clock::time(&mut plan, || agent.reset(ep, stepper.sim()).expect("plan"));
             let path = dir.join("breakdown.obs.parquet");
             let mut writer = ObservationWriter::create(
                 &path,
@@ -208,11 +225,19 @@ fn breakdown(data: &std::path::Path, tasks: &[(Task, Vec<Episode>)], dir: &std::
                 ImageEncoding::Raw,
             )
             .expect("writer");
-            for k in 0..ep.max_steps {
+            while !stepper.ended() {
+                let (k, obs) = (stepper.decisions(), stepper.observation());
                 Clock::time(&mut write, || writer.push(k, &obs.images).expect("push"));
-                let d = Clock::time(&mut decide, || agent.decide(&obs, &sim).expect("decide"));
-                let Decision::Act(a) = d else { break };
-                obs = Clock::time(&mut step, || sim.step(a).expect("step"));
+                let d = Clock::time(&mut decide, || {
+                    agent.decide(obs, stepper.sim()).expect("decide")
+                });
+                if d == Decision::Stop {
+                    stepper.step(d).expect("stop");
+                    break;
+                }
+                Clock::time(&mut step, || {
+                    stepper.step(d).expect("step");
+                });
                 steps += 1;
             }
             Clock::time(&mut write, || writer.finish().expect("finish"));
@@ -225,7 +250,7 @@ fn breakdown(data: &std::path::Path, tasks: &[(Task, Vec<Episode>)], dir: &std::
     );
     for (name, d) in [
         ("scene setup", setup),
-        ("reset (goal field)", reset),
+        ("reset (goal field, first frame)", reset),
         ("oracle plan", plan),
         ("oracle decide", decide),
         ("sim step (motion, render, sensors, measurements)", step),

@@ -88,7 +88,7 @@ fn bench_json_has_consistent_counts_for_every_benchmark() {
     let run = bench_json(&root, &["run", "--episodes", "3", "--size", "32"]);
     let (sampled, steps) = (count(&run, "sample"), count(&run, "sim step"));
     assert_eq!(sampled, 3);
-    assert_eq!(count(&run, "reset (goal field)"), sampled);
+    assert_eq!(count(&run, "reset (goal field, first frame)"), sampled);
     assert_eq!(count(&run, "oracle plan"), sampled);
     assert!(steps > 0);
     // Each episode ends with a stop decision or at its step limit: one decision per step,

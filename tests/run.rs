@@ -871,3 +871,395 @@ fn one_scenes_episodes_split_across_threads_give_the_one_thread_bytes() {
         }
     }
 }
+
+/// Every row of a Parquet file.
+fn all_batches(path: &Path) -> Vec<arrow::array::RecordBatch> {
+    ParquetRecordBatchReaderBuilder::try_new(std::fs::File::open(path).unwrap())
+        .unwrap()
+        .build()
+        .unwrap()
+        .map(|b| b.unwrap())
+        .collect()
+}
+
+/// One step as both drivers see it: pose before, action, reward, collision, done, success
+/// (floats as bits: equal means identical).
+type StepKey = (String, [u32; 5], String, u32, bool, bool, bool);
+
+/// The trajectories of a run's table, by episode id, in step order.
+fn trajectories(path: &Path) -> std::collections::BTreeMap<String, Vec<StepKey>> {
+    let mut by_episode: std::collections::BTreeMap<String, Vec<StepKey>> = Default::default();
+    for b in all_batches(path) {
+        let ids = column::<StringArray>(&b, "episode_id");
+        let f = |name: &str| column::<Float32Array>(&b, name).clone();
+        let (x, y, z, yaw, tilt, reward) =
+            (f("x"), f("y"), f("z"), f("yaw"), f("tilt"), f("reward"));
+        let actions = column::<StringArray>(&b, "action");
+        let flag = |name: &str| column::<arrow::array::BooleanArray>(&b, name).clone();
+        let (collision, done, success) = (flag("collision"), flag("done"), flag("success"));
+        for r in 0..b.num_rows() {
+            by_episode
+                .entry(ids.value(r).to_string())
+                .or_default()
+                .push((
+                    ids.value(r).to_string(),
+                    [&x, &y, &z, &yaw, &tilt].map(|c| c.value(r).to_bits()),
+                    actions.value(r).to_string(),
+                    reward.value(r).to_bits(),
+                    collision.value(r),
+                    done.value(r),
+                    success.value(r),
+                ));
+        }
+    }
+    by_episode
+}
+
+/// Drives `episodes` through a vector environment of `num_envs` environments on `threads`
+/// threads, each episode's decisions taken from `actions` (its action names in step order),
+/// until every episode ended once (with `oracle`, checking that the environments' oracle
+/// asks for those decisions); returns each episode's steps and metrics.
+fn vector_env_trajectories(
+    cfg: &minos::pipeline::vector_env::VectorEnvConfig,
+    episodes: &[Episode],
+    actions: &std::collections::BTreeMap<String, Vec<String>>,
+    oracle: bool,
+) -> std::collections::BTreeMap<String, (Vec<StepKey>, String)> {
+    use minos::pipeline::vector_env::VectorEnv;
+    let mut env = VectorEnv::new(cfg, episodes.to_vec()).unwrap();
+    let names = env.action_names();
+    let mut out: std::collections::BTreeMap<String, (Vec<StepKey>, String)> = Default::default();
+    let outs = env.reset(None).unwrap();
+    assert!(outs.iter().all(|o| o.reset && o.reward == 0.0));
+    let mut current: Vec<usize> = outs.iter().map(|o| o.episode).collect();
+    // Each episode's first run is the one compared (environments wrap around the order).
+    let mut claimed = std::collections::BTreeSet::new();
+    let mut recording: Vec<bool> = current.iter().map(|&e| claimed.insert(e)).collect();
+    let mut finished = std::collections::BTreeSet::new();
+    let mut guard = 0;
+    while finished.len() < episodes.len() {
+        guard += 1;
+        assert!(
+            guard < 100_000,
+            "the vector environment never ended every episode"
+        );
+        let mut chosen = Vec::with_capacity(current.len());
+        let mut poses = Vec::with_capacity(current.len());
+        for (i, &e) in current.iter().enumerate() {
+            let id = &env.episodes()[e].episode_id;
+            let t = env.stepper(i).unwrap().decisions() as usize;
+            let name = actions[id].get(t).cloned().unwrap_or_else(|| "stop".into());
+            chosen.push(names.iter().position(|n| *n == name).unwrap());
+            let s = env.stepper(i).unwrap().sim().state();
+            poses.push([s.position[0], s.position[1], s.position[2], s.yaw, s.tilt]);
+        }
+        if oracle {
+            // The environments' own oracle decides as the run's did.
+            let asked = env.oracle_actions().unwrap();
+            for (i, &e) in current.iter().enumerate() {
+                if recording[i] && !finished.contains(&env.episodes()[e].episode_id) {
+                    assert_eq!(asked[i], chosen[i], "the oracle of environment {i}");
+                }
+            }
+        }
+        let outs = env.step(&chosen).unwrap();
+        for (i, o) in outs.iter().enumerate() {
+            let e = current[i];
+            let id = env.episodes()[e].episode_id.clone();
+            if o.reset {
+                current[i] = o.episode;
+                recording[i] = claimed.insert(o.episode);
+                continue;
+            }
+            if !recording[i] || finished.contains(&id) {
+                continue;
+            }
+            let entry = out.entry(id.clone()).or_default();
+            entry.0.push((
+                id.clone(),
+                poses[i].map(f32::to_bits),
+                names[chosen[i]].to_string(),
+                o.reward.to_bits(),
+                o.collision,
+                o.terminated || o.truncated,
+                o.success,
+            ));
+            if o.terminated || o.truncated {
+                entry.1 = format!("{:?}", env.stepper(i).unwrap().metrics().unwrap());
+                finished.insert(id);
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn the_rollout_and_the_vector_env_step_the_same_episodes_alike() {
+    // `minos run` (the rollout) and the Gym environments (the vector environment) step
+    // episodes through the same stepper: the same decisions give the same poses, rewards,
+    // collisions, ends and metrics. Random agents (arrival ends an episode; many
+    // collisions; the step limit) and the oracle (success needs its stop) on every task.
+    use minos::pipeline::vector_env::VectorEnvConfig;
+    let dir = tempfile::tempdir().unwrap();
+    let mut episodes = first_episodes(|t| t == Task::PointGoal, 3);
+    episodes.extend(first_episodes(|t| t != Task::PointGoal, 3));
+    let sensors = SensorSuite::minos(8);
+    for (agent, require_stop, max_steps) in [
+        (AgentKind::Random, false, Some(40)),
+        (AgentKind::Oracle, true, None),
+    ] {
+        let out = dir.path().join(format!("{agent:?}"));
+        let mut cfg = config(&out, agent.clone(), sensors.clone());
+        cfg.max_steps = max_steps;
+        let report = run(&cfg, &episodes, &NoProgress).unwrap();
+        assert!(report.failures.is_empty(), "{:?}", report.failures);
+        let rollout = trajectories(&out.join("trajectories.parquet"));
+        assert_eq!(rollout.len(), episodes.len());
+        let actions = rollout
+            .iter()
+            .map(|(id, steps)| (id.clone(), steps.iter().map(|s| s.2.clone()).collect()))
+            .collect();
+        for (num_envs, threads) in [(1, None), (4, Some(3))] {
+            let env_cfg = VectorEnvConfig {
+                data: cfg.data.clone(),
+                num_envs,
+                body: cfg.body,
+                sensors: sensors.clone(),
+                renderer: cfg.renderer,
+                reward: cfg.reward,
+                seed: cfg.seed,
+                max_steps,
+                require_stop,
+                allow_body_mismatch: false,
+                threads,
+            };
+            let stepped = vector_env_trajectories(&env_cfg, &episodes, &actions, require_stop);
+            for (e, m) in &report.episodes {
+                let (steps, metrics) = &stepped[&e.episode_id];
+                assert_eq!(
+                    steps, &rollout[&e.episode_id],
+                    "{agent:?}, {num_envs} envs: the steps of {}",
+                    e.episode_id
+                );
+                assert_eq!(metrics, &format!("{m:?}"), "{agent:?}: the metrics");
+            }
+            if matches!(agent, AgentKind::Oracle) {
+                assert!(report.episodes.iter().all(|(_, m)| m.success));
+            }
+        }
+    }
+}
+
+#[test]
+fn vector_envs_of_1_to_32_environments_on_1_to_32_threads_reset_and_step() {
+    // `VectorNavEnv(num_envs=N, threads=N)` hung for N >= 8: the environments' simulators
+    // were made on the pool's threads, the first building the scene's ray-casting BVH (rayon
+    // work inside a once-only cell) while the others waited on the cell, until the builder,
+    // waiting on its own stolen work, took one of their pending simulators and waited on
+    // itself. Every count of environments and threads (more threads than cores included)
+    // must reset and step, each scene loaded afresh (its BVH not built yet), under a
+    // deadline: a hang fails the test instead of stalling it.
+    use minos::generate::{generate, GenerateConfig, OutputFormat, ScanOptions};
+    use minos::pipeline::ingest::{ingest, DatasetFormat, IngestConfig};
+    use minos::pipeline::vector_env::{VectorEnv, VectorEnvConfig};
+    use minos::render::cpu::Method;
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    // A scan-like house of 40,000 triangles: its BVH build forks rayon work (which the old
+    // set-up deadlocked on most times for N >= 8; a small house's build rarely does).
+    let dir = tempfile::tempdir().unwrap();
+    let (root, data_path) = (dir.path().join("scans"), dir.path().join("DATA"));
+    let gen = GenerateConfig {
+        houses: 1,
+        seed: 3,
+        rooms: (4, 6),
+        levels: (1, 1),
+        closed_door_prob: 0.0,
+    };
+    let format = OutputFormat::Mp3dScan(ScanOptions {
+        triangles: 40_000,
+        noise: 0.003,
+    });
+    generate(&gen, format, &root, false, &NoProgress).unwrap();
+    let data_dir = minos::store::DataDir::new(&data_path);
+    ingest(
+        &IngestConfig {
+            format: DatasetFormat::Mp3d,
+            root,
+            data: data_dir.clone(),
+            ids: None,
+            force: false,
+            categories: None,
+            models: None,
+        },
+        &NoProgress,
+    )
+    .unwrap();
+    let ids = data_dir.ingested_ids().unwrap();
+    let baked = minos::pipeline::bake::bake_scenes(
+        &minos::pipeline::bake::BakeConfig {
+            data: data_dir.clone(),
+            scenes: ids.iter().map(|id| id.parse().unwrap()).collect(),
+            params: minos::navmesh::NavParams::default(),
+            force: false,
+            previews: false,
+        },
+        &NoProgress,
+    );
+    assert_eq!(baked.failures().count(), 0);
+    let scenes: Vec<(String, String)> = ids.iter().map(|id| (id.clone(), String::new())).collect();
+    let episodes: Vec<Episode> = common::every_task_episodes(&data_dir, &scenes, 2, 4);
+    assert!(episodes.len() >= 3, "{} episodes", episodes.len());
+    let (_, compiled) = data_dir.read_scene(&ids[0]).unwrap();
+    let triangles = minos::render::RenderScene::new(&compiled).triangle_count();
+    let sensors = SensorSuite::minos(8);
+    assert_eq!(
+        Method::for_size(triangles, 8, 8),
+        Method::RayCast,
+        "the cameras must ray cast (BVH) for the test to mean anything: {triangles} triangles"
+    );
+    let cfg = VectorEnvConfig {
+        data: data_dir,
+        num_envs: 1,
+        body: AgentConfig::habitat(),
+        sensors,
+        renderer: RendererChoice::Cpu,
+        reward: Reward::Geodesic,
+        seed: 5,
+        max_steps: Some(3),
+        require_stop: true,
+        allow_body_mismatch: false,
+        threads: None,
+    };
+    let cores = std::thread::available_parallelism().map_or(1, usize::from);
+    let max = 32.max(cores + 2);
+    let grid: Vec<(usize, usize)> = (1..=max)
+        .flat_map(|e| (1..=max).map(move |t| (e, t)))
+        .collect();
+    let done = std::sync::Arc::new(AtomicUsize::new(0));
+    let (tx, rx) = std::sync::mpsc::channel();
+    let worker = {
+        let (done, grid) = (done.clone(), grid.clone());
+        std::thread::spawn(move || {
+            for (num_envs, threads) in grid {
+                let cfg = VectorEnvConfig {
+                    num_envs,
+                    threads: Some(threads),
+                    ..cfg.clone()
+                };
+                let mut env = VectorEnv::new(&cfg, episodes.clone()).unwrap();
+                let outs = env.reset(None).unwrap();
+                assert_eq!(outs.len(), num_envs);
+                assert!(outs.iter().all(|o| o.reset));
+                for _ in 0..2 {
+                    let outs = env.step(&vec![0; num_envs]).unwrap();
+                    assert_eq!(outs.len(), num_envs);
+                    assert!(outs.iter().all(|o| !o.reset));
+                }
+                done.fetch_add(1, Ordering::Relaxed);
+            }
+            let _ = tx.send(());
+        })
+    };
+    // A pair takes well under a second; a minute without progress is a hang.
+    let patience = std::time::Duration::from_secs(60);
+    let mut last = (0, std::time::Instant::now());
+    loop {
+        match rx.recv_timeout(std::time::Duration::from_secs(1)) {
+            Ok(()) => break,
+            Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => {
+                // The worker panicked: its failure is the test's.
+                if let Err(e) = worker.join() {
+                    std::panic::resume_unwind(e);
+                }
+                panic!("the worker ended without finishing the grid");
+            }
+            Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {
+                let k = done.load(Ordering::Relaxed);
+                if k != last.0 {
+                    last = (k, std::time::Instant::now());
+                } else if last.1.elapsed() > patience {
+                    panic!(
+                        "hung: {} environments on {} threads did not reset and step within \
+                         {patience:?} ({k} of {} pairs done)",
+                        grid[k].0,
+                        grid[k].1,
+                        grid.len(),
+                    );
+                }
+            }
+        }
+    }
+    assert_eq!(done.load(Ordering::Relaxed), grid.len());
+}
+
+#[test]
+fn the_stepper_numbers_actions_once_and_refuses_steps_outside_an_episode() {
+    use minos::run::stepper::{
+        step_many, ActionSet, Command, EpisodeStepper, StepError, StepperConfig, DEFAULT_MAX_STEPS,
+    };
+    // The action set: the motion model's single actions, then stop; indices round-trip.
+    for body in [AgentConfig::habitat(), AgentConfig::minos_continuous()] {
+        let set = ActionSet::of(&body.motion);
+        let names = set.names();
+        assert_eq!(names.len(), set.len());
+        assert_eq!(names.last(), Some(&"stop"));
+        assert_eq!(&names[..names.len() - 1], body.motion.actions());
+        for (i, name) in names.iter().enumerate() {
+            let d = set.decision(i).unwrap();
+            assert_eq!(set.index_of(&d), Some(i), "{name}");
+            assert_eq!(&d.name(), name);
+        }
+        assert_eq!(set.decision(set.len()), None);
+    }
+    assert_eq!(
+        ActionSet::of(&AgentConfig::habitat().motion).names(),
+        ["forward", "turn_left", "turn_right", "stop"]
+    );
+    // Stepping before a reset, after the end, or a batch of the wrong size is an error.
+    let ep = first_episodes(|t| t == Task::PointGoal, 1).remove(0);
+    let body = AgentConfig::habitat();
+    let (assets, renderer) = minos::pipeline::rollout::load_scene_assets(
+        &minos::store::DataDir::new(data().0.path().join("DATA")),
+        &ep.scene_id,
+        &body,
+        RendererChoice::Cpu,
+        false,
+    )
+    .unwrap();
+    let sim = minos::sim::Simulator::new(assets, renderer, body, blind(), DEFAULT_MAX_STEPS, 0);
+    let cfg = StepperConfig {
+        max_steps: Some(2),
+        ..StepperConfig::default()
+    };
+    let mut stepper = EpisodeStepper::new(sim, cfg);
+    let turn = Decision::from_name("turn_left").unwrap();
+    assert!(matches!(stepper.step(turn), Err(StepError::NotReset)));
+    assert!(matches!(stepper.metrics(), Err(StepError::NotReset)));
+    stepper.reset(&ep).unwrap();
+    let first = stepper.step(turn).unwrap();
+    assert!(!first.done() && first.steps == 1 && !first.reset);
+    let last = stepper.step(turn).unwrap();
+    assert!(
+        last.truncated && !last.terminated && !last.success,
+        "{last:?}"
+    );
+    assert!(matches!(stepper.step(turn), Err(StepError::Ended(id)) if id == ep.episode_id));
+    let m = stepper.metrics().unwrap();
+    assert_eq!((m.steps, m.success), (2, false));
+    // A stop ends the episode without moving; a reset command starts it over.
+    let restarted = stepper.run(Command::Reset(&ep)).unwrap();
+    assert!(restarted.reset && restarted.reward == 0.0 && restarted.steps == 0);
+    let stopped = stepper.step(Decision::Stop).unwrap();
+    assert!(stopped.stopped && stopped.terminated && !stopped.success);
+    assert_eq!(stepper.metrics().unwrap().path_length, 0.0);
+    let mut batch = vec![stepper];
+    assert!(matches!(
+        step_many(&mut batch, &[]),
+        Err(StepError::Batch {
+            steppers: 1,
+            commands: 0
+        })
+    ));
+    let outs = step_many(&mut batch, &[Command::Reset(&ep)]).unwrap();
+    assert!(outs[0].reset);
+}

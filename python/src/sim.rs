@@ -11,11 +11,11 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use minos::episode::{Difficulty, Episode, Goal, Task};
+use minos::pipeline::rollout::load_scene_assets;
 use minos::render::{Renderer, RendererChoice};
-use minos::run::agents::{action_set, Agent, Decision};
+use minos::run::agents::{action_set, Agent, Decision, STOP};
 use minos::run::metrics::reached;
 use minos::run::oracle::OracleAgent;
-use minos::scene::SceneRef;
 use minos::sim::sensors::{dtype_of, CameraSensor, Image};
 use minos::sim::{Actions, AgentConfig, GoalSpec, Observation, SceneAssets, SensorSuite};
 use minos::store::DataDir;
@@ -42,18 +42,7 @@ pub fn load_scene(
     choice: RendererChoice,
     allow_body_mismatch: bool,
 ) -> Result<LoadedScene, String> {
-    let scene_ref = SceneRef::parse(scene_id);
-    let (scene, _) = data
-        .load_scene(&scene_ref)
-        .map_err(|e| format!("{e} (run `minos ingest`)"))?;
-    let grid = data.read_grid(&scene_ref).map_err(|e| e.to_string())?;
-    let assets = if allow_body_mismatch {
-        SceneAssets::new_allowing_body_mismatch(&scene, grid, agent)
-    } else {
-        SceneAssets::new(&scene, grid, agent)
-    };
-    let assets = Arc::new(assets.map_err(|e| e.to_string())?);
-    let renderer = Arc::new(Renderer::new(choice, &assets.render).map_err(|e| e.to_string())?);
+    let (assets, renderer) = load_scene_assets(data, scene_id, agent, choice, allow_body_mismatch)?;
     Ok(LoadedScene { assets, renderer })
 }
 
@@ -206,14 +195,6 @@ pub fn point_episode(
         difficulty: Difficulty::Easy,
         success_radius,
         max_steps,
-    }
-}
-
-/// An observation with no images, for agents that ignore what they see (the oracle).
-pub fn blind() -> Observation {
-    Observation {
-        images: Vec::new(),
-        measurements: Default::default(),
     }
 }
 
@@ -398,10 +379,15 @@ impl Simulator {
                 *oracle = Some(o);
             }
             let o = oracle.as_mut().ok_or("oracle")?;
-            Ok(match o.decide(&blind(), sim).map_err(|e| e.to_string())? {
-                Decision::Stop => "stop",
-                Decision::Act(a) => single_name(&a),
-            })
+            Ok(
+                match o
+                    .decide(&Observation::blind(), sim)
+                    .map_err(|e| e.to_string())?
+                {
+                    Decision::Stop => STOP,
+                    Decision::Act(a) => single_name(&a),
+                },
+            )
         })
         .map_err(msg_err)
     }
@@ -409,11 +395,7 @@ impl Simulator {
 
 /// The name of a single full-strength action (`idle` for anything else).
 pub fn single_name(a: &Actions) -> &'static str {
-    Actions::NAMES
-        .iter()
-        .copied()
-        .find(|n| Actions::single(n).is_some_and(|s| s == *a))
-        .unwrap_or("idle")
+    a.single_name().unwrap_or("idle")
 }
 
 /// Name, modality, shape and dtype of each camera.

@@ -176,3 +176,30 @@ def test_gymnasium_vector_wrappers_read_the_infos(world):
     assert infos[1]["steps"] == 1
     assert isinstance(infos[1]["episode_id"], str) and infos[0]["success"] in (True, False)
     assert infos[0]["episode"]["l"] == 1 and "episode" not in infos[1]
+
+
+def test_as_many_threads_as_environments_reset_and_step(world):
+    # VectorNavEnv(num_envs=N, threads=N) never returned from reset() for N >= 8 (simulators
+    # made on the pool's threads waited on each other's lazy scene set-up). Each pair runs
+    # in a child process with a deadline, so a hang fails instead of stalling the suite.
+    import subprocess
+    import sys
+
+    pairs = [(8, 8), (9, 9), (12, 12), (16, 16), (3, 8), (16, 8), (32, 32), (1, 32)]
+    code = (
+        "import sys\n"
+        "from minos.gym import VectorNavEnv\n"
+        "for n, t in " + repr(pairs) + ":\n"
+        "    v = VectorNavEnv(data=sys.argv[1], episodes=sys.argv[2], num_envs=n, size=8,\n"
+        "                     threads=t)\n"
+        "    obs, info = v.reset()\n"
+        "    assert obs['color'].shape[0] == n and info['reset'].all()\n"
+        "    for _ in range(3):\n"
+        "        obs, rew, term, trunc, info = v.step(v.oracle_actions())\n"
+        "        assert rew.shape == (n,)\n"
+        "    print(n, t, 'ok', flush=True)\n"
+    )
+    p = subprocess.run([sys.executable, "-c", code, str(world.data), str(world.point)],
+                       capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr
+    assert p.stdout.count(" ok") == len(pairs), p.stdout

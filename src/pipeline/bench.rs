@@ -39,6 +39,7 @@ use crate::navmesh::{NavGrid, NavParams};
 use crate::render::Renderer;
 use crate::run::agents::{Agent, Decision};
 use crate::run::oracle::OracleAgent;
+use crate::run::stepper::{EpisodeStepper, StepperConfig, DEFAULT_MAX_STEPS};
 use crate::scene::{Scene, SceneRef};
 use crate::seed::{derive_seed, Rng};
 use crate::sim::{AgentConfig, RendererChoice, SceneAssets, SensorSuite, Simulator};
@@ -499,11 +500,13 @@ fn bench_on_this_thread(cfg: &BenchConfig) -> Result<BenchReport, BenchError> {
                     report.batch = cfg.batch;
                 }
             } else {
+                let mut stepper = oracle_stepper(sim);
                 if cfg.per_core {
-                    rollout(&mut timer, &mut sim, &assets.grid, &eps)?;
+                    rollout(&mut timer, &mut stepper, &assets.grid, &eps)?;
                 }
+                let sim = stepper.sim();
                 if cfg.threads > 1 || !cfg.per_core {
-                    let (steps, wall) = rollout_on_threads(&sim, &assets.grid, &eps, cfg.threads)?;
+                    let (steps, wall) = rollout_on_threads(sim, &assets.grid, &eps, cfg.threads)?;
                     timer.stages.push(Stage {
                         name: ALL_THREADS,
                         count: steps,
@@ -519,7 +522,7 @@ fn bench_on_this_thread(cfg: &BenchConfig) -> Result<BenchReport, BenchError> {
                         .build()
                         .map_err(|e| BenchError(format!("a {}-thread pool: {e}", cfg.threads)))?;
                     let (steps, wall) = pool
-                        .install(|| batched::rollout_batched(&sim, &assets.grid, &eps, cfg.envs))?;
+                        .install(|| batched::rollout_batched(sim, &assets.grid, &eps, cfg.envs))?;
                     timer.stages.push(Stage {
                         name: batched::BATCHED,
                         count: steps,
@@ -590,7 +593,7 @@ fn prepare(
         renderer,
         cfg.agent,
         cfg.sensors.clone(),
-        500,
+        DEFAULT_MAX_STEPS,
         cfg.seed,
     );
     Ok((sim, assets))
@@ -630,12 +633,12 @@ fn rollout_on_threads(
     let results: Vec<Result<u64, BenchError>> = std::thread::scope(|scope| {
         let workers: Vec<_> = (0..threads)
             .map(|_| {
-                let (mut sim, next) = (sim.sibling(), &next);
+                let (mut stepper, next) = (oracle_stepper(sim.sibling()), &next);
                 scope.spawn(move || {
                     let geo = Geodesic::new(grid);
                     let claimed =
                         std::iter::from_fn(|| eps.get(next.fetch_add(1, Ordering::Relaxed)));
-                    episode_loop(&mut Untimed, &mut sim, &geo, claimed)
+                    episode_loop(&mut Untimed, &mut stepper, &geo, claimed)
                 })
             })
             .collect();
@@ -678,12 +681,24 @@ impl Clock for Untimed {
     }
 }
 
-/// The oracle's loop over `eps` on `sim` with goal fields from `geo`: reset (goal field),
-/// plan, observe, then decide and step until it stops; each stage timed by `clock`. The
-/// steps taken.
+/// The stepper of `minos run`'s oracle on `sim` (success needs its `stop`; the episodes'
+/// own step limits).
+fn oracle_stepper(sim: Simulator) -> EpisodeStepper {
+    EpisodeStepper::new(
+        sim,
+        StepperConfig {
+            require_stop: true,
+            ..StepperConfig::default()
+        },
+    )
+}
+
+/// The oracle's loop over `eps` on `stepper` with goal fields from `geo`: reset (goal field
+/// and first frame), plan, then decide and step until it stops or the step limit; each stage
+/// timed by `clock`. The steps taken.
 fn episode_loop<'a>(
     clock: &mut impl Clock,
-    sim: &mut Simulator,
+    stepper: &mut EpisodeStepper,
     geo: &Geodesic,
     eps: impl Iterator<Item = &'a Episode>,
 ) -> Result<u64, BenchError> {
@@ -691,22 +706,26 @@ fn episode_loop<'a>(
     let mut agent = OracleAgent::new();
     let mut steps = 0;
     for ep in eps {
-        clock.time("reset (goal field)", "episodes", || {
-            sim.reset_episode_in(ep, Some(geo))
-        });
         clock
-            .time("oracle plan", "episodes", || agent.reset(ep, sim))
+            .time(RESET, "episodes", || {
+                stepper.reset_in(ep, Some(geo)).map(|_| ())
+            })
             .map_err(|x| e(&x))?;
-        let mut obs = clock
-            .time("observe first", "episodes", || sim.observe())
+        clock
+            .time("oracle plan", "episodes", || agent.reset(ep, stepper.sim()))
             .map_err(|x| e(&x))?;
-        for _ in 0..ep.max_steps {
+        while !stepper.ended() {
             let d = clock
-                .time("oracle decide", "steps", || agent.decide(&obs, sim))
+                .time("oracle decide", "steps", || {
+                    agent.decide(stepper.observation(), stepper.sim())
+                })
                 .map_err(|x| e(&x))?;
-            let Decision::Act(a) = d else { break };
-            obs = clock
-                .time("sim step", "steps", || sim.step(a))
+            if d == Decision::Stop {
+                stepper.step(d).map_err(|x| e(&x))?;
+                break;
+            }
+            clock
+                .time("sim step", "steps", || stepper.step(d).map(|_| ()))
                 .map_err(|x| e(&x))?;
             steps += 1;
         }
@@ -714,16 +733,19 @@ fn episode_loop<'a>(
     Ok(steps)
 }
 
+/// The stage of an episode's reset: its goal field and first observation.
+const RESET: &str = "reset (goal field, first frame)";
+
 /// The oracle's loop over the episodes: reset (goal field), plan, decide, step.
 fn rollout(
     timer: &mut Timer,
-    sim: &mut Simulator,
+    stepper: &mut EpisodeStepper,
     grid: &NavGrid,
     eps: &[Episode],
 ) -> Result<(), BenchError> {
     let (geo, s) = timer.measure(|| Geodesic::new(grid));
     timer.add("geodesic setup", "scenes", 1, s);
-    episode_loop(timer, sim, &geo, eps.iter())?;
+    episode_loop(timer, stepper, &geo, eps.iter())?;
     // The whole loop as one figure: steps per second of reset, planning, deciding and
     // stepping together.
     let steps = timer
@@ -737,12 +759,7 @@ fn rollout(
         .filter(|s| {
             matches!(
                 s.name,
-                "geodesic setup"
-                    | "reset (goal field)"
-                    | "oracle plan"
-                    | "observe first"
-                    | "oracle decide"
-                    | "sim step"
+                "geodesic setup" | RESET | "oracle plan" | "oracle decide" | "sim step"
             )
         })
         .map(|s| s.seconds)

@@ -3,7 +3,8 @@
 //! in input order and writes outputs, so results never depend on the thread count:
 //! `ingest` (dataset → compiled scenes + manifest), `bake` (navigation grids), `episodes`
 //! (episode sampling over many scenes), `variants` (material statistics, dry runs),
-//! `rollout` (agents over episodes into datasets) and `view` (a scene for the rerun viewer).
+//! `rollout` (agents over episodes into datasets), `vector_env` (environments stepped
+//! together, for the Gym bindings) and `view` (a scene for the rerun viewer).
 
 pub mod bake;
 pub mod bench;
@@ -12,4 +13,5 @@ pub mod ingest;
 pub mod merge;
 pub mod rollout;
 pub mod variants;
+pub mod vector_env;
 pub mod view;

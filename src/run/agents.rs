@@ -5,7 +5,6 @@
 
 use crate::episode::Episode;
 use crate::seed::{derive_seed, Rng};
-use crate::sim::agent::Motion;
 use crate::sim::{Actions, Observation, Simulator};
 
 /// Why an agent could not go on. Messages are one line and name the agent and the episode
@@ -47,6 +46,9 @@ pub enum AgentError {
 #[error("{}", crate::escape::escape_controls(.0))]
 pub struct ReplyError(pub String);
 
+/// The name of [`Decision::Stop`] (trajectory tables, action sets, external agents' replies).
+pub const STOP: &str = "stop";
+
 /// What an agent does next.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Decision {
@@ -60,22 +62,15 @@ impl Decision {
     /// A name for the trajectory table: `stop`, `idle`, or the non-zero actions joined by `+`.
     pub fn name(&self) -> String {
         match self {
-            Decision::Stop => "stop".into(),
+            Decision::Stop => STOP.into(),
             Decision::Act(a) => {
-                let parts: Vec<&str> = [
-                    (a.forward, "forward"),
-                    (a.backward, "backward"),
-                    (a.strafe_left, "strafe_left"),
-                    (a.strafe_right, "strafe_right"),
-                    (a.turn_left, "turn_left"),
-                    (a.turn_right, "turn_right"),
-                    (a.look_up, "look_up"),
-                    (a.look_down, "look_down"),
-                ]
-                .iter()
-                .filter(|(v, _)| *v > 0.0)
-                .map(|(_, n)| *n)
-                .collect();
+                let parts: Vec<&str> = a
+                    .strengths()
+                    .iter()
+                    .zip(Actions::NAMES)
+                    .filter(|(v, _)| **v > 0.0)
+                    .map(|(_, n)| n)
+                    .collect();
                 if parts.is_empty() {
                     "idle".into()
                 } else {
@@ -89,22 +84,13 @@ impl Decision {
     pub fn strengths(&self) -> [f32; 8] {
         match self {
             Decision::Stop => [0.0; 8],
-            Decision::Act(a) => [
-                a.forward,
-                a.backward,
-                a.strafe_left,
-                a.strafe_right,
-                a.turn_left,
-                a.turn_right,
-                a.look_up,
-                a.look_down,
-            ],
+            Decision::Act(a) => a.strengths(),
         }
     }
 
     /// Rebuilds a decision from its name (`stop`, `idle`, `forward+turn_left`, …).
     pub fn from_name(name: &str) -> Option<Decision> {
-        if name == "stop" {
+        if name == STOP {
             return Some(Decision::Stop);
         }
         let mut a = Actions::IDLE;
@@ -135,19 +121,10 @@ pub trait Agent: Send {
     }
 }
 
-/// The single actions an agent of this motion model chooses among.
+/// The single actions an agent of the simulator's motion model chooses among
+/// ([`Motion::actions`](crate::sim::agent::Motion::actions)).
 pub fn action_set(sim: &Simulator) -> &'static [&'static str] {
-    match sim.agent().motion {
-        Motion::Discrete { .. } => &["forward", "turn_left", "turn_right"],
-        Motion::Continuous { .. } => &[
-            "forward",
-            "backward",
-            "strafe_left",
-            "strafe_right",
-            "turn_left",
-            "turn_right",
-        ],
-    }
+    sim.agent().motion.actions()
 }
 
 /// Uniformly random actions, seeded per episode.

@@ -27,7 +27,7 @@ use crate::pipeline::rollout::{
     run_live, AgentKind, EpisodeSource, Provenance, RendererChoice, RunConfig,
 };
 use crate::progress::NoProgress;
-use crate::run::agents::{Agent, AgentError, Decision};
+use crate::run::agents::{Agent, AgentError, Decision, STOP};
 use crate::run::metrics::{reached, EpisodeMetrics, Reward};
 use crate::shard::Shard;
 use crate::sim::{Actions, AgentConfig, Observation, SensorSuite, Simulator};
@@ -77,7 +77,7 @@ impl Shared {
             .copied()
             .filter(|n| *n != "idle")
             .collect();
-        names.push("stop");
+        names.push(STOP);
         names
     }
 

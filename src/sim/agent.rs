@@ -33,6 +33,26 @@ pub enum Motion {
     },
 }
 
+impl Motion {
+    /// The single actions an agent of this motion model chooses among (names of
+    /// [`Actions::NAMES`], in that order): forward and the two turns for discrete moves,
+    /// forward, backward, both strafes and both turns for continuous motion. Agents, the Gym
+    /// environments and the episode stepper's action set all take this list.
+    pub fn actions(&self) -> &'static [&'static str] {
+        match self {
+            Motion::Discrete { .. } => &["forward", "turn_left", "turn_right"],
+            Motion::Continuous { .. } => &[
+                "forward",
+                "backward",
+                "strafe_left",
+                "strafe_right",
+                "turn_left",
+                "turn_right",
+            ],
+        }
+    }
+}
+
 /// The agent's body, motion model and timing.
 ///
 /// In files (the run manifest) the body's fields are written flat: `radius`, `height`,
@@ -220,6 +240,29 @@ impl Actions {
             _ => return None,
         }
         Some(a)
+    }
+
+    /// The eight strengths in the order of [`Actions::NAMES`] (forward … look_down).
+    pub fn strengths(&self) -> [f32; 8] {
+        [
+            self.forward,
+            self.backward,
+            self.strafe_left,
+            self.strafe_right,
+            self.turn_left,
+            self.turn_right,
+            self.look_up,
+            self.look_down,
+        ]
+    }
+
+    /// The name of these actions when they are one single action at full strength (or
+    /// `idle`, nothing), as [`Actions::single`] spells it; `None` for any other mix.
+    pub fn single_name(&self) -> Option<&'static str> {
+        Actions::NAMES
+            .iter()
+            .copied()
+            .find(|n| Actions::single(n).is_some_and(|s| s == *self))
     }
 
     /// Strengths clamped to [0, 1] (NaN → 0).

@@ -144,12 +144,44 @@ pub struct Observation {
     pub measurements: Measurements,
 }
 
+impl Observation {
+    /// An observation with no images and default measurements: what agents that ignore what
+    /// they see (the oracle) are given, and a stepper's observation before its first episode.
+    pub fn blind() -> Observation {
+        Observation {
+            images: Vec::new(),
+            measurements: Measurements::default(),
+        }
+    }
+}
+
 struct GoalState {
     point: Vec3,
     field: DistanceField,
     /// The last measured span and its path's points (turning in place measures the same
     /// span again).
     last: Option<(u32, Option<Vec<Vec3>>)>,
+}
+
+/// Builds what `renderer` needs to render `sensors` in `assets`' scene ahead of the first
+/// observation: a scene the CPU renderer will ray cast gets its BVH now (seconds for
+/// millions of triangles), so set-up pays for it and the first observation does not.
+/// [`Simulator::new`] calls it.
+///
+/// The BVH is built once, on first use, with rayon work inside; a thread that needs it
+/// while another builds it waits. Call this once per scene *before* making simulators of
+/// the scene on several threads of one rayon pool: otherwise every other pool thread can end
+/// up waiting on the build while the builder, waiting on its own stolen work, runs one of
+/// their pending tasks that needs the same BVH — a deadlock (`VectorNavEnv(num_envs=N,
+/// threads=N)` for N ≥ 8 hung so).
+pub fn prepare_render(assets: &SceneAssets, renderer: &Renderer, sensors: &SensorSuite) {
+    let ray_cast = |c: &crate::sim::sensors::CameraSensor| {
+        let [w, h] = c.resolution;
+        Method::for_size(assets.render.triangle_count(), w, h) == Method::RayCast
+    };
+    if matches!(renderer, Renderer::Cpu) && sensors.cameras.iter().any(ray_cast) {
+        let _ = assets.render.bvh();
+    }
 }
 
 /// One agent in one scene.
@@ -181,15 +213,7 @@ impl Simulator {
         max_steps: u32,
         seed: u64,
     ) -> Self {
-        // A scene the CPU renderer will ray cast gets its BVH now (seconds for millions of
-        // triangles), so set-up pays for it and the first observation does not.
-        let ray_cast = |c: &crate::sim::sensors::CameraSensor| {
-            let [w, h] = c.resolution;
-            Method::for_size(assets.render.triangle_count(), w, h) == Method::RayCast
-        };
-        if matches!(*renderer, Renderer::Cpu) && sensors.cameras.iter().any(ray_cast) {
-            let _ = assets.render.bvh();
-        }
+        prepare_render(&assets, &renderer, &sensors);
         Simulator {
             assets,
             renderer,

@@ -4,8 +4,6 @@
 
 use std::path::Path;
 
-use glam::Vec3;
-
 use super::parts::{part, write_done};
 use super::scene::SceneRun;
 use super::RunConfig;
@@ -13,9 +11,9 @@ use crate::episode::Episode;
 use crate::io::rrd::episode::EpisodeRecorder;
 use crate::io::rrd::RecordingError;
 use crate::io::tables::{write_trajectory, ObservationWriter, StepRow, TableError};
-use crate::render::gpu::GpuError;
-use crate::run::agents::{AgentError, Decision};
-use crate::run::metrics::{reached, EpisodeMetrics};
+use crate::run::agents::AgentError;
+use crate::run::metrics::EpisodeMetrics;
+use crate::run::stepper::StepError;
 
 /// Why an episode failed (the run goes on with the others).
 #[derive(Debug, thiserror::Error)]
@@ -23,9 +21,9 @@ pub enum EpisodeError {
     /// The agent failed.
     #[error(transparent)]
     Agent(#[from] AgentError),
-    /// Rendering failed.
+    /// The stepper failed (rendering).
     #[error(transparent)]
-    Render(#[from] GpuError),
+    Step(#[from] StepError),
     /// The recording could not be written.
     #[error(transparent)]
     Recording(#[from] RecordingError),
@@ -38,7 +36,9 @@ pub enum EpisodeError {
 }
 
 /// Runs one episode into its part files (and, when `record`, its recording) and returns its
-/// metrics.
+/// metrics. The episode is stepped by the scene's [`EpisodeStepper`](crate::run::stepper::EpisodeStepper)
+/// (reward, success, end of episode); this loop asks the agent, writes each step's rows and
+/// records.
 pub fn run_episode(
     scene: &mut SceneRun<'_>,
     ep: &Episode,
@@ -47,24 +47,27 @@ pub fn run_episode(
     index: usize,
     record: bool,
 ) -> Result<EpisodeMetrics, EpisodeError> {
-    let SceneRun { sim, agent, geo } = scene;
+    let SceneRun {
+        stepper,
+        agent,
+        geo,
+    } = scene;
     let agent = agent.as_mut();
-    sim.reset_episode_in(ep, Some(&*geo));
-    agent.reset(ep, sim)?;
+    stepper.set_require_stop(agent.stops());
+    stepper.reset_in(ep, Some(&*geo))?;
+    agent.reset(ep, stepper.sim())?;
     let mut recorder = if record {
         let path = part(parts, index, "rrd");
         Some(EpisodeRecorder::create(
             &path,
             ep,
-            sim.assets(),
+            stepper.sim().assets(),
             &cfg.sensors.cameras,
             &cfg.body,
         )?)
     } else {
         None
     };
-    let max_steps = cfg.max_steps.unwrap_or(ep.max_steps).max(1);
-    let mut obs = sim.observe()?;
     let mut writer = ObservationWriter::create(
         &part(parts, index, "obs.parquet"),
         &ep.episode_id,
@@ -73,13 +76,13 @@ pub fn run_episode(
     )
     .map_err(EpisodeError::Table)?;
     let mut rows: Vec<StepRow> = Vec::new();
-    let (mut path_length, mut collisions, mut success) = (0.0f32, 0u32, false);
     let mut stopped = false;
-    for t in 0..max_steps {
+    while !stepper.ended() {
+        let t = stepper.decisions();
+        let obs = stepper.observation();
         writer.push(t, &obs.images).map_err(EpisodeError::Table)?;
         let m = &obs.measurements;
-        let before = (m.goal_euclidean.unwrap_or(f32::NAN), m.goal_geodesic);
-        let state = sim.state();
+        let state = stepper.sim().state();
         let pose = [
             state.position[0],
             state.position[1],
@@ -88,9 +91,9 @@ pub fn run_episode(
             state.tilt,
         ];
         if let Some(r) = recorder.as_mut() {
-            r.observe(t, &state, &sim.cameras(), &obs)?;
+            r.observe(t, &state, &stepper.sim().cameras(), obs)?;
         }
-        let decision = agent.decide(&obs, sim)?;
+        let decision = agent.decide(obs, stepper.sim())?;
         let mut row = StepRow {
             step: t,
             pose,
@@ -104,41 +107,15 @@ pub fn run_episode(
             done: false,
             success: false,
         };
-        match decision {
-            Decision::Stop => {
-                success = reached(sim, ep, &state);
-                row.done = true;
-                row.success = success;
-                row.reward = cfg.reward.of_step(before, before, max_steps, success);
-                stopped = true;
-                record_act(&mut recorder, &row)?;
-                rows.push(row);
-                break;
-            }
-            Decision::Act(actions) => {
-                obs = sim.step(actions)?;
-                let after_state = sim.state();
-                path_length += Vec3::from_array(state.position)
-                    .distance(Vec3::from_array(after_state.position));
-                collisions += u32::from(obs.measurements.collision);
-                let arrived = !agent.stops() && reached(sim, ep, &after_state);
-                let after = (
-                    obs.measurements.goal_euclidean.unwrap_or(f32::NAN),
-                    obs.measurements.goal_geodesic,
-                );
-                row.collision = obs.measurements.collision;
-                row.contacts = obs.measurements.contacts.clone();
-                row.done = arrived || t + 1 == max_steps;
-                row.success = arrived;
-                row.reward = cfg.reward.of_step(before, after, max_steps, arrived);
-                success = arrived;
-                record_act(&mut recorder, &row)?;
-                rows.push(row);
-                if arrived {
-                    break;
-                }
-            }
-        }
+        let out = stepper.step(decision)?;
+        row.reward = out.reward;
+        row.collision = out.collision;
+        row.contacts = out.obs.measurements.contacts.clone();
+        row.done = out.done();
+        row.success = out.success;
+        stopped = out.stopped;
+        record_act(&mut recorder, &row)?;
+        rows.push(row);
     }
     writer.finish().map_err(EpisodeError::Table)?;
     write_trajectory(&part(parts, index, "traj.parquet"), &ep.episode_id, &rows)
@@ -146,20 +123,17 @@ pub fn run_episode(
     if let Some(mut r) = recorder {
         // Where the last action left the agent (a stop leaves it where it was).
         if !stopped {
-            r.observe(rows.len() as u32, &sim.state(), &sim.cameras(), &obs)?;
+            let sim = stepper.sim();
+            r.observe(
+                rows.len() as u32,
+                &sim.state(),
+                &sim.cameras(),
+                stepper.observation(),
+            )?;
         }
         r.finish()?;
     }
-    let final_geodesic = obs.measurements.goal_geodesic.unwrap_or(f32::NAN);
-    let m = EpisodeMetrics::finish(
-        success,
-        rows.len() as u32,
-        max_steps,
-        path_length,
-        collisions,
-        ep.geodesic_distance,
-        final_geodesic,
-    );
+    let m = stepper.metrics()?;
     write_done(parts, index, &ep.episode_id, &m).map_err(EpisodeError::Part)?;
     Ok(m)
 }

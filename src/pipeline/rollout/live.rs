@@ -80,11 +80,7 @@ pub fn run_live(
             }
         };
         let Some(a) = agent.take() else { break };
-        let mut run = SceneRun {
-            sim,
-            agent: a,
-            geo: Geodesic::new(&assets.grid),
-        };
+        let mut run = SceneRun::new(sim, a, cfg, Geodesic::new(&assets.grid));
         // Every episode of this scene, until the source moves to another scene or ends.
         let mut ep = Some(first);
         while let Some(e) = ep.take() {

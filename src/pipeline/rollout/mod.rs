@@ -39,6 +39,7 @@ pub use crate::render::RendererChoice;
 pub use episode::EpisodeError;
 pub use live::{run_live, EpisodeSource, PLAYED};
 use parts::part;
+pub use scene::load_assets as load_scene_assets;
 use scene::SceneRun;
 
 /// `robot_type` of a run's LeRobot copy.
@@ -216,7 +217,7 @@ impl Failed {
         use episode::EpisodeError as E;
         match e {
             E::Table(_) | E::Part(_) | E::Recording(_) => Failed::Write(e.to_string()),
-            E::Agent(_) | E::Render(_) => Failed::Episode(e.to_string()),
+            E::Agent(_) | E::Step(_) => Failed::Episode(e.to_string()),
         }
     }
 }
@@ -375,11 +376,7 @@ fn run_scene(
             let done: Vec<Vec<Outcome>> = workers
                 .into_par_iter()
                 .map(|(sim, agent)| {
-                    let mut run = SceneRun {
-                        sim,
-                        agent,
-                        geo: Geodesic::new(&assets.grid),
-                    };
+                    let mut run = SceneRun::new(sim, agent, cfg, Geodesic::new(&assets.grid));
                     let queue = Queue {
                         episodes: &pending,
                         next: &next,

@@ -6,47 +6,86 @@ use std::sync::Arc;
 
 use super::{AgentKind, RunConfig};
 use crate::navmesh::geodesic::Geodesic;
-use crate::render::Renderer;
+use crate::render::{Renderer, RendererChoice};
 use crate::run::agents::{Agent, AgentError, ForwardAgent, RandomAgent, ReplayAgent};
 use crate::run::external::ExternalAgent;
 use crate::run::oracle::OracleAgent;
+use crate::run::stepper::{EpisodeStepper, StepperConfig, DEFAULT_MAX_STEPS};
 use crate::scene::SceneRef;
-use crate::sim::{SceneAssets, Simulator};
+use crate::sim::{AgentConfig, SceneAssets, Simulator};
+use crate::store::DataDir;
 
-/// What the episodes of one scene share: the simulator, the agent, and one line-of-sight
-/// index and set of search records for every episode's goal field.
+/// What the episodes of one scene share: the stepper (with its simulator), the agent, and
+/// one line-of-sight index and set of search records for every episode's goal field.
 pub struct SceneRun<'a> {
-    /// The simulator.
-    pub sim: Simulator,
+    /// The episode stepper, on the scene's simulator.
+    pub stepper: EpisodeStepper,
     /// The agent.
     pub agent: Box<dyn Agent>,
     /// Geodesic queries on the scene's grid.
     pub geo: Geodesic<'a>,
 }
 
+impl<'a> SceneRun<'a> {
+    /// The run of `agent` on `sim` with the reward and step limit of `cfg`.
+    pub fn new(sim: Simulator, agent: Box<dyn Agent>, cfg: &RunConfig, geo: Geodesic<'a>) -> Self {
+        let stepper = EpisodeStepper::new(
+            sim,
+            StepperConfig {
+                reward: cfg.reward,
+                max_steps: cfg.max_steps,
+                require_stop: agent.stops(),
+            },
+        );
+        SceneRun {
+            stepper,
+            agent,
+            geo,
+        }
+    }
+}
+
+/// Loads scene `scene_id` and the grid that serves it, checks the grid's body against
+/// `body` (unless `allow_body_mismatch`) and creates the renderer: the scene set-up of every
+/// driver (runs, vector environments, the bindings' simulator). The error is one line.
+pub fn load_assets(
+    data: &DataDir,
+    scene_id: &str,
+    body: &AgentConfig,
+    renderer: RendererChoice,
+    allow_body_mismatch: bool,
+) -> Result<(Arc<SceneAssets>, Arc<Renderer>), String> {
+    let scene_ref = SceneRef::parse(scene_id);
+    let (scene, _) = data
+        .load_scene(&scene_ref)
+        .map_err(|e| format!("{e} (run `minos ingest`)"))?;
+    let grid = data.read_grid(&scene_ref).map_err(|e| e.to_string())?;
+    let assets = if allow_body_mismatch {
+        SceneAssets::new_allowing_body_mismatch(&scene, grid, body)
+    } else {
+        SceneAssets::new(&scene, grid, body)
+    };
+    let assets = Arc::new(assets.map_err(|e| e.to_string())?);
+    let renderer = Arc::new(Renderer::new(renderer, &assets.render).map_err(|e| e.to_string())?);
+    Ok((assets, renderer))
+}
+
 /// Loads scene `scene_id` and builds its simulator; the error is one line for every episode
 /// of the scene.
 pub fn load(cfg: &RunConfig, scene_id: &str) -> Result<(Simulator, Arc<SceneAssets>), String> {
-    let scene_ref = SceneRef::parse(scene_id);
-    let (scene, _) = cfg
-        .data
-        .load_scene(&scene_ref)
-        .map_err(|e| format!("{e} (run `minos ingest`)"))?;
-    let grid = cfg.data.read_grid(&scene_ref).map_err(|e| e.to_string())?;
-    let assets = if cfg.allow_body_mismatch {
-        SceneAssets::new_allowing_body_mismatch(&scene, grid, &cfg.body)
-    } else {
-        SceneAssets::new(&scene, grid, &cfg.body)
-    };
-    let assets = Arc::new(assets.map_err(|e| e.to_string())?);
-    let renderer =
-        Arc::new(Renderer::new(cfg.renderer, &assets.render).map_err(|e| e.to_string())?);
+    let (assets, renderer) = load_assets(
+        &cfg.data,
+        scene_id,
+        &cfg.body,
+        cfg.renderer,
+        cfg.allow_body_mismatch,
+    )?;
     let sim = Simulator::new(
         assets.clone(),
         renderer,
         cfg.body,
         cfg.sensors.clone(),
-        cfg.max_steps.unwrap_or(500),
+        cfg.max_steps.unwrap_or(DEFAULT_MAX_STEPS),
         cfg.seed,
     );
     Ok((sim, assets))

@@ -1,0 +1,482 @@
+//! The episode stepper: what an episode is, one decision at a time, for every driver —
+//! `minos run`'s rollout (and `minos serve` through it), `minos bench run`, and the Gym
+//! environments of the Python bindings (through [`crate::pipeline::vector_env`]).
+//!
+//! [`EpisodeStepper::reset`] places the agent at an episode's start and observes;
+//! [`EpisodeStepper::step`] applies a [`Decision`] and says what it gave: the reward (the
+//! run's [`Reward`]), whether the episode *terminated* (on `stop`, a success when the success
+//! test holds; or, unless the agent must stop, on arrival: the success test after a step) or
+//! was *truncated* (the step limit reached without arrival), and whether the step collided.
+//! [`EpisodeStepper::metrics`] gives the episode's metrics. [`step_many`] runs a batch of
+//! steppers one command each (a step, or a reset to the next episode), in parallel: the
+//! shape of vector environments and of batched rendering.
+//!
+//! The step limit is the run's (`max_steps`) or else the episode's own; simulators made
+//! without an episode at hand use [`DEFAULT_MAX_STEPS`].
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+pub use crate::episode::interchange::DEFAULT_MAX_STEPS;
+use crate::episode::Episode;
+use crate::navmesh::geodesic::Geodesic;
+use crate::render::gpu::GpuError;
+use crate::sim::agent::Motion;
+use crate::sim::batch::observe_many;
+use crate::sim::{Actions, Observation, Simulator};
+
+use super::agents::{Decision, STOP};
+use super::metrics::{reached, EpisodeMetrics, Reward};
+
+/// Why a stepper could not step.
+#[derive(Debug, thiserror::Error)]
+pub enum StepError {
+    /// Rendering the observation failed.
+    #[error(transparent)]
+    Render(#[from] GpuError),
+    /// `step` or `metrics` before the first `reset`.
+    #[error("the episode stepper was stepped before it was reset to an episode")]
+    NotReset,
+    /// `step` after the episode ended (terminated or truncated): reset it first.
+    #[error("episode {0} has ended: reset the stepper to an episode before stepping it")]
+    Ended(String),
+    /// A batch with a different number of commands than steppers.
+    #[error("{commands} commands for {steppers} steppers")]
+    Batch {
+        /// Steppers in the batch.
+        steppers: usize,
+        /// Commands given.
+        commands: usize,
+    },
+}
+
+/// The discrete actions of a motion model as environments number them: the model's single
+/// actions ([`Motion::actions`]), then [`STOP`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ActionSet {
+    singles: &'static [&'static str],
+}
+
+impl ActionSet {
+    /// The action set of `motion`.
+    pub fn of(motion: &Motion) -> ActionSet {
+        ActionSet {
+            singles: motion.actions(),
+        }
+    }
+
+    /// The names, index order: the single actions, then `stop`.
+    pub fn names(&self) -> Vec<&'static str> {
+        let mut names = self.singles.to_vec();
+        names.push(STOP);
+        names
+    }
+
+    /// Number of actions (`stop` included).
+    pub fn len(&self) -> usize {
+        self.singles.len() + 1
+    }
+
+    /// Never: `stop` is always there.
+    pub fn is_empty(&self) -> bool {
+        false
+    }
+
+    /// The decision of action `index` (`None` out of range).
+    pub fn decision(&self, index: usize) -> Option<Decision> {
+        match self.singles.get(index) {
+            Some(name) => Actions::single(name).map(Decision::Act),
+            None if index == self.singles.len() => Some(Decision::Stop),
+            None => None,
+        }
+    }
+
+    /// The index of `decision` (`None` for a mix of actions or one outside the set).
+    pub fn index_of(&self, decision: &Decision) -> Option<usize> {
+        match decision {
+            Decision::Stop => Some(self.singles.len()),
+            Decision::Act(a) => {
+                let name = a.single_name()?;
+                self.singles.iter().position(|n| *n == name)
+            }
+        }
+    }
+}
+
+/// How a stepper scores and ends episodes.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct StepperConfig {
+    /// The reward of each step.
+    pub reward: Reward,
+    /// A step limit for every episode, overriding the episodes' own.
+    pub max_steps: Option<u32>,
+    /// Success needs an explicit `stop` at the goal (agents that stop: the oracle, replays,
+    /// a person); otherwise arriving ends the episode as a success.
+    pub require_stop: bool,
+}
+
+/// What one decision did.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StepOutcome<'a> {
+    /// The observation after the decision (after a `stop`, the one the agent stopped with:
+    /// a stop does not move it; after a reset, the episode's first).
+    pub obs: &'a Observation,
+    /// The decision's reward (0 for a reset).
+    pub reward: f32,
+    /// The episode ended by `stop` or arrival.
+    pub terminated: bool,
+    /// The episode ended at the step limit without arrival.
+    pub truncated: bool,
+    /// The episode ended as a success (a `stop` or an arrival within the success test).
+    pub success: bool,
+    /// The body hit something during the step (never for `stop` or a reset).
+    pub collision: bool,
+    /// The decision was `stop`.
+    pub stopped: bool,
+    /// This outcome is a reset to a new episode, not a step.
+    pub reset: bool,
+    /// Actions applied since the episode's start (a `stop` is not one).
+    pub steps: u32,
+}
+
+impl StepOutcome<'_> {
+    /// The episode ended (terminated or truncated).
+    pub fn done(&self) -> bool {
+        self.terminated || self.truncated
+    }
+}
+
+/// One environment: a simulator stepped through episodes with the run's reward, success test
+/// and step limit.
+pub struct EpisodeStepper {
+    sim: Simulator,
+    cfg: StepperConfig,
+    episode: Option<Episode>,
+    obs: Observation,
+    /// The episode's step limit.
+    limit: u32,
+    /// Euclidean and geodesic distance to the goal at the latest observation.
+    before: (f32, Option<f32>),
+    steps: u32,
+    decisions: u32,
+    path_length: f32,
+    collisions: u32,
+    success: bool,
+    ended: bool,
+}
+
+impl EpisodeStepper {
+    /// A stepper driving `sim`, scoring and ending episodes as `cfg` says.
+    pub fn new(sim: Simulator, cfg: StepperConfig) -> EpisodeStepper {
+        EpisodeStepper {
+            sim,
+            cfg,
+            episode: None,
+            obs: Observation::blind(),
+            limit: 1,
+            before: (f32::NAN, None),
+            steps: 0,
+            decisions: 0,
+            path_length: 0.0,
+            collisions: 0,
+            success: false,
+            ended: false,
+        }
+    }
+
+    /// The simulator (for agents deciding, recorders, hooks).
+    pub fn sim(&self) -> &Simulator {
+        &self.sim
+    }
+
+    /// How the stepper scores and ends episodes.
+    pub fn config(&self) -> &StepperConfig {
+        &self.cfg
+    }
+
+    /// Sets whether success needs an explicit `stop` (the agent's rule).
+    pub fn set_require_stop(&mut self, require_stop: bool) {
+        self.cfg.require_stop = require_stop;
+    }
+
+    /// The action set of the simulator's motion model.
+    pub fn action_set(&self) -> ActionSet {
+        ActionSet::of(&self.sim.agent().motion)
+    }
+
+    /// The current episode (`None` before the first reset).
+    pub fn episode(&self) -> Option<&Episode> {
+        self.episode.as_ref()
+    }
+
+    /// The latest observation.
+    pub fn observation(&self) -> &Observation {
+        &self.obs
+    }
+
+    /// The current episode's step limit: the configured one, else the episode's (at least 1).
+    pub fn max_steps(&self) -> u32 {
+        self.limit
+    }
+
+    /// Decisions taken in the current episode (each action, and a final `stop`).
+    pub fn decisions(&self) -> u32 {
+        self.decisions
+    }
+
+    /// The current episode has ended (terminated or truncated).
+    pub fn ended(&self) -> bool {
+        self.ended
+    }
+
+    /// Whether the agent satisfies the current episode's success test now.
+    pub fn at_goal(&self) -> bool {
+        self.episode
+            .as_ref()
+            .is_some_and(|ep| reached(&self.sim, ep, &self.sim.state()))
+    }
+
+    /// Resets to `episode`'s start and observes.
+    pub fn reset(&mut self, episode: &Episode) -> Result<&Observation, StepError> {
+        self.reset_in(episode, None)
+    }
+
+    /// [`EpisodeStepper::reset`] computing the goal's distance field with `geo`, geodesic data
+    /// of the simulator's grid shared by a scene's episodes (see [`Simulator::reset_in`]).
+    pub fn reset_in(
+        &mut self,
+        episode: &Episode,
+        geo: Option<&Geodesic<'_>>,
+    ) -> Result<&Observation, StepError> {
+        self.sim.reset_episode_in(episode, geo);
+        self.restart(episode);
+        self.observe_first()
+    }
+
+    /// Resets the episode's bookkeeping to `episode` without touching the simulator.
+    fn restart(&mut self, episode: &Episode) {
+        self.limit = self.cfg.max_steps.unwrap_or(episode.max_steps).max(1);
+        self.episode = Some(episode.clone());
+        self.steps = 0;
+        self.decisions = 0;
+        self.path_length = 0.0;
+        self.collisions = 0;
+        self.success = false;
+        self.ended = false;
+    }
+
+    /// Observes the episode's start.
+    fn observe_first(&mut self) -> Result<&Observation, StepError> {
+        self.obs = self.sim.observe()?;
+        let m = &self.obs.measurements;
+        self.before = (m.goal_euclidean.unwrap_or(f32::NAN), m.goal_geodesic);
+        Ok(&self.obs)
+    }
+
+    /// Applies `decision` and says what it gave.
+    pub fn step(&mut self, decision: Decision) -> Result<StepOutcome<'_>, StepError> {
+        self.run(Command::Step(decision))
+    }
+
+    /// The part of `command` before its observation: the reset or the motion, and the
+    /// outcome of a `stop` (which observes nothing new).
+    fn begin(&mut self, command: Command<'_>) -> Result<Pending, StepError> {
+        let decision = match command {
+            Command::Reset(episode) => {
+                self.sim.reset_episode_in(episode, None);
+                self.restart(episode);
+                return Ok(Pending::Reset);
+            }
+            Command::Step(decision) => decision,
+        };
+        let ep = self.episode.as_ref().ok_or(StepError::NotReset)?;
+        if self.ended {
+            return Err(StepError::Ended(ep.episode_id.clone()));
+        }
+        self.decisions += 1;
+        Ok(match decision {
+            Decision::Stop => {
+                let success = reached(&self.sim, ep, &self.sim.state());
+                let reward = self
+                    .cfg
+                    .reward
+                    .of_step(self.before, self.before, self.limit, success);
+                self.success = success;
+                self.ended = true;
+                Pending::Stopped { reward, success }
+            }
+            Decision::Act(actions) => {
+                let from = self.sim.state().position;
+                self.sim.advance(actions);
+                Pending::Moved { from }
+            }
+        })
+    }
+
+    /// The rest of a command begun with [`EpisodeStepper::begin`], given the observation it
+    /// needs (see [`Pending::observes`]).
+    fn finish(&mut self, pending: Pending, obs: Option<Observation>) -> StepOutcome<'_> {
+        if let Some(obs) = obs {
+            self.obs = obs;
+        }
+        let m = &self.obs.measurements;
+        let after = (m.goal_euclidean.unwrap_or(f32::NAN), m.goal_geodesic);
+        // (reward, terminated, truncated, success, collision, stopped, reset)
+        let o = match pending {
+            Pending::Reset => {
+                self.before = after;
+                (0.0, false, false, false, false, false, true)
+            }
+            Pending::Stopped { reward, success } => {
+                (reward, true, false, success, false, true, false)
+            }
+            Pending::Moved { from } => {
+                self.steps += 1;
+                let to = self.sim.state();
+                self.path_length += Vec3::from_array(from).distance(Vec3::from_array(to.position));
+                self.collisions += u32::from(m.collision);
+                let arrived = !self.cfg.require_stop
+                    && self
+                        .episode
+                        .as_ref()
+                        .is_some_and(|ep| reached(&self.sim, ep, &to));
+                let reward = self
+                    .cfg
+                    .reward
+                    .of_step(self.before, after, self.limit, arrived);
+                self.before = after;
+                self.success = arrived;
+                let truncated = !arrived && self.steps >= self.limit;
+                self.ended = arrived || truncated;
+                (
+                    reward,
+                    arrived,
+                    truncated,
+                    arrived,
+                    m.collision,
+                    false,
+                    false,
+                )
+            }
+        };
+        let (reward, terminated, truncated, success, collision, stopped, reset) = o;
+        StepOutcome {
+            obs: &self.obs,
+            reward,
+            terminated,
+            truncated,
+            success,
+            collision,
+            stopped,
+            reset,
+            steps: if reset { 0 } else { self.steps },
+        }
+    }
+
+    /// The current episode's metrics so far (final once it has ended): steps count every
+    /// decision, a final `stop` included.
+    pub fn metrics(&self) -> Result<EpisodeMetrics, StepError> {
+        let ep = self.episode.as_ref().ok_or(StepError::NotReset)?;
+        Ok(EpisodeMetrics::finish(
+            self.success,
+            self.decisions,
+            self.limit,
+            self.path_length,
+            self.collisions,
+            ep.geodesic_distance,
+            self.obs.measurements.goal_geodesic.unwrap_or(f32::NAN),
+        ))
+    }
+
+    /// Runs `command`: a reset (an outcome with `reset` set) or a step.
+    pub fn run(&mut self, command: Command<'_>) -> Result<StepOutcome<'_>, StepError> {
+        let pending = self.begin(command)?;
+        let obs = if pending.observes() {
+            Some(self.sim.observe()?)
+        } else {
+            None
+        };
+        Ok(self.finish(pending, obs))
+    }
+}
+
+/// A command between its motion and its observation.
+#[derive(Debug, Clone, Copy)]
+enum Pending {
+    /// Reset to a new episode: the first frame is to be observed.
+    Reset,
+    /// Moved from `from`: the frame after the step is to be observed.
+    Moved { from: [f32; 3] },
+    /// Stopped (nothing new to observe) with this reward and success.
+    Stopped { reward: f32, success: bool },
+}
+
+impl Pending {
+    /// Whether the command needs a new observation.
+    fn observes(&self) -> bool {
+        !matches!(self, Pending::Stopped { .. })
+    }
+}
+
+/// What one stepper of a batch does in [`step_many`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Command<'e> {
+    /// Reset to this episode (and observe).
+    Reset(&'e Episode),
+    /// Take this decision.
+    Step(Decision),
+}
+
+/// Runs `commands[i]` on `steppers[i]` for every i at once, in parallel on the current rayon
+/// pool, with every new observation rendered together ([`observe_many`]: the cameras of the
+/// steppers that share a renderer in one render call). Each stepper is independent: the
+/// outcomes are those of running them one by one. The first failure in batch order is
+/// returned.
+///
+/// Scene data built on first use (the CPU ray caster's BVH) must be built before the batch
+/// (see [`crate::sim::simulator::prepare_render`]): a pool thread waiting on another's
+/// lazy build while that build waits on pool work deadlocks.
+pub fn step_many<'s>(
+    steppers: &'s mut [EpisodeStepper],
+    commands: &[Command<'_>],
+) -> Result<Vec<StepOutcome<'s>>, StepError> {
+    if steppers.len() != commands.len() {
+        return Err(StepError::Batch {
+            steppers: steppers.len(),
+            commands: commands.len(),
+        });
+    }
+    // Motion (and resets, stops) in parallel; then every new observation at once — the
+    // cameras of all steppers sharing a renderer in one render call, one GPU submission —
+    // and the bookkeeping in parallel.
+    let pending: Vec<Pending> = steppers
+        .par_iter_mut()
+        .zip(commands.par_iter())
+        .map(|(s, c)| s.begin(*c))
+        .collect::<Result<_, _>>()?;
+    let mut sims: Vec<&mut Simulator> = steppers
+        .iter_mut()
+        .zip(&pending)
+        .filter(|(_, p)| p.observes())
+        .map(|(s, _)| &mut s.sim)
+        .collect();
+    let mut observed = observe_many(&mut sims).into_iter();
+    let mut observations: Vec<Option<Observation>> = Vec::with_capacity(pending.len());
+    for p in &pending {
+        observations.push(if p.observes() {
+            let obs = observed.next().ok_or(StepError::Batch {
+                steppers: steppers.len(),
+                commands: commands.len(),
+            })?;
+            Some(obs?)
+        } else {
+            None
+        });
+    }
+    Ok(steppers
+        .par_iter_mut()
+        .zip(pending.into_par_iter())
+        .zip(observations.into_par_iter())
+        .map(|((s, p), o)| s.finish(p, o))
+        .collect())
+}
