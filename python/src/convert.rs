@@ -59,7 +59,8 @@ pub fn point(obj: &Bound<'_, PyAny>) -> PyResult<Vec3> {
     }
 }
 
-/// An agent preset by name (`habitat`, `minos`/`minos-continuous`, `minos-gridworld`).
+/// An agent preset by name (`habitat`, `minos`/`minos-continuous`, `minos-gridworld`,
+/// `minos-paper`).
 pub fn preset(name: &str) -> PyResult<AgentPreset> {
     name.parse::<AgentPreset>().map_err(msg_err)
 }
@@ -82,7 +83,8 @@ pub fn path_of(obj: &Bound<'_, PyAny>) -> PyResult<PathBuf> {
 }
 
 /// The sensor suite `sensors` names: `None` or `"minos"` (MINOS's RGB, depth and semantic
-/// at `size`² with 4 contacts, the CLI's default), `"all"` (every modality), or a sensor
+/// at `size`² with 4 contacts, the CLI's default), `"minos-paper"` (the paper's grey,
+/// depth and semantic at 90° with 4 contacts, `--preset minos-paper`'s default), `"all"` (every modality), or a sensor
 /// file (TOML/JSON, as `--sensors FILE`).
 pub fn sensor_suite(sensors: Option<&Bound<'_, PyAny>>, size: u32) -> PyResult<SensorSuite> {
     let Some(obj) = sensors.filter(|o| !o.is_none()) else {
@@ -91,6 +93,7 @@ pub fn sensor_suite(sensors: Option<&Bound<'_, PyAny>>, size: u32) -> PyResult<S
     if let Ok(s) = obj.cast::<PyString>() {
         match s.to_str()? {
             "minos" => return Ok(SensorSuite::minos(size)),
+            "minos-paper" => return Ok(SensorSuite::minos_paper(size)),
             "all" => return Ok(SensorSuite::all(size)),
             _ => {}
         }

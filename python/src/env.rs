@@ -438,19 +438,7 @@ impl VecCore {
             .collect();
         let contacts = suite.contact.map_or(0, |c| c.count as usize);
         let cameras = suite.cameras.clone();
-        let mut names: Vec<&'static str> = match body.motion {
-            minos::sim::agent::Motion::Discrete { .. } => {
-                vec!["forward", "turn_left", "turn_right"]
-            }
-            minos::sim::agent::Motion::Continuous { .. } => vec![
-                "forward",
-                "backward",
-                "strafe_left",
-                "strafe_right",
-                "turn_left",
-                "turn_right",
-            ],
-        };
+        let mut names: Vec<&'static str> = body.action_names().to_vec();
         names.push(STOP);
         let order = (0..eps.len()).collect();
         let slots = (0..num_envs)

@@ -5,7 +5,6 @@
 
 use crate::episode::Episode;
 use crate::seed::{derive_seed, Rng};
-use crate::sim::agent::Motion;
 use crate::sim::{Actions, Observation, Simulator};
 
 /// Why an agent could not go on. Messages are one line and name the agent and the episode
@@ -135,19 +134,10 @@ pub trait Agent: Send {
     }
 }
 
-/// The single actions an agent of this motion model chooses among.
+/// The single actions an agent of this simulator chooses among (the agent's
+/// [`AgentConfig::action_names`](crate::sim::AgentConfig::action_names)).
 pub fn action_set(sim: &Simulator) -> &'static [&'static str] {
-    match sim.agent().motion {
-        Motion::Discrete { .. } => &["forward", "turn_left", "turn_right"],
-        Motion::Continuous { .. } => &[
-            "forward",
-            "backward",
-            "strafe_left",
-            "strafe_right",
-            "turn_left",
-            "turn_right",
-        ],
-    }
+    sim.agent().action_names()
 }
 
 /// Uniformly random actions, seeded per episode.
