@@ -292,10 +292,18 @@ fn paths_between_rooms_count_the_doorway_they_pass() {
         .iter()
         .filter(|e| e.task == Task::PointGoal && e.path_num_rooms >= 2)
         .collect();
-    assert!(crossing.len() >= 3, "{} episodes cross rooms", crossing.len());
+    assert!(
+        crossing.len() >= 3,
+        "{} episodes cross rooms",
+        crossing.len()
+    );
     let mut through_arches = 0;
     for e in crossing {
-        assert!(e.path_num_doors >= 1, "{}: no doorway counted", e.episode_id);
+        assert!(
+            e.path_num_doors >= 1,
+            "{}: no doorway counted",
+            e.episode_id
+        );
         let grid = data
             .read_grid(&minos::scene::SceneRef::parse(&e.scene_id))
             .unwrap();
@@ -306,5 +314,8 @@ fn paths_between_rooms_count_the_doorway_they_pass() {
             .any(|&(_, o)| grid.objects[o as usize].arch);
         through_arches += usize::from(arch_joined);
     }
-    assert!(through_arches > 0, "no path between rooms joined by an arch");
+    assert!(
+        through_arches > 0,
+        "no path between rooms joined by an arch"
+    );
 }
