@@ -82,13 +82,18 @@ pub fn path_of(obj: &Bound<'_, PyAny>) -> PyResult<PathBuf> {
     obj.extract::<PathBuf>()
 }
 
-/// The sensor suite `sensors` names: `None` or `"minos"` (MINOS's RGB, depth and semantic
-/// at `size`² with 4 contacts, the CLI's default), `"minos-paper"` (the paper's grey,
-/// depth and semantic at 90° with 4 contacts, `--preset minos-paper`'s default), `"all"` (every modality), or a sensor
+/// The sensor suite `sensors` names: `None` (the agent preset's default, as the CLI's:
+/// `"minos-paper"` for `minos-paper`, else `"minos"`), `"minos"` (MINOS's RGB, depth and
+/// semantic at `size`² with 4 contacts), `"minos-paper"` (the paper's grey,
+/// depth and semantic at 90° with 4 contacts), `"all"` (every modality), or a sensor
 /// file (TOML/JSON, as `--sensors FILE`).
-pub fn sensor_suite(sensors: Option<&Bound<'_, PyAny>>, size: u32) -> PyResult<SensorSuite> {
+pub fn sensor_suite(
+    sensors: Option<&Bound<'_, PyAny>>,
+    size: u32,
+    preset: AgentPreset,
+) -> PyResult<SensorSuite> {
     let Some(obj) = sensors.filter(|o| !o.is_none()) else {
-        return Ok(SensorSuite::minos(size));
+        return Ok(SensorSuite::for_preset(preset, size));
     };
     if let Ok(s) = obj.cast::<PyString>() {
         match s.to_str()? {

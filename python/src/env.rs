@@ -396,7 +396,7 @@ impl VecCore {
         }
         eps.sort_by(|a, b| a.episode_id.cmp(&b.episode_id));
         let body = AgentConfig::preset(preset(agent)?);
-        let suite = sensor_suite(sensors, size)?;
+        let suite = sensor_suite(sensors, size, preset(agent)?)?;
         let choice = crate::convert::renderer(renderer)?;
         let reward = Reward::from_name(reward).ok_or_else(|| {
             msg_err(format!(
