@@ -223,7 +223,6 @@ fn macro_step(
     touch: bool,
 ) -> Option<(Vec<&'static str>, AgentState)> {
     'candidates: for &k in candidates {
-        let k = k as i32;
         let (name, count) = if k >= 0 {
             ("turn_left", k)
         } else {
