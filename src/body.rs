@@ -145,14 +145,18 @@ pub enum AgentPreset {
     Minos,
     /// MINOS's gridworld agent (1.19 m body, 0.4 m steps, 90° turns).
     MinosGridworld,
+    /// The MINOS paper's agent: MINOS's continuous agent choosing only among forward, turn
+    /// left and turn right, with a grey 90° camera by default.
+    MinosPaper,
 }
 
 impl AgentPreset {
     /// Every preset.
-    pub const ALL: [AgentPreset; 3] = [
+    pub const ALL: [AgentPreset; 4] = [
         AgentPreset::Habitat,
         AgentPreset::Minos,
         AgentPreset::MinosGridworld,
+        AgentPreset::MinosPaper,
     ];
 
     /// The preset's name on the command line and in files.
@@ -161,6 +165,16 @@ impl AgentPreset {
             AgentPreset::Habitat => "habitat",
             AgentPreset::Minos => "minos",
             AgentPreset::MinosGridworld => "minos-gridworld",
+            AgentPreset::MinosPaper => "minos-paper",
+        }
+    }
+
+    /// The success radius (m) of PointGoal episodes sampled for the preset: MINOS's 0.4 m
+    /// for MINOS's agents, Habitat's 0.2 m for Habitat's.
+    pub fn point_goal_radius(self) -> f32 {
+        match self {
+            AgentPreset::Habitat => 0.2,
+            AgentPreset::Minos | AgentPreset::MinosGridworld | AgentPreset::MinosPaper => 0.4,
         }
     }
 
@@ -168,7 +182,7 @@ impl AgentPreset {
     fn body_name(self) -> &'static str {
         match self {
             AgentPreset::Habitat => "habitat",
-            AgentPreset::Minos | AgentPreset::MinosGridworld => "minos",
+            AgentPreset::Minos | AgentPreset::MinosGridworld | AgentPreset::MinosPaper => "minos",
         }
     }
 
@@ -176,7 +190,9 @@ impl AgentPreset {
     pub fn body(self) -> AgentBody {
         match self {
             AgentPreset::Habitat => AgentBody::HABITAT,
-            AgentPreset::Minos | AgentPreset::MinosGridworld => AgentBody::MINOS,
+            AgentPreset::Minos | AgentPreset::MinosGridworld | AgentPreset::MinosPaper => {
+                AgentBody::MINOS
+            }
         }
     }
 }
@@ -198,7 +214,8 @@ impl FromStr for AgentPreset {
                 .into_iter()
                 .find(|p| p.name() == s)
                 .ok_or_else(|| {
-                    format!("unknown agent preset `{s}` (habitat, minos, minos-gridworld)")
+                    let names: Vec<&str> = AgentPreset::ALL.iter().map(|p| p.name()).collect();
+                    format!("unknown agent preset `{s}` ({})", names.join(", "))
                 }),
         }
     }

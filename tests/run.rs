@@ -1195,15 +1195,20 @@ fn vector_envs_of_1_to_32_environments_on_1_to_32_threads_reset_and_step() {
 #[test]
 fn the_stepper_numbers_actions_once_and_refuses_steps_outside_an_episode() {
     use minos::run::stepper::{
-        step_many, ActionSet, Command, EpisodeStepper, StepError, StepperConfig, DEFAULT_MAX_STEPS,
+        step_many, ActionSpace, Command, EpisodeStepper, StepError, StepperConfig,
+        DEFAULT_MAX_STEPS,
     };
     // The action set: the motion model's single actions, then stop; indices round-trip.
-    for body in [AgentConfig::habitat(), AgentConfig::minos_continuous()] {
-        let set = ActionSet::of(&body.motion);
+    for body in [
+        AgentConfig::habitat(),
+        AgentConfig::minos_continuous(),
+        AgentConfig::preset(minos::body::AgentPreset::MinosPaper),
+    ] {
+        let set = ActionSpace::of(&body);
         let names = set.names();
         assert_eq!(names.len(), set.len());
         assert_eq!(names.last(), Some(&"stop"));
-        assert_eq!(&names[..names.len() - 1], body.motion.actions());
+        assert_eq!(&names[..names.len() - 1], body.action_names());
         for (i, name) in names.iter().enumerate() {
             let d = set.decision(i).unwrap();
             assert_eq!(set.index_of(&d), Some(i), "{name}");
@@ -1212,7 +1217,12 @@ fn the_stepper_numbers_actions_once_and_refuses_steps_outside_an_episode() {
         assert_eq!(set.decision(set.len()), None);
     }
     assert_eq!(
-        ActionSet::of(&AgentConfig::habitat().motion).names(),
+        ActionSpace::of(&AgentConfig::habitat()).names(),
+        ["forward", "turn_left", "turn_right", "stop"]
+    );
+    // The MINOS paper's agent: continuous motion, forward and turns only.
+    assert_eq!(
+        ActionSpace::of(&AgentConfig::preset(minos::body::AgentPreset::MinosPaper)).names(),
         ["forward", "turn_left", "turn_right", "stop"]
     );
     // Stepping before a reset, after the end, or a batch of the wrong size is an error.

@@ -11,19 +11,29 @@ use minos::progress::NoProgress;
 /// Generates `houses` furnished SUNCG-format houses from `seed` under `dir`, ingests them and
 /// bakes their grids for `body` at the default resolution; returns the DATA folder and the
 /// scene ids.
+#[allow(dead_code)] // every bench compiles this module; the rollout bench builds its own config
 pub fn baked_houses(
     dir: &Path,
     houses: usize,
     seed: u64,
     body: minos::body::AgentBody,
 ) -> (PathBuf, Vec<String>) {
-    let (root, data) = (dir.join("suncg"), dir.join("DATA"));
     let cfg = GenerateConfig {
         houses,
         seed,
         ..GenerateConfig::default()
     };
-    generate(&cfg, OutputFormat::Suncg, &root, false, &NoProgress).expect("generate");
+    baked_houses_from(dir, &cfg, body)
+}
+
+/// [`baked_houses`] of any generator configuration.
+pub fn baked_houses_from(
+    dir: &Path,
+    cfg: &GenerateConfig,
+    body: minos::body::AgentBody,
+) -> (PathBuf, Vec<String>) {
+    let (root, data) = (dir.join("suncg"), dir.join("DATA"));
+    generate(cfg, OutputFormat::Suncg, &root, false, &NoProgress).expect("generate");
     let report = ingest(&IngestConfig::suncg(&root, &data), &NoProgress).expect("ingest");
     let ids: Vec<String> = report.scenes.iter().map(|(r, _)| r.id.clone()).collect();
     let bake = BakeConfig {

@@ -59,7 +59,8 @@ pub fn point(obj: &Bound<'_, PyAny>) -> PyResult<Vec3> {
     }
 }
 
-/// An agent preset by name (`habitat`, `minos`/`minos-continuous`, `minos-gridworld`).
+/// An agent preset by name (`habitat`, `minos`/`minos-continuous`, `minos-gridworld`,
+/// `minos-paper`).
 pub fn preset(name: &str) -> PyResult<AgentPreset> {
     name.parse::<AgentPreset>().map_err(msg_err)
 }
@@ -81,16 +82,23 @@ pub fn path_of(obj: &Bound<'_, PyAny>) -> PyResult<PathBuf> {
     obj.extract::<PathBuf>()
 }
 
-/// The sensor suite `sensors` names: `None` or `"minos"` (MINOS's RGB, depth and semantic
-/// at `size`² with 4 contacts, the CLI's default), `"all"` (every modality), or a sensor
+/// The sensor suite `sensors` names: `None` (the agent preset's default, as the CLI's:
+/// `"minos-paper"` for `minos-paper`, else `"minos"`), `"minos"` (MINOS's RGB, depth and
+/// semantic at `size`² with 4 contacts), `"minos-paper"` (the paper's grey,
+/// depth and semantic at 90° with 4 contacts), `"all"` (every modality), or a sensor
 /// file (TOML/JSON, as `--sensors FILE`).
-pub fn sensor_suite(sensors: Option<&Bound<'_, PyAny>>, size: u32) -> PyResult<SensorSuite> {
+pub fn sensor_suite(
+    sensors: Option<&Bound<'_, PyAny>>,
+    size: u32,
+    preset: AgentPreset,
+) -> PyResult<SensorSuite> {
     let Some(obj) = sensors.filter(|o| !o.is_none()) else {
-        return Ok(SensorSuite::minos(size));
+        return Ok(SensorSuite::for_preset(preset, size));
     };
     if let Ok(s) = obj.cast::<PyString>() {
         match s.to_str()? {
             "minos" => return Ok(SensorSuite::minos(size)),
+            "minos-paper" => return Ok(SensorSuite::minos_paper(size)),
             "all" => return Ok(SensorSuite::all(size)),
             _ => {}
         }

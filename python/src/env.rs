@@ -216,7 +216,7 @@ impl VecCore {
             eps = eps.into_iter().map(|e| e.on_variant(name)).collect();
         }
         let body = AgentConfig::preset(preset(agent)?);
-        let suite = sensor_suite(sensors, size)?;
+        let suite = sensor_suite(sensors, size, preset(agent)?)?;
         let renderer = crate::convert::renderer(renderer)?;
         let reward = Reward::from_name(reward).ok_or_else(|| {
             msg_err(format!(

@@ -289,7 +289,7 @@ pub fn bake<'py>(
 /// Habitat-Lab's layout too). Options as the CLI's flags. Returns the statistics (total,
 /// means, rejected draws, per scene) with `out` and `stats`.
 #[pyfunction]
-#[pyo3(signature = (data, task, out, split = None, subset = None, variant = None, preset = "habitat", allow_body_mismatch = false, per_scene = 10, seed = 0, min_island_radius = 1.5, success_radius = 0.2, categories = vec!["door".to_string(), "arch".to_string()], room_types = vec!["any".to_string()], select = "any", min_geodesic = 1.0, max_geodesic = 30.0, ratio_rule = true, min_doors = 0, min_rooms = 0, same_level = false, bins = (3.0, 6.0), stratify = "auto", max_steps = 500, shard = "0/1", export_habitat = None, scene_prefix = "", scene_suffix = "", threads = None, progress = None))]
+#[pyo3(signature = (data, task, out, split = None, subset = None, variant = None, preset = "habitat", allow_body_mismatch = false, per_scene = 10, seed = 0, min_island_radius = 1.5, success_radius = None, categories = vec!["door".to_string(), "arch".to_string()], room_types = vec!["any".to_string()], select = "any", min_geodesic = 1.0, max_geodesic = 30.0, ratio_rule = true, min_doors = 0, min_rooms = 0, same_level = false, bins = (3.0, 6.0), stratify = "auto", max_steps = 500, shard = "0/1", export_habitat = None, scene_prefix = "", scene_suffix = "", threads = None, progress = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn sample_episodes<'py>(
     py: Python<'py>,
@@ -304,7 +304,7 @@ pub fn sample_episodes<'py>(
     per_scene: usize,
     seed: u64,
     min_island_radius: f32,
-    success_radius: f32,
+    success_radius: Option<f32>,
     categories: Vec<String>,
     room_types: Vec<String>,
     select: &str,
@@ -372,7 +372,13 @@ pub fn sample_episodes<'py>(
             )))
         }
     };
-    let body = crate::convert::preset(preset)?.body();
+    let agent_preset = crate::convert::preset(preset)?;
+    let body = agent_preset.body();
+    // As `minos episodes`: MINOS's 0.4 m for PointGoal of MINOS's presets, else 0.2 m.
+    let success_radius = success_radius.unwrap_or(match task {
+        Task::PointGoal => agent_preset.point_goal_radius(),
+        Task::ObjectGoal | Task::RoomGoal => SampleConfig::default().success_radius,
+    });
     let shard: Shard = crate::convert::shard(shard)?;
     let habitat_export = export_habitat
         .filter(|e| !e.is_none())
@@ -581,7 +587,7 @@ pub fn run<'py>(
     let episodes_file = path_of(episodes)?;
     let out = path_of(out)?;
     let preset_value = crate::convert::preset(preset)?;
-    let sensors = sensor_suite(sensors, size)?;
+    let sensors = sensor_suite(sensors, size, preset_value)?;
     let shard = crate::convert::shard(shard)?;
     let reward = Reward::from_name(reward).ok_or_else(|| {
         msg_err(format!(

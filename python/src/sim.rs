@@ -232,7 +232,7 @@ impl Simulator {
     ) -> PyResult<Self> {
         let data = DataDir::new(crate::convert::path_of(data)?);
         let body = AgentConfig::preset(preset(agent)?);
-        let suite: SensorSuite = sensor_suite(sensors, size)?;
+        let suite: SensorSuite = sensor_suite(sensors, size, preset(agent)?)?;
         let choice = crate::convert::renderer(renderer)?;
         let loaded = py
             .detach(|| load_scene(&data, scene, &body, choice, allow_body_mismatch))

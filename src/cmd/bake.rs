@@ -41,8 +41,8 @@ pub struct Args {
     /// Bake only the scenes of this split (all subsets); default: every ingested scene.
     #[arg(long, value_name = "NAME")]
     split: Option<String>,
-    /// Agent preset whose body the grids are for: habitat (1.5 m), minos or minos-gridworld
-    /// (MINOS's 1.19 m body).
+    /// Agent preset whose body the grids are for: habitat (1.5 m), minos, minos-gridworld or
+    /// minos-paper (MINOS's 1.19 m body).
     #[arg(long, value_enum, default_value_t)]
     preset: PresetArg,
     /// Cell edge in metres (MINOS used 0.1).

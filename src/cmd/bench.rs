@@ -66,7 +66,8 @@ pub struct Args {
     /// Renderer of `render` and `run`.
     #[arg(long, value_enum, default_value = "cpu")]
     renderer: RendererArg,
-    /// Sensor file (TOML or JSON); default: RGB, depth and semantic cameras at --size.
+    /// Sensor file (TOML or JSON); default: RGB, depth and semantic cameras at --size (grey,
+    /// depth and semantic at 90° for --preset minos-paper).
     #[arg(long)]
     sensors: Option<PathBuf>,
     /// Image size of the default sensors.
@@ -112,7 +113,9 @@ pub fn config(args: &Args) -> anyhow::Result<BenchConfig> {
             Which::Run => BenchKind::Run,
         },
         agent: AgentConfig::preset(AgentPreset::from(args.preset)),
-        sensors: sensor_suite(args.sensors.as_deref(), || SensorSuite::minos(args.size))?,
+        sensors: sensor_suite(args.sensors.as_deref(), || {
+            SensorSuite::for_preset(AgentPreset::from(args.preset), args.size)
+        })?,
         renderer: args.renderer.into(),
         frames: args.frames,
         episodes: args.episodes,

@@ -100,6 +100,9 @@ pub enum PresetArg {
     Minos,
     /// MINOS's gridworld agent: 1.19 m body, 0.4 m steps, 90° turns.
     MinosGridworld,
+    /// The MINOS paper's agent: MINOS's continuous agent with forward / turn left / turn
+    /// right only, 0.4 m PointGoal radius, grey 90° camera (with depth and semantic).
+    MinosPaper,
 }
 
 impl From<PresetArg> for AgentPreset {
@@ -108,6 +111,7 @@ impl From<PresetArg> for AgentPreset {
             PresetArg::Habitat => AgentPreset::Habitat,
             PresetArg::Minos => AgentPreset::Minos,
             PresetArg::MinosGridworld => AgentPreset::MinosGridworld,
+            PresetArg::MinosPaper => AgentPreset::MinosPaper,
         }
     }
 }

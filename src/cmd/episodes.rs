@@ -131,9 +131,10 @@ pub struct SampleArgs {
     /// Smallest island radius for starts (m).
     #[arg(long, default_value_t = 1.5)]
     min_island_radius: f32,
-    /// Success radius (m); MINOS used 0.25 (objects) and 0.4 (points).
-    #[arg(long, default_value_t = 0.2)]
-    success_radius: f32,
+    /// Success radius (m); MINOS used 0.25 (objects) and 0.4 (points). Default: 0.4 for
+    /// PointGoal episodes of MINOS's presets (minos, minos-gridworld, minos-paper), else 0.2.
+    #[arg(long)]
+    success_radius: Option<f32>,
     /// ObjectGoal categories, comma-separated (MINOS used doors).
     #[arg(long, value_delimiter = ',', default_value = "door,arch")]
     categories: Vec<String>,
@@ -154,7 +155,7 @@ pub struct SampleArgs {
     /// probability 20·(ratio−0.98)²).
     #[arg(long)]
     no_ratio_rule: bool,
-    /// Fewest doors on the shortest path (MINOS).
+    /// Fewest doorways (doors and arches) on the shortest path (MINOS).
     #[arg(long, default_value_t = 0)]
     min_doors: u32,
     /// Fewest rooms on the shortest path (MINOS).
@@ -310,7 +311,10 @@ pub fn config(a: &SampleArgs) -> anyhow::Result<EpisodesJob> {
         per_scene: a.per_scene,
         seed: a.seed,
         min_island_radius: a.min_island_radius,
-        success_radius: a.success_radius,
+        success_radius: a.success_radius.unwrap_or(match task {
+            TaskArg::Pointgoal => AgentPreset::from(a.preset).point_goal_radius(),
+            TaskArg::Objectgoal | TaskArg::Roomgoal => SampleConfig::default().success_radius,
+        }),
         categories: a.categories.clone(),
         room_classes,
         select: match a.select {
@@ -492,6 +496,34 @@ mod tests {
         assert_eq!(job.scenes.len(), 3);
         assert!(!job.sample.stratified);
         assert_eq!(job.scene_names, SceneIdStyle::default());
+    }
+
+    #[test]
+    fn point_goals_of_minos_presets_get_minos_success_radius() {
+        let dir = tempfile::tempdir().unwrap();
+        let data = DataDir::new(dir.path());
+        let lists = minos::split::SplitLists {
+            train: vec!["a".into()],
+            val: vec![],
+            test: vec![],
+        };
+        minos::split::write_split(&data, "s", &lists).unwrap();
+        let radius = |extra: &str| {
+            let line = format!(
+                "--data {} --split s --out o.parquet {extra}",
+                dir.path().display()
+            );
+            config_of(&line).unwrap().sample.success_radius
+        };
+        assert_eq!(radius("--task pointgoal"), 0.2, "Habitat's");
+        for preset in ["minos", "minos-gridworld", "minos-paper"] {
+            assert_eq!(radius(&format!("--task pointgoal --preset {preset}")), 0.4);
+            assert_eq!(radius(&format!("--task objectgoal --preset {preset}")), 0.2);
+        }
+        assert_eq!(
+            radius("--task pointgoal --preset minos-paper --success-radius 0.3"),
+            0.3
+        );
     }
 
     #[test]

@@ -95,7 +95,8 @@ pub struct Args {
     /// Run on grids baked for another body than --preset's (recorded in manifest.json).
     #[arg(long)]
     allow_body_mismatch: bool,
-    /// Sensor file (TOML/JSON); default: MINOS's RGB, depth, semantic at --size and 4 contacts.
+    /// Sensor file (TOML/JSON); default: MINOS's RGB, depth, semantic at --size and 4 contacts
+    /// (grey, depth and semantic at 90° for --preset minos-paper).
     #[arg(long)]
     sensors: Option<PathBuf>,
     /// Image size of the default sensors.
@@ -195,7 +196,9 @@ pub fn config(args: &Args) -> anyhow::Result<(RunConfig, Vec<Episode>)> {
     let data = DataDir::new(&args.data);
     let agent = agent_kind(&args.agent)?;
     let preset = AgentPreset::from(args.preset);
-    let sensors = sensor_suite(args.sensors.as_deref(), || SensorSuite::minos(args.size))?;
+    let sensors = sensor_suite(args.sensors.as_deref(), || {
+        SensorSuite::for_preset(preset, args.size)
+    })?;
     let mut episodes = read_episodes(&args.episodes)?;
     if let Some(name) = &args.variant {
         data.read_variant(name)
@@ -257,11 +260,13 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     }
     let steps: u32 = report.episodes.iter().map(|(_, m)| m.steps).sum();
     ctx.say(render_table(&report.groups));
+    // Failed episodes are in every count and rate above (as failures), and named here.
     ctx.say(format!(
-        "{} episodes ({} resumed, {} failed), {steps} steps in {:.1} s ({:.0} steps/s) -> {}",
-        report.episodes.len(),
-        report.resumed,
+        "{} episodes ({} failed with an error, counted as failures; {} resumed), {steps} steps \
+         in {:.1} s ({:.0} steps/s) -> {}",
+        report.episodes.len() + report.failures.len(),
         report.failures.len(),
+        report.resumed,
         start.elapsed().as_secs_f64(),
         f64::from(steps) / start.elapsed().as_secs_f64(),
         cfg.out.display()

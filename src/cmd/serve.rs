@@ -63,7 +63,8 @@ pub struct Args {
     /// Agent preset (body and motion); the grids must be baked for its body.
     #[arg(long, value_enum, default_value_t)]
     preset: PresetArg,
-    /// Sensor file (TOML/JSON); default: MINOS's RGB, depth, semantic at --size.
+    /// Sensor file (TOML/JSON); default: MINOS's RGB, depth, semantic at --size (grey,
+    /// depth and semantic at 90° for --preset minos-paper).
     #[arg(long)]
     sensors: Option<PathBuf>,
     /// Image size of the default sensors.
@@ -104,7 +105,9 @@ pub fn config(args: &Args) -> anyhow::Result<(ServeConfig, SocketAddr)> {
         None => Vec::new(),
     };
     let preset = AgentPreset::from(args.preset);
-    let sensors = sensor_suite(args.sensors.as_deref(), || SensorSuite::minos(args.size))?;
+    let sensors = sensor_suite(args.sensors.as_deref(), || {
+        SensorSuite::for_preset(preset, args.size)
+    })?;
     let shared = Shared {
         data,
         episodes,

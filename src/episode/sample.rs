@@ -64,7 +64,7 @@ pub struct SampleConfig {
     /// Habitat's rule: pairs with geodesic/Euclidean < 1.1 are kept with probability
     /// 20·(ratio − 0.98)².
     pub ratio_rule: bool,
-    /// Fewest doors on the shortest path (MINOS).
+    /// Fewest doorways (doors and arches) on the shortest path (MINOS).
     pub min_doors: u32,
     /// Fewest rooms on the shortest path (MINOS).
     pub min_rooms: u32,

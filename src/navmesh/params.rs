@@ -140,8 +140,8 @@ impl NavParams {
     }
 }
 
-/// Parameters from a TOML file: an optional `preset = "habitat" | "minos" | "minos-gridworld"`
-/// (the agent preset whose body the grid is for) and any stored field of [`NavParams`]
+/// Parameters from a TOML file: an optional `preset = "habitat" | "minos" | "minos-gridworld" |
+/// "minos-paper"` (the agent preset whose body the grid is for) and any stored field of [`NavParams`]
 /// overriding it, e.g. `cell_size = 0.1` or `agent_height = 1.3`.
 pub fn params_from_toml(text: &str, base: NavParams) -> Result<NavParams, String> {
     let mut table: toml::Table = text

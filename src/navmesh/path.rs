@@ -34,8 +34,8 @@ pub struct Path {
     /// Room indices (into [`NavGrid::rooms`]) passed in order; consecutive duplicates and
     /// spans outside rooms removed.
     pub rooms: Vec<u32>,
-    /// Door object indices (into [`NavGrid::objects`]) whose spans the path passes, in order
-    /// of first passage, without duplicates.
+    /// Doorway object indices (into [`NavGrid::objects`]: doors and arches) whose spans the
+    /// path passes, in order of first passage, without duplicates.
     pub doors: Vec<u32>,
 }
 
@@ -292,7 +292,12 @@ fn rooms_and_doors(grid: &NavGrid, chain: &[u32]) -> (Vec<u32>, Vec<u32>) {
             if t != s {
                 break;
             }
-            let is_door = grid.objects.get(o as usize).is_some_and(|obj| obj.door);
+            // Doorways: doors and arches (MINOS's door categories, `arch` and `door`; a
+            // generated house joins open-plan rooms with arches).
+            let is_door = grid
+                .objects
+                .get(o as usize)
+                .is_some_and(|obj| obj.door || obj.arch);
             if is_door && !doors.contains(&o) {
                 doors.push(o);
             }
@@ -442,6 +447,13 @@ mod tests {
         let back = found(shortest_path(&grid, to, from));
         assert_eq!(back.rooms, vec![0, 1, 2]);
         assert_eq!(back.doors, vec![d, e]);
+        // An arch is a doorway too.
+        let mut arched = grid.clone();
+        arched.objects[d as usize].door = false;
+        arched.objects[d as usize].arch = true;
+        assert_eq!(found(shortest_path(&arched, from, to)).doors, vec![e, d]);
+        arched.objects[d as usize].arch = false;
+        assert_eq!(found(shortest_path(&arched, from, to)).doors, vec![e]);
         // Through the table's span: it is recorded, but is not a door.
         let via_table = found(shortest_path(
             &grid,

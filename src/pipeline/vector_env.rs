@@ -23,7 +23,7 @@ use crate::run::agents::{Agent, AgentError, Decision};
 use crate::run::metrics::Reward;
 use crate::run::oracle::OracleAgent;
 use crate::run::stepper::{
-    step_many, ActionSet, Command, EpisodeStepper, StepError, StepperConfig, DEFAULT_MAX_STEPS,
+    step_many, ActionSpace, Command, EpisodeStepper, StepError, StepperConfig, DEFAULT_MAX_STEPS,
 };
 use crate::seed::{derive_seed, Rng};
 use crate::sim::simulator::prepare_render;
@@ -157,7 +157,7 @@ pub struct VectorEnv {
     sensors: SensorSuite,
     seed: u64,
     stepping: StepperConfig,
-    actions: ActionSet,
+    actions: ActionSpace,
     steppers: Vec<EpisodeStepper>,
     slots: Vec<Slot>,
     pool: Option<rayon::ThreadPool>,
@@ -231,7 +231,7 @@ impl VectorEnv {
             sensors: cfg.sensors.clone(),
             seed: cfg.seed,
             stepping,
-            actions: ActionSet::of(&cfg.body.motion),
+            actions: ActionSpace::of(&cfg.body),
             steppers: Vec::with_capacity(cfg.num_envs),
             slots: Vec::with_capacity(cfg.num_envs),
             pool,
@@ -451,7 +451,7 @@ impl VectorEnv {
     }
 
     /// The action set (the motion model's single actions, then `stop`).
-    pub fn action_set(&self) -> ActionSet {
+    pub fn action_set(&self) -> ActionSpace {
         self.actions
     }
 

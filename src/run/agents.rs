@@ -121,10 +121,10 @@ pub trait Agent: Send {
     }
 }
 
-/// The single actions an agent of the simulator's motion model chooses among
-/// ([`Motion::actions`](crate::sim::agent::Motion::actions)).
+/// The single actions an agent of this simulator chooses among (the agent's
+/// [`AgentConfig::action_names`](crate::sim::AgentConfig::action_names)).
 pub fn action_set(sim: &Simulator) -> &'static [&'static str] {
-    sim.agent().motion.actions()
+    sim.agent().action_names()
 }
 
 /// Uniformly random actions, seeded per episode.

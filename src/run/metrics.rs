@@ -135,11 +135,17 @@ impl EpisodeMetrics {
     }
 }
 
-/// Means over a group of episodes.
+/// Means over a group of episodes. Episodes that failed with an error (the oracle found no
+/// plan, an external agent crashed, the scene did not load) count in `episodes` and
+/// `failed`, and as failures (0) in `success`, `speed`, `spl` and `soft_spl`: rates are over
+/// every episode attempted, never over the survivors. Path length, steps and collisions are
+/// means over the episodes that ran to their end (`episodes - failed`).
 #[derive(Debug, Clone, Default, PartialEq, Serialize)]
 pub struct Aggregate {
-    /// Episodes.
+    /// Episodes attempted (finished and failed).
     pub episodes: usize,
+    /// Episodes that failed with an error.
+    pub failed: usize,
     /// Success rate.
     pub success: f64,
     /// Mean MINOS speed.
@@ -148,20 +154,24 @@ pub struct Aggregate {
     pub spl: f64,
     /// Mean SoftSPL.
     pub soft_spl: f64,
-    /// Mean path length (m).
+    /// Mean path length (m) of the finished episodes.
     pub path_length: f64,
-    /// Mean steps.
+    /// Mean steps of the finished episodes.
     pub steps: f64,
-    /// Mean collisions.
+    /// Mean collisions of the finished episodes.
     pub collisions: f64,
 }
 
 impl Aggregate {
-    /// Means of `metrics`.
-    pub fn of<'a>(metrics: impl Iterator<Item = &'a EpisodeMetrics>) -> Self {
+    /// Means of `metrics`; `None` is an episode that failed with an error.
+    pub fn of<'a>(metrics: impl Iterator<Item = Option<&'a EpisodeMetrics>>) -> Self {
         let mut a = Aggregate::default();
         for m in metrics {
             a.episodes += 1;
+            let Some(m) = m else {
+                a.failed += 1;
+                continue;
+            };
             a.success += f64::from(u8::from(m.success));
             a.speed += f64::from(m.speed);
             a.spl += f64::from(m.spl);
@@ -170,26 +180,29 @@ impl Aggregate {
             a.steps += f64::from(m.steps);
             a.collisions += f64::from(m.collisions);
         }
-        let n = a.episodes.max(1) as f64;
-        for v in [
-            &mut a.success,
-            &mut a.speed,
-            &mut a.spl,
-            &mut a.soft_spl,
-            &mut a.path_length,
-            &mut a.steps,
-            &mut a.collisions,
-        ] {
-            *v /= n;
+        let all = a.episodes.max(1) as f64;
+        for v in [&mut a.success, &mut a.speed, &mut a.spl, &mut a.soft_spl] {
+            *v /= all;
+        }
+        let finished = (a.episodes - a.failed).max(1) as f64;
+        for v in [&mut a.path_length, &mut a.steps, &mut a.collisions] {
+            *v /= finished;
         }
         a
     }
 }
 
+/// One episode for [`aggregate`]: task, split, difficulty and its metrics (`None` when it
+/// failed with an error).
+pub type MetricRow = (String, String, String, Option<EpisodeMetrics>);
+
 /// Aggregates keyed by group name (`all`, `task=…`, `split=…`, `difficulty=…`).
-pub fn aggregate(rows: &[(String, String, String, EpisodeMetrics)]) -> BTreeMap<String, Aggregate> {
+pub fn aggregate(rows: &[MetricRow]) -> BTreeMap<String, Aggregate> {
     let mut out = BTreeMap::new();
-    out.insert("all".to_string(), Aggregate::of(rows.iter().map(|r| &r.3)));
+    out.insert(
+        "all".to_string(),
+        Aggregate::of(rows.iter().map(|r| r.3.as_ref())),
+    );
     for (k, f) in [("task", 0usize), ("split", 1), ("difficulty", 2)] {
         let mut values: Vec<&String> = rows.iter().map(|r| [&r.0, &r.1, &r.2][f]).collect();
         values.sort();
@@ -200,7 +213,7 @@ pub fn aggregate(rows: &[(String, String, String, EpisodeMetrics)]) -> BTreeMap<
                 Aggregate::of(
                     rows.iter()
                         .filter(|r| [&r.0, &r.1, &r.2][f] == v)
-                        .map(|r| &r.3),
+                        .map(|r| r.3.as_ref()),
                 ),
             );
         }
@@ -208,17 +221,19 @@ pub fn aggregate(rows: &[(String, String, String, EpisodeMetrics)]) -> BTreeMap<
     out
 }
 
-/// The printed table of aggregates.
+/// The printed table of aggregates (`failed`: episodes that failed with an error, counted
+/// as failures in every rate).
 pub fn render_table(groups: &BTreeMap<String, Aggregate>) -> String {
     let mut s = format!(
-        "{:<24}{:>9}{:>9}{:>8}{:>8}{:>9}{:>9}{:>8}\n",
-        "group", "episodes", "success", "SPL", "SoftSPL", "speed", "path m", "coll."
+        "{:<24}{:>9}{:>8}{:>9}{:>8}{:>8}{:>9}{:>9}{:>8}\n",
+        "group", "episodes", "failed", "success", "SPL", "SoftSPL", "speed", "path m", "coll."
     );
     for (k, a) in groups {
         s.push_str(&format!(
-            "{:<24}{:>9}{:>8.1}%{:>8.3}{:>8.3}{:>9.3}{:>9.2}{:>8.1}\n",
+            "{:<24}{:>9}{:>8}{:>8.1}%{:>8.3}{:>8.3}{:>9.3}{:>9.2}{:>8.1}\n",
             k,
             a.episodes,
+            a.failed,
             100.0 * a.success,
             a.spl,
             a.soft_spl,
@@ -251,5 +266,44 @@ mod tests {
                 .abs()
                 < 1e-5
         );
+    }
+
+    #[test]
+    fn failed_episodes_count_as_failures_in_every_rate() {
+        let ok = EpisodeMetrics::finish(true, 50, 500, 10.0, 2, 8.0, 0.1);
+        let row = |task: &str, m: Option<EpisodeMetrics>| {
+            (task.to_string(), "val".to_string(), "easy".to_string(), m)
+        };
+        let rows = vec![
+            row("pointgoal", Some(ok)),
+            row("pointgoal", None),
+            row("objectgoal", None),
+        ];
+        let groups = aggregate(&rows);
+        let all = &groups["all"];
+        assert_eq!((all.episodes, all.failed), (3, 2));
+        assert!((all.success - 1.0 / 3.0).abs() < 1e-12, "{}", all.success);
+        assert!((all.spl - 0.8 / 3.0).abs() < 1e-6, "{}", all.spl);
+        assert!((all.speed - 0.9 / 3.0).abs() < 1e-6, "{}", all.speed);
+        // Means of what happened in an episode are over the finished ones.
+        assert_eq!(
+            (all.steps, all.path_length, all.collisions),
+            (50.0, 10.0, 2.0)
+        );
+        let point = &groups["task=pointgoal"];
+        assert_eq!((point.episodes, point.failed), (2, 1));
+        assert!((point.success - 0.5).abs() < 1e-12);
+        let object = &groups["task=objectgoal"];
+        assert_eq!(
+            (object.episodes, object.failed, object.success),
+            (1, 1, 0.0)
+        );
+        let table = render_table(&groups);
+        let line = table
+            .lines()
+            .find(|l| l.starts_with("all "))
+            .expect("an `all` row");
+        assert!(line.contains("33.3%"), "{table}");
+        assert!(!table.contains("100.0%"), "{table}");
     }
 }

@@ -21,8 +21,8 @@ pub use crate::episode::interchange::DEFAULT_MAX_STEPS;
 use crate::episode::Episode;
 use crate::navmesh::geodesic::Geodesic;
 use crate::render::gpu::GpuError;
-use crate::sim::agent::Motion;
 use crate::sim::batch::observe_many;
+use crate::sim::AgentConfig;
 use crate::sim::{Actions, Observation, Simulator};
 
 use super::agents::{Decision, STOP};
@@ -51,17 +51,17 @@ pub enum StepError {
 }
 
 /// The discrete actions of a motion model as environments number them: the model's single
-/// actions ([`Motion::actions`]), then [`STOP`].
+/// actions ([`AgentConfig::action_names`]: its preset's action set), then [`STOP`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct ActionSet {
+pub struct ActionSpace {
     singles: &'static [&'static str],
 }
 
-impl ActionSet {
+impl ActionSpace {
     /// The action set of `motion`.
-    pub fn of(motion: &Motion) -> ActionSet {
-        ActionSet {
-            singles: motion.actions(),
+    pub fn of(agent: &AgentConfig) -> ActionSpace {
+        ActionSpace {
+            singles: agent.action_names(),
         }
     }
 
@@ -200,8 +200,8 @@ impl EpisodeStepper {
     }
 
     /// The action set of the simulator's motion model.
-    pub fn action_set(&self) -> ActionSet {
-        ActionSet::of(&self.sim.agent().motion)
+    pub fn action_set(&self) -> ActionSpace {
+        ActionSpace::of(self.sim.agent())
     }
 
     /// The current episode (`None` before the first reset).

@@ -33,30 +33,29 @@ pub enum Motion {
     },
 }
 
-impl Motion {
-    /// The single actions an agent of this motion model chooses among (names of
-    /// [`Actions::NAMES`], in that order): forward and the two turns for discrete moves,
-    /// forward, backward, both strafes and both turns for continuous motion. Agents, the Gym
-    /// environments and the episode stepper's action set all take this list.
-    pub fn actions(&self) -> &'static [&'static str] {
-        match self {
-            Motion::Discrete { .. } => &["forward", "turn_left", "turn_right"],
-            Motion::Continuous { .. } => &[
-                "forward",
-                "backward",
-                "strafe_left",
-                "strafe_right",
-                "turn_left",
-                "turn_right",
-            ],
-        }
+/// The single actions an agent chooses among (random and oracle agents, Gym action spaces).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ActionSet {
+    /// The motion model's own: forward and turns for discrete agents; forward, backward,
+    /// strafes and turns for continuous ones.
+    #[default]
+    Motion,
+    /// Forward, turn left and turn right only: the agent of the MINOS paper's experiments.
+    ForwardTurn,
+}
+
+impl ActionSet {
+    fn is_motion(&self) -> bool {
+        *self == ActionSet::Motion
     }
 }
 
 /// The agent's body, motion model and timing.
 ///
 /// In files (the run manifest) the body's fields are written flat: `radius`, `height`,
-/// `eye_height`, `mass`, `max_climb`, `dt`, `look_step_deg`, `motion`.
+/// `eye_height`, `mass`, `max_climb`, `dt`, `look_step_deg`, `motion`, and `actions` when it
+/// is not [`ActionSet::Motion`].
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(from = "AgentFields", into = "AgentFields")]
 pub struct AgentConfig {
@@ -72,6 +71,8 @@ pub struct AgentConfig {
     pub look_step_deg: f32,
     /// Motion model.
     pub motion: Motion,
+    /// The actions agents choose among.
+    pub actions: ActionSet,
 }
 
 /// [`AgentConfig`] as stored: flat fields in this order.
@@ -85,6 +86,8 @@ struct AgentFields {
     dt: f32,
     look_step_deg: f32,
     motion: Motion,
+    #[serde(default, skip_serializing_if = "ActionSet::is_motion")]
+    actions: ActionSet,
 }
 
 impl From<AgentConfig> for AgentFields {
@@ -98,6 +101,7 @@ impl From<AgentConfig> for AgentFields {
             dt: a.dt,
             look_step_deg: a.look_step_deg,
             motion: a.motion,
+            actions: a.actions,
         }
     }
 }
@@ -115,6 +119,7 @@ impl From<AgentFields> for AgentConfig {
             dt: f.dt,
             look_step_deg: f.look_step_deg,
             motion: f.motion,
+            actions: f.actions,
         }
     }
 }
@@ -138,6 +143,17 @@ impl AgentConfig {
                 max_angular_speed: 4.0 * std::f32::consts::PI,
                 angular_friction: 1.0,
             },
+            actions: ActionSet::Motion,
+        }
+    }
+
+    /// The MINOS paper's agent: MINOS's continuous agent ([`AgentConfig::minos_continuous`]:
+    /// body, 1.09 m eye, forces and friction) choosing only among forward, turn left and
+    /// turn right ([`ActionSet::ForwardTurn`]).
+    pub fn minos_paper() -> Self {
+        AgentConfig {
+            actions: ActionSet::ForwardTurn,
+            ..Self::minos_continuous()
         }
     }
 
@@ -172,6 +188,25 @@ impl AgentConfig {
             AgentPreset::Habitat => Self::habitat(),
             AgentPreset::Minos => Self::minos_continuous(),
             AgentPreset::MinosGridworld => Self::minos_gridworld(),
+            AgentPreset::MinosPaper => Self::minos_paper(),
+        }
+    }
+
+    /// The names of the single actions agents choose among ([`AgentConfig::actions`]), in a
+    /// fixed order (see [`Actions::single`]).
+    pub fn action_names(&self) -> &'static [&'static str] {
+        match (self.actions, self.motion) {
+            (ActionSet::ForwardTurn, _) | (ActionSet::Motion, Motion::Discrete { .. }) => {
+                &["forward", "turn_left", "turn_right"]
+            }
+            (ActionSet::Motion, Motion::Continuous { .. }) => &[
+                "forward",
+                "backward",
+                "strafe_left",
+                "strafe_right",
+                "turn_left",
+                "turn_right",
+            ],
         }
     }
 }

@@ -4,6 +4,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::body::AgentPreset;
 pub use crate::render::image::{Image, Modality};
 use crate::render::{Frame, RenderScene, Taxonomy};
 use crate::seed::Rng;
@@ -141,6 +142,32 @@ impl SensorSuite {
                 count: 4,
                 height: 0.3,
             }),
+        }
+    }
+
+    /// The MINOS paper's suite at `size`² (84 in its experiments): a grey camera, depth
+    /// (float m) and semantic (NYU-40), all with a 90° vertical field of view, and 4 contact
+    /// sensors at 0.3 m.
+    pub fn minos_paper(size: u32) -> Self {
+        let mut s = Self::minos(size);
+        for c in &mut s.cameras {
+            c.vfov = 90.0;
+            if c.modality == Modality::Color {
+                c.name = "gray".into();
+                c.modality = Modality::Gray;
+            }
+        }
+        s
+    }
+
+    /// The default suite of an agent preset at `size`²: [`SensorSuite::minos_paper`] for
+    /// [`AgentPreset::MinosPaper`], else [`SensorSuite::minos`].
+    pub fn for_preset(preset: AgentPreset, size: u32) -> Self {
+        match preset {
+            AgentPreset::MinosPaper => Self::minos_paper(size),
+            AgentPreset::Habitat | AgentPreset::Minos | AgentPreset::MinosGridworld => {
+                Self::minos(size)
+            }
         }
     }
 

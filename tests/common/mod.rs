@@ -26,6 +26,15 @@ pub fn ingest_into(root: &Path, data: &Path) -> IngestReport {
 /// the default (Habitat) body without previews; returns the DATA folder and the scene ids in
 /// manifest order. Fails the test if a scene does not bake.
 pub fn baked_houses(dir: &Path, cfg: &GenerateConfig) -> (minos::store::DataDir, Vec<String>) {
+    baked_houses_for(dir, cfg, minos::body::AgentPreset::Habitat)
+}
+
+/// [`baked_houses`] with the grids baked for `preset`'s body.
+pub fn baked_houses_for(
+    dir: &Path,
+    cfg: &GenerateConfig,
+    preset: minos::body::AgentPreset,
+) -> (minos::store::DataDir, Vec<String>) {
     let (root, data) = (dir.join("suncg"), dir.join("DATA"));
     generate_into(cfg, &root);
     ingest_into(&root, &data);
@@ -35,7 +44,7 @@ pub fn baked_houses(dir: &Path, cfg: &GenerateConfig) -> (minos::store::DataDir,
         &minos::pipeline::bake::BakeConfig {
             data: data.clone(),
             scenes: ids.iter().map(|id| id.parse().expect("scene id")).collect(),
-            params: minos::navmesh::NavParams::default(),
+            params: minos::navmesh::NavParams::preset(preset),
             force: false,
             previews: false,
         },

@@ -29,9 +29,9 @@ use crate::io::tables::{
     write_trajectory_pieces,
 };
 use crate::lock::{DirLock, LockMode};
-use crate::pipeline::rollout::{write_lerobot, write_metrics};
+use crate::pipeline::rollout::{write_lerobot, write_metrics, FailedEpisode};
 use crate::progress::Progress;
-use crate::run::metrics::{aggregate, EpisodeMetrics};
+use crate::run::metrics::{aggregate, EpisodeMetrics, MetricRow};
 use crate::shard::Shard;
 
 /// Where a run merge writes, and how.
@@ -55,7 +55,7 @@ struct ShardRun {
     dir: PathBuf,
     manifest: Value,
     episodes: RecordBatch,
-    failures: Vec<(String, String)>,
+    failures: Vec<FailedEpisode>,
     lerobot: bool,
 }
 
@@ -90,9 +90,17 @@ fn read_shard(dir: &Path) -> Result<(ShardRun, Shard), MergeError> {
         .iter()
         .map(|f| {
             let field = |k: &str| f.get(k).and_then(Value::as_str).map(str::to_string);
-            field("episode_id")
+            let (id, error) = field("episode_id")
                 .zip(field("error"))
-                .ok_or_else(|| shard_error(&metrics_path, "a failure without episode_id/error"))
+                .ok_or_else(|| shard_error(&metrics_path, "a failure without episode_id/error"))?;
+            // Groups: empty when an older shard did not record them.
+            Ok::<_, MergeError>(FailedEpisode {
+                episode_id: id,
+                error,
+                task: field("task").unwrap_or_default(),
+                split: field("split").unwrap_or_default(),
+                difficulty: field("difficulty").unwrap_or_default(),
+            })
         })
         .collect::<Result<Vec<_>, _>>()?;
     let run = ShardRun {
@@ -178,7 +186,7 @@ fn episode_ids<'a>(batch: &'a RecordBatch, path: &Path) -> Result<&'a StringArra
 }
 
 /// The rows of a merged episode table as the aggregate wants them, with each episode's metrics.
-type MetricRows = (Vec<(String, String, String, EpisodeMetrics)>, Vec<String>);
+type MetricRows = (Vec<MetricRow>, Vec<String>);
 
 fn metric_rows(batch: &RecordBatch, path: &Path) -> Result<MetricRows, MergeError> {
     let s = |n| column::<StringArray>(batch, n, path);
@@ -216,7 +224,7 @@ fn metric_rows(batch: &RecordBatch, path: &Path) -> Result<MetricRows, MergeErro
             task.value(r).to_string(),
             split.value(r).to_string(),
             difficulty.value(r).to_string(),
-            m,
+            Some(m),
         ));
         names.push(ids.value(r).to_string());
     }
@@ -359,17 +367,21 @@ pub fn merge_runs(
 
     // Metrics: aggregates over the merged rows, failures in episode order.
     let (rows, ids) = metric_rows(&merged, &episodes_path)?;
-    let mut failures: Vec<(String, String)> = runs
+    let mut failures: Vec<FailedEpisode> = runs
         .iter()
         .flat_map(|r| r.failures.iter().cloned())
         .collect();
-    failures.sort();
+    failures.sort_by(|a, b| (&a.episode_id, &a.error).cmp(&(&b.episode_id, &b.error)));
     let metrics: Vec<(&str, EpisodeMetrics)> = ids
         .iter()
         .map(String::as_str)
-        .zip(rows.iter().map(|r| r.3))
+        .zip(rows.iter().filter_map(|r| r.3))
         .collect();
-    write_metrics(out, &aggregate(&rows), &metrics, &failures).map_err(write_error)?;
+    // Failed episodes count as failures in their groups (they add nothing to any sum, so
+    // where they sit among the rows changes no byte).
+    let mut all_rows = rows.clone();
+    all_rows.extend(failures.iter().map(FailedEpisode::metric_row));
+    write_metrics(out, &aggregate(&all_rows), &metrics, &failures).map_err(write_error)?;
     progress.advance(1);
 
     // Trajectories: each episode's rows from its shard, re-batched as a run joins its parts.
@@ -429,7 +441,7 @@ pub fn merge_runs(
     let mut recorded = 0;
     if let Some(rerun) = &opts.rerun {
         let mut everyone: Vec<&str> = owner.keys().map(String::as_str).collect();
-        everyone.extend(failures.iter().map(|(id, _)| id.as_str()));
+        everyone.extend(failures.iter().map(|f| f.episode_id.as_str()));
         everyone.sort_unstable();
         let wanted: Vec<&str> = everyone
             .into_iter()

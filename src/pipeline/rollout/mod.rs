@@ -30,7 +30,7 @@ use crate::lock::{DirLock, LockError, LockMode};
 use crate::navmesh::geodesic::Geodesic;
 use crate::progress::Progress;
 use crate::run::agents::Decision;
-use crate::run::metrics::{aggregate, Aggregate, EpisodeMetrics, Reward};
+use crate::run::metrics::{aggregate, Aggregate, EpisodeMetrics, MetricRow, Reward};
 use crate::shard::Shard;
 use crate::sim::{AgentConfig, SensorSuite};
 use crate::store::DataDir;
@@ -472,19 +472,33 @@ fn finish(
         &cfg.out.join("observations.parquet"),
     )
     .map_err(RolloutError::Table)?;
-    let rows: Vec<(String, String, String, EpisodeMetrics)> = report
+    // Every episode of the shard, in episode order: failed ones count as failures.
+    let ran: BTreeMap<&str, EpisodeMetrics> = report
         .episodes
         .iter()
-        .map(|(e, m)| {
+        .map(|(e, m)| (e.episode_id.as_str(), *m))
+        .collect();
+    let rows: Vec<MetricRow> = mine
+        .iter()
+        .map(|(_, e)| {
             (
                 e.task.name().to_string(),
                 e.split.clone(),
                 e.difficulty.name().to_string(),
-                *m,
+                ran.get(e.episode_id.as_str()).copied(),
             )
         })
         .collect();
     report.groups = aggregate(&rows);
+    let by_id: BTreeMap<&str, &Episode> = mine
+        .iter()
+        .map(|(_, e)| (e.episode_id.as_str(), e))
+        .collect();
+    let failures: Vec<FailedEpisode> = report
+        .failures
+        .iter()
+        .map(|(id, error)| FailedEpisode::new(id, error, by_id.get(id.as_str()).copied()))
+        .collect();
     crate::io::tables::write_episode_table(&cfg.out.join("episodes.parquet"), &report.episodes)
         .map_err(RolloutError::Table)?;
     let metrics: Vec<(&str, EpisodeMetrics)> = report
@@ -492,7 +506,7 @@ fn finish(
         .iter()
         .map(|(e, m)| (e.episode_id.as_str(), *m))
         .collect();
-    write_metrics(&cfg.out, &report.groups, &metrics, &report.failures)?;
+    write_metrics(&cfg.out, &report.groups, &metrics, &failures)?;
     if let Some(rerun) = &cfg.rerun {
         let recordings: Vec<PathBuf> = kept
             .iter()
@@ -508,18 +522,58 @@ fn finish(
     manifest::write(cfg)
 }
 
-/// Writes `out/metrics.json`: the groups' aggregates, each finished episode's metrics and
-/// each failure, in episode order (what [`run`] and `minos merge` write).
+/// An episode that failed with an error, as `metrics.json` lists it: with its task, split
+/// and difficulty, so that `minos merge` counts it in the same groups.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct FailedEpisode {
+    /// The episode.
+    pub episode_id: String,
+    /// Why it failed.
+    pub error: String,
+    /// Its task (empty when unknown).
+    pub task: String,
+    /// Its split (empty when unknown).
+    pub split: String,
+    /// Its difficulty (empty when unknown).
+    pub difficulty: String,
+}
+
+impl FailedEpisode {
+    /// Episode `id` failed with `error`; its groups come from `episode` when known.
+    pub fn new(id: &str, error: &str, episode: Option<&Episode>) -> Self {
+        FailedEpisode {
+            episode_id: id.to_string(),
+            error: error.to_string(),
+            task: episode.map_or(String::new(), |e| e.task.name().to_string()),
+            split: episode.map_or(String::new(), |e| e.split.clone()),
+            difficulty: episode.map_or(String::new(), |e| e.difficulty.name().to_string()),
+        }
+    }
+
+    /// Its row for [`aggregate`]: no metrics.
+    pub fn metric_row(&self) -> MetricRow {
+        (
+            self.task.clone(),
+            self.split.clone(),
+            self.difficulty.clone(),
+            None,
+        )
+    }
+}
+
+/// Writes `out/metrics.json`: the groups' aggregates (failed episodes counted as failures),
+/// each finished episode's metrics and each failure, in episode order (what [`run`] and
+/// `minos merge` write).
 pub fn write_metrics(
     out: &Path,
     groups: &BTreeMap<String, Aggregate>,
     episodes: &[(&str, EpisodeMetrics)],
-    failures: &[(String, String)],
+    failures: &[FailedEpisode],
 ) -> Result<(), RolloutError> {
     let metrics = serde_json::json!({
         "groups": groups,
         "episodes": episodes.iter().map(|(id, m)| serde_json::json!({"episode_id": id, "metrics": m})).collect::<Vec<_>>(),
-        "failures": failures.iter().map(|(id, e)| serde_json::json!({"episode_id": id, "error": e})).collect::<Vec<_>>(),
+        "failures": failures,
     });
     let path = out.join("metrics.json");
     let bytes =

@@ -12,6 +12,16 @@
 //! kept step makes progress, so the plan terminates; should the mixed plan fail, the plan is
 //! searched again with A* segments alone, so the oracle succeeds wherever the plain search
 //! does.
+//!
+//! Continuous agents (momentum: a state is a position, heading and velocities, and no two
+//! reachable states are quite alike) plan in [`continuous`]: greedy turn-then-forward steps
+//! checked the same way, and a hybrid A* that merges the states of one coarse cell.
+//!
+//! Every plan uses only the agent's action set
+//! ([`AgentConfig::action_names`](crate::sim::AgentConfig::action_names)): the MINOS paper's
+//! agent plans with forward and turns alone.
+
+mod continuous;
 
 use std::cmp::Reverse;
 use std::collections::{BinaryHeap, HashMap};
@@ -92,14 +102,16 @@ fn remaining(sim: &Simulator, episode: &Episode, s: &AgentState) -> f32 {
     }
 }
 
-/// Plans with greedy steps where they are safe (discrete agents) and A* segments elsewhere;
-/// falls back to A* segments alone when that fails.
+/// Plans with greedy steps where they are safe and A* segments elsewhere: for discrete
+/// agents here (falling back to A* segments alone when that fails), for continuous agents in
+/// [`continuous`].
 fn plan(sim: &Simulator, episode: &Episode, start: AgentState) -> Option<Vec<&'static str>> {
-    let discrete = matches!(sim.agent().motion, Motion::Discrete { .. });
-    (discrete)
-        .then(|| plan_with(sim, episode, start, true))
-        .flatten()
-        .or_else(|| plan_with(sim, episode, start, false))
+    match sim.agent().motion {
+        Motion::Discrete { .. } => {
+            plan_with(sim, episode, start, true).or_else(|| plan_with(sim, episode, start, false))
+        }
+        Motion::Continuous { .. } => continuous::plan(sim, episode, start),
+    }
 }
 
 /// Plans in segments: a greedy step when `greedy` and one is safe, else a weighted A* over
