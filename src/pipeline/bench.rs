@@ -12,10 +12,10 @@
 //!   simulator and oracle on the shared scene, claiming the next episode, as `minos run`
 //!   does), timed by the wall clock: the machine's throughput.
 //!
-//! With a GPU renderer, `render` adds batched stages ([`gpu`]): batches of views rendered
+//! With a GPU renderer, `render` adds batched stages (`bench/gpu.rs`): batches of views rendered
 //! with one submission and read-back, and the same with colour, depth and semantic images
 //! derived on all threads, timed by the wall clock; `run` with `envs` adds the rollout loop
-//! with that many environments stepped together ([`batched`]: every environment's cameras
+//! with that many environments stepped together (`bench/batched.rs`: every environment's cameras
 //! in one render call per step), wall clock. Stages after set-up are timed by the wall clock
 //! with a GPU renderer, whose work this thread's CPU time does not see.
 //!

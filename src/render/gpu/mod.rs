@@ -2,8 +2,8 @@
 //! a GPU, or lavapipe on a CPU. It writes, per pixel, the triangle id and the depth-buffer
 //! value; the images are then derived exactly as for the CPU renderer ([`Frame`]'s methods).
 //! Two methods ([`GpuMethod`]): ray tracing in a compute shader over the BVH the CPU ray caster
-//! builds ([`trace`], the default: its cost follows the pixels), or rasterising every triangle
-//! of the scene per view ([`raster`]: its cost follows the triangles). Several scenes can be
+//! builds (`trace.rs`, the default: its cost follows the pixels), or rasterising every triangle
+//! of the scene per view (`raster.rs`: its cost follows the triangles). Several scenes can be
 //! uploaded side by side, and a batch of views — each a camera on one of them, all of one
 //! resolution — renders with one command encoder, one submission and one read-back; batches
 //! larger than the device's buffer or texture limits are split into as few submissions as fit.
@@ -275,6 +275,23 @@ impl GpuRenderer {
             }
         }
     }
+}
+
+/// Maps a read-back buffer's `slice` for reading, waiting for the GPU work before it.
+fn map_read(
+    device: &wgpu::Device,
+    slice: &wgpu::BufferSlice<'_>,
+) -> Result<wgpu::BufferView, GpuError> {
+    let err = |e: &dyn std::fmt::Display| GpuError::Render(e.to_string());
+    let (tx, rx) = std::sync::mpsc::channel();
+    slice.map_async(wgpu::MapMode::Read, move |r| {
+        let _ = tx.send(r);
+    });
+    device
+        .poll(wgpu::PollType::wait_indefinitely())
+        .map_err(|e| err(&e))?;
+    rx.recv().map_err(|e| err(&e))?.map_err(|e| err(&e))?;
+    slice.get_mapped_range().map_err(|e| err(&e))
 }
 
 #[cfg(test)]

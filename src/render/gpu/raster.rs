@@ -324,19 +324,7 @@ impl Raster {
         }
         queue.submit([encoder.finish()]);
         let slice = readback.slice(..);
-        let (tx, rx) = std::sync::mpsc::channel();
-        slice.map_async(wgpu::MapMode::Read, move |r| {
-            let _ = tx.send(r);
-        });
-        device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| GpuError::Render(e.to_string()))?;
-        rx.recv()
-            .map_err(|e| GpuError::Render(e.to_string()))?
-            .map_err(|e| GpuError::Render(e.to_string()))?;
-        let data = slice
-            .get_mapped_range()
-            .map_err(|e| GpuError::Render(e.to_string()))?;
+        let data = super::map_read(device, &slice)?;
         let words: &[u32] = bytemuck::cast_slice(&data);
         let (row_words, plane_words) = (row as usize / 4, plane as usize / 4);
         let frames = (0..n as usize)

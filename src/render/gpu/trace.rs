@@ -368,19 +368,7 @@ impl Tracer {
         encoder.copy_buffer_to_buffer(&set.out, 0, &set.readback, 0, out_bytes);
         queue.submit([encoder.finish()]);
         let slice = set.readback.slice(..out_bytes);
-        let (tx, rx) = std::sync::mpsc::channel();
-        slice.map_async(wgpu::MapMode::Read, move |r| {
-            let _ = tx.send(r);
-        });
-        device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| GpuError::Render(e.to_string()))?;
-        rx.recv()
-            .map_err(|e| GpuError::Render(e.to_string()))?
-            .map_err(|e| GpuError::Render(e.to_string()))?;
-        let data = slice
-            .get_mapped_range()
-            .map_err(|e| GpuError::Render(e.to_string()))?;
+        let data = super::map_read(device, &slice)?;
         let words: &[u32] = bytemuck::cast_slice(&data);
         let (ids, depths) = words.split_at(n * pixels);
         let frames: Vec<Frame> = (0..n)

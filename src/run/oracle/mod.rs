@@ -14,7 +14,7 @@
 //! does.
 //!
 //! Continuous agents (momentum: a state is a position, heading and velocities, and no two
-//! reachable states are quite alike) plan in [`continuous`]: greedy turn-then-forward steps
+//! reachable states are quite alike) plan in `continuous.rs`: greedy turn-then-forward steps
 //! checked the same way, and a hybrid A* that merges the states of one coarse cell.
 //!
 //! Every plan uses only the agent's action set
