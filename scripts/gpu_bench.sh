@@ -6,7 +6,9 @@
 #     views with one submission and read-back (ids + depth), and the same with colour, depth
 #     and semantic images derived on all threads — every GPU figure by the wall clock;
 #   - the oracle's rollout loop on all threads, CPU and wgpu (`bench run`): each thread its
-#     own simulator, and $ENVS environments stepped together (one render call per step).
+#     own simulator, and $ENVS environments stepped together (one render call per step);
+#   - VectorNavEnv with random actions, CPU and wgpu, $VEC_ENVS environments (default
+#     256,1024), where the `minos` Python package is importable.
 # SIZES="" skips the rendering rows, EPISODES=0 the rollout rows.
 # Prints the adapter and a Markdown table; the JSON of every bench goes to $WORK/json/.
 #
@@ -51,6 +53,21 @@ for tris in $SCANS; do
         echo "wgpu run $tris: $(tail -1 "$WORK/json/run-wgpu-$tris.err")"
 done
 
+# VectorNavEnv with random actions, CPU renderer against wgpu, on the first scan (where the
+# `minos` Python package is importable: `pip install ./python`).
+first=${SCANS%% *}
+if [ "$EPISODES" -gt 0 ] && "$PYTHON" -c "import minos.gym" >/dev/null 2>&1; then
+    d="$WORK/scan-$first"
+    "$MINOS" -q episodes --data "$d/DATA" --task pointgoal --per-scene "$EPISODES" --seed 1 \
+        --out "$d/eps.parquet"
+    "$PYTHON" python/bench/vector_env_renderers.py "$d/DATA" "$d/eps.parquet" \
+        --envs "${VEC_ENVS:-256,1024}" --threads "$(nproc)" >"$WORK/json/vector_env.txt" 2>&1 ||
+        echo "VectorNavEnv bench: $(tail -1 "$WORK/json/vector_env.txt")"
+else
+    echo "VectorNavEnv rows skipped: \`$PYTHON -c 'import minos.gym'\` fails (pip install ./python)" \
+        >"$WORK/json/vector_env.txt"
+fi
+
 "$PYTHON" - "$WORK/json" <<'EOF'
 import json, pathlib, sys
 folder = pathlib.Path(sys.argv[1])
@@ -87,4 +104,8 @@ for f in sorted(folder.glob("run-cpu-*.json")):
     tris = int(f.stem.split("-")[2])
     cpu, gpu = load(f.name), load(f"run-wgpu-{tris}.json")
     print(f'| scan {tris:,} ({cpu["threads"]} threads, {cpu.get("envs", 0)} envs) | {rate(cpu, "rollout loop")} | {rate(cpu, "rollout loop, all threads")} | {rate(gpu, "rollout loop, all threads")} | {rate(cpu, "rollout loop, batched")} | {rate(gpu, "rollout loop, batched")} |')
+vec = folder / "vector_env.txt"
+if vec.exists():
+    print()
+    print(vec.read_text().strip())
 EOF
