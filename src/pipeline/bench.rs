@@ -517,10 +517,7 @@ fn bench_on_this_thread(cfg: &BenchConfig) -> Result<BenchReport, BenchError> {
                     report.threads = cfg.threads;
                 }
                 if cfg.envs > 0 {
-                    let pool = rayon::ThreadPoolBuilder::new()
-                        .num_threads(cfg.threads.max(1))
-                        .build()
-                        .map_err(|e| BenchError(format!("a {}-thread pool: {e}", cfg.threads)))?;
+                    let pool = thread_pool(cfg.threads)?;
                     let (steps, wall) = pool
                         .install(|| batched::rollout_batched(sim, &assets.grid, &eps, cfg.envs))?;
                     timer.stages.push(Stage {
@@ -679,6 +676,14 @@ impl Clock for Untimed {
     fn time<R>(&mut self, _: &'static str, _: &'static str, f: impl FnOnce() -> R) -> R {
         f()
     }
+}
+
+/// A pool of `threads` threads (at least one), for the stages on all threads.
+fn thread_pool(threads: usize) -> Result<rayon::ThreadPool, BenchError> {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads.max(1))
+        .build()
+        .map_err(|e| BenchError(format!("a {threads}-thread pool: {e}")))
 }
 
 /// The stepper of `minos run`'s oracle on `sim` (success needs its `stop`; the episodes'

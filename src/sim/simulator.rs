@@ -499,7 +499,7 @@ impl Simulator {
 
     /// The cameras to render for an observation. Sensors that share a camera (colour,
     /// depth and labels of one eye) share one frame: every modality comes from one pass.
-    pub(super) fn views(&self) -> Views {
+    pub(crate) fn views(&self) -> Views {
         let cams = self.cameras();
         let mut unique: Vec<Camera> = Vec::new();
         let which: Vec<usize> = cams
@@ -589,9 +589,9 @@ impl Simulator {
 
 /// The cameras of one observation: every sensor's camera, the distinct ones to render, and
 /// which distinct camera each sensor uses.
-pub(super) struct Views {
+pub(crate) struct Views {
     cams: Vec<Camera>,
     /// The distinct cameras, rendered once each.
-    pub(super) unique: Vec<Camera>,
+    pub(crate) unique: Vec<Camera>,
     which: Vec<usize>,
 }

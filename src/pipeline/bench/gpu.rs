@@ -12,7 +12,7 @@ use rayon::prelude::*;
 
 use super::{BenchConfig, BenchError, Stage};
 use crate::render::gpu::{GpuRenderer, SceneSlot, View};
-use crate::render::{Camera, RenderScene, Taxonomy};
+use crate::render::{RenderScene, Taxonomy};
 use crate::sim::Simulator;
 
 /// Name of the stage that renders batches (triangle ids and depth, read back).
@@ -36,10 +36,7 @@ pub(super) fn batches(
     let views = batch_views(sim, poses, cfg.batch)?;
     let err = |e: &dyn std::fmt::Display| BenchError(format!("GPU batch: {e}"));
     // Both on all threads: frames are copied out of the read-back buffer in parallel.
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(cfg.threads.max(1))
-        .build()
-        .map_err(|e| err(&e))?;
+    let pool = super::thread_pool(cfg.threads)?;
     let ids = pool.install(|| {
         repeat(views.len(), || {
             gpu.render_views(&views).map(drop).map_err(|e| err(&e))
@@ -97,13 +94,10 @@ fn batch_views(
     let mut resolution = None;
     for (p, yaw) in poses.iter().cycle() {
         sim.reset(*p, *yaw, None, "bench");
-        let mut cameras: Vec<Camera> = Vec::new();
-        for c in sim.cameras() {
-            let r = *resolution.get_or_insert((c.width, c.height));
-            if (c.width, c.height) == r && !cameras.contains(&c) {
-                cameras.push(c);
-            }
-        }
+        // The cameras an observation renders (sensors sharing an eye share one).
+        let mut cameras = sim.views().unique;
+        let r = *resolution.get_or_insert_with(|| cameras.first().map(|c| (c.width, c.height)));
+        cameras.retain(|c| Some((c.width, c.height)) == r);
         if cameras.is_empty() {
             return Err(BenchError(
                 "GPU batch: the sensors have no camera to render".into(),
