@@ -164,39 +164,8 @@ fn greedy_step(
     d: &Dynamics,
     out: &mut Vec<&'static str>,
 ) -> Option<AgentState> {
-    let grid = &sim.assets().grid;
-    let p = Vec3::from_array(state.position);
-    // Aim at the first corner of the anchor chain at least a move away.
-    let mut corner = sim.goal_anchor(grid.snap(p)?)?;
-    for _ in 0..4 {
-        let c = grid.span_position(corner as usize);
-        if (c.x - p.x).hypot(c.z - p.z) >= d.max_move {
-            break;
-        }
-        match sim.goal_anchor(corner) {
-            Some(next) if next != corner => corner = next,
-            _ => break,
-        }
-    }
-    let c = grid.span_position(corner as usize);
-    let (ax, az) = (c.x - p.x, c.z - p.z);
-    if ax * ax + az * az < 1e-8 {
-        return None;
-    }
-    let diff = angle_between(state.yaw, (-ax).atan2(-az)) / d.turn;
-    let nearest = diff.round();
-    let other = if diff >= nearest {
-        nearest + 1.0
-    } else {
-        nearest - 1.0
-    };
     let forward = Actions::single("forward")?;
-    let keep = if diff.abs() <= 1.0 { Some(0.0) } else { None };
-    let candidates: Vec<i32> = keep
-        .into_iter()
-        .chain([nearest, other])
-        .map(|k| k as i32)
-        .collect();
+    let candidates = super::turn_candidates(sim, state, d.max_move, d.turn)?;
     // First without touching anything; else (a start against furniture, a wall the drift
     // reaches) the first that still makes progress sliding along what it touches.
     [false, true]

@@ -182,38 +182,8 @@ fn greedy_step(
     if !(step > 0.0 && turn > 0.0) {
         return None;
     }
-    let grid = &sim.assets().grid;
-    let p = Vec3::from_array(state.position);
-    // Aim at the first corner of the anchor chain at least a step away.
-    let mut corner = sim.goal_anchor(grid.snap(p)?)?;
-    for _ in 0..4 {
-        let c = grid.span_position(corner as usize);
-        if (c.x - p.x).hypot(c.z - p.z) >= step {
-            break;
-        }
-        match sim.goal_anchor(corner) {
-            Some(next) if next != corner => corner = next,
-            _ => break,
-        }
-    }
-    let c = grid.span_position(corner as usize);
-    let (ax, az) = (c.x - p.x, c.z - p.z);
-    if ax * ax + az * az < 1e-8 {
-        return None;
-    }
-    let diff = angle_between(state.yaw, (-ax).atan2(-az)) / turn;
-    let nearest = diff.round();
-    let other = if diff >= nearest {
-        nearest + 1.0
-    } else {
-        nearest - 1.0
-    };
     let forward = Actions::single("forward")?;
-    // Keep the heading while it is within one turn of the corner (turning back and forth
-    // costs steps), else the closest heading, else the other one beside the corner.
-    let keep = if diff.abs() <= 1.0 { Some(0.0) } else { None };
-    for k in keep.into_iter().chain([nearest, other]) {
-        let k = k as i32;
+    for k in turn_candidates(sim, state, step, turn)? {
         let (name, count) = if k >= 0 {
             ("turn_left", k)
         } else {
@@ -237,6 +207,47 @@ fn greedy_step(
         }
     }
     None
+}
+
+/// The turns to try towards the next corner of the goal field's path at least `reach` away
+/// from `state`, as counts of turns of `turn` radians (`k` > 0 left, `-k` right): keep the
+/// heading while it is within one turn of the corner (turning back and forth costs steps),
+/// else the closest heading, else the other one beside the corner. `None` off the grid or at
+/// the corner.
+fn turn_candidates(sim: &Simulator, state: &AgentState, reach: f32, turn: f32) -> Option<Vec<i32>> {
+    let grid = &sim.assets().grid;
+    let p = Vec3::from_array(state.position);
+    // Aim at the first corner of the anchor chain at least `reach` away.
+    let mut corner = sim.goal_anchor(grid.snap(p)?)?;
+    for _ in 0..4 {
+        let c = grid.span_position(corner as usize);
+        if (c.x - p.x).hypot(c.z - p.z) >= reach {
+            break;
+        }
+        match sim.goal_anchor(corner) {
+            Some(next) if next != corner => corner = next,
+            _ => break,
+        }
+    }
+    let c = grid.span_position(corner as usize);
+    let (ax, az) = (c.x - p.x, c.z - p.z);
+    if ax * ax + az * az < 1e-8 {
+        return None;
+    }
+    let diff = angle_between(state.yaw, (-ax).atan2(-az)) / turn;
+    let nearest = diff.round();
+    let other = if diff >= nearest {
+        nearest + 1.0
+    } else {
+        nearest - 1.0
+    };
+    let keep = if diff.abs() <= 1.0 { Some(0.0) } else { None };
+    Some(
+        keep.into_iter()
+            .chain([nearest, other])
+            .map(|k| k as i32)
+            .collect(),
+    )
 }
 
 /// Weighted A* from `start` to a state that reaches the goal or whose remaining distance is at
