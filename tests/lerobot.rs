@@ -380,6 +380,12 @@ fn frames_equal_the_runs_own_tables() {
     let fps = json(&run.join("lerobot/meta/info.json"))["fps"]
         .as_f64()
         .expect("fps");
+    let vocabulary: Vec<String> = serde_json::from_value(
+        json(&run.join("lerobot/meta/info.json"))["features"]["observation.goal_object"]["info"]
+            ["minos.vocabulary"]
+            .clone(),
+    )
+    .expect("the goal object vocabulary");
     let state = col::<FixedSizeListArray>(&frames, "observation.state");
     let action = col::<FixedSizeListArray>(&frames, "action");
     let timestamp = col::<Float32Array>(&frames, "timestamp");
@@ -473,6 +479,66 @@ fn frames_equal_the_runs_own_tables() {
             .expect("f32");
         assert_eq!(&a.values()[..8], strengths.values());
         assert!((f64::from(timestamp.value(i)) - f64::from(step) / fps).abs() < 1e-5);
+        // The per-step features: the trajectory row's columns, and the previous frame's
+        // action vector.
+        let vector = |key: &str| -> Vec<f32> {
+            if let Some(v) = frames
+                .column_by_name(key)
+                .and_then(|c| c.as_any().downcast_ref::<Float32Array>())
+            {
+                return vec![v.value(i)];
+            }
+            let v = col::<FixedSizeListArray>(&frames, key).value(i);
+            v.as_any()
+                .downcast_ref::<Float32Array>()
+                .expect("f32")
+                .values()
+                .to_vec()
+        };
+        let t = |name: &str| col::<Float32Array>(&traj, name).value(i);
+        assert_eq!(
+            vector("observation.goal"),
+            [t("euclidean_distance"), t("goal_right"), t("goal_forward")]
+        );
+        let previous = vector("observation.previous_action");
+        if step == 0 {
+            assert_eq!(previous, [0.0; 9]);
+        } else {
+            let a = action.value(i - 1);
+            let a = a.as_any().downcast_ref::<Float32Array>().expect("f32");
+            assert_eq!(previous, a.values().to_vec(), "previous action of {key:?}");
+        }
+        let steps_left = col::<UInt32Array>(&traj, "steps_left").value(i);
+        assert_eq!(vector("observation.steps_left"), [steps_left as f32]);
+        let flag = |name: &str| f32::from(u8::from(col::<BooleanArray>(&traj, name).value(i)));
+        assert_eq!(vector("observation.at_goal"), [flag("at_goal")]);
+        assert_eq!(
+            vector("observation.collision"),
+            [flag("previous_collision")]
+        );
+        let contacts = col::<ListArray>(&traj, "contacts").value(i);
+        let contacts = contacts
+            .as_any()
+            .downcast_ref::<BooleanArray>()
+            .expect("bool");
+        let bits: Vec<f32> = (0..contacts.len())
+            .map(|k| f32::from(u8::from(contacts.value(k))))
+            .collect();
+        assert_eq!(vector("observation.contact"), bits);
+        let room = col::<StringArray>(&traj, "goal_room");
+        let mut one_hot = [0.0f32; 9];
+        if room.is_valid(i) {
+            let class = minos::scene::taxonomy::RoomClass::from_name(room.value(i)).expect("class");
+            one_hot[class.index() as usize] = 1.0;
+        }
+        assert_eq!(vector("observation.goal_room"), one_hot);
+        let object = col::<StringArray>(&traj, "goal_object");
+        let index = col::<Int64Array>(&frames, "observation.goal_object").value(i);
+        if object.is_valid(i) {
+            assert_eq!(vocabulary[index as usize], object.value(i));
+        } else {
+            assert_eq!(index, -1);
+        }
     }
     // Every observation row made it into the dataset.
     assert_eq!(cells.len(), frames.num_rows());

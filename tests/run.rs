@@ -883,8 +883,29 @@ fn all_batches(path: &Path) -> Vec<arrow::array::RecordBatch> {
 }
 
 /// One step as both drivers see it: pose before, action, reward, collision, done, success
-/// (floats as bits: equal means identical).
-type StepKey = (String, [u32; 5], String, u32, bool, bool, bool);
+/// (floats as bits: equal means identical), and the features the agent was given before the
+/// action (goal measurement bits, goal room and object, at goal, contacts, previous action
+/// and collision, steps left; see [`features_key`]).
+type StepKey = (String, [u32; 5], String, u32, bool, bool, bool, String);
+
+/// The per-step features as one comparable string.
+#[allow(clippy::too_many_arguments)]
+fn features_key(
+    goal: Option<[f32; 3]>,
+    goal_room: Option<&str>,
+    goal_object: Option<&str>,
+    at_goal: bool,
+    contacts: &[bool],
+    previous_action: Option<&str>,
+    previous_collision: bool,
+    steps_left: u32,
+) -> String {
+    format!(
+        "{:?} {goal_room:?} {goal_object:?} {at_goal} {contacts:?} {previous_action:?} \
+         {previous_collision} {steps_left}",
+        goal.map(|g| g.map(f32::to_bits)),
+    )
+}
 
 /// The trajectories of a run's table, by episode id, in step order.
 fn trajectories(path: &Path) -> std::collections::BTreeMap<String, Vec<StepKey>> {
@@ -897,7 +918,35 @@ fn trajectories(path: &Path) -> std::collections::BTreeMap<String, Vec<StepKey>>
         let actions = column::<StringArray>(&b, "action");
         let flag = |name: &str| column::<arrow::array::BooleanArray>(&b, name).clone();
         let (collision, done, success) = (flag("collision"), flag("done"), flag("success"));
+        let (at_goal, previous_collision) = (flag("at_goal"), flag("previous_collision"));
+        let (euclidean, right, forward) =
+            (f("euclidean_distance"), f("goal_right"), f("goal_forward"));
+        let text = |name: &str| column::<StringArray>(&b, name).clone();
+        let (room, object, previous) = (
+            text("goal_room"),
+            text("goal_object"),
+            text("previous_action"),
+        );
+        let steps_left = column::<UInt32Array>(&b, "steps_left");
+        let contacts = column::<arrow::array::ListArray>(&b, "contacts");
         for r in 0..b.num_rows() {
+            let opt = |c: &StringArray| (!c.is_null(r)).then(|| c.value(r).to_string());
+            let bits = contacts.value(r);
+            let bits = bits
+                .as_any()
+                .downcast_ref::<arrow::array::BooleanArray>()
+                .unwrap();
+            let key = features_key(
+                (!euclidean.is_null(r))
+                    .then(|| [euclidean.value(r), right.value(r), forward.value(r)]),
+                opt(&room).as_deref(),
+                opt(&object).as_deref(),
+                at_goal.value(r),
+                &(0..bits.len()).map(|k| bits.value(k)).collect::<Vec<_>>(),
+                opt(&previous).as_deref(),
+                previous_collision.value(r),
+                steps_left.value(r),
+            );
             by_episode
                 .entry(ids.value(r).to_string())
                 .or_default()
@@ -909,6 +958,7 @@ fn trajectories(path: &Path) -> std::collections::BTreeMap<String, Vec<StepKey>>
                     collision.value(r),
                     done.value(r),
                     success.value(r),
+                    key,
                 ));
         }
     }
@@ -945,7 +995,19 @@ fn vector_env_trajectories(
         );
         let mut chosen = Vec::with_capacity(current.len());
         let mut poses = Vec::with_capacity(current.len());
+        let mut seen = Vec::with_capacity(current.len());
         for (i, &e) in current.iter().enumerate() {
+            let f = env.features(i).unwrap();
+            seen.push(features_key(
+                f.euclidean.map(|_| f.goal),
+                f.goal_room.map(|c| c.name()),
+                f.goal_object.as_deref(),
+                f.at_goal,
+                &f.contacts,
+                f.previous_action.map(|d| d.name()).as_deref(),
+                f.collision,
+                f.steps_left,
+            ));
             let id = &env.episodes()[e].episode_id;
             let t = env.stepper(i).unwrap().decisions() as usize;
             let name = actions[id].get(t).cloned().unwrap_or_else(|| "stop".into());
@@ -983,6 +1045,7 @@ fn vector_env_trajectories(
                 o.collision,
                 o.terminated || o.truncated,
                 o.success,
+                seen[i].clone(),
             ));
             if o.terminated || o.truncated {
                 entry.1 = format!("{:?}", env.stepper(i).unwrap().metrics().unwrap());
@@ -1272,4 +1335,120 @@ fn the_stepper_numbers_actions_once_and_refuses_steps_outside_an_episode() {
     ));
     let outs = step_many(&mut batch, &[Command::Reset(&ep)]).unwrap();
     assert!(outs[0].reset);
+}
+
+#[test]
+fn every_step_carries_goal_features_an_independent_computation_agrees_with() {
+    // The trajectory table holds, per step, what the agent was given before its action.
+    // Recomputed here from the row's pose and the episode alone: the goal vector (3-D
+    // distance; horizontal unit direction in the agent frame, right = (cos yaw, −sin yaw),
+    // forward = (−sin yaw, −cos yaw) in world x, z), whether a point goal is within its
+    // radius, the goal class, the steps left, the previous row's action and collision; and
+    // for every task the geodesic is never below the straight line to the same target.
+    use minos::episode::Goal;
+    let dir = tempfile::tempdir().unwrap();
+    let mut episodes = first_episodes(|t| t == Task::PointGoal, 4);
+    episodes.extend(first_episodes(|t| t == Task::ObjectGoal, 3));
+    episodes.extend(first_episodes(|t| t == Task::RoomGoal, 3));
+    let out = dir.path().join("oracle");
+    let report = run(
+        &config(&out, AgentKind::Oracle, blind()),
+        &episodes,
+        &NoProgress,
+    )
+    .unwrap();
+    assert!(report.failures.is_empty(), "{:?}", report.failures);
+    let by_id: std::collections::HashMap<&str, &Episode> = episodes
+        .iter()
+        .map(|e| (e.episode_id.as_str(), e))
+        .collect();
+    let mut checked = [0usize; 3];
+    for b in all_batches(&out.join("trajectories.parquet")) {
+        let ids = column::<StringArray>(&b, "episode_id");
+        let f = |name: &str| column::<Float32Array>(&b, name).clone();
+        let (x, y, z, yaw) = (f("x"), f("y"), f("z"), f("yaw"));
+        let (d, right, forward, geo) = (
+            f("euclidean_distance"),
+            f("goal_right"),
+            f("goal_forward"),
+            f("geodesic_distance"),
+        );
+        let flag = |name: &str| column::<arrow::array::BooleanArray>(&b, name).clone();
+        let (at_goal, prev_collision, collision) = (
+            flag("at_goal"),
+            flag("previous_collision"),
+            flag("collision"),
+        );
+        let text = |name: &str| column::<StringArray>(&b, name).clone();
+        let (room, object, previous, action) = (
+            text("goal_room"),
+            text("goal_object"),
+            text("previous_action"),
+            text("action"),
+        );
+        let steps = column::<UInt32Array>(&b, "step");
+        let left = column::<UInt32Array>(&b, "steps_left");
+        for r in 0..b.num_rows() {
+            let ep = by_id[ids.value(r)];
+            let t = steps.value(r);
+            assert_eq!(left.value(r), ep.max_steps - t, "steps left at step {t}");
+            if t == 0 {
+                assert!(previous.is_null(r) && !prev_collision.value(r));
+            } else {
+                assert_eq!(previous.value(r), action.value(r - 1), "previous action");
+                assert_eq!(prev_collision.value(r), collision.value(r - 1));
+            }
+            assert!(!d.is_null(r) && !right.is_null(r) && !forward.is_null(r));
+            let dir_len = right.value(r).hypot(forward.value(r));
+            // A unit vector, or zero on the target itself.
+            assert!(
+                (dir_len - 1.0).abs() < 1e-4 || (dir_len == 0.0 && d.value(r) < 1e-3),
+                "direction of length {dir_len} at distance {}",
+                d.value(r)
+            );
+            if !geo.is_null(r) {
+                assert!(
+                    geo.value(r) >= d.value(r) - 1e-4,
+                    "{} step {t}: geodesic {} below the straight line {}",
+                    ep.episode_id,
+                    geo.value(r),
+                    d.value(r)
+                );
+            }
+            match &ep.goal {
+                Goal::Point { position } => {
+                    let (dx, dy, dz) = (
+                        position[0] - x.value(r),
+                        position[1] - y.value(r),
+                        position[2] - z.value(r),
+                    );
+                    let dist = (dx * dx + dy * dy + dz * dz).sqrt();
+                    assert!((d.value(r) - dist).abs() < 1e-4, "{} vs {dist}", d.value(r));
+                    let (s, c) = yaw.value(r).sin_cos();
+                    let h = dx.hypot(dz);
+                    let (rx, fx) = ((dx * c - dz * s) / h, (-dx * s - dz * c) / h);
+                    assert!((right.value(r) - rx).abs() < 1e-4, "right {rx}");
+                    assert!((forward.value(r) - fx).abs() < 1e-4, "forward {fx}");
+                    assert_eq!(at_goal.value(r), dist <= ep.success_radius, "at goal");
+                    assert!(room.is_null(r) && object.is_null(r));
+                    checked[0] += 1;
+                }
+                Goal::Object { category, .. } => {
+                    assert_eq!(object.value(r), category);
+                    assert!(room.is_null(r));
+                    checked[1] += 1;
+                }
+                Goal::Room { class, .. } => {
+                    let want = minos::scene::taxonomy::RoomClass::from_name(class).unwrap();
+                    assert_eq!(room.value(r), want.name());
+                    assert!(object.is_null(r));
+                    checked[2] += 1;
+                }
+            }
+            if action.value(r) == "stop" {
+                assert!(at_goal.value(r), "the oracle stops at the goal");
+            }
+        }
+    }
+    assert!(checked.iter().all(|&n| n > 0), "rows per task: {checked:?}");
 }

@@ -10,8 +10,15 @@ episode ends on arrival (the success test after a step, unless ``require_stop``)
 
 Observations (a ``Dict`` space): one array per camera sensor, named as in the sensor file
 (``color`` (H, W, 3) uint8, ``depth`` (H, W, 1) float32 metres, ``semantic`` (H, W) uint16
-with the default sensors), ``goal`` = (Euclidean distance, direction right, direction
-forward) of the goal in the agent's frame, and ``contact`` (one 0/1 per contact sensor).
+with the default sensors), and the per-step features the run tables and the LeRobot export
+also hold (``observation.<key>`` there; docs/FORMATS.md): ``goal`` = (Euclidean distance,
+direction right, direction forward) of the goal in the agent's frame (object and room goals:
+to the target the shortest path ends at), ``goal_room`` (the room goal's MINOS class,
+one-hot, 9), ``goal_object`` (the object goal's category as an index into ``goal_objects``,
+-1 otherwise), ``at_goal`` (1 when the success test holds), ``contact`` (one 0/1 per contact
+sensor), ``collision`` (1 when the step into this observation collided),
+``previous_action`` (the previous action's eight strengths and ``stop``, zeros at an
+episode's start) and ``steps_left``.
 
 Task hooks (MINOS's task specification by a Python function): ``success_fn(obs, info) ->
 bool`` replaces the success test (the episode ends when it holds, or on ``stop`` with
@@ -53,9 +60,17 @@ def _observation_space(core: _VecCore) -> spaces.Dict:
         else:
             lo, hi = _INT_RANGES[s["dtype"]]
             d[s["name"]] = spaces.Box(lo, hi, shape, dtype)
+    # The per-step features (minos::run::step_features), as the LeRobot export's
+    # observation.* features hold them.
     d["goal"] = spaces.Box(-np.inf, np.inf, (3,), np.float32)
+    d["goal_room"] = spaces.Box(0.0, 1.0, (9,), np.float32)
+    d["goal_object"] = spaces.Box(-1, max(len(core.goal_objects) - 1, -1), (1,), np.int64)
+    d["at_goal"] = spaces.Box(0.0, 1.0, (1,), np.float32)
     if core.contact_count:
         d["contact"] = spaces.MultiBinary(core.contact_count)
+    d["collision"] = spaces.Box(0.0, 1.0, (1,), np.float32)
+    d["previous_action"] = spaces.Box(0.0, np.inf, (9,), np.float32)
+    d["steps_left"] = spaces.Box(0.0, np.inf, (1,), np.float32)
     return spaces.Dict(d)
 
 
@@ -122,6 +137,8 @@ class NavEnv(gym.Env):
                            allow_body_mismatch, 1, variant)
         self._hooks = _Hooks(self._core, require_stop, success_fn, reward_fn)
         self.action_names = list(self._core.action_names)
+        #: The object goals' categories: what ``goal_object`` indexes.
+        self.goal_objects = list(self._core.goal_objects)
         self.observation_space = _observation_space(self._core)
         self.action_space = spaces.Discrete(len(self.action_names))
 
@@ -213,6 +230,8 @@ class VectorNavEnv(gym.vector.VectorEnv):
         self._hooks = _Hooks(self._core, require_stop, success_fn, reward_fn)
         self.num_envs = num_envs
         self.action_names = list(self._core.action_names)
+        #: The object goals' categories: what ``goal_object`` indexes.
+        self.goal_objects = list(self._core.goal_objects)
         self.single_observation_space = _observation_space(self._core)
         self.single_action_space = spaces.Discrete(len(self.action_names))
         self.observation_space = batch_space(self.single_observation_space, num_envs)

@@ -12,6 +12,7 @@ use minos::episode::format::read_episodes;
 use minos::episode::Episode;
 use minos::pipeline::vector_env::{EnvOutcome, VectorEnv, VectorEnvConfig, VectorEnvError};
 use minos::run::metrics::Reward;
+use minos::run::step_features::StepFeatures;
 use minos::sim::sensors::{CameraSensor, Image};
 use minos::sim::{AgentConfig, Observation};
 use minos::store::DataDir;
@@ -100,22 +101,67 @@ impl VecCore {
                 batch_images(py, &observations, k, &image_shape(cam))?,
             )?;
         }
+        let features: Vec<StepFeatures> = (0..n)
+            .map(|i| {
+                self.env
+                    .features(i)
+                    .ok_or_else(|| msg_err(format!("environment {i}: no observation")))
+            })
+            .collect::<PyResult<_>>()?;
+        let objects = self.env.goal_objects();
         let mut goal = Vec::with_capacity(3 * n);
+        let mut goal_room = Vec::with_capacity(9 * n);
+        let mut goal_object = Vec::with_capacity(n);
+        let mut at_goal = Vec::with_capacity(n);
         let mut contact = Vec::with_capacity(self.contacts * n);
-        for o in &observations {
-            let m = &o.measurements;
-            let d = m.goal_direction.unwrap_or([0.0, 0.0]);
-            goal.extend([m.goal_euclidean.unwrap_or(0.0), d[0], d[1]]);
-            contact.extend(m.contacts.iter().map(|&c| i8::from(c)));
+        let mut collision = Vec::with_capacity(n);
+        let mut previous = Vec::with_capacity(9 * n);
+        let mut steps_left = Vec::with_capacity(n);
+        let flag = |b: bool| f32::from(u8::from(b));
+        for f in &features {
+            goal.extend(f.goal);
+            goal_room.extend(f.goal_room_one_hot());
+            goal_object.push(
+                f.goal_object
+                    .as_ref()
+                    .and_then(|c| objects.binary_search(c).ok())
+                    .map_or(-1, |k| k as i64),
+            );
+            at_goal.push(flag(f.at_goal));
+            contact.extend(f.contacts.iter().map(|&c| i8::from(c)));
             contact.resize(contact.len().next_multiple_of(self.contacts.max(1)), 0);
+            collision.push(flag(f.collision));
+            previous.extend(f.previous_action_vector());
+            steps_left.push(f.steps_left as f32);
         }
         obs.set_item("goal", PyArray1::from_vec(py, goal).reshape([n, 3])?)?;
+        obs.set_item(
+            "goal_room",
+            PyArray1::from_vec(py, goal_room).reshape([n, 9])?,
+        )?;
+        obs.set_item(
+            "goal_object",
+            PyArray1::from_vec(py, goal_object).reshape([n, 1])?,
+        )?;
+        obs.set_item("at_goal", PyArray1::from_vec(py, at_goal).reshape([n, 1])?)?;
         if self.contacts > 0 {
             obs.set_item(
                 "contact",
                 PyArray1::from_vec(py, contact).reshape([n, self.contacts])?,
             )?;
         }
+        obs.set_item(
+            "collision",
+            PyArray1::from_vec(py, collision).reshape([n, 1])?,
+        )?;
+        obs.set_item(
+            "previous_action",
+            PyArray1::from_vec(py, previous).reshape([n, 9])?,
+        )?;
+        obs.set_item(
+            "steps_left",
+            PyArray1::from_vec(py, steps_left).reshape([n, 1])?,
+        )?;
         let info = PyDict::new(py);
         let col = |f: &dyn Fn(&Observation) -> f32| -> Vec<f32> {
             observations.iter().map(|o| f(o)).collect()
@@ -343,6 +389,13 @@ impl VecCore {
     #[getter]
     fn sensor_specs<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
         sensor_specs(py, &self.cameras)
+    }
+
+    /// The object goals' categories of the episodes, sorted: what the `goal_object`
+    /// observation indexes (−1: not an object goal).
+    #[getter]
+    fn goal_objects(&self) -> Vec<String> {
+        self.env.goal_objects()
     }
 
     /// Contact sensors per environment.

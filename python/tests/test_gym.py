@@ -18,9 +18,23 @@ def test_nav_env_passes_the_checker(world):
     assert isinstance(env.action_space, gym.spaces.Discrete) and env.action_space.n == 4
     obs, info = env.reset(seed=3)
     assert env.observation_space.contains(obs)
-    assert set(obs) == {"color", "depth", "semantic", "goal", "contact"}
+    assert set(obs) == {
+        "color", "depth", "semantic", "goal", "goal_room", "goal_object", "at_goal",
+        "contact", "collision", "previous_action", "steps_left",
+    }
     assert obs["color"].shape == (24, 24, 3)
     assert info["steps"] == 0 and info["geodesic"] > 0
+    # An episode's first observation: nothing before it, the whole step budget left, a
+    # PointGoal (no room class, no object category), the goal at its stored distance.
+    assert obs["previous_action"].tolist() == [0.0] * 9 and obs["collision"][0] == 0.0
+    assert obs["steps_left"][0] == env.episode.max_steps
+    assert obs["goal_room"].sum() == 0 and obs["goal_object"][0] == -1
+    assert abs(obs["goal"][0] - info["euclidean"]) < 1e-6
+    assert abs(float(np.hypot(obs["goal"][1], obs["goal"][2])) - 1.0) < 1e-5
+    forward = env.action_names.index("forward")
+    obs, *_ = env.step(forward)
+    assert obs["previous_action"][0] == 1.0 and obs["previous_action"][1:].sum() == 0
+    assert obs["steps_left"][0] == env.episode.max_steps - 1
 
 
 def test_reset_seed_fixes_the_episode_order(world):

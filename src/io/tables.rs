@@ -25,6 +25,8 @@ pub use crate::io::image_codec::ImageEncoding;
 use crate::io::image_codec::{encode_cell, CellFormat};
 use crate::parquet_io::{self, writer_properties};
 use crate::run::agents::Decision;
+use crate::run::step_features::StepFeatures;
+use crate::scene::taxonomy::RoomClass;
 use crate::sim::sensors::{CameraSensor, Image};
 
 /// Observation rows per row group.
@@ -60,6 +62,14 @@ pub fn trajectory_schema() -> SchemaRef {
         Field::new("geodesic_distance", DataType::Float32, true),
         Field::new("done", DataType::Boolean, false),
         Field::new("success", DataType::Boolean, false),
+        Field::new("goal_right", DataType::Float32, true),
+        Field::new("goal_forward", DataType::Float32, true),
+        Field::new("goal_room", DataType::Utf8, true),
+        Field::new("goal_object", DataType::Utf8, true),
+        Field::new("at_goal", DataType::Boolean, false),
+        Field::new("previous_action", DataType::Utf8, true),
+        Field::new("previous_collision", DataType::Boolean, false),
+        Field::new("steps_left", DataType::UInt32, false),
     ]))
 }
 
@@ -78,12 +88,11 @@ pub struct StepRow {
     pub reward: f32,
     /// The action's motion collided.
     pub collision: bool,
-    /// Contacts after the action.
-    pub contacts: Vec<bool>,
-    /// Distances to the goal before the action.
-    pub euclidean: Option<f32>,
-    /// Geodesic distance to the goal before the action.
-    pub geodesic: Option<f32>,
+    /// What the agent was given with the observation before the action (goal measurements,
+    /// contacts, the previous step's collision and action, steps left): the columns
+    /// `contacts`, `euclidean_distance`, `geodesic_distance`, `goal_*`, `at_goal`,
+    /// `previous_*` and `steps_left`.
+    pub seen: StepFeatures,
     /// The episode ended after this action.
     pub done: bool,
     /// The episode succeeded (set on its last row).
@@ -101,7 +110,7 @@ pub fn write_trajectory(path: &Path, episode: &str, rows: &[StepRow]) -> Result<
     for r in rows {
         strengths.values().append_slice(&r.strengths);
         strengths.append(true);
-        for c in &r.contacts {
+        for c in &r.seen.contacts {
             contacts.values().append_value(*c);
         }
         contacts.append(true);
@@ -127,13 +136,61 @@ pub fn write_trajectory(path: &Path, episode: &str, rows: &[StepRow]) -> Result<
                 .collect::<BooleanArray>(),
         ),
         Arc::new(contacts.finish()),
-        Arc::new(rows.iter().map(|r| r.euclidean).collect::<Float32Array>()),
-        Arc::new(rows.iter().map(|r| r.geodesic).collect::<Float32Array>()),
+        Arc::new(
+            rows.iter()
+                .map(|r| r.seen.euclidean)
+                .collect::<Float32Array>(),
+        ),
+        Arc::new(
+            rows.iter()
+                .map(|r| r.seen.geodesic)
+                .collect::<Float32Array>(),
+        ),
         Arc::new(rows.iter().map(|r| Some(r.done)).collect::<BooleanArray>()),
         Arc::new(
             rows.iter()
                 .map(|r| Some(r.success))
                 .collect::<BooleanArray>(),
+        ),
+        Arc::new(
+            rows.iter()
+                .map(|r| r.seen.euclidean.map(|_| r.seen.goal[1]))
+                .collect::<Float32Array>(),
+        ),
+        Arc::new(
+            rows.iter()
+                .map(|r| r.seen.euclidean.map(|_| r.seen.goal[2]))
+                .collect::<Float32Array>(),
+        ),
+        Arc::new(
+            rows.iter()
+                .map(|r| r.seen.goal_room.map(RoomClass::name))
+                .collect::<StringArray>(),
+        ),
+        Arc::new(
+            rows.iter()
+                .map(|r| r.seen.goal_object.as_deref())
+                .collect::<StringArray>(),
+        ),
+        Arc::new(
+            rows.iter()
+                .map(|r| Some(r.seen.at_goal))
+                .collect::<BooleanArray>(),
+        ),
+        Arc::new(
+            rows.iter()
+                .map(|r| r.seen.previous_action.map(|d| d.name()))
+                .collect::<StringArray>(),
+        ),
+        Arc::new(
+            rows.iter()
+                .map(|r| Some(r.seen.collision))
+                .collect::<BooleanArray>(),
+        ),
+        Arc::new(
+            rows.iter()
+                .map(|r| r.seen.steps_left)
+                .collect::<UInt32Array>(),
         ),
     ];
     let batch = RecordBatch::try_new(trajectory_schema(), columns)

@@ -22,6 +22,7 @@ use crate::render::{Renderer, RendererChoice};
 use crate::run::agents::{Agent, AgentError, Decision};
 use crate::run::metrics::Reward;
 use crate::run::oracle::OracleAgent;
+use crate::run::step_features::StepFeatures;
 use crate::run::stepper::{
     step_many, ActionSpace, Command, EpisodeStepper, StepError, StepperConfig, DEFAULT_MAX_STEPS,
 };
@@ -432,6 +433,29 @@ impl VectorEnv {
     /// The latest observation of environment `i`.
     pub fn observation(&self, i: usize) -> Option<&Observation> {
         self.steppers.get(i).map(EpisodeStepper::observation)
+    }
+
+    /// The features of environment `i`'s latest observation (the goal measurements,
+    /// contacts, previous collision and action, steps left: [`StepFeatures`], the same the
+    /// run tables and the LeRobot export hold).
+    pub fn features(&self, i: usize) -> Option<StepFeatures> {
+        self.steppers.get(i).map(EpisodeStepper::features)
+    }
+
+    /// The object goals' categories of the episodes, sorted and distinct (what an index
+    /// into a goal-object vocabulary refers to).
+    pub fn goal_objects(&self) -> Vec<String> {
+        let mut names: Vec<String> = self
+            .episodes
+            .iter()
+            .filter_map(|e| match &e.goal {
+                crate::episode::Goal::Object { category, .. } => Some(category.clone()),
+                _ => None,
+            })
+            .collect();
+        names.sort();
+        names.dedup();
+        names
     }
 
     /// The stepper of environment `i` (its simulator, episode and observation).

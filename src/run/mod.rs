@@ -9,4 +9,5 @@ pub mod agents;
 pub mod external;
 pub mod metrics;
 pub mod oracle;
+pub mod step_features;
 pub mod stepper;

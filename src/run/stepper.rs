@@ -27,6 +27,7 @@ use crate::sim::{Actions, Observation, Simulator};
 
 use super::agents::{Decision, STOP};
 use super::metrics::{reached, EpisodeMetrics, Reward};
+use super::step_features::StepFeatures;
 
 /// Why a stepper could not step.
 #[derive(Debug, thiserror::Error)]
@@ -159,6 +160,8 @@ pub struct EpisodeStepper {
     before: (f32, Option<f32>),
     steps: u32,
     decisions: u32,
+    /// The decision that led to the latest observation (`None` at the episode's start).
+    previous: Option<Decision>,
     path_length: f32,
     collisions: u32,
     success: bool,
@@ -177,6 +180,7 @@ impl EpisodeStepper {
             before: (f32::NAN, None),
             steps: 0,
             decisions: 0,
+            previous: None,
             path_length: 0.0,
             collisions: 0,
             success: false,
@@ -236,6 +240,23 @@ impl EpisodeStepper {
             .is_some_and(|ep| reached(&self.sim, ep, &self.sim.state()))
     }
 
+    /// The features of the latest observation ([`StepFeatures`]: the goal measurements,
+    /// contacts, the last step's collision and decision, the steps left), the one definition
+    /// the run tables, the LeRobot export and the Gym observations use. Defaults before the
+    /// first reset.
+    pub fn features(&self) -> StepFeatures {
+        match &self.episode {
+            Some(ep) => StepFeatures::new(
+                &self.obs.measurements,
+                ep,
+                self.at_goal(),
+                self.previous,
+                self.limit.saturating_sub(self.steps),
+            ),
+            None => StepFeatures::default(),
+        }
+    }
+
     /// Resets to `episode`'s start and observes.
     pub fn reset(&mut self, episode: &Episode) -> Result<&Observation, StepError> {
         self.reset_in(episode, None)
@@ -259,6 +280,7 @@ impl EpisodeStepper {
         self.episode = Some(episode.clone());
         self.steps = 0;
         self.decisions = 0;
+        self.previous = None;
         self.path_length = 0.0;
         self.collisions = 0;
         self.success = false;
@@ -294,6 +316,7 @@ impl EpisodeStepper {
             return Err(StepError::Ended(ep.episode_id.clone()));
         }
         self.decisions += 1;
+        self.previous = Some(decision);
         Ok(match decision {
             Decision::Stop => {
                 let success = reached(&self.sim, ep, &self.sim.state());

@@ -114,11 +114,14 @@ pub struct Measurements {
     pub contacts: Vec<bool>,
     /// Impulse per contact sensor (N·s).
     pub contact_impulses: Vec<f32>,
-    /// Straight-line distance to the goal (m).
+    /// Straight-line distance to the goal (m): to a point goal's point; for object and room
+    /// goals to the goal span the shortest path ends at (the one `goal_geodesic` measures
+    /// to), or the first goal span when none is reachable.
     pub goal_euclidean: Option<f32>,
-    /// Unit direction to the goal in the agent frame `[right, forward]`.
+    /// Unit direction to that goal target in the agent frame `[right, forward]`.
     pub goal_direction: Option<[f32; 2]>,
-    /// Shortest-path distance to the goal (m); `None` when unreachable or no goal.
+    /// Shortest-path distance to the goal (m), from the agent's position to the same target
+    /// as `goal_euclidean` (so never below it); `None` when unreachable or no goal.
     pub goal_geodesic: Option<f32>,
     /// Unit direction to the next waypoint of the shortest path, agent frame `[right, forward]`.
     pub waypoint_direction: Option<[f32; 2]>,
@@ -156,7 +159,10 @@ impl Observation {
 }
 
 struct GoalState {
+    /// A point goal's point; for span goals the first span's position.
     point: Vec3,
+    /// The goal is a point (not walkable spans).
+    is_point: bool,
     field: DistanceField,
     /// The last measured span and its path's points (turning in place measures the same
     /// span again).
@@ -295,6 +301,7 @@ impl Simulator {
         ));
         let grid = &self.assets.grid;
         self.goal = goal.map(|g| {
+            let is_point = matches!(g, GoalSpec::Point(_));
             let (point, spans) = match g {
                 GoalSpec::Point(p) => (p, grid.snap(p).into_iter().collect::<Vec<_>>()),
                 GoalSpec::Spans(s) => {
@@ -308,6 +315,7 @@ impl Simulator {
             };
             GoalState {
                 point,
+                is_point,
                 field,
                 last: None,
             }
@@ -568,17 +576,31 @@ impl Simulator {
             }
         }
         if let Some(goal) = &self.goal {
-            m.goal_euclidean = Some(base.distance(goal.point));
-            m.goal_direction = self.agent_frame(goal.point - base);
+            // Both distances measure to one target: a point goal's point, or the goal span
+            // the shortest path ends at (the nearest by path; the first span when none is
+            // reachable). The path runs from the agent's own position to that target, so the
+            // geodesic is never below the straight line.
+            let mut target = goal.point;
             if let Some((_, Some(points))) = goal.last.as_ref().filter(|(s, _)| Some(*s) == snapped)
             {
                 let mut pts = points.clone();
                 if let Some(first) = pts.first_mut() {
                     *first = base;
                 }
+                if goal.is_point {
+                    // The path ends at the goal's cell: finish it at the goal itself.
+                    if pts.len() > 1 {
+                        pts.pop();
+                    }
+                    pts.push(goal.point);
+                } else if let Some(&end) = pts.last() {
+                    target = end;
+                }
                 m.goal_geodesic = Some(pts.windows(2).map(|w| w[0].distance(w[1])).sum());
                 m.waypoint_direction = pts.get(1).and_then(|&w| self.agent_frame(w - base));
             }
+            m.goal_euclidean = Some(base.distance(target));
+            m.goal_direction = self.agent_frame(target - base);
         }
         Observation {
             images,

@@ -63,6 +63,27 @@ def main(root: Path, run: Path) -> None:
             assert np.array_equal(item["observation.semantic"].numpy(), semantic.astype(np.int64))
         assert ds[end - 1]["next.done"].item(), f"episode {e} ends done"
 
+    # The per-step features come back as tensors of their declared shapes; the goal
+    # vector's direction is a unit vector away from the goal.
+    # (LeRobot reads features of shape [1] as plain values, as it does next.reward.)
+    shapes = {
+        "observation.goal": (3,),
+        "observation.goal_room": (9,),
+        "observation.at_goal": (),
+        "observation.collision": (),
+        "observation.previous_action": (9,),
+        "observation.steps_left": (),
+    }
+    item = ds[0]
+    for key, shape in shapes.items():
+        assert tuple(item[key].shape) == shape, (key, tuple(item[key].shape))
+        assert item[key].dtype == torch.float32, (key, item[key].dtype)
+    assert item["observation.goal_object"].dtype == torch.int64
+    goal = item["observation.goal"]
+    if goal[0] > 0.05:
+        assert abs(float(goal[1:].norm()) - 1.0) < 1e-4, goal
+    assert item["observation.previous_action"].abs().sum() == 0, "no action before the first"
+
     # stats.json is lerobot's aggregation of the episodes' statistics.
     table = pq.read_table(root / "meta/episodes/chunk-000/file-000.parquet").to_pylist()
     per_episode = []

@@ -74,10 +74,26 @@ pub fn episode_batch(
                     .map(|s| match v {
                         VectorValue::State => &s.state[..],
                         VectorValue::Action => &s.action[..],
+                        VectorValue::Goal => &s.goal[..],
+                        VectorValue::GoalRoom => &s.goal_room[..],
+                        VectorValue::AtGoal => &s.at_goal[..],
+                        VectorValue::Contact(_) => &s.contact[..],
+                        VectorValue::Collision => &s.collision[..],
+                        VectorValue::PreviousAction => &s.previous_action[..],
+                        VectorValue::StepsLeft => &s.steps_left[..],
                     })
                     .collect();
-                vector_column(&rows, v.names().len(), frames)
+                if let Some(r) = rows.iter().find(|r| r.len() != v.len()) {
+                    return Err(format!(
+                        "{}: a frame has {} values, the dataset {}",
+                        v.key(),
+                        r.len(),
+                        v.len()
+                    ));
+                }
+                vector_column(&rows, v.len(), frames)
             }
+            FeatureKind::GoalObject(vocabulary) => goal_object_column(vocabulary, ep, frames)?,
             FeatureKind::Frame(v) => frame_column(*v, ep, frames),
             FeatureKind::Image(c) => image_column(*c, &cameras[*c].format, ep, frames)?,
             FeatureKind::Array(c) => array_column(*c, &cameras[*c].format, ep, frames)?,
@@ -89,7 +105,17 @@ pub fn episode_batch(
     Ok((batch, stats))
 }
 
+/// A vector feature's column: fixed-size lists, or plain values for a single element (as
+/// LeRobot types features of shape \[1\]); statistics per element.
 fn vector_column(rows: &[&[f32]], len: usize, frames: u64) -> (ArrayRef, FeatureStats) {
+    if len == 1 {
+        let values: Vec<f32> = rows.iter().map(|r| r[0]).collect();
+        let mut channels = [values.iter().map(|v| f64::from(*v)).collect::<Vec<f64>>()];
+        return (
+            Arc::new(Float32Array::from(values)),
+            FeatureStats::of_channels(&mut channels, frames),
+        );
+    }
     let field = Arc::new(Field::new("element", DataType::Float32, true));
     let mut b =
         FixedSizeListBuilder::new(Float32Builder::new(), len as i32).with_field(field.clone());
@@ -134,6 +160,30 @@ fn frame_column(value: FrameValue, ep: &EpisodeFrames, frames: u64) -> (ArrayRef
     };
     let mut channels = [values];
     (column, FeatureStats::of_channels(&mut channels, frames))
+}
+
+/// The object goal's category of each frame as its index in `vocabulary` (−1 for none).
+fn goal_object_column(
+    vocabulary: &[String],
+    ep: &EpisodeFrames,
+    frames: u64,
+) -> Result<(ArrayRef, FeatureStats), FrameError> {
+    let values: Vec<i64> = ep
+        .steps
+        .iter()
+        .map(|s| match &s.goal_object {
+            None => Ok(-1),
+            Some(name) => vocabulary
+                .binary_search(name)
+                .map(|k| k as i64)
+                .map_err(|_| format!("goal_object `{name}` is not in the vocabulary")),
+        })
+        .collect::<Result<_, _>>()?;
+    let mut channels = [values.iter().map(|v| *v as f64).collect::<Vec<f64>>()];
+    Ok((
+        Arc::new(Int64Array::from(values)),
+        FeatureStats::of_channels(&mut channels, frames),
+    ))
 }
 
 /// PNG images in Hugging Face's image struct (`bytes`, `path` = null); statistics per RGB

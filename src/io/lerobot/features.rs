@@ -8,6 +8,8 @@
 //! | `action` | float32 \[9\]: the eight action strengths and `stop` | the decision |
 //! | `observation.images.<sensor>` | `image` [h, w, c] (PNG) | colour and grey cameras |
 //! | `observation.<sensor>` | the sensor's dtype [h, w, c], lossless | depth (metres), normals, semantic, instance, room and room-class ids |
+//! | `observation.goal`, `.goal_room`, `.at_goal`, `.contact`, `.collision`, `.previous_action`, `.steps_left` | float32 vectors | the per-step features ([`crate::run::step_features`]) of the trajectory row |
+//! | `observation.goal_object` | int64 \[1\] | the object goal's category, an index into the dataset's vocabulary |
 //! | `next.reward`, `next.done`, `next.success` | float32 / bool \[1\] | the step's outcome |
 //! | `timestamp`, `frame_index`, `episode_index`, `index`, `task_index` | LeRobot's own | |
 //!
@@ -24,6 +26,8 @@ use serde_json::{json, Value};
 use super::stats::StatLayout;
 use crate::io::image_codec::{modality_name, CellFormat, PixelType};
 use crate::render::Modality;
+use crate::run::step_features::{contact_names, GOAL_NAMES};
+use crate::scene::taxonomy::RoomClass;
 use crate::sim::Actions;
 
 /// Names of the state vector's elements.
@@ -76,6 +80,20 @@ pub enum VectorValue {
     State,
     /// `action`: the strengths and stop.
     Action,
+    /// `observation.goal`: distance to the goal and unit direction in the agent frame.
+    Goal,
+    /// `observation.goal_room`: the room goal's class, one-hot.
+    GoalRoom,
+    /// `observation.at_goal`: 1 when the success test holds.
+    AtGoal,
+    /// `observation.contact`: the contact bits (this many sensors).
+    Contact(usize),
+    /// `observation.collision`: 1 when the step into this frame collided.
+    Collision,
+    /// `observation.previous_action`: the previous frame's `action` (zeros at the start).
+    PreviousAction,
+    /// `observation.steps_left`: steps before the step limit.
+    StepsLeft,
 }
 
 impl VectorValue {
@@ -84,14 +102,75 @@ impl VectorValue {
         match self {
             VectorValue::State => "observation.state",
             VectorValue::Action => "action",
+            VectorValue::Goal => "observation.goal",
+            VectorValue::GoalRoom => "observation.goal_room",
+            VectorValue::AtGoal => "observation.at_goal",
+            VectorValue::Contact(_) => "observation.contact",
+            VectorValue::Collision => "observation.collision",
+            VectorValue::PreviousAction => "observation.previous_action",
+            VectorValue::StepsLeft => "observation.steps_left",
         }
     }
 
     /// Names of the elements.
-    pub fn names(self) -> &'static [&'static str] {
+    pub fn names(self) -> Vec<String> {
+        let owned = |n: &[&str]| n.iter().map(|s| s.to_string()).collect();
         match self {
-            VectorValue::State => &STATE_NAMES,
-            VectorValue::Action => &ACTION_NAMES,
+            VectorValue::State => owned(&STATE_NAMES),
+            VectorValue::Action | VectorValue::PreviousAction => owned(&ACTION_NAMES),
+            VectorValue::Goal => owned(&GOAL_NAMES),
+            VectorValue::GoalRoom => RoomClass::ALL
+                .iter()
+                .map(|c| c.name().to_string())
+                .collect(),
+            VectorValue::AtGoal => owned(&["at_goal"]),
+            VectorValue::Contact(n) => contact_names(n),
+            VectorValue::Collision => owned(&["collision"]),
+            VectorValue::StepsLeft => owned(&["steps_left"]),
+        }
+    }
+
+    /// Number of elements.
+    pub fn len(self) -> usize {
+        match self {
+            VectorValue::State => STATE_NAMES.len(),
+            VectorValue::Action | VectorValue::PreviousAction => ACTION_NAMES.len(),
+            VectorValue::Goal => GOAL_NAMES.len(),
+            VectorValue::GoalRoom => RoomClass::ALL.len(),
+            VectorValue::Contact(n) => n,
+            VectorValue::AtGoal | VectorValue::Collision | VectorValue::StepsLeft => 1,
+        }
+    }
+
+    /// Never: every vector has elements (a run without contact sensors has no contact
+    /// feature).
+    pub fn is_empty(self) -> bool {
+        self.len() == 0
+    }
+
+    /// What the feature means, its frame and unit (`info.json`'s `info.minos.meaning`).
+    pub fn meaning(self) -> &'static str {
+        match self {
+            VectorValue::State => "world pose before the action: x, y, z (m), yaw, tilt (rad)",
+            VectorValue::Action => "the eight action strengths, then 1 for stop",
+            VectorValue::Goal => {
+                "straight-line distance to the goal (m), then the unit direction to it in the \
+                 agent frame [right, forward]; object and room goals: to the target the \
+                 shortest path ends at; zeros without a goal"
+            }
+            VectorValue::GoalRoom => {
+                "the room goal's MINOS room class, one-hot (zeros for other tasks)"
+            }
+            VectorValue::AtGoal => "1 when the episode's success test holds at this frame",
+            VectorValue::Contact(_) => {
+                "1 per contact sensor touching something (sensor k looks k × 360°/n \
+                 counter-clockwise from forward)"
+            }
+            VectorValue::Collision => "1 when the step that led to this frame collided",
+            VectorValue::PreviousAction => {
+                "the previous frame's action vector (zeros at an episode's first frame)"
+            }
+            VectorValue::StepsLeft => "steps left before the episode's step limit",
         }
     }
 }
@@ -165,6 +244,9 @@ pub enum FeatureKind {
     Image(usize),
     /// The camera `cameras[i]` as an [h, w, c] array of its dtype.
     Array(usize),
+    /// `observation.goal_object`: the object goal's category as an index into this
+    /// vocabulary (the dataset's goal categories, sorted), −1 for other tasks.
+    GoalObject(Vec<String>),
 }
 
 /// One column of the data files.
@@ -186,8 +268,18 @@ pub struct FeatureError {
     pub message: String,
 }
 
-/// The dataset's features, in column order, for the run's cameras.
-pub fn features(cameras: &[Camera]) -> Result<Vec<Feature>, FeatureError> {
+/// What the run's trajectory rows say beyond the cameras that shapes the features.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct RunShape {
+    /// Contact sensors per frame (0: no contact feature).
+    pub contacts: usize,
+    /// The object goals' categories, sorted and distinct (the `observation.goal_object`
+    /// vocabulary).
+    pub goal_objects: Vec<String>,
+}
+
+/// The dataset's features, in column order, for the run's cameras and shape.
+pub fn features(cameras: &[Camera], shape: &RunShape) -> Result<Vec<Feature>, FeatureError> {
     let mut out: Vec<Feature> = [VectorValue::State, VectorValue::Action]
         .into_iter()
         .map(|v| Feature {
@@ -222,12 +314,36 @@ pub fn features(cameras: &[Camera]) -> Result<Vec<Feature>, FeatureError> {
             });
         }
     }
+    let mut vectors = vec![
+        VectorValue::Goal,
+        VectorValue::GoalRoom,
+        VectorValue::AtGoal,
+    ];
+    if shape.contacts > 0 {
+        vectors.push(VectorValue::Contact(shape.contacts));
+    }
+    vectors.extend([
+        VectorValue::Collision,
+        VectorValue::PreviousAction,
+        VectorValue::StepsLeft,
+    ]);
+    out.extend(vectors.into_iter().map(|v| Feature {
+        key: v.key().into(),
+        kind: FeatureKind::Vector(v),
+    }));
+    out.push(Feature {
+        key: GOAL_OBJECT_KEY.into(),
+        kind: FeatureKind::GoalObject(shape.goal_objects.clone()),
+    });
     out.extend(FrameValue::ALL.into_iter().map(|v| Feature {
         key: v.key().into(),
         kind: FeatureKind::Frame(v),
     }));
     Ok(out)
 }
+
+/// The key of the object goal's category index.
+pub const GOAL_OBJECT_KEY: &str = "observation.goal_object";
 
 fn scalar_name(s: Scalar) -> &'static str {
     match s {
@@ -255,9 +371,27 @@ impl Feature {
     /// The entry in `meta/info.json`'s `features`.
     pub fn info(&self, cameras: &[Camera]) -> Value {
         match &self.kind {
-            FeatureKind::Vector(v) => {
-                json!({"dtype": "float32", "shape": [v.names().len()], "names": v.names()})
-            }
+            FeatureKind::Vector(v) => match v {
+                VectorValue::State | VectorValue::Action => {
+                    json!({"dtype": "float32", "shape": [v.len()], "names": v.names()})
+                }
+                _ => json!({
+                    "dtype": "float32",
+                    "shape": [v.len()],
+                    "names": v.names(),
+                    "info": {"minos.meaning": v.meaning()},
+                }),
+            },
+            FeatureKind::GoalObject(vocabulary) => json!({
+                "dtype": "int64",
+                "shape": [1],
+                "names": null,
+                "info": {
+                    "minos.meaning": "the object goal's category: an index into \
+                                      minos.vocabulary, -1 for other tasks",
+                    "minos.vocabulary": vocabulary,
+                },
+            }),
             FeatureKind::Frame(v) => {
                 json!({"dtype": scalar_name(v.scalar()), "shape": [1], "names": null})
             }
@@ -286,11 +420,14 @@ impl Feature {
     /// The Hugging Face `datasets` feature (the `huggingface` schema metadata).
     pub fn hf(&self, cameras: &[Camera]) -> Value {
         match &self.kind {
+            // LeRobot types a feature of shape [1] as a plain value.
+            FeatureKind::Vector(v) if v.len() == 1 => json!({"dtype": "float32", "_type": "Value"}),
             FeatureKind::Vector(v) => json!({
                 "feature": {"dtype": "float32", "_type": "Value"},
-                "length": v.names().len(),
+                "length": v.len(),
                 "_type": "List",
             }),
+            FeatureKind::GoalObject(_) => json!({"dtype": "int64", "_type": "Value"}),
             FeatureKind::Frame(v) => json!({"dtype": scalar_name(v.scalar()), "_type": "Value"}),
             FeatureKind::Image(_) => json!({"_type": "Image"}),
             FeatureKind::Array(i) => {
@@ -307,10 +444,12 @@ impl Feature {
     /// The Arrow type of the column.
     pub fn arrow_type(&self, cameras: &[Camera]) -> DataType {
         match &self.kind {
+            FeatureKind::Vector(v) if v.len() == 1 => DataType::Float32,
             FeatureKind::Vector(v) => DataType::FixedSizeList(
                 Arc::new(Field::new("element", DataType::Float32, true)),
-                v.names().len() as i32,
+                v.len() as i32,
             ),
+            FeatureKind::GoalObject(_) => DataType::Int64,
             FeatureKind::Frame(v) => match v.scalar() {
                 Scalar::F32 => DataType::Float32,
                 Scalar::Bool => DataType::Boolean,
@@ -362,7 +501,7 @@ mod tests {
             camera("semantic", Modality::Semantic, PixelType::U16, 1),
             camera("rooms", Modality::RoomClass, PixelType::U8, 1),
         ];
-        let f = features(&cams).expect("valid");
+        let f = features(&cams, &RunShape::default()).expect("valid");
         let keys: Vec<&str> = f.iter().map(|f| f.key.as_str()).collect();
         assert_eq!(
             &keys[..6],
@@ -400,10 +539,16 @@ mod tests {
     fn sensor_names_that_make_bad_keys_are_refused() {
         for name in ["a/b", "", "state", "depth_image"] {
             let cams = vec![camera(name, Modality::Depth, PixelType::F32, 1)];
-            let e = features(&cams).expect_err(name).to_string();
+            let e = features(&cams, &RunShape::default())
+                .expect_err(name)
+                .to_string();
             assert!(e.contains(&format!("sensor `{name}`")), "{e}");
         }
         // An image sensor may be called anything LeRobot accepts.
-        assert!(features(&[camera("image", Modality::Color, PixelType::U8, 3)]).is_ok());
+        assert!(features(
+            &[camera("image", Modality::Color, PixelType::U8, 3)],
+            &RunShape::default()
+        )
+        .is_ok());
     }
 }

@@ -252,6 +252,33 @@ pub fn write_dataset(
     }
 }
 
+/// The contact count (the same on every row) and the object goals' vocabulary of `steps`.
+fn run_shape(steps: &[StepRow], path: &Path) -> Result<features::RunShape, LerobotError> {
+    let contacts = steps.first().map_or(0, |s| s.contact.len());
+    if let Some((i, s)) = steps
+        .iter()
+        .enumerate()
+        .find(|(_, s)| s.contact.len() != contacts)
+    {
+        return Err(LerobotError::Mismatch {
+            path: path.to_path_buf(),
+            message: format!(
+                "row {i} (episode `{}`): {} contact bits where the first row has {contacts}",
+                s.episode_id,
+                s.contact.len()
+            ),
+        });
+    }
+    let mut goal_objects: Vec<String> =
+        steps.iter().filter_map(|s| s.goal_object.clone()).collect();
+    goal_objects.sort();
+    goal_objects.dedup();
+    Ok(features::RunShape {
+        contacts,
+        goal_objects,
+    })
+}
+
 /// Writes the dataset into the (new, empty) folder `root`.
 fn write_into(
     tables: &RunTables,
@@ -263,10 +290,12 @@ fn write_into(
     let steps = read_steps(&tables.trajectories)?;
     let mut observations = ObservationRows::open(&tables.observations)?;
     let cameras = observations.cameras().to_vec();
-    let features = features::features(&cameras).map_err(|source| LerobotError::Feature {
-        path: tables.observations.clone(),
-        source,
-    })?;
+    let shape = run_shape(&steps, &tables.trajectories)?;
+    let features =
+        features::features(&cameras, &shape).map_err(|source| LerobotError::Feature {
+            path: tables.observations.clone(),
+            source,
+        })?;
     let schema = data_schema(&features, &cameras);
     progress.set_total(episodes.len() as u64);
 

@@ -15,6 +15,9 @@ use super::LerobotError;
 use crate::io::image_codec::{decode_cell, modality_from_name, CellFormat};
 use crate::parquet_io::{column, read_batches};
 use crate::render::{Image, Modality};
+use crate::run::agents::Decision;
+use crate::run::step_features::action_vector;
+use crate::scene::taxonomy::RoomClass;
 
 /// The tables of a run folder that the LeRobot copy is made from.
 #[derive(Debug, Clone, PartialEq)]
@@ -68,6 +71,22 @@ pub struct StepRow {
     pub done: bool,
     /// The episode succeeded (its last row).
     pub success: bool,
+    /// Distance and agent-frame direction to the goal (zeros without a goal).
+    pub goal: [f32; 3],
+    /// The room goal's class, one-hot.
+    pub goal_room: [f32; 9],
+    /// The object goal's category.
+    pub goal_object: Option<String>,
+    /// 1 when the success test held.
+    pub at_goal: [f32; 1],
+    /// The contact bits.
+    pub contact: Vec<f32>,
+    /// 1 when the step into this frame collided.
+    pub collision: [f32; 1],
+    /// The previous frame's action vector.
+    pub previous_action: [f32; 9],
+    /// Steps left.
+    pub steps_left: [f32; 1],
 }
 
 fn read_error(path: &Path, record: String, message: impl ToString) -> LerobotError {
@@ -136,6 +155,17 @@ pub fn read_steps(path: &Path) -> Result<Vec<StepRow>, LerobotError> {
         let reward = column::<Float32Array>(&batch, "reward").map_err(schema_err)?;
         let done = column::<BooleanArray>(&batch, "done").map_err(schema_err)?;
         let success = column::<BooleanArray>(&batch, "success").map_err(schema_err)?;
+        let euclidean = column::<Float32Array>(&batch, "euclidean_distance").map_err(schema_err)?;
+        let goal_right = column::<Float32Array>(&batch, "goal_right").map_err(schema_err)?;
+        let goal_forward = column::<Float32Array>(&batch, "goal_forward").map_err(schema_err)?;
+        let goal_room = column::<StringArray>(&batch, "goal_room").map_err(schema_err)?;
+        let goal_object = column::<StringArray>(&batch, "goal_object").map_err(schema_err)?;
+        let at_goal = column::<BooleanArray>(&batch, "at_goal").map_err(schema_err)?;
+        let contacts = column::<ListArray>(&batch, "contacts").map_err(schema_err)?;
+        let previous = column::<StringArray>(&batch, "previous_action").map_err(schema_err)?;
+        let previous_collision =
+            column::<BooleanArray>(&batch, "previous_collision").map_err(schema_err)?;
+        let steps_left = column::<UInt32Array>(&batch, "steps_left").map_err(schema_err)?;
         for i in 0..batch.num_rows() {
             let record = format!("row {}", out.len());
             let nulls = [
@@ -146,6 +176,10 @@ pub fn read_steps(path: &Path) -> Result<Vec<StepRow>, LerobotError> {
                 reward.is_null(i),
                 done.is_null(i),
                 success.is_null(i),
+                at_goal.is_null(i),
+                contacts.is_null(i),
+                previous_collision.is_null(i),
+                steps_left.is_null(i),
             ];
             if nulls.iter().any(|n| *n) || pose.iter().any(|c| c.is_null(i)) {
                 return Err(read_error(path, record, "a required value is null"));
@@ -163,6 +197,50 @@ pub fn read_steps(path: &Path) -> Result<Vec<StepRow>, LerobotError> {
                 *a = s.value(k);
             }
             action[8] = f32::from(u8::from(actions.value(i) == "stop"));
+            let opt = |c: &Float32Array| (!c.is_null(i)).then(|| c.value(i));
+            let text = |c: &StringArray| (!c.is_null(i)).then(|| c.value(i).to_string());
+            let goal = match opt(euclidean) {
+                Some(d) => [
+                    d,
+                    opt(goal_right).unwrap_or(0.0),
+                    opt(goal_forward).unwrap_or(0.0),
+                ],
+                None => [0.0; 3],
+            };
+            let mut room = [0.0f32; 9];
+            if let Some(name) = text(goal_room) {
+                let class = RoomClass::from_name(&name).ok_or_else(|| {
+                    read_error(
+                        path,
+                        record.clone(),
+                        format!("goal_room: unknown class `{name}`"),
+                    )
+                })?;
+                room[class.index() as usize] = 1.0;
+            }
+            let previous_action = match text(previous) {
+                None => action_vector(None),
+                Some(name) => {
+                    let d = Decision::from_name(&name).ok_or_else(|| {
+                        read_error(
+                            path,
+                            record.clone(),
+                            format!("previous_action: unknown action `{name}`"),
+                        )
+                    })?;
+                    action_vector(Some(&d))
+                }
+            };
+            let c = contacts.value(i);
+            let c = c
+                .as_any()
+                .downcast_ref::<BooleanArray>()
+                .filter(|c| c.null_count() == 0)
+                .ok_or_else(|| read_error(path, record.clone(), "contacts: not booleans"))?;
+            let contact = (0..c.len())
+                .map(|k| f32::from(u8::from(c.value(k))))
+                .collect();
+            let flag = |b: bool| [f32::from(u8::from(b))];
             out.push(StepRow {
                 episode_id: ids.value(i).to_string(),
                 step: steps.value(i),
@@ -171,6 +249,14 @@ pub fn read_steps(path: &Path) -> Result<Vec<StepRow>, LerobotError> {
                 reward: reward.value(i),
                 done: done.value(i),
                 success: success.value(i),
+                goal,
+                goal_room: room,
+                goal_object: text(goal_object),
+                at_goal: flag(at_goal.value(i)),
+                contact,
+                collision: flag(previous_collision.value(i)),
+                previous_action,
+                steps_left: [steps_left.value(i) as f32],
             });
         }
     }

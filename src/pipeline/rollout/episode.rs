@@ -81,7 +81,6 @@ pub fn run_episode(
         let t = stepper.decisions();
         let obs = stepper.observation();
         writer.push(t, &obs.images).map_err(EpisodeError::Table)?;
-        let m = &obs.measurements;
         let state = stepper.sim().state();
         let pose = [
             state.position[0],
@@ -93,6 +92,7 @@ pub fn run_episode(
         if let Some(r) = recorder.as_mut() {
             r.observe(t, &state, &stepper.sim().cameras(), obs)?;
         }
+        let seen = stepper.features();
         let decision = agent.decide(obs, stepper.sim())?;
         let mut row = StepRow {
             step: t,
@@ -101,16 +101,13 @@ pub fn run_episode(
             strengths: decision.strengths(),
             reward: 0.0,
             collision: false,
-            contacts: m.contacts.clone(),
-            euclidean: m.goal_euclidean,
-            geodesic: m.goal_geodesic,
+            seen,
             done: false,
             success: false,
         };
         let out = stepper.step(decision)?;
         row.reward = out.reward;
         row.collision = out.collision;
-        row.contacts = out.obs.measurements.contacts.clone();
         row.done = out.done();
         row.success = out.success;
         stopped = out.stopped;
