@@ -6,21 +6,29 @@
 //! |---|---|---|
 //! | `observation.state` | float32 \[5\]: x, y, z, yaw, tilt | the pose before the action |
 //! | `action` | float32 \[9\]: the eight action strengths and `stop` | the decision |
-//! | `observation.images.<sensor>` | `image` [h, w, c] (PNG) | colour and grey cameras |
-//! | `observation.<sensor>` | the sensor's dtype [h, w, c], lossless | depth (metres), normals, semantic, instance, room and room-class ids |
+//! | `observation.images.<sensor>` | `image` [h, w, c] (PPM / PGM) | colour and grey cameras |
+//! | `observation.<sensor>` | `image` [h, w, 1] (PFM / PGM / TIFF), lossless | depth (metres), semantic, instance, room and room-class ids |
+//! | `observation.<sensor>` | the sensor's dtype [c, h, w], lossless | several-channel arrays (normals) |
 //! | `next.reward`, `next.done`, `next.success` | float32 / bool \[1\] | the step's outcome |
 //! | `timestamp`, `frame_index`, `episode_index`, `index`, `task_index` | LeRobot's own | |
 //!
-//! Label and depth images are arrays, not `image` features, because LeRobot turns `image`
-//! features into 8-bit [0, 1] tensors and requires their statistics to be 3-channel: a class
-//! id or a depth in metres would not survive that. Their keys avoid the word `image` for the
-//! same reason.
+//! Every camera comes out of `LeRobotDataset` channel-first, as LeRobot's images do. A
+//! one-channel camera is a small image file per frame ([`ImageFile`]): Hugging Face
+//! `datasets` decodes it with Pillow and LeRobot turns it into a tensor with torchvision's
+//! `to_tensor`, which scales only 8-bit pictures to \[0, 1\]; a float32 PFM comes back as
+//! float32 (1, h, w) in metres and a 16-bit PGM or 32-bit TIFF as int32 (1, h, w) ids, exact.
+//! `datasets`' array features (`Array3D`) would go through nested Python lists, about 30
+//! times slower; only cameras no Pillow mode holds (normals: three float channels) are
+//! stored so, as [c, h, w]. The keys of non-picture cameras avoid the word `image`, because
+//! LeRobot requires the statistics of such keys to be 3-channel in [0, 1], and their
+//! statistics are per channel, as (c, 1, 1), in the tensor's own units.
 
 use std::sync::Arc;
 
 use arrow::datatypes::{DataType, Field, Fields};
 use serde_json::{json, Value};
 
+use super::image_file::ImageFile;
 use super::stats::StatLayout;
 use crate::io::image_codec::{modality_name, CellFormat, PixelType};
 use crate::render::Modality;
@@ -55,6 +63,11 @@ impl Camera {
         matches!(self.modality, Modality::Color | Modality::Gray)
             && self.format.dtype == PixelType::U8
             && matches!(self.format.channels, 1 | 3)
+    }
+
+    /// The file each frame is stored as, or `None` for a channel-first array.
+    pub fn image_file(&self) -> Option<ImageFile> {
+        ImageFile::of(self.format.dtype, self.format.channels, self.is_image())
     }
 }
 
@@ -161,9 +174,11 @@ pub enum FeatureKind {
     Vector(VectorValue),
     /// One value per frame.
     Frame(FrameValue),
-    /// The camera `cameras[i]` as PNG images.
+    /// The colour or grey camera `cameras[i]` (`observation.images.<name>`), as 8-bit
+    /// image files.
     Image(usize),
-    /// The camera `cameras[i]` as an [h, w, c] array of its dtype.
+    /// Any other camera `cameras[i]` (`observation.<name>`): as image files that keep its
+    /// values where it has [`Camera::image_file`], else as a [c, h, w] array of its dtype.
     Array(usize),
 }
 
@@ -264,21 +279,47 @@ impl Feature {
             FeatureKind::Image(i) | FeatureKind::Array(i) => {
                 let c = &cameras[*i];
                 let f = &c.format;
-                let image = matches!(self.kind, FeatureKind::Image(_));
                 let mut info = json!({
                     "minos.sensor": c.name,
                     "minos.modality": modality_name(c.modality),
-                    "minos.storage": if image { "PNG, lossless" } else { "array of the sensor's values, lossless" },
+                    "minos.sensor_dtype": f.dtype.name(),
                 });
                 if c.modality == Modality::Depth && f.dtype == PixelType::F32 {
                     info["minos.unit"] = json!("m (0 = no return)");
                 }
-                json!({
-                    "dtype": if image { "image" } else { f.dtype.name() },
-                    "shape": [f.height, f.width, f.channels],
-                    "names": ["height", "width", "channels"],
-                    "info": info,
-                })
+                match c.image_file() {
+                    Some(file) => {
+                        info["minos.storage"] = json!(format!("{}, lossless", file.name()));
+                        info["minos.tensor"] = json!(format!(
+                            "{} [{}, {}, {}]{}",
+                            file.tensor_dtype(),
+                            f.channels,
+                            f.height,
+                            f.width,
+                            if file.scaled() {
+                                " in [0, 1]"
+                            } else {
+                                ", the sensor's values"
+                            }
+                        ));
+                        json!({
+                            "dtype": "image",
+                            "shape": [f.height, f.width, f.channels],
+                            "names": ["height", "width", "channels"],
+                            "info": info,
+                        })
+                    }
+                    None => {
+                        info["minos.storage"] =
+                            json!("array of the sensor's values, channel-first, lossless");
+                        json!({
+                            "dtype": f.dtype.name(),
+                            "shape": [f.channels, f.height, f.width],
+                            "names": ["channels", "height", "width"],
+                            "info": info,
+                        })
+                    }
+                }
             }
         }
     }
@@ -292,14 +333,17 @@ impl Feature {
                 "_type": "List",
             }),
             FeatureKind::Frame(v) => json!({"dtype": scalar_name(v.scalar()), "_type": "Value"}),
-            FeatureKind::Image(_) => json!({"_type": "Image"}),
-            FeatureKind::Array(i) => {
-                let f = &cameras[*i].format;
-                json!({
-                    "shape": [f.height, f.width, f.channels],
-                    "dtype": f.dtype.name(),
-                    "_type": "Array3D",
-                })
+            FeatureKind::Image(i) | FeatureKind::Array(i) => {
+                let c = &cameras[*i];
+                let f = &c.format;
+                match c.image_file() {
+                    Some(_) => json!({"_type": "Image"}),
+                    None => json!({
+                        "shape": [f.channels, f.height, f.width],
+                        "dtype": f.dtype.name(),
+                        "_type": "Array3D",
+                    }),
+                }
             }
         }
     }
@@ -316,20 +360,21 @@ impl Feature {
                 Scalar::Bool => DataType::Boolean,
                 Scalar::I64 => DataType::Int64,
             },
-            FeatureKind::Image(_) => DataType::Struct(Fields::from(vec![
-                Field::new("bytes", DataType::Binary, true),
-                Field::new("path", DataType::Utf8, true),
-            ])),
-            FeatureKind::Array(i) => {
-                list_of(list_of(list_of(arrow_pixel(cameras[*i].format.dtype))))
-            }
+            FeatureKind::Image(i) | FeatureKind::Array(i) => match cameras[*i].image_file() {
+                Some(_) => DataType::Struct(Fields::from(vec![
+                    Field::new("bytes", DataType::Binary, true),
+                    Field::new("path", DataType::Utf8, true),
+                ])),
+                None => list_of(list_of(list_of(arrow_pixel(cameras[*i].format.dtype)))),
+            },
         }
     }
 
-    /// How its statistics are nested.
+    /// How its statistics are nested: per channel as (c, 1, 1) for cameras, which
+    /// broadcasts against their channel-first tensors.
     pub fn stat_layout(&self) -> StatLayout {
         match self.kind {
-            FeatureKind::Image(_) => StatLayout::Image,
+            FeatureKind::Image(_) | FeatureKind::Array(_) => StatLayout::Image,
             _ => StatLayout::Flat,
         }
     }
