@@ -400,12 +400,13 @@ mod tests {
     }
 
     #[test]
-    fn colour_is_an_image_and_labels_and_depth_are_lossless_arrays() {
+    fn colour_is_a_picture_and_other_cameras_are_lossless_and_channel_first() {
         let cams = vec![
             camera("rgb", Modality::Color, PixelType::U8, 3),
             camera("depth", Modality::Depth, PixelType::F32, 1),
             camera("semantic", Modality::Semantic, PixelType::U16, 1),
             camera("rooms", Modality::RoomClass, PixelType::U8, 1),
+            camera("normal", Modality::Normal, PixelType::F32, 3),
         ];
         let f = features(&cams).expect("valid");
         let keys: Vec<&str> = f.iter().map(|f| f.key.as_str()).collect();
@@ -422,13 +423,49 @@ mod tests {
         );
         assert_eq!(f[2].info(&cams)["dtype"], "image");
         assert_eq!(f[2].info(&cams)["shape"], json!([64, 84, 3]));
-        assert_eq!(f[3].info(&cams)["dtype"], "float32");
-        assert_eq!(f[4].info(&cams)["dtype"], "uint16");
-        assert_eq!(f[5].info(&cams)["dtype"], "uint8");
+        // One-channel depth and labels: lossless image files LeRobot returns as (1, h, w).
+        for (k, storage, tensor) in [
+            (
+                3,
+                "PFM (float32), lossless",
+                "float32 [1, 64, 84], the sensor's values",
+            ),
+            (
+                4,
+                "PGM (P5, 16-bit), lossless",
+                "int32 [1, 64, 84], the sensor's values",
+            ),
+            (
+                5,
+                "PGM (P5, 16-bit), lossless",
+                "int32 [1, 64, 84], the sensor's values",
+            ),
+        ] {
+            let info = f[k].info(&cams);
+            assert_eq!(info["dtype"], "image", "{}", f[k].key);
+            assert_eq!(info["shape"], json!([64, 84, 1]));
+            assert_eq!(info["info"]["minos.storage"], storage);
+            assert_eq!(info["info"]["minos.tensor"], tensor);
+            assert_eq!(f[k].hf(&cams), json!({"_type": "Image"}));
+            assert_eq!(f[k].stat_layout(), StatLayout::Image);
+        }
+        assert_eq!(f[3].info(&cams)["info"]["minos.sensor_dtype"], "float32");
+        assert_eq!(f[4].info(&cams)["info"]["minos.sensor_dtype"], "uint16");
+        assert_eq!(f[5].info(&cams)["info"]["minos.sensor_dtype"], "uint8");
+        // Normals: no Pillow mode holds three float channels; a channel-first array.
+        let n = &f[6];
+        assert_eq!(n.key, "observation.normal");
+        assert_eq!(n.info(&cams)["dtype"], "float32");
+        assert_eq!(n.info(&cams)["shape"], json!([3, 64, 84]));
         assert_eq!(
-            f[3].hf(&cams),
-            json!({"shape": [64, 84, 1], "dtype": "float32", "_type": "Array3D"})
+            n.info(&cams)["names"],
+            json!(["channels", "height", "width"])
         );
+        assert_eq!(
+            n.hf(&cams),
+            json!({"shape": [3, 64, 84], "dtype": "float32", "_type": "Array3D"})
+        );
+        assert_eq!(n.stat_layout(), StatLayout::Image);
         assert_eq!(f[1].info(&cams)["shape"], json!([9]));
         for k in [
             "timestamp",
@@ -439,6 +476,43 @@ mod tests {
         ] {
             assert!(keys.contains(&k), "{k}");
         }
+    }
+
+    #[test]
+    fn each_camera_gets_the_file_that_keeps_its_values() {
+        let file = |m, t, c| camera("x", m, t, c).image_file();
+        assert_eq!(
+            file(Modality::Color, PixelType::U8, 3),
+            Some(ImageFile::Ppm)
+        );
+        assert_eq!(
+            file(Modality::Gray, PixelType::U8, 1),
+            Some(ImageFile::Pgm8)
+        );
+        // An 8-bit depth or class image is ids, not grey: 16-bit so Pillow reads integers.
+        assert_eq!(
+            file(Modality::Depth, PixelType::U8, 1),
+            Some(ImageFile::Pgm16)
+        );
+        assert_eq!(
+            file(Modality::RoomClass, PixelType::U8, 1),
+            Some(ImageFile::Pgm16)
+        );
+        assert_eq!(
+            file(Modality::Depth, PixelType::U16, 1),
+            Some(ImageFile::Pgm16)
+        );
+        assert_eq!(
+            file(Modality::Instance, PixelType::U32, 1),
+            Some(ImageFile::Tiff32)
+        );
+        assert_eq!(
+            file(Modality::Depth, PixelType::F32, 1),
+            Some(ImageFile::Pfm)
+        );
+        assert_eq!(file(Modality::Normal, PixelType::F32, 3), None);
+        assert!(ImageFile::Ppm.scaled() && !ImageFile::Pfm.scaled());
+        assert_eq!(ImageFile::Tiff32.tensor_dtype(), "int32");
     }
 
     #[test]
