@@ -18,8 +18,8 @@
 //! `to_tensor`, which scales only 8-bit pictures to \[0, 1\]; a float32 PFM comes back as
 //! float32 (1, h, w) in metres and a 16-bit PGM or 32-bit TIFF as int32 (1, h, w) ids, exact.
 //! `datasets`' array features (`Array3D`) would go through nested Python lists (≈ 9.5 ms
-//! a row against ≈ 0.1 ms for a file); only cameras no Pillow mode holds (normals: three float channels) are
-//! stored so, as [c, h, w]. The keys of non-picture cameras avoid the word `image`, because
+//! a row against ≈ 0.1 ms for a file); only cameras no Pillow mode holds (normals: three
+//! float channels) are stored so, as [c, h, w]. The keys of non-picture cameras avoid the word `image`, because
 //! LeRobot requires the statistics of such keys to be 3-channel in [0, 1], and their
 //! statistics are per channel, as (c, 1, 1), in the tensor's own units.
 
