@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 
 use arrow::array::{
     Array, BinaryArray, BooleanArray, FixedSizeListArray, Float32Array, Float64Array, Int64Array,
-    ListArray, RecordBatch, StringArray, StructArray, UInt16Array, UInt32Array, UInt8Array,
+    ListArray, RecordBatch, StringArray, StructArray, UInt32Array,
 };
 use common::{baked_houses, every_task_episodes, minos, tree_bytes, RunOk};
 use minos::episode::Episode;
@@ -202,21 +202,39 @@ fn the_dataset_follows_the_lerobot_v3_layout() {
         features["observation.images.color"]["shape"],
         serde_json::json!([h, w, 3])
     );
-    for (key, dtype, c) in [
-        ("observation.depth", "float32", 1),
-        ("observation.normal", "float32", 3),
-        ("observation.semantic", "uint16", 1),
-        ("observation.instance", "uint32", 1),
-        ("observation.room", "uint32", 1),
-        ("observation.room_class", "uint8", 1),
+    // One-channel cameras are lossless image files, which LeRobot returns channel-first
+    // like its pictures; normals (three float channels) are a channel-first array.
+    for (key, sensor_dtype, storage) in [
+        ("observation.depth", "float32", "PFM"),
+        ("observation.semantic", "uint16", "PGM (P5, 16-bit)"),
+        ("observation.instance", "uint32", "TIFF"),
+        ("observation.room", "uint32", "TIFF"),
+        ("observation.room_class", "uint8", "PGM (P5, 16-bit)"),
     ] {
-        assert_eq!(features[key]["dtype"], dtype, "{key}");
+        assert_eq!(features[key]["dtype"], "image", "{key}");
         assert_eq!(
             features[key]["shape"],
-            serde_json::json!([h, w, c]),
+            serde_json::json!([h, w, 1]),
             "{key}"
         );
+        let info = &features[key]["info"];
+        assert_eq!(info["minos.sensor_dtype"], sensor_dtype, "{key}");
+        let stored = info["minos.storage"].as_str().expect("storage");
+        assert!(stored.starts_with(storage), "{key}: {stored}");
     }
+    assert_eq!(
+        features["observation.depth"]["info"]["minos.unit"],
+        "m (0 = no return)"
+    );
+    assert_eq!(features["observation.normal"]["dtype"], "float32");
+    assert_eq!(
+        features["observation.normal"]["shape"],
+        serde_json::json!([3, h, w])
+    );
+    assert_eq!(
+        features["observation.normal"]["names"],
+        serde_json::json!(["channels", "height", "width"])
+    );
 
     // Data files: one column per feature, typed as the Hugging Face metadata says.
     let frames = frames(&root);
@@ -315,10 +333,15 @@ fn the_dataset_follows_the_lerobot_v3_layout() {
         Some(3)
     );
     assert!(stats["observation.images.color"]["mean"][0][0][0].is_number());
-    assert_eq!(
-        stats["observation.normal"]["mean"].as_array().map(Vec::len),
-        Some(3)
-    );
+    // Cameras' statistics are (c, 1, 1), broadcasting against their (c, h, w) tensors.
+    for (key, c) in [("observation.normal", 3), ("observation.depth", 1)] {
+        assert_eq!(
+            stats[key]["mean"].as_array().map(Vec::len),
+            Some(c),
+            "{key}"
+        );
+        assert!(stats[key]["q50"][c - 1][0][0].is_number(), "{key}");
+    }
 }
 
 /// The run's observation rows: (episode id, step) → column → cell bytes.
@@ -341,25 +364,110 @@ fn observation_cells(run: &Path) -> BTreeMap<(String, u32), BTreeMap<String, Vec
     out
 }
 
-/// The values of row `r` of a nested `[h][w][c]` list column, flattened.
+/// The values of row `r` of a channel-first `[c][h][w]` list column of `c` channels,
+/// flattened in that order.
 fn nested<T: 'static + Clone>(
     column: &ListArray,
     r: usize,
+    c: usize,
     leaf: impl Fn(&dyn Array) -> Vec<T>,
 ) -> Vec<T> {
-    let rows = column.value(r);
-    let rows = rows.as_any().downcast_ref::<ListArray>().expect("rows");
+    let planes = column.value(r);
+    let planes = planes.as_any().downcast_ref::<ListArray>().expect("planes");
+    assert_eq!(planes.len(), c);
     let mut out = Vec::new();
-    for y in 0..rows.len() {
-        let px = rows.value(y);
-        let px = px.as_any().downcast_ref::<ListArray>().expect("pixels");
-        assert_eq!(px.len(), SIZE[0] as usize);
-        for x in 0..px.len() {
-            out.extend(leaf(px.value(x).as_ref()));
+    for p in 0..c {
+        let rows = planes.value(p);
+        let rows = rows.as_any().downcast_ref::<ListArray>().expect("rows");
+        assert_eq!(rows.len(), SIZE[1] as usize);
+        for y in 0..rows.len() {
+            let px = rows.value(y);
+            assert_eq!(px.len(), SIZE[0] as usize);
+            out.extend(leaf(px.as_ref()));
         }
     }
-    assert_eq!(rows.len(), SIZE[1] as usize);
     out
+}
+
+/// Interleaved `[h][w][c]` values in channel-first `[c][h][w]` order.
+fn channel_first<T: Copy>(v: &[T], c: usize) -> Vec<T> {
+    (0..c)
+        .flat_map(|k| v.iter().skip(k).step_by(c).copied())
+        .collect()
+}
+
+/// A frame file's width, height and samples in row-major order, read from the formats'
+/// specifications (Netpbm `P5`/`P6` and `Pf`, baseline TIFF), not with minos's writer.
+fn read_image_file(b: &[u8]) -> (u32, u32, Vec<f64>) {
+    if b.starts_with(b"II*\0") {
+        let u16_at = |i: usize| u16::from_le_bytes([b[i], b[i + 1]]);
+        let u32_at = |i: usize| u32::from_le_bytes([b[i], b[i + 1], b[i + 2], b[i + 3]]);
+        let ifd = u32_at(4) as usize;
+        let mut tags = BTreeMap::new();
+        for k in 0..u16_at(ifd) as usize {
+            let e = ifd + 2 + 12 * k;
+            let value = match u16_at(e + 2) {
+                3 => u32::from(u16_at(e + 8)),
+                _ => u32_at(e + 8),
+            };
+            tags.insert(u16_at(e), value);
+        }
+        assert_eq!((tags[&258], tags[&259], tags[&277]), (32, 1, 1), "{tags:?}");
+        assert_eq!(tags[&339], 2, "signed samples");
+        let (w, h, start) = (tags[&256], tags[&257], tags[&273] as usize);
+        let values = b[start..start + (w * h * 4) as usize]
+            .chunks_exact(4)
+            .map(|c| f64::from(i32::from_le_bytes([c[0], c[1], c[2], c[3]])))
+            .collect();
+        return (w, h, values);
+    }
+    let text = |from: usize| {
+        let end = from + b[from..].iter().position(|c| *c == b'\n').expect("line");
+        (
+            String::from_utf8(b[from..end].to_vec()).expect("ascii"),
+            end + 1,
+        )
+    };
+    let (magic, at) = text(0);
+    let (size, at) = text(at);
+    let (third, at) = text(at);
+    let mut wh = size.split(' ').map(|v| v.parse::<u32>().expect("size"));
+    let (w, h) = (wh.next().expect("w"), wh.next().expect("h"));
+    let body = &b[at..];
+    let values: Vec<f64> = match (magic.as_str(), third.as_str()) {
+        ("P6" | "P5", "255") => body.iter().map(|v| f64::from(*v)).collect(),
+        ("P5", "65535") => body
+            .chunks_exact(2)
+            .map(|c| f64::from(u16::from_be_bytes([c[0], c[1]])))
+            .collect(),
+        ("Pf", scale) if scale.starts_with('-') => {
+            // Little-endian, bottom row first.
+            let rows: Vec<Vec<f64>> = body
+                .chunks_exact(4 * w as usize)
+                .map(|r| {
+                    r.chunks_exact(4)
+                        .map(|c| f64::from(f32::from_le_bytes([c[0], c[1], c[2], c[3]])))
+                        .collect()
+                })
+                .collect();
+            rows.into_iter().rev().flatten().collect()
+        }
+        other => panic!("unexpected header {other:?}"),
+    };
+    (w, h, values)
+}
+
+/// The samples of row `r` of an image-file column.
+fn file_values(b: &RecordBatch, key: &str, r: usize) -> Vec<f64> {
+    let s = col::<StructArray>(b, key);
+    let bytes = s.column_by_name("bytes").expect("bytes");
+    let bytes = bytes
+        .as_any()
+        .downcast_ref::<BinaryArray>()
+        .expect("binary");
+    let (w, h, values) = read_image_file(bytes.value(r));
+    assert_eq!((w, h), (SIZE[0], SIZE[1]), "{key}");
+    values
 }
 
 fn le_f32(b: &[u8]) -> Vec<f32> {
@@ -389,12 +497,6 @@ fn frames_equal_the_runs_own_tables() {
     let state = col::<FixedSizeListArray>(&frames, "observation.state");
     let action = col::<FixedSizeListArray>(&frames, "action");
     let timestamp = col::<Float32Array>(&frames, "timestamp");
-    let color = col::<StructArray>(&frames, "observation.images.color");
-    let color_bytes = color.column_by_name("bytes").expect("bytes");
-    let color_bytes = color_bytes
-        .as_any()
-        .downcast_ref::<BinaryArray>()
-        .expect("binary");
     for i in 0..frames.num_rows() {
         let e = (0..eps.num_rows())
             .rev()
@@ -403,65 +505,40 @@ fn frames_equal_the_runs_own_tables() {
         let step = (i - from.value(e) as usize) as u32;
         let key = (ids.value(e).to_string(), step);
         let row = &cells[&key];
-        // Colour: the PNG decodes (with the image crate, not minos) to the raw pixels.
-        let png = image::load_from_memory(color_bytes.value(i))
-            .expect("png")
-            .to_rgb8();
-        assert_eq!(png.dimensions(), (SIZE[0], SIZE[1]));
-        assert_eq!(png.as_raw(), &row["color"], "colour of {key:?}");
-        // Arrays: exactly the sensor's values.
-        let depth = nested(col::<ListArray>(&frames, "observation.depth"), i, |a| {
-            a.as_any()
-                .downcast_ref::<Float32Array>()
-                .expect("f32")
-                .values()
-                .to_vec()
-        });
-        assert_eq!(depth, le_f32(&row["depth"]), "depth of {key:?}");
-        let normal = nested(col::<ListArray>(&frames, "observation.normal"), i, |a| {
-            a.as_any()
-                .downcast_ref::<Float32Array>()
-                .expect("f32")
-                .values()
-                .to_vec()
-        });
-        assert_eq!(normal, le_f32(&row["normal"]));
-        let semantic = nested(col::<ListArray>(&frames, "observation.semantic"), i, |a| {
-            a.as_any()
-                .downcast_ref::<UInt16Array>()
-                .expect("u16")
-                .values()
-                .to_vec()
-        });
-        let raw: Vec<u16> = row["semantic"]
+        // Colour: the PPM holds the raw pixels.
+        let color = file_values(&frames, "observation.images.color", i);
+        let raw: Vec<f64> = row["color"].iter().map(|v| f64::from(*v)).collect();
+        assert_eq!(color, raw, "colour of {key:?}");
+        // One-channel cameras: exactly the sensor's values.
+        let depth = file_values(&frames, "observation.depth", i);
+        let raw: Vec<f64> = le_f32(&row["depth"]).into_iter().map(f64::from).collect();
+        assert_eq!(depth, raw, "depth of {key:?}");
+        let semantic = file_values(&frames, "observation.semantic", i);
+        let raw: Vec<f64> = row["semantic"]
             .chunks_exact(2)
-            .map(|c| u16::from_le_bytes([c[0], c[1]]))
+            .map(|c| f64::from(u16::from_le_bytes([c[0], c[1]])))
             .collect();
-        assert_eq!(semantic, raw);
-        let instance = nested(col::<ListArray>(&frames, "observation.instance"), i, |a| {
+        assert_eq!(semantic, raw, "semantic of {key:?}");
+        for name in ["instance", "room"] {
+            let ids = file_values(&frames, &format!("observation.{name}"), i);
+            let raw: Vec<f64> = row[name]
+                .chunks_exact(4)
+                .map(|c| f64::from(u32::from_le_bytes([c[0], c[1], c[2], c[3]])))
+                .collect();
+            assert_eq!(ids, raw, "{name} of {key:?}");
+        }
+        let classes = file_values(&frames, "observation.room_class", i);
+        let raw: Vec<f64> = row["room_class"].iter().map(|v| f64::from(*v)).collect();
+        assert_eq!(classes, raw, "room classes of {key:?}");
+        // Normals: a channel-first array of the sensor's values.
+        let normal = nested(col::<ListArray>(&frames, "observation.normal"), i, 3, |a| {
             a.as_any()
-                .downcast_ref::<UInt32Array>()
-                .expect("u32")
+                .downcast_ref::<Float32Array>()
+                .expect("f32")
                 .values()
                 .to_vec()
         });
-        let raw: Vec<u32> = row["instance"]
-            .chunks_exact(4)
-            .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
-            .collect();
-        assert_eq!(instance, raw);
-        let classes = nested(
-            col::<ListArray>(&frames, "observation.room_class"),
-            i,
-            |a| {
-                a.as_any()
-                    .downcast_ref::<UInt8Array>()
-                    .expect("u8")
-                    .values()
-                    .to_vec()
-            },
-        );
-        assert_eq!(classes, row["room_class"]);
+        assert_eq!(normal, channel_first(&le_f32(&row["normal"]), 3));
         // State, action and time from the trajectory table (same row order).
         let s = state.value(i);
         let s = s.as_any().downcast_ref::<Float32Array>().expect("f32");
@@ -581,41 +658,23 @@ fn statistics_are_those_of_the_frames() {
         );
     }
     // Depth: one channel, over every pixel of every frame.
-    let depth = col::<ListArray>(&frames, "observation.depth");
     let all: Vec<f64> = (0..n)
-        .flat_map(|i| {
-            nested(depth, i, |a| {
-                a.as_any()
-                    .downcast_ref::<Float32Array>()
-                    .expect("f32")
-                    .values()
-                    .to_vec()
-            })
-        })
-        .map(f64::from)
+        .flat_map(|i| file_values(&frames, "observation.depth", i))
         .collect();
     let mean = all.iter().sum::<f64>() / all.len() as f64;
     let var = all.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / all.len() as f64;
     let s = &stats["observation.depth"];
-    assert!((s["mean"][0].as_f64().expect("mean") - mean).abs() < 1e-9);
-    assert!((s["std"][0].as_f64().expect("std") - var.sqrt()).abs() < 1e-9);
+    assert!((s["mean"][0][0][0].as_f64().expect("mean") - mean).abs() < 1e-9);
+    assert!((s["std"][0][0][0].as_f64().expect("std") - var.sqrt()).abs() < 1e-9);
     assert_eq!(s["count"][0].as_u64(), Some(n as u64));
     // Colour: per channel in [0, 1] over every pixel.
-    let color = col::<StructArray>(&frames, "observation.images.color");
-    let bytes = color.column_by_name("bytes").expect("bytes");
-    let bytes = bytes
-        .as_any()
-        .downcast_ref::<BinaryArray>()
-        .expect("binary");
     let mut sums = [0f64; 3];
     let mut count = 0f64;
     for i in 0..n {
-        let img = image::load_from_memory(bytes.value(i))
-            .expect("png")
-            .to_rgb8();
-        for p in img.pixels() {
-            for (sum, v) in sums.iter_mut().zip(p.0) {
-                *sum += f64::from(v) / 255.0;
+        let rgb = file_values(&frames, "observation.images.color", i);
+        for p in rgb.chunks_exact(3) {
+            for (sum, v) in sums.iter_mut().zip(p) {
+                *sum += v / 255.0;
             }
             count += 1.0;
         }
@@ -692,15 +751,7 @@ fn export_dataset_rebuilds_the_same_bytes_and_png_runs_hold_the_same_data() {
             "{key}"
         );
     }
-    let d = |b: &RecordBatch, i| {
-        nested(col::<ListArray>(b, "observation.depth"), i, |a| {
-            a.as_any()
-                .downcast_ref::<Float32Array>()
-                .expect("f32")
-                .values()
-                .to_vec()
-        })
-    };
+    let d = |b: &RecordBatch, i| file_values(b, "observation.depth", i);
     for i in 0..raw_frames.num_rows() {
         for (a, b) in d(&png_frames, i).iter().zip(d(&raw_frames, i)) {
             assert!((a - b.min(65.535)).abs() <= 0.0005 + 1e-6, "{a} vs {b}");

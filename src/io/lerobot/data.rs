@@ -15,9 +15,10 @@ use arrow::datatypes::{
 use serde_json::json;
 
 use super::features::{Camera, Feature, FeatureKind, FrameValue, Scalar, VectorValue};
+use super::image_file::ImageFile;
 use super::source::StepRow;
 use super::stats::FeatureStats;
-use crate::io::image_codec::{encode_cell, CellEncoding, CellFormat};
+use crate::io::image_codec::CellFormat;
 use crate::render::Image;
 
 /// The frames of one episode, ready to be laid out.
@@ -95,8 +96,10 @@ pub fn episode_batch(
             }
             FeatureKind::GoalObject(vocabulary) => goal_object_column(vocabulary, ep, frames)?,
             FeatureKind::Frame(v) => frame_column(*v, ep, frames),
-            FeatureKind::Image(c) => image_column(*c, &cameras[*c].format, ep, frames)?,
-            FeatureKind::Array(c) => array_column(*c, &cameras[*c].format, ep, frames)?,
+            FeatureKind::Image(c) | FeatureKind::Array(c) => match cameras[*c].image_file() {
+                Some(file) => image_column(*c, file, &cameras[*c].format, ep, frames)?,
+                None => array_column(*c, &cameras[*c].format, ep, frames)?,
+            },
         };
         columns.push(column);
         stats.push(s);
@@ -186,38 +189,47 @@ fn goal_object_column(
     ))
 }
 
-/// PNG images in Hugging Face's image struct (`bytes`, `path` = null); statistics per RGB
-/// channel over every pixel, grey counted as three equal channels (LeRobot reads images as
-/// RGB).
+/// Image files in Hugging Face's image struct (`bytes`, `path` = null). Statistics of
+/// 8-bit pictures per RGB channel over every pixel in [0, 1], grey counted as three equal
+/// channels (LeRobot checks `observation.images.*` statistics for three channels); of other
+/// cameras per channel in the sensor's own values, as LeRobot returns them.
 fn image_column(
     camera: usize,
+    file: ImageFile,
     format: &CellFormat,
     ep: &EpisodeFrames,
     frames: u64,
 ) -> Result<(ArrayRef, FeatureStats), FrameError> {
-    let png = CellFormat {
-        encoding: CellEncoding::Png8,
-        ..*format
-    };
     let mut bytes = BinaryBuilder::new();
-    let mut hist = vec![[0u64; 256]; format.channels as usize];
+    let c = format.channels as usize;
+    let mut hist = vec![[0u64; 256]; c];
+    let mut channels: Vec<Vec<f64>> = vec![Vec::new(); if file.scaled() { 0 } else { c }];
     let mut buf = Vec::new();
     for (i, frame) in ep.images.iter().enumerate() {
         let img = &frame[camera];
-        buf.clear();
-        encode_cell(img, &png, &mut buf).map_err(|e| format!("frame {i}: {e}"))?;
+        file.encode(img, format.width, format.height, &mut buf)
+            .map_err(|e| format!("frame {i}: {e}"))?;
         bytes.append_value(&buf);
-        if let Image::U8 { data, .. } = img {
-            for px in data.chunks_exact(format.channels as usize) {
-                for (c, v) in px.iter().enumerate() {
-                    hist[c][*v as usize] += 1;
+        if file.scaled() {
+            if let Image::U8 { data, .. } = img {
+                for px in data.chunks_exact(c) {
+                    for (k, v) in px.iter().enumerate() {
+                        hist[k][*v as usize] += 1;
+                    }
                 }
             }
+        } else {
+            collect_channels(img, &mut channels);
         }
     }
-    if hist.len() == 1 {
-        hist = vec![hist[0]; 3];
-    }
+    let stats = if file.scaled() {
+        if hist.len() == 1 {
+            hist = vec![hist[0]; 3];
+        }
+        FeatureStats::of_histograms(&hist, frames)
+    } else {
+        FeatureStats::of_channels(&mut channels, frames)
+    };
     let n = ep.images.len();
     let column = StructArray::new(
         vec![
@@ -231,10 +243,39 @@ fn image_column(
         ],
         None,
     );
-    Ok((Arc::new(column), FeatureStats::of_histograms(&hist, frames)))
+    Ok((Arc::new(column), stats))
 }
 
-/// Frames as `[h][w][c]` nested lists of the sensor's own values; statistics per channel.
+/// Appends every value of `img` to its channel's list (channels interleaved).
+fn collect_channels(img: &Image, channels: &mut [Vec<f64>]) {
+    let c = channels.len().max(1);
+    let mut push = |k: usize, v: f64| {
+        if let Some(ch) = channels.get_mut(k % c) {
+            ch.push(v);
+        }
+    };
+    match img {
+        Image::U8 { data, .. } => data
+            .iter()
+            .enumerate()
+            .for_each(|(k, v)| push(k, f64::from(*v))),
+        Image::U16(d) => d
+            .iter()
+            .enumerate()
+            .for_each(|(k, v)| push(k, f64::from(*v))),
+        Image::U32(d) => d
+            .iter()
+            .enumerate()
+            .for_each(|(k, v)| push(k, f64::from(*v))),
+        Image::F32 { data, .. } => data
+            .iter()
+            .enumerate()
+            .for_each(|(k, v)| push(k, f64::from(*v))),
+    }
+}
+
+/// Frames as channel-first `[c][h][w]` nested lists of the sensor's own values (for cameras
+/// no [`ImageFile`] holds); statistics per channel.
 fn array_column(
     camera: usize,
     format: &CellFormat,
@@ -282,13 +323,14 @@ fn array_column(
             .map_err(|e| e.to_string())?;
         Ok(Arc::new(list))
     };
-    let pixels = nest(values, c, n * h * w)?;
-    let rows = nest(pixels, w, n * h)?;
-    let column = nest(rows, h, n)?;
+    let rows = nest(values, w, n * c * h)?;
+    let planes = nest(rows, h, n * c)?;
+    let column = nest(planes, c, n)?;
     Ok((column, FeatureStats::of_channels(&mut channels, frames)))
 }
 
-/// Concatenates one camera's frames into a flat array, collecting every channel's values.
+/// Concatenates one camera's frames into a flat array, each frame channel-first (its
+/// interleaved pixels transposed to `[c][h][w]`), collecting every channel's values.
 fn flat<T>(
     ep: &EpisodeFrames,
     camera: usize,
@@ -307,7 +349,9 @@ where
         for (k, v) in data.iter().enumerate() {
             channels[k % c].push((*v).into());
         }
-        all.extend_from_slice(&data);
+        for ch in 0..c {
+            all.extend(data.iter().skip(ch).step_by(c.max(1)).copied());
+        }
     }
     Ok(Arc::new(PrimitiveArray::<T>::from_iter_values(all)))
 }

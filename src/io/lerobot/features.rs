@@ -6,23 +6,31 @@
 //! |---|---|---|
 //! | `observation.state` | float32 \[5\]: x, y, z, yaw, tilt | the pose before the action |
 //! | `action` | float32 \[9\]: the eight action strengths and `stop` | the decision |
-//! | `observation.images.<sensor>` | `image` [h, w, c] (PNG) | colour and grey cameras |
-//! | `observation.<sensor>` | the sensor's dtype [h, w, c], lossless | depth (metres), normals, semantic, instance, room and room-class ids |
+//! | `observation.images.<sensor>` | `image` [h, w, c] (PPM / PGM) | colour and grey cameras |
+//! | `observation.<sensor>` | `image` [h, w, 1] (PFM / PGM / TIFF), lossless | depth (metres), semantic, instance, room and room-class ids |
+//! | `observation.<sensor>` | the sensor's dtype [c, h, w], lossless | several-channel arrays (normals) |
 //! | `observation.goal`, `.goal_room`, `.at_goal`, `.contact`, `.collision`, `.previous_action`, `.steps_left` | float32 vectors | the per-step features ([`crate::run::step_features`]) of the trajectory row |
 //! | `observation.goal_object` | int64 \[1\] | the object goal's category, an index into the dataset's vocabulary |
 //! | `next.reward`, `next.done`, `next.success` | float32 / bool \[1\] | the step's outcome |
 //! | `timestamp`, `frame_index`, `episode_index`, `index`, `task_index` | LeRobot's own | |
 //!
-//! Label and depth images are arrays, not `image` features, because LeRobot turns `image`
-//! features into 8-bit [0, 1] tensors and requires their statistics to be 3-channel: a class
-//! id or a depth in metres would not survive that. Their keys avoid the word `image` for the
-//! same reason.
+//! Every camera comes out of `LeRobotDataset` channel-first, as LeRobot's images do. A
+//! one-channel camera is a small image file per frame ([`ImageFile`]): Hugging Face
+//! `datasets` decodes it with Pillow and LeRobot turns it into a tensor with torchvision's
+//! `to_tensor`, which scales only 8-bit pictures to \[0, 1\]; a float32 PFM comes back as
+//! float32 (1, h, w) in metres and a 16-bit PGM or 32-bit TIFF as int32 (1, h, w) ids, exact.
+//! `datasets`' array features (`Array3D`) would go through nested Python lists (≈ 9.5 ms
+//! a row against ≈ 0.1 ms for a file); only cameras no Pillow mode holds (normals: three
+//! float channels) are stored so, as [c, h, w]. The keys of non-picture cameras avoid the word `image`, because
+//! LeRobot requires the statistics of such keys to be 3-channel in [0, 1], and their
+//! statistics are per channel, as (c, 1, 1), in the tensor's own units.
 
 use std::sync::Arc;
 
 use arrow::datatypes::{DataType, Field, Fields};
 use serde_json::{json, Value};
 
+use super::image_file::ImageFile;
 use super::stats::StatLayout;
 use crate::io::image_codec::{modality_name, CellFormat, PixelType};
 use crate::render::Modality;
@@ -59,6 +67,11 @@ impl Camera {
         matches!(self.modality, Modality::Color | Modality::Gray)
             && self.format.dtype == PixelType::U8
             && matches!(self.format.channels, 1 | 3)
+    }
+
+    /// The file each frame is stored as, or `None` for a channel-first array.
+    pub fn image_file(&self) -> Option<ImageFile> {
+        ImageFile::of(self.format.dtype, self.format.channels, self.is_image())
     }
 }
 
@@ -240,9 +253,11 @@ pub enum FeatureKind {
     Vector(VectorValue),
     /// One value per frame.
     Frame(FrameValue),
-    /// The camera `cameras[i]` as PNG images.
+    /// The colour or grey camera `cameras[i]` (`observation.images.<name>`), as 8-bit
+    /// image files.
     Image(usize),
-    /// The camera `cameras[i]` as an [h, w, c] array of its dtype.
+    /// Any other camera `cameras[i]` (`observation.<name>`): as image files that keep its
+    /// values where it has [`Camera::image_file`], else as a [c, h, w] array of its dtype.
     Array(usize),
     /// `observation.goal_object`: the object goal's category as an index into this
     /// vocabulary (the dataset's goal categories, sorted), −1 for other tasks.
@@ -398,21 +413,47 @@ impl Feature {
             FeatureKind::Image(i) | FeatureKind::Array(i) => {
                 let c = &cameras[*i];
                 let f = &c.format;
-                let image = matches!(self.kind, FeatureKind::Image(_));
                 let mut info = json!({
                     "minos.sensor": c.name,
                     "minos.modality": modality_name(c.modality),
-                    "minos.storage": if image { "PNG, lossless" } else { "array of the sensor's values, lossless" },
+                    "minos.sensor_dtype": f.dtype.name(),
                 });
                 if c.modality == Modality::Depth && f.dtype == PixelType::F32 {
                     info["minos.unit"] = json!("m (0 = no return)");
                 }
-                json!({
-                    "dtype": if image { "image" } else { f.dtype.name() },
-                    "shape": [f.height, f.width, f.channels],
-                    "names": ["height", "width", "channels"],
-                    "info": info,
-                })
+                match c.image_file() {
+                    Some(file) => {
+                        info["minos.storage"] = json!(format!("{}, lossless", file.name()));
+                        info["minos.tensor"] = json!(format!(
+                            "{} [{}, {}, {}]{}",
+                            file.tensor_dtype(),
+                            f.channels,
+                            f.height,
+                            f.width,
+                            if file.scaled() {
+                                " in [0, 1]"
+                            } else {
+                                ", the sensor's values"
+                            }
+                        ));
+                        json!({
+                            "dtype": "image",
+                            "shape": [f.height, f.width, f.channels],
+                            "names": ["height", "width", "channels"],
+                            "info": info,
+                        })
+                    }
+                    None => {
+                        info["minos.storage"] =
+                            json!("array of the sensor's values, channel-first, lossless");
+                        json!({
+                            "dtype": f.dtype.name(),
+                            "shape": [f.channels, f.height, f.width],
+                            "names": ["channels", "height", "width"],
+                            "info": info,
+                        })
+                    }
+                }
             }
         }
     }
@@ -429,14 +470,17 @@ impl Feature {
             }),
             FeatureKind::GoalObject(_) => json!({"dtype": "int64", "_type": "Value"}),
             FeatureKind::Frame(v) => json!({"dtype": scalar_name(v.scalar()), "_type": "Value"}),
-            FeatureKind::Image(_) => json!({"_type": "Image"}),
-            FeatureKind::Array(i) => {
-                let f = &cameras[*i].format;
-                json!({
-                    "shape": [f.height, f.width, f.channels],
-                    "dtype": f.dtype.name(),
-                    "_type": "Array3D",
-                })
+            FeatureKind::Image(i) | FeatureKind::Array(i) => {
+                let c = &cameras[*i];
+                let f = &c.format;
+                match c.image_file() {
+                    Some(_) => json!({"_type": "Image"}),
+                    None => json!({
+                        "shape": [f.channels, f.height, f.width],
+                        "dtype": f.dtype.name(),
+                        "_type": "Array3D",
+                    }),
+                }
             }
         }
     }
@@ -455,20 +499,21 @@ impl Feature {
                 Scalar::Bool => DataType::Boolean,
                 Scalar::I64 => DataType::Int64,
             },
-            FeatureKind::Image(_) => DataType::Struct(Fields::from(vec![
-                Field::new("bytes", DataType::Binary, true),
-                Field::new("path", DataType::Utf8, true),
-            ])),
-            FeatureKind::Array(i) => {
-                list_of(list_of(list_of(arrow_pixel(cameras[*i].format.dtype))))
-            }
+            FeatureKind::Image(i) | FeatureKind::Array(i) => match cameras[*i].image_file() {
+                Some(_) => DataType::Struct(Fields::from(vec![
+                    Field::new("bytes", DataType::Binary, true),
+                    Field::new("path", DataType::Utf8, true),
+                ])),
+                None => list_of(list_of(list_of(arrow_pixel(cameras[*i].format.dtype)))),
+            },
         }
     }
 
-    /// How its statistics are nested.
+    /// How its statistics are nested: per channel as (c, 1, 1) for cameras, which
+    /// broadcasts against their channel-first tensors.
     pub fn stat_layout(&self) -> StatLayout {
         match self.kind {
-            FeatureKind::Image(_) => StatLayout::Image,
+            FeatureKind::Image(_) | FeatureKind::Array(_) => StatLayout::Image,
             _ => StatLayout::Flat,
         }
     }
@@ -494,12 +539,13 @@ mod tests {
     }
 
     #[test]
-    fn colour_is_an_image_and_labels_and_depth_are_lossless_arrays() {
+    fn colour_is_a_picture_and_other_cameras_are_lossless_and_channel_first() {
         let cams = vec![
             camera("rgb", Modality::Color, PixelType::U8, 3),
             camera("depth", Modality::Depth, PixelType::F32, 1),
             camera("semantic", Modality::Semantic, PixelType::U16, 1),
             camera("rooms", Modality::RoomClass, PixelType::U8, 1),
+            camera("normal", Modality::Normal, PixelType::F32, 3),
         ];
         let f = features(&cams, &RunShape::default()).expect("valid");
         let keys: Vec<&str> = f.iter().map(|f| f.key.as_str()).collect();
@@ -516,13 +562,49 @@ mod tests {
         );
         assert_eq!(f[2].info(&cams)["dtype"], "image");
         assert_eq!(f[2].info(&cams)["shape"], json!([64, 84, 3]));
-        assert_eq!(f[3].info(&cams)["dtype"], "float32");
-        assert_eq!(f[4].info(&cams)["dtype"], "uint16");
-        assert_eq!(f[5].info(&cams)["dtype"], "uint8");
+        // One-channel depth and labels: lossless image files LeRobot returns as (1, h, w).
+        for (k, storage, tensor) in [
+            (
+                3,
+                "PFM (float32), lossless",
+                "float32 [1, 64, 84], the sensor's values",
+            ),
+            (
+                4,
+                "PGM (P5, 16-bit), lossless",
+                "int32 [1, 64, 84], the sensor's values",
+            ),
+            (
+                5,
+                "PGM (P5, 16-bit), lossless",
+                "int32 [1, 64, 84], the sensor's values",
+            ),
+        ] {
+            let info = f[k].info(&cams);
+            assert_eq!(info["dtype"], "image", "{}", f[k].key);
+            assert_eq!(info["shape"], json!([64, 84, 1]));
+            assert_eq!(info["info"]["minos.storage"], storage);
+            assert_eq!(info["info"]["minos.tensor"], tensor);
+            assert_eq!(f[k].hf(&cams), json!({"_type": "Image"}));
+            assert_eq!(f[k].stat_layout(), StatLayout::Image);
+        }
+        assert_eq!(f[3].info(&cams)["info"]["minos.sensor_dtype"], "float32");
+        assert_eq!(f[4].info(&cams)["info"]["minos.sensor_dtype"], "uint16");
+        assert_eq!(f[5].info(&cams)["info"]["minos.sensor_dtype"], "uint8");
+        // Normals: no Pillow mode holds three float channels; a channel-first array.
+        let n = &f[6];
+        assert_eq!(n.key, "observation.normal");
+        assert_eq!(n.info(&cams)["dtype"], "float32");
+        assert_eq!(n.info(&cams)["shape"], json!([3, 64, 84]));
         assert_eq!(
-            f[3].hf(&cams),
-            json!({"shape": [64, 84, 1], "dtype": "float32", "_type": "Array3D"})
+            n.info(&cams)["names"],
+            json!(["channels", "height", "width"])
         );
+        assert_eq!(
+            n.hf(&cams),
+            json!({"shape": [3, 64, 84], "dtype": "float32", "_type": "Array3D"})
+        );
+        assert_eq!(n.stat_layout(), StatLayout::Image);
         assert_eq!(f[1].info(&cams)["shape"], json!([9]));
         for k in [
             "timestamp",
@@ -533,6 +615,43 @@ mod tests {
         ] {
             assert!(keys.contains(&k), "{k}");
         }
+    }
+
+    #[test]
+    fn each_camera_gets_the_file_that_keeps_its_values() {
+        let file = |m, t, c| camera("x", m, t, c).image_file();
+        assert_eq!(
+            file(Modality::Color, PixelType::U8, 3),
+            Some(ImageFile::Ppm)
+        );
+        assert_eq!(
+            file(Modality::Gray, PixelType::U8, 1),
+            Some(ImageFile::Pgm8)
+        );
+        // An 8-bit depth or class image is ids, not grey: 16-bit so Pillow reads integers.
+        assert_eq!(
+            file(Modality::Depth, PixelType::U8, 1),
+            Some(ImageFile::Pgm16)
+        );
+        assert_eq!(
+            file(Modality::RoomClass, PixelType::U8, 1),
+            Some(ImageFile::Pgm16)
+        );
+        assert_eq!(
+            file(Modality::Depth, PixelType::U16, 1),
+            Some(ImageFile::Pgm16)
+        );
+        assert_eq!(
+            file(Modality::Instance, PixelType::U32, 1),
+            Some(ImageFile::Tiff32)
+        );
+        assert_eq!(
+            file(Modality::Depth, PixelType::F32, 1),
+            Some(ImageFile::Pfm)
+        );
+        assert_eq!(file(Modality::Normal, PixelType::F32, 3), None);
+        assert!(ImageFile::Ppm.scaled() && !ImageFile::Pfm.scaled());
+        assert_eq!(ImageFile::Tiff32.tensor_dtype(), "int32");
     }
 
     #[test]

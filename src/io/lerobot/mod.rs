@@ -24,6 +24,7 @@
 
 mod data;
 pub mod features;
+pub mod image_file;
 mod meta;
 pub mod source;
 pub mod stats;
