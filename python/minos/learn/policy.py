@@ -12,6 +12,11 @@ already tried (MINOS's A3C-LSTM and Habitat's baselines are recurrent for the sa
 Inputs are frames as :mod:`minos.learn.features` lays them out (uint8 images, depth in
 metres, label ids); all scaling happens here, so dataset and environment frames go through
 the same code.
+
+``stop``: the MINOS paper's agents had no stop action (an episode ends on arrival, the
+success test after a step), so by default a policy never stops: its ``stop`` frames are not
+trained on and its ``stop`` logit is masked. ``use_stop=True`` learns and uses ``stop``, for
+environments made with ``require_stop=True`` (Habitat's rule).
 """
 
 from __future__ import annotations
@@ -40,8 +45,10 @@ class PolicySpec:
     env_actions: list[str]
     modalities: list[str]
     image_size: int = 84
-    hidden: int = 256
+    hidden: int = 128
     memory: str = "gru"
+    conv: tuple = (16, 32, 32)  # channels of the three conv layers (DQN's: 32, 64, 64)
+    use_stop: bool = False  # False: never `stop` (episodes end on arrival, as MINOS's)
     extra: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
@@ -49,6 +56,8 @@ class PolicySpec:
 
     @classmethod
     def from_dict(cls, d: dict) -> "PolicySpec":
+        d = dict(d)
+        d["conv"] = tuple(d.get("conv", (16, 32, 32)))
         return cls(**d)
 
 
@@ -70,10 +79,11 @@ class NavPolicy(nn.Module):
                 self.semantic = nn.Embedding(SEMANTIC_IDS, SEMANTIC_DIM)
             cin = sum(SEMANTIC_DIM if k == "semantic" else spec.channels[k]
                       for k in self.image_keys)
+            c1, c2, c3 = spec.conv
             self.cnn = nn.Sequential(
-                nn.Conv2d(cin, 32, 8, stride=4), nn.ReLU(),
-                nn.Conv2d(32, 64, 4, stride=2), nn.ReLU(),
-                nn.Conv2d(64, 32, 3, stride=1), nn.ReLU(), nn.Flatten(),
+                nn.Conv2d(cin, c1, 8, stride=4), nn.ReLU(),
+                nn.Conv2d(c1, c2, 4, stride=2), nn.ReLU(),
+                nn.Conv2d(c2, c3, 3, stride=1), nn.ReLU(), nn.Flatten(),
             )
             with torch.no_grad():
                 n = self.cnn(torch.zeros(1, cin, spec.image_size, spec.image_size)).shape[1]
@@ -88,6 +98,10 @@ class NavPolicy(nn.Module):
         self.fuse = nn.Sequential(nn.Linear(width, h), nn.ReLU())
         self.gru = nn.GRU(h, h, batch_first=True) if spec.memory == "gru" else None
         self.head = nn.Linear(h, spec.num_actions)
+        mask = torch.zeros(spec.num_actions)
+        if not spec.use_stop and "stop" in spec.env_actions:
+            mask[spec.env_actions.index("stop")] = float("-inf")
+        self.register_buffer("action_mask", mask, persistent=False)
 
     def _images(self, frames: dict[str, torch.Tensor]) -> torch.Tensor:
         s = self.spec.image_size
@@ -143,12 +157,13 @@ class NavPolicy(nn.Module):
     @torch.no_grad()
     def act(self, frames: dict[str, torch.Tensor], state: Optional[torch.Tensor]
             ) -> tuple[torch.Tensor, Optional[torch.Tensor]]:
-        """One step for N environments: logits (N, actions) and the next state."""
+        """One step for N environments: logits (N, actions) and the next state (``stop``'s
+        logit is −inf unless the spec's ``use_stop``)."""
         z = self.encode(frames)
         if self.gru is None:
-            return self.head(z), None
+            return self.head(z) + self.action_mask, None
         out, state = self.gru(z[:, None], state)
-        return self.head(out[:, 0]), state
+        return self.head(out[:, 0]) + self.action_mask, state
 
 
 __all__ = ["NavPolicy", "PolicySpec"]
