@@ -265,7 +265,8 @@ def available_keys(root: str | Path, repo_id: str = "minos/run") -> tuple[set[st
     info = json.loads((Path(root) / "meta" / "info.json").read_text())
     names = {_internal_name(f) for f in info["features"]} - {None}
     cameras = sorted(n for n in info["features"] if n.startswith("observation.images."))
-    have = set(names) | {"goal", "previous_action", "steps_left"}
+    # steps_left is derivable too, but M takes it only where the dataset has it.
+    have = set(names) | {"goal", "previous_action"}
     if "contact" in names or (Path(root).parent / "trajectories.parquet").is_file():
         have |= {"contact", "collision"}
     camera = _internal_name(cameras[0]) if cameras else None

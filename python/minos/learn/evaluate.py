@@ -45,7 +45,7 @@ def evaluate_policy(policy, venv, seed: int = 0, sample: bool = True,
     t0 = time.perf_counter()
     with torch.inference_mode(), torch_threads(1 if dev.type == "cpu" else torch.get_num_threads()):
         res = run_episodes(venv, choose, policy.spec.keys, clear=clear, seed=seed,
-                           max_steps=max_steps, progress=lambda d, t: _tick(bar, d, t))
+                           max_steps=max_steps, progress=bar)
     bar.close()
     return _summary(res, time.perf_counter() - t0)
 
@@ -59,17 +59,9 @@ def evaluate_random(venv, seed: int = 0, max_steps: Optional[int] = None,
     bar = Progress(progress, 0, desc="random")
     t0 = time.perf_counter()
     res = run_episodes(venv, choose, [], seed=seed, max_steps=max_steps,
-                       progress=lambda d, t: _tick(bar, d, t))
+                       progress=bar)
     bar.close()
     return _summary(res, time.perf_counter() - t0)
-
-
-def _tick(bar: Progress, done: int, total: int) -> None:
-    if bar.total != total:
-        bar.total = total
-        if bar.bar is not None and hasattr(bar.bar, "total"):
-            bar.bar.total = total
-    bar.to(done)
 
 
 def _summary(res, seconds: float) -> dict:

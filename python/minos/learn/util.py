@@ -71,6 +71,10 @@ class Progress:
         self.done = done
 
     def __call__(self, done: int, total: int) -> None:
+        if total != self.total:
+            self.total = total
+            if self.bar is not None and hasattr(self.bar, "total"):
+                self.bar.total = total
         self.to(done)
 
     def close(self) -> None:
