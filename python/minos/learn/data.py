@@ -121,7 +121,7 @@ def _goal_positions(ds, episodes_file: Optional[Path]) -> tuple[dict, dict]:
 
 def _trajectory_columns(ds, ep: torch.Tensor, fr: torch.Tensor) -> dict[str, np.ndarray]:
     """``contact`` and ``collision`` of the frames (episode_index, frame_index) from the run's
-    trajectories.parquet (row ``step`` of an episode is frame ``step``)."""
+    trajectories.parquet."""
     import pyarrow.parquet as pq
 
     path = Path(ds.root).parent / "trajectories.parquet"
@@ -132,9 +132,17 @@ def _trajectory_columns(ds, ep: torch.Tensor, fr: torch.Tensor) -> dict[str, np.
     rows = {(e, int(s)): i for i, (e, s) in enumerate(zip(t["episode_id"], t["step"]))}
     meta = ds.meta.episodes
     ids = dict(zip(meta["episode_index"], meta["minos/episode_id"]))
-    order = np.array([rows[(ids[int(e)], int(f))] for e, f in zip(ep.tolist(), fr.tolist())])
-    contact = np.stack(t["contacts"].to_numpy())[order].astype(np.float32)
-    collision = t["collision"].to_numpy()[order].astype(np.float32)[:, None]
+    # Row `step` holds the action taken at frame `step` and what it led to (its collision,
+    # the contacts after it): frame k's values are row k − 1's (zeros at an episode's start).
+    order = np.array([rows.get((ids[int(e)], int(f) - 1), -1)
+                      for e, f in zip(ep.tolist(), fr.tolist())])
+    contacts = np.stack(t["contacts"].to_numpy()).astype(np.float32)
+    collisions = t["collision"].to_numpy().astype(np.float32)
+    first = order < 0
+    contact = contacts[order]
+    collision = collisions[order][:, None]
+    contact[first] = 0.0
+    collision[first] = 0.0
     return {"contact": contact, "collision": collision}
 
 

@@ -35,6 +35,7 @@ class RolloutResult:
 
     metrics: dict[str, EpisodeMetrics]
     episodes: list[tuple[dict[str, torch.Tensor], torch.Tensor]] = field(default_factory=list)
+    episode_ids: list[str] = field(default_factory=list)  # of ``episodes``
     steps: int = 0
 
 
@@ -85,11 +86,12 @@ def policy_chooser(policy, keys: Sequence[str], device: torch.device | str = "cp
     return choose, clear
 
 
-def run_episodes(venv, choose: Chooser, keys: Sequence[str], clear: Optional[Callable] = None,
+def run_episodes(venv, choose: Optional[Chooser], keys: Sequence[str], clear: Optional[Callable] = None,
                  seed: int = 0, record: bool = False, beta: float = 0.0,
                  max_steps: Optional[int] = None,
                  progress: Optional[Callable[[int, int], None]] = None) -> RolloutResult:
-    """Runs every episode of ``venv`` (a :class:`minos.gym.VectorNavEnv`) once.
+    """Runs every episode of ``venv`` (a :class:`minos.gym.VectorNavEnv`) once, choosing
+    actions with ``choose`` (None: the oracle's).
 
     ``record``: keep every frame of every episode with the oracle's action as its label
     (``venv.oracle_actions()``); ``beta``: with this probability per step an environment
@@ -123,8 +125,10 @@ def run_episodes(venv, choose: Chooser, keys: Sequence[str], clear: Optional[Cal
             "at_goal": np.asarray(venv._core.reached(), np.float32),
         }
         frames = env_frames(obs, extra, keys)
-        actions = choose(frames, n)
-        oracle = venv.oracle_actions() if need_oracle else None
+        # The oracle is asked once per step: a second question in the same state makes it
+        # re-plan, which may break a tie the other way.
+        oracle = venv.oracle_actions() if need_oracle or choose is None else None
+        actions = oracle if choose is None else choose(frames, n)
         if beta > 0.0:
             mix = rng.random(n) < beta
             actions = np.where(mix, oracle, actions)
@@ -159,6 +163,7 @@ def run_episodes(venv, choose: Chooser, keys: Sequence[str], clear: Optional[Cal
                     keys_ = t.frames[0].keys()
                     ep_frames = {key: torch.cat([f[key] for f in t.frames]) for key in keys_}
                     result.episodes.append((ep_frames, torch.tensor(t.labels)))
+                    result.episode_ids.append(ep.episode_id)
                 if progress is not None:
                     progress(len(result.metrics), total)
     return result
