@@ -44,7 +44,8 @@ def _parser() -> argparse.ArgumentParser:
     sub = ap.add_subparsers(dest="command", required=True)
 
     t = sub.add_parser("train", help="behaviour cloning (and DAgger) from a LeRobot dataset")
-    t.add_argument("--dataset", required=True, help="LeRobot dataset root (minos run --format lerobot)")
+    t.add_argument("--dataset", required=True,
+                   help="LeRobot dataset root (minos run --format lerobot)")
     t.add_argument("--repo-id", default="minos/run")
     t.add_argument("--episodes", help="the run's episode file (only for exports without "
                    "observation.goal; default: from the run's manifest.json)")

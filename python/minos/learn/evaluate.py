@@ -43,7 +43,8 @@ def evaluate_policy(policy, venv, seed: int = 0, sample: bool = True,
     choose, clear = policy_chooser(policy, policy.spec.keys, dev, sample=sample, seed=seed)
     bar = Progress(progress, 0, desc="evaluate")
     t0 = time.perf_counter()
-    with torch.inference_mode(), torch_threads(1 if dev.type == "cpu" else torch.get_num_threads()):
+    threads = 1 if dev.type == "cpu" else torch.get_num_threads()
+    with torch.inference_mode(), torch_threads(threads):
         res = run_episodes(venv, choose, policy.spec.keys, clear=clear, seed=seed,
                            max_steps=max_steps, progress=bar)
     bar.close()

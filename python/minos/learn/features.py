@@ -191,7 +191,8 @@ def env_frames(obs: Mapping[str, np.ndarray], extra: Mapping[str, np.ndarray],
     return out
 
 
-def normalised_vector(frames: Mapping[str, torch.Tensor], keys: Sequence[str]) -> torch.Tensor | None:
+def normalised_vector(frames: Mapping[str, torch.Tensor],
+                      keys: Sequence[str]) -> torch.Tensor | None:
     """The vector inputs of ``keys`` concatenated and scaled to about [−1, 1]: distances in
     units of 5 m (log-compressed beyond), steps left in units of 500 steps, ObjectGoal index
     one-hot over :data:`GOAL_OBJECT_SLOTS`; (N, D) float32, or None without vector keys."""

@@ -111,7 +111,8 @@ class NavPolicy(nn.Module):
             if k == "semantic":
                 ids = v[:, 0].long().clamp(0, SEMANTIC_IDS - 1)
                 if ids.shape[-1] != s:
-                    ids = F.interpolate(ids[:, None].float(), size=(s, s), mode="nearest")[:, 0].long()
+                    ids = F.interpolate(ids[:, None].float(), size=(s, s),
+                                        mode="nearest")[:, 0].long()
                 parts.append(self.semantic(ids).permute(0, 3, 1, 2))
                 continue
             x = v.float()

@@ -86,7 +86,8 @@ def policy_chooser(policy, keys: Sequence[str], device: torch.device | str = "cp
     return choose, clear
 
 
-def run_episodes(venv, choose: Optional[Chooser], keys: Sequence[str], clear: Optional[Callable] = None,
+def run_episodes(venv, choose: Optional[Chooser], keys: Sequence[str],
+                 clear: Optional[Callable] = None,
                  seed: int = 0, record: bool = False, beta: float = 0.0,
                  max_steps: Optional[int] = None,
                  progress: Optional[Callable[[int, int], None]] = None) -> RolloutResult:
