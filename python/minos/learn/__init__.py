@@ -1,0 +1,27 @@
+"""minos.learn: the reference learner — behaviour cloning (and DAgger) from minos's LeRobot
+datasets and evaluation in :class:`minos.gym.VectorNavEnv` on unseen houses with minos's
+metrics (docs/PYTHON.md, "Learning"). Needs torch and lerobot.
+
+    from minos.learn import load_lerobot, make_policy, train_bc, TrainConfig
+    from minos.learn import make_env, evaluate_policy
+    demos = load_lerobot("runs/oracle/lerobot", ["forward", "turn_left", "turn_right", "stop"])
+    policy = make_policy(demos, ("M", "D"))
+    train_bc(policy, demos, TrainConfig(epochs=10), checkpoint="md.pt", progress=True)
+    print(evaluate_policy(policy, make_env("DATA", "eps/test.parquet"))["aggregate"])
+
+Command line: ``python -m minos.learn {train,eval,cell} --help``.
+"""
+
+from .cell import CellConfig, run_cell
+from .dagger import dagger
+from .data import Demonstrations, load_lerobot
+from .evaluate import evaluate_policy, evaluate_random, make_env
+from .metrics import EpisodeMetrics, aggregate
+from .policy import NavPolicy, PolicySpec
+from .train import TrainConfig, load_policy, make_policy, train_bc
+
+__all__ = [
+    "CellConfig", "Demonstrations", "EpisodeMetrics", "NavPolicy", "PolicySpec", "TrainConfig",
+    "aggregate", "dagger", "evaluate_policy", "evaluate_random", "load_lerobot", "load_policy",
+    "make_env", "make_policy", "run_cell", "train_bc",
+]

@@ -1,0 +1,179 @@
+"""``python -m minos.learn {train,eval,cell}``: the reference learner from the command line.
+
+    python -m minos.learn train --dataset runs/oracle/lerobot --modalities M,D --out m.pt
+    python -m minos.learn eval --checkpoint m.pt --data DATA --episodes eps/test.parquet
+    python -m minos.learn cell --work cells/point-small --modalities M --modalities M,D
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import sys
+from pathlib import Path
+
+from .cell import PRESET_ACTIONS, CellConfig, run_cell
+
+
+def _range(text: str) -> tuple[int, int]:
+    lo, _, hi = text.partition("..")
+    return int(lo), int(hi or lo)
+
+
+def _common_train(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--memory", choices=["gru", "none"], default="gru",
+                   help="recurrent GRU (default) or feed-forward")
+    p.add_argument("--hidden", type=int, default=128)
+    p.add_argument("--epochs", type=int, default=10)
+    p.add_argument("--batch-frames", type=int, default=512,
+                   help="frames per optimiser step (whole episodes)")
+    p.add_argument("--lr", type=float, default=1e-3)
+    p.add_argument("--dagger", type=int, default=0, metavar="N",
+                   help="DAgger rounds after behaviour cloning (needs the training episodes)")
+    p.add_argument("--beta", type=float, default=0.5, help="DAgger's first oracle mixture")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--device", default="auto", help="auto (CUDA when present), cpu, cuda")
+    p.add_argument("--size", type=int, default=84, help="image size the policy sees")
+
+
+def _parser() -> argparse.ArgumentParser:
+    ap = argparse.ArgumentParser(prog="python -m minos.learn", description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
+    sub = ap.add_subparsers(dest="command", required=True)
+
+    t = sub.add_parser("train", help="behaviour cloning (and DAgger) from a LeRobot dataset")
+    t.add_argument("--dataset", required=True,
+                   help="LeRobot dataset root (minos run --format lerobot)")
+    t.add_argument("--repo-id", default="minos/run")
+    t.add_argument("--episodes", help="the run's episode file (only for exports without "
+                   "observation.goal; default: from the run's manifest.json)")
+    t.add_argument("--modalities", default="M", help="any of M,V,D,F,S,A, e.g. M,D")
+    t.add_argument("--agent", default="minos-paper", choices=sorted(PRESET_ACTIONS),
+                   help="the preset whose discrete actions the policy chooses")
+    t.add_argument("--use-stop", action="store_true",
+                   help="learn and use `stop` (for --require-stop evaluation)")
+    t.add_argument("--out", required=True, help="checkpoint file")
+    t.add_argument("--resume", action="store_true", help="continue from --out")
+    t.add_argument("--decode", choices=["arrow", "lerobot"], default="arrow")
+    t.add_argument("--data", help="DATA folder (DAgger)")
+    t.add_argument("--train-episodes", help="training episode file (DAgger)")
+    _common_train(t)
+
+    e = sub.add_parser("eval", help="evaluate a checkpoint (or the random agent) on episodes")
+    e.add_argument("--checkpoint", help="a checkpoint from `train`; omit with --random")
+    e.add_argument("--random", action="store_true", help="the random agent")
+    e.add_argument("--data", required=True)
+    e.add_argument("--episodes", required=True, help="held-out episode file")
+    e.add_argument("--agent", default=None, help="preset (default: the checkpoint's actions' "
+                   "preset, minos-paper)")
+    e.add_argument("--num-envs", type=int, default=8)
+    e.add_argument("--max-steps", type=int, default=None)
+    e.add_argument("--require-stop", action="store_true")
+    e.add_argument("--greedy", action="store_true", help="argmax actions (default: sample)")
+    e.add_argument("--size", type=int, default=84)
+    e.add_argument("--seed", type=int, default=0)
+    e.add_argument("--device", default="auto")
+    e.add_argument("--out", help="write the results (JSON) here")
+
+    c = sub.add_parser("cell", help="DATA → episodes → oracle → LeRobot → train → eval → table")
+    c.add_argument("--work", required=True, help="work folder (resumable)")
+    c.add_argument("--modalities", action="append", help="a modality set (repeatable), e.g. "
+                   "--modalities M --modalities M,D (default: M)")
+    c.add_argument("--data", help="an existing DATA folder (with --split); default: generate")
+    c.add_argument("--split", help="split of --data with train and test subsets")
+    c.add_argument("--houses", type=int, default=40)
+    c.add_argument("--test-houses", type=int, default=10)
+    c.add_argument("--rooms", type=_range, default=(2, 2), help="MIN..MAX rooms (default 2..2)")
+    c.add_argument("--task", default="pointgoal", choices=["pointgoal", "objectgoal", "roomgoal"])
+    c.add_argument("--categories", nargs="*", help="ObjectGoal categories, e.g. door")
+    c.add_argument("--variant", help="scene variant, e.g. empty")
+    c.add_argument("--preset", default="minos-paper", choices=sorted(PRESET_ACTIONS))
+    c.add_argument("--per-scene", type=int, default=10, help="training episodes per house")
+    c.add_argument("--test-per-scene", type=int, default=10)
+    c.add_argument("--max-steps", type=int, default=500)
+    c.add_argument("--num-envs", type=int, default=8)
+    c.add_argument("--greedy", action="store_true")
+    _common_train(c)
+    return ap
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = _parser().parse_args(argv)
+    logging.basicConfig(level=logging.WARNING, format="%(name)s: %(message)s")
+    progress = not args.quiet
+    if args.command == "cell":
+        cfg = CellConfig(
+            work=args.work, modalities=args.modalities or ["M"], data=args.data,
+            split=args.split, houses=args.houses, test_houses=args.test_houses,
+            rooms=args.rooms, task=args.task, categories=args.categories,
+            variant=args.variant, preset=args.preset, per_scene=args.per_scene,
+            test_per_scene=args.test_per_scene, max_steps=args.max_steps, size=args.size,
+            memory=args.memory, hidden=args.hidden, epochs=args.epochs,
+            batch_frames=args.batch_frames, lr=args.lr, dagger=args.dagger, beta=args.beta,
+            num_envs=args.num_envs, sample=not args.greedy, seed=args.seed, device=args.device)
+        run_cell(cfg, progress=progress)
+        return 0
+
+    from .evaluate import evaluate_policy, evaluate_random, make_env
+    from .train import TrainConfig, load_policy, make_policy, train_bc
+
+    if args.command == "train":
+        from .data import available_keys, load_lerobot
+        from .features import keys_for, parse_modalities
+
+        mods = parse_modalities(args.modalities)
+        have, camera = available_keys(args.dataset, args.repo_id)
+        keys = keys_for(mods, have, camera)
+        demos = load_lerobot(args.dataset, PRESET_ACTIONS[args.agent], keys=keys,
+                             repo_id=args.repo_id, episodes=args.episodes, decode=args.decode)
+        print(f"{demos.num_frames} frames, {demos.num_episodes} episodes; actions "
+              f"{demos.label_counts()}", file=sys.stderr)
+        policy = make_policy(demos, mods, memory=args.memory, hidden=args.hidden,
+                             image_size=args.size, use_stop=args.use_stop)
+        tc = TrainConfig(epochs=args.epochs, batch_frames=args.batch_frames, lr=args.lr,
+                         seed=args.seed, device=args.device)
+        hist = train_bc(policy, demos, tc, checkpoint=args.out, resume=args.resume,
+                        progress=progress,
+                        callback=lambda r: print(json.dumps(r), file=sys.stderr))
+        if args.dagger:
+            from .dagger import dagger
+
+            if not (args.data and args.train_episodes):
+                raise SystemExit("--dagger needs --data and --train-episodes")
+            venv = make_env(args.data, args.train_episodes, agent=args.agent, size=args.size,
+                            seed=args.seed, require_stop=args.use_stop)
+            recs = dagger(policy, demos, venv, tc, iterations=args.dagger, beta=args.beta,
+                          checkpoint=args.out, progress=progress,
+                          callback=lambda r: print(json.dumps(r), file=sys.stderr))
+            print(json.dumps({"history": hist, "dagger": recs}))
+        else:
+            print(json.dumps({"history": hist}))
+        return 0
+
+    # eval
+    if args.random == bool(args.checkpoint):
+        raise SystemExit("give --checkpoint or --random")
+    policy = None
+    agent = args.agent or "minos-paper"
+    require_stop = args.require_stop
+    if args.checkpoint:
+        policy, _ = load_policy(args.checkpoint, args.device)
+        require_stop = require_stop or policy.spec.use_stop
+    venv = make_env(args.data, args.episodes, agent=agent, num_envs=args.num_envs,
+                    size=args.size, seed=args.seed, max_steps=args.max_steps,
+                    require_stop=require_stop)
+    if policy is None:
+        res = evaluate_random(venv, seed=args.seed, max_steps=args.max_steps, progress=progress)
+    else:
+        res = evaluate_policy(policy, venv, seed=args.seed, sample=not args.greedy,
+                              max_steps=args.max_steps, device=args.device, progress=progress)
+    if args.out:
+        Path(args.out).write_text(json.dumps(res, indent=1))
+    print(json.dumps(res["aggregate"]))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

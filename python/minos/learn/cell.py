@@ -1,0 +1,259 @@
+"""One results-table cell, end to end and resumable: houses (generated, or a DATA folder with a
+split) → training and test episodes (split by house) → the oracle's run on the training
+episodes exported as a LeRobot dataset → behaviour cloning (and DAgger) per modality set →
+evaluation on the unseen test houses with the random agent beside it → a JSON file and a
+Markdown row per modality set.
+
+Every stage writes into the work folder and is skipped when its output is there, so an
+interrupted cell resumes where it stopped (training resumes from its last epoch).
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Optional, Sequence
+
+import numpy as np
+
+from .features import modality_name, parse_modalities
+
+PRESET_ACTIONS = {
+    # VectorNavEnv(agent=...).action_names (tests/test_learn.py checks them against the env)
+    "habitat": ["forward", "turn_left", "turn_right", "stop"],
+    "minos-gridworld": ["forward", "turn_left", "turn_right", "stop"],
+    "minos-paper": ["forward", "turn_left", "turn_right", "stop"],
+    "minos": ["forward", "backward", "strafe_left", "strafe_right", "turn_left", "turn_right",
+              "stop"],
+}
+
+
+@dataclass
+class CellConfig:
+    """A cell: data, task, agent, learner and evaluation settings."""
+
+    work: str
+    modalities: list[str] = field(default_factory=lambda: ["M"])
+    data: Optional[str] = None  # an existing DATA folder (with `split`); None: generate
+    split: Optional[str] = None
+    houses: int = 40
+    test_houses: int = 10
+    rooms: tuple[int, int] = (2, 2)
+    levels: tuple[int, int] = (1, 1)
+    task: str = "pointgoal"
+    categories: Optional[list[str]] = None  # ObjectGoal categories, e.g. ["door"]
+    variant: Optional[str] = None
+    preset: str = "minos-paper"
+    per_scene: int = 10
+    test_per_scene: int = 10
+    max_steps: int = 500
+    size: int = 84
+    memory: str = "gru"
+    hidden: int = 128
+    epochs: int = 10
+    batch_frames: int = 512
+    lr: float = 1e-3
+    dagger: int = 0
+    beta: float = 0.5
+    num_envs: int = 8
+    sample: bool = True
+    seed: int = 0
+    device: str = "auto"
+
+
+def _log(msg: str) -> None:
+    print(f"[minos.learn] {msg}", flush=True)
+
+
+def _prepare_data(cfg: CellConfig, work: Path) -> tuple[Path, str]:
+    """The DATA folder and the split name (generating, ingesting, baking and splitting the
+    houses when no DATA folder is given)."""
+    import minos
+
+    if cfg.data is not None:
+        if cfg.split is None:
+            raise ValueError("--data needs --split (a split with train and test subsets)")
+        return Path(cfg.data), cfg.split
+    gen, data = work / "gen", work / "DATA"
+    split = f"learn-s{cfg.seed}"
+    lists = data / "splits" / split
+    if (lists / "test.txt").is_file():
+        return data, split
+    t0 = time.perf_counter()
+    minos.generate(gen, houses=cfg.houses, seed=cfg.seed, rooms=cfg.rooms, levels=cfg.levels)
+    minos.ingest(gen, data)
+    minos.bake(data, preset=cfg.preset, previews=False)
+    import pyarrow.parquet as pq
+
+    table = pq.read_table(data / "houses.parquet", columns=["id", "error"]).to_pylist()
+    ids = sorted(r["id"] for r in table if not r["error"])
+    order = np.random.default_rng(cfg.seed).permutation(len(ids))
+    test = sorted(ids[i] for i in order[:cfg.test_houses])
+    train = sorted(ids[i] for i in order[cfg.test_houses:])
+    lists.mkdir(parents=True, exist_ok=True)
+    # The lists `minos split --lists DIR` reads (one scene id a line).
+    (lists / "train.txt").write_text("".join(i + "\n" for i in train))
+    (lists / "val.txt").write_text("")
+    (lists / "test.txt").write_text("".join(i + "\n" for i in test))
+    _log(f"{len(ids)} houses ({len(train)} train, {len(test)} test) in "
+         f"{time.perf_counter() - t0:.1f} s -> {data}")
+    return data, split
+
+
+def _episodes(cfg: CellConfig, data: Path, split: str, subset: str, out: Path,
+              per_scene: int, seed: int) -> Path:
+    import minos
+
+    if not out.is_file():
+        kw = {}
+        if cfg.categories:
+            kw["categories"] = cfg.categories
+        stats = minos.sample_episodes(data, cfg.task, out, split=split, subset=subset,
+                                      variant=cfg.variant, preset=cfg.preset,
+                                      per_scene=per_scene, seed=seed,
+                                      max_steps=cfg.max_steps, **kw)
+        _log(f"{subset} episodes -> {out} ({stats.get('total', '?')} episodes)")
+    return out
+
+
+def run_cell(cfg: CellConfig, progress: bool = True) -> list[dict]:
+    """Runs (or resumes) the cell; returns one result dict per modality set (also written to
+    ``WORK/results/<name>.json`` and, as Markdown, to ``WORK/results.md``)."""
+    import minos
+
+    from .data import load_lerobot
+    from .dagger import dagger
+    from .evaluate import evaluate_policy, evaluate_random, make_env
+    from .features import keys_for
+    from .train import TrainConfig, make_policy, train_bc
+
+    work = Path(cfg.work)
+    work.mkdir(parents=True, exist_ok=True)
+    (work / "cell.json").write_text(json.dumps(asdict(cfg), indent=1))
+    times: dict[str, float] = {}
+    t0 = time.perf_counter()
+    data, split = _prepare_data(cfg, work)
+    train_eps = _episodes(cfg, data, split, "train", work / "eps" / "train.parquet",
+                          cfg.per_scene, cfg.seed)
+    test_eps = _episodes(cfg, data, split, "test", work / "eps" / "test.parquet",
+                         cfg.test_per_scene, cfg.seed + 1)
+    times["data"] = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    run_dir = work / "runs" / "oracle-train"
+    dataset = run_dir / "lerobot"
+    if not (dataset / "meta" / "info.json").is_file():
+        rep = minos.run(data, train_eps, "oracle", run_dir, variant=cfg.variant,
+                        preset=cfg.preset, size=cfg.size, max_steps=cfg.max_steps,
+                        seed=cfg.seed, resume=True, format="lerobot")
+        _log(f"oracle: {rep['episodes']} episodes, {rep['steps']} steps, "
+             f"{len(rep['failures'])} failed, in {rep['seconds']:.1f} s")
+    times["oracle"] = time.perf_counter() - t0
+
+    env_actions = PRESET_ACTIONS[cfg.preset]
+    sets = [parse_modalities(m) for m in cfg.modalities]
+    from .data import available_keys
+
+    have, camera = available_keys(dataset)
+    keys = sorted({k for mods in sets for k in keys_for(mods, have, camera)})
+    t0 = time.perf_counter()
+    demos = load_lerobot(dataset, env_actions, keys=keys, episodes=train_eps)
+    times["load"] = time.perf_counter() - t0
+    _log(f"dataset: {demos.num_frames} frames, {demos.num_episodes} episodes, loaded in "
+         f"{times['load']:.1f} s; actions {demos.label_counts()}")
+
+    results_dir = work / "results"
+    results_dir.mkdir(exist_ok=True)
+    env = make_env(data, test_eps, agent=cfg.preset, num_envs=cfg.num_envs, size=cfg.size,
+                   seed=cfg.seed, max_steps=cfg.max_steps)
+    random_file = results_dir / f"random-s{cfg.seed}.json"
+    if random_file.is_file():
+        rand = json.loads(random_file.read_text())
+    else:
+        rand = evaluate_random(env, seed=cfg.seed, max_steps=cfg.max_steps, progress=progress)
+        random_file.write_text(json.dumps(rand, indent=1))
+    ra = rand["aggregate"]
+    _log(f"random: success {ra['success']:.3f} SPL {ra['spl']:.3f} speed {ra['speed']:.3f}")
+
+    rows = []
+    for mods in sets:
+        name = modality_name(mods)
+        tag = f"{name.replace('+', '')}-{cfg.memory}-s{cfg.seed}"
+        out_file = results_dir / f"{tag}.json"
+        if out_file.is_file():
+            rows.append(json.loads(out_file.read_text()))
+            continue
+        ckpt = work / "models" / f"{tag}.pt"
+        tc = TrainConfig(epochs=cfg.epochs, batch_frames=cfg.batch_frames, lr=cfg.lr,
+                         seed=cfg.seed, device=cfg.device)
+        t0 = time.perf_counter()
+        policy = make_policy(demos, mods, memory=cfg.memory, hidden=cfg.hidden,
+                             image_size=cfg.size)
+        history = train_bc(policy, demos, tc, checkpoint=ckpt, resume=True, progress=progress)
+        train_s = time.perf_counter() - t0
+        dag = []
+        if cfg.dagger:
+            train_env = make_env(data, train_eps, agent=cfg.preset, num_envs=cfg.num_envs,
+                                 size=cfg.size, seed=cfg.seed, max_steps=cfg.max_steps)
+            sub = _subset(demos, policy.spec.keys)
+            dag = dagger(policy, sub, train_env, tc, iterations=cfg.dagger, beta=cfg.beta,
+                         checkpoint=ckpt.with_name(ckpt.stem + "-dagger.pt"), progress=progress)
+            train_s = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        ev = evaluate_policy(policy, env, seed=cfg.seed, sample=cfg.sample,
+                             max_steps=cfg.max_steps, device=cfg.device, progress=progress)
+        eval_s = time.perf_counter() - t0
+        a = ev["aggregate"]
+        row = {
+            "name": name, "modalities": list(mods), "task": cfg.task, "preset": cfg.preset,
+            "memory": cfg.memory, "seed": cfg.seed, "houses": cfg.houses,
+            "test_houses": cfg.test_houses, "rooms": list(cfg.rooms),
+            "train_episodes": demos.num_episodes, "train_frames": demos.num_frames,
+            "epochs": cfg.epochs, "dagger": dag,
+            "final_loss": history[-1]["loss"] if history else None,
+            "train_accuracy": history[-1]["accuracy"] if history else None,
+            "test_episodes": a["episodes"], "success": a["success"], "spl": a["spl"],
+            "soft_spl": a["soft_spl"], "speed": a["speed"],
+            "random": {k: ra[k] for k in ("success", "spl", "soft_spl", "speed")},
+            "seconds": {**times, "train": train_s, "eval": eval_s},
+            "fallbacks": demos.info.get("fallbacks", []), "evaluation": ev,
+        }
+        out_file.write_text(json.dumps(row, indent=1))
+        rows.append(row)
+        _log(f"{name}: success {a['success']:.3f} SPL {a['spl']:.3f} speed {a['speed']:.3f} "
+             f"(random {ra['success']:.3f}); train {train_s:.0f} s, eval {eval_s:.0f} s")
+    table = markdown(rows)
+    (work / "results.md").write_text(table)
+    print(table, flush=True)
+    return rows
+
+
+def _subset(demos, keys: Sequence[str]):
+    """A copy of ``demos`` holding only ``keys`` (DAgger appends to it)."""
+    from .data import Demonstrations
+
+    return Demonstrations({k: demos.frames[k] for k in keys}, demos.labels.clone(),
+                          demos.starts.clone(), demos.lengths.clone(), list(demos.env_actions),
+                          demos.camera, dict(demos.info))
+
+
+def markdown(rows: Sequence[dict]) -> str:
+    """Result rows as a Markdown table (percentages)."""
+    head = ("| task | preset | modalities | memory | train frames | epochs | DAgger | "
+            "success % | SPL % | speed % | random success % | random SPL % | random speed % | "
+            "train s | eval s |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n")
+    lines = []
+    for r in rows:
+        pct = lambda v: f"{100 * v:.1f}"  # noqa: E731
+        lines.append(
+            f"| {r['task']} | {r['preset']} | {r['name']} | {r['memory']} | {r['train_frames']} "
+            f"| {r['epochs']} | {len(r['dagger'])} | {pct(r['success'])} | {pct(r['spl'])} | "
+            f"{pct(r['speed'])} | {pct(r['random']['success'])} | {pct(r['random']['spl'])} | "
+            f"{pct(r['random']['speed'])} | {r['seconds']['train']:.0f} | "
+            f"{r['seconds']['eval']:.0f} |")
+    return head + "\n".join(lines) + "\n"
+
+
+__all__ = ["CellConfig", "PRESET_ACTIONS", "markdown", "run_cell"]

@@ -1,0 +1,68 @@
+"""DAgger (Ross et al. 2011) with minos's oracle as the expert: roll the current policy out
+on the training episodes (with probability β per step the oracle acts instead), label every
+visited frame with the oracle's action (``VectorNavEnv.oracle_actions()``), add those
+episodes to the demonstrations, and retrain; β halves every iteration (β_i = β₀ / 2^(i−1)).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Callable, Optional
+
+import torch
+
+from .data import Demonstrations
+from .rollout import policy_chooser, run_episodes
+from .train import TrainConfig, train_bc
+from .util import Progress, ProgressArg, pick_device, save_atomic, torch_threads
+
+
+def dagger(policy, demos: Demonstrations, venv, config: TrainConfig, iterations: int = 3,
+           beta: float = 0.5, checkpoint: Optional[str | Path] = None,
+           progress: ProgressArg = None,
+           callback: Optional[Callable[[dict], Any]] = None) -> list[dict]:
+    """Runs ``iterations`` DAgger rounds on ``venv`` (a :class:`minos.gym.VectorNavEnv` over
+    the *training* episodes), each followed by ``config.epochs`` epochs of behaviour cloning
+    on all the frames so far; ``policy`` should already be trained on ``demos``. Returns one
+    record per round (``iteration``, ``beta``, ``frames_added``, ``frames``, the rollout's
+    success, and the last epoch's ``loss``). ``checkpoint`` is rewritten after every round.
+    """
+    if list(venv.action_names) != list(policy.spec.env_actions):
+        raise ValueError(f"the policy acts in {policy.spec.env_actions}, the environment in "
+                         f"{venv.action_names}")
+    keys = policy.spec.keys
+    demos.frames = {k: demos.frames[k] for k in keys}
+    device = pick_device(config.device)
+    records: list[dict] = []
+    history: list[dict] = []
+    for i in range(1, iterations + 1):
+        b = beta / 2 ** (i - 1)
+        policy.to(device).eval()
+        choose, clear = policy_chooser(policy, keys, device, sample=True, seed=config.seed + i)
+        bar = Progress(progress, 0, desc=f"dagger {i}/{iterations} rollout")
+        with torch.inference_mode(), torch_threads(1 if device.type == "cpu" else
+                                                   torch.get_num_threads()):
+            res = run_episodes(venv, choose, keys, clear=clear, seed=config.seed + i,
+                               record=True, beta=b, progress=bar)
+        bar.close()
+        frames = {k: torch.cat([f[k] for f, _ in res.episodes]) for k in keys}
+        labels = torch.cat([lab for _, lab in res.episodes])
+        demos.extend(frames, labels, [len(lab) for _, lab in res.episodes])
+        history = train_bc(policy, demos, config, progress=progress,
+                           start_epoch=len(history), history=history)
+        success = sum(m.success for m in res.metrics.values()) / max(len(res.metrics), 1)
+        rec = {"iteration": i, "beta": b, "frames_added": int(labels.numel()),
+               "frames": demos.num_frames, "rollout_success": success,
+               "loss": history[-1]["loss"]}
+        records.append(rec)
+        if checkpoint is not None:
+            from .train import checkpoint_state
+
+            save_atomic(checkpoint_state(policy, None, len(history) - 1, history, config,
+                                         {"dagger": records}), Path(checkpoint))
+        if callback is not None:
+            callback(rec)
+    return records
+
+
+__all__ = ["dagger"]

@@ -1,0 +1,184 @@
+"""Rolling a policy out in :class:`minos.gym.VectorNavEnv`: every episode of the environment's
+episode file once, with minos's episode metrics, and optionally the visited frames labelled
+by the oracle (DAgger).
+
+The environment resets an ended environment on its next step (Gymnasium's next-step
+auto-reset): the action given to an environment whose episode just ended is ignored, and
+the observation that comes back starts its next episode (``info["reset"]``). The recurrent
+state and the previous action are cleared there.
+
+Inputs the observation dict does not hold yet are computed from the infos, as the dataset
+defines them: ``collision`` (the step into this frame collided), ``previous_action`` (the
+strengths of the previous decision, zeros at an episode's start), ``steps_left`` (the step
+limit − steps taken) and ``at_goal`` (the success test holds now).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable, Optional, Sequence
+
+import numpy as np
+import torch
+
+from .features import ACTION_STRENGTHS, env_frames, strengths_of
+from .metrics import EpisodeMetrics
+
+#: choose(frames, n) -> actions (N,) int64 for the N environments.
+Chooser = Callable[[dict, int], np.ndarray]
+
+
+@dataclass
+class RolloutResult:
+    """Per-episode metrics (by episode id) and, when recorded, the frames of each episode
+    with the oracle's action at every frame."""
+
+    metrics: dict[str, EpisodeMetrics]
+    episodes: list[tuple[dict[str, torch.Tensor], torch.Tensor]] = field(default_factory=list)
+    episode_ids: list[str] = field(default_factory=list)  # of ``episodes``
+    steps: int = 0
+
+
+class _Track:
+    """One environment's running episode."""
+
+    def __init__(self) -> None:
+        self.episode = None
+        self.path = 0.0
+        self.decisions = 0
+        self.collisions = 0
+        self.pos = np.zeros(3)
+        self.prev = np.zeros(len(ACTION_STRENGTHS), np.float32)
+        self.ended = False
+        self.frames: list[dict[str, torch.Tensor]] = []
+        self.labels: list[int] = []
+
+    def start(self, episode, pos) -> None:
+        self.__init__()
+        self.episode = episode
+        self.pos = np.asarray(pos, np.float64)
+
+
+def policy_chooser(policy, keys: Sequence[str], device: torch.device | str = "cpu",
+                   sample: bool = True, seed: int = 0) -> tuple[Chooser, Callable]:
+    """A chooser driving ``policy`` (:class:`minos.learn.policy.NavPolicy`) and a reset hook
+    ``clear(mask)`` for its recurrent state. ``sample``: draw from the action distribution
+    (default) rather than take its argmax."""
+    gen = torch.Generator().manual_seed(seed)
+    holder: dict = {"h": None}
+
+    def choose(frames: dict, n: int) -> np.ndarray:
+        if holder["h"] is None:
+            holder["h"] = policy.initial_state(n, device)
+        f = {k: v.to(device) for k, v in frames.items() if k in keys}
+        logits, holder["h"] = policy.act(f, holder["h"])
+        logits = logits.float().cpu()
+        if sample:
+            a = torch.multinomial(torch.softmax(logits, 1), 1, generator=gen)[:, 0]
+        else:
+            a = logits.argmax(1)
+        return a.numpy().astype(np.int64)
+
+    def clear(mask: np.ndarray) -> None:
+        if holder["h"] is not None and mask.any():
+            holder["h"][:, torch.from_numpy(mask)] = 0.0
+
+    return choose, clear
+
+
+def run_episodes(venv, choose: Optional[Chooser], keys: Sequence[str],
+                 clear: Optional[Callable] = None,
+                 seed: int = 0, record: bool = False, beta: float = 0.0,
+                 max_steps: Optional[int] = None,
+                 progress: Optional[Callable[[int, int], None]] = None) -> RolloutResult:
+    """Runs every episode of ``venv`` (a :class:`minos.gym.VectorNavEnv`) once, choosing
+    actions with ``choose`` (None: the oracle's).
+
+    ``record``: keep every frame of every episode with the oracle's action as its label
+    (``venv.oracle_actions()``); ``beta``: with this probability per step an environment
+    takes the oracle's action instead of the chooser's (DAgger's mixture). ``max_steps`` is
+    the environment's step limit override (None: each episode's own). ``progress(done,
+    total)`` is called as episodes finish.
+    """
+    n = venv.num_envs
+    names = list(venv.action_names)
+    stop = names.index("stop") if "stop" in names else -1
+    total = len({e.episode_id for e in venv._core.episodes})
+    rng = np.random.default_rng(seed)
+    obs, info = venv.reset(seed=seed)
+    tracks = [_Track() for _ in range(n)]
+    result = RolloutResult(metrics={})
+    need_oracle = record or beta > 0.0
+    while len(result.metrics) < total:
+        fresh = np.asarray(info["reset"], bool)
+        if fresh.any():
+            current = venv.current_episodes()
+            for k in np.nonzero(fresh)[0]:
+                tracks[k].start(current[k], info["position"][k])
+            if clear is not None:
+                clear(fresh)
+        limits = np.array([max_steps or (t.episode.max_steps if t.episode else 500)
+                           for t in tracks], np.float32)
+        extra = {
+            "collision": np.asarray(info["collision"], np.float32) * ~fresh,
+            "previous_action": np.stack([t.prev for t in tracks]),
+            "steps_left": limits - np.asarray(info["steps"], np.float32),
+            "at_goal": np.asarray(venv._core.reached(), np.float32),
+        }
+        frames = env_frames(obs, extra, keys)
+        # The oracle is asked once per step: a second question in the same state makes it
+        # re-plan, which may break a tie the other way.
+        oracle = venv.oracle_actions() if need_oracle or choose is None else None
+        actions = oracle if choose is None else choose(frames, n)
+        if beta > 0.0:
+            mix = rng.random(n) < beta
+            actions = np.where(mix, oracle, actions)
+        if record:
+            for k, t in enumerate(tracks):
+                if not t.ended:
+                    t.frames.append({key: v[k:k + 1] for key, v in frames.items()})
+                    t.labels.append(int(oracle[k]))
+        obs, _, term, trunc, info = venv.step(actions)
+        result.steps += int(n)
+        strengths = strengths_of(actions, names)
+        for k, t in enumerate(tracks):
+            if t.ended or t.episode is None:
+                continue
+            pos = np.asarray(info["position"][k], np.float64)
+            t.decisions += 1
+            t.path += float(np.linalg.norm(pos - t.pos))
+            t.pos = pos
+            if actions[k] != stop:
+                t.collisions += int(bool(info["collision"][k]))
+            t.prev = strengths[k]
+            if term[k] or trunc[k]:
+                t.ended = True
+                ep = t.episode
+                if ep.episode_id in result.metrics:
+                    continue
+                g = float(info["geodesic"][k])
+                result.metrics[ep.episode_id] = EpisodeMetrics.finish(
+                    bool(info["success"][k]), t.decisions, int(limits[k]), t.path,
+                    t.collisions, float(ep.geodesic_distance), g)
+                if record:
+                    keys_ = t.frames[0].keys()
+                    ep_frames = {key: torch.cat([f[key] for f in t.frames]) for key in keys_}
+                    result.episodes.append((ep_frames, torch.tensor(t.labels)))
+                    result.episode_ids.append(ep.episode_id)
+                if progress is not None:
+                    progress(len(result.metrics), total)
+    return result
+
+
+def random_chooser(num_actions: int, stop_index: int, seed: int = 0) -> Chooser:
+    """Uniform random moves (never ``stop``), as minos's ``random`` agent."""
+    rng = np.random.default_rng(seed)
+    moves = np.array([i for i in range(num_actions) if i != stop_index])
+
+    def choose(frames: dict, n: int) -> np.ndarray:
+        return rng.choice(moves, size=n)
+
+    return choose
+
+
+__all__ = ["RolloutResult", "policy_chooser", "random_chooser", "run_episodes"]

@@ -1,0 +1,193 @@
+"""minos.learn, the reference learner: the action mapping, minos's metrics against the Rust
+rollout's, dataset frames against environment frames, and a smoke run of the whole loop
+(oracle run → LeRobot export → LeRobotDataset → one epoch of behaviour cloning whose loss
+falls → DAgger round → evaluation in VectorNavEnv). Skipped without torch or lerobot."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+torch = pytest.importorskip("torch", reason="minos.learn needs torch (pip install torch)")
+pytest.importorskip("lerobot", reason="minos.learn reads datasets with lerobot (pip install lerobot)")
+pytest.importorskip("gymnasium")
+
+import minos  # noqa: E402
+from minos.gym import VectorNavEnv  # noqa: E402
+from minos.learn.cell import PRESET_ACTIONS  # noqa: E402
+from minos.learn.dagger import dagger  # noqa: E402
+from minos.learn.data import load_lerobot  # noqa: E402
+from minos.learn.evaluate import evaluate_policy, evaluate_random, make_env  # noqa: E402
+from minos.learn.features import (  # noqa: E402
+    ACTION_STRENGTHS, action_labels, goal_vector, parse_modalities, strengths_of)
+from minos.learn.metrics import EpisodeMetrics, aggregate  # noqa: E402
+from minos.learn.rollout import run_episodes  # noqa: E402
+from minos.learn.train import TrainConfig, load_policy, make_policy, train_bc, _batch  # noqa: E402
+
+ENV_ACTIONS = ["forward", "turn_left", "turn_right", "stop"]
+
+
+def test_action_strengths_map_to_the_environment_actions():
+    names = list(ACTION_STRENGTHS)
+    rows = torch.zeros(6, 9)
+    rows[0, names.index("forward")] = 1.0
+    rows[1, names.index("turn_right")] = 1.0
+    rows[2, names.index("stop")] = 1.0
+    rows[3, names.index("backward")] = 1.0  # not an action of the paper's agent
+    # row 4: no action at all
+    rows[5, names.index("turn_left")] = 0.3  # a weaker strength still names the action
+    rows[5, names.index("forward")] = 0.2
+    assert action_labels(rows, names, ENV_ACTIONS).tolist() == [0, 2, 3, -100, -100, 1]
+    # Round trip through the strengths a dataset writes.
+    a = np.array([0, 1, 2, 3, 2])
+    back = action_labels(torch.from_numpy(strengths_of(a, ENV_ACTIONS)), names, ENV_ACTIONS)
+    assert back.tolist() == a.tolist()
+    assert parse_modalities("M,D") == ("M", "D") == parse_modalities("D+M")
+    with pytest.raises(ValueError):
+        parse_modalities("M,X")
+
+
+def test_preset_actions_are_the_environments(world):
+    for preset in ("habitat", "minos-paper"):
+        env = VectorNavEnv(data=world.data, episodes=world.point, agent=preset, size=8,
+                           allow_body_mismatch=True)
+        assert env.action_names == PRESET_ACTIONS[preset]
+
+
+def test_metrics_follow_minos_definitions():
+    # The numbers of src/run/metrics.rs's own tests, then an independent formula.
+    m = EpisodeMetrics.finish(True, 50, 500, 10.0, 2, 8.0, 0.1)
+    assert math.isclose(m.spl, 0.8, abs_tol=1e-6) and math.isclose(m.speed, 0.9, abs_tol=1e-6)
+    f = EpisodeMetrics.finish(False, 500, 500, 4.0, 0, 8.0, 6.0)
+    assert f.spl == 0.0 and f.speed == 0.0 and math.isclose(f.soft_spl, 0.25, abs_tol=1e-6)
+    agg = aggregate([m, f, None])
+    assert agg["episodes"] == 3 and agg["failed"] == 1
+    assert math.isclose(agg["success"], 1 / 3) and math.isclose(agg["spl"], 0.8 / 3)
+    assert math.isclose(agg["speed"], 0.9 / 3) and agg["steps"] == 275
+
+
+def test_rollout_metrics_equal_minos_run(world, tmp_path):
+    # The oracle through VectorNavEnv, measured by minos.learn, against the metrics the Rust
+    # rollout (`minos run`) computes for the same episodes.
+    rep = minos.run(world.data, world.point, "oracle", tmp_path / "run", size=16)
+    ref = {e["episode_id"]: e["metrics"] for e in
+           json.loads((tmp_path / "run" / "metrics.json").read_text())["episodes"]}
+    venv = VectorNavEnv(data=world.data, episodes=world.point, num_envs=2, size=16,
+                        require_stop=True)
+    res = run_episodes(venv, None, keys=["goal"])
+    assert set(res.metrics) == set(ref) and rep["episodes"] == len(ref)
+    for eid, m in res.metrics.items():
+        r = ref[eid]
+        assert m.success == r["success"] and m.steps == r["steps"], eid
+        assert m.collisions == r["collisions"], eid
+        for k in ("spl", "soft_spl", "speed", "path_length", "final_geodesic"):
+            assert math.isclose(getattr(m, k), r[k], abs_tol=1e-4), (eid, k)
+
+
+@pytest.fixture(scope="module")
+def oracle_dataset(world, tmp_path_factory):
+    """The oracle's run of the point episodes as a LeRobot dataset (24² images)."""
+    out = tmp_path_factory.mktemp("learn") / "run"
+    minos.run(world.data, world.point, "oracle", out, size=24, format="lerobot")
+    return out / "lerobot"
+
+
+def test_dataset_frames_equal_environment_frames(world, oracle_dataset):
+    # What the learner trains on (LeRobotDataset → DataLoader, fallbacks included) is what it
+    # sees in the environment: same keys, layouts and values, frame by frame.
+    keys = ["color", "depth", "semantic", "goal", "previous_action", "contact", "collision"]
+    demos = load_lerobot(oracle_dataset, ENV_ACTIONS, keys=keys, episodes=world.point)
+    slow = load_lerobot(oracle_dataset, ENV_ACTIONS, keys=keys, episodes=world.point,
+                        decode="lerobot", num_workers=0)
+    for k in keys:
+        assert torch.equal(demos.frames[k], slow.frames[k]), k
+    venv = VectorNavEnv(data=world.data, episodes=world.point, size=24, require_stop=True)
+    res = run_episodes(venv, None, keys=keys, record=True)
+    meta = {eid: i for i, eid in enumerate(_episode_ids(oracle_dataset))}
+    assert len(res.episodes) == demos.num_episodes
+    for eid, (frames, labels) in zip(res.episode_ids, res.episodes):
+        d_frames, d_labels = demos.episode(meta[eid])
+        assert torch.equal(labels, d_labels), eid
+        for k in keys:
+            a, b = frames[k], d_frames[k]
+            assert a.shape == b.shape and a.dtype == b.dtype, (k, a.shape, b.shape)
+            if k == "goal":
+                assert torch.allclose(a, b, atol=2e-3), (eid, k)
+            elif k == "contact" and "contact" not in demos.info["features"]:
+                # The trajectories fallback cannot know the contacts at the start pose.
+                assert torch.equal(a[1:], b[1:]), (eid, k)
+            else:
+                assert torch.equal(a, b), (eid, k)
+
+
+def _episode_ids(root):
+    import pyarrow.parquet as pq
+
+    t = pq.read_table(root / "meta" / "episodes" / "chunk-000" / "file-000.parquet",
+                      columns=["episode_index", "minos/episode_id"]).to_pydict()
+    order = np.argsort(t["episode_index"])
+    return [t["minos/episode_id"][i] for i in order]
+
+
+def test_goal_vector_matches_the_environment(world):
+    venv = VectorNavEnv(data=world.data, episodes=world.point, num_envs=2, size=8)
+    obs, info = venv.reset(seed=2)
+    rng = np.random.default_rng(1)
+    for _ in range(20):
+        eps = venv.current_episodes()
+        goals = np.array([e.goal["position"] for e in eps])
+        mine = goal_vector(info["position"], info["yaw"], goals)
+        assert np.allclose(mine, obs["goal"], atol=1e-3)
+        obs, _, _, _, info = venv.step(rng.integers(0, 3, size=2))
+
+
+def test_smoke_the_loss_falls_and_the_loop_runs(world, oracle_dataset, tmp_path):
+    demos = load_lerobot(oracle_dataset, ENV_ACTIONS, keys=["goal", "depth"],
+                         episodes=world.point)
+    assert 100 <= demos.num_frames <= 2000 and demos.label_counts()["ignored"] == 0
+    policy = make_policy(demos, ("M", "D"), image_size=40)
+
+    def dataset_loss() -> float:
+        labels = demos.labels.clone()
+        labels[labels == 3] = -100  # stop is not trained on (no stop, as MINOS's agents)
+        f, m, lab = _batch(demos, np.arange(demos.num_episodes), policy.spec.keys, "cpu", labels)
+        with torch.no_grad():
+            return float(torch.nn.functional.cross_entropy(policy(f, m), lab, ignore_index=-100))
+
+    before = dataset_loss()
+    ckpt = tmp_path / "m.pt"
+    hist = train_bc(policy, demos, TrainConfig(epochs=1, batch_frames=32, lr=3e-3, seed=1),
+                    checkpoint=ckpt, progress=lambda d, t: None)
+    after = dataset_loss()
+    assert len(hist) == 1 and after < before, (before, after)
+    # Resume: a second run with the same checkpoint and 1 epoch trains nothing more.
+    again = train_bc(policy, demos, TrainConfig(epochs=1, batch_frames=32, seed=1),
+                     checkpoint=ckpt, resume=True)
+    assert again == hist
+    loaded, ckpt_dict = load_policy(ckpt)
+    assert loaded.spec.keys == ["goal", "depth"] and ckpt_dict["epoch"] == 0
+
+    venv = make_env(world.data, world.point, agent="habitat", num_envs=2, size=24, max_steps=40)
+    rounds = dagger(policy, demos, venv, TrainConfig(epochs=1, batch_frames=64), iterations=1)
+    assert rounds[0]["frames_added"] > 0 and demos.num_frames == rounds[0]["frames"]
+    res = evaluate_policy(policy, venv, max_steps=40)
+    agg = res["aggregate"]
+    assert agg["episodes"] == len(world.episodes) and 0.0 <= agg["success"] <= 1.0
+    assert all(m["steps"] <= 40 for m in res["episodes"].values())
+    rand = evaluate_random(venv, max_steps=40)
+    assert rand["aggregate"]["episodes"] == len(world.episodes)
+
+
+def test_command_line_train_and_eval(world, oracle_dataset, tmp_path):
+    from minos.learn.__main__ import main
+
+    ckpt = tmp_path / "cli.pt"
+    assert main(["-q", "train", "--dataset", str(oracle_dataset), "--episodes",
+                 str(world.point), "--modalities", "M", "--agent", "habitat", "--epochs", "1",
+                 "--out", str(ckpt)]) == 0
+    out = tmp_path / "eval.json"
+    assert main(["-q", "eval", "--checkpoint", str(ckpt), "--data", str(world.data),
+                 "--episodes", str(world.point), "--agent", "habitat", "--max-steps", "30",
+                 "--size", "24", "--out", str(out)]) == 0
+    assert json.loads(out.read_text())["aggregate"]["episodes"] == len(world.episodes)
