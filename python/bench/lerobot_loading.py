@@ -14,11 +14,10 @@ time) for:
 3. the same with a 4-step action chunk, the way action-chunking policies read:
    `delta_timestamps={"action": [0, 1/fps, 2/fps, 3/fps]}`.
 
-With `--column-query`, a fourth row repeats 3. with LeRobot's chunk query changed to read
-only the queried column (not part of LeRobot 0.4.4: a measurement of where the time goes).
-LeRobot 0.4.4 reads a chunk with `hf_dataset[key][indices]`, which in `datasets` 4 decodes
-every column of those rows (every camera of the four chunk frames) and deep-copies the
-dataset's `Features` three times per item.
+A fourth row repeats 3. with `minos.lerobot.LeRobotDataset` (when the minos package is
+importable), the subclass that reads a chunk's column alone: LeRobot 0.4.4 reads a chunk with
+`hf_dataset[key][indices]`, which in `datasets` 4 decodes every column of those rows (every
+camera of the four chunk frames).
 
 The DataLoader figures are for a whole epoch including starting the workers, and, in
 brackets, after the first batch (steady state). Each batch's tensors are checked for shape so
@@ -70,29 +69,6 @@ def loader(ds, workers, batch, chunk, frames):
     return n, end - t0, steady
 
 
-def column_query(self, query_indices):
-    """`LeRobotDataset._query_hf_dataset` reading only the queried columns."""
-    from lerobot.datasets.utils import hf_transform_to_torch
-
-    if not hasattr(self, "_bench_columns"):
-        self._bench_columns = {}
-    result = {}
-    for key, q_idx in query_indices.items():
-        if key in self.meta.video_keys:
-            continue
-        rel = (
-            q_idx
-            if self._absolute_to_relative_idx is None
-            else [self._absolute_to_relative_idx[i] for i in q_idx]
-        )
-        if key not in self._bench_columns:
-            one = self.hf_dataset.select_columns([key])
-            one.set_transform(hf_transform_to_torch)
-            self._bench_columns[key] = one
-        result[key] = torch.stack(self._bench_columns[key][rel][key])
-    return result
-
-
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--root", type=Path, help="a LeRobot dataset folder")
@@ -105,8 +81,6 @@ def main():
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--batch", type=int, default=64)
     ap.add_argument("--chunk", type=int, default=4, help="action chunk length")
-    ap.add_argument("--column-query", action="store_true",
-                    help="also measure 3. with a chunk query that reads only the action column")
     args = ap.parse_args()
     if (args.root is None) == (args.run is None):
         ap.error("give exactly one of --root and --run")
@@ -145,15 +119,18 @@ def main():
     )
     n, secs, steady = loader(chunked, args.workers, args.batch, args.chunk, args.loader_frames)
     rows.append((f"  + {args.chunk}-step action chunk", n, secs, steady))
-    if args.column_query:
-        LeRobotDataset._query_hf_dataset = column_query
-        chunked = LeRobotDataset(
+    try:
+        from minos.lerobot import LeRobotDataset as MinosLeRobotDataset
+    except ImportError as e:
+        print(f"minos.lerobot not importable ({e}): its row is left out")
+    else:
+        chunked = MinosLeRobotDataset(
             "minos/bench",
             root=root,
             delta_timestamps={"action": [k / fps for k in range(args.chunk)]},
         )
         n, secs, steady = loader(chunked, args.workers, args.batch, args.chunk, args.loader_frames)
-        rows.append(("    chunk read column-only (not LeRobot's)", n, secs, steady))
+        rows.append(("    minos.lerobot.LeRobotDataset", n, secs, steady))
     for name, n, secs, steady in rows:
         extra = f"  ({steady:,.0f} after the first batch)" if steady else ""
         print(f"{name:<40} {n:>6} frames {secs:>8.2f} s {n / secs:>9,.0f} frames/s{extra}")
