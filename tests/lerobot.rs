@@ -72,6 +72,7 @@ fn sensors() -> SensorSuite {
 
 fn config(f: &Fixture, name: &str, encoding: ImageEncoding) -> RunConfig {
     RunConfig {
+        batch: None,
         data: minos::store::DataDir::new(f.dir.path().join("DATA")),
         out: f.dir.path().join(name),
         agent: AgentKind::Oracle,

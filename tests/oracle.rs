@@ -98,6 +98,7 @@ fn data() -> &'static (tempfile::TempDir, Vec<HouseSet>) {
 
 fn config(data: &DataDir, out: &Path, body: AgentConfig) -> RunConfig {
     RunConfig {
+        batch: None,
         data: data.clone(),
         out: out.to_path_buf(),
         agent: AgentKind::Oracle,

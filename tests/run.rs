@@ -44,6 +44,7 @@ fn data() -> &'static (tempfile::TempDir, Vec<Episode>) {
 
 fn config(out: &Path, agent: AgentKind, sensors: SensorSuite) -> RunConfig {
     RunConfig {
+        batch: None,
         data: minos::store::DataDir::new(data().0.path().join("DATA")),
         out: out.to_path_buf(),
         agent,
@@ -1451,4 +1452,54 @@ fn every_step_carries_goal_features_an_independent_computation_agrees_with() {
         }
     }
     assert!(checked.iter().all(|&n| n > 0), "rows per task: {checked:?}");
+}
+
+#[test]
+fn runs_stepped_in_lockstep_batches_write_the_per_thread_bytes() {
+    // `minos run --batch N` steps N environments per scene together (one render call per
+    // step); every episode is still seeded from its own id, so the run folder is the same
+    // bytes as one simulator per thread — for the oracle (stops, every task) and a random
+    // agent (arrivals, the step limit), with a recording, on the CPU and, where an adapter
+    // exists (lavapipe in CI), on wgpu.
+    let dir = tempfile::tempdir().unwrap();
+    let mut episodes = first_episodes(|t| t == Task::PointGoal, 5);
+    episodes.extend(first_episodes(|t| t != Task::PointGoal, 4));
+    let gpu = minos::render::gpu::GpuRenderer::new()
+        .map_err(|e| eprintln!("skipped: the wgpu part: {e}"))
+        .is_ok();
+    let mut renderers = vec![RendererChoice::Cpu];
+    if gpu {
+        renderers.push(RendererChoice::Wgpu);
+    }
+    for renderer in renderers {
+        for (agent, max_steps) in [(AgentKind::Oracle, None), (AgentKind::Random, Some(30))] {
+            let mut folders = Vec::new();
+            for batch in [1, 4, 64] {
+                let out = dir.path().join(format!("{renderer:?}-{agent:?}-{batch}"));
+                let mut cfg = config(&out, agent.clone(), SensorSuite::minos(16));
+                cfg.renderer = renderer;
+                cfg.max_steps = max_steps;
+                cfg.batch = Some(batch);
+                cfg.rerun = Some(minos::pipeline::rollout::RerunOutput {
+                    // One path for all (the manifest names it).
+                    path: dir.path().join("recording.rrd"),
+                    episodes: 2,
+                });
+                let report = run(&cfg, &episodes, &NoProgress).unwrap();
+                assert!(report.failures.is_empty(), "{:?}", report.failures);
+                assert_eq!(report.episodes.len(), episodes.len());
+                folders.push(common::tree_bytes(&out));
+            }
+            let bytes = |k: usize| &folders[k];
+            assert!(!bytes(0).is_empty());
+            for k in 1..folders.len() {
+                let (a, b) = (bytes(0), bytes(k));
+                assert_eq!(a.len(), b.len(), "{renderer:?} {agent:?}: the same files");
+                for ((pa, ba), (pb, bb)) in a.iter().zip(b) {
+                    assert_eq!(pa, pb);
+                    assert!(ba == bb, "{renderer:?} {agent:?}: {} differs", pa.display());
+                }
+            }
+        }
+    }
 }

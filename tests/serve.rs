@@ -51,6 +51,7 @@ fn sensors() -> SensorSuite {
 
 fn run_config(data: &DataDir, out: &Path, agent: AgentKind) -> RunConfig {
     RunConfig {
+        batch: None,
         data: data.clone(),
         out: out.to_path_buf(),
         agent,

@@ -206,6 +206,7 @@ fn a_person_in_chromium_reaches_the_goal_and_the_demo_replays() {
     assert_eq!(episodes.len(), 1);
     let sensors = SensorSuite::minos(128);
     let cfg = |out: PathBuf, agent| RunConfig {
+        batch: None,
         data: data.clone(),
         out,
         agent,

@@ -639,6 +639,7 @@ pub fn run<'py>(
             }
             check_replay(&kind, agent, &eps, shard)?;
             let cfg = RunConfig {
+                batch: None,
                 data: data.clone(),
                 out: out.clone(),
                 agent: kind,

@@ -186,6 +186,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     let run_dir = args.out.join("runs").join("oracle");
     let recording = args.out.join("episode.rrd");
     let run_cfg = RunConfig {
+        batch: None,
         data: store.clone(),
         out: run_dir.clone(),
         agent: AgentKind::Oracle,

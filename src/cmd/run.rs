@@ -132,6 +132,11 @@ pub struct Args {
     /// Renderer.
     #[arg(long, value_enum, default_value = "cpu")]
     renderer: RendererArg,
+    /// Environments per scene stepped in lockstep, each step's observations rendered in one
+    /// call (one GPU submission); 1 = one simulator per thread, each stepping alone. Default:
+    /// 256 on a GPU renderer, 1 on the CPU. The outputs are the same bytes either way.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=65536))]
+    batch: Option<u32>,
     /// Also record episodes for the rerun viewer into this .rrd file (open with
     /// `rerun FILE.rrd`): scene, navigation grid, shortest path, and per step the agent's
     /// pose, camera images and measurements.
@@ -211,6 +216,7 @@ pub fn config(args: &Args) -> anyhow::Result<(RunConfig, Vec<Episode>)> {
         .map_err(anyhow::Error::msg)?;
     check_replay(&agent, &args.agent, &episodes, shard)?;
     let cfg = RunConfig {
+        batch: args.batch.map(|b| b as usize),
         data,
         out: args.out.clone(),
         agent,

@@ -168,6 +168,7 @@ impl Link {
 /// page how it ended.
 pub fn run(shared: Arc<Shared>, name: &str, start: Start, link: Arc<Link>, session_seed: u64) {
     let cfg = RunConfig {
+        batch: Some(1),
         data: shared.data.clone(),
         out: shared.out.join(name),
         // Not used by a live run: the agent is the person.

@@ -12,8 +12,9 @@ use crate::io::rrd::episode::EpisodeRecorder;
 use crate::io::rrd::RecordingError;
 use crate::io::tables::{write_trajectory, ObservationWriter, StepRow, TableError};
 use crate::run::agents::AgentError;
+use crate::run::agents::Decision;
 use crate::run::metrics::EpisodeMetrics;
-use crate::run::stepper::StepError;
+use crate::run::stepper::{EpisodeStepper, StepError, StepOutcome};
 
 /// Why an episode failed (the run goes on with the others).
 #[derive(Debug, thiserror::Error)]
@@ -37,8 +38,8 @@ pub enum EpisodeError {
 
 /// Runs one episode into its part files (and, when `record`, its recording) and returns its
 /// metrics. The episode is stepped by the scene's [`EpisodeStepper`](crate::run::stepper::EpisodeStepper)
-/// (reward, success, end of episode); this loop asks the agent, writes each step's rows and
-/// records.
+/// (reward, success, end of episode); this loop asks the agent and writes each step
+/// ([`EpisodeParts`]).
 pub fn run_episode(
     scene: &mut SceneRun<'_>,
     ep: &Episode,
@@ -56,83 +57,161 @@ pub fn run_episode(
     stepper.set_require_stop(agent.stops());
     stepper.reset_in(ep, Some(&*geo))?;
     agent.reset(ep, stepper.sim())?;
-    let mut recorder = if record {
-        let path = part(parts, index, "rrd");
-        Some(EpisodeRecorder::create(
-            &path,
-            ep,
-            stepper.sim().assets(),
-            &cfg.sensors.cameras,
-            &cfg.body,
-        )?)
-    } else {
-        None
-    };
-    let mut writer = ObservationWriter::create(
-        &part(parts, index, "obs.parquet"),
-        &ep.episode_id,
-        &cfg.sensors.cameras,
-        cfg.encoding,
-    )
-    .map_err(EpisodeError::Table)?;
-    let mut rows: Vec<StepRow> = Vec::new();
-    let mut stopped = false;
+    let mut written = EpisodeParts::open(stepper, ep, cfg, parts, index, record)?;
     while !stepper.ended() {
+        let decision = agent.decide(stepper.observation(), stepper.sim())?;
+        written.before(stepper, &decision)?;
+        let out = stepper.step(decision)?;
+        written.after(&out)?;
+    }
+    written.finish(stepper)
+}
+
+/// One episode's part files being written, a step at a time: the observation part (each
+/// observation before its decision), the trajectory rows, the recording; the metrics part
+/// last, once the stepper has ended the episode. Used by the per-thread loop
+/// ([`run_episode`]) and by the batched one (`super::batched`), so both write the same bytes.
+pub struct EpisodeParts {
+    parts: std::path::PathBuf,
+    index: usize,
+    episode_id: String,
+    writer: ObservationWriter,
+    recorder: Option<EpisodeRecorder>,
+    rows: Vec<StepRow>,
+    /// The row of the decision being stepped.
+    pending: Option<StepRow>,
+    stopped: bool,
+}
+
+impl EpisodeParts {
+    /// Opens the parts of episode `index` (`ep`), whose stepper has just been reset to it.
+    pub fn open(
+        stepper: &EpisodeStepper,
+        ep: &Episode,
+        cfg: &RunConfig,
+        parts: &Path,
+        index: usize,
+        record: bool,
+    ) -> Result<EpisodeParts, EpisodeError> {
+        let recorder = if record {
+            let path = part(parts, index, "rrd");
+            Some(EpisodeRecorder::create(
+                &path,
+                ep,
+                stepper.sim().assets(),
+                &cfg.sensors.cameras,
+                &cfg.body,
+            )?)
+        } else {
+            None
+        };
+        let writer = ObservationWriter::create(
+            &part(parts, index, "obs.parquet"),
+            &ep.episode_id,
+            &cfg.sensors.cameras,
+            cfg.encoding,
+        )
+        .map_err(EpisodeError::Table)?;
+        Ok(EpisodeParts {
+            parts: parts.to_path_buf(),
+            index,
+            episode_id: ep.episode_id.clone(),
+            writer,
+            recorder,
+            rows: Vec::new(),
+            pending: None,
+            stopped: false,
+        })
+    }
+
+    /// Writes the observation the agent decided `decision` on (the stepper's latest) and
+    /// what it was given with it.
+    pub fn before(
+        &mut self,
+        stepper: &EpisodeStepper,
+        decision: &Decision,
+    ) -> Result<(), EpisodeError> {
         let t = stepper.decisions();
         let obs = stepper.observation();
-        writer.push(t, &obs.images).map_err(EpisodeError::Table)?;
+        self.writer
+            .push(t, &obs.images)
+            .map_err(EpisodeError::Table)?;
         let state = stepper.sim().state();
-        let pose = [
-            state.position[0],
-            state.position[1],
-            state.position[2],
-            state.yaw,
-            state.tilt,
-        ];
-        if let Some(r) = recorder.as_mut() {
+        if let Some(r) = self.recorder.as_mut() {
             r.observe(t, &state, &stepper.sim().cameras(), obs)?;
         }
-        let seen = stepper.features();
-        let decision = agent.decide(obs, stepper.sim())?;
-        let mut row = StepRow {
+        self.pending = Some(StepRow {
             step: t,
-            pose,
+            pose: [
+                state.position[0],
+                state.position[1],
+                state.position[2],
+                state.yaw,
+                state.tilt,
+            ],
             action: decision.name(),
             strengths: decision.strengths(),
             reward: 0.0,
             collision: false,
-            seen,
+            seen: stepper.features(),
             done: false,
             success: false,
+        });
+        Ok(())
+    }
+
+    /// Completes the row of the decision [`EpisodeParts::before`] wrote with what the step
+    /// gave.
+    pub fn after(&mut self, out: &StepOutcome<'_>) -> Result<(), EpisodeError> {
+        let Some(mut row) = self.pending.take() else {
+            return Err(EpisodeError::Part(format!(
+                "episode {}: a step's outcome without its decision",
+                self.episode_id
+            )));
         };
-        let out = stepper.step(decision)?;
         row.reward = out.reward;
         row.collision = out.collision;
         row.done = out.done();
         row.success = out.success;
-        stopped = out.stopped;
-        record_act(&mut recorder, &row)?;
-        rows.push(row);
+        self.stopped = out.stopped;
+        record_act(&mut self.recorder, &row)?;
+        self.rows.push(row);
+        Ok(())
     }
-    writer.finish().map_err(EpisodeError::Table)?;
-    write_trajectory(&part(parts, index, "traj.parquet"), &ep.episode_id, &rows)
-        .map_err(EpisodeError::Table)?;
-    if let Some(mut r) = recorder {
-        // Where the last action left the agent (a stop leaves it where it was).
-        if !stopped {
-            let sim = stepper.sim();
-            r.observe(
-                rows.len() as u32,
-                &sim.state(),
-                &sim.cameras(),
-                stepper.observation(),
-            )?;
+
+    /// Writes the rest of the parts once `stepper` has ended the episode (the metrics part
+    /// last) and returns its metrics.
+    pub fn finish(self, stepper: &EpisodeStepper) -> Result<EpisodeMetrics, EpisodeError> {
+        let EpisodeParts {
+            parts,
+            index,
+            episode_id,
+            writer,
+            recorder,
+            rows,
+            stopped,
+            ..
+        } = self;
+        writer.finish().map_err(EpisodeError::Table)?;
+        write_trajectory(&part(&parts, index, "traj.parquet"), &episode_id, &rows)
+            .map_err(EpisodeError::Table)?;
+        if let Some(mut r) = recorder {
+            // Where the last action left the agent (a stop leaves it where it was).
+            if !stopped {
+                let sim = stepper.sim();
+                r.observe(
+                    rows.len() as u32,
+                    &sim.state(),
+                    &sim.cameras(),
+                    stepper.observation(),
+                )?;
+            }
+            r.finish()?;
         }
-        r.finish()?;
+        let m = stepper.metrics()?;
+        write_done(&parts, index, &episode_id, &m).map_err(EpisodeError::Part)?;
+        Ok(m)
     }
-    let m = stepper.metrics()?;
-    write_done(parts, index, &ep.episode_id, &m).map_err(EpisodeError::Part)?;
-    Ok(m)
 }
 
 /// Logs a step's action, reward and collision to the recording, if any.

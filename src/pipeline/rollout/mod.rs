@@ -8,6 +8,7 @@
 //! rerun viewer while they roll out (`DIR/.parts/<index>.rrd`, finished before the metrics
 //! file) and joined into one `.rrd` at the end; recording never changes the tables.
 
+mod batched;
 mod episode;
 mod live;
 mod manifest;
@@ -29,6 +30,7 @@ use crate::io::tables::{merge, observation_schema, trajectory_schema, ImageEncod
 use crate::lock::{DirLock, LockError, LockMode};
 use crate::navmesh::geodesic::Geodesic;
 use crate::progress::Progress;
+use crate::render::Renderer;
 use crate::run::agents::Decision;
 use crate::run::metrics::{aggregate, Aggregate, EpisodeMetrics, MetricRow, Reward};
 use crate::shard::Shard;
@@ -95,7 +97,15 @@ pub struct RunConfig {
     pub allow_body_mismatch: bool,
     /// Where the run came from, for `manifest.json`.
     pub provenance: Provenance,
+    /// Environments stepped in lockstep per scene, every step's observations rendered in one
+    /// call (`Some(1)`: one simulator per thread, each stepping alone). `None`: lockstep
+    /// batches of [`GPU_BATCH`] on a GPU renderer, one simulator per thread otherwise. The
+    /// outputs are the same bytes either way.
+    pub batch: Option<usize>,
 }
+
+/// Environments per scene stepped together on a GPU renderer when the run does not say.
+pub const GPU_BATCH: usize = 256;
 
 /// Where a run came from, recorded in its `manifest.json` beside the configuration.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -353,6 +363,22 @@ fn run_scene(
             }
         }
         Ok((sim, assets, agent)) => {
+            let batch = cfg.batch.unwrap_or(match **sim.renderer() {
+                Renderer::Gpu(_) => GPU_BATCH,
+                Renderer::Cpu => 1,
+            });
+            if batch > 1 && !matches!(cfg.agent, AgentKind::External(_)) {
+                let next = AtomicUsize::new(0);
+                let queue = Queue {
+                    episodes: &pending,
+                    next: &next,
+                };
+                let envs = batch.min(pending.len());
+                out.extend(batched::run_batched(
+                    sim, agent, &assets, envs, queue, cfg, parts, recorded, stop, progress,
+                ));
+                return out;
+            }
             // One worker per thread (a scan-sized scene is often the only one), each with its
             // own simulator and agent on the shared assets, taking the next unclaimed episode
             // until none is left, so episodes of uneven lengths keep every thread busy to the
