@@ -47,8 +47,6 @@ def _parser() -> argparse.ArgumentParser:
     t.add_argument("--dataset", required=True,
                    help="LeRobot dataset root (minos run --format lerobot)")
     t.add_argument("--repo-id", default="minos/run")
-    t.add_argument("--episodes", help="the run's episode file (only for exports without "
-                   "observation.goal; default: from the run's manifest.json)")
     t.add_argument("--modalities", default="M", help="any of M,V,D,F,S,A, e.g. M,D")
     t.add_argument("--agent", default="minos-paper", choices=sorted(PRESET_ACTIONS),
                    help="the preset whose discrete actions the policy chooses")
@@ -120,14 +118,14 @@ def main(argv: list[str] | None = None) -> int:
     from .train import TrainConfig, load_policy, make_policy, train_bc
 
     if args.command == "train":
-        from .data import available_keys, load_lerobot
+        from .data import available_keys, dataset_tasks, load_lerobot
         from .features import keys_for, parse_modalities
 
         mods = parse_modalities(args.modalities)
         have, camera = available_keys(args.dataset, args.repo_id)
-        keys = keys_for(mods, have, camera)
+        keys = keys_for(mods, have, camera, dataset_tasks(args.dataset))
         demos = load_lerobot(args.dataset, PRESET_ACTIONS[args.agent], keys=keys,
-                             repo_id=args.repo_id, episodes=args.episodes, decode=args.decode)
+                             repo_id=args.repo_id, decode=args.decode)
         print(f"{demos.num_frames} frames, {demos.num_episodes} episodes; actions "
               f"{demos.label_counts()}", file=sys.stderr)
         policy = make_policy(demos, mods, memory=args.memory, hidden=args.hidden,

@@ -154,12 +154,13 @@ def run_cell(cfg: CellConfig, progress: bool = True) -> list[dict]:
 
     env_actions = PRESET_ACTIONS[cfg.preset]
     sets = [parse_modalities(m) for m in cfg.modalities]
-    from .data import available_keys
+    from .data import available_keys, dataset_tasks
 
     have, camera = available_keys(dataset)
-    keys = sorted({k for mods in sets for k in keys_for(mods, have, camera)})
+    tasks = dataset_tasks(dataset)
+    keys = sorted({k for mods in sets for k in keys_for(mods, have, camera, tasks)})
     t0 = time.perf_counter()
-    demos = load_lerobot(dataset, env_actions, keys=keys, episodes=train_eps)
+    demos = load_lerobot(dataset, env_actions, keys=keys)
     times["load"] = time.perf_counter() - t0
     _log(f"dataset: {demos.num_frames} frames, {demos.num_episodes} episodes, loaded in "
          f"{times['load']:.1f} s; actions {demos.label_counts()}")
@@ -218,7 +219,7 @@ def run_cell(cfg: CellConfig, progress: bool = True) -> list[dict]:
             "soft_spl": a["soft_spl"], "speed": a["speed"],
             "random": {k: ra[k] for k in ("success", "spl", "soft_spl", "speed")},
             "seconds": {**times, "train": train_s, "eval": eval_s},
-            "fallbacks": demos.info.get("fallbacks", []), "evaluation": ev,
+            "inputs": list(policy.spec.keys), "evaluation": ev,
         }
         out_file.write_text(json.dumps(row, indent=1))
         rows.append(row)

@@ -46,7 +46,8 @@ def evaluate_policy(policy, venv, seed: int = 0, sample: bool = True,
     threads = 1 if dev.type == "cpu" else torch.get_num_threads()
     with torch.inference_mode(), torch_threads(threads):
         res = run_episodes(venv, choose, policy.spec.keys, clear=clear, seed=seed,
-                           max_steps=max_steps, progress=bar)
+                           max_steps=max_steps, progress=bar,
+                           goal_objects=policy.spec.extra.get("goal_objects"))
     bar.close()
     return _summary(res, time.perf_counter() - t0)
 
