@@ -1,4 +1,4 @@
-"""``python -m minos.learn {train,eval,cell}``: the reference learner from the command line.
+"""``python -m minos.learn {train,eval,cell,tables}``: the reference learner from the command line.
 
     python -m minos.learn train --dataset runs/oracle/lerobot --modalities M,D --out m.pt
     python -m minos.learn eval --checkpoint m.pt --data DATA --episodes eps/test.parquet
@@ -75,6 +75,14 @@ def _parser() -> argparse.ArgumentParser:
     e.add_argument("--device", default="auto")
     e.add_argument("--out", help="write the results (JSON) here")
 
+    tb = sub.add_parser("tables", help="the MINOS paper's tables, one resumable cell at a time")
+    tb.add_argument("--root", required=True, help="folder of the cells (made if missing)")
+    tb.add_argument("--cell", action="append", help="run this cell (repeatable; default: "
+                    "every cell not done yet)")
+    tb.add_argument("--list", action="store_true", help="list the cells, done or not")
+    tb.add_argument("--report", action="store_true", help="only write ROOT/tables.md")
+    tb.add_argument("--device", default="auto")
+
     c = sub.add_parser("cell", help="DATA → episodes → oracle → LeRobot → train → eval → table")
     c.add_argument("--work", required=True, help="work folder (resumable)")
     c.add_argument("--modalities", action="append", help="a modality set (repeatable), e.g. "
@@ -101,6 +109,25 @@ def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     logging.basicConfig(level=logging.WARNING, format="%(name)s: %(message)s")
     progress = not args.quiet
+    if args.command == "tables":
+        from . import tables
+
+        root = Path(args.root)
+        if args.list:
+            for name, cfg in tables.cells().items():
+                done = "done" if tables.is_done(root, name, cfg) else "not run"
+                print(f"{name:34s} {done:8s} {cfg.task} rooms {cfg.rooms[0]}..{cfg.rooms[1]} "
+                      f"{cfg.format} variant={cfg.variant or '-'} houses {cfg.houses} "
+                      f"(test {cfg.test_houses}) rows {','.join(cfg.modalities)} "
+                      f"epochs {cfg.epochs}")
+            return 0
+        if args.report:
+            root.mkdir(parents=True, exist_ok=True)
+            (root / "tables.md").write_text(tables.report(root))
+            print(tables.report(root))
+            return 0
+        tables.run(root, args.cell, device=args.device, progress=progress)
+        return 0
     if args.command == "cell":
         cfg = CellConfig(
             work=args.work, modalities=args.modalities or ["M"], data=args.data,
