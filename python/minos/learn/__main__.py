@@ -94,7 +94,9 @@ def _parser() -> argparse.ArgumentParser:
     c.add_argument("--rooms", type=_range, default=(2, 2), help="MIN..MAX rooms (default 2..2)")
     c.add_argument("--task", default="pointgoal", choices=["pointgoal", "objectgoal", "roomgoal"])
     c.add_argument("--categories", nargs="*", help="ObjectGoal categories, e.g. door")
-    c.add_argument("--variant", help="scene variant, e.g. empty")
+    c.add_argument("--variant", help="scene variant (`empty` is made here)")
+    c.add_argument("--format", default="suncg", choices=["suncg", "mp3d"],
+                   help="generated houses' format (mp3d: Matterport3D-format houses)")
     c.add_argument("--preset", default="minos-paper", choices=sorted(PRESET_ACTIONS))
     c.add_argument("--per-scene", type=int, default=10, help="training episodes per house")
     c.add_argument("--test-per-scene", type=int, default=10)
@@ -133,7 +135,7 @@ def main(argv: list[str] | None = None) -> int:
             work=args.work, modalities=args.modalities or ["M"], data=args.data,
             split=args.split, houses=args.houses, test_houses=args.test_houses,
             rooms=args.rooms, task=args.task, categories=args.categories,
-            variant=args.variant, preset=args.preset, per_scene=args.per_scene,
+            variant=args.variant, format=args.format, preset=args.preset, per_scene=args.per_scene,
             test_per_scene=args.test_per_scene, max_steps=args.max_steps, size=args.size,
             memory=args.memory, hidden=args.hidden, epochs=args.epochs,
             batch_frames=args.batch_frames, lr=args.lr, dagger=args.dagger, beta=args.beta,

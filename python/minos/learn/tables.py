@@ -50,8 +50,8 @@ PAPER_MODALITIES = {
 }
 MOD_ROWS = [r for r in PAPER_MODALITIES if r != "random"]
 
-#: The trained row of a complexity cell.
-COMPLEXITY_ROWS = ["M+D"]
+#: The trained rows of a complexity cell (measurements alone, and with depth).
+COMPLEXITY_ROWS = ["M", "M+D"]
 
 
 def _complexity() -> dict[str, CellConfig]:
@@ -136,23 +136,32 @@ def report(root: str | Path) -> str:
     allc = cells()
     pct = lambda v: "—" if v is None else f"{100 * v:.1f}"  # noqa: E731
     lines = ["## Complexity (success %)", "",
-             "| cell | rooms | houses (train/test) | test eps | random (paper) | minos random | "
-             "paper best | minos M+D | SPL | train frames | cell s |",
+             "| cell | rooms | houses (train/test) | test eps | paper random | minos random | "
+             "paper best | minos M | minos M+D (SPL) | train frames | cell s |",
              "|---|---|---|---|---|---|---|---|---|---|---|"]
     for name, (prand, pbest, agent) in PAPER_COMPLEXITY.items():
         cfg = allc[name]
-        row = _load(_row_file(root, cfg, COMPLEXITY_ROWS[0]))
+        m = _load(_row_file(root, cfg, "M"))
+        row = _load(_row_file(root, cfg, "M+D"))
         rand = _load(root / cfg.work / "results" / f"random-s{cfg.seed}.json")
         rs = rand["aggregate"]["success"] if rand else None
-        s = row["success"] if row else None
-        spl = row["spl"] if row else None
-        frames = row["train_frames"] if row else "—"
-        eps = row["test_episodes"] if row else "—"
-        secs = f"{sum(row['seconds'].values()):.0f}" if row else "—"
+        md = f"{pct(row['success'])} ({pct(row['spl'])})" if row else "—"
+        some = row or m
+        frames = some["train_frames"] if some else "—"
+        eps = some["test_episodes"] if some else "—"
+        # The cell's wall time: data, oracle, loading, random, and each row's train + eval.
+        secs = "—"
+        if row and m:
+            sh = row["seconds"]
+            total = sum(sh[k] for k in ("data", "oracle", "load")) + \
+                rand["seconds"] + sum(r["seconds"]["train"] + r["seconds"]["eval"]
+                                      for r in (m, row))
+            secs = f"{total:.0f}"
         lines.append(
             f"| {name} | {cfg.rooms[0]}–{cfg.rooms[1]} ({cfg.format}) | "
             f"{cfg.houses - cfg.test_houses}/{cfg.test_houses} | {eps} | {prand} | {pct(rs)} | "
-            f"{pbest} ({agent}) | {pct(s)} | {pct(spl)} | {frames} | {secs} |")
+            f"{pbest} ({agent}) | {pct(m['success'] if m else None)} | {md} | {frames} | "
+            f"{secs} |")
     lines += ["", "## Modalities (ObjectGoal door, success / speed %; paper DFP in brackets)", "",
               "| row | " + " | ".join(MOD_COLUMNS) + " |",
               "|---|" + "---|" * len(MOD_COLUMNS)]
