@@ -80,9 +80,10 @@ def _modalities() -> dict[str, CellConfig]:
     base = CellConfig(work="", task="objectgoal", categories=["door"], preset="minos-paper",
                       per_scene=10, test_per_scene=10, max_steps=500, size=84, epochs=8)
     cols = {
-        "room-empty": dict(variant="empty", rooms=(1, 1), houses=30, test_houses=10),
+        # A single room yields ~3.5 door episodes per house (not 10): 100 houses, 30 for test.
+        "room-empty": dict(variant="empty", rooms=(1, 1), houses=100, test_houses=30),
         "house-empty": dict(variant="empty", rooms=(3, 5), houses=24, test_houses=8),
-        "room-furnished": dict(rooms=(1, 1), houses=30, test_houses=10),
+        "room-furnished": dict(rooms=(1, 1), houses=100, test_houses=30),
         "house-furnished": dict(rooms=(3, 5), houses=24, test_houses=8),
     }
     out = {}
