@@ -151,12 +151,12 @@ def report(root: str | Path) -> str:
         frames = some["train_frames"] if some else "—"
         eps = some["test_episodes"] if some else "—"
         # The cell's wall time: data, oracle, loading, random, and each row's train + eval.
+        # (rows run so far; a row that resumed counts only this run's stages).
         secs = "—"
-        if row and m:
-            sh = row["seconds"]
-            total = sum(sh[k] for k in ("data", "oracle", "load")) + \
-                rand["seconds"] + sum(r["seconds"]["train"] + r["seconds"]["eval"]
-                                      for r in (m, row))
+        if some and rand:
+            sh = some["seconds"]
+            total = sum(sh[k] for k in ("data", "oracle", "load")) + rand["seconds"] + \
+                sum(r["seconds"]["train"] + r["seconds"]["eval"] for r in (m, row) if r)
             secs = f"{total:.0f}"
         lines.append(
             f"| {name} | {cfg.rooms[0]}–{cfg.rooms[1]} ({cfg.format}) | "
