@@ -213,3 +213,17 @@ def test_command_line_train_and_eval(world, oracle_dataset, tmp_path):
                  "--episodes", str(world.point), "--agent", "habitat", "--max-steps", "30",
                  "--size", "24", "--out", str(out)]) == 0
     assert json.loads(out.read_text())["aggregate"]["episodes"] == len(world.episodes)
+
+
+def test_tables_name_every_paper_cell_and_report_what_is_not_run(tmp_path):
+    from minos.learn import tables
+
+    names = tables.cells()
+    assert set(tables.PAPER_COMPLEXITY) <= set(names)
+    for col in tables.MOD_COLUMNS:
+        for row in tables.MOD_ROWS:
+            assert f"door-{col}/{row}" in names
+    assert all(c.preset == "minos-paper" and c.max_steps == 500 and c.size == 84
+               for c in names.values())
+    rep = tables.report(tmp_path)
+    assert "point-suncg-furnished-small" in rep and "| — |" in rep
