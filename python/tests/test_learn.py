@@ -17,10 +17,10 @@ import minos  # noqa: E402
 from minos.gym import VectorNavEnv  # noqa: E402
 from minos.learn.cell import PRESET_ACTIONS  # noqa: E402
 from minos.learn.dagger import dagger  # noqa: E402
-from minos.learn.data import load_lerobot  # noqa: E402
+from minos.learn.data import dataset_tasks, goal_objects, load_lerobot  # noqa: E402
 from minos.learn.evaluate import evaluate_policy, evaluate_random, make_env  # noqa: E402
 from minos.learn.features import (  # noqa: E402
-    ACTION_STRENGTHS, action_labels, goal_vector, parse_modalities, strengths_of)
+    ACTION_STRENGTHS, action_labels, keys_for, parse_modalities, strengths_of)
 from minos.learn.metrics import EpisodeMetrics, aggregate  # noqa: E402
 from minos.learn.rollout import run_episodes  # noqa: E402
 from minos.learn.train import TrainConfig, load_policy, make_policy, train_bc, _batch  # noqa: E402
@@ -94,12 +94,12 @@ def oracle_dataset(world, tmp_path_factory):
 
 
 def test_dataset_frames_equal_environment_frames(world, oracle_dataset):
-    # What the learner trains on (LeRobotDataset → DataLoader, fallbacks included) is what it
-    # sees in the environment: same keys, layouts and values, frame by frame.
-    keys = ["color", "depth", "semantic", "goal", "previous_action", "contact", "collision"]
-    demos = load_lerobot(oracle_dataset, ENV_ACTIONS, keys=keys, episodes=world.point)
-    slow = load_lerobot(oracle_dataset, ENV_ACTIONS, keys=keys, episodes=world.point,
-                        decode="lerobot", num_workers=0)
+    # What the learner trains on (LeRobotDataset → DataLoader) is what it sees in the
+    # environment: same keys, layouts and values, frame by frame.
+    keys = ["color", "depth", "semantic", "goal", "goal_room", "goal_object", "at_goal",
+            "steps_left", "previous_action", "contact", "collision"]
+    demos = load_lerobot(oracle_dataset, ENV_ACTIONS, keys=keys)
+    slow = load_lerobot(oracle_dataset, ENV_ACTIONS, keys=keys, decode="lerobot", num_workers=0)
     for k in keys:
         assert torch.equal(demos.frames[k], slow.frames[k]), k
     venv = VectorNavEnv(data=world.data, episodes=world.point, size=24, require_stop=True)
@@ -114,9 +114,6 @@ def test_dataset_frames_equal_environment_frames(world, oracle_dataset):
             assert a.shape == b.shape and a.dtype == b.dtype, (k, a.shape, b.shape)
             if k == "goal":
                 assert torch.allclose(a, b, atol=2e-3), (eid, k)
-            elif k == "contact" and "contact" not in demos.info["features"]:
-                # The trajectories fallback cannot know the contacts at the start pose.
-                assert torch.equal(a[1:], b[1:]), (eid, k)
             else:
                 assert torch.equal(a, b), (eid, k)
 
@@ -130,21 +127,46 @@ def _episode_ids(root):
     return [t["minos/episode_id"][i] for i in order]
 
 
-def test_goal_vector_matches_the_environment(world):
-    venv = VectorNavEnv(data=world.data, episodes=world.point, num_envs=2, size=8)
-    obs, info = venv.reset(seed=2)
-    rng = np.random.default_rng(1)
-    for _ in range(20):
-        eps = venv.current_episodes()
-        goals = np.array([e.goal["position"] for e in eps])
-        mine = goal_vector(info["position"], info["yaw"], goals)
-        assert np.allclose(mine, obs["goal"], atol=1e-3)
-        obs, _, _, _, info = venv.step(rng.integers(0, 3, size=2))
+def test_measurements_per_task_and_a_clear_error_for_old_datasets(world, oracle_dataset,
+                                                                   tmp_path):
+    # M is what MINOS fed each task: the goal vector and time for points and objects (with the
+    # category), the goal room class and "in a goal room" for rooms.
+    have = {"goal", "goal_room", "goal_object", "at_goal", "steps_left", "depth"}
+    assert keys_for(("M",), have, None, ["pointgoal"]) == ["goal", "steps_left"]
+    assert keys_for(("M",), have, None, ["objectgoal"]) == ["goal", "goal_object", "steps_left"]
+    assert keys_for(("M", "D"), have, None, ["roomgoal"]) == ["goal_room", "at_goal", "depth"]
+    assert dataset_tasks(oracle_dataset) == {"pointgoal"} and goal_objects(oracle_dataset) == []
+    # A dataset without a feature (as older minos wrote them) is refused, naming it.
+    with pytest.raises(KeyError, match="observation.contact"):
+        keys_for(("F",), {"goal"}, None)
+    import shutil
+
+    old = tmp_path / "old"
+    shutil.copytree(oracle_dataset, old)
+    info = json.loads((old / "meta" / "info.json").read_text())
+    del info["features"]["observation.goal"]
+    (old / "meta" / "info.json").write_text(json.dumps(info))
+    with pytest.raises(KeyError, match="observation.goal"):
+        load_lerobot(old, ENV_ACTIONS, keys=["goal"])
+
+
+def test_object_goal_categories_map_onto_the_dataset_vocabulary(world, tmp_path):
+    # ObjectGoal: the dataset indexes `info.minos.vocabulary`, the environment its own
+    # `goal_objects`; the frames the policy sees use the dataset's.
+    minos.run(world.data, world.objects, "oracle", tmp_path / "obj", size=16, format="lerobot")
+    root = tmp_path / "obj" / "lerobot"
+    vocab = goal_objects(root)
+    assert vocab and "objectgoal" in dataset_tasks(root)
+    demos = load_lerobot(root, ENV_ACTIONS, keys=["goal_object"])
+    venv = VectorNavEnv(data=world.data, episodes=world.objects, size=16, require_stop=True)
+    res = run_episodes(venv, None, keys=["goal_object"], record=True, goal_objects=vocab)
+    meta = {eid: i for i, eid in enumerate(_episode_ids(root))}
+    for eid, (frames, _) in zip(res.episode_ids, res.episodes):
+        assert torch.equal(frames["goal_object"], demos.episode(meta[eid])[0]["goal_object"])
 
 
 def test_smoke_the_loss_falls_and_the_loop_runs(world, oracle_dataset, tmp_path):
-    demos = load_lerobot(oracle_dataset, ENV_ACTIONS, keys=["goal", "depth"],
-                         episodes=world.point)
+    demos = load_lerobot(oracle_dataset, ENV_ACTIONS, keys=["goal", "steps_left", "depth"])
     assert 100 <= demos.num_frames <= 2000 and demos.label_counts()["ignored"] == 0
     policy = make_policy(demos, ("M", "D"), image_size=40)
 
@@ -166,7 +188,7 @@ def test_smoke_the_loss_falls_and_the_loop_runs(world, oracle_dataset, tmp_path)
                      checkpoint=ckpt, resume=True)
     assert again == hist
     loaded, ckpt_dict = load_policy(ckpt)
-    assert loaded.spec.keys == ["goal", "depth"] and ckpt_dict["epoch"] == 0
+    assert loaded.spec.keys == ["goal", "steps_left", "depth"] and ckpt_dict["epoch"] == 0
 
     venv = make_env(world.data, world.point, agent="habitat", num_envs=2, size=24, max_steps=40)
     rounds = dagger(policy, demos, venv, TrainConfig(epochs=1, batch_frames=64), iterations=1)
@@ -183,11 +205,25 @@ def test_command_line_train_and_eval(world, oracle_dataset, tmp_path):
     from minos.learn.__main__ import main
 
     ckpt = tmp_path / "cli.pt"
-    assert main(["-q", "train", "--dataset", str(oracle_dataset), "--episodes",
-                 str(world.point), "--modalities", "M", "--agent", "habitat", "--epochs", "1",
+    assert main(["-q", "train", "--dataset", str(oracle_dataset),
+                 "--modalities", "M", "--agent", "habitat", "--epochs", "1",
                  "--out", str(ckpt)]) == 0
     out = tmp_path / "eval.json"
     assert main(["-q", "eval", "--checkpoint", str(ckpt), "--data", str(world.data),
                  "--episodes", str(world.point), "--agent", "habitat", "--max-steps", "30",
                  "--size", "24", "--out", str(out)]) == 0
     assert json.loads(out.read_text())["aggregate"]["episodes"] == len(world.episodes)
+
+
+def test_tables_name_every_paper_cell_and_report_what_is_not_run(tmp_path):
+    from minos.learn import tables
+
+    names = tables.cells()
+    assert set(tables.PAPER_COMPLEXITY) <= set(names)
+    for col in tables.MOD_COLUMNS:
+        for row in tables.MOD_ROWS:
+            assert f"door-{col}/{row}" in names
+    assert all(c.preset == "minos-paper" and c.max_steps == 500 and c.size == 84
+               for c in names.values())
+    rep = tables.report(tmp_path)
+    assert "point-suncg-furnished-small" in rep and "| — |" in rep

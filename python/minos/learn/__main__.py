@@ -1,4 +1,4 @@
-"""``python -m minos.learn {train,eval,cell}``: the reference learner from the command line.
+"""``python -m minos.learn {train,eval,cell,tables}``: the reference learner from the command line.
 
     python -m minos.learn train --dataset runs/oracle/lerobot --modalities M,D --out m.pt
     python -m minos.learn eval --checkpoint m.pt --data DATA --episodes eps/test.parquet
@@ -47,8 +47,6 @@ def _parser() -> argparse.ArgumentParser:
     t.add_argument("--dataset", required=True,
                    help="LeRobot dataset root (minos run --format lerobot)")
     t.add_argument("--repo-id", default="minos/run")
-    t.add_argument("--episodes", help="the run's episode file (only for exports without "
-                   "observation.goal; default: from the run's manifest.json)")
     t.add_argument("--modalities", default="M", help="any of M,V,D,F,S,A, e.g. M,D")
     t.add_argument("--agent", default="minos-paper", choices=sorted(PRESET_ACTIONS),
                    help="the preset whose discrete actions the policy chooses")
@@ -77,6 +75,14 @@ def _parser() -> argparse.ArgumentParser:
     e.add_argument("--device", default="auto")
     e.add_argument("--out", help="write the results (JSON) here")
 
+    tb = sub.add_parser("tables", help="the MINOS paper's tables, one resumable cell at a time")
+    tb.add_argument("--root", required=True, help="folder of the cells (made if missing)")
+    tb.add_argument("--cell", action="append", help="run this cell (repeatable; default: "
+                    "every cell not done yet)")
+    tb.add_argument("--list", action="store_true", help="list the cells, done or not")
+    tb.add_argument("--report", action="store_true", help="only write ROOT/tables.md")
+    tb.add_argument("--device", default="auto")
+
     c = sub.add_parser("cell", help="DATA → episodes → oracle → LeRobot → train → eval → table")
     c.add_argument("--work", required=True, help="work folder (resumable)")
     c.add_argument("--modalities", action="append", help="a modality set (repeatable), e.g. "
@@ -88,7 +94,9 @@ def _parser() -> argparse.ArgumentParser:
     c.add_argument("--rooms", type=_range, default=(2, 2), help="MIN..MAX rooms (default 2..2)")
     c.add_argument("--task", default="pointgoal", choices=["pointgoal", "objectgoal", "roomgoal"])
     c.add_argument("--categories", nargs="*", help="ObjectGoal categories, e.g. door")
-    c.add_argument("--variant", help="scene variant, e.g. empty")
+    c.add_argument("--variant", help="scene variant (`empty` is made here)")
+    c.add_argument("--format", default="suncg", choices=["suncg", "mp3d"],
+                   help="generated houses' format (mp3d: Matterport3D-format houses)")
     c.add_argument("--preset", default="minos-paper", choices=sorted(PRESET_ACTIONS))
     c.add_argument("--per-scene", type=int, default=10, help="training episodes per house")
     c.add_argument("--test-per-scene", type=int, default=10)
@@ -103,12 +111,31 @@ def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     logging.basicConfig(level=logging.WARNING, format="%(name)s: %(message)s")
     progress = not args.quiet
+    if args.command == "tables":
+        from . import tables
+
+        root = Path(args.root)
+        if args.list:
+            for name, cfg in tables.cells().items():
+                done = "done" if tables.is_done(root, name, cfg) else "not run"
+                print(f"{name:34s} {done:8s} {cfg.task} rooms {cfg.rooms[0]}..{cfg.rooms[1]} "
+                      f"{cfg.format} variant={cfg.variant or '-'} houses {cfg.houses} "
+                      f"(test {cfg.test_houses}) rows {','.join(cfg.modalities)} "
+                      f"epochs {cfg.epochs}")
+            return 0
+        if args.report:
+            root.mkdir(parents=True, exist_ok=True)
+            (root / "tables.md").write_text(tables.report(root))
+            print(tables.report(root))
+            return 0
+        tables.run(root, args.cell, device=args.device, progress=progress)
+        return 0
     if args.command == "cell":
         cfg = CellConfig(
             work=args.work, modalities=args.modalities or ["M"], data=args.data,
             split=args.split, houses=args.houses, test_houses=args.test_houses,
             rooms=args.rooms, task=args.task, categories=args.categories,
-            variant=args.variant, preset=args.preset, per_scene=args.per_scene,
+            variant=args.variant, format=args.format, preset=args.preset, per_scene=args.per_scene,
             test_per_scene=args.test_per_scene, max_steps=args.max_steps, size=args.size,
             memory=args.memory, hidden=args.hidden, epochs=args.epochs,
             batch_frames=args.batch_frames, lr=args.lr, dagger=args.dagger, beta=args.beta,
@@ -120,14 +147,14 @@ def main(argv: list[str] | None = None) -> int:
     from .train import TrainConfig, load_policy, make_policy, train_bc
 
     if args.command == "train":
-        from .data import available_keys, load_lerobot
+        from .data import available_keys, dataset_tasks, load_lerobot
         from .features import keys_for, parse_modalities
 
         mods = parse_modalities(args.modalities)
         have, camera = available_keys(args.dataset, args.repo_id)
-        keys = keys_for(mods, have, camera)
+        keys = keys_for(mods, have, camera, dataset_tasks(args.dataset))
         demos = load_lerobot(args.dataset, PRESET_ACTIONS[args.agent], keys=keys,
-                             repo_id=args.repo_id, episodes=args.episodes, decode=args.decode)
+                             repo_id=args.repo_id, decode=args.decode)
         print(f"{demos.num_frames} frames, {demos.num_episodes} episodes; actions "
               f"{demos.label_counts()}", file=sys.stderr)
         policy = make_policy(demos, mods, memory=args.memory, hidden=args.hidden,

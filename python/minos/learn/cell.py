@@ -44,7 +44,8 @@ class CellConfig:
     levels: tuple[int, int] = (1, 1)
     task: str = "pointgoal"
     categories: Optional[list[str]] = None  # ObjectGoal categories, e.g. ["door"]
-    variant: Optional[str] = None
+    variant: Optional[str] = None  # a scene variant; `empty` is made here (MINOS emptyRoom)
+    format: str = "suncg"  # generated houses' on-disk format: suncg or mp3d
     preset: str = "minos-paper"
     per_scene: int = 10
     test_per_scene: int = 10
@@ -82,9 +83,13 @@ def _prepare_data(cfg: CellConfig, work: Path) -> tuple[Path, str]:
     if (lists / "test.txt").is_file():
         return data, split
     t0 = time.perf_counter()
-    minos.generate(gen, houses=cfg.houses, seed=cfg.seed, rooms=cfg.rooms, levels=cfg.levels)
-    minos.ingest(gen, data)
+    minos.generate(gen, houses=cfg.houses, seed=cfg.seed, rooms=cfg.rooms, levels=cfg.levels,
+                   format=cfg.format, force=True)
+    minos.ingest(gen, data, dataset=cfg.format, force=True)
     minos.bake(data, preset=cfg.preset, previews=False)
+    if cfg.variant:
+        _make_variant(data, cfg.variant)
+        minos.bake(data, preset=cfg.preset, previews=False, variant=cfg.variant)
     import pyarrow.parquet as pq
 
     table = pq.read_table(data / "houses.parquet", columns=["id", "error"]).to_pylist()
@@ -100,6 +105,22 @@ def _prepare_data(cfg: CellConfig, work: Path) -> tuple[Path, str]:
     _log(f"{len(ids)} houses ({len(train)} train, {len(test)} test) in "
          f"{time.perf_counter() - t0:.1f} s -> {data}")
     return data, split
+
+
+def _make_variant(data: Path, name: str) -> None:
+    """Defines the variant ``name`` in ``data`` (only ``empty``, MINOS's emptyRoom: doors,
+    arches and windows kept, through ``minos variants --empty``)."""
+    import shutil
+    import subprocess
+
+    if name != "empty":
+        raise ValueError(f"variant `{name}`: only `empty` is made here; define others with "
+                         "`minos variants` and pass --data/--split")
+    exe = shutil.which("minos")
+    if exe is None:
+        raise FileNotFoundError("the `minos` binary (for `minos variants`) is not on PATH")
+    subprocess.run([exe, "variants", "-q", "--data", str(data), "--name", name, "--empty"],
+                   check=True)
 
 
 def _episodes(cfg: CellConfig, data: Path, split: str, subset: str, out: Path,
@@ -154,12 +175,13 @@ def run_cell(cfg: CellConfig, progress: bool = True) -> list[dict]:
 
     env_actions = PRESET_ACTIONS[cfg.preset]
     sets = [parse_modalities(m) for m in cfg.modalities]
-    from .data import available_keys
+    from .data import available_keys, dataset_tasks
 
     have, camera = available_keys(dataset)
-    keys = sorted({k for mods in sets for k in keys_for(mods, have, camera)})
+    tasks = dataset_tasks(dataset)
+    keys = sorted({k for mods in sets for k in keys_for(mods, have, camera, tasks)})
     t0 = time.perf_counter()
-    demos = load_lerobot(dataset, env_actions, keys=keys, episodes=train_eps)
+    demos = load_lerobot(dataset, env_actions, keys=keys)
     times["load"] = time.perf_counter() - t0
     _log(f"dataset: {demos.num_frames} frames, {demos.num_episodes} episodes, loaded in "
          f"{times['load']:.1f} s; actions {demos.label_counts()}")
@@ -167,7 +189,7 @@ def run_cell(cfg: CellConfig, progress: bool = True) -> list[dict]:
     results_dir = work / "results"
     results_dir.mkdir(exist_ok=True)
     env = make_env(data, test_eps, agent=cfg.preset, num_envs=cfg.num_envs, size=cfg.size,
-                   seed=cfg.seed, max_steps=cfg.max_steps)
+                   seed=cfg.seed, max_steps=cfg.max_steps, variant=cfg.variant)
     random_file = results_dir / f"random-s{cfg.seed}.json"
     if random_file.is_file():
         rand = json.loads(random_file.read_text())
@@ -196,7 +218,8 @@ def run_cell(cfg: CellConfig, progress: bool = True) -> list[dict]:
         dag = []
         if cfg.dagger:
             train_env = make_env(data, train_eps, agent=cfg.preset, num_envs=cfg.num_envs,
-                                 size=cfg.size, seed=cfg.seed, max_steps=cfg.max_steps)
+                                 size=cfg.size, seed=cfg.seed, max_steps=cfg.max_steps,
+                                 variant=cfg.variant)
             sub = _subset(demos, policy.spec.keys)
             dag = dagger(policy, sub, train_env, tc, iterations=cfg.dagger, beta=cfg.beta,
                          checkpoint=ckpt.with_name(ckpt.stem + "-dagger.pt"), progress=progress)
@@ -218,7 +241,7 @@ def run_cell(cfg: CellConfig, progress: bool = True) -> list[dict]:
             "soft_spl": a["soft_spl"], "speed": a["speed"],
             "random": {k: ra[k] for k in ("success", "spl", "soft_spl", "speed")},
             "seconds": {**times, "train": train_s, "eval": eval_s},
-            "fallbacks": demos.info.get("fallbacks", []), "evaluation": ev,
+            "inputs": list(policy.spec.keys), "evaluation": ev,
         }
         out_file.write_text(json.dumps(row, indent=1))
         rows.append(row)

@@ -43,7 +43,8 @@ def dagger(policy, demos: Demonstrations, venv, config: TrainConfig, iterations:
         with torch.inference_mode(), torch_threads(1 if device.type == "cpu" else
                                                    torch.get_num_threads()):
             res = run_episodes(venv, choose, keys, clear=clear, seed=config.seed + i,
-                               record=True, beta=b, progress=bar)
+                               record=True, beta=b, progress=bar,
+                               goal_objects=policy.spec.extra.get("goal_objects"))
         bar.close()
         frames = {k: torch.cat([f[k] for f, _ in res.episodes]) for k in keys}
         labels = torch.cat([lab for _, lab in res.episodes])

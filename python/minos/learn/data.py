@@ -5,15 +5,13 @@ One pass through ``LeRobotDataset`` decodes every frame once (only the columns t
 needs); training epochs then draw whole episodes from memory. DAgger appends the frames it
 collects (:meth:`Demonstrations.extend`).
 
-Datasets written by minos builds that predate a feature of the contract (docs/FORMATS.md) are
-completed from what they do have (the fallbacks, logged once each):
+Every feature the learner reads is one minos writes per step (docs/FORMATS.md); a dataset from
+a minos that predates one is refused with the missing feature's name (re-export the run with
+``minos export-dataset``).
 
-- ``goal`` ← ``observation.state`` (x, y, z, yaw) and the episode's goal position from the
-  episode file (``episodes=``, else the run's ``manifest.json`` beside the dataset);
-- ``previous_action`` ← the previous frame's ``action`` (zeros at an episode's first frame);
-- ``steps_left`` ← the episode's step limit − ``frame_index``;
-- ``contact`` / ``collision`` ← the run's ``trajectories.parquet`` beside the dataset;
-- depth and semantic stored (H, W, 1) are made (1, H, W).
+What M (the measurements) holds depends on the task, as MINOS fed its agents
+(:func:`minos.learn.features.measurement_keys`); :func:`dataset_tasks` tells the tasks of a
+dataset from its ``goal_room`` and ``goal_object`` columns.
 """
 
 from __future__ import annotations
@@ -27,7 +25,7 @@ from typing import Any, Callable, Optional, Sequence
 import numpy as np
 import torch
 
-from .features import ACTION_STRENGTHS, action_labels, goal_vector
+from .features import ACTION_STRENGTHS, action_labels
 
 log = logging.getLogger("minos.learn")
 
@@ -87,65 +85,6 @@ def _internal_name(feature: str) -> Optional[str]:
     return None
 
 
-def _goal_positions(ds, episodes_file: Optional[Path]) -> tuple[dict, dict]:
-    """episode_index → goal position and → step limit, from the episode file the run used."""
-    import minos
-
-    root = Path(ds.root)
-    path = episodes_file
-    if path is None:
-        manifest = root.parent / "manifest.json"
-        if manifest.is_file():
-            given = Path(json.loads(manifest.read_text())["episodes_file"])
-            for cand in (given, root.parent.parent / given, root.parent / given):
-                if cand.is_file():
-                    path = cand
-                    break
-    if path is None:
-        raise FileNotFoundError(
-            "the dataset has no observation.goal and no episode file to derive it from: pass "
-            "episodes=FILE (the file `minos run` rolled out)")
-    by_id = {e.episode_id: e for e in minos.read_episodes(path)}
-    goals, limits = {}, {}
-    meta = ds.meta.episodes
-    for idx, eid in zip(meta["episode_index"], meta["minos/episode_id"]):
-        ep = by_id[eid]
-        goal = ep.goal
-        if goal.get("kind") != "point":
-            raise ValueError(f"episode {eid}: the goal vector fallback needs PointGoal episodes "
-                             "(a newer minos export has observation.goal for every task)")
-        goals[int(idx)] = np.asarray(goal["position"], np.float64)
-        limits[int(idx)] = int(ep.max_steps)
-    return goals, limits
-
-
-def _trajectory_columns(ds, ep: torch.Tensor, fr: torch.Tensor) -> dict[str, np.ndarray]:
-    """``contact`` and ``collision`` of the frames (episode_index, frame_index) from the run's
-    trajectories.parquet."""
-    import pyarrow.parquet as pq
-
-    path = Path(ds.root).parent / "trajectories.parquet"
-    if not path.is_file():
-        raise FileNotFoundError(f"the dataset has no observation.contact/collision and {path} "
-                                "is missing (modality F needs a newer minos export)")
-    t = pq.read_table(path, columns=["episode_id", "step", "collision", "contacts"]).to_pandas()
-    rows = {(e, int(s)): i for i, (e, s) in enumerate(zip(t["episode_id"], t["step"]))}
-    meta = ds.meta.episodes
-    ids = dict(zip(meta["episode_index"], meta["minos/episode_id"]))
-    # Row `step` holds the action taken at frame `step` and what it led to (its collision,
-    # the contacts after it): frame k's values are row k − 1's (zeros at an episode's start).
-    order = np.array([rows.get((ids[int(e)], int(f) - 1), -1)
-                      for e, f in zip(ep.tolist(), fr.tolist())])
-    contacts = np.stack(t["contacts"].to_numpy()).astype(np.float32)
-    collisions = t["collision"].to_numpy().astype(np.float32)
-    first = order < 0
-    contact = contacts[order]
-    collision = collisions[order][:, None]
-    contact[first] = 0.0
-    collision[first] = 0.0
-    return {"contact": contact, "collision": collision}
-
-
 def _to_frame_layout(key: str, v: torch.Tensor) -> torch.Tensor:
     """A decoded LeRobot column (N, …) → the layout of minos.learn.features."""
     if v.ndim == 4 and v.shape[-1] in (1, 3) and v.shape[1] not in (1, 3):
@@ -164,45 +103,36 @@ def _to_frame_layout(key: str, v: torch.Tensor) -> torch.Tensor:
 
 
 def load_lerobot(root: str | Path, env_actions: Sequence[str], keys: Optional[Sequence[str]] = None,
-                 repo_id: str = "minos/run", episodes: Optional[str | Path] = None,
-                 batch_size: int = 64, num_workers: int = 2, decode: str = "arrow",
+                 repo_id: str = "minos/run", batch_size: int = 64, num_workers: int = 2,
+                 decode: str = "arrow",
                  progress: Optional[Callable[[int, int], None]] = None) -> Demonstrations:
     """Reads a LeRobot dataset (``LeRobotDataset(repo_id, root=root)``) through a torch
     ``DataLoader`` into :class:`Demonstrations`.
 
     ``env_actions`` are the environment's discrete actions (``VectorNavEnv.action_names``) the
     9-strength ``action`` is mapped to (:func:`features.action_labels`). ``keys`` limits the
-    decoded features (default: all); ``episodes`` is the episode file of the run (only for
-    the ``goal`` fallback of older exports). ``progress(done, total)`` is called per batch.
+    decoded features (default: all); a key the dataset lacks raises ``KeyError`` naming the
+    feature. ``progress(done, total)`` is called per batch.
 
     ``decode`` picks how the dataset's Hugging Face table turns rows into tensors:
-    ``"lerobot"`` keeps LeRobot's own transform (``hf_transform_to_torch``: through Python
-    lists, ≈ 30–70 frames/s with depth on two cores for minos ≤ 0.1 exports); ``"arrow"``
-    (default) sets the table's ``torch`` format (Arrow → NumPy → torch, ≈ 1,000+ frames/s).
+    ``"lerobot"`` keeps LeRobot's own transform (``hf_transform_to_torch``, through Python
+    lists); ``"arrow"`` (default) sets the table's ``torch`` format (Arrow → NumPy → torch).
     Both go through ``LeRobotDataset.__getitem__`` and give the same frames (tested).
     """
     from lerobot.datasets.lerobot_dataset import LeRobotDataset
     from lerobot.datasets.utils import hf_transform_to_torch
 
-    ds = LeRobotDataset(repo_id, root=str(root))
-    feats = ds.meta.features
+    # The features come from meta/info.json, checked before LeRobot opens the data.
+    feats = json.loads((Path(root) / "meta" / "info.json").read_text())["features"]
     names = {_internal_name(f): f for f in feats if _internal_name(f)}
     cameras = [n for n, f in names.items() if f.startswith("observation.images.")]
     camera = cameras[0] if cameras else None
     strength_names = list(feats["action"].get("names") or ACTION_STRENGTHS)
-    available = set(names) | {"goal", "previous_action", "steps_left"}
-    if "contact" in names or (Path(ds.root).parent / "trajectories.parquet").is_file():
-        available |= {"contact", "collision"}
-    wanted = list(keys) if keys is not None else sorted(available - {"state"})
-    missing = [k for k in wanted if k not in available]
-    if missing:
-        raise KeyError(f"{root}: no feature for {missing} (has {sorted(names)})")
+    wanted = list(keys) if keys is not None else sorted(set(names) - {"state"})
+    _require(root, wanted, names)
+    ds = LeRobotDataset(repo_id, root=str(root))
 
-    direct = [k for k in wanted if k in names]
-    columns = list(_BOOKKEEPING) + [names[k] for k in direct]
-    need_state = "goal" in wanted and "goal" not in names
-    if need_state:
-        columns.append("observation.state")
+    columns = list(_BOOKKEEPING) + [names[k] for k in wanted]
     # Decode only what is needed: depth and labels are the slow columns.
     ds.hf_dataset = ds.hf_dataset.select_columns(sorted(set(columns) | {"timestamp", "task_index"}))
     if decode == "lerobot":
@@ -226,59 +156,65 @@ def load_lerobot(root: str | Path, env_actions: Sequence[str], keys: Optional[Se
     cols = {c: v[order] for c, v in cols.items()}
 
     ep = cols["episode_index"].reshape(-1).long()
-    fr = cols["frame_index"].reshape(-1).long()
-    action = cols["action"].float()
-    frames: dict[str, torch.Tensor] = {k: _to_frame_layout(k, cols[names[k]]) for k in direct}
-    fallbacks: list[str] = []
-    if need_state or ("steps_left" in wanted and "steps_left" not in names):
-        goals, limits = _goal_positions(ds, Path(episodes) if episodes else None)
-    if need_state:
-        state = cols["observation.state"].double().numpy()
-        g = np.stack([goals[int(e)] for e in ep])
-        frames["goal"] = torch.from_numpy(goal_vector(state[:, :3], state[:, 3], g))
-        fallbacks.append("goal from observation.state and the episode file")
-    if "steps_left" in wanted and "steps_left" not in names:
-        lim = torch.tensor([limits[int(e)] for e in ep], dtype=torch.float32)
-        frames["steps_left"] = (lim - fr.float())[:, None]
-        fallbacks.append("steps_left from frame_index and the episode's step limit")
-    if "previous_action" in wanted and "previous_action" not in names:
-        prev = torch.zeros_like(action)
-        prev[1:] = action[:-1]
-        prev[fr == 0] = 0.0
-        frames["previous_action"] = prev
-        fallbacks.append("previous_action from the previous frame's action")
-    if any(k in wanted and k not in names for k in ("contact", "collision")):
-        tc = _trajectory_columns(ds, ep, fr)
-        for k in ("contact", "collision"):
-            if k in wanted and k not in names:
-                frames[k] = torch.from_numpy(tc[k])
-        fallbacks.append("contact/collision from the run's trajectories.parquet")
-    for f in fallbacks:
-        log.warning("%s: fallback: %s", root, f)
-
-    labels = action_labels(action, strength_names, env_actions)
+    frames = {k: _to_frame_layout(k, cols[names[k]]) for k in wanted}
+    labels = action_labels(cols["action"].float(), strength_names, env_actions)
     # Episodes: consecutive runs of episode_index (rows are sorted by index).
     change = torch.ones(len(ep), dtype=torch.bool)
     change[1:] = ep[1:] != ep[:-1]
     starts = torch.nonzero(change).reshape(-1)
     lengths = torch.diff(torch.cat([starts, torch.tensor([len(ep)])]))
     info = {"root": str(root), "repo_id": repo_id, "features": sorted(names),
-            "fallbacks": fallbacks, "strength_names": strength_names}
+            "strength_names": strength_names, "goal_objects": goal_objects(root),
+            "tasks": sorted(dataset_tasks(root))}
     return Demonstrations(frames, labels, starts, lengths, list(env_actions), camera, info)
 
 
+def _require(root, wanted: Sequence[str], names: dict) -> None:
+    missing = [k for k in wanted if k not in names]
+    if missing:
+        raise KeyError(
+            f"{root}: the dataset has no {', '.join('observation.' + k for k in missing)} "
+            "(written by a minos older than the per-step features of docs/FORMATS.md? "
+            "re-export the run with `minos export-dataset --run RUN --out OUT`)")
+
+
+def goal_objects(root: str | Path) -> list[str]:
+    """The ObjectGoal categories ``observation.goal_object`` indexes (``info.json``'s
+    ``minos.vocabulary``; empty without object goals)."""
+    info = json.loads((Path(root) / "meta" / "info.json").read_text())
+    f = info["features"].get("observation.goal_object") or {}
+    return list((f.get("info") or {}).get("minos.vocabulary") or [])
+
+
+def dataset_tasks(root: str | Path) -> set[str]:
+    """The tasks among a dataset's frames: ``roomgoal`` where ``goal_room`` is set,
+    ``objectgoal`` where ``goal_object`` ≥ 0, ``pointgoal`` for the other frames."""
+    import pyarrow.parquet as pq
+
+    tasks: set[str] = set()
+    for f in sorted((Path(root) / "data").rglob("*.parquet")):
+        t = pq.read_table(f, columns=["observation.goal_room", "observation.goal_object"])
+        rooms = np.array([max(r, default=0.0) > 0 for r in t["observation.goal_room"].to_pylist()],
+                         bool)
+        objects = np.array([(o[0] if isinstance(o, list) else o) >= 0
+                            for o in t["observation.goal_object"].to_pylist()], bool)
+        if rooms.any():
+            tasks.add("roomgoal")
+        if objects.any():
+            tasks.add("objectgoal")
+        if (~rooms & ~objects).any():
+            tasks.add("pointgoal")
+    return tasks
+
+
 def available_keys(root: str | Path, repo_id: str = "minos/run") -> tuple[set[str], Optional[str]]:
-    """The frame keys :func:`load_lerobot` can serve for a dataset, and its camera name,
-    from ``meta/info.json`` alone (no decoding)."""
+    """The frame keys of a dataset and its camera name, from ``meta/info.json`` alone (no
+    decoding)."""
     info = json.loads((Path(root) / "meta" / "info.json").read_text())
     names = {_internal_name(f) for f in info["features"]} - {None}
     cameras = sorted(n for n in info["features"] if n.startswith("observation.images."))
-    # steps_left is derivable too, but M takes it only where the dataset has it.
-    have = set(names) | {"goal", "previous_action"}
-    if "contact" in names or (Path(root).parent / "trajectories.parquet").is_file():
-        have |= {"contact", "collision"}
     camera = _internal_name(cameras[0]) if cameras else None
-    return {str(n) for n in have}, camera
+    return {str(n) for n in names}, camera
 
 
-__all__ = ["Demonstrations", "available_keys", "load_lerobot"]
+__all__ = ["Demonstrations", "available_keys", "dataset_tasks", "goal_objects", "load_lerobot"]

@@ -18,7 +18,7 @@ from .util import Progress, ProgressArg, pick_device, torch_threads
 def make_env(data: str | Path, episodes: str | Path, agent: str = "minos-paper",
              num_envs: int = 8, size: int = 84, seed: int = 0, max_steps: Optional[int] = None,
              require_stop: bool = False, threads: Optional[int] = None, sensors=None,
-             renderer: str = "cpu"):
+             renderer: str = "cpu", variant: Optional[str] = None):
     """The evaluation environment (one of ``num_envs`` per episode at most)."""
     import minos
     from minos.gym import VectorNavEnv
@@ -27,7 +27,7 @@ def make_env(data: str | Path, episodes: str | Path, agent: str = "minos-paper",
     return VectorNavEnv(data=data, episodes=episodes, num_envs=max(1, min(num_envs, n_eps)),
                         agent=agent, size=size, seed=seed, max_steps=max_steps,
                         require_stop=require_stop, threads=threads, sensors=sensors,
-                        renderer=renderer)
+                        renderer=renderer, variant=variant)
 
 
 def evaluate_policy(policy, venv, seed: int = 0, sample: bool = True,
@@ -46,7 +46,8 @@ def evaluate_policy(policy, venv, seed: int = 0, sample: bool = True,
     threads = 1 if dev.type == "cpu" else torch.get_num_threads()
     with torch.inference_mode(), torch_threads(threads):
         res = run_episodes(venv, choose, policy.spec.keys, clear=clear, seed=seed,
-                           max_steps=max_steps, progress=bar)
+                           max_steps=max_steps, progress=bar,
+                           goal_objects=policy.spec.extra.get("goal_objects"))
     bar.close()
     return _summary(res, time.perf_counter() - t0)
 

@@ -22,10 +22,13 @@ camera image       (C, H, W) uint8                 ``color`` (C = 3) or ``gray``
 ``previous_action``(9,) float32                    the previous frame's action strengths
 =================  ==============================  ==========================================
 
-Modalities (the MINOS paper's letters, plus S and A): ``M`` measurements (``goal`` and, where
-the dataset has them, ``goal_room``, ``goal_object``, ``at_goal``, ``steps_left``), ``V``
-vision (the colour or grey camera), ``D`` depth, ``F`` forces (``contact`` and ``collision``),
-``S`` semantic labels, ``A`` the previous action.
+Modalities (the MINOS paper's letters, plus S and A): ``M`` measurements, per task as MINOS
+fed them (:func:`measurement_keys`), ``V`` vision (the colour or grey camera), ``D`` depth,
+``F`` forces (``contact`` and ``collision``), ``S`` semantic labels, ``A`` the previous action.
+
+Frames from a dataset and from the environment index ``goal_object`` differently (the
+dataset's ``minos.vocabulary``, the environment's ``goal_objects``); the policy keeps the
+dataset's vocabulary and :func:`env_frames` maps the environment's indices onto it.
 """
 
 from __future__ import annotations
@@ -44,8 +47,16 @@ ACTION_STRENGTHS = (
 
 MODALITIES = ("M", "V", "D", "F", "S", "A")
 
-#: Optional measurement keys that join ``goal`` in M when the dataset has them.
-MEASUREMENT_EXTRAS = ("goal_room", "goal_object", "at_goal", "steps_left")
+#: M per task, as MINOS's measurement functions fed its agents (minos/lib/util/measures.py):
+#: PointGoal and ObjectGoal ``MeasureDistDirTime`` (distance, direction, time → ``goal`` and
+#: ``steps_left``; ObjectGoal's target category beside it, as the UNREAL objective),
+#: RoomGoal ``MeasureGoalRoomType`` (the goal room class one-hot) with ``MeasureMatchRoomType``
+#: (in a goal room → ``at_goal``).
+TASK_MEASUREMENTS = {
+    "pointgoal": ("goal", "steps_left"),
+    "objectgoal": ("goal", "goal_object", "steps_left"),
+    "roomgoal": ("goal_room", "at_goal"),
+}
 
 #: Keys of the image-shaped features (everything else is a vector).
 IMAGE_KEYS_NON_CAMERA = ("depth", "semantic")
@@ -78,8 +89,20 @@ def modality_name(mods: Iterable[str]) -> str:
     return "+".join(mods)
 
 
-def keys_for(mods: Sequence[str], available: Iterable[str], camera: str | None) -> list[str]:
-    """The frame keys a policy over ``mods`` reads, given the keys a source offers.
+def measurement_keys(tasks: Iterable[str]) -> list[str]:
+    """The keys of M for a dataset of ``tasks`` (the union over them, in a fixed order)."""
+    tasks = set(tasks) or {"pointgoal"}
+    unknown = tasks - set(TASK_MEASUREMENTS)
+    if unknown:
+        raise ValueError(f"unknown tasks {sorted(unknown)}")
+    order = ("goal", "goal_room", "goal_object", "at_goal", "steps_left")
+    return [k for k in order if any(k in TASK_MEASUREMENTS[t] for t in tasks)]
+
+
+def keys_for(mods: Sequence[str], available: Iterable[str], camera: str | None,
+             tasks: Iterable[str] = ("pointgoal",)) -> list[str]:
+    """The frame keys a policy over ``mods`` reads, given the keys a source offers and the
+    tasks of its episodes (for M).
 
     ``camera`` is the name of the colour or grey camera (``V``). Raises ``KeyError`` naming the
     missing feature when a modality cannot be served.
@@ -89,14 +112,14 @@ def keys_for(mods: Sequence[str], available: Iterable[str], camera: str | None) 
 
     def need(key: str, mod: str) -> None:
         if key not in have:
-            raise KeyError(f"modality {mod} needs the feature `{key}`, which the source lacks "
-                           f"(it has {sorted(have)})")
+            raise KeyError(f"modality {mod} needs the feature `observation.{key}`, which the "
+                           f"source lacks (it has {sorted(have)})")
         keys.append(key)
 
     for m in mods:
         if m == "M":
-            need("goal", m)
-            keys.extend(k for k in MEASUREMENT_EXTRAS if k in have)
+            for k in measurement_keys(tasks):
+                need(k, m)
         elif m == "V":
             if camera is None:
                 raise KeyError("modality V needs a colour or grey camera (observation.images.*)")
@@ -106,9 +129,8 @@ def keys_for(mods: Sequence[str], available: Iterable[str], camera: str | None) 
         elif m == "S":
             need("semantic", m)
         elif m == "F":
-            if "contact" not in have and "collision" not in have:
-                raise KeyError("modality F needs `contact` or `collision`, which the source lacks")
-            keys.extend(k for k in ("contact", "collision") if k in have)
+            need("contact", m)
+            need("collision", m)
         elif m == "A":
             need("previous_action", m)
     return keys
@@ -142,53 +164,36 @@ def strengths_of(actions: np.ndarray, env_actions: Sequence[str]) -> np.ndarray:
     return out
 
 
-def goal_vector(position: np.ndarray, yaw: np.ndarray, goal: np.ndarray) -> np.ndarray:
-    """MINOS's PointGoal measurement from world poses: (N, 3) = Euclidean distance (m) and the
-    unit horizontal direction to the goal in the agent's frame, [right, forward].
-
-    minos's agent looks along −z at yaw 0 and yaw turns it left (counter-clockwise seen from
-    above): forward = (−sin yaw, 0, −cos yaw), right = (cos yaw, 0, −sin yaw). This is the
-    fallback for datasets written before ``observation.goal`` existed; the test suite checks it
-    against the environment's ``goal`` observation.
-    """
-    d = np.asarray(goal, np.float64) - np.asarray(position, np.float64)
-    s, c = np.sin(yaw), np.cos(yaw)
-    fwd = -s * d[:, 0] - c * d[:, 2]
-    right = c * d[:, 0] - s * d[:, 2]
-    norm = np.hypot(fwd, right)
-    safe = np.where(norm > 1e-9, norm, 1.0)
-    out = np.stack([np.linalg.norm(d, axis=1), right / safe, fwd / safe], axis=1)
-    out[norm <= 1e-9, 1:] = 0.0
-    return out.astype(np.float32)
-
-
-def env_frames(obs: Mapping[str, np.ndarray], extra: Mapping[str, np.ndarray],
-               keys: Iterable[str]) -> dict[str, torch.Tensor]:
+def env_frames(obs: Mapping[str, np.ndarray], keys: Iterable[str],
+               goal_object_map: np.ndarray | None = None) -> dict[str, torch.Tensor]:
     """A batch of Gym observations (N environments, :class:`minos.gym.VectorNavEnv`) → frames
-    in the dataset's layout, for the given keys.
-
-    ``extra`` supplies what the observation dict does not (yet) hold, computed by the caller
-    from the infos (``collision``, ``previous_action``, ``steps_left``, ``at_goal``); keys
-    present in ``obs`` win.
-    """
+    in the dataset's layout, for the given keys. ``goal_object_map[i]`` is the dataset's index
+    of the environment's category ``i`` (−1: unknown to the dataset); None keeps the indices."""
     out: dict[str, torch.Tensor] = {}
     for k in keys:
-        v = obs[k] if k in obs else extra[k]
-        v = np.asarray(v)
-        if k == "semantic":
+        v = np.asarray(obs[k])
+        if k == "semantic":  # (N, H, W) → (N, 1, H, W)
             v = v.astype(np.int32)
             v = v[:, None] if v.ndim == 3 else np.moveaxis(v, -1, 1)
-        elif k == "depth":
+        elif k == "depth":  # (N, H, W, 1) → (N, 1, H, W)
             v = np.moveaxis(v, -1, 1) if v.shape[-1] == 1 and v.ndim == 4 else v
             v = v.astype(np.float16)
         elif v.ndim == 4:  # camera (N, H, W, C) → (N, C, H, W)
             v = np.moveaxis(v, -1, 1) if v.shape[-1] in (1, 3) else v
         elif k == "goal_object":
             v = v.reshape(len(v), 1).astype(np.int64)
+            if goal_object_map is not None and len(goal_object_map):
+                v = np.where(v >= 0, goal_object_map[np.clip(v, 0, None)], -1)
         else:
             v = v.reshape(len(v), -1).astype(np.float32)
         out[k] = torch.from_numpy(np.ascontiguousarray(v))
     return out
+
+
+def goal_object_map(env_categories: Sequence[str], vocabulary: Sequence[str]) -> np.ndarray:
+    """Environment category index → dataset vocabulary index (−1 where the dataset lacks it)."""
+    vocab = list(vocabulary)
+    return np.array([vocab.index(c) if c in vocab else -1 for c in env_categories], np.int64)
 
 
 def normalised_vector(frames: Mapping[str, torch.Tensor],
@@ -230,7 +235,7 @@ def is_image_key(key: str) -> bool:
 
 
 __all__ = [
-    "ACTION_STRENGTHS", "MODALITIES", "action_labels", "env_frames", "goal_vector",
-    "is_image_key", "keys_for", "modality_name", "normalised_vector", "parse_modalities",
-    "strengths_of", "vector_width",
+    "ACTION_STRENGTHS", "MODALITIES", "TASK_MEASUREMENTS", "action_labels", "env_frames",
+    "goal_object_map", "is_image_key", "keys_for", "measurement_keys", "modality_name",
+    "normalised_vector", "parse_modalities", "strengths_of", "vector_width",
 ]

@@ -5,12 +5,8 @@ by the oracle (DAgger).
 The environment resets an ended environment on its next step (Gymnasium's next-step
 auto-reset): the action given to an environment whose episode just ended is ignored, and
 the observation that comes back starts its next episode (``info["reset"]``). The recurrent
-state and the previous action are cleared there.
-
-Inputs the observation dict does not hold yet are computed from the infos, as the dataset
-defines them: ``collision`` (the step into this frame collided), ``previous_action`` (the
-strengths of the previous decision, zeros at an episode's start), ``steps_left`` (the step
-limit − steps taken) and ``at_goal`` (the success test holds now).
+state is cleared there. Every input comes from the Gym observation, which holds the same
+per-step features as the dataset (:func:`minos.learn.features.env_frames`).
 """
 
 from __future__ import annotations
@@ -21,7 +17,7 @@ from typing import Callable, Optional, Sequence
 import numpy as np
 import torch
 
-from .features import ACTION_STRENGTHS, env_frames, strengths_of
+from .features import env_frames, goal_object_map
 from .metrics import EpisodeMetrics
 
 #: choose(frames, n) -> actions (N,) int64 for the N environments.
@@ -48,7 +44,6 @@ class _Track:
         self.decisions = 0
         self.collisions = 0
         self.pos = np.zeros(3)
-        self.prev = np.zeros(len(ACTION_STRENGTHS), np.float32)
         self.ended = False
         self.frames: list[dict[str, torch.Tensor]] = []
         self.labels: list[int] = []
@@ -90,7 +85,8 @@ def run_episodes(venv, choose: Optional[Chooser], keys: Sequence[str],
                  clear: Optional[Callable] = None,
                  seed: int = 0, record: bool = False, beta: float = 0.0,
                  max_steps: Optional[int] = None,
-                 progress: Optional[Callable[[int, int], None]] = None) -> RolloutResult:
+                 progress: Optional[Callable[[int, int], None]] = None,
+                 goal_objects: Optional[Sequence[str]] = None) -> RolloutResult:
     """Runs every episode of ``venv`` (a :class:`minos.gym.VectorNavEnv`) once, choosing
     actions with ``choose`` (None: the oracle's).
 
@@ -98,7 +94,8 @@ def run_episodes(venv, choose: Optional[Chooser], keys: Sequence[str],
     (``venv.oracle_actions()``); ``beta``: with this probability per step an environment
     takes the oracle's action instead of the chooser's (DAgger's mixture). ``max_steps`` is
     the environment's step limit override (None: each episode's own). ``progress(done,
-    total)`` is called as episodes finish.
+    total)`` is called as episodes finish. ``goal_objects``: the vocabulary ``goal_object``
+    frames index (a dataset's, the policy's; None: the environment's ``goal_objects``).
     """
     n = venv.num_envs
     names = list(venv.action_names)
@@ -109,6 +106,8 @@ def run_episodes(venv, choose: Optional[Chooser], keys: Sequence[str],
     tracks = [_Track() for _ in range(n)]
     result = RolloutResult(metrics={})
     need_oracle = record or beta > 0.0
+    gmap = (goal_object_map(venv.goal_objects, goal_objects)
+            if goal_objects is not None else None)
     while len(result.metrics) < total:
         fresh = np.asarray(info["reset"], bool)
         if fresh.any():
@@ -119,13 +118,7 @@ def run_episodes(venv, choose: Optional[Chooser], keys: Sequence[str],
                 clear(fresh)
         limits = np.array([max_steps or (t.episode.max_steps if t.episode else 500)
                            for t in tracks], np.float32)
-        extra = {
-            "collision": np.asarray(info["collision"], np.float32) * ~fresh,
-            "previous_action": np.stack([t.prev for t in tracks]),
-            "steps_left": limits - np.asarray(info["steps"], np.float32),
-            "at_goal": np.asarray(venv._core.reached(), np.float32),
-        }
-        frames = env_frames(obs, extra, keys)
+        frames = env_frames(obs, keys, gmap)
         # The oracle is asked once per step: a second question in the same state makes it
         # re-plan, which may break a tie the other way.
         oracle = venv.oracle_actions() if need_oracle or choose is None else None
@@ -140,7 +133,6 @@ def run_episodes(venv, choose: Optional[Chooser], keys: Sequence[str],
                     t.labels.append(int(oracle[k]))
         obs, _, term, trunc, info = venv.step(actions)
         result.steps += int(n)
-        strengths = strengths_of(actions, names)
         for k, t in enumerate(tracks):
             if t.ended or t.episode is None:
                 continue
@@ -150,7 +142,6 @@ def run_episodes(venv, choose: Optional[Chooser], keys: Sequence[str],
             t.pos = pos
             if actions[k] != stop:
                 t.collisions += int(bool(info["collision"][k]))
-            t.prev = strengths[k]
             if term[k] or trunc[k]:
                 t.ended = True
                 ep = t.episode

@@ -37,11 +37,14 @@ def make_policy(demos: Demonstrations, modalities: Sequence[str], memory: str = 
                 hidden: int = 128, image_size: int = 84, use_stop: bool = False) -> NavPolicy:
     """A policy over ``modalities`` for the frames ``demos`` holds (``use_stop``: see
     :class:`minos.learn.policy.PolicySpec`)."""
-    keys = keys_for(modalities, demos.frames.keys(), demos.camera)
+    tasks = demos.info.get("tasks") or ["pointgoal"]
+    keys = keys_for(modalities, demos.frames.keys(), demos.camera, tasks)
     channels = {k: int(demos.frames[k].shape[1]) for k in keys if demos.frames[k].ndim == 4}
+    extra = {"tasks": list(tasks), "goal_objects": list(demos.info.get("goal_objects") or [])}
     spec = PolicySpec(keys=keys, channels=channels, num_actions=len(demos.env_actions),
                       env_actions=list(demos.env_actions), modalities=list(modalities),
-                      image_size=image_size, hidden=hidden, memory=memory, use_stop=use_stop)
+                      image_size=image_size, hidden=hidden, memory=memory, use_stop=use_stop,
+                      extra=extra)
     return NavPolicy(spec)
 
 

@@ -1,0 +1,186 @@
+"""The MINOS paper's two tables (Savva et al. 2017, "complexity" and "modalities") as cells of
+:func:`minos.learn.cell.run_cell`, each resumable and run on its own:
+
+    python -m minos.learn tables --root tables --list
+    python -m minos.learn tables --root tables --cell point-suncg-furnished-small
+    python -m minos.learn tables --root tables            # every cell not yet done, in order
+    python -m minos.learn tables --root tables --report   # ROOT/tables.md from what is done
+
+Every cell uses the paper's agent (``--preset minos-paper``: forward / turn left / turn right,
+0.4 m point radius, 1.09 m eye, grey 90° camera), 84² images, a 500-step limit and 10 test
+episodes per unseen house (train/test split by house). The data sizes are chosen so that a
+cell's training and evaluation fit about 10 minutes of a 2-core CPU (docs/RESULTS.md says
+what each cell chose and what it took). A modality-table cell is one row of one column; the
+rows of a column share its houses, episodes and oracle dataset (made by the first one run).
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+from pathlib import Path
+from typing import Optional
+
+from .cell import CellConfig, run_cell
+from .features import modality_name, parse_modalities
+
+#: The paper's numbers: complexity cells → (random success %, best agent success %, agent).
+PAPER_COMPLEXITY = {
+    "point-suncg-empty-small": (23.8, 80.3, "DFP"),
+    "point-suncg-empty-medium": (8.6, 64.1, "DFP"),
+    "point-suncg-furnished-small": (9.5, 64.5, "DFP"),
+    "point-suncg-furnished-medium": (6.3, 45.3, "UNREAL"),
+    "point-mp3d-small": (0.0, 38.0, "UNREAL"),
+    "point-mp3d-medium": (0.0, 20.0, "UNREAL"),
+    "room-suncg-furnished-small": (10.0, 58.6, "UNREAL"),
+    "room-suncg-furnished-medium": (3.1, 32.0, "UNREAL"),
+    "room-mp3d-small": (5.0, 14.0, "?"),
+}
+
+#: The modality table (DFP, ObjectGoal door): row → {column: (success %, speed %)}.
+MOD_COLUMNS = ("room-empty", "house-empty", "room-furnished", "house-furnished")
+PAPER_MODALITIES = {
+    "random": [(23.1, 12.7), (18.8, 11.3), (9.5, 5.2), (6.5, 3.1)],
+    "M": [(90.6, 68.1), (66.5, 49.5), (46.2, 27.2), (25.8, 12.2)],
+    "M+V": [(86.8, 71.2), (68.7, 53.7), (48.4, 38.6), (30.4, 19.6)],
+    "M+D": [(92.7, 77.6), (74.8, 63.7), (64.2, 51.7), (43.7, 28.5)],
+    "M+F": [(96.7, 78.7), (70.3, 56.3), (56.0, 37.8), (39.9, 29.1)],
+    "M+V+F": [(94.8, 80.4), (74.3, 61.1), (54.4, 41.7), (41.8, 29.3)],
+    "M+D+V+F": [(94.4, 80.0), (78.1, 65.3), (64.7, 52.4), (48.0, 35.0)],
+}
+MOD_ROWS = [r for r in PAPER_MODALITIES if r != "random"]
+
+#: The trained rows of a complexity cell (measurements alone, and with depth).
+COMPLEXITY_ROWS = ["M", "M+D"]
+
+
+def _complexity() -> dict[str, CellConfig]:
+    base = CellConfig(work="", modalities=list(COMPLEXITY_ROWS), preset="minos-paper",
+                      per_scene=10, test_per_scene=10, max_steps=500, size=84, epochs=10)
+    small = dict(houses=40, test_houses=10, rooms=(2, 2))
+    medium = dict(houses=30, test_houses=10, rooms=(3, 5), epochs=8)
+    mp_small = dict(houses=24, test_houses=8, rooms=(3, 10), format="mp3d", epochs=8)
+    mp_medium = dict(houses=16, test_houses=6, rooms=(11, 24), format="mp3d", epochs=6,
+                     per_scene=8)
+    c = {
+        "point-suncg-empty-small": replace(base, variant="empty", **small),
+        "point-suncg-empty-medium": replace(base, variant="empty", **medium),
+        "point-suncg-furnished-small": replace(base, **small),
+        "point-suncg-furnished-medium": replace(base, **medium),
+        "point-mp3d-small": replace(base, **mp_small),
+        "point-mp3d-medium": replace(base, **mp_medium),
+        "room-suncg-furnished-small": replace(base, task="roomgoal", **small),
+        "room-suncg-furnished-medium": replace(base, task="roomgoal", **medium),
+        "room-mp3d-small": replace(base, task="roomgoal", **mp_small),
+    }
+    return c
+
+
+def _modalities() -> dict[str, CellConfig]:
+    base = CellConfig(work="", task="objectgoal", categories=["door"], preset="minos-paper",
+                      per_scene=10, test_per_scene=10, max_steps=500, size=84, epochs=8)
+    cols = {
+        # A single room yields ~3.5 door episodes per house (not 10): 100 houses, 30 for test.
+        "room-empty": dict(variant="empty", rooms=(1, 1), houses=100, test_houses=30),
+        "house-empty": dict(variant="empty", rooms=(3, 5), houses=24, test_houses=8),
+        "room-furnished": dict(rooms=(1, 1), houses=100, test_houses=30),
+        "house-furnished": dict(rooms=(3, 5), houses=24, test_houses=8),
+    }
+    out = {}
+    for col, kw in cols.items():
+        for row in MOD_ROWS:
+            out[f"door-{col}/{row}"] = replace(base, modalities=[row], **kw)
+    return out
+
+
+def cells() -> dict[str, CellConfig]:
+    """Every cell by name (work folders relative to the root)."""
+    out = {}
+    for name, cfg in {**_complexity(), **_modalities()}.items():
+        out[name] = replace(cfg, work=name.split("/")[0])
+    return out
+
+
+def _row_file(root: Path, cfg: CellConfig, row: str) -> Path:
+    mods = parse_modalities(row)
+    tag = f"{modality_name(mods).replace('+', '')}-{cfg.memory}-s{cfg.seed}"
+    return root / cfg.work / "results" / f"{tag}.json"
+
+
+def is_done(root: Path, name: str, cfg: CellConfig) -> bool:
+    return all(_row_file(root, cfg, r).is_file() for r in cfg.modalities)
+
+
+def run(root: str | Path, names: Optional[list[str]] = None, device: str = "auto",
+        progress: bool = True) -> None:
+    """Runs the named cells (default: every cell not done yet), then rewrites the report."""
+    root = Path(root)
+    all_cells = cells()
+    todo = names or [n for n, c in all_cells.items() if not is_done(root, n, c)]
+    for name in todo:
+        if name not in all_cells:
+            raise SystemExit(f"no cell `{name}` (see --list)")
+        cfg = replace(all_cells[name], work=str(root / all_cells[name].work), device=device)
+        print(f"[minos.learn tables] cell {name}", flush=True)
+        run_cell(cfg, progress=progress)
+        (root / "tables.md").write_text(report(root))
+    (root / "tables.md").write_text(report(root))
+
+
+def _load(path: Path) -> Optional[dict]:
+    return json.loads(path.read_text()) if path.is_file() else None
+
+
+def report(root: str | Path) -> str:
+    """Both tables in Markdown, minos's numbers beside the paper's (`—`: not run yet)."""
+    root = Path(root)
+    allc = cells()
+    pct = lambda v: "—" if v is None else f"{100 * v:.1f}"  # noqa: E731
+    lines = ["## Complexity (success %)", "",
+             "| cell | rooms | houses (train/test) | test eps | paper random | minos random | "
+             "paper best | minos M | minos M+D (SPL) | train frames | cell s |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for name, (prand, pbest, agent) in PAPER_COMPLEXITY.items():
+        cfg = allc[name]
+        m = _load(_row_file(root, cfg, "M"))
+        row = _load(_row_file(root, cfg, "M+D"))
+        rand = _load(root / cfg.work / "results" / f"random-s{cfg.seed}.json")
+        rs = rand["aggregate"]["success"] if rand else None
+        md = f"{pct(row['success'])} ({pct(row['spl'])})" if row else "—"
+        some = row or m
+        frames = some["train_frames"] if some else "—"
+        eps = some["test_episodes"] if some else "—"
+        # The cell's wall time: data, oracle, loading, random, and each row's train + eval.
+        # (rows run so far; a row that resumed counts only this run's stages).
+        secs = "—"
+        if some and rand:
+            sh = some["seconds"]
+            total = sum(sh[k] for k in ("data", "oracle", "load")) + rand["seconds"] + \
+                sum(r["seconds"]["train"] + r["seconds"]["eval"] for r in (m, row) if r)
+            secs = f"{total:.0f}"
+        lines.append(
+            f"| {name} | {cfg.rooms[0]}–{cfg.rooms[1]} ({cfg.format}) | "
+            f"{cfg.houses - cfg.test_houses}/{cfg.test_houses} | {eps} | {prand} | {pct(rs)} | "
+            f"{pbest} ({agent}) | {pct(m['success'] if m else None)} | {md} | {frames} | "
+            f"{secs} |")
+    lines += ["", "## Modalities (ObjectGoal door, success / speed %; paper DFP in brackets)", "",
+              "| row | " + " | ".join(MOD_COLUMNS) + " |",
+              "|---|" + "---|" * len(MOD_COLUMNS)]
+    for row_name, paper in PAPER_MODALITIES.items():
+        cols = []
+        for j, col in enumerate(MOD_COLUMNS):
+            ps, pv = paper[j]
+            cfg = allc[f"door-{col}/{MOD_ROWS[0]}"]
+            if row_name == "random":
+                r = _load(root / cfg.work / "results" / f"random-s{cfg.seed}.json")
+                got = (r["aggregate"]["success"], r["aggregate"]["speed"]) if r else None
+            else:
+                r = _load(_row_file(root, cfg, row_name))
+                got = (r["success"], r["speed"]) if r else None
+            mine = f"{pct(got[0])} / {pct(got[1])}" if got else "—"
+            cols.append(f"{mine} ({ps} / {pv})")
+        lines.append(f"| {row_name} | " + " | ".join(cols) + " |")
+    return "\n".join(lines) + "\n"
+
+
+__all__ = ["PAPER_COMPLEXITY", "PAPER_MODALITIES", "cells", "report", "run"]
