@@ -141,6 +141,7 @@ fn main() {
     println!("|---|---|---|---|---|---|---|---|---|");
     for (task, episodes) in &tasks {
         let cfg = RunConfig {
+            batch: None,
             data: minos::store::DataDir::new(&data),
             out: dir.path().join(format!("run-{}", task.name())),
             agent: AgentKind::Oracle,
