@@ -227,3 +227,28 @@ def test_tables_name_every_paper_cell_and_report_what_is_not_run(tmp_path):
                for c in names.values())
     rep = tables.report(tmp_path)
     assert "point-suncg-furnished-small" in rep and "| — |" in rep
+
+
+def test_datasets_mix_with_object_categories_renumbered(world, oracle_dataset, tmp_path):
+    # Two exports (PointGoal oracle frames and ObjectGoal oracle frames, as a user mixes
+    # oracle runs with people's `minos serve` sessions) load as one set of demonstrations:
+    # every frame of both, in order, ObjectGoal categories on the union vocabulary.
+    from minos.learn.data import load_many
+
+    minos.run(world.data, world.objects, "oracle", tmp_path / "obj", size=24, format="lerobot")
+    objects = tmp_path / "obj" / "lerobot"
+    keys = ["goal", "goal_object"]
+    a = load_lerobot(oracle_dataset, ENV_ACTIONS, keys=keys)
+    b = load_lerobot(objects, ENV_ACTIONS, keys=keys)
+    both = load_many([oracle_dataset, objects], ENV_ACTIONS, keys=keys)
+    assert both.num_frames == a.num_frames + b.num_frames
+    assert both.num_episodes == a.num_episodes + b.num_episodes
+    assert torch.equal(both.frames["goal"], torch.cat([a.frames["goal"], b.frames["goal"]]))
+    assert torch.equal(both.labels, torch.cat([a.labels, b.labels]))
+    assert (both.frames["goal_object"][: a.num_frames] == -1).all()
+    vocab = both.info["goal_objects"]
+    assert vocab == sorted(set(goal_objects(objects)))
+    names = [vocab[i] for i in both.frames["goal_object"][a.num_frames:].reshape(-1).tolist()]
+    assert names == [goal_objects(objects)[i] for i in b.frames["goal_object"].reshape(-1).tolist()]
+    e = a.num_episodes  # the first episode of the second dataset
+    assert int(both.starts[e]) == a.num_frames

@@ -44,8 +44,10 @@ def _parser() -> argparse.ArgumentParser:
     sub = ap.add_subparsers(dest="command", required=True)
 
     t = sub.add_parser("train", help="behaviour cloning (and DAgger) from a LeRobot dataset")
-    t.add_argument("--dataset", required=True,
-                   help="LeRobot dataset root (minos run --format lerobot)")
+    t.add_argument("--dataset", required=True, action="append",
+                   help="LeRobot dataset root (minos run --format lerobot, minos "
+                        "export-dataset); repeat to mix datasets, e.g. oracle runs and "
+                        "people's minos serve sessions")
     t.add_argument("--repo-id", default="minos/run")
     t.add_argument("--modalities", default="M", help="any of M,V,D,F,S,A, e.g. M,D")
     t.add_argument("--agent", default="minos-paper", choices=sorted(PRESET_ACTIONS),
@@ -147,14 +149,18 @@ def main(argv: list[str] | None = None) -> int:
     from .train import TrainConfig, load_policy, make_policy, train_bc
 
     if args.command == "train":
-        from .data import available_keys, dataset_tasks, load_lerobot
+        from .data import available_keys, dataset_tasks, load_many
         from .features import keys_for, parse_modalities
 
         mods = parse_modalities(args.modalities)
-        have, camera = available_keys(args.dataset, args.repo_id)
-        keys = keys_for(mods, have, camera, dataset_tasks(args.dataset))
-        demos = load_lerobot(args.dataset, PRESET_ACTIONS[args.agent], keys=keys,
-                             repo_id=args.repo_id, decode=args.decode)
+        have, camera = available_keys(args.dataset[0], args.repo_id)
+        tasks: set[str] = set()
+        for root in args.dataset:
+            tasks |= dataset_tasks(root)
+            have &= available_keys(root, args.repo_id)[0]
+        keys = keys_for(mods, have, camera, tasks)
+        demos = load_many(args.dataset, PRESET_ACTIONS[args.agent], keys=keys,
+                          repo_id=args.repo_id, decode=args.decode)
         print(f"{demos.num_frames} frames, {demos.num_episodes} episodes; actions "
               f"{demos.label_counts()}", file=sys.stderr)
         policy = make_policy(demos, mods, memory=args.memory, hidden=args.hidden,

@@ -169,6 +169,39 @@ def load_lerobot(root: str | Path, env_actions: Sequence[str], keys: Optional[Se
     return Demonstrations(frames, labels, starts, lengths, list(env_actions), camera, info)
 
 
+def load_many(roots: Sequence[str | Path], env_actions: Sequence[str],
+              keys: Optional[Sequence[str]] = None, **kwargs) -> Demonstrations:
+    """:func:`load_lerobot` of several datasets, their episodes concatenated in the order
+    given — oracle runs, ``minos serve`` recordings of people and runs of imported (e.g.
+    Habitat) episodes mixed, since every minos export has the same features. ObjectGoal
+    category indices are renumbered onto the sorted union of the datasets' vocabularies."""
+    if not roots:
+        raise ValueError("no dataset given")
+    parts = [load_lerobot(r, env_actions, keys=keys, **kwargs) for r in roots]
+    first = parts[0]
+    keys_of = sorted(first.frames)
+    vocabulary = sorted({c for p in parts for c in p.info.get("goal_objects", [])})
+    for p in parts:
+        if sorted(p.frames) != keys_of:
+            raise KeyError(f"{p.info['root']}: features {sorted(p.frames)} differ from "
+                           f"{first.info['root']}'s {keys_of}")
+        if "goal_object" in p.frames:
+            mine = p.info.get("goal_objects", [])
+            remap = torch.tensor([vocabulary.index(c) for c in mine] + [-1], dtype=torch.long)
+            g = p.frames["goal_object"]
+            # −1 (no object goal) maps to the table's last entry, −1.
+            p.frames["goal_object"] = remap[torch.where(g < 0, len(mine), g)]
+    out = Demonstrations({k: v.clone() for k, v in first.frames.items()}, first.labels.clone(),
+                         first.starts.clone(), first.lengths.clone(), list(env_actions),
+                         first.camera, dict(first.info))
+    for p in parts[1:]:
+        out.extend(p.frames, p.labels, p.lengths.tolist())
+    out.info["root"] = [str(r) for r in roots]
+    out.info["goal_objects"] = vocabulary
+    out.info["tasks"] = sorted({t for p in parts for t in p.info.get("tasks", [])})
+    return out
+
+
 def _require(root, wanted: Sequence[str], names: dict) -> None:
     missing = [k for k in wanted if k not in names]
     if missing:
@@ -217,4 +250,7 @@ def available_keys(root: str | Path, repo_id: str = "minos/run") -> tuple[set[st
     return {str(n) for n in names}, camera
 
 
-__all__ = ["Demonstrations", "available_keys", "dataset_tasks", "goal_objects", "load_lerobot"]
+__all__ = [
+    "Demonstrations", "available_keys", "dataset_tasks", "goal_objects", "load_lerobot",
+    "load_many",
+]
