@@ -216,7 +216,7 @@ pub struct Simulator {
 #[pymethods]
 impl Simulator {
     #[new]
-    #[pyo3(signature = (data, scene, agent = "habitat", sensors = None, size = 84, renderer = "cpu", seed = 0, max_steps = 500, allow_body_mismatch = false))]
+    #[pyo3(signature = (data, scene, agent = "habitat", sensors = None, size = 84, renderer = "cpu", seed = 0, max_steps = minos::episode::interchange::DEFAULT_MAX_STEPS, allow_body_mismatch = false))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,

@@ -171,7 +171,7 @@ pub struct SampleArgs {
     #[arg(long, value_enum, default_value = "auto")]
     stratify: Stratify,
     /// Step limit stored in each episode.
-    #[arg(long, default_value_t = 500)]
+    #[arg(long, default_value_t = minos::episode::interchange::DEFAULT_MAX_STEPS)]
     max_steps: u32,
     /// Process every n-th scene: i/n, or `auto` from the scheduler (Slurm array, Kubernetes
     /// Indexed Job with MINOS_SHARD_COUNT, or MINOS_SHARD=i/n).

@@ -99,7 +99,7 @@ impl Default for SampleConfig {
             same_level: false,
             bins: [4.0, 8.0],
             stratified: false,
-            max_steps: 500,
+            max_steps: crate::episode::interchange::DEFAULT_MAX_STEPS,
             attempts_per_episode: 200,
         }
     }
