@@ -5,17 +5,12 @@
 //! parts as the per-thread loop does ([`EpisodeParts`]), and every episode is seeded from
 //! its own id, so the run's outputs are the same bytes whatever the batch size.
 
-use std::collections::BTreeSet;
-use std::path::Path;
-use std::sync::atomic::{AtomicBool, Ordering};
-
 use rayon::prelude::*;
 
 use super::episode::{EpisodeError, EpisodeParts};
 use super::scene::make_agent;
-use super::{Failed, Outcome, Queue, RunConfig};
+use super::{Failed, Outcome, Queue, Workers};
 use crate::navmesh::geodesic::Geodesic;
-use crate::progress::Progress;
 use crate::run::agents::{Agent, Decision};
 use crate::run::stepper::{step_many, Command, EpisodeStepper, StepperConfig};
 use crate::sim::{SceneAssets, Simulator};
@@ -28,19 +23,20 @@ struct Active {
 
 /// Runs `queue`'s episodes on `envs` environments made from `sim` (its siblings share its
 /// assets and renderer) in lockstep.
-#[allow(clippy::too_many_arguments)]
 pub(super) fn run_batched(
     sim: Simulator,
     agent: Box<dyn Agent>,
     assets: &SceneAssets,
     envs: usize,
     queue: Queue<'_>,
-    cfg: &RunConfig,
-    parts: &Path,
-    recorded: &BTreeSet<usize>,
-    stop: &AtomicBool,
-    progress: &dyn Progress,
+    w: Workers<'_>,
 ) -> Vec<Outcome> {
+    let Workers {
+        cfg,
+        parts,
+        recorded,
+        ..
+    } = w;
     let geo = Geodesic::new(&assets.grid);
     let mut out: Vec<Outcome> = Vec::new();
     let mut agents: Vec<Box<dyn Agent>> = vec![agent];
@@ -81,16 +77,7 @@ pub(super) fn run_batched(
         for slot in &active {
             claims.push(match slot {
                 Some(_) => None,
-                None => loop {
-                    match queue.claim() {
-                        None => break None,
-                        Some((i, _)) if stop.load(Ordering::Relaxed) => {
-                            out.push((*i, Err(Failed::Episode("not run: a write failed".into()))));
-                            progress.advance(1);
-                        }
-                        Some((i, ep)) => break Some((*i, ep)),
-                    }
-                },
+                None => w.next(queue, &mut out).map(|(i, ep)| (*i, ep)),
             });
         }
         let started: Vec<Option<Outcome>> = steppers
@@ -117,9 +104,7 @@ pub(super) fn run_batched(
             })
             .collect();
         for o in started.into_iter().flatten() {
-            note_failure(&o, stop);
-            out.push(o);
-            progress.advance(1);
+            w.done(o, &mut out);
         }
         // Retire the environments left without an episode.
         let mut k = 0;
@@ -182,8 +167,7 @@ pub(super) fn run_batched(
                 // The batch could not be rendered: every episode in it fails.
                 for slot in active.iter_mut() {
                     if let Some(a) = slot.take() {
-                        out.push((a.index, Err(e.clone())));
-                        progress.advance(1);
+                        w.done((a.index, Err(e.clone())), &mut out);
                     }
                 }
                 continue;
@@ -215,17 +199,8 @@ pub(super) fn run_batched(
             })
             .collect();
         for o in finished.into_iter().flatten() {
-            note_failure(&o, stop);
-            out.push(o);
-            progress.advance(1);
+            w.done(o, &mut out);
         }
     }
     out
-}
-
-/// A part that could not be written stops the run: no episode starts after it.
-fn note_failure(outcome: &Outcome, stop: &AtomicBool) {
-    if matches!(outcome.1, Err(Failed::Write(_))) {
-        stop.store(true, Ordering::Relaxed);
-    }
 }

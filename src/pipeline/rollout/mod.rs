@@ -363,6 +363,13 @@ fn run_scene(
             }
         }
         Ok((sim, assets, agent)) => {
+            let shared = Workers {
+                cfg,
+                parts,
+                recorded,
+                stop,
+                progress,
+            };
             let batch = cfg.batch.unwrap_or(match **sim.renderer() {
                 Renderer::Gpu(_) => GPU_BATCH,
                 Renderer::Cpu => 1,
@@ -375,7 +382,7 @@ fn run_scene(
                 };
                 let envs = batch.min(pending.len());
                 out.extend(batched::run_batched(
-                    sim, agent, &assets, envs, queue, cfg, parts, recorded, stop, progress,
+                    sim, agent, &assets, envs, queue, shared,
                 ));
                 return out;
             }
@@ -407,7 +414,7 @@ fn run_scene(
                         episodes: &pending,
                         next: &next,
                     };
-                    run_queue(&mut run, queue, cfg, parts, recorded, stop, progress)
+                    run_queue(&mut run, queue, shared)
                 })
                 .collect();
             out.extend(done.into_iter().flatten());
@@ -432,30 +439,52 @@ impl<'a> Queue<'a> {
     }
 }
 
+/// What every worker of a scene shares: the run, where parts go, which episodes are
+/// recorded, the stop flag set by the first part that cannot be written, the progress.
+#[derive(Clone, Copy)]
+struct Workers<'a> {
+    cfg: &'a RunConfig,
+    parts: &'a Path,
+    recorded: &'a BTreeSet<usize>,
+    stop: &'a AtomicBool,
+    progress: &'a dyn Progress,
+}
+
+impl<'a> Workers<'a> {
+    /// The next episode of `queue` to run; once a write has failed, the claimed episodes
+    /// are reported as not run instead (into `out`).
+    fn next(&self, queue: Queue<'a>, out: &mut Vec<Outcome>) -> Option<&'a (usize, Episode)> {
+        loop {
+            let claimed = queue.claim()?;
+            if !self.stop.load(Ordering::Relaxed) {
+                return Some(claimed);
+            }
+            out.push((
+                claimed.0,
+                Err(Failed::Episode("not run: a write failed".into())),
+            ));
+            self.progress.advance(1);
+        }
+    }
+
+    /// Records an episode's outcome; a part that could not be written stops the run: no
+    /// episode starts after it.
+    fn done(&self, outcome: Outcome, out: &mut Vec<Outcome>) {
+        if matches!(outcome.1, Err(Failed::Write(_))) {
+            self.stop.store(true, Ordering::Relaxed);
+        }
+        out.push(outcome);
+        self.progress.advance(1);
+    }
+}
+
 /// Runs episodes claimed from `queue` on one simulator and agent until none is left.
-fn run_queue(
-    run: &mut SceneRun<'_>,
-    queue: Queue<'_>,
-    cfg: &RunConfig,
-    parts: &Path,
-    recorded: &BTreeSet<usize>,
-    stop: &AtomicBool,
-    progress: &dyn Progress,
-) -> Vec<Outcome> {
+fn run_queue(run: &mut SceneRun<'_>, queue: Queue<'_>, w: Workers<'_>) -> Vec<Outcome> {
     let mut out = Vec::new();
-    while let Some((i, ep)) = queue.claim() {
-        if stop.load(Ordering::Relaxed) {
-            out.push((*i, Err(Failed::Episode("not run: a write failed".into()))));
-            progress.advance(1);
-            continue;
-        }
-        let r =
-            episode::run_episode(run, ep, cfg, parts, *i, recorded.contains(i)).map_err(Failed::of);
-        if matches!(r, Err(Failed::Write(_))) {
-            stop.store(true, Ordering::Relaxed);
-        }
-        out.push((*i, r.map(|m| (m, false))));
-        progress.advance(1);
+    while let Some((i, ep)) = w.next(queue, &mut out) {
+        let record = w.recorded.contains(i);
+        let r = episode::run_episode(run, ep, w.cfg, w.parts, *i, record).map_err(Failed::of);
+        w.done((*i, r.map(|m| (m, false))), &mut out);
     }
     out
 }
