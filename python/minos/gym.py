@@ -178,7 +178,8 @@ class NavEnv(gym.Env):
         return o, reward, terminated, truncated, i
 
     def oracle_action(self) -> int:
-        """The oracle's next action (an index into ``action_names``; ``stop`` at the goal)."""
+        """The oracle's next action (an index into ``action_names``; ``stop`` at the goal; -1
+        where it finds no plan from the current state, e.g. one a learner drove it to)."""
         return int(self._core.oracle_actions()[0])
 
     @property
@@ -263,7 +264,8 @@ class VectorNavEnv(gym.vector.VectorEnv):
         return obs, rewards, term, trunc, _vector_info(info, self.num_envs)
 
     def oracle_actions(self) -> np.ndarray:
-        """The oracle's next action of every environment, as an (N,) int64 array."""
+        """The oracle's next action of every environment, as an (N,) int64 array (-1 where it
+        finds no plan from that environment's state)."""
         return self._core.oracle_actions()
 
     def current_episodes(self):

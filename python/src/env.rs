@@ -335,13 +335,14 @@ impl VecCore {
     }
 
     /// The oracle's next action for every environment (indices into `action_names`; `stop`
-    /// once its success test holds; 0 for an environment about to reset).
+    /// once its success test holds; 0 for an environment about to reset; -1 where the oracle
+    /// finds no plan from the environment's state).
     fn oracle_actions<'py>(&mut self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<i64>>> {
         let env = &mut self.env;
         let a = py.detach(|| env.oracle_actions()).map_err(env_err)?;
         Ok(PyArray1::from_vec(
             py,
-            a.into_iter().map(|i| i as i64).collect(),
+            a.into_iter().map(|i| i.map_or(-1, |i| i as i64)).collect(),
         ))
     }
 

@@ -380,34 +380,42 @@ impl VectorEnv {
     }
 
     /// The oracle's next action for every environment (indices into the action set; `stop`
-    /// once its success test holds; 0 for an environment about to reset).
-    pub fn oracle_actions(&mut self) -> Result<Vec<usize>, VectorEnvError> {
+    /// once its success test holds; 0 for an environment about to reset); `None` where the
+    /// oracle finds no plan from the environment's state (a state another driver led it to,
+    /// from which the planner's search budget runs out): asked again, it plans anew.
+    pub fn oracle_actions(&mut self) -> Result<Vec<Option<usize>>, VectorEnvError> {
         let (slots, steppers, episodes, actions) = (
             &mut self.slots,
             &self.steppers,
             &self.episodes,
             self.actions,
         );
-        let mut work = || -> Result<Vec<usize>, AgentError> {
+        let mut work = || -> Result<Vec<Option<usize>>, AgentError> {
             slots
                 .par_iter_mut()
                 .zip(steppers.par_iter())
                 .map(|(slot, stepper)| {
                     if slot.needs_reset {
-                        return Ok(0);
+                        return Ok(Some(0));
                     }
                     let sim = stepper.sim();
-                    let oracle = match &mut slot.oracle {
-                        Some(o) => o,
+                    let decided = match &mut slot.oracle {
+                        Some(o) => o.decide(&Observation::blind(), sim),
                         empty => {
                             let mut o = OracleAgent::new();
-                            o.reset(&episodes[slot.episode], sim)?;
-                            empty.insert(o)
+                            o.reset(&episodes[slot.episode], sim)
+                                .and_then(|()| empty.insert(o).decide(&Observation::blind(), sim))
                         }
                     };
-                    let blind = Observation::blind();
-                    let d = oracle.decide(&blind, sim)?;
-                    Ok(actions.index_of(&d).unwrap_or(0))
+                    match decided {
+                        Ok(d) => Ok(Some(actions.index_of(&d).unwrap_or(0))),
+                        Err(AgentError::NoPlan(_) | AgentError::LostPlan(_)) => {
+                            // Plan from scratch next time.
+                            slot.oracle = None;
+                            Ok(None)
+                        }
+                        Err(e) => Err(e),
+                    }
                 })
                 .collect()
         };

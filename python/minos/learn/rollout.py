@@ -122,15 +122,20 @@ def run_episodes(venv, choose: Optional[Chooser], keys: Sequence[str],
         # The oracle is asked once per step: a second question in the same state makes it
         # re-plan, which may break a tie the other way.
         oracle = venv.oracle_actions() if need_oracle or choose is None else None
-        actions = oracle if choose is None else choose(frames, n)
+        # -1: the oracle found no plan from where the learner led the agent; such a frame
+        # gets no label, and the oracle's turn falls to the learner (or, alone, forward).
+        if choose is None:
+            actions = np.where(oracle >= 0, oracle, 0)
+        else:
+            actions = choose(frames, n)
         if beta > 0.0:
-            mix = rng.random(n) < beta
+            mix = (rng.random(n) < beta) & (oracle >= 0)
             actions = np.where(mix, oracle, actions)
         if record:
             for k, t in enumerate(tracks):
                 if not t.ended:
                     t.frames.append({key: v[k:k + 1] for key, v in frames.items()})
-                    t.labels.append(int(oracle[k]))
+                    t.labels.append(int(oracle[k]) if oracle[k] >= 0 else -100)
         obs, _, term, trunc, info = venv.step(actions)
         result.steps += int(n)
         for k, t in enumerate(tracks):
