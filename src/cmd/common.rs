@@ -164,6 +164,12 @@ pub fn sensor_suite(
     match file {
         Some(p) => {
             let text = std::fs::read_to_string(p).with_context(|| p.display().to_string())?;
+            if text.trim().is_empty() {
+                anyhow::bail!(
+                    "{}: the sensor file is empty (it needs at least one [[cameras]] table)",
+                    p.display()
+                );
+            }
             SensorSuite::parse(&text, &p.display().to_string()).map_err(anyhow::Error::msg)
         }
         None => Ok(default()),

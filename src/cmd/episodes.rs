@@ -119,9 +119,9 @@ pub struct SampleArgs {
     /// Sample on grids baked for another body than --preset's.
     #[arg(long)]
     allow_body_mismatch: bool,
-    /// Episodes per scene.
-    #[arg(long, default_value_t = 10)]
-    per_scene: usize,
+    /// Episodes per scene (1 to 4,294,967,295).
+    #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..))]
+    per_scene: u32,
     /// Seed.
     #[arg(long, default_value_t = 0)]
     seed: u64,
@@ -308,7 +308,7 @@ pub fn config(a: &SampleArgs) -> anyhow::Result<EpisodesJob> {
             TaskArg::Objectgoal => Task::ObjectGoal,
             TaskArg::Roomgoal => Task::RoomGoal,
         },
-        per_scene: a.per_scene,
+        per_scene: a.per_scene as usize,
         seed: a.seed,
         min_island_radius: a.min_island_radius,
         success_radius: a.success_radius.unwrap_or(match task {
@@ -352,6 +352,49 @@ pub fn config(a: &SampleArgs) -> anyhow::Result<EpisodesJob> {
 }
 
 /// Runs `minos episodes`.
+/// Refuses an ObjectGoal category that no object of any sampled scene has (a typo would
+/// otherwise give no episodes and a warning per scene); a shard sees only its scenes, so there
+/// it is one warning.
+fn check_categories(
+    categories: &[String],
+    batch: &minos::pipeline::episodes::EpisodeBatch,
+    shard: Shard,
+) -> anyhow::Result<()> {
+    let found = &batch.object_categories;
+    if found.is_empty() {
+        // No grid read, or no objects at all: the per-scene problems say so.
+        return Ok(());
+    }
+    let unknown: Vec<&str> = categories
+        .iter()
+        .filter(|c| !found.contains(&c.to_ascii_lowercase()))
+        .map(String::as_str)
+        .collect();
+    let Some(first) = unknown.first() else {
+        return Ok(());
+    };
+    const SHOWN: usize = 12;
+    let mut known: Vec<&str> = found.iter().take(SHOWN).map(String::as_str).collect();
+    if found.len() > SHOWN {
+        known.push("…");
+    }
+    let known = format!("known: {}", known.join(", "));
+    let message = format!(
+        "--categories: no object of the {} scene(s) has category `{first}`{} ({known})",
+        batch.scenes.len(),
+        if unknown.len() > 1 {
+            format!(" (nor {})", unknown[1..].join(", "))
+        } else {
+            String::new()
+        },
+    );
+    if shard.count == 1 {
+        bail!("{message}");
+    }
+    tracing::warn!("{message} in this shard");
+    Ok(())
+}
+
 pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     if let Some(Sub::Import(a)) = args.command {
         return import(a, ctx);
@@ -362,6 +405,9 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         let bar = ctx.progress(job.scenes.len() as u64, "episodes");
         sample_scenes(&job.data, &job.scenes, cfg, job.body, job.shard, &bar)
     };
+    if cfg.task == Task::ObjectGoal {
+        check_categories(&cfg.categories, &batch, job.shard)?;
+    }
     let stats_path = batch
         .write(out)
         .with_context(|| format!("writing {}", out.display()))?;

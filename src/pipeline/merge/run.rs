@@ -14,11 +14,9 @@
 //!   `rerun`) with shard `0/1`, the merged recording, and the merge's own command.
 
 use std::collections::{BTreeMap, BTreeSet};
-use std::fs::File;
 use std::path::{Path, PathBuf};
 
 use arrow::array::{Array, BooleanArray, Float32Array, RecordBatch, StringArray, UInt32Array};
-use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 use serde_json::Value;
 
 use super::{check_shards, recorded_shard, MergeError, MergeReport};
@@ -426,13 +424,10 @@ pub fn merge_runs(
         })?;
         groups.extend(mine.iter().map(|&(s, g)| (obs_paths[s].as_path(), g)));
     }
-    let obs_schema = {
-        let f = File::open(&obs_paths[0]).map_err(|e| shard_error(&obs_paths[0], e))?;
-        ParquetRecordBatchReaderBuilder::try_new(f)
-            .map_err(|e| shard_error(&obs_paths[0], e))?
-            .schema()
-            .clone()
-    };
+    let obs_schema =
+        crate::parquet_io::read_batches_with(&obs_paths[0], |b| Ok(b.with_row_groups(vec![])))
+            .map(|r| arrow::array::RecordBatchReader::schema(&r))
+            .map_err(|e| shard_error(&obs_paths[0], e))?;
     copy_row_groups_from(&groups, obs_schema, &out.join("observations.parquet"))
         .map_err(MergeError::Write)?;
     progress.advance(1);
