@@ -429,7 +429,7 @@ mod tests {
                 &b"w"[..],
             ])),
             Arc::new(ids),
-            Arc::new(arrow::array::Int64Array::from(vec![7, 4_000_000_000])),
+            Arc::new(arrow::array::Int64Array::from(vec![7, 5_000_000_000])),
         ];
         let batch = RecordBatch::try_new(schema.clone(), columns).unwrap();
         let compressions = [
@@ -487,7 +487,7 @@ mod tests {
             .unwrap();
         assert_eq!(
             column::<UInt64Array>(&back, "n").unwrap().value(1),
-            4_000_000_000
+            5_000_000_000
         );
         let want = Schema::new(vec![Field::new("large", DataType::Float32, false)]);
         let back = read_batches(&path)

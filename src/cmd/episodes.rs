@@ -352,9 +352,10 @@ pub fn config(a: &SampleArgs) -> anyhow::Result<EpisodesJob> {
 }
 
 /// Runs `minos episodes`.
-/// Refuses an ObjectGoal category that no object of any sampled scene has (a typo would
-/// otherwise give no episodes and a warning per scene); a shard sees only its scenes, so there
-/// it is one warning.
+/// Checks the ObjectGoal categories against the objects of the sampled scenes: when none of
+/// them names an object of any scene (a typo, which would otherwise give no episodes and a
+/// warning per scene) it is an error; a category missing beside found ones is one warning. A
+/// shard sees only its scenes, so there it is always one warning.
 fn check_categories(
     categories: &[String],
     batch: &minos::pipeline::episodes::EpisodeBatch,
@@ -365,33 +366,33 @@ fn check_categories(
         // No grid read, or no objects at all: the per-scene problems say so.
         return Ok(());
     }
-    let unknown: Vec<&str> = categories
+    let missing: Vec<&str> = categories
         .iter()
         .filter(|c| !found.contains(&c.to_ascii_lowercase()))
         .map(String::as_str)
         .collect();
-    let Some(first) = unknown.first() else {
+    if missing.is_empty() {
         return Ok(());
-    };
+    }
     const SHOWN: usize = 12;
     let mut known: Vec<&str> = found.iter().take(SHOWN).map(String::as_str).collect();
     if found.len() > SHOWN {
         known.push("…");
     }
-    let known = format!("known: {}", known.join(", "));
     let message = format!(
-        "--categories: no object of the {} scene(s) has category `{first}`{} ({known})",
+        "--categories: no object of the {} scene(s) has category {} (known: {})",
         batch.scenes.len(),
-        if unknown.len() > 1 {
-            format!(" (nor {})", unknown[1..].join(", "))
-        } else {
-            String::new()
-        },
+        missing
+            .iter()
+            .map(|c| format!("`{c}`"))
+            .collect::<Vec<_>>()
+            .join(", "),
+        known.join(", ")
     );
-    if shard.count == 1 {
+    if missing.len() == categories.len() && shard.count == 1 {
         bail!("{message}");
     }
-    tracing::warn!("{message} in this shard");
+    tracing::warn!("{message}");
     Ok(())
 }
 
