@@ -551,6 +551,24 @@ fn bake_nav_query_and_episodes_from_the_command_line() {
     )
     .unwrap();
     assert_eq!(stats["total"].as_u64(), Some(episodes.len() as u64));
+    // The provenance sidecar: the checksums of both files, the scenes of the split.
+    let record: serde_json::Value = serde_json::from_slice(
+        &std::fs::read(dir.path().join("eps/point.parquet.provenance.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(record["kind"], "episodes");
+    for f in ["point.parquet", "point.parquet.stats.json"] {
+        let sum = minos::provenance::sha256_file(&dir.path().join("eps").join(f)).unwrap();
+        assert_eq!(record["files"][f]["sha256"], sum.sha256.as_str(), "{f}");
+    }
+    let scenes: std::collections::BTreeSet<&str> =
+        episodes.iter().map(|e| e.scene_id.as_str()).collect();
+    let recorded = record["scenes"].as_array().unwrap();
+    assert!(recorded.len() >= scenes.len(), "{record}");
+    assert!(recorded
+        .iter()
+        .all(|s| s["compiled_sha256"].as_str().is_some_and(|h| h.len() == 64)));
+    assert!(record["command"][1] == "episodes", "{record}");
     let subset = &episodes[0].split;
     let content = std::fs::read_dir(hab.join(subset).join("content"))
         .unwrap()

@@ -396,6 +396,42 @@ fn check_categories(
     Ok(())
 }
 
+/// Writes `<out>.provenance.json` beside the episode file: minos version and commit, the
+/// command line and resolved configuration, the scenes with the checksums of their compiled
+/// and source files, and the checksums of the episode file and its statistics.
+fn write_provenance(
+    job: &EpisodesJob,
+    batch: &minos::pipeline::episodes::EpisodeBatch,
+    stats_path: &std::path::Path,
+) -> anyhow::Result<()> {
+    use minos::provenance;
+    let out = &job.out;
+    let name = |p: &std::path::Path| {
+        p.file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default()
+    };
+    let mut files = serde_json::Map::new();
+    for p in [out.as_path(), stats_path] {
+        files.insert(name(p), serde_json::json!(provenance::sha256_file(p)?));
+    }
+    let record = serde_json::json!({
+        "format": provenance::FORMAT,
+        "kind": "episodes",
+        "minos": provenance::MINOS,
+        "command": std::env::args().collect::<Vec<_>>(),
+        "configuration": format!("{:?}", job.sample),
+        "seed": job.sample.seed,
+        "shard": job.shard.to_string(),
+        "body": format!("{:?}", job.body),
+        "scenes": provenance::scene_records(&job.data, batch.scenes.keys().map(String::as_str)),
+        "files": files,
+    });
+    let path = PathBuf::from(format!("{}.provenance.json", out.display()));
+    provenance::write_record(&path, &record)?;
+    Ok(())
+}
+
 pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     if let Some(Sub::Import(a)) = args.command {
         return import(a, ctx);
@@ -412,6 +448,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     let stats_path = batch
         .write(out)
         .with_context(|| format!("writing {}", out.display()))?;
+    write_provenance(&job, &batch, &stats_path)?;
     for (id, s) in &batch.scenes {
         if let Some(p) = &s.problem {
             tracing::warn!("scene {id}: {p}");

@@ -13,6 +13,9 @@
 //! DIR/data/chunk-000/file-000.parquet         the frames, episodes whole and in order, with
 //!                                             the Hugging Face `datasets` features as schema
 //!                                             metadata; a new file after 100 MB
+//! DIR/README.md                               the dataset card (Hugging Face YAML header)
+//! DIR/meta/provenance.json                    minos version and commit, sha256 of the run
+//!                                             tables it was made from and of every file
 //! ```
 //!
 //! The features are described in [`features`]; every episode's task is its instruction in
@@ -22,6 +25,7 @@
 //! folder is written under a temporary name and renamed into place when complete. Same run
 //! tables ⇒ same bytes.
 
+pub mod card;
 mod data;
 pub mod features;
 pub mod image_file;
@@ -233,7 +237,8 @@ pub fn write_dataset(
     if tmp.exists() {
         std::fs::remove_dir_all(&tmp).map_err(io(&tmp))?;
     }
-    let result = write_into(tables, &tmp, options, progress);
+    let result = write_into(tables, &tmp, options, progress)
+        .and_then(|summary| card::write_card_and_provenance(tables, &tmp).map(|()| summary));
     match result {
         Ok(summary) => {
             let old = parent.join(format!(".{name}.old-{}", std::process::id()));

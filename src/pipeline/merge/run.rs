@@ -45,8 +45,8 @@ pub struct RunMerge {
     pub lock: LockMode,
 }
 
-/// Manifest keys that differ between the shards of one run.
-const PER_SHARD_KEYS: [&str; 3] = ["command", "shard", "rerun"];
+/// Manifest keys that differ between the shards of one run (each shard's scenes and files).
+const PER_SHARD_KEYS: [&str; 5] = ["command", "shard", "rerun", "scenes", "files"];
 
 /// One shard's run folder, read.
 struct ShardRun {
@@ -479,7 +479,35 @@ pub fn merge_runs(
     progress.advance(1);
 
     let mut manifest = first.manifest.clone();
+    // The shards' scenes, each once, in id order (as one run over all the episodes lists them).
+    let mut scenes: Vec<Value> = runs
+        .iter()
+        .flat_map(|s| {
+            s.manifest
+                .get("scenes")
+                .and_then(Value::as_array)
+                .cloned()
+                .unwrap_or_default()
+        })
+        .collect();
+    let id = |v: &Value| {
+        v.get("id")
+            .and_then(Value::as_str)
+            .unwrap_or("")
+            .to_string()
+    };
+    scenes.sort_by_key(|v| id(v));
+    scenes.dedup_by_key(|v| id(v));
     if let Some(map) = manifest.as_object_mut() {
+        if map.contains_key("scenes") {
+            map.insert("scenes".into(), Value::Array(scenes));
+        }
+        if map.contains_key("files") {
+            map.insert(
+                "files".into(),
+                crate::pipeline::rollout::manifest::files_of(out).map_err(write_error)?,
+            );
+        }
         map.insert("shard".into(), Value::String(Shard::ALL.to_string()));
         map.insert("command".into(), serde_json::json!(opts.command));
         map.insert(

@@ -10,7 +10,7 @@
 
 mod episode;
 mod live;
-mod manifest;
+pub mod manifest;
 mod parts;
 mod preflight;
 mod scene;
@@ -519,7 +519,7 @@ fn finish(
     if cfg.lerobot {
         write_lerobot(&cfg.out, cfg.body.dt)?;
     }
-    manifest::write(cfg)
+    manifest::write(cfg, mine.iter().map(|(_, e)| e.scene_id.as_str()))
 }
 
 /// An episode that failed with an error, as `metrics.json` lists it: with its task, split
