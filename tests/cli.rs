@@ -416,6 +416,21 @@ fn bake_nav_query_and_episodes_from_the_command_line() {
     assert!(ok(&["bake", "--data", d]).contains("3 up to date"));
     let id = house_id(&cfg, 0);
     assert!(data.join("nav").join(format!("{id}.L0.png")).is_file());
+    // DATA's provenance record: rewritten by the bake, it lists every file with its sha256.
+    let record: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(data.join("provenance.json")).unwrap()).unwrap();
+    assert_eq!(record["kind"], "data");
+    let files = record["files"].as_object().unwrap();
+    for f in [
+        "houses.parquet".to_string(),
+        "splits/s/train.txt".to_string(),
+        format!("nav/{id}.nav"),
+        format!("scenes/{id}.mscene"),
+    ] {
+        let sum = minos::provenance::sha256_file(&data.join(&f)).unwrap();
+        assert_eq!(files[&f]["sha256"], sum.sha256.as_str(), "{f}");
+    }
+    assert!(!files.contains_key("provenance.json"));
     // Two walkable points of the main island, from the grid itself.
     let grid = minos::navmesh::file::read_nav(&data.join("nav").join(format!("{id}.nav"))).unwrap();
     let indoor = |i: u32| {

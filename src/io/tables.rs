@@ -418,7 +418,9 @@ fn copy_row_groups(
 pub fn row_group_count(path: &Path) -> Result<usize, TableError> {
     let perr = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
     let f = File::open(path).map_err(|e| perr(&e))?;
-    let reader = SerializedFileReader::new(f).map_err(|e| perr(&e))?;
+    let reader = crate::escape::catch_quietly(|| SerializedFileReader::new(f))
+        .map_err(|e| perr(&format!("the Parquet reader failed: {e}")))?
+        .map_err(|e| perr(&e))?;
     Ok(reader.metadata().num_row_groups())
 }
 
@@ -449,7 +451,9 @@ pub fn copy_row_groups_from(
             let perr = |e: &dyn std::fmt::Display| format!("{}: {e}", p.display());
             if !open.contains_key(p) {
                 let f = File::open(p).map_err(|e| perr(&e))?;
-                let reader = SerializedFileReader::new(f.try_clone().map_err(|e| perr(&e))?)
+                let copy = f.try_clone().map_err(|e| perr(&e))?;
+                let reader = crate::escape::catch_quietly(|| SerializedFileReader::new(copy))
+                    .map_err(|e| perr(&format!("the Parquet reader failed: {e}")))?
                     .map_err(|e| perr(&e))?;
                 if reader
                     .metadata()
