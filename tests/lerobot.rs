@@ -902,6 +902,13 @@ fn the_dataset_card_and_provenance_record_check_out() {
             "{s}"
         );
     }
+    // The copy records the run's configuration but its command (and the run's file list).
+    let mut configuration = manifest.clone();
+    for key in ["command", "rerun", "files"] {
+        configuration.as_object_mut().unwrap().remove(key);
+    }
+    assert_eq!(record["run"], configuration);
+    assert!(record["run"]["sensors"].is_object() && record["run"]["seed"].is_u64());
     let files = manifest["files"].as_object().expect("files");
     assert!(files.contains_key("lerobot/meta/provenance.json"));
     let sum = minos::provenance::sha256_file(&run.join("metrics.json")).unwrap();

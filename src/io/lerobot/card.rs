@@ -22,7 +22,11 @@ fn provenance_error(e: provenance::ProvenanceError) -> LerobotError {
 
 /// Writes `root/README.md` from `root/meta/info.json`, then `root/meta/provenance.json`.
 /// Neither names the folder: a copy written elsewhere has the same bytes.
-pub fn write_card_and_provenance(tables: &RunTables, root: &Path) -> Result<(), LerobotError> {
+pub fn write_card_and_provenance(
+    tables: &RunTables,
+    root: &Path,
+    run: Option<&Value>,
+) -> Result<(), LerobotError> {
     let info_path = root.join("meta/info.json");
     let info: Value = std::fs::read(&info_path)
         .map_err(io(&info_path))
@@ -48,6 +52,7 @@ pub fn write_card_and_provenance(tables: &RunTables, root: &Path) -> Result<(), 
         "format": provenance::FORMAT,
         "kind": "lerobot-dataset",
         "minos": MINOS,
+        "run": run,
         "source_run_tables": source,
         "files": files,
     });
@@ -121,9 +126,11 @@ pub fn dataset_card(info: &Value) -> String {
          An agent of `minos run` stepped through episodes sampled on navigation grids baked \
          from indoor scenes; this dataset is a copy of that run's tables (`minos run --format \
          lerobot` or `minos export-dataset`). The run folder's `manifest.json` records the \
-         command, agent, body, sensors, seeds and scenes. `meta/provenance.json` holds the \
-         minos version and commit, the sha256 of the run tables this copy was made from and \
-         the sha256 of every file here but itself: check a downloaded copy against it.\n\
+         command. `meta/provenance.json` holds the minos version and commit, the run's \
+         configuration (episode file, agent, body, sensors, seed, reward, and the scenes with \
+         the sha256 of each compiled scene and of its source files), the sha256 of the run \
+         tables this copy was made from and the sha256 of every file here but itself: check \
+         a downloaded copy against it.\n\
          \n\
          ## Loading\n\
          \n\

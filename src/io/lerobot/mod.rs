@@ -120,6 +120,23 @@ pub struct DatasetOptions {
     pub fps: u32,
     /// `robot_type` in `info.json`.
     pub robot_type: String,
+    /// The run's configuration as its `manifest.json` records it, without the keys that differ
+    /// between the shards of one run or name this copy (see [`run_configuration`]); written
+    /// into `meta/provenance.json` as `run`.
+    pub run: Option<serde_json::Value>,
+}
+
+/// The run configuration a LeRobot copy records: the run manifest `manifest` without
+/// `command`, `rerun` and `files` (a run's shards merged give the same dataset, and the same
+/// record, as the unsharded run; the command stays in the run folder's `manifest.json`).
+pub fn run_configuration(manifest: &serde_json::Value) -> serde_json::Value {
+    let mut m = manifest.clone();
+    if let Some(map) = m.as_object_mut() {
+        for key in ["command", "rerun", "files"] {
+            map.remove(key);
+        }
+    }
+    m
 }
 
 /// What was written.
@@ -237,8 +254,9 @@ pub fn write_dataset(
     if tmp.exists() {
         std::fs::remove_dir_all(&tmp).map_err(io(&tmp))?;
     }
-    let result = write_into(tables, &tmp, options, progress)
-        .and_then(|summary| card::write_card_and_provenance(tables, &tmp).map(|()| summary));
+    let result = write_into(tables, &tmp, options, progress).and_then(|summary| {
+        card::write_card_and_provenance(tables, &tmp, options.run.as_ref()).map(|()| summary)
+    });
     match result {
         Ok(summary) => {
             let old = parent.join(format!(".{name}.old-{}", std::process::id()));

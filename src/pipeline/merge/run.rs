@@ -468,16 +468,6 @@ pub fn merge_runs(
     }
     progress.advance(1);
 
-    if first.lerobot {
-        let dt = first
-            .manifest
-            .pointer("/body/dt")
-            .and_then(Value::as_f64)
-            .ok_or_else(|| shard_error(&first.dir.join("manifest.json"), "no body.dt"))?;
-        write_lerobot(out, dt as f32).map_err(write_error)?;
-    }
-    progress.advance(1);
-
     let mut manifest = first.manifest.clone();
     // The shards' scenes, each once, in id order (as one run over all the episodes lists them).
     let mut scenes: Vec<Value> = runs
@@ -498,22 +488,34 @@ pub fn merge_runs(
     };
     scenes.sort_by_key(|v| id(v));
     scenes.dedup_by_key(|v| id(v));
+    let mut lists_files = false;
     if let Some(map) = manifest.as_object_mut() {
         if map.contains_key("scenes") {
             map.insert("scenes".into(), Value::Array(scenes));
         }
-        if map.contains_key("files") {
-            map.insert(
-                "files".into(),
-                crate::pipeline::rollout::manifest::files_of(out).map_err(write_error)?,
-            );
-        }
+        // The merged folder's own files, once everything else is written.
+        lists_files = map.remove("files").is_some();
         map.insert("shard".into(), Value::String(Shard::ALL.to_string()));
         map.insert("command".into(), serde_json::json!(opts.command));
         map.insert(
             "rerun".into(),
             serde_json::json!(opts.rerun.as_ref().map(|p| p.display().to_string())),
         );
+    }
+
+    if first.lerobot {
+        let dt = first
+            .manifest
+            .pointer("/body/dt")
+            .and_then(Value::as_f64)
+            .ok_or_else(|| shard_error(&first.dir.join("manifest.json"), "no body.dt"))?;
+        write_lerobot(out, dt as f32, Some(&manifest)).map_err(write_error)?;
+    }
+    progress.advance(1);
+
+    if lists_files {
+        manifest["files"] =
+            crate::pipeline::rollout::manifest::files_of(out).map_err(write_error)?;
     }
     let path = out.join("manifest.json");
     let bytes = serde_json::to_vec_pretty(&manifest).map_err(write_error)?;

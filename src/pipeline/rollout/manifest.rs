@@ -6,12 +6,8 @@
 use super::{io_error, RolloutError, RunConfig};
 use crate::atomic::write_bytes_atomic;
 
-/// Writes `cfg.out/manifest.json`, last (it lists the checksums of the folder's other files);
-/// `scenes`: the scene ids of the run's episodes.
-pub fn write<'a>(
-    cfg: &RunConfig,
-    scenes: impl IntoIterator<Item = &'a str>,
-) -> Result<(), RolloutError> {
+/// The manifest of the run `cfg` but its `files` (`scenes`: the scene ids of its episodes).
+pub fn value<'a>(cfg: &RunConfig, scenes: impl IntoIterator<Item = &'a str>) -> serde_json::Value {
     let p = &cfg.provenance;
     let mut manifest = serde_json::json!({
         "command": p.command,
@@ -34,6 +30,12 @@ pub fn write<'a>(
     if cfg.allow_body_mismatch {
         manifest["allow_body_mismatch"] = serde_json::Value::Bool(true);
     }
+    manifest
+}
+
+/// Writes `manifest` (from [`value`]) as `cfg.out/manifest.json`, last: it adds the checksums
+/// of the folder's other files.
+pub fn write(cfg: &RunConfig, mut manifest: serde_json::Value) -> Result<(), RolloutError> {
     manifest["files"] = files_of(&cfg.out)?;
     let path = cfg.out.join("manifest.json");
     let bytes = serde_json::to_vec_pretty(&manifest)
