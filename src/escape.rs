@@ -29,6 +29,32 @@ pub fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
     escape_controls(text)
 }
 
+thread_local! {
+    /// How many [`catch_quietly`] calls the current thread is inside.
+    static QUIET: std::cell::Cell<u32> = const { std::cell::Cell::new(0) };
+}
+
+/// Runs `f`, a call into a dependency's reader that may panic on bad data, and returns its
+/// panic's message (see [`panic_message`]) as the error. The panic is not printed: the
+/// process-wide panic hook is wrapped once so that panics inside `catch_quietly` stay silent
+/// (a user sees only the one-line error made of the message) while every other panic is
+/// reported by the hook that was installed before.
+pub fn catch_quietly<T>(f: impl FnOnce() -> T) -> Result<T, String> {
+    static WRAP_HOOK: std::sync::Once = std::sync::Once::new();
+    WRAP_HOOK.call_once(|| {
+        let previous = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            if QUIET.with(std::cell::Cell::get) == 0 {
+                previous(info);
+            }
+        }));
+    });
+    QUIET.with(|q| q.set(q.get() + 1));
+    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(f));
+    QUIET.with(|q| q.set(q.get().saturating_sub(1)));
+    result.map_err(|p| panic_message(p.as_ref()))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -51,5 +77,16 @@ mod tests {
         assert_eq!(panic_message(literal.as_ref()), "index out of bounds");
         assert_eq!(panic_message(formatted.as_ref()), "bad 2\\nline");
         assert_eq!(panic_message(other.as_ref()), "unknown cause");
+    }
+
+    #[test]
+    fn catch_quietly_turns_a_panic_into_its_message_and_passes_values_through() {
+        assert_eq!(catch_quietly(|| 4), Ok(4));
+        let e = catch_quietly(|| -> u8 { panic!("Type <UNKNOWN 252>\nnot supported") });
+        assert_eq!(e, Err("Type <UNKNOWN 252>\\nnot supported".to_string()));
+        // Nested guards unwind their own counts: the thread is quiet again only inside one.
+        let nested = catch_quietly(|| catch_quietly(|| -> () { panic!("inner") }));
+        assert_eq!(nested, Ok(Err("inner".to_string())));
+        assert_eq!(QUIET.with(std::cell::Cell::get), 0);
     }
 }

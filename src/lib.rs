@@ -28,6 +28,7 @@ pub mod navmesh;
 pub mod parquet_io;
 pub mod pipeline;
 pub mod progress;
+pub mod provenance;
 pub mod render;
 pub mod run;
 pub mod scene;

@@ -6,7 +6,9 @@ use std::fs::File;
 use std::path::Path;
 
 use arrow::array::{Array, RecordBatch};
-use arrow::datatypes::{DataType, Schema, SchemaRef};
+use std::sync::Arc;
+
+use arrow::datatypes::{DataType, Field, Schema, SchemaRef};
 use parquet::arrow::arrow_reader::{ParquetRecordBatchReader, ParquetRecordBatchReaderBuilder};
 use parquet::arrow::ArrowWriter;
 use parquet::basic::{Compression, ZstdLevel};
@@ -104,14 +106,178 @@ pub fn write_batches(
 
 /// Opens `path` for reading its record batches (each batch error still needs the file's name:
 /// see [`ParquetFileError::format`]).
-pub fn read_batches(path: &Path) -> Result<ParquetRecordBatchReader, ParquetFileError> {
+///
+/// Files written by other tools read as minos's own: every standard compression (snappy,
+/// gzip, lz4, brotli, zstd), and the type variants pandas, polars, duckdb and pyarrow write
+/// are normalised batch by batch to the types minos writes — `large_string` and `string_view`
+/// (and dictionary-encoded strings) to `utf8`, `large_binary` and `binary_view` to `binary`,
+/// `large_list` and `list_view` to `list`, at any depth (see [`normal_type`]). A panic inside
+/// the Parquet or Arrow readers (arrow-ipc panics on some damaged embedded Arrow schemas) is an
+/// error naming the file, when opening and for every batch.
+pub fn read_batches(path: &Path) -> Result<Batches, ParquetFileError> {
+    read_batches_with(path, Ok)
+}
+
+/// [`read_batches`] with the reader builder set up by `configure` first (batch size,
+/// projection, row groups); `configure` runs guarded too.
+pub fn read_batches_with(
+    path: &Path,
+    configure: impl FnOnce(
+        ParquetRecordBatchReaderBuilder<File>,
+    ) -> Result<
+        ParquetRecordBatchReaderBuilder<File>,
+        parquet::errors::ParquetError,
+    >,
+) -> Result<Batches, ParquetFileError> {
     let file = File::open(path).map_err(|source| ParquetFileError::Io {
         path: path.display().to_string(),
         source,
     })?;
-    ParquetRecordBatchReaderBuilder::try_new(file)
-        .and_then(|b| b.build())
-        .map_err(|e| ParquetFileError::format(path, e))
+    let inner = crate::escape::catch_quietly(|| {
+        ParquetRecordBatchReaderBuilder::try_new(file)
+            .and_then(configure)
+            .and_then(|b| b.build())
+    })
+    .map_err(|what| {
+        ParquetFileError::format(
+            path,
+            format!("the Parquet reader failed (damaged embedded Arrow schema?): {what}"),
+        )
+    })?
+    .map_err(|e| ParquetFileError::format(path, e))?;
+    let found = arrow::array::RecordBatchReader::schema(&inner);
+    let schema = Arc::new(Schema::new_with_metadata(
+        found
+            .fields()
+            .iter()
+            .map(|f| normal_field(f))
+            .collect::<Vec<_>>(),
+        found.metadata().clone(),
+    ));
+    Ok(Batches { inner, schema })
+}
+
+/// The record batches of a Parquet file ([`read_batches`]), with their columns normalised to
+/// the types minos writes; an iterator of `Result<RecordBatch, ArrowError>`.
+#[derive(Debug)]
+pub struct Batches {
+    inner: ParquetRecordBatchReader,
+    /// The schema every batch is given.
+    schema: SchemaRef,
+}
+
+impl Batches {
+    /// Also converts the columns that `expected` names to the types it gives them where the
+    /// file's type is a known variant of it: a `list` where a `fixed_size_list` is expected
+    /// (pandas and duckdb do not keep fixed sizes; a list of another length is an error), an
+    /// all-null column (pyarrow's type for empty lists), another integer width or signedness
+    /// (pandas' `int64` for a column a user assigned; a value out of range is an error), and
+    /// `float64` for `float32`. Other columns are left as they are, for the caller to refuse.
+    pub fn conform_to(mut self, expected: &Schema) -> Self {
+        let fields: Vec<Field> = self
+            .schema
+            .fields()
+            .iter()
+            .map(|f| match expected.field_with_name(f.name()) {
+                Ok(want)
+                    if f.data_type() != want.data_type()
+                        && castable(f.data_type(), want.data_type()) =>
+                {
+                    f.as_ref().clone().with_data_type(want.data_type().clone())
+                }
+                _ => f.as_ref().clone(),
+            })
+            .collect();
+        self.schema = Arc::new(Schema::new_with_metadata(
+            fields,
+            self.schema.metadata().clone(),
+        ));
+        self
+    }
+
+    fn normalise(&self, batch: RecordBatch) -> Result<RecordBatch, arrow::error::ArrowError> {
+        if batch.schema().fields() == self.schema.fields() {
+            return Ok(batch);
+        }
+        let options = arrow::compute::CastOptions {
+            safe: false,
+            ..Default::default()
+        };
+        let columns = batch
+            .columns()
+            .iter()
+            .zip(self.schema.fields())
+            .map(|(c, f)| {
+                if c.data_type() == f.data_type() {
+                    Ok(c.clone())
+                } else {
+                    arrow::compute::cast_with_options(c, f.data_type(), &options).map_err(|e| {
+                        arrow::error::ArrowError::CastError(format!("column `{}`: {e}", f.name()))
+                    })
+                }
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        RecordBatch::try_new(self.schema.clone(), columns)
+    }
+}
+
+impl Iterator for Batches {
+    type Item = Result<RecordBatch, arrow::error::ArrowError>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        let next = crate::escape::catch_quietly(|| self.inner.next()).unwrap_or_else(|what| {
+            Some(Err(arrow::error::ArrowError::ParquetError(format!(
+                "the Parquet reader failed: {what}"
+            ))))
+        })?;
+        Some(next.and_then(|b| self.normalise(b)))
+    }
+}
+
+impl arrow::array::RecordBatchReader for Batches {
+    fn schema(&self) -> SchemaRef {
+        self.schema.clone()
+    }
+}
+
+/// The type minos writes for values of type `t`: the string, binary and list variants other
+/// writers use (large, view and dictionary-encoded) become `utf8`, `binary` and `list`, inside
+/// lists and structs too; every other type is kept.
+pub fn normal_type(t: &DataType) -> DataType {
+    match t {
+        DataType::LargeUtf8 | DataType::Utf8View => DataType::Utf8,
+        DataType::LargeBinary | DataType::BinaryView => DataType::Binary,
+        DataType::Dictionary(_, values) => normal_type(values),
+        DataType::List(f)
+        | DataType::LargeList(f)
+        | DataType::ListView(f)
+        | DataType::LargeListView(f) => DataType::List(Arc::new(normal_field(f))),
+        DataType::FixedSizeList(f, n) => DataType::FixedSizeList(Arc::new(normal_field(f)), *n),
+        DataType::Struct(fields) => {
+            DataType::Struct(fields.iter().map(|f| normal_field(f)).collect())
+        }
+        other => other.clone(),
+    }
+}
+
+fn normal_field(f: &Field) -> Field {
+    f.clone().with_data_type(normal_type(f.data_type()))
+}
+
+/// Whether values of (normalised) type `from` convert to `to` as [`Batches::conform_to`] does.
+fn castable(from: &DataType, to: &DataType) -> bool {
+    use DataType as D;
+    match (from, to) {
+        _ if from == to => true,
+        (D::Null, _) => true,
+        (D::List(a), D::List(b) | D::FixedSizeList(b, _))
+        | (D::FixedSizeList(a, _), D::List(b)) => castable(a.data_type(), b.data_type()),
+        (D::FixedSizeList(a, n), D::FixedSizeList(b, m)) => {
+            n == m && castable(a.data_type(), b.data_type())
+        }
+        (D::Float64, D::Float32) => true,
+        _ => from.is_integer() && to.is_integer(),
+    }
 }
 
 /// Column `name` of `batch` as the array type `T`; the error says which column and why.
@@ -121,15 +287,19 @@ pub fn column<'a, T: Array + 'static>(batch: &'a RecordBatch, name: &str) -> Res
         .ok_or_else(|| format!("column `{name}` is missing"))?
         .as_any()
         .downcast_ref::<T>()
-        .ok_or_else(|| format!("column `{name}` has an unexpected type"))
+        .ok_or_else(|| {
+            let found = batch
+                .column_by_name(name)
+                .map(|c| c.data_type().to_string())
+                .unwrap_or_default();
+            format!("column `{name}` has an unexpected type ({found})")
+        })
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use arrow::array::{BinaryArray, StringArray, UInt32Array};
-    use arrow::datatypes::Field;
-    use std::sync::Arc;
+    use arrow::array::{BinaryArray, ListArray, StringArray, UInt32Array};
 
     #[test]
     fn format_errors_escape_control_characters() {
@@ -176,7 +346,7 @@ mod tests {
         assert_eq!((ids.value(0), ids.value(1)), ("a", "b"));
         assert_eq!(
             column::<UInt32Array>(&back[0], "id").unwrap_err(),
-            "column `id` has an unexpected type"
+            "column `id` has an unexpected type (Utf8)"
         );
         assert_eq!(
             column::<UInt32Array>(&back[0], "m").unwrap_err(),
@@ -208,5 +378,176 @@ mod tests {
             .map(|e| e.unwrap().file_name())
             .collect();
         assert_eq!(names, ["junk.parquet"], "{names:?}");
+    }
+
+    #[test]
+    fn other_writers_compressions_and_type_variants_read_as_minos_types() {
+        use arrow::array::{
+            DictionaryArray, LargeBinaryArray, LargeListArray, LargeStringArray, StringViewArray,
+            UInt64Array,
+        };
+        use arrow::datatypes::Int32Type;
+        use parquet::basic::{BrotliLevel, GzipLevel};
+        let dir = tempfile::tempdir().unwrap();
+        let schema = Arc::new(Schema::new(vec![
+            Field::new("large", DataType::LargeUtf8, false),
+            Field::new("view", DataType::Utf8View, true),
+            Field::new(
+                "dict",
+                DataType::Dictionary(Box::new(DataType::Int32), Box::new(DataType::Utf8)),
+                false,
+            ),
+            Field::new("blob", DataType::LargeBinary, false),
+            Field::new("blobs", DataType::BinaryView, false),
+            Field::new(
+                "ids",
+                DataType::LargeList(Arc::new(Field::new("element", DataType::LargeUtf8, true))),
+                false,
+            ),
+            Field::new("n", DataType::Int64, false),
+        ]));
+        let ids = LargeListArray::new(
+            Arc::new(Field::new("element", DataType::LargeUtf8, true)),
+            arrow::buffer::OffsetBuffer::from_lengths([2, 0]),
+            Arc::new(LargeStringArray::from(vec![Some("p"), None])),
+            None,
+        );
+        let columns: Vec<arrow::array::ArrayRef> = vec![
+            Arc::new(LargeStringArray::from(vec!["a", "bc"])),
+            Arc::new(StringViewArray::from(vec![
+                Some("a long string over twelve bytes"),
+                None,
+            ])),
+            Arc::new(
+                vec!["x", "x"]
+                    .into_iter()
+                    .collect::<DictionaryArray<Int32Type>>(),
+            ),
+            Arc::new(LargeBinaryArray::from(vec![&b"xy"[..], &b""[..]])),
+            Arc::new(arrow::array::BinaryViewArray::from(vec![
+                &b"z"[..],
+                &b"w"[..],
+            ])),
+            Arc::new(ids),
+            Arc::new(arrow::array::Int64Array::from(vec![7, 5_000_000_000])),
+        ];
+        let batch = RecordBatch::try_new(schema.clone(), columns).unwrap();
+        let compressions = [
+            Compression::UNCOMPRESSED,
+            Compression::SNAPPY,
+            Compression::GZIP(GzipLevel::default()),
+            Compression::LZ4,
+            Compression::LZ4_RAW,
+            Compression::BROTLI(BrotliLevel::default()),
+            Compression::ZSTD(ZstdLevel::default()),
+        ];
+        for (i, compression) in compressions.into_iter().enumerate() {
+            let path = dir.path().join(format!("{i}.parquet"));
+            let props = WriterProperties::builder()
+                .set_compression(compression)
+                .build();
+            write_batches(&path, schema.clone(), props, [Ok(batch.clone())]).unwrap();
+            let reader = read_batches(&path).unwrap();
+            let normal = arrow::array::RecordBatchReader::schema(&reader);
+            let back: Vec<RecordBatch> = reader.map(|b| b.unwrap()).collect();
+            assert_eq!(back[0].schema(), normal, "{compression:?}");
+            let s = |name| column::<StringArray>(&back[0], name).unwrap();
+            assert_eq!((s("large").value(1), s("dict").value(0)), ("bc", "x"));
+            assert_eq!(s("view").value(0), "a long string over twelve bytes");
+            assert!(s("view").is_null(1));
+            let b = |name| column::<BinaryArray>(&back[0], name).unwrap();
+            assert_eq!(
+                (b("blob").value(0), b("blobs").value(1)),
+                (&b"xy"[..], &b"w"[..])
+            );
+            let ids = column::<ListArray>(&back[0], "ids").unwrap();
+            let values = ids.values().as_any().downcast_ref::<StringArray>().unwrap();
+            assert_eq!((ids.value_length(0), values.value(0)), (2, "p"));
+            assert!(values.is_null(1) && ids.value_length(1) == 0);
+            // Integers are kept unless a schema to conform to says otherwise.
+            assert!(column::<arrow::array::Int64Array>(&back[0], "n").is_ok());
+        }
+        // Conforming: int64 to the expected uint32, with a value out of range an error
+        // naming the column; a fixed-size list from a plain list of the right length.
+        let want = Schema::new(vec![Field::new("n", DataType::UInt32, false)]);
+        let path = dir.path().join("0.parquet");
+        let err = read_batches(&path)
+            .unwrap()
+            .conform_to(&want)
+            .next()
+            .unwrap()
+            .unwrap_err();
+        assert!(err.to_string().contains("column `n`"), "{err}");
+        let want = Schema::new(vec![Field::new("n", DataType::UInt64, false)]);
+        let back = read_batches(&path)
+            .unwrap()
+            .conform_to(&want)
+            .next()
+            .unwrap()
+            .unwrap();
+        assert_eq!(
+            column::<UInt64Array>(&back, "n").unwrap().value(1),
+            5_000_000_000
+        );
+        let want = Schema::new(vec![Field::new("large", DataType::Float32, false)]);
+        let back = read_batches(&path)
+            .unwrap()
+            .conform_to(&want)
+            .next()
+            .unwrap()
+            .unwrap();
+        assert!(
+            column::<StringArray>(&back, "large").is_ok(),
+            "strings never become numbers"
+        );
+    }
+
+    #[test]
+    fn plain_lists_conform_to_fixed_size_lists_of_the_same_length_only() {
+        let dir = tempfile::tempdir().unwrap();
+        let point = Arc::new(Field::new("item", DataType::Float32, true));
+        let want = Schema::new(vec![Field::new(
+            "p",
+            DataType::List(Arc::new(Field::new(
+                "item",
+                DataType::FixedSizeList(point.clone(), 3),
+                true,
+            ))),
+            false,
+        )]);
+        let write = |lengths: [usize; 2]| {
+            let inner = ListArray::new(
+                Arc::new(Field::new("element", DataType::Float32, true)),
+                arrow::buffer::OffsetBuffer::from_lengths(lengths),
+                Arc::new(arrow::array::Float32Array::from(vec![1.0; 6])),
+                None,
+            );
+            let outer = ListArray::new(
+                Arc::new(Field::new("element", inner.data_type().clone(), true)),
+                arrow::buffer::OffsetBuffer::from_lengths([2]),
+                Arc::new(inner),
+                None,
+            );
+            let schema = Arc::new(Schema::new(vec![Field::new(
+                "p",
+                outer.data_type().clone(),
+                false,
+            )]));
+            let batch = RecordBatch::try_new(schema.clone(), vec![Arc::new(outer)]).unwrap();
+            let path = dir.path().join(format!("{lengths:?}.parquet"));
+            write_batches(&path, schema, WriterProperties::default(), [Ok(batch)]).unwrap();
+            read_batches(&path)
+                .unwrap()
+                .conform_to(&want)
+                .next()
+                .unwrap()
+        };
+        let back = write([3, 3]).unwrap();
+        assert_eq!(
+            back.schema().field(0).data_type(),
+            want.field(0).data_type()
+        );
+        let err = write([2, 4]).unwrap_err().to_string();
+        assert!(err.contains("column `p`"), "{err}");
     }
 }

@@ -416,6 +416,21 @@ fn bake_nav_query_and_episodes_from_the_command_line() {
     assert!(ok(&["bake", "--data", d]).contains("3 up to date"));
     let id = house_id(&cfg, 0);
     assert!(data.join("nav").join(format!("{id}.L0.png")).is_file());
+    // DATA's provenance record: rewritten by the bake, it lists every file with its sha256.
+    let record: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(data.join("provenance.json")).unwrap()).unwrap();
+    assert_eq!(record["kind"], "data");
+    let files = record["files"].as_object().unwrap();
+    for f in [
+        "houses.parquet".to_string(),
+        "splits/s/train.txt".to_string(),
+        format!("nav/{id}.nav"),
+        format!("scenes/{id}.mscene"),
+    ] {
+        let sum = minos::provenance::sha256_file(&data.join(&f)).unwrap();
+        assert_eq!(files[&f]["sha256"], sum.sha256.as_str(), "{f}");
+    }
+    assert!(!files.contains_key("provenance.json"));
     // Two walkable points of the main island, from the grid itself.
     let grid = minos::navmesh::file::read_nav(&data.join("nav").join(format!("{id}.nav"))).unwrap();
     let indoor = |i: u32| {
@@ -493,11 +508,82 @@ fn bake_nav_query_and_episodes_from_the_command_line() {
     ]);
     let episodes = minos::episode::format::read_episodes(&eps).unwrap();
     assert!(!episodes.is_empty());
+    // A category no scene has: one error line naming it and some known ones, no file and no
+    // warning per scene; beside a found category, one warning line. An out-of-range
+    // --per-scene is refused before any work.
+    let typo = dir.path().join("eps/typo.parquet");
+    let objectgoal = |categories: &str| {
+        minos()
+            .args([
+                "episodes",
+                "--data",
+                d,
+                "--task",
+                "objectgoal",
+                "--per-scene",
+                "2",
+            ])
+            .args(["--categories", categories, "--out"])
+            .arg(&typo)
+            .output()
+            .unwrap()
+    };
+    let out = objectgoal("door,no_such_thing");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    let warnings: Vec<&str> = stderr.lines().filter(|l| l.contains("WARN")).collect();
+    assert_eq!(warnings.len(), 1, "{stderr}");
+    assert!(warnings[0].contains("category `no_such_thing`"), "{stderr}");
+    std::fs::remove_file(&typo).unwrap();
+    let out = objectgoal("no_such_thing");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    assert!(
+        stderr.starts_with("error: --categories: ")
+            && stderr.contains("`no_such_thing`")
+            && stderr.contains("known: ")
+            && stderr.contains("door"),
+        "{stderr}"
+    );
+    assert!(!typo.exists());
+    let out = minos()
+        .args(["episodes", "--data", d, "--task", "pointgoal"])
+        .args(["--per-scene", "4294967296", "--out"])
+        .arg(&typo)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.starts_with("error: invalid value '4294967296' for '--per-scene")
+            && stderr.contains("not in 1..=4294967295"),
+        "{stderr}"
+    );
+
     let stats: serde_json::Value = serde_json::from_slice(
         &std::fs::read(dir.path().join("eps/point.parquet.stats.json")).unwrap(),
     )
     .unwrap();
     assert_eq!(stats["total"].as_u64(), Some(episodes.len() as u64));
+    // The provenance sidecar: the checksums of both files, the scenes of the split.
+    let record: serde_json::Value = serde_json::from_slice(
+        &std::fs::read(dir.path().join("eps/point.parquet.provenance.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(record["kind"], "episodes");
+    for f in ["point.parquet", "point.parquet.stats.json"] {
+        let sum = minos::provenance::sha256_file(&dir.path().join("eps").join(f)).unwrap();
+        assert_eq!(record["files"][f]["sha256"], sum.sha256.as_str(), "{f}");
+    }
+    let scenes: std::collections::BTreeSet<&str> =
+        episodes.iter().map(|e| e.scene_id.as_str()).collect();
+    let recorded = record["scenes"].as_array().unwrap();
+    assert!(recorded.len() >= scenes.len(), "{record}");
+    assert!(recorded
+        .iter()
+        .all(|s| s["compiled_sha256"].as_str().is_some_and(|h| h.len() == 64)));
+    assert!(record["command"][1] == "episodes", "{record}");
     let subset = &episodes[0].split;
     let content = std::fs::read_dir(hab.join(subset).join("content"))
         .unwrap()
@@ -595,4 +681,124 @@ fn bake_nav_query_and_episodes_from_the_command_line() {
     assert!(err.contains("no scheduler environment"), "{err}");
     assert_eq!(err.trim().lines().count(), 1, "{err}");
     assert!(!none_path.exists());
+}
+
+/// Runs `minos args` expecting a one-line error (exit 1, no panic) and returns it.
+fn one_line_failure(args: &[&std::ffi::OsStr]) -> String {
+    let out = minos().args(args).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+    let shown: String = format!("{args:?}").chars().take(200).collect();
+    assert_eq!(out.status.code(), Some(1), "{shown}: {stderr}");
+    assert_eq!(stderr.lines().count(), 1, "{shown}: {stderr}");
+    assert!(stderr.starts_with("error: "), "{shown}: {stderr}");
+    stderr
+}
+
+#[test]
+fn deep_filter_expressions_and_empty_sensor_files_are_one_line_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("DATA");
+    let os = |s: &str| std::ffi::OsString::from(s);
+    // Stack overflows (exit 134) before: the nesting is bounded while parsing.
+    for expr in [
+        format!("{}nrooms > 1", "!".repeat(30_000)),
+        format!("{}nrooms > 1{}", "(".repeat(50_000), ")".repeat(50_000)),
+    ] {
+        let args = [
+            os("split"),
+            os("--data"),
+            data.clone().into(),
+            os("--name"),
+            os("s"),
+        ]
+        .into_iter()
+        .chain([
+            os("--ratios"),
+            os("0.5,0.25,0.25"),
+            os("--where"),
+            os(&expr),
+        ])
+        .collect::<Vec<_>>();
+        let e = one_line_failure(&args.iter().map(|a| a.as_os_str()).collect::<Vec<_>>());
+        assert!(
+            e.contains("--where: at column 257: the expression nests more than 256 levels"),
+            "{e}"
+        );
+    }
+    // An empty sensor file (exit 0 before, rendering nothing).
+    let e = one_line_failure(&[
+        "render".as_ref(),
+        "--data".as_ref(),
+        data.as_os_str(),
+        "--scene".as_ref(),
+        "x".as_ref(),
+        "--pose".as_ref(),
+        "0,0,0,0".as_ref(),
+        "--sensors".as_ref(),
+        "/dev/null".as_ref(),
+        "--out".as_ref(),
+        dir.path().join("frames").as_os_str(),
+    ]);
+    assert!(e.contains("/dev/null: the sensor file is empty"), "{e}");
+}
+
+#[test]
+fn stats_on_a_manifest_whose_embedded_arrow_schema_is_damaged_is_an_error() {
+    use parquet::file::reader::{FileReader, SerializedFileReader};
+    let dir = tempfile::tempdir().unwrap();
+    let (root, data) = (dir.path().join("suncg"), dir.path().join("DATA"));
+    gen(&root, 2);
+    minos()
+        .args(["ingest", "--root"])
+        .arg(&root)
+        .arg("--out")
+        .arg(&data)
+        .ok_output();
+    let houses = data.join("houses.parquet");
+    let bytes = std::fs::read(&houses).unwrap();
+    let encoded = SerializedFileReader::new(std::fs::File::open(&houses).unwrap())
+        .unwrap()
+        .metadata()
+        .file_metadata()
+        .key_value_metadata()
+        .and_then(|kv| kv.iter().find(|k| k.key == "ARROW:schema").cloned())
+        .and_then(|k| k.value)
+        .expect("minos embeds the Arrow schema");
+    let at = bytes
+        .windows(encoded.len())
+        .position(|w| w == encoded.as_bytes())
+        .unwrap();
+    // The schema with one byte set to 252, re-encoded to the same length (so the footer stays
+    // valid): the first such byte with which the parquet crate itself panics (arrow-ipc's
+    // "not implemented: Type <UNKNOWN 252> not supported", the case) or fails.
+    use base64::Engine as _;
+    let b64 = base64::engine::general_purpose::STANDARD;
+    let schema = b64.decode(&encoded).unwrap();
+    let hook = std::panic::take_hook();
+    std::panic::set_hook(Box::new(|_| {}));
+    let damaged = (0..schema.len()).find_map(|i| {
+        let mut s = schema.clone();
+        s[i] = 252;
+        let text = b64.encode(&s);
+        let mut file = bytes.clone();
+        file[at..at + text.len()].copy_from_slice(text.as_bytes());
+        let probe = dir.path().join("probe.parquet");
+        std::fs::write(&probe, &file).unwrap();
+        let panics = std::panic::catch_unwind(|| {
+            parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder::try_new(
+                std::fs::File::open(&probe).unwrap(),
+            )
+            .map(|_| ())
+        })
+        .is_err();
+        panics.then_some(file)
+    });
+    std::panic::set_hook(hook);
+    let damaged = damaged.expect("some damaged byte makes arrow-ipc panic");
+    std::fs::write(&houses, damaged).unwrap();
+    let e = one_line_failure(&["stats".as_ref(), "--data".as_ref(), data.as_os_str()]);
+    assert!(
+        e.contains("houses.parquet") && e.contains("the Parquet reader failed"),
+        "{e}"
+    );
 }

@@ -366,3 +366,94 @@ fn a_simulator_reset_to_an_episode_measures_its_stored_geodesic() {
         assert_eq!(m.position, e.start_position);
     }
 }
+
+/// The Python the ecosystem tests run (`MINOS_PYTHON`, else `python3`), or `None` (with the
+/// reason printed) when it lacks pyarrow and pandas.
+fn python_with_pandas() -> Option<String> {
+    let python = std::env::var("MINOS_PYTHON").unwrap_or_else(|_| "python3".into());
+    let probe = std::process::Command::new(&python)
+        .args(["-c", "import pyarrow, pandas"])
+        .output();
+    match probe {
+        Ok(o) if o.status.success() => Some(python),
+        _ => {
+            eprintln!(
+                "skipped: `{python} -c 'import pyarrow, pandas'` fails (pip install pyarrow \
+                 pandas polars duckdb, or set MINOS_PYTHON to a Python that has them)"
+            );
+            None
+        }
+    }
+}
+
+#[test]
+fn episode_files_rewritten_by_pandas_polars_duckdb_and_pyarrow_read_back_the_same() {
+    let Some(python) = python_with_pandas() else {
+        return;
+    };
+    // Every task in one file: list columns with and without values, null categories.
+    let mut episodes = Vec::new();
+    for task in [Task::PointGoal, Task::ObjectGoal, Task::RoomGoal] {
+        let cfg = SampleConfig {
+            task,
+            per_scene: 2,
+            seed: 5,
+            ..SampleConfig::default()
+        };
+        episodes.extend(run(&cfg, Shard::ALL).episodes);
+    }
+    assert!(episodes.iter().any(|e| e.task == Task::ObjectGoal));
+    let dir = tempfile::tempdir().unwrap();
+    let original = dir.path().join("episodes.parquet");
+    write_episodes(&original, &episodes).unwrap();
+    let out = dir.path().join("rewritten");
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/python/rewrite_parquet.py");
+    let rewrite = std::process::Command::new(&python)
+        .arg(&script)
+        .arg(&original)
+        .arg(&out)
+        .output()
+        .expect("python runs");
+    let said = String::from_utf8_lossy(&rewrite.stdout).to_string();
+    assert!(
+        rewrite.status.success(),
+        "{said}\n{}",
+        String::from_utf8_lossy(&rewrite.stderr)
+    );
+    for line in said.lines().filter(|l| l.starts_with("skipped")) {
+        eprintln!("{line}");
+    }
+    let files: Vec<&str> = said.lines().filter(|l| l.ends_with(".parquet")).collect();
+    // pyarrow and pandas at least, each with every compression.
+    for c in ["snappy", "gzip", "brotli", "lz4", "zstd", "none"] {
+        for lib in ["pyarrow-plain", "pandas-numpy"] {
+            let name = format!("{lib}-{c}.parquet");
+            assert!(files.iter().any(|f| f.ends_with(&name)), "{name}: {said}");
+        }
+    }
+    // What minos reads back, written again by minos: the same bytes as the original file.
+    let again = dir.path().join("again.parquet");
+    let objectgoal: Vec<_> = episodes
+        .iter()
+        .filter(|e| e.task == Task::ObjectGoal)
+        .cloned()
+        .collect();
+    for file in &files {
+        let back = minos::episode::format::read_episodes(Path::new(file))
+            .unwrap_or_else(|e| panic!("{file}: {e}"));
+        let expected = if file.contains("-filtered-") {
+            &objectgoal
+        } else {
+            &episodes
+        };
+        write_episodes(&again, &back).unwrap();
+        let reference = dir.path().join("reference.parquet");
+        write_episodes(&reference, expected).unwrap();
+        assert_eq!(
+            std::fs::read(&again).unwrap(),
+            std::fs::read(&reference).unwrap(),
+            "{file}: other episodes than written"
+        );
+    }
+    eprintln!("{} rewritten episode files read back", files.len());
+}

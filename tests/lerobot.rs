@@ -839,3 +839,107 @@ fn lerobot_itself_loads_the_dataset() {
     );
     assert!(stdout.contains("lerobot loaded"), "{stdout}");
 }
+
+#[test]
+fn the_dataset_card_and_provenance_record_check_out() {
+    let run = run_dir("raw");
+    let root = run.join("lerobot");
+    let record = json(&root.join("meta/provenance.json"));
+    assert_eq!(record["format"], "minos-provenance/1");
+    assert_eq!(record["minos"]["version"], env!("CARGO_PKG_VERSION"));
+    assert!(!record["minos"]["commit"].as_str().unwrap_or("").is_empty());
+    // Every file but the record itself is listed, with its sha256 and size.
+    let listed = record["files"].as_object().expect("files");
+    let on_disk: BTreeSet<String> = tree_bytes(&root)
+        .into_iter()
+        .map(|(p, _)| p.to_string_lossy().replace('\\', "/"))
+        .filter(|p| p != "meta/provenance.json")
+        .collect();
+    assert_eq!(listed.keys().cloned().collect::<BTreeSet<_>>(), on_disk);
+    assert!(on_disk.contains("README.md"));
+    for (name, sum) in listed {
+        let again = minos::provenance::sha256_file(&root.join(name)).unwrap();
+        assert_eq!(sum["sha256"], again.sha256.as_str(), "{name}");
+        assert_eq!(sum["bytes"], again.bytes, "{name}");
+    }
+    for table in [
+        "episodes.parquet",
+        "trajectories.parquet",
+        "observations.parquet",
+    ] {
+        let sum = minos::provenance::sha256_file(&run.join(table)).unwrap();
+        assert_eq!(
+            record["source_run_tables"][table]["sha256"],
+            sum.sha256.as_str()
+        );
+    }
+    // The card: the Hub's YAML header, the features of info.json.
+    let card = std::fs::read_to_string(root.join("README.md")).unwrap();
+    assert!(card.starts_with("---\n"), "{card}");
+    let info = json(&root.join("meta/info.json"));
+    for key in info["features"].as_object().unwrap().keys() {
+        assert!(card.contains(&format!("| `{key}` |")), "{key}: {card}");
+    }
+    // The run folder's manifest lists its scenes and the checksums of its other files.
+    let manifest = json(&run.join("manifest.json"));
+    assert_eq!(manifest["minos_commit"], record["minos"]["commit"]);
+    let scenes = manifest["scenes"].as_array().expect("scenes");
+    let ids: BTreeSet<&str> = fixture()
+        .episodes
+        .iter()
+        .map(|e| e.scene_id.as_str())
+        .collect();
+    assert_eq!(
+        scenes
+            .iter()
+            .map(|s| s["id"].as_str().unwrap())
+            .collect::<BTreeSet<_>>(),
+        ids
+    );
+    for s in scenes {
+        assert_eq!(s["compiled_sha256"].as_str().unwrap_or("").len(), 64, "{s}");
+        assert!(
+            s["sources"].as_array().is_some_and(|v| !v.is_empty()),
+            "{s}"
+        );
+    }
+    // The copy records the run's configuration but its command (and the run's file list).
+    let mut configuration = manifest.clone();
+    for key in ["command", "rerun", "files"] {
+        configuration.as_object_mut().unwrap().remove(key);
+    }
+    assert_eq!(record["run"], configuration);
+    assert!(record["run"]["sensors"].is_object() && record["run"]["seed"].is_u64());
+    let files = manifest["files"].as_object().expect("files");
+    assert!(files.contains_key("lerobot/meta/provenance.json"));
+    let sum = minos::provenance::sha256_file(&run.join("metrics.json")).unwrap();
+    assert_eq!(files["metrics.json"]["sha256"], sum.sha256.as_str());
+    assert!(!files.contains_key("manifest.json"));
+
+    // huggingface_hub reads the card's header as the Hub does, when Python has it.
+    let python = std::env::var("MINOS_PYTHON").unwrap_or_else(|_| "python3".into());
+    let has_hub = std::process::Command::new(&python)
+        .args(["-c", "import huggingface_hub"])
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if !has_hub {
+        eprintln!(
+            "skipped the huggingface_hub check: `{python} -c 'import huggingface_hub'` fails \
+             (pip install huggingface_hub, or set MINOS_PYTHON)"
+        );
+        return;
+    }
+    let script = "import sys; from huggingface_hub import DatasetCard; \
+                  d = DatasetCard.load(sys.argv[1]).data; \
+                  print(d.task_categories, d.tags, d.license)";
+    let o = std::process::Command::new(&python)
+        .args(["-c", script])
+        .arg(root.join("README.md"))
+        .output()
+        .expect("python runs");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(
+        String::from_utf8_lossy(&o.stdout).trim(),
+        "['robotics'] ['LeRobot', 'minos', 'navigation', 'embodied-ai'] None"
+    );
+}

@@ -248,6 +248,7 @@ fn a_session_records_what_minos_run_writes_and_replays_byte_for_byte() {
         &minos::io::lerobot::DatasetOptions {
             fps: 10,
             robot_type: "human".into(),
+            run: None,
         },
         &NoProgress,
     )

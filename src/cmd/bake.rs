@@ -146,6 +146,10 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         report.scenes.len() - baked - failed,
         cfg.data.nav_dir().display()
     ));
+    if shard == Shard::ALL {
+        // (Shards bake side by side: the unsharded bake or a later command writes the record.)
+        super::common::write_data_provenance(&cfg.data)?;
+    }
     Ok(if failed == 0 {
         ExitCode::SUCCESS
     } else {

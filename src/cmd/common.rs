@@ -164,10 +164,33 @@ pub fn sensor_suite(
     match file {
         Some(p) => {
             let text = std::fs::read_to_string(p).with_context(|| p.display().to_string())?;
+            if text.trim().is_empty() {
+                anyhow::bail!(
+                    "{}: the sensor file is empty (it needs at least one [[cameras]] table)",
+                    p.display()
+                );
+            }
             SensorSuite::parse(&text, &p.display().to_string()).map_err(anyhow::Error::msg)
         }
         None => Ok(default()),
     }
+}
+
+/// Writes `DATA/provenance.json`, the DATA folder's provenance record: the minos that last
+/// wrote it and the sha256 of every file the folder holds (no command line, time or host: the
+/// same DATA gives the same record). `ingest`, `bake`, `split` and `variants` rewrite it when
+/// they finish.
+pub fn write_data_provenance(data: &DataDir) -> anyhow::Result<()> {
+    use minos::provenance;
+    let files = provenance::checksums(data.root(), &["provenance.json"])?;
+    let record = serde_json::json!({
+        "format": provenance::FORMAT,
+        "kind": "data",
+        "minos": provenance::MINOS,
+        "files": files,
+    });
+    provenance::write_record(&data.root().join("provenance.json"), &record)?;
+    Ok(())
 }
 
 /// The scenes of split `name` (all subsets, sorted, distinct), or every ingested scene.

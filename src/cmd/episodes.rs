@@ -119,9 +119,9 @@ pub struct SampleArgs {
     /// Sample on grids baked for another body than --preset's.
     #[arg(long)]
     allow_body_mismatch: bool,
-    /// Episodes per scene.
-    #[arg(long, default_value_t = 10)]
-    per_scene: usize,
+    /// Episodes per scene (1 to 4,294,967,295).
+    #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..))]
+    per_scene: u32,
     /// Seed.
     #[arg(long, default_value_t = 0)]
     seed: u64,
@@ -308,7 +308,7 @@ pub fn config(a: &SampleArgs) -> anyhow::Result<EpisodesJob> {
             TaskArg::Objectgoal => Task::ObjectGoal,
             TaskArg::Roomgoal => Task::RoomGoal,
         },
-        per_scene: a.per_scene,
+        per_scene: a.per_scene as usize,
         seed: a.seed,
         min_island_radius: a.min_island_radius,
         success_radius: a.success_radius.unwrap_or(match task {
@@ -352,6 +352,86 @@ pub fn config(a: &SampleArgs) -> anyhow::Result<EpisodesJob> {
 }
 
 /// Runs `minos episodes`.
+/// Checks the ObjectGoal categories against the objects of the sampled scenes: when none of
+/// them names an object of any scene (a typo, which would otherwise give no episodes and a
+/// warning per scene) it is an error; a category missing beside found ones is one warning. A
+/// shard sees only its scenes, so there it is always one warning.
+fn check_categories(
+    categories: &[String],
+    batch: &minos::pipeline::episodes::EpisodeBatch,
+    shard: Shard,
+) -> anyhow::Result<()> {
+    let found = &batch.object_categories;
+    if found.is_empty() {
+        // No grid read, or no objects at all: the per-scene problems say so.
+        return Ok(());
+    }
+    let missing: Vec<&str> = categories
+        .iter()
+        .filter(|c| !found.contains(&c.to_ascii_lowercase()))
+        .map(String::as_str)
+        .collect();
+    if missing.is_empty() {
+        return Ok(());
+    }
+    const SHOWN: usize = 12;
+    let mut known: Vec<&str> = found.iter().take(SHOWN).map(String::as_str).collect();
+    if found.len() > SHOWN {
+        known.push("…");
+    }
+    let message = format!(
+        "--categories: no object of the {} scene(s) has category {} (known: {})",
+        batch.scenes.len(),
+        missing
+            .iter()
+            .map(|c| format!("`{c}`"))
+            .collect::<Vec<_>>()
+            .join(", "),
+        known.join(", ")
+    );
+    if missing.len() == categories.len() && shard.count == 1 {
+        bail!("{message}");
+    }
+    tracing::warn!("{message}");
+    Ok(())
+}
+
+/// Writes `<out>.provenance.json` beside the episode file: minos version and commit, the
+/// command line and resolved configuration, the scenes with the checksums of their compiled
+/// and source files, and the checksums of the episode file and its statistics.
+fn write_provenance(
+    job: &EpisodesJob,
+    batch: &minos::pipeline::episodes::EpisodeBatch,
+    stats_path: &std::path::Path,
+) -> anyhow::Result<()> {
+    use minos::provenance;
+    let out = &job.out;
+    let name = |p: &std::path::Path| {
+        p.file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default()
+    };
+    let mut files = serde_json::Map::new();
+    for p in [out.as_path(), stats_path] {
+        files.insert(name(p), serde_json::json!(provenance::sha256_file(p)?));
+    }
+    let record = serde_json::json!({
+        "format": provenance::FORMAT,
+        "kind": "episodes",
+        "minos": provenance::MINOS,
+        "command": std::env::args().collect::<Vec<_>>(),
+        "configuration": format!("{:?}", job.sample),
+        "seed": job.sample.seed,
+        "shard": job.shard.to_string(),
+        "body": format!("{:?}", job.body),
+        "scenes": provenance::scene_records(&job.data, batch.scenes.keys().map(String::as_str)),
+        "files": files,
+    });
+    let path = PathBuf::from(format!("{}.provenance.json", out.display()));
+    provenance::write_record(&path, &record)?;
+    Ok(())
+}
+
 pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     if let Some(Sub::Import(a)) = args.command {
         return import(a, ctx);
@@ -362,9 +442,13 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         let bar = ctx.progress(job.scenes.len() as u64, "episodes");
         sample_scenes(&job.data, &job.scenes, cfg, job.body, job.shard, &bar)
     };
+    if cfg.task == Task::ObjectGoal {
+        check_categories(&cfg.categories, &batch, job.shard)?;
+    }
     let stats_path = batch
         .write(out)
         .with_context(|| format!("writing {}", out.display()))?;
+    write_provenance(&job, &batch, &stats_path)?;
     for (id, s) in &batch.scenes {
         if let Some(p) = &s.problem {
             tracing::warn!("scene {id}: {p}");

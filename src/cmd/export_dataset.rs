@@ -91,6 +91,11 @@ pub fn config(args: &Args) -> anyhow::Result<ExportConfig> {
         options: DatasetOptions {
             fps,
             robot_type: LEROBOT_ROBOT_TYPE.into(),
+            // The run's configuration, when its manifest is there to read.
+            run: std::fs::read(args.run.join("manifest.json"))
+                .ok()
+                .and_then(|b| serde_json::from_slice(&b).ok())
+                .map(|m| minos::io::lerobot::run_configuration(&m)),
         },
     })
 }

@@ -117,7 +117,19 @@ pub fn config(args: &Args) -> anyhow::Result<RenderJob> {
         pose: args.pose,
         tilt: args.tilt,
         renderer: args.renderer.into(),
-        sensors: sensor_suite(args.sensors.as_deref(), || SensorSuite::all(args.size))?,
+        sensors: {
+            let suite = sensor_suite(args.sensors.as_deref(), || SensorSuite::all(args.size))?;
+            if suite.cameras.is_empty() {
+                anyhow::bail!(
+                    "--sensors {}: no cameras, nothing to render",
+                    args.sensors
+                        .as_deref()
+                        .unwrap_or(std::path::Path::new(""))
+                        .display()
+                );
+            }
+            suite
+        },
         out: args.out.clone(),
     })
 }

@@ -272,8 +272,7 @@ pub fn write_episodes(path: &Path, episodes: &[Episode]) -> Result<(), EpisodeFi
 /// readers on a malformed file (arrow-ipc 58 panics on some schema metadata) is an error naming
 /// the file.
 pub fn read_episodes(path: &Path) -> Result<Vec<Episode>, EpisodeFileError> {
-    std::panic::catch_unwind(|| read_episodes_unguarded(path)).unwrap_or_else(|p| {
-        let what = crate::escape::panic_message(p.as_ref());
+    crate::escape::catch_quietly(|| read_episodes_unguarded(path)).unwrap_or_else(|what| {
         Err(ParquetFileError::format(path, format!("the Parquet reader failed: {what}")).into())
     })
 }
@@ -281,7 +280,10 @@ pub fn read_episodes(path: &Path) -> Result<Vec<Episode>, EpisodeFileError> {
 fn read_episodes_unguarded(path: &Path) -> Result<Vec<Episode>, EpisodeFileError> {
     let p = path.display().to_string();
     let format = |message: String| ParquetFileError::format(path, message);
-    let reader = read_batches(path)?;
+    // The schema this module writes: files rewritten by pandas, polars or duckdb hold
+    // variants of its types (plain lists for fixed-size points, int64 for a column a user set).
+    let schema = to_batch(&[]).map_err(|e| format(e.to_string()))?.schema();
+    let reader = read_batches(path)?.conform_to(&schema);
     let mut episodes = Vec::new();
     for batch in reader {
         let batch = batch.map_err(|e| format(e.to_string()))?;

@@ -13,7 +13,6 @@ use arrow::array::{
     ListBuilder, RecordBatch, StringArray, UInt32Array,
 };
 use arrow::datatypes::{DataType, Field, Schema, SchemaRef};
-use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 use parquet::arrow::{add_encoded_arrow_schema_to_metadata, ArrowSchemaConverter, ArrowWriter};
 use parquet::column::writer::ColumnCloseResult;
 use parquet::file::properties::WriterProperties;
@@ -381,10 +380,9 @@ pub fn merge(
 fn rebatch(parts: &[std::path::PathBuf], schema: SchemaRef, out: &Path) -> Result<(), TableError> {
     let mut readers = Vec::new();
     for p in parts {
-        let f = File::open(p).map_err(|e| format!("{}: {e}", p.display()))?;
-        let r = ParquetRecordBatchReaderBuilder::try_new(f)
-            .and_then(|b| b.with_batch_size(ROW_GROUP).build())
-            .map_err(|e| format!("{}: {e}", p.display()))?;
+        let r = parquet_io::read_batches_with(p, |b| Ok(b.with_batch_size(ROW_GROUP)))
+            .map_err(|e| e.to_string())?
+            .conform_to(&schema);
         readers.push(r);
     }
     let mut failure = None;
@@ -420,7 +418,9 @@ fn copy_row_groups(
 pub fn row_group_count(path: &Path) -> Result<usize, TableError> {
     let perr = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
     let f = File::open(path).map_err(|e| perr(&e))?;
-    let reader = SerializedFileReader::new(f).map_err(|e| perr(&e))?;
+    let reader = crate::escape::catch_quietly(|| SerializedFileReader::new(f))
+        .map_err(|e| perr(&format!("the Parquet reader failed: {e}")))?
+        .map_err(|e| perr(&e))?;
     Ok(reader.metadata().num_row_groups())
 }
 
@@ -451,7 +451,9 @@ pub fn copy_row_groups_from(
             let perr = |e: &dyn std::fmt::Display| format!("{}: {e}", p.display());
             if !open.contains_key(p) {
                 let f = File::open(p).map_err(|e| perr(&e))?;
-                let reader = SerializedFileReader::new(f.try_clone().map_err(|e| perr(&e))?)
+                let copy = f.try_clone().map_err(|e| perr(&e))?;
+                let reader = crate::escape::catch_quietly(|| SerializedFileReader::new(copy))
+                    .map_err(|e| perr(&format!("the Parquet reader failed: {e}")))?
                     .map_err(|e| perr(&e))?;
                 if reader
                     .metadata()
@@ -498,23 +500,24 @@ pub fn copy_row_groups_from(
 /// error (a run writes every episode's rows into row groups of their own).
 pub fn row_group_episodes(path: &Path) -> Result<Vec<String>, TableError> {
     let perr = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
-    let f = File::open(path).map_err(|e| perr(&e))?;
-    let builder = ParquetRecordBatchReaderBuilder::try_new(f).map_err(|e| perr(&e))?;
-    let column = builder
-        .schema()
-        .index_of("episode_id")
-        .map_err(|_| perr(&"no episode_id column"))?;
-    let groups = builder.metadata().num_row_groups();
-    let mask = parquet::arrow::ProjectionMask::roots(builder.parquet_schema(), [column]);
+    let mut shape = None;
+    parquet_io::read_batches_with(path, |b| {
+        let column = b
+            .schema()
+            .index_of("episode_id")
+            .map_err(|_| parquet::errors::ParquetError::General("no episode_id column".into()))?;
+        let mask = parquet::arrow::ProjectionMask::roots(b.parquet_schema(), [column]);
+        shape = Some((b.metadata().num_row_groups(), mask));
+        Ok(b.with_row_groups(vec![]))
+    })
+    .map_err(|e| e.to_string())?;
+    let (groups, mask) = shape.ok_or_else(|| perr(&"no row groups"))?;
     let mut ids = Vec::with_capacity(groups);
     for g in 0..groups {
-        let f = File::open(path).map_err(|e| perr(&e))?;
-        let batches = ParquetRecordBatchReaderBuilder::try_new(f)
-            .map_err(|e| perr(&e))?
-            .with_projection(mask.clone())
-            .with_row_groups(vec![g])
-            .build()
-            .map_err(|e| perr(&e))?;
+        let batches = parquet_io::read_batches_with(path, |b| {
+            Ok(b.with_projection(mask.clone()).with_row_groups(vec![g]))
+        })
+        .map_err(|e| e.to_string())?;
         let mut id: Option<String> = None;
         for batch in batches {
             let batch = batch.map_err(|e| perr(&e))?;
@@ -646,10 +649,7 @@ pub fn write_episode_batch(path: &Path, batch: RecordBatch) -> Result<(), TableE
 /// run), in step order: what `--agent replay:FILE` replays.
 pub fn read_replay(path: &Path) -> Result<HashMap<String, Vec<Decision>>, TableError> {
     let fail = |m: String| format!("{}: {m}", path.display());
-    let file = File::open(path).map_err(|e| fail(e.to_string()))?;
-    let reader = ParquetRecordBatchReaderBuilder::try_new(file)
-        .and_then(|b| b.build())
-        .map_err(|e| fail(e.to_string()))?;
+    let reader = parquet_io::read_batches(path).map_err(|e| e.to_string())?;
     let mut rows: HashMap<String, Vec<(u32, Decision)>> = HashMap::new();
     for batch in reader {
         let batch = batch.map_err(|e| fail(e.to_string()))?;

@@ -52,6 +52,10 @@ pub struct EpisodeBatch {
     pub mean_ratio: f64,
     /// Per scene.
     pub scenes: BTreeMap<String, SceneStats>,
+    /// The object categories (lower case) of the sampled scenes' grids: `minos episodes`
+    /// refuses an ObjectGoal category none of them has.
+    #[serde(skip)]
+    pub object_categories: std::collections::BTreeSet<String>,
 }
 
 /// Samples `cfg` over `scenes` (`(scene id, split subset)`), reading grids from `data`; a
@@ -74,7 +78,8 @@ pub fn sample_scenes(
         .map(|(_, s)| s)
         .collect();
     progress.set_total(mine.len() as u64);
-    let results: Vec<(String, Result<SceneEpisodes, String>)> = mine
+    type Sampled = (SceneEpisodes, Vec<String>);
+    let results: Vec<(String, Result<Sampled, String>)> = mine
         .par_iter()
         .map(|(id, split)| {
             let r = data
@@ -82,7 +87,12 @@ pub fn sample_scenes(
                 .map_err(|e| e.to_string())
                 .and_then(|grid| {
                     body.check(&grid.params.body).map_err(|e| e.to_string())?;
-                    Ok(sample_scene(&grid, id, split, cfg))
+                    let categories = grid
+                        .objects
+                        .iter()
+                        .map(|o| o.category.to_ascii_lowercase())
+                        .collect();
+                    Ok((sample_scene(&grid, id, split, cfg), categories))
                 });
             progress.advance(1);
             (id.clone(), r)
@@ -92,7 +102,8 @@ pub fn sample_scenes(
     for (id, r) in results {
         let mut stats = SceneStats::default();
         match r {
-            Ok(s) => {
+            Ok((s, categories)) => {
+                batch.object_categories.extend(categories);
                 stats.episodes = s.episodes.len();
                 for (why, n) in &s.rejected {
                     *batch.rejected.entry(why.to_string()).or_insert(0) += n;

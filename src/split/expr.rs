@@ -66,6 +66,7 @@ impl Expr {
         let mut parser = Parser {
             tokens,
             pos: 0,
+            open: 0,
             end,
         };
         let tree = parser.or()?;
@@ -186,6 +187,11 @@ pub enum ExprErrorKind {
         /// The comparison operator.
         op: CmpOp,
     },
+    /// More than [`MAX_DEPTH`] levels of `!`, parentheses, `&&` or `||`.
+    #[error(
+        "the expression nests more than {MAX_DEPTH} levels deep (`!`, parentheses, `&&`, `||`)"
+    )]
+    TooDeep,
     /// A number or string where a condition is needed.
     #[error("{needed_by} needs a condition, found {found}{}", not_hint(.needed_by))]
     NotCondition {
@@ -195,6 +201,11 @@ pub enum ExprErrorKind {
         needed_by: &'static str,
     },
 }
+
+/// How deeply an expression may nest: `!`, parentheses and chains of `&&` / `||` each add a
+/// level. Parsing, checking and evaluating recurse once per level; the bound keeps them far
+/// from the end of the stack whatever the input.
+pub const MAX_DEPTH: usize = 256;
 
 fn hint_suffix(hint: Option<&str>) -> String {
     hint.map(|h| format!(" ({h})")).unwrap_or_default()
@@ -532,6 +543,8 @@ impl Function {
 struct Node {
     col: usize,
     kind: NodeKind,
+    /// Levels of nodes from this one down to its deepest leaf (a leaf: 1).
+    depth: usize,
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -547,6 +560,21 @@ enum NodeKind {
 }
 
 impl Node {
+    /// A node over its children; more than [`MAX_DEPTH`] levels is an error at `col`.
+    fn new(col: usize, kind: NodeKind) -> Result<Node, ExprError> {
+        let depth = 1 + match &kind {
+            NodeKind::Not(a) => a.depth,
+            NodeKind::Cmp(_, a, b) | NodeKind::And(a, b) | NodeKind::Or(a, b) => {
+                a.depth.max(b.depth)
+            }
+            _ => 0,
+        };
+        if depth > MAX_DEPTH {
+            return Err(ExprError::new(col, ExprErrorKind::TooDeep));
+        }
+        Ok(Node { col, kind, depth })
+    }
+
     /// The operand as error messages name it.
     fn describe(&self) -> String {
         match &self.kind {
@@ -562,6 +590,8 @@ impl Node {
 struct Parser {
     tokens: Vec<Token>,
     pos: usize,
+    /// `!` and `(` being parsed around the current position (bounded by [`MAX_DEPTH`]).
+    open: usize,
     /// Column just past the last character, where "end of expression" errors point.
     end: usize,
 }
@@ -596,14 +626,26 @@ impl Parser {
         Some((v, col))
     }
 
+    /// Parses with `parse` one level deeper (after a `!` or `(` at `col`).
+    fn nested(
+        &mut self,
+        col: usize,
+        parse: fn(&mut Parser) -> Result<Node, ExprError>,
+    ) -> Result<Node, ExprError> {
+        if self.open >= MAX_DEPTH {
+            return Err(ExprError::new(col, ExprErrorKind::TooDeep));
+        }
+        self.open += 1;
+        let node = parse(self);
+        self.open -= 1;
+        node
+    }
+
     fn or(&mut self) -> Result<Node, ExprError> {
         let mut left = self.and()?;
         while let Some(((), col)) = self.eat(|t| (*t == Tok::Or).then_some(())) {
             let right = self.and()?;
-            left = Node {
-                col,
-                kind: NodeKind::Or(Box::new(left), Box::new(right)),
-            };
+            left = Node::new(col, NodeKind::Or(Box::new(left), Box::new(right)))?;
         }
         Ok(left)
     }
@@ -612,10 +654,7 @@ impl Parser {
         let mut left = self.cmp()?;
         while let Some(((), col)) = self.eat(|t| (*t == Tok::And).then_some(())) {
             let right = self.cmp()?;
-            left = Node {
-                col,
-                kind: NodeKind::And(Box::new(left), Box::new(right)),
-            };
+            left = Node::new(col, NodeKind::And(Box::new(left), Box::new(right)))?;
         }
         Ok(left)
     }
@@ -633,19 +672,13 @@ impl Parser {
         if let Some(t) = self.peek().filter(|t| cmp_op(&t.tok).is_some()) {
             return Err(ExprError::new(t.col, ExprErrorKind::ChainedComparison));
         }
-        Ok(Node {
-            col,
-            kind: NodeKind::Cmp(op, Box::new(left), Box::new(right)),
-        })
+        Node::new(col, NodeKind::Cmp(op, Box::new(left), Box::new(right)))
     }
 
     fn unary(&mut self) -> Result<Node, ExprError> {
         if let Some(((), col)) = self.eat(|t| (*t == Tok::Not).then_some(())) {
-            let inner = self.unary()?;
-            return Ok(Node {
-                col,
-                kind: NodeKind::Not(Box::new(inner)),
-            });
+            let inner = self.nested(col, Parser::unary)?;
+            return Node::new(col, NodeKind::Not(Box::new(inner)));
         }
         self.primary()
     }
@@ -657,7 +690,7 @@ impl Parser {
             Tok::Num(n) => NodeKind::Num(n),
             Tok::Str(s) => NodeKind::Str(s),
             Tok::LParen => {
-                let inner = self.or()?;
+                let inner = self.nested(col, Parser::or)?;
                 let close = self.next("`)`")?;
                 if close.tok != Tok::RParen {
                     let kind = ExprErrorKind::Unexpected {
@@ -679,7 +712,7 @@ impl Parser {
                 ))
             }
         };
-        Ok(Node { col, kind })
+        Node::new(col, kind)
     }
 
     /// A column, or a function call when `(` follows.
@@ -698,19 +731,13 @@ impl Parser {
             if close.tok != Tok::RParen {
                 return Err(bad(close.col));
             }
-            return Ok(Node {
-                col,
-                kind: NodeKind::Call(function, text),
-            });
+            return Node::new(col, NodeKind::Call(function, text));
         }
         if let Some(function) = Function::from_name(&name) {
             return Err(ExprError::new(col, function.bad_argument()));
         }
         match COLUMNS.iter().find(|(n, _)| *n == name) {
-            Some(&(n, column)) => Ok(Node {
-                col,
-                kind: NodeKind::Column(n, column),
-            }),
+            Some(&(n, column)) => Node::new(col, NodeKind::Column(n, column)),
             None => Err(ExprError::new(col, ExprErrorKind::UnknownColumn { name })),
         }
     }
@@ -1230,5 +1257,28 @@ mod tests {
                 ..
             }
         ));
+    }
+
+    #[test]
+    fn nesting_deeper_than_the_bound_is_an_error_not_a_stack_overflow() {
+        let too_deep = |source: &str| {
+            let e = Expr::parse(source).expect_err("refused");
+            assert_eq!(e.kind, ExprErrorKind::TooDeep, "{e}");
+            e.column
+        };
+        let bangs = |n: usize| format!("{}has_category(\"door\")", "!".repeat(n));
+        assert_eq!(too_deep(&bangs(30_000)), MAX_DEPTH + 1);
+        let parens = format!("{}nrooms > 1{}", "(".repeat(50_000), ")".repeat(50_000));
+        assert_eq!(too_deep(&parens), MAX_DEPTH + 1);
+        // A left-nested chain of `||` is as deep as it is long.
+        too_deep(&vec!["nrooms > 1"; 50_000].join(" || "));
+        too_deep(&vec!["nrooms > 1"; 50_000].join(" && "));
+        // `!` × k over a call is k + 1 levels: the deepest accepted has k = 255, and it
+        // still evaluates (an odd number of `!`: the negated call).
+        let e = Expr::parse(&bangs(MAX_DEPTH - 1)).unwrap();
+        let once = Expr::parse("!has_category(\"door\")").unwrap();
+        assert_eq!(e.matches(&row()), once.matches(&row()));
+        too_deep(&bangs(MAX_DEPTH));
+        assert!(Expr::parse(&format!("{}nrooms > 1{}", "(".repeat(200), ")".repeat(200))).is_ok());
     }
 }

@@ -216,7 +216,7 @@ pub fn write_manifest(path: &Path, rows: &[ManifestRow]) -> Result<(), ManifestE
 /// Reads every row of a manifest.
 pub fn read_manifest(path: &Path) -> Result<Vec<ManifestRow>, ManifestError> {
     let fmt = |m: String| ParquetFileError::format(path, m);
-    let reader = read_batches(path)?;
+    let reader = read_batches(path)?.conform_to(&schema());
     let mut rows = Vec::new();
     for batch in reader {
         let batch = batch.map_err(|e| fmt(e.to_string()))?;

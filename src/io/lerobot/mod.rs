@@ -13,6 +13,9 @@
 //! DIR/data/chunk-000/file-000.parquet         the frames, episodes whole and in order, with
 //!                                             the Hugging Face `datasets` features as schema
 //!                                             metadata; a new file after 100 MB
+//! DIR/README.md                               the dataset card (Hugging Face YAML header)
+//! DIR/meta/provenance.json                    minos version and commit, sha256 of the run
+//!                                             tables it was made from and of every file
 //! ```
 //!
 //! The features are described in [`features`]; every episode's task is its instruction in
@@ -22,6 +25,7 @@
 //! folder is written under a temporary name and renamed into place when complete. Same run
 //! tables ⇒ same bytes.
 
+pub mod card;
 mod data;
 pub mod features;
 pub mod image_file;
@@ -116,6 +120,23 @@ pub struct DatasetOptions {
     pub fps: u32,
     /// `robot_type` in `info.json`.
     pub robot_type: String,
+    /// The run's configuration as its `manifest.json` records it, without the keys that differ
+    /// between the shards of one run or name this copy (see [`run_configuration`]); written
+    /// into `meta/provenance.json` as `run`.
+    pub run: Option<serde_json::Value>,
+}
+
+/// The run configuration a LeRobot copy records: the run manifest `manifest` without
+/// `command`, `rerun` and `files` (a run's shards merged give the same dataset, and the same
+/// record, as the unsharded run; the command stays in the run folder's `manifest.json`).
+pub fn run_configuration(manifest: &serde_json::Value) -> serde_json::Value {
+    let mut m = manifest.clone();
+    if let Some(map) = m.as_object_mut() {
+        for key in ["command", "rerun", "files"] {
+            map.remove(key);
+        }
+    }
+    m
 }
 
 /// What was written.
@@ -233,7 +254,9 @@ pub fn write_dataset(
     if tmp.exists() {
         std::fs::remove_dir_all(&tmp).map_err(io(&tmp))?;
     }
-    let result = write_into(tables, &tmp, options, progress);
+    let result = write_into(tables, &tmp, options, progress).and_then(|summary| {
+        card::write_card_and_provenance(tables, &tmp, options.run.as_ref()).map(|()| summary)
+    });
     match result {
         Ok(summary) => {
             let old = parent.join(format!(".{name}.old-{}", std::process::id()));

@@ -8,7 +8,6 @@ use arrow::array::{
     Array, BinaryArray, BooleanArray, Float32Array, ListArray, RecordBatch, RecordBatchReader,
     StringArray, UInt32Array,
 };
-use parquet::arrow::arrow_reader::ParquetRecordBatchReader;
 
 use super::features::Camera;
 use super::LerobotError;
@@ -97,7 +96,7 @@ fn read_error(path: &Path, record: String, message: impl ToString) -> LerobotErr
     }
 }
 
-fn batches(path: &Path) -> Result<ParquetRecordBatchReader, LerobotError> {
+fn batches(path: &Path) -> Result<crate::parquet_io::Batches, LerobotError> {
     read_batches(path).map_err(LerobotError::from)
 }
 
@@ -266,7 +265,7 @@ pub fn read_steps(path: &Path) -> Result<Vec<StepRow>, LerobotError> {
 /// The observation table, read row by row.
 pub struct ObservationRows {
     path: PathBuf,
-    reader: ParquetRecordBatchReader,
+    reader: crate::parquet_io::Batches,
     cameras: Vec<Camera>,
     batch: Option<RecordBatch>,
     next: usize,

@@ -14,11 +14,9 @@
 //!   `rerun`) with shard `0/1`, the merged recording, and the merge's own command.
 
 use std::collections::{BTreeMap, BTreeSet};
-use std::fs::File;
 use std::path::{Path, PathBuf};
 
 use arrow::array::{Array, BooleanArray, Float32Array, RecordBatch, StringArray, UInt32Array};
-use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 use serde_json::Value;
 
 use super::{check_shards, recorded_shard, MergeError, MergeReport};
@@ -47,8 +45,8 @@ pub struct RunMerge {
     pub lock: LockMode,
 }
 
-/// Manifest keys that differ between the shards of one run.
-const PER_SHARD_KEYS: [&str; 3] = ["command", "shard", "rerun"];
+/// Manifest keys that differ between the shards of one run (each shard's scenes and files).
+const PER_SHARD_KEYS: [&str; 5] = ["command", "shard", "rerun", "scenes", "files"];
 
 /// One shard's run folder, read.
 struct ShardRun {
@@ -426,13 +424,10 @@ pub fn merge_runs(
         })?;
         groups.extend(mine.iter().map(|&(s, g)| (obs_paths[s].as_path(), g)));
     }
-    let obs_schema = {
-        let f = File::open(&obs_paths[0]).map_err(|e| shard_error(&obs_paths[0], e))?;
-        ParquetRecordBatchReaderBuilder::try_new(f)
-            .map_err(|e| shard_error(&obs_paths[0], e))?
-            .schema()
-            .clone()
-    };
+    let obs_schema =
+        crate::parquet_io::read_batches_with(&obs_paths[0], |b| Ok(b.with_row_groups(vec![])))
+            .map(|r| arrow::array::RecordBatchReader::schema(&r))
+            .map_err(|e| shard_error(&obs_paths[0], e))?;
     copy_row_groups_from(&groups, obs_schema, &out.join("observations.parquet"))
         .map_err(MergeError::Write)?;
     progress.advance(1);
@@ -473,24 +468,54 @@ pub fn merge_runs(
     }
     progress.advance(1);
 
-    if first.lerobot {
-        let dt = first
-            .manifest
-            .pointer("/body/dt")
-            .and_then(Value::as_f64)
-            .ok_or_else(|| shard_error(&first.dir.join("manifest.json"), "no body.dt"))?;
-        write_lerobot(out, dt as f32).map_err(write_error)?;
-    }
-    progress.advance(1);
-
     let mut manifest = first.manifest.clone();
+    // The shards' scenes, each once, in id order (as one run over all the episodes lists them).
+    let mut scenes: Vec<Value> = runs
+        .iter()
+        .flat_map(|s| {
+            s.manifest
+                .get("scenes")
+                .and_then(Value::as_array)
+                .cloned()
+                .unwrap_or_default()
+        })
+        .collect();
+    let id = |v: &Value| {
+        v.get("id")
+            .and_then(Value::as_str)
+            .unwrap_or("")
+            .to_string()
+    };
+    scenes.sort_by_key(|v| id(v));
+    scenes.dedup_by_key(|v| id(v));
+    let mut lists_files = false;
     if let Some(map) = manifest.as_object_mut() {
+        if map.contains_key("scenes") {
+            map.insert("scenes".into(), Value::Array(scenes));
+        }
+        // The merged folder's own files, once everything else is written.
+        lists_files = map.remove("files").is_some();
         map.insert("shard".into(), Value::String(Shard::ALL.to_string()));
         map.insert("command".into(), serde_json::json!(opts.command));
         map.insert(
             "rerun".into(),
             serde_json::json!(opts.rerun.as_ref().map(|p| p.display().to_string())),
         );
+    }
+
+    if first.lerobot {
+        let dt = first
+            .manifest
+            .pointer("/body/dt")
+            .and_then(Value::as_f64)
+            .ok_or_else(|| shard_error(&first.dir.join("manifest.json"), "no body.dt"))?;
+        write_lerobot(out, dt as f32, Some(&manifest)).map_err(write_error)?;
+    }
+    progress.advance(1);
+
+    if lists_files {
+        manifest["files"] =
+            crate::pipeline::rollout::manifest::files_of(out).map_err(write_error)?;
     }
     let path = out.join("manifest.json");
     let bytes = serde_json::to_vec_pretty(&manifest).map_err(write_error)?;

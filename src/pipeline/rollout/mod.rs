@@ -11,7 +11,7 @@
 mod batched;
 mod episode;
 mod live;
-mod manifest;
+pub mod manifest;
 mod parts;
 mod preflight;
 mod scene;
@@ -571,10 +571,11 @@ fn finish(
         crate::io::rrd::concat(&recordings, &rerun.path)?;
         report.recorded = recordings.len();
     }
+    let manifest = manifest::value(cfg, mine.iter().map(|(_, e)| e.scene_id.as_str()));
     if cfg.lerobot {
-        write_lerobot(&cfg.out, cfg.body.dt)?;
+        write_lerobot(&cfg.out, cfg.body.dt, Some(&manifest))?;
     }
-    manifest::write(cfg)
+    manifest::write(cfg, manifest)
 }
 
 /// An episode that failed with an error, as `metrics.json` lists it: with its task, split
@@ -637,11 +638,17 @@ pub fn write_metrics(
 }
 
 /// Writes the LeRobot copy of the run tables in `out` into `out/lerobot` (`dt`: the agent's
-/// time step, which gives the dataset's fps).
-pub fn write_lerobot(out: &Path, dt: f32) -> Result<(), RolloutError> {
+/// time step, which gives the dataset's fps; `manifest`: the run's, recorded in the copy's
+/// provenance as [`crate::io::lerobot::run_configuration`] says).
+pub fn write_lerobot(
+    out: &Path,
+    dt: f32,
+    manifest: Option<&serde_json::Value>,
+) -> Result<(), RolloutError> {
     let options = crate::io::lerobot::DatasetOptions {
         fps: crate::io::lerobot::fps_of_step(dt),
         robot_type: LEROBOT_ROBOT_TYPE.into(),
+        run: manifest.map(crate::io::lerobot::run_configuration),
     };
     crate::io::lerobot::write_dataset(
         &crate::io::lerobot::RunTables::in_dir(out),

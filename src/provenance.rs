@@ -1,0 +1,190 @@
+//! Provenance records: which minos made an output (version and source commit) and the
+//! sha256 of every file it wrote, so that a copy that left the machine can be checked and two
+//! outputs told apart (see docs/FORMATS.md, "Provenance records").
+//!
+//! Records hold no wall-clock time and no host name: the same inputs give the same bytes.
+
+use std::collections::BTreeMap;
+use std::io::Read;
+use std::path::{Path, PathBuf};
+
+use serde::Serialize;
+use sha2::{Digest, Sha256};
+
+/// The `format` of every provenance record.
+pub const FORMAT: &str = "minos-provenance/1";
+
+/// The source commit this minos was built from (`git rev-parse HEAD` at build time, the
+/// `MINOS_SOURCE_COMMIT` environment variable when set, or `unknown`).
+pub const SOURCE_COMMIT: &str = env!("MINOS_SOURCE_COMMIT");
+
+/// A provenance record that could not be made; the message names the file.
+#[derive(Debug, thiserror::Error)]
+#[error("{}: {source}", path.display())]
+pub struct ProvenanceError {
+    /// The file or folder.
+    pub path: PathBuf,
+    /// The cause.
+    pub source: std::io::Error,
+}
+
+/// The minos that made an output: `{"version": …, "commit": …}`.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct Minos {
+    /// The crate version.
+    pub version: &'static str,
+    /// The source commit ([`SOURCE_COMMIT`]).
+    pub commit: &'static str,
+}
+
+/// This build of minos.
+pub const MINOS: Minos = Minos {
+    version: env!("CARGO_PKG_VERSION"),
+    commit: SOURCE_COMMIT,
+};
+
+/// A file's checksum and size.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct FileSum {
+    /// Lower-case hex sha256 of the file's bytes.
+    pub sha256: String,
+    /// Its size in bytes.
+    pub bytes: u64,
+}
+
+/// The sha256 (lower-case hex) and size of the file at `path`, read in 1 MiB blocks.
+pub fn sha256_file(path: &Path) -> Result<FileSum, ProvenanceError> {
+    let err = |source| ProvenanceError {
+        path: path.to_path_buf(),
+        source,
+    };
+    let mut file = std::fs::File::open(path).map_err(err)?;
+    let mut hasher = Sha256::new();
+    let mut buf = vec![0u8; 1 << 20];
+    let mut bytes = 0u64;
+    loop {
+        let n = file.read(&mut buf).map_err(err)?;
+        if n == 0 {
+            break;
+        }
+        hasher.update(&buf[..n]);
+        bytes += n as u64;
+    }
+    Ok(FileSum {
+        sha256: hex(&hasher.finalize()),
+        bytes,
+    })
+}
+
+fn hex(bytes: &[u8]) -> String {
+    bytes.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// The checksum of every file under `dir` by its path relative to `dir` (`/`-separated,
+/// sorted), skipping hidden names (temporary files start with `.`) and the relative paths
+/// in `skip` (the record itself).
+pub fn checksums(dir: &Path, skip: &[&str]) -> Result<BTreeMap<String, FileSum>, ProvenanceError> {
+    let mut out = BTreeMap::new();
+    let mut pending = vec![(dir.to_path_buf(), String::new())];
+    while let Some((folder, prefix)) = pending.pop() {
+        let err = |source| ProvenanceError {
+            path: folder.clone(),
+            source,
+        };
+        for entry in std::fs::read_dir(&folder).map_err(err)? {
+            let entry = entry.map_err(err)?;
+            let name = entry.file_name().to_string_lossy().into_owned();
+            if name.starts_with('.') {
+                continue;
+            }
+            let rel = format!("{prefix}{name}");
+            let kind = entry.file_type().map_err(err)?;
+            if kind.is_dir() {
+                pending.push((entry.path(), format!("{rel}/")));
+            } else if !skip.contains(&rel.as_str()) {
+                out.insert(rel, sha256_file(&entry.path())?);
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// Writes `record` as pretty JSON (keys in the order the value holds them) to `path`,
+/// atomically.
+pub fn write_record(path: &Path, record: &serde_json::Value) -> Result<(), ProvenanceError> {
+    let mut bytes = serde_json::to_vec_pretty(record).map_err(|e| ProvenanceError {
+        path: path.to_path_buf(),
+        source: std::io::Error::other(e),
+    })?;
+    bytes.push(b'\n');
+    crate::atomic::write_bytes_atomic(path, &bytes).map_err(|source| ProvenanceError {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+/// The scenes `ids` (`<scene>` or `<scene>@<variant>`; sorted, each once) as provenance
+/// records them: the id, the sha256 of its compiled scene in `data`, of each source file the
+/// compiled scene names and of the variant's description. A file that cannot be read (moved
+/// sources) has `null` for its checksum.
+pub fn scene_records<'a>(
+    data: &crate::store::DataDir,
+    ids: impl IntoIterator<Item = &'a str>,
+) -> Vec<serde_json::Value> {
+    let ids: std::collections::BTreeSet<&str> = ids.into_iter().collect();
+    let sum = |p: &Path| sha256_file(p).ok().map(|s| s.sha256);
+    ids.into_iter()
+        .map(|id| {
+            let r = crate::scene::SceneRef::parse(id);
+            let compiled = data.scene_path(&r.scene);
+            let sources: Vec<serde_json::Value> = crate::store::scene_file::read_header(&compiled)
+                .map(|h| h.sources)
+                .unwrap_or_default()
+                .iter()
+                .map(|s| serde_json::json!({"path": s, "sha256": sum(Path::new(s))}))
+                .collect();
+            let mut record = serde_json::json!({
+                "id": id,
+                "compiled_sha256": sum(&compiled),
+                "sources": sources,
+            });
+            if let Some(v) = &r.variant {
+                record["variant_sha256"] = serde_json::json!(sum(&data.variant_path(v)));
+            }
+            record
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn checksums_are_sha256_of_every_visible_file_but_the_skipped_ones() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::create_dir_all(dir.path().join("meta/sub")).unwrap();
+        std::fs::write(dir.path().join("a.txt"), b"abc").unwrap();
+        std::fs::write(dir.path().join("meta/sub/b"), b"").unwrap();
+        std::fs::write(dir.path().join("meta/record.json"), b"{}").unwrap();
+        std::fs::write(dir.path().join(".a.tmp-1"), b"partial").unwrap();
+        let sums = checksums(dir.path(), &["meta/record.json"]).unwrap();
+        let names: Vec<&str> = sums.keys().map(String::as_str).collect();
+        assert_eq!(names, ["a.txt", "meta/sub/b"]);
+        // The published test vectors of sha256.
+        assert_eq!(
+            sums["a.txt"].sha256,
+            "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad"
+        );
+        assert_eq!(sums["a.txt"].bytes, 3);
+        assert_eq!(
+            sums["meta/sub/b"].sha256,
+            "e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855"
+        );
+        let missing = sha256_file(&dir.path().join("none"))
+            .unwrap_err()
+            .to_string();
+        assert!(missing.contains("none"), "{missing}");
+        assert!(!MINOS.commit.is_empty() && MINOS.version == env!("CARGO_PKG_VERSION"));
+    }
+}
