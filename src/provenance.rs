@@ -123,39 +123,6 @@ pub fn write_record(path: &Path, record: &serde_json::Value) -> Result<(), Prove
     })
 }
 
-/// The scenes `ids` (`<scene>` or `<scene>@<variant>`; sorted, each once) as provenance
-/// records them: the id, the sha256 of its compiled scene in `data`, of each source file the
-/// compiled scene names and of the variant's description. A file that cannot be read (moved
-/// sources) has `null` for its checksum.
-pub fn scene_records<'a>(
-    data: &crate::store::DataDir,
-    ids: impl IntoIterator<Item = &'a str>,
-) -> Vec<serde_json::Value> {
-    let ids: std::collections::BTreeSet<&str> = ids.into_iter().collect();
-    let sum = |p: &Path| sha256_file(p).ok().map(|s| s.sha256);
-    ids.into_iter()
-        .map(|id| {
-            let r = crate::scene::SceneRef::parse(id);
-            let compiled = data.scene_path(&r.scene);
-            let sources: Vec<serde_json::Value> = crate::store::scene_file::read_header(&compiled)
-                .map(|h| h.sources)
-                .unwrap_or_default()
-                .iter()
-                .map(|s| serde_json::json!({"path": s, "sha256": sum(Path::new(s))}))
-                .collect();
-            let mut record = serde_json::json!({
-                "id": id,
-                "compiled_sha256": sum(&compiled),
-                "sources": sources,
-            });
-            if let Some(v) = &r.variant {
-                record["variant_sha256"] = serde_json::json!(sum(&data.variant_path(v)));
-            }
-            record
-        })
-        .collect()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -424,7 +424,7 @@ fn write_provenance(
         "seed": job.sample.seed,
         "shard": job.shard.to_string(),
         "body": format!("{:?}", job.body),
-        "scenes": provenance::scene_records(&job.data, batch.scenes.keys().map(String::as_str)),
+        "scenes": minos::store::provenance::scene_records(&job.data, batch.scenes.keys().map(String::as_str)),
         "files": files,
     });
     let path = PathBuf::from(format!("{}.provenance.json", out.display()));

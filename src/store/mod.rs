@@ -15,6 +15,7 @@
 
 mod grids;
 pub mod manifest;
+pub mod provenance;
 pub mod scene_file;
 pub mod variants;
 

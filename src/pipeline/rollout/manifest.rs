@@ -13,7 +13,7 @@ pub fn value<'a>(cfg: &RunConfig, scenes: impl IntoIterator<Item = &'a str>) -> 
         "command": p.command,
         "minos_version": env!("CARGO_PKG_VERSION"),
         "minos_commit": crate::provenance::SOURCE_COMMIT,
-        "scenes": crate::provenance::scene_records(&cfg.data, scenes),
+        "scenes": crate::store::provenance::scene_records(&cfg.data, scenes),
         "episodes_file": p.episodes_file,
         "variant": p.variant,
         "agent": p.agent,
