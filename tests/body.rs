@@ -192,3 +192,45 @@ fn nav_query_on_a_retexture_only_variant_uses_its_scenes_grid() {
     assert!(base["geodesic"].is_number(), "{base}");
     assert_eq!(base, tex);
 }
+
+/// Baking for one body over grids baked for another says what it replaced (which scenes,
+/// which body) instead of replacing them silently; baking again for the same body does not.
+#[test]
+fn a_bake_for_another_body_names_the_grids_it_replaces() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = baked_for(dir.path(), "habitat");
+    let bake = |preset: &str| {
+        let out = minos()
+            .args(["bake", "--no-preview", "--preset", preset, "--data"])
+            .arg(&data)
+            .ok_output();
+        String::from_utf8(out.stderr).unwrap()
+    };
+    let stderr = bake("minos");
+    let warnings: Vec<&str> = stderr
+        .lines()
+        .filter(|l| l.starts_with("warning: "))
+        .collect();
+    assert_eq!(warnings.len(), 1, "{stderr}");
+    let ids = minos::store::DataDir::new(&data).ingested_ids().unwrap();
+    let habitat = minos::body::AgentBody::HABITAT.to_string();
+    let minos_body = minos::body::AgentBody::MINOS.to_string();
+    assert!(
+        warnings[0].starts_with(&format!(
+            "warning: replaced {} grids baked for another body ({habitat}) with grids for {minos_body}: ",
+            ids.len()
+        )),
+        "{stderr}"
+    );
+    for id in &ids {
+        assert!(warnings[0].contains(id.as_str()), "{id}: {stderr}");
+    }
+    // The grids now are MINOS's: the same bake again is up to date and says nothing.
+    let again = bake("minos");
+    assert!(!again.contains("warning"), "{again}");
+    for id in &ids {
+        let nav = minos::store::DataDir::new(&data).nav_path(&minos::scene::SceneRef::parse(id));
+        let params = minos::navmesh::file::read_nav_params(&nav).unwrap();
+        assert_eq!(params.body, minos::body::AgentBody::MINOS);
+    }
+}

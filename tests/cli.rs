@@ -802,3 +802,52 @@ fn stats_on_a_manifest_whose_embedded_arrow_schema_is_damaged_is_an_error() {
         "{e}"
     );
 }
+
+/// A log (stderr not a terminal, as under Slurm or nohup) gets plain progress lines while the
+/// work runs and a last line with the total; `-q` silences them.
+#[test]
+fn progress_reaches_a_log_as_plain_lines() {
+    let dir = tempfile::tempdir().unwrap();
+    let generate = |quiet: bool, out: &Path| {
+        let mut cmd = minos();
+        if quiet {
+            cmd.arg("-q");
+        }
+        let out = cmd
+            .env("MINOS_PROGRESS_SECONDS", "0")
+            .args([
+                "generate", "--houses", "3", "--seed", "5", "--rooms", "2..3",
+            ])
+            .arg("--out")
+            .arg(out)
+            .output()
+            .unwrap();
+        assert!(out.status.success());
+        String::from_utf8(out.stderr).unwrap()
+    };
+    let stderr = generate(false, &dir.path().join("a"));
+    let lines: Vec<&str> = stderr
+        .lines()
+        .filter(|l| l.starts_with("generate: "))
+        .collect();
+    // Lines count up (interval 0: a line whenever the count grew) to all three houses,
+    // then the closing line.
+    let (closing, counting) = lines.split_last().unwrap();
+    let mut shown = Vec::new();
+    for line in counting {
+        let (count, rest) = line["generate: ".len()..].split_once("/3 (").unwrap();
+        let count: u64 = count.parse().unwrap();
+        let percent = format!("{:.0}%), ", 100.0 * count as f64 / 3.0);
+        assert!(rest.starts_with(&percent) && rest.contains("/s"), "{line}");
+        shown.push(count);
+    }
+    assert!(shown.windows(2).all(|w| w[0] < w[1]), "{stderr}");
+    assert_eq!(shown.last(), Some(&3), "{stderr}");
+    assert!(closing.starts_with("generate: 3 done in "), "{stderr}");
+    assert!(
+        !stderr.contains('\u{1b}'),
+        "no terminal escapes in a log: {stderr:?}"
+    );
+    let quiet = generate(true, &dir.path().join("b"));
+    assert!(!quiet.contains("generate: "), "{quiet}");
+}

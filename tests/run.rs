@@ -299,7 +299,30 @@ fn a_killed_run_resumed_gives_identical_bytes() {
     child.kill().unwrap();
     let _ = child.wait();
     let interrupted = !killed.join("episodes.parquet").exists();
-    assert!(cmd(&killed, true).status().unwrap().success());
+    if interrupted {
+        // Run again with another seed, it refuses, keeps the finished episodes and says how.
+        let finished = |p: &Path| {
+            std::fs::read_dir(p)
+                .unwrap()
+                .flatten()
+                .filter(|e| e.path().extension().is_some_and(|x| x == "json"))
+                .count()
+        };
+        let before = finished(&parts);
+        let again = cmd(&killed, false).args(["--seed", "1"]).output().unwrap();
+        let stderr = String::from_utf8_lossy(&again.stderr);
+        assert!(!again.status.success(), "{stderr}");
+        assert!(
+            stderr.contains(&format!(
+                "holds {} finished episodes of an interrupted run with another `seed`",
+                before - 1 // the record is a .json file too
+            )),
+            "{stderr}"
+        );
+        assert_eq!(finished(&parts), before, "the finished episodes are kept");
+    }
+    // Run again as it was (no --resume needed), it continues.
+    assert!(cmd(&killed, false).status().unwrap().success());
     for f in [
         "trajectories.parquet",
         "observations.parquet",

@@ -226,7 +226,8 @@ fn bake_params(
 }
 
 /// `minos bake`: navigation grids for the ingested scenes (of `split`, on `variant`).
-/// Returns `{"baked": n, "up_to_date": n, "failed": {id: error}}`; a grid that cannot be
+/// Returns `{"baked": n, "up_to_date": n, "failed": {id: error}, "replaced_body": {id: body}}`
+/// (grids this bake replaced that were baked for another body); a grid that cannot be
 /// written raises MinosError.
 #[pyfunction]
 #[pyo3(signature = (data, split = None, preset = "habitat", cell_size = None, config = None, variant = None, force = false, previews = true, wait = false, threads = None, progress = None))]
@@ -281,6 +282,11 @@ pub fn bake<'py>(
     d.set_item("baked", baked)?;
     d.set_item("up_to_date", report.scenes.len() - baked - failed.len())?;
     d.set_item("failed", failed)?;
+    let replaced: BTreeMap<&str, String> = report
+        .replaced_bodies()
+        .map(|(id, body)| (id, body.to_string()))
+        .collect();
+    d.set_item("replaced_body", replaced)?;
     Ok(d)
 }
 

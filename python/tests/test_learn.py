@@ -252,3 +252,48 @@ def test_datasets_mix_with_object_categories_renumbered(world, oracle_dataset, t
     assert names == [goal_objects(objects)[i] for i in b.frames["goal_object"].reshape(-1).tolist()]
     e = a.num_episodes  # the first episode of the second dataset
     assert int(both.starts[e]) == a.num_frames
+
+
+def test_learner_trains_on_habitat_episodes_and_people_sessions(world, oracle_dataset, minos_bin,
+                                                               tmp_path):
+    # Habitat: the point episodes through Habitat's episode format and back (as a user brings
+    # Habitat's own episode files), rolled out by the oracle into a dataset.
+    from conftest import cli
+    from minos.learn.__main__ import main
+    from minos.learn.data import load_many
+
+    hab = tmp_path / "habitat"
+    minos.sample_episodes(world.data, "pointgoal", tmp_path / "point.parquet", per_scene=3,
+                          seed=1, max_steps=300, export_habitat=hab)
+    content = sorted(hab.glob("*/content/*.json.gz"))
+    assert content, list(hab.rglob("*"))
+    imported = tmp_path / "imported.parquet"
+    cli(minos_bin, "episodes", "import", "--from", "habitat", content[0], "--out", imported)
+    scene = content[0].name[: -len(".json.gz")]
+    ours = [e for e in world.episodes if e.scene_id == scene]
+    back = minos.read_episodes(imported)
+    assert len(back) == len(ours) and {e.scene_id for e in back} == {scene}
+    rep = minos.run(world.data, imported, "oracle", tmp_path / "hab-run", size=24,
+                    format="lerobot")
+    assert rep["episodes"] == len(ours) and not rep["failures"]
+    # People: a `minos serve` session folder is a run folder (tests/serve.rs checks the bytes
+    # against `minos run`), exported with `minos export-dataset`; here a random player's.
+    minos.run(world.data, world.point, "random", tmp_path / "session", size=24, max_steps=30)
+    cli(minos_bin, "export-dataset", "--run", tmp_path / "session", "--out", tmp_path / "people")
+    roots = [oracle_dataset, tmp_path / "hab-run" / "lerobot", tmp_path / "people"]
+    keys = ["goal", "steps_left"]
+    alone = [load_lerobot(r, ENV_ACTIONS, keys=keys, num_workers=0) for r in roots]
+    mixed = load_many(roots, ENV_ACTIONS, keys=keys, num_workers=0)
+    assert mixed.num_episodes == sum(d.num_episodes for d in alone)
+    assert mixed.num_frames == sum(d.num_frames for d in alone)
+    # The imported episodes' demonstrations are the original episodes' (same starts and goals,
+    # the same oracle): as many frames.
+    ids = _episode_ids(oracle_dataset)
+    orig = [alone[0].episode(ids.index(e.episode_id))[1] for e in sorted(ours, key=lambda e: e.episode_id)]
+    assert sum(len(o) for o in orig) == alone[1].num_frames
+    # The learner's command line trains on the mix.
+    ckpt = tmp_path / "mix.pt"
+    assert main(["-q", "train", *[a for r in roots for a in ("--dataset", str(r))],
+                 "--modalities", "M", "--agent", "habitat", "--epochs", "1",
+                 "--out", str(ckpt)]) == 0
+    assert ckpt.is_file()

@@ -146,6 +146,20 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         report.scenes.len() - baked - failed,
         cfg.data.nav_dir().display()
     ));
+    // Grids for another body were replaced: what was made on them was for that body.
+    let mut replaced: std::collections::BTreeMap<String, Vec<&str>> = Default::default();
+    for (id, body) in report.replaced_bodies() {
+        replaced.entry(body.to_string()).or_default().push(id);
+    }
+    for (body, ids) in &replaced {
+        eprintln!(
+            "warning: replaced {} grids baked for another body ({body}) with grids for {}: {}; \
+             episode files sampled on the old grids are for that body (resample them)",
+            ids.len(),
+            cfg.params.body,
+            ids.join(", ")
+        );
+    }
     if shard == Shard::ALL {
         // (Shards bake side by side: the unsharded bake or a later command writes the record.)
         super::common::write_data_provenance(&cfg.data)?;

@@ -2,6 +2,9 @@
 //! flags several commands take (agent presets, renderers, sensor files, scene selections).
 
 use std::path::Path;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
 
 use anyhow::Context as _;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -44,13 +47,17 @@ impl Context {
         Context { quiet, lock_mode }
     }
 
-    /// A progress bar over `total` items (hidden with -q or when stderr is not a terminal).
+    /// Progress over `total` items: an indicatif bar on a terminal; when stderr is not a
+    /// terminal (a Slurm or nohup log), a plain line every [`log_interval`] seconds and, after such lines, one
+    /// when the work ends; nothing with -q.
     pub fn progress(&self, total: u64, what: &str) -> Bar {
-        let bar = if self.quiet {
-            ProgressBar::hidden()
-        } else {
-            ProgressBar::new(total)
-        };
+        if self.quiet {
+            return Bar(Shown::Hidden);
+        }
+        if !std::io::IsTerminal::is_terminal(&std::io::stderr()) {
+            return Bar(Shown::Log(LogLines::new(what, total, log_interval())));
+        }
+        let bar = ProgressBar::new(total);
         bar.set_style(
             ProgressStyle::with_template(
                 "{prefix:>10} [{bar:30}] {pos}/{len} {per_sec} eta {eta} {msg}",
@@ -59,7 +66,7 @@ impl Context {
             .progress_chars("=> "),
         );
         bar.set_prefix(what.to_string());
-        Bar(bar)
+        Bar(Shown::Bar(bar))
     }
 
     /// Prints a line to stdout unless -q.
@@ -70,21 +77,134 @@ impl Context {
     }
 }
 
-/// An indicatif bar that the library reports to through [`minos::progress::Progress`].
-pub struct Bar(pub ProgressBar);
+/// Progress the library reports to through [`minos::progress::Progress`], shown as the
+/// terminal allows.
+pub struct Bar(Shown);
+
+/// How a [`Bar`] shows progress.
+enum Shown {
+    /// -q: not at all.
+    Hidden,
+    /// On a terminal: an indicatif bar.
+    Bar(ProgressBar),
+    /// In a log: plain lines.
+    Log(LogLines),
+}
 
 impl minos::progress::Progress for Bar {
     fn set_total(&self, total: u64) {
-        self.0.set_length(total);
+        match &self.0 {
+            Shown::Hidden => {}
+            Shown::Bar(bar) => bar.set_length(total),
+            Shown::Log(lines) => lines.total.store(total, Ordering::Relaxed),
+        }
     }
     fn advance(&self, n: u64) {
-        self.0.inc(n);
+        match &self.0 {
+            Shown::Hidden => {}
+            Shown::Bar(bar) => bar.inc(n),
+            Shown::Log(lines) => lines.advance(n),
+        }
     }
 }
 
 impl Drop for Bar {
     fn drop(&mut self) {
-        self.0.finish_and_clear();
+        match &self.0 {
+            Shown::Hidden => {}
+            Shown::Bar(bar) => bar.finish_and_clear(),
+            Shown::Log(lines) => lines.finish(),
+        }
+    }
+}
+
+/// Seconds between progress lines in a log: `MINOS_PROGRESS_SECONDS`, else 10.
+fn log_interval() -> Duration {
+    let seconds = std::env::var("MINOS_PROGRESS_SECONDS")
+        .ok()
+        .and_then(|s| s.trim().parse::<f64>().ok())
+        .filter(|s| s.is_finite() && *s >= 0.0)
+        .unwrap_or(10.0);
+    Duration::from_secs_f64(seconds)
+}
+
+/// Progress written as plain lines to stderr, for logs that cannot show a bar:
+/// `run: 120/400 (30%), 12.5/s, 22 s left` at most once per interval, and, when there was
+/// such a line, a last one with the total and the time taken.
+struct LogLines {
+    /// What is counted (`run`, `bake`, …).
+    what: String,
+    total: AtomicU64,
+    done: AtomicU64,
+    start: Instant,
+    interval: Duration,
+    /// When the last line was written and the count it showed (None: not yet).
+    last: Mutex<Option<(Instant, u64)>>,
+}
+
+impl LogLines {
+    fn new(what: &str, total: u64, interval: Duration) -> Self {
+        LogLines {
+            what: what.to_string(),
+            total: AtomicU64::new(total),
+            done: AtomicU64::new(0),
+            start: Instant::now(),
+            interval,
+            last: Mutex::new(None),
+        }
+    }
+
+    fn advance(&self, n: u64) {
+        self.done.fetch_add(n, Ordering::Relaxed);
+        let Ok(mut last) = self.last.lock() else {
+            return;
+        };
+        // Read under the lock, so that lines from several threads count up.
+        let done = self.done.load(Ordering::Relaxed);
+        let now = Instant::now();
+        let due = match *last {
+            None => now.duration_since(self.start) >= self.interval,
+            Some((at, shown)) => done > shown && now.duration_since(at) >= self.interval,
+        };
+        if due {
+            *last = Some((now, done));
+            eprintln!("{}", self.line(done, now));
+        }
+    }
+
+    /// `what: done/total (p%), r/s, s left`.
+    fn line(&self, done: u64, now: Instant) -> String {
+        let total = self.total.load(Ordering::Relaxed);
+        let seconds = now.duration_since(self.start).as_secs_f64();
+        let rate = if seconds > 0.0 {
+            done as f64 / seconds
+        } else {
+            0.0
+        };
+        let mut line = format!("{}: {done}", self.what);
+        if total > 0 {
+            line.push_str(&format!(
+                "/{total} ({:.0}%)",
+                100.0 * done as f64 / total as f64
+            ));
+        }
+        line.push_str(&format!(", {rate:.1}/s"));
+        if total > done && rate > 0.0 {
+            line.push_str(&format!(", {:.0} s left", (total - done) as f64 / rate));
+        }
+        line
+    }
+
+    /// The last line, after work long enough to have shown a line (short work, and a
+    /// command that fails early, write nothing but their own lines).
+    fn finish(&self) {
+        let shown = self.last.lock().map(|l| l.is_some()).unwrap_or(false);
+        if !shown {
+            return;
+        }
+        let done = self.done.load(Ordering::Relaxed);
+        let seconds = self.start.elapsed().as_secs_f64();
+        eprintln!("{}: {done} done in {seconds:.1} s", self.what);
     }
 }
 

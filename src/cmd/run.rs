@@ -11,7 +11,7 @@ use minos::episode::format::read_episodes;
 use minos::episode::Episode;
 use minos::io::tables::{read_replay, ImageEncoding};
 use minos::pipeline::rollout::{
-    run_with as run_episodes, select, AgentKind, Provenance, RerunOutput, RunConfig,
+    run_with as run_episodes, select, AgentKind, Provenance, RerunOutput, RolloutError, RunConfig,
 };
 use minos::run::metrics::{render_table, Reward};
 use minos::shard::{Shard, ShardSpec};
@@ -115,7 +115,9 @@ pub struct Args {
     /// Job with MINOS_SHARD_COUNT, or MINOS_SHARD=i/n).
     #[arg(long, value_parser = ShardSpec::parse, default_value = "0/1")]
     shard: ShardSpec,
-    /// Keep the finished episodes of an interrupted run.
+    /// Keep the finished episodes of an interrupted run even when its parts have no record of
+    /// what it was (older minos). Running an interrupted run again as it was continues it
+    /// without this flag; another configuration over it is refused, not discarded.
     #[arg(long)]
     resume: bool,
     /// Reward: dist_time (MINOS), path_delta (MINOS) or geodesic (Habitat).
@@ -259,7 +261,10 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     let start = std::time::Instant::now();
     let report = {
         let bar = ctx.progress(episodes.len() as u64, "run");
-        run_episodes(&cfg, &episodes, ctx.lock_mode, &bar)?
+        run_episodes(&cfg, &episodes, ctx.lock_mode, &bar).map_err(|e| match e {
+            RolloutError::Interrupted { .. } => anyhow::anyhow!("{e} (--resume keeps them)"),
+            e => e.into(),
+        })?
     };
     for (id, e) in &report.failures {
         eprintln!("error: episode {id}: {e}");

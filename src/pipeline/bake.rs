@@ -12,9 +12,10 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use rayon::prelude::*;
 
 use crate::atomic::{sweep_stale, sweep_stale_where};
+use crate::body::AgentBody;
 use crate::navmesh::build::build;
 use crate::navmesh::file::NavFileError;
-use crate::navmesh::file::{read_nav, write_nav};
+use crate::navmesh::file::{read_nav, read_nav_params, write_nav};
 use crate::navmesh::preview::{previews_present, write_previews};
 use crate::navmesh::NavParams;
 use crate::progress::Progress;
@@ -31,6 +32,9 @@ pub enum BakeOutcome {
         walkable: usize,
         /// Islands.
         islands: usize,
+        /// The body of the grid this bake replaced, when it was baked for another body
+        /// (episodes and runs made on the old grid were for that body).
+        replaced_body: Option<AgentBody>,
     },
     /// Its grid was up to date.
     UpToDate,
@@ -56,6 +60,17 @@ impl BakeReport {
         self.scenes.iter().filter_map(|(id, o)| match o {
             BakeOutcome::Failed(e) | BakeOutcome::WriteFailed(e) => Some((id.as_str(), e.as_str())),
             BakeOutcome::Stopped => Some((id.as_str(), "not baked: a write failed")),
+            _ => None,
+        })
+    }
+
+    /// Scenes whose grid for another body this bake replaced, with that body.
+    pub fn replaced_bodies(&self) -> impl Iterator<Item = (&str, AgentBody)> {
+        self.scenes.iter().filter_map(|(id, o)| match o {
+            BakeOutcome::Baked {
+                replaced_body: Some(b),
+                ..
+            } => Some((id.as_str(), *b)),
             _ => None,
         })
     }
@@ -106,6 +121,10 @@ fn bake_one(cfg: &BakeConfig, id: &SceneRef) -> BakeOutcome {
             }
         }
     }
+    let replaced_body = read_nav_params(&out)
+        .ok()
+        .map(|p| p.body)
+        .filter(|b| *b != cfg.params.body);
     let (scene, _) = match cfg.data.load_scene(id) {
         Ok(s) => s,
         Err(e) => return BakeOutcome::Failed(e.to_string()),
@@ -127,6 +146,7 @@ fn bake_one(cfg: &BakeConfig, id: &SceneRef) -> BakeOutcome {
     BakeOutcome::Baked {
         walkable: grid.walkable_count(),
         islands: grid.islands.len(),
+        replaced_body,
     }
 }
 

@@ -1,8 +1,8 @@
 //! Rolling out episodes: one simulator per scene (scenes in parallel), episodes in order,
-//! each writing its own part files (`DIR/.parts/<index>.*`), the metrics file last; `--resume`
-//! skips episodes whose metrics exist, and the final tables are merged from the parts in
-//! episode order, so an interrupted and resumed run ends with the same bytes as an
-//! uninterrupted one.
+//! each writing its own part files (`DIR/.parts/<index>.*`), the metrics file last. Run again
+//! as it was (`.parts/run.json` records what it is), an interrupted run skips episodes whose
+//! metrics exist; the final tables are merged from the parts in episode order, so it ends
+//! with the same bytes as an uninterrupted one.
 //!
 //! With [`RunConfig::rerun`], the first episodes of the shard are also recorded for the
 //! rerun viewer while they roll out (`DIR/.parts/<index>.rrd`, finished before the metrics
@@ -83,7 +83,9 @@ pub struct RunConfig {
     pub seed: u64,
     /// Shard of the episode list.
     pub shard: Shard,
-    /// Keep finished episodes of an interrupted run.
+    /// Also keep finished episodes of an interrupted run that left no record of what it was
+    /// (parts written before minos recorded `.parts/run.json`). A run with a record is
+    /// continued whenever it is run again as it was, whatever this says.
     pub resume: bool,
     /// Reward function.
     pub reward: Reward,
@@ -150,6 +152,27 @@ pub enum RolloutError {
     /// The LeRobot copy could not be written.
     #[error("lerobot: {0}")]
     Lerobot(#[from] crate::io::lerobot::LerobotError),
+    /// The output folder holds finished episodes of an interrupted run that is not this one
+    /// (another configuration or other episodes), or that left no record of what it was and
+    /// the run was not asked to resume: starting over would silently discard them.
+    #[error(
+        "{} holds {finished} finished episodes of an interrupted run{}: {}, or delete {} to \
+         start over",
+        out.display(),
+        differs.as_ref().map(|k| format!(" with another `{k}`")).unwrap_or_default(),
+        if differs.is_some() { "run it as it was to finish it" } else { "resume the run to keep them" },
+        parts.display()
+    )]
+    Interrupted {
+        /// The output folder.
+        out: PathBuf,
+        /// Its part files.
+        parts: PathBuf,
+        /// Episodes finished there.
+        finished: usize,
+        /// The first field of the run's record that differs (None: the parts have no record).
+        differs: Option<String>,
+    },
     /// Scenes of the episodes cannot run (not ingested, not baked, baked for another body);
     /// found before anything is written.
     #[error(
@@ -268,10 +291,13 @@ pub fn run_with(
     {
         sweep_stale(dir).map_err(io_error(dir))?;
     }
-    if !cfg.resume && parts.exists() {
-        std::fs::remove_dir_all(&parts).map_err(io_error(&parts))?;
-    }
+    let record = manifest::unfinished_record(cfg, &mine);
+    keep_or_clear_parts(cfg, &parts, &record)?;
     std::fs::create_dir_all(&parts).map_err(io_error(&parts))?;
+    let record_path = parts.join(UNFINISHED_RECORD);
+    let record_bytes = serde_json::to_vec_pretty(&record)
+        .map_err(|e| RolloutError::Table(format!("{}: {e}", record_path.display())))?;
+    write_bytes_atomic(&record_path, &record_bytes).map_err(io_error(&record_path))?;
     progress.set_total(mine.len() as u64);
     // The episodes recorded for rerun: the first of the shard, in episode-id order.
     let recorded: BTreeSet<usize> = mine
@@ -324,6 +350,48 @@ pub fn run_with(
     Ok(report)
 }
 
+/// The file in `OUT/.parts/` recording what the unfinished run is
+/// ([`manifest::unfinished_record`]).
+const UNFINISHED_RECORD: &str = "run.json";
+
+/// What an earlier, unfinished run left in `parts` is kept when it is this run (its record
+/// equal to `record`; or, without a record, when `cfg.resume` says so) and removed when none
+/// of its episodes finished; finished episodes of another run are never silently removed.
+fn keep_or_clear_parts(
+    cfg: &RunConfig,
+    parts: &Path,
+    record: &serde_json::Value,
+) -> Result<(), RolloutError> {
+    if !parts.exists() {
+        return Ok(());
+    }
+    let finished = parts::finished_count(parts).map_err(io_error(parts))?;
+    if finished == 0 {
+        return std::fs::remove_dir_all(parts).map_err(io_error(parts));
+    }
+    let earlier = std::fs::read(parts.join(UNFINISHED_RECORD))
+        .ok()
+        .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok());
+    let interrupted = |differs: Option<String>| RolloutError::Interrupted {
+        out: cfg.out.clone(),
+        parts: parts.to_path_buf(),
+        finished,
+        differs,
+    };
+    // A run that finished (its manifest written last) with failed episodes keeps its parts,
+    // to retry those; another run over it replaces it, as over any finished run.
+    let finished_run = cfg.out.join("manifest.json").is_file();
+    match earlier {
+        Some(earlier) => match manifest::first_difference(&earlier, record) {
+            None => Ok(()),
+            Some(_) if finished_run => std::fs::remove_dir_all(parts).map_err(io_error(parts)),
+            Some(key) => Err(interrupted(Some(key))),
+        },
+        None if cfg.resume => Ok(()),
+        None => Err(interrupted(None)),
+    }
+}
+
 /// Runs the episodes of one scene (keeping those an earlier run finished), claimed in
 /// episode order by one worker per thread.
 fn run_scene(
@@ -335,10 +403,10 @@ fn run_scene(
     stop: &AtomicBool,
     progress: &dyn Progress,
 ) -> Vec<Outcome> {
-    // Finished earlier: metrics written and, when recorded, the recording too.
+    // Finished earlier (parts are kept only when they are this run's): metrics written and,
+    // when recorded, the recording too.
     let done = |i: usize| {
-        cfg.resume
-            && part(parts, i, "json").is_file()
+        part(parts, i, "json").is_file()
             && (!recorded.contains(&i) || part(parts, i, "rrd").is_file())
     };
     let mut out: Vec<Outcome> = Vec::new();

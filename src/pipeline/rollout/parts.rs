@@ -14,6 +14,19 @@ pub fn part(dir: &Path, index: usize, ext: &str) -> PathBuf {
     dir.join(format!("{index:06}.{ext}"))
 }
 
+/// How many episodes in part folder `dir` are finished (have their metrics part).
+pub fn finished_count(dir: &Path) -> std::io::Result<usize> {
+    let mut finished = 0;
+    for entry in std::fs::read_dir(dir)? {
+        let name = entry?.file_name();
+        let name = name.to_string_lossy();
+        if let Some(stem) = name.strip_suffix(".json") {
+            finished += usize::from(!stem.is_empty() && stem.bytes().all(|b| b.is_ascii_digit()));
+        }
+    }
+    Ok(finished)
+}
+
 /// Metrics of a finished episode as stored in its part file.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct PartDone {

@@ -24,7 +24,7 @@ use crate::run::metrics::reached;
 use crate::sim::agent::{AgentState, Motion};
 use crate::sim::{Actions, Simulator};
 
-use super::{angle_between, remaining};
+use super::{angle_between, backtrack, remaining, Node};
 
 /// Weight of the heuristic (weighted A*): high, since the states of one cost form wide
 /// plateaus (every cell reachable in so many steps) that a low weight explores in full.
@@ -282,9 +282,6 @@ impl Hasher for KeyHasher {
     }
 }
 
-/// A search node: state, cost from the start (half steps), and (parent node, action index).
-type Node = (AgentState, u32, Option<(u32, u8)>);
-
 /// Hybrid A* from `start` to a state that reaches the goal or whose remaining distance is
 /// at most `target`; returns the actions and the end state.
 fn search(
@@ -349,14 +346,7 @@ fn search(
         }
         let dist = remaining(sim, episode, &state);
         if id != 0 && (dist <= target || reached(sim, episode, &state)) {
-            let mut out = Vec::new();
-            let mut cur = id;
-            while let Some((parent, a)) = states[cur as usize].2 {
-                out.push(names[a as usize]);
-                cur = parent;
-            }
-            out.reverse();
-            return Some((out, state));
+            return Some((backtrack(&states, id, names), state));
         }
         expansions += 1;
         if expansions > res.expansions {

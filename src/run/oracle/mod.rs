@@ -80,8 +80,22 @@ fn key(s: &AgentState, continuous: bool) -> (i32, i32, i32, i32, i32, i32) {
     }
 }
 
-/// A search node: state, steps from the start, and (parent node, action index).
+/// A search node: state, cost from the start (steps here; half steps in the continuous
+/// search), and (parent node, index of the action that reached it).
 type Node = (AgentState, u32, Option<(u32, u8)>);
+
+/// The actions from a search's start to node `id`, first to last: the names (`names`, indexed
+/// as the nodes' action indices) of the actions along its parents.
+fn backtrack(states: &[Node], id: u32, names: &[&'static str]) -> Vec<&'static str> {
+    let mut out = Vec::new();
+    let mut cur = id;
+    while let Some((parent, a)) = states[cur as usize].2 {
+        out.push(names[a as usize]);
+        cur = parent;
+    }
+    out.reverse();
+    out
+}
 
 /// Progress (m of geodesic distance) each planning segment must make.
 const SEGMENT: f32 = 3.0;
@@ -303,14 +317,7 @@ fn search(
             continue; // a cheaper way to this state was found after this entry was queued
         }
         if id != 0 && done(&state, remaining(sim, episode, &state)) {
-            let mut out = Vec::new();
-            let mut cur = id;
-            while let Some((parent, a)) = states[cur as usize].2 {
-                out.push(actions[a as usize]);
-                cur = parent;
-            }
-            out.reverse();
-            return Some((out, state));
+            return Some((backtrack(&states, id, actions), state));
         }
         expansions += 1;
         if expansions > MAX_EXPANSIONS {
