@@ -851,3 +851,84 @@ fn progress_reaches_a_log_as_plain_lines() {
     let quiet = generate(true, &dir.path().join("b"));
     assert!(!quiet.contains("generate: "), "{quiet}");
 }
+
+/// Without `--pose`, `render` stands where the view is most open and says where, exactly:
+/// the printed pose renders the same images again, and the view does not face a wall.
+#[test]
+fn render_without_a_pose_picks_an_open_view_it_can_repeat() {
+    let dir = tempfile::tempdir().unwrap();
+    let (root, data) = (dir.path().join("suncg"), dir.path().join("DATA"));
+    gen(&root, 1);
+    for args in [
+        vec!["-q", "ingest", "--root", root.to_str().unwrap()],
+        vec!["-q", "bake", "--no-preview"],
+    ] {
+        let mut c = minos();
+        c.args(&args);
+        if args[1] == "ingest" {
+            c.arg("--out").arg(&data);
+        } else {
+            c.arg("--data").arg(&data);
+        }
+        c.ok_output();
+    }
+    let id = read_manifest(&data.join("houses.parquet")).unwrap()[0]
+        .id
+        .clone();
+    let render = |pose: Option<&str>, out: &Path| {
+        let mut c = minos();
+        c.args([
+            "render",
+            "--renderer",
+            "cpu",
+            "--size",
+            "48",
+            "--scene",
+            &id,
+        ])
+        .arg("--data")
+        .arg(&data)
+        .arg("--out")
+        .arg(out);
+        if let Some(p) = pose {
+            c.args(["--pose", p]);
+        }
+        String::from_utf8(c.ok_output().stdout).unwrap()
+    };
+    let said = render(None, &dir.path().join("open"));
+    assert!(said.contains("(the most open view)"), "{said}");
+    let pose = said
+        .split("--pose ")
+        .nth(1)
+        .and_then(|s| s.split_whitespace().next())
+        .unwrap_or_else(|| panic!("no pose in {said:?}"));
+    assert_eq!(pose.split(',').count(), 4, "{said}");
+    let again = render(Some(pose), &dir.path().join("again"));
+    assert!(!again.contains("most open"), "{again}");
+    for f in ["color.png", "depth.png", "semantic.png"] {
+        assert!(
+            std::fs::read(dir.path().join("open").join(f)).unwrap()
+                == std::fs::read(dir.path().join("again").join(f)).unwrap(),
+            "{f} differs when rendered again at the printed pose"
+        );
+    }
+    // Depth is 16-bit millimetres (0: nothing hit, farther than anything): the typical pixel
+    // sees more than 1.5 m, and the view is not blocked (fewer than a tenth of the pixels
+    // nearer than 0.5 m).
+    let depth = image::open(dir.path().join("open/depth.png"))
+        .unwrap()
+        .into_luma16();
+    let mut mm: Vec<u16> = depth
+        .pixels()
+        .map(|p| if p.0[0] == 0 { u16::MAX } else { p.0[0] })
+        .collect();
+    let near = mm.iter().filter(|&&d| d < 500).count();
+    mm.sort_unstable();
+    let median = mm[mm.len() / 2];
+    assert!(median > 1500, "median depth {median} mm");
+    assert!(
+        near * 10 < mm.len(),
+        "{near} of {} pixels nearer than 0.5 m",
+        mm.len()
+    );
+}

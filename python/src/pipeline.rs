@@ -22,7 +22,7 @@ use minos::io::tables::{read_replay, ImageEncoding};
 use minos::lock::LockMode;
 use minos::navmesh::params::params_from_toml;
 use minos::navmesh::NavParams;
-use minos::pipeline::bake::{bake_scenes, BakeConfig, BakeOutcome};
+use minos::pipeline::bake::{self as bake_driver, BakeConfig, BakeOutcome};
 use minos::pipeline::episodes::sample_scenes;
 use minos::pipeline::ingest::{ingest_with, read_id_list, DatasetFormat, IngestConfig, Outcome};
 use minos::pipeline::rollout::{select, AgentKind, Provenance, RerunOutput, RunConfig};
@@ -262,10 +262,11 @@ pub fn bake<'py>(
                 force,
                 previews,
             };
-            let _lock = cfg.data.lock("bake", lock_mode(wait))?;
             minos::progress::Progress::set_total(&bar, cfg.scenes.len() as u64);
-            let report =
-                with_threads(threads, || bake_scenes(&cfg, &bar)).map_err(anyhow::Error::msg)?;
+            let report = with_threads(threads, || {
+                bake_driver::bake(&cfg, Shard::ALL, lock_mode(wait), &bar)
+            })
+            .map_err(anyhow::Error::msg)??;
             if let Some(e) = report.write_failure() {
                 bail!("{e}");
             }

@@ -9,7 +9,7 @@ use anyhow::Context as _;
 use minos::body::AgentPreset;
 use minos::navmesh::params::params_from_toml;
 use minos::navmesh::NavParams;
-use minos::pipeline::bake::{bake_scenes, bake_shard, BakeConfig, BakeOutcome};
+use minos::pipeline::bake::{bake, BakeConfig, BakeOutcome};
 use minos::shard::{Shard, ShardSpec};
 use minos::store::DataDir;
 
@@ -112,19 +112,10 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         .shard
         .resolve(|k| std::env::var(k).ok())
         .map_err(anyhow::Error::msg)?;
-    let _lock = if shard == Shard::ALL {
-        cfg.data.lock("bake", ctx.lock_mode)?
-    } else {
-        cfg.data.lock_shared(ctx.lock_mode)?
-    };
     let start = Instant::now();
     let report = {
         let bar = ctx.progress(cfg.scenes.len() as u64, "bake");
-        if shard == Shard::ALL {
-            bake_scenes(&cfg, &bar)
-        } else {
-            bake_shard(&cfg, shard, &bar)
-        }
+        bake(&cfg, shard, ctx.lock_mode, &bar)?
     };
     if let Some(e) = report.write_failure() {
         anyhow::bail!("{e}");

@@ -1,16 +1,13 @@
-//! `minos render`: one PNG per sensor of an agent standing at a pose.
+//! `minos render`: flags → [`RenderJob`] ([`config`]) → [`render_views`]; prints what was
+//! written.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
-use std::sync::Arc;
 
-use anyhow::Context as _;
-use glam::Vec3;
 use minos::body::AgentPreset;
-use minos::render::visualize::write_png;
-use minos::render::{Renderer, RendererChoice};
+use minos::pipeline::render_views::{render_views, RenderError, RenderJob};
 use minos::scene::SceneRef;
-use minos::sim::{AgentConfig, SceneAssets, SensorSuite, Simulator};
+use minos::sim::{AgentConfig, SensorSuite};
 use minos::store::DataDir;
 
 use super::common::{sensor_suite, PresetArg, RendererArg};
@@ -20,7 +17,8 @@ use super::Context;
 /// millimetres; normals as (n+1)/2; labels with a fixed colour per id).
 #[derive(Debug, clap::Args)]
 #[command(
-    after_help = "Examples:\n  minos render --data DATA --scene ID --pose 3.2,0,4.5,1.57 --out frames/\n  \
+    after_help = "Examples:\n  minos render --data DATA --scene ID --out frames/            # the most open view\n  \
+    minos render --data DATA --scene ID --pose 3.2,0,4.5,1.57 --out frames/\n  \
     minos render --data DATA --scene ID --pose 3.2,0,4.5,0 --renderer cpu --sensors sensors.toml --out frames/\n  \
     minos render --data DATA --scene ID --variant empty --pose 3.2,0,4.5,0 --out frames/\n\n\
     Sensor files are TOML (or JSON): [[camera]] tables with name, modality (color, gray, depth,\n\
@@ -39,9 +37,11 @@ pub struct Args {
     /// Render this variant of the scene (same as `--scene <scene>@NAME`).
     #[arg(long, value_name = "NAME")]
     variant: Option<String>,
-    /// Agent pose x,y,z,yaw: y is the floor height under the agent, yaw in radians.
+    /// Agent pose x,y,z,yaw: y is the floor height under the agent, yaw in radians. Default:
+    /// where the view is most open (among the places farthest from walls, the heading whose
+    /// depth image sees farthest).
     #[arg(long, allow_hyphen_values = true, value_parser = parse_pose)]
-    pose: [f32; 4],
+    pose: Option<[f32; 4]>,
     /// Tilt (radians, positive up).
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
     tilt: f32,
@@ -78,29 +78,6 @@ fn parse_pose(s: &str) -> Result<[f32; 4], String> {
         [x, y, z, yaw] if v.iter().all(|c| c.is_finite()) => Ok([x, y, z, yaw]),
         _ => Err(format!("`{s}`: expected four finite numbers x,y,z,yaw")),
     }
-}
-
-/// What `minos render` renders.
-#[derive(Debug, Clone)]
-pub struct RenderJob {
-    /// The DATA folder.
-    pub data: DataDir,
-    /// The scene (or variant).
-    pub scene: SceneRef,
-    /// The agent.
-    pub agent: AgentConfig,
-    /// Accept a grid baked for another body.
-    pub allow_body_mismatch: bool,
-    /// Position (x, floor y, z) and yaw.
-    pub pose: [f32; 4],
-    /// Tilt (radians).
-    pub tilt: f32,
-    /// Renderer.
-    pub renderer: RendererChoice,
-    /// Sensors.
-    pub sensors: SensorSuite,
-    /// Output folder.
-    pub out: PathBuf,
 }
 
 /// Flags → the render job (reads the sensor file, if any).
@@ -142,40 +119,21 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
             .read_variant(v)
             .map_err(|e| anyhow::anyhow!("--variant {v}: {e}"))?;
     }
-    let (scene, _) = job
-        .data
-        .load_scene(&job.scene)
-        .context("run `minos ingest` first")?;
-    let grid = job.data.read_grid(&job.scene)?;
-    let assets = if job.allow_body_mismatch {
-        SceneAssets::new_allowing_body_mismatch(&scene, grid, &job.agent)
-    } else {
-        SceneAssets::new(&scene, grid, &job.agent)
-    }
-    .with_context(|| format!("scene {}", job.scene))?;
-    let assets = Arc::new(assets);
-    let renderer = Arc::new(Renderer::new(job.renderer, &assets.render)?);
-    let sensors = job.sensors.clone();
-    let mut sim = Simulator::new(assets, renderer.clone(), job.agent, sensors.clone(), 1, 0);
-    let [x, y, z, yaw] = job.pose;
-    sim.reset(Vec3::new(x, y, z), yaw, None, "render");
-    sim.set_tilt(job.tilt);
-    let obs = sim.observe()?;
-    for ((name, image), sensor) in obs.images.iter().zip(&sensors.cameras) {
-        let path = job.out.join(format!("{name}.png"));
-        write_png(
-            &path,
-            sensor.modality,
-            image,
-            sensor.resolution[0],
-            sensor.resolution[1],
-        )
-        .with_context(|| path.display().to_string())?;
-    }
+    let report = render_views(&job).map_err(|e| match e {
+        RenderError::NowhereToStand(_) => anyhow::anyhow!("{e} (--pose)"),
+        e => e.into(),
+    })?;
+    let [x, y, z, yaw] = report.pose;
+    // The pose exactly (shortest round-trip digits), so `--pose` renders it again.
     ctx.say(format!(
-        "rendered {} images with {} -> {}",
-        obs.images.len(),
-        renderer.name(),
+        "rendered {} images with {} at --pose {x},{y},{z},{yaw}{} -> {}",
+        report.images.len(),
+        report.renderer,
+        if job.pose.is_none() {
+            " (the most open view)"
+        } else {
+            ""
+        },
         job.out.display()
     ));
     Ok(ExitCode::SUCCESS)
@@ -186,6 +144,7 @@ mod tests {
     use super::*;
     use crate::cmd::common::parse_flags;
     use minos::body::AgentBody;
+    use minos::render::RendererChoice;
 
     fn job(line: &str) -> RenderJob {
         let args = parse_flags::<Args>(line).expect("flags parse");
@@ -196,7 +155,7 @@ mod tests {
     fn flags_become_the_job() {
         let j = job("--data D --scene h --variant empty --pose 1,0,-2,1.5 --out o");
         assert_eq!(j.scene.to_string(), "h@empty");
-        assert_eq!(j.pose, [1.0, 0.0, -2.0, 1.5]);
+        assert_eq!(j.pose, Some([1.0, 0.0, -2.0, 1.5]));
         assert_eq!(j.agent.body, AgentBody::HABITAT);
         assert_eq!(j.renderer, RendererChoice::Auto);
         assert_eq!(j.sensors.cameras.len(), SensorSuite::all(256).cameras.len());

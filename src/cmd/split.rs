@@ -20,14 +20,16 @@ Scenes that failed to ingest are never put in a split. Ratio splits hash each id
 seed on its own, so adding scenes to DATA later never moves the scenes already split.
 --lists reads DIR/train.txt, DIR/val.txt and DIR/test.txt (one id per line; blank lines and
 # comments ignored) and keeps the listed scenes that are in DATA; listed ids missing from DATA
-are reported, not fatal.
+are reported, not fatal. The official lists ship inside minos: `--lists mp3d` and
+`--lists suncg-multiroom` (or `splits/NAME`, as the repository lays them out) work from any
+folder; a folder of that name, when there is one, wins.
 
 Examples:
   # The MINOS Matterport3D split (61/11/18 scenes), from the lists shipped with minos
-  minos split --data data/mp3d --name mp3d --lists splits/mp3d
+  minos split --data data/mp3d --name mp3d --lists mp3d
 
   # MINOS's SUNCG multi-room split, keeping only houses with a kitchen and no people
-  minos split --data data/suncg --name multiroom --lists splits/suncg-multiroom \\
+  minos split --data data/suncg --name multiroom --lists suncg-multiroom \\
       --where 'has_room(\"kitchen\") && !has_category(\"person\")'
 
   # A seeded 60/20/20 split of houses with 3 to 5 rooms
@@ -55,8 +57,9 @@ pub struct Args {
     /// The language is described below.
     #[arg(long = "where", value_name = "EXPR")]
     filter: Option<String>,
-    /// Take the subsets from DIR/{train,val,test}.txt, e.g. splits/mp3d.
-    #[arg(long, value_name = "DIR")]
+    /// Take the subsets from DIR/{train,val,test}.txt, or the built-in official lists
+    /// `mp3d` or `suncg-multiroom`.
+    #[arg(long, value_name = "DIR|NAME")]
     lists: Option<PathBuf>,
     /// Split by fractions TRAIN,VAL,TEST (non-negative, summing to 1), e.g. 0.6,0.2,0.2.
     #[arg(long, value_name = "TRAIN,VAL,TEST")]
@@ -123,7 +126,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     let _lock = job.data.lock("split", ctx.lock_mode)?;
     let result = match &job.method {
         Method::Lists(lists_dir) => {
-            let lists = split::read_lists(lists_dir).context("--lists")?;
+            let lists = split::resolve_lists(lists_dir).context("--lists")?;
             split::split_by_lists(&rows, filter, &lists)
                 .with_context(|| format!("--lists {}", lists_dir.display()))?
         }

@@ -13,6 +13,7 @@ use rayon::prelude::*;
 
 use crate::atomic::{sweep_stale, sweep_stale_where};
 use crate::body::AgentBody;
+use crate::lock::{LockError, LockMode};
 use crate::navmesh::build::build;
 use crate::navmesh::file::NavFileError;
 use crate::navmesh::file::{read_nav, read_nav_params, write_nav};
@@ -161,6 +162,25 @@ pub fn bake_scenes(cfg: &BakeConfig, progress: &dyn Progress) -> BakeReport {
         );
     }
     bake_list(cfg, &cfg.scenes, progress)
+}
+
+/// Bakes `shard` of `cfg.scenes` holding the DATA folder's lock as the bake needs it: the
+/// writer lock for the whole list ([`bake_scenes`]); for one shard of several, the shared lock
+/// the shards hold side by side ([`bake_shard`]), so a split or an ingest cannot write the
+/// folder meanwhile. `mode` says whether to wait for another writer.
+pub fn bake(
+    cfg: &BakeConfig,
+    shard: Shard,
+    mode: LockMode,
+    progress: &dyn Progress,
+) -> Result<BakeReport, LockError> {
+    if shard == Shard::ALL {
+        let _lock = cfg.data.lock("bake", mode)?;
+        Ok(bake_scenes(cfg, progress))
+    } else {
+        let _lock = cfg.data.lock_shared(mode)?;
+        Ok(bake_shard(cfg, shard, progress))
+    }
 }
 
 /// Bakes shard `shard` of `cfg.scenes` (every n-th scene of the list sorted by name), for

@@ -4,13 +4,15 @@
 //! `ingest` (dataset → compiled scenes + manifest), `bake` (navigation grids), `episodes`
 //! (episode sampling over many scenes), `variants` (material statistics, dry runs),
 //! `rollout` (agents over episodes into datasets), `vector_env` (environments stepped
-//! together, for the Gym bindings) and `view` (a scene for the rerun viewer).
+//! together, for the Gym bindings), `view` (a scene for the rerun viewer) and `render_views`
+//! (one pose's images).
 
 pub mod bake;
 pub mod bench;
 pub mod episodes;
 pub mod ingest;
 pub mod merge;
+pub mod render_views;
 pub mod rollout;
 pub mod variants;
 pub mod vector_env;

@@ -13,6 +13,7 @@
 
 pub mod expr;
 mod files;
+mod official;
 
 use std::collections::{HashMap, HashSet};
 use std::fmt;
@@ -23,6 +24,7 @@ use crate::store::manifest::ManifestRow;
 
 pub use expr::{Expr, ExprError, ExprErrorKind};
 pub use files::{parse_list, read_lists, read_split, split_dir, write_split};
+pub use official::{official_lists, official_names, resolve_lists};
 
 /// Errors of split computation and split files.
 #[derive(Debug, thiserror::Error)]
@@ -51,6 +53,14 @@ pub enum SplitError {
         first: Subset,
         /// The other subset listing it.
         second: Subset,
+    },
+    /// `--lists` names neither a folder nor built-in lists.
+    #[error("`{spec}` is neither a folder of train.txt, val.txt and test.txt nor the name of built-in lists ({official})")]
+    NoLists {
+        /// What was given.
+        spec: String,
+        /// The built-in names.
+        official: String,
     },
     /// A split name that is not a plain folder name.
     #[error("split name `{0}` must be a plain folder name (not empty, no `/`, `\\`, `.` or `..`)")]
