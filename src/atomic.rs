@@ -4,6 +4,12 @@
 //! Temporary files are named `.<name>.tmp-<pid>` and are ignored by every reader; those a
 //! killed process left behind are removed by the next run of a command that writes the same
 //! folder ([`sweep_stale`]).
+//!
+//! Renames are durable: the temporary's data is flushed to stable storage (`fsync`) before
+//! the rename and the folder after it ([`rename_durably`]), so a command that reported success
+//! has its outputs on disk even if the machine loses power right after — not only when the
+//! process is killed. `MINOS_FSYNC=0` in the environment skips the flushes (scratch outputs
+//! on a file system that does not survive a crash anyway; the benches measure their cost).
 
 use std::fs::{self, File};
 use std::io::{self, BufWriter, Write};
@@ -33,14 +39,76 @@ where
         let mut w = BufWriter::with_capacity(1 << 16, File::create(&tmp)?);
         let value = fill(&mut w)?;
         w.flush()?;
-        drop(w);
+        let file = w.into_inner().map_err(|e| e.into_error())?;
+        if durable() {
+            file.sync_all()?;
+        }
+        drop(file);
         fs::rename(&tmp, path)?;
+        sync_dir(parent_of(path))?;
         Ok(value)
     })();
     if result.is_err() {
         let _ = fs::remove_file(&tmp);
     }
     result
+}
+
+/// The folder holding `path` (`.` for a bare name).
+fn parent_of(path: &Path) -> &Path {
+    match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    }
+}
+
+/// Whether renames are made durable: true unless the environment sets `MINOS_FSYNC=0`
+/// (read once per process).
+pub fn durable() -> bool {
+    static DURABLE: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    *DURABLE.get_or_init(|| std::env::var_os("MINOS_FSYNC").is_none_or(|v| v != "0"))
+}
+
+/// Flushes the folder `dir`'s entries (a rename or a new name in it) to stable storage. On
+/// platforms where a folder cannot be opened for that, nothing is done; nor with
+/// `MINOS_FSYNC=0` ([`durable`]).
+pub fn sync_dir(dir: &Path) -> io::Result<()> {
+    if !durable() {
+        return Ok(());
+    }
+    #[cfg(unix)]
+    {
+        File::open(dir)?.sync_all()
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = dir;
+        Ok(())
+    }
+}
+
+/// Flushes the file at `path`, or every file and folder under the folder at `path`, to
+/// stable storage (nothing with `MINOS_FSYNC=0`).
+pub fn sync_tree(path: &Path) -> io::Result<()> {
+    if !durable() {
+        return Ok(());
+    }
+    if fs::metadata(path)?.is_dir() {
+        for entry in fs::read_dir(path)? {
+            sync_tree(&entry?.path())?;
+        }
+        sync_dir(path)
+    } else {
+        File::open(path)?.sync_all()
+    }
+}
+
+/// Renames the complete temporary file or folder `tmp` to `path` durably: its data flushed
+/// to stable storage first ([`sync_tree`]), then the rename, then the folder holding `path`.
+pub fn rename_durably(tmp: &Path, path: &Path) -> io::Result<()> {
+    sync_tree(tmp)?;
+    fs::rename(tmp, path)?;
+    sync_dir(parent_of(path))
 }
 
 /// Writes `bytes` to `path` atomically.
@@ -226,5 +294,24 @@ mod tests {
         write_bytes_atomic(&target, b"two").unwrap();
         assert_eq!(fs::read(&target).unwrap(), b"two");
         assert_eq!(fs::read_dir(target.parent().unwrap()).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn a_folder_renamed_durably_arrives_whole_and_a_missing_one_is_an_error() {
+        let dir = tempfile::tempdir().unwrap();
+        let tmp = dir.path().join(".copy.tmp-1");
+        fs::create_dir_all(tmp.join("meta")).unwrap();
+        fs::write(tmp.join("meta/info.json"), b"{}").unwrap();
+        fs::write(tmp.join("README.md"), b"card").unwrap();
+        let out = dir.path().join("copy");
+        rename_durably(&tmp, &out).unwrap();
+        assert!(!tmp.exists());
+        assert_eq!(fs::read(out.join("meta/info.json")).unwrap(), b"{}");
+        assert_eq!(fs::read(out.join("README.md")).unwrap(), b"card");
+        let file = dir.path().join("f.txt");
+        write_bytes_atomic(&file, b"abc").unwrap();
+        assert_eq!(fs::read(&file).unwrap(), b"abc");
+        let missing = rename_durably(&dir.path().join("none"), &dir.path().join("x"));
+        assert_eq!(missing.unwrap_err().kind(), io::ErrorKind::NotFound);
     }
 }

@@ -19,6 +19,7 @@
 
 pub mod atomic;
 pub mod body;
+pub mod diff;
 pub mod episode;
 pub mod escape;
 pub mod generate;
@@ -39,3 +40,4 @@ pub mod sim;
 pub mod split;
 pub mod stats;
 pub mod store;
+pub mod verify;

@@ -11,7 +11,8 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::{Duration, Instant};
 
-use common::{cli_ingested, minos, tree_bytes, RunOk};
+use common::{cli_ingested, first_difference, minos, tree_bytes, RunOk};
+use minos::progress::NoProgress;
 use minos::seed::Rng;
 
 /// One step of the pipeline, with the folder it works in (always the same path, so stored
@@ -80,6 +81,8 @@ fn steps(root: &Path, work: &Path) -> Vec<Step> {
                 "12",
                 "--size",
                 "16",
+                "--format",
+                "lerobot",
                 "--data",
                 &data,
                 "--episodes",
@@ -173,19 +176,31 @@ fn kill_9_at_varied_points_then_rerun_leaves_the_uninterrupted_bytes() {
                 },
                 temporaries(&work).len()
             );
-            run_step(step);
-            let got = tree_bytes(&work);
             let label = format!(
                 "{} killed at {:.0}% ({delay:?})",
                 step.name,
                 fraction * 100.0
             );
+            // The LeRobot copy appears whole or not at all: whatever a kill left checks clean.
+            let copy = work.join("OUT/lerobot");
+            if copy.exists() {
+                let report = minos::verify::verify(&copy, &Default::default(), &NoProgress)
+                    .unwrap_or_else(|e| panic!("{label}: {e}"));
+                assert!(report.is_clean(), "{label}: {:#?}", report.problems);
+            }
+            run_step(step);
+            let got = tree_bytes(&work);
             assert_eq!(temporaries(&work), Vec::<PathBuf>::new(), "{label}");
             let names =
                 |t: &[(PathBuf, Vec<u8>)]| t.iter().map(|(p, _)| p.clone()).collect::<Vec<_>>();
             assert_eq!(names(&got), names(&expected), "{label}: files differ");
             for ((p, a), (_, b)) in got.iter().zip(&expected) {
-                assert!(a == b, "{label}: {} differs", p.display());
+                assert!(
+                    a == b,
+                    "{label}: {}: {}",
+                    p.display(),
+                    first_difference(&work.join(p), &snap(i + 1).join(p))
+                );
             }
         }
     }

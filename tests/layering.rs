@@ -55,6 +55,13 @@ const FLOORS: &[(&str, &[&str])] = &[
             "split", "stats",
         ],
     ),
+    // Checking and comparing outputs: `minos verify` reads every kind of output (the DATA
+    // folder through store, datasets through io); `minos diff` compares files alone.
+    (
+        "verify",
+        &["scene", "navmesh", "episode", "render", "store", "io"],
+    ),
+    ("diff", &[]),
     // Front doors: the web server drives the pipeline (`minos serve`).
     (
         "serve",

@@ -328,11 +328,8 @@ fn a_killed_run_resumed_gives_identical_bytes() {
         "observations.parquet",
         "episodes.parquet",
     ] {
-        assert_eq!(
-            std::fs::read(full.join(f)).unwrap(),
-            std::fs::read(killed.join(f)).unwrap(),
-            "{f} differs"
-        );
+        let what = common::first_difference(&full.join(f), &killed.join(f));
+        assert!(what == "identical", "{f} differs: {what}");
     }
     assert!(
         interrupted,
@@ -540,11 +537,8 @@ fn a_run_records_one_pose_and_image_per_step_and_leaves_the_tables_unchanged() {
     assert_eq!(report.recorded, 2);
     // Recording never changes the tables.
     for f in ["trajectories.parquet", "observations.parquet"] {
-        assert_eq!(
-            std::fs::read(plain.join(f)).unwrap(),
-            std::fs::read(out.join(f)).unwrap(),
-            "{f} differs with --rerun"
-        );
+        let what = common::first_difference(&plain.join(f), &out.join(f));
+        assert!(what == "identical", "{f} differs with --rerun: {what}");
     }
     // Only the finished file is left: no temporary names, no parts.
     let names: Vec<_> = std::fs::read_dir(rrd.parent().unwrap())
@@ -887,11 +881,8 @@ fn one_scenes_episodes_split_across_threads_give_the_one_thread_bytes() {
             "observations.parquet",
             "metrics.json",
         ] {
-            assert_eq!(
-                std::fs::read(one.join(file)).unwrap(),
-                std::fs::read(many.join(file)).unwrap(),
-                "{file} with {threads} threads"
-            );
+            let what = common::first_difference(&one.join(file), &many.join(file));
+            assert!(what == "identical", "{file} with {threads} threads: {what}");
         }
     }
 }

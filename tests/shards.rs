@@ -8,7 +8,7 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-use common::{cli_ingested, minos, tree_bytes, RunOk};
+use common::{cli_ingested, first_difference, minos, tree_bytes, RunOk};
 
 /// A DATA folder of 4 generated houses, ingested and baked with the binary.
 fn baked_data(dir: &Path) -> PathBuf {
@@ -55,15 +55,14 @@ fn merged_episode_shards_are_the_unsharded_file() {
             .arg(&merged)
             .args(parts.iter().rev())
             .ok_output();
-        assert!(
-            std::fs::read(&merged).unwrap() == std::fs::read(&full).unwrap(),
-            "{n} shards: episode file differs"
-        );
-        assert_eq!(
-            String::from_utf8(std::fs::read(stats_of(&merged)).unwrap()).unwrap(),
-            String::from_utf8(std::fs::read(stats_of(&full)).unwrap()).unwrap(),
-            "{n} shards: statistics differ"
-        );
+        // The episode file and its statistics; a failure says what differs (`minos diff`).
+        for (x, y) in [
+            (merged.clone(), full.clone()),
+            (stats_of(&merged), stats_of(&full)),
+        ] {
+            let what = first_difference(&x, &y);
+            assert!(what == "identical", "{n} shards: {}: {what}", x.display());
+        }
     }
     // Not the shards of one job: one line naming the problem, nothing written.
     let s3 = |i: usize| dir.path().join(format!("s3/part{i}.parquet"));
@@ -212,7 +211,12 @@ fn merged_run_shards_are_the_unsharded_run() {
             if p == Path::new("manifest.json") {
                 continue;
             }
-            assert!(a == b, "{n} shards: {} differs", p.display());
+            assert!(
+                a == b,
+                "{n} shards: {}: {}",
+                p.display(),
+                first_difference(&full.join(p), &reference.join(p))
+            );
         }
         assert_eq!(
             manifest_sans_command(&full),

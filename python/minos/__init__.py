@@ -19,11 +19,13 @@ from ._minos import (
     Simulator,
     __version__,
     bake,
+    diff,
     generate,
     ingest,
     read_episodes,
     run,
     sample_episodes,
+    verify,
 )
 
 
@@ -48,9 +50,11 @@ __all__ = [
     "Simulator",
     "__version__",
     "bake",
+    "diff",
     "generate",
     "ingest",
     "read_episodes",
     "run",
     "sample_episodes",
+    "verify",
 ]

@@ -17,6 +17,7 @@ mod episodes;
 mod pathfinder;
 mod pipeline;
 mod sim;
+mod verify;
 
 pyo3::create_exception!(
     _minos,
@@ -54,5 +55,7 @@ fn _minos(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(pipeline::bake, m)?)?;
     m.add_function(wrap_pyfunction!(pipeline::sample_episodes, m)?)?;
     m.add_function(wrap_pyfunction!(pipeline::run, m)?)?;
+    m.add_function(wrap_pyfunction!(verify::verify, m)?)?;
+    m.add_function(wrap_pyfunction!(verify::diff, m)?)?;
     Ok(())
 }

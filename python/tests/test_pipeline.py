@@ -2,6 +2,7 @@
 progress to Python."""
 
 import json
+import shutil
 from pathlib import Path
 
 import pytest
@@ -108,3 +109,31 @@ def test_run_writes_what_the_cli_writes(world, tmp_path, minos_bin):
     for name in ["trajectories.parquet", "observations.parquet", "episodes.parquet",
                  "metrics.json"]:
         assert (tmp_path / "py" / name).read_bytes() == (tmp_path / "cli" / name).read_bytes(), name
+
+
+def test_verify_and_diff_report_what_the_cli_prints(world, tmp_path, minos_bin):
+    # Python's run writes no sidecar record for the episode file: the sampled file is checked
+    # on the grids (and its missing sidecar reported), the run folder is clean.
+    minos.run(world.data, world.point, "oracle", tmp_path / "a", size=16, seed=2,
+              max_steps=60)
+    rep = minos.verify(tmp_path / "a")
+    assert rep["clean"] and rep["kind"] == "run folder" and rep["problems"] == [], rep
+    shutil.copytree(tmp_path / "a", tmp_path / "b")
+    assert minos.diff(tmp_path / "a", tmp_path / "b")["identical"]
+    m = tmp_path / "b" / "metrics.json"
+    metrics = json.loads(m.read_text())
+    spl = metrics["groups"]["all"]["spl"]
+    metrics["groups"]["all"]["spl"] = 0.125
+    m.write_text(json.dumps(metrics))
+    d = minos.diff(tmp_path / "a", tmp_path / "b")
+    assert not d["identical"]
+    # The line names the value's path and both values (a float as minos's JSON reader parses
+    # it: within one unit in the last place of the file's text).
+    [line] = d["differences"]
+    head, tail = "metrics.json: `groups.all.spl`: ", " vs 0.125"
+    assert line.startswith(head) and line.endswith(tail), line
+    assert float(line[len(head):-len(tail)]) == pytest.approx(spl, rel=1e-15), line
+    bad = minos.verify(tmp_path / "b")
+    cli_lines = cli(minos_bin, "verify", tmp_path / "b", ok=False).stdout.splitlines()
+    assert bad["problems"] == cli_lines
+    assert bad["problems"][0].startswith(f"{tmp_path / 'b' / 'metrics.json'}: checksum: ")

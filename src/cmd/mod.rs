@@ -10,6 +10,7 @@ mod bake;
 mod bench;
 mod common;
 mod demo;
+mod diff;
 mod episodes;
 mod export;
 mod export_dataset;
@@ -24,6 +25,7 @@ mod serve;
 mod split;
 mod stats;
 mod variants;
+mod verify;
 mod view;
 
 pub use common::Context;
@@ -90,6 +92,11 @@ enum Command {
     Demo(demo::Args),
     /// Measure bake, episode sampling, rendering or rollouts on one ingested scene.
     Bench(bench::Args),
+    /// Check a run folder, LeRobot dataset, episode file or DATA folder: checksums, tables,
+    /// indices, statistics, images, navigability.
+    Verify(verify::Args),
+    /// Compare two outputs and say where they first differ (episode, step, column, values).
+    Diff(diff::Args),
 }
 
 /// Parses the command line, sets up logging and threads, and runs the subcommand.
@@ -128,6 +135,8 @@ pub fn main() -> ExitCode {
         Command::Serve(a) => serve::run(a, &ctx),
         Command::Demo(a) => demo::run(a, &ctx),
         Command::Bench(a) => bench::run(a, &ctx),
+        Command::Verify(a) => verify::run(a, &ctx),
+        Command::Diff(a) => diff::run(a, &ctx),
     };
     match result {
         Ok(code) => code,

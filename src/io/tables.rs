@@ -352,7 +352,8 @@ impl ObservationWriter {
         self.writer
             .close()
             .map_err(|e| format!("{}: {e}", path.display()))?;
-        std::fs::rename(&self.tmp, &path).map_err(|e| format!("{}: {e}", path.display()))
+        crate::atomic::rename_durably(&self.tmp, &path)
+            .map_err(|e| format!("{}: {e}", path.display()))
     }
 }
 
@@ -487,7 +488,7 @@ pub fn copy_row_groups_from(
             group.close().map_err(|e| err(&e))?;
         }
         w.close().map_err(|e| err(&e))?;
-        std::fs::rename(&tmp, out).map_err(|e| err(&e))
+        crate::atomic::rename_durably(&tmp, out).map_err(|e| err(&e))
     })();
     if result.is_err() {
         let _ = std::fs::remove_file(&tmp);

@@ -148,3 +148,30 @@ impl RunOk for std::process::Command {
         out
     }
 }
+
+/// Asserts that `a` and `b` (two files, or two folders file by file) hold the same bytes;
+/// otherwise fails with `minos diff`'s first difference of each file (episode, step,
+/// column, both values) after `label`.
+pub fn assert_identical(a: &Path, b: &Path, label: &str) {
+    let report = minos::diff::diff(a, b).unwrap_or_else(|e| panic!("{label}: cannot compare: {e}"));
+    assert!(
+        report.identical(),
+        "{label}: {}\n  {}",
+        report.summary(),
+        report
+            .differences
+            .iter()
+            .map(|d| d.to_string())
+            .collect::<Vec<_>>()
+            .join("\n  ")
+    );
+}
+
+/// The first difference of two files in user terms (`minos diff`), or `identical`.
+pub fn first_difference(a: &Path, b: &Path) -> String {
+    match minos::diff::first_difference(a, b) {
+        Ok(Some(what)) => what,
+        Ok(None) => "identical".into(),
+        Err(e) => e.to_string(),
+    }
+}

@@ -247,6 +247,183 @@ fn write_tiff_header(width: u32, height: u32, out: &mut Vec<u8>) {
     out.extend_from_slice(&0u32.to_le_bytes()); // no next IFD
 }
 
+/// A frame read back from its file: the format found by its magic bytes, its size and its
+/// pixels (as [`ImageFile::encode`] was given them: interleaved, top row first).
+#[derive(Debug, Clone, PartialEq)]
+pub struct DecodedFrame {
+    /// The file's format.
+    pub file: ImageFile,
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// The pixels.
+    pub image: Image,
+}
+
+/// Reads a frame file back (the formats [`ImageFile`] writes: PPM, PGM with maxval 255 or
+/// 65535, PFM, minos's one-strip int32 TIFF). The error says what is wrong (`truncated: 7,040
+/// pixel bytes where 84×84×3 need 21,168`).
+pub fn decode(bytes: &[u8]) -> Result<DecodedFrame, String> {
+    if bytes.starts_with(b"II*\0") {
+        return decode_tiff(bytes);
+    }
+    let magic = bytes.get(..2).ok_or("empty file")?;
+    let (tokens, at) = netpbm_header(bytes)?;
+    let [width, height, maxval] = tokens;
+    let pixels = width as usize * height as usize;
+    let body = &bytes[at..];
+    let need = |n: usize, what: &str| -> Result<(), String> {
+        if body.len() != n {
+            let how = if body.len() < n {
+                "truncated"
+            } else {
+                "too long"
+            };
+            return Err(format!(
+                "{how}: {} pixel bytes where a {width}×{height} {what} needs {n}",
+                body.len()
+            ));
+        }
+        Ok(())
+    };
+    let (file, image) = match (magic, maxval) {
+        (b"P6", 255) => {
+            need(pixels * 3, "PPM")?;
+            let data = body.to_vec();
+            (ImageFile::Ppm, Image::U8 { channels: 3, data })
+        }
+        (b"P5", 255) => {
+            need(pixels, "8-bit PGM")?;
+            let data = body.to_vec();
+            (ImageFile::Pgm8, Image::U8 { channels: 1, data })
+        }
+        (b"P5", 65535) => {
+            need(pixels * 2, "16-bit PGM")?;
+            let data = body
+                .chunks_exact(2)
+                .map(|b| u16::from_be_bytes([b[0], b[1]]))
+                .collect();
+            (ImageFile::Pgm16, Image::U16(data))
+        }
+        (b"Pf", _) => {
+            need(pixels * 4, "PFM")?;
+            let w = (width as usize).max(1);
+            let mut data = Vec::with_capacity(pixels);
+            for row in body.chunks_exact(4 * w).rev() {
+                data.extend(
+                    row.chunks_exact(4)
+                        .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]])),
+                );
+            }
+            (ImageFile::Pfm, Image::F32 { channels: 1, data })
+        }
+        _ => {
+            return Err(format!(
+                "not a PPM, PGM (maxval 255 or 65535), PFM or TIFF file (starts with {:?}, maxval {maxval})",
+                String::from_utf8_lossy(magic)
+            ))
+        }
+    };
+    Ok(DecodedFrame {
+        file,
+        width,
+        height,
+        image,
+    })
+}
+
+/// The three numbers after a Netpbm/PFM magic (width, height, maxval or scale — a PFM's
+/// scale is read as 0) and where the pixels start (after one whitespace byte).
+fn netpbm_header(bytes: &[u8]) -> Result<([u32; 3], usize), String> {
+    let mut at = 2;
+    let mut tokens = [0u32; 3];
+    for (k, token) in tokens.iter_mut().enumerate() {
+        while bytes.get(at).is_some_and(u8::is_ascii_whitespace) {
+            at += 1;
+        }
+        let start = at;
+        while bytes.get(at).is_some_and(|b| !b.is_ascii_whitespace()) {
+            at += 1;
+        }
+        let text = std::str::from_utf8(&bytes[start..at]).unwrap_or("");
+        *token = if k == 2 && bytes.starts_with(b"Pf") {
+            text.parse::<f32>()
+                .map(|_| 0)
+                .map_err(|_| format!("header: scale `{text}` is not a number"))?
+        } else {
+            text.parse::<u32>()
+                .map_err(|_| format!("header: `{}` is not a size", text.escape_debug()))?
+        };
+        if k < 2 && *token == 0 {
+            return Err("header: zero width or height".into());
+        }
+    }
+    if bytes.get(at).is_none_or(|b| !b.is_ascii_whitespace()) {
+        return Err("header: no pixels".into());
+    }
+    Ok((tokens, at + 1))
+}
+
+/// minos's TIFF (one strip of 32-bit signed samples): the size and strip from its tags.
+fn decode_tiff(bytes: &[u8]) -> Result<DecodedFrame, String> {
+    let u16_at = |i: usize| {
+        bytes
+            .get(i..i + 2)
+            .map(|b| u16::from_le_bytes([b[0], b[1]]))
+    };
+    let u32_at = |i: usize| {
+        bytes
+            .get(i..i + 4)
+            .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+    };
+    let short = "truncated TIFF header";
+    let ifd = u32_at(4).ok_or(short)? as usize;
+    let count = u16_at(ifd).ok_or(short)? as usize;
+    let (mut width, mut height, mut offset, mut length, mut bits) = (0, 0, 0, 0, 0);
+    for k in 0..count {
+        let e = ifd + 2 + 12 * k;
+        let tag = u16_at(e).ok_or(short)?;
+        let kind = u16_at(e + 2).ok_or(short)?;
+        let value = if kind == 3 {
+            u32::from(u16_at(e + 8).ok_or(short)?)
+        } else {
+            u32_at(e + 8).ok_or(short)?
+        };
+        match tag {
+            256 => width = value,
+            257 => height = value,
+            258 => bits = value,
+            273 => offset = value as usize,
+            279 => length = value as usize,
+            _ => {}
+        }
+    }
+    if bits != 32 || width == 0 || height == 0 {
+        return Err(format!(
+            "TIFF of {width}×{height} with {bits}-bit samples, not minos's 32-bit ids"
+        ));
+    }
+    let need = width as usize * height as usize * 4;
+    let strip = bytes.get(offset..).unwrap_or(&[]);
+    if length != need || strip.len() < need {
+        return Err(format!(
+            "truncated: {} strip bytes where a {width}×{height} int32 TIFF needs {need}",
+            strip.len().min(length)
+        ));
+    }
+    let data = strip[..need]
+        .chunks_exact(4)
+        .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+        .collect();
+    Ok(DecodedFrame {
+        file: ImageFile::Tiff32,
+        width,
+        height,
+        image: Image::U32(data),
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -379,5 +556,51 @@ mod tests {
         ImageFile::Pgm16.encode(&img, 8, 8, &mut a).expect("a");
         ImageFile::Pgm16.encode(&img, 8, 8, &mut b).expect("b");
         assert_eq!(a, b);
+    }
+
+    #[test]
+    fn every_format_decodes_back_to_its_pixels_and_damage_is_named() {
+        let cases: Vec<(ImageFile, Image)> = vec![
+            (
+                ImageFile::Ppm,
+                Image::U8 {
+                    channels: 3,
+                    data: (0..18).collect(),
+                },
+            ),
+            (
+                ImageFile::Pgm8,
+                Image::U8 {
+                    channels: 1,
+                    data: (0..6).collect(),
+                },
+            ),
+            (
+                ImageFile::Pgm16,
+                Image::U16(vec![0, 1, 255, 256, 40000, 65535]),
+            ),
+            (
+                ImageFile::Pfm,
+                Image::F32 {
+                    channels: 1,
+                    data: vec![0.0, 1.5, -2.0, 3.25, 4.0, 5.5],
+                },
+            ),
+            (
+                ImageFile::Tiff32,
+                Image::U32(vec![0, 1, 70000, 5, 6, 2147483647]),
+            ),
+        ];
+        for (file, image) in cases {
+            let mut out = Vec::new();
+            file.encode(&image, 3, 2, &mut out).expect("encode");
+            let back = decode(&out).expect("decode");
+            assert_eq!((back.file, back.width, back.height), (file, 3, 2));
+            assert_eq!(back.image, image, "{file:?}");
+            let cut = decode(&out[..out.len() - 1]).unwrap_err();
+            assert!(cut.starts_with("truncated"), "{file:?}: {cut}");
+        }
+        assert!(decode(b"").is_err());
+        assert!(decode(b"P6\n3 x\n255\n").unwrap_err().contains("`x`"));
     }
 }

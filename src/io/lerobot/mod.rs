@@ -263,7 +263,8 @@ pub fn write_dataset(
             if out.exists() {
                 std::fs::rename(out, &old).map_err(io(out))?;
             }
-            std::fs::rename(&tmp, out).map_err(io(out))?;
+            // Every file of the copy on disk before it takes the final name.
+            crate::atomic::rename_durably(&tmp, out).map_err(io(out))?;
             if old.exists() {
                 std::fs::remove_dir_all(&old).map_err(io(&old))?;
             }

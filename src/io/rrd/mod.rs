@@ -282,7 +282,7 @@ impl RrdFile {
             w.flush().map_err(|e| self.error(e))?;
             w.get_ref().sync_all().map_err(|e| self.error(e))?;
         }
-        std::fs::rename(&self.tmp, &self.path).map_err(|e| self.error(e))?;
+        crate::atomic::rename_durably(&self.tmp, &self.path).map_err(|e| self.error(e))?;
         Ok(self.path.clone())
     }
 }
