@@ -3,10 +3,13 @@
 # scan-like Matterport3D houses of 1 M and 3 M triangles (`minos generate --scan`), then
 #   - the CPU ray caster, one core, colour + depth + semantic per size (`bench render`);
 #   - the GPU (`bench render --renderer wgpu`): one observation at a time, batches of $BATCH
-#     views with one submission and read-back (ids + depth), and the same with colour, depth
-#     and semantic images derived on all threads — every GPU figure by the wall clock;
+#     views with one submission and read-back (ids + depth), the same with colour, depth
+#     and semantic images derived on all threads, and with those images derived on the GPU
+#     (its second compute pass) and read back finished — every GPU figure by the wall clock;
 #   - the oracle's rollout loop on all threads, CPU and wgpu (`bench run`): each thread its
-#     own simulator, and $ENVS environments stepped together (one render call per step);
+#     own simulator, and $ENVS environments stepped together (one render call per step) —
+#     on wgpu with the images derived on the GPU (the default) and, again, on the host
+#     (MINOS_GPU_DERIVE=0);
 #   - VectorNavEnv with random actions, CPU and wgpu, $VEC_ENVS environments (default
 #     256,1024), where the `minos` Python package is importable.
 # SIZES="" skips the rendering rows, EPISODES=0 the rollout rows.
@@ -51,6 +54,9 @@ for tris in $SCANS; do
     "$MINOS" bench run --data "$d/DATA" --episodes "$EPISODES" --renderer wgpu --envs "$ENVS" $RUN_FLAGS --json \
         >"$WORK/json/run-wgpu-$tris.json" 2>"$WORK/json/run-wgpu-$tris.err" ||
         echo "wgpu run $tris: $(tail -1 "$WORK/json/run-wgpu-$tris.err")"
+    MINOS_GPU_DERIVE=0 "$MINOS" bench run --data "$d/DATA" --episodes "$EPISODES" --renderer wgpu --envs "$ENVS" $RUN_FLAGS --json \
+        >"$WORK/json/run-wgpuhost-$tris.json" 2>"$WORK/json/run-wgpuhost-$tris.err" ||
+        echo "wgpu run (host derivation) $tris: $(tail -1 "$WORK/json/run-wgpuhost-$tris.err")"
 done
 
 # VectorNavEnv with random actions, CPU renderer against wgpu, on the first scan (where the
@@ -87,23 +93,20 @@ def rate(report, stage):
 files = sorted(folder.glob("render-cpu-*.json"))
 adapter = next((r["adapter"] for f in folder.glob("render-wgpu-*.json") if (r := load(f.name)) and r.get("adapter")), None)
 print(f"adapter: {adapter or 'none (wgpu rows missing)'}\n")
-print("| scene | triangles | size | CPU, 1 core (fps) | GPU, one view at a time (fps, wall) | GPU batch, ids + depth (fps, wall) | GPU batch + colour, depth, semantic, all threads (fps, wall) |")
-print("|---|---|---|---|---|---|---|")
+print("| scene | triangles | size | CPU, 1 core (fps) | GPU, one view at a time (fps, wall) | GPU batch, ids + depth (fps, wall) | GPU batch + colour, depth, semantic derived on all threads (fps, wall) | the same derived on the GPU (fps, wall) |")
+print("|---|---|---|---|---|---|---|---|")
 keys = sorted({tuple(map(int, f.stem.split("-")[2:4])) for f in files})
 for tris, size in keys:
     cpu = load(f"render-cpu-{tris}-{size}.json")
     gpu = load(f"render-wgpu-{tris}-{size}.json")
-    stages = [s["stage"] for s in (gpu or {"stages": []})["stages"]]
-    batch = next((s for s in stages if s.startswith("gpu batch:")), None)
-    images = next((s for s in stages if s.startswith("gpu batch +")), None)
-    print(f'| scan {tris:,} | {cpu["triangles"]:,} | {size}² | {rate(cpu, "render")} | {rate(gpu, "render")} | {rate(gpu, batch)} | {rate(gpu, images)} |')
+    print(f'| scan {tris:,} | {cpu["triangles"]:,} | {size}² | {rate(cpu, "render")} | {rate(gpu, "render")} | {rate(gpu, "gpu batch: ids + depth")} | {rate(gpu, "gpu batch + colour, depth, semantic (all threads)")} | {rate(gpu, "gpu batch + colour, depth, semantic derived on the GPU")} |')
 print()
-print("| scene | oracle rollout, 1 core, CPU (steps/s) | all threads, CPU | all threads, wgpu | batched envs, CPU | batched envs, wgpu |")
-print("|---|---|---|---|---|---|")
+print("| scene | oracle rollout, 1 core, CPU (steps/s) | all threads, CPU | all threads, wgpu | batched envs, CPU | batched envs, wgpu (images derived on the GPU) | batched envs, wgpu, images derived on the host |")
+print("|---|---|---|---|---|---|---|")
 for f in sorted(folder.glob("run-cpu-*.json")):
     tris = int(f.stem.split("-")[2])
-    cpu, gpu = load(f.name), load(f"run-wgpu-{tris}.json")
-    print(f'| scan {tris:,} ({cpu["threads"]} threads, {cpu.get("envs", 0)} envs) | {rate(cpu, "rollout loop")} | {rate(cpu, "rollout loop, all threads")} | {rate(gpu, "rollout loop, all threads")} | {rate(cpu, "rollout loop, batched")} | {rate(gpu, "rollout loop, batched")} |')
+    cpu, gpu, host = load(f.name), load(f"run-wgpu-{tris}.json"), load(f"run-wgpuhost-{tris}.json")
+    print(f'| scan {tris:,} ({cpu["threads"]} threads, {cpu.get("envs", 0)} envs) | {rate(cpu, "rollout loop")} | {rate(cpu, "rollout loop, all threads")} | {rate(gpu, "rollout loop, all threads")} | {rate(cpu, "rollout loop, batched")} | {rate(gpu, "rollout loop, batched")} | {rate(host, "rollout loop, batched")} |')
 vec = folder / "vector_env.txt"
 if vec.exists():
     print()

@@ -193,9 +193,15 @@ fn bench_render_on_wgpu_times_batches_by_the_wall_clock() {
         "render",
         "gpu batch: ids + depth",
         "gpu batch + colour, depth, semantic (all threads)",
+        "gpu batch + colour, depth, semantic derived on the GPU",
     ] {
         assert_eq!(clock(&v, name), "wall", "{name}");
     }
+    assert_eq!(
+        count(&v, "gpu batch + colour, depth, semantic derived on the GPU") % 5,
+        0,
+        "whole batches"
+    );
     assert_eq!(count(&v, "render"), 3);
     let frames = count(&v, "gpu batch: ids + depth");
     assert!(

@@ -567,6 +567,133 @@ fn wgpu_renders_views_of_several_scenes_in_one_batch() {
     assert!(share >= 0.995, "{share}");
 }
 
+/// The images the GPU derives in its second pass (`render/gpu/derive.wgsl`) are those the CPU
+/// derives from the same frame: labels, instances, rooms, room classes and normals exactly,
+/// linear depth to single-precision rounding, colour within one level on a few pixels — for
+/// textured generated houses, in one batch whose views alternate between two scenes. The ids
+/// and depth of the batch are those of a batch that derives nothing.
+#[test]
+fn wgpu_derives_the_images_the_cpu_derives_from_its_frames() {
+    use minos::render::{Channel, Channels, Taxonomy};
+    let mut gpu = match minos::render::gpu::GpuRenderer::new() {
+        Ok(g) => g,
+        Err(e) => {
+            eprintln!("skipped: {e}");
+            return;
+        }
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let (root, data) = (dir.path().join("suncg"), dir.path().join("DATA"));
+    let cfg = minos::generate::GenerateConfig {
+        houses: 2,
+        seed: 4,
+        rooms: (4, 6),
+        levels: (1, 1),
+        closed_door_prob: 0.25,
+    };
+    let plans = common::generate_into(&cfg, &root);
+    common::ingest_into(&root, &data);
+    let scenes: Vec<RenderScene> = plans
+        .iter()
+        .map(|p| {
+            RenderScene::new(
+                &minos::store::DataDir::new(&data)
+                    .read_scene(&p.id)
+                    .unwrap()
+                    .1,
+            )
+        })
+        .collect();
+    assert!(
+        scenes.iter().all(|s| !s.textures.is_empty()),
+        "textures are covered"
+    );
+    let slots: Vec<_> = scenes.iter().map(|s| gpu.add_scene(s).unwrap()).collect();
+    let mut views = Vec::new();
+    for k in 0..4 {
+        for (plan, slot) in plans.iter().zip(&slots) {
+            for r in &plan.levels[0].rooms {
+                let c = [
+                    (r.rect.x0 + r.rect.x1) as f32 / 2.0,
+                    (r.rect.z0 + r.rect.z1) as f32 / 2.0,
+                ];
+                views.push(minos::render::gpu::View {
+                    scene: *slot,
+                    camera: Camera {
+                        position: Vec3::new(c[0], 1.09, c[1]),
+                        yaw: k as f32 * FRAC_PI_2 + 0.3,
+                        tilt: -0.2,
+                        vfov_deg: 60.0,
+                        width: 84,
+                        height: 66,
+                        near: 0.01,
+                        far: 50.0,
+                    },
+                });
+            }
+        }
+    }
+    let all = Channels::all();
+    let derived = gpu.render_views_with(&views, all).unwrap();
+    let plain = gpu.render_views(&views).unwrap();
+    let (mut color_eq, mut color_n, mut hits) = (0usize, 0usize, 0usize);
+    let mut depth_err = 0f32;
+    for ((v, d), p) in views.iter().zip(&derived).zip(&plain) {
+        assert_eq!(
+            (&d.tri, &d.depth),
+            (&p.tri, &p.depth),
+            "deriving changes no frame"
+        );
+        assert!(p.derived.is_none());
+        let got = d.derived.as_deref().expect("the GPU derived images");
+        let rs = &scenes[v.scene.0];
+        let cam = &v.camera;
+        for t in [Taxonomy::Nyu40, Taxonomy::Mpcat40, Taxonomy::Coarse] {
+            let slot = minos::render::derived::taxonomy_slot(t);
+            assert!(all.contains(Channel::Semantic(t)));
+            assert_eq!(
+                got.semantic[slot].as_ref(),
+                Some(&p.semantic(rs, t)),
+                "{t:?}"
+            );
+        }
+        assert_eq!(got.instance.as_ref(), Some(&p.instance(rs)));
+        assert_eq!(got.room.as_ref(), Some(&p.room(rs)));
+        assert_eq!(got.room_class.as_ref(), Some(&p.room_class(rs)));
+        assert_eq!(got.normals.as_ref(), Some(&p.normals(rs)));
+        let (dg, dc) = (got.linear_depth.as_ref().unwrap(), p.linear_depth(cam));
+        for (a, b) in dg.iter().zip(&dc) {
+            assert_eq!(*a == 0.0, *b == 0.0, "nothing hit in both or neither");
+            depth_err = depth_err.max((a - b).abs() / b.max(1e-3));
+        }
+        let (cg, cc) = (got.color.as_ref().unwrap(), p.color(rs, cam));
+        for (a, b) in cg.iter().zip(&cc) {
+            for k in 0..3 {
+                assert!(a[k].abs_diff(b[k]) <= 1, "colour {a:?} against {b:?}");
+            }
+            color_eq += usize::from(a == b);
+            color_n += 1;
+        }
+        hits += p
+            .tri
+            .iter()
+            .filter(|&&t| t != minos::render::NO_HIT)
+            .count();
+        // The frame's methods read the derived images.
+        assert_eq!(&d.color(rs, cam), cg);
+        assert_eq!(d.instance(rs), p.instance(rs));
+    }
+    let equal = color_eq as f64 / color_n as f64;
+    eprintln!(
+        "GPU derivation: colour equal on {:.3}% of pixels, depth within {depth_err:e} ({})",
+        100.0 * equal,
+        gpu.adapter_name()
+    );
+    assert!(hits > color_n / 2, "the cameras see the houses");
+    assert!(depth_err < 1e-5, "{depth_err}");
+    assert!(equal >= 0.999, "{equal}");
+}
+
 /// Simulators stepped together (`sim::batch::step_many`: motion in parallel, every camera in
 /// one render call per shared renderer) observe exactly what each observes stepped alone, on
 /// the CPU renderer and, where an adapter exists, on wgpu (one submission for all of them).

@@ -49,6 +49,19 @@ pub fn densify(base: &RenderScene, boxes: usize, target: usize, seed: u64) -> Re
     subdivide(&cluttered, n)
 }
 
+/// `base` made dense to about `target` triangles less those of `boxes` clutter boxes, then
+/// filled with the boxes (12 triangles each, not split): a room of many small objects, the
+/// kind of scene where boxes overlap and a BVH's nodes do too (`densify` splits the boxes
+/// with the surfaces, which keeps each node small).
+pub fn cluttered(base: &RenderScene, boxes: usize, target: usize, seed: u64) -> RenderScene {
+    let surfaces = target.saturating_sub(boxes * BOX_TRIS);
+    let n = ((surfaces as f64 / base.triangle_count().max(1) as f64)
+        .sqrt()
+        .round() as usize)
+        .max(1);
+    clutter(&subdivide(base, n), boxes, seed)
+}
+
 /// Adds `boxes` boxes (10–40 cm) on random upward-facing triangles, each its own object.
 fn clutter(base: &RenderScene, boxes: usize, seed: u64) -> RenderScene {
     let mut out = base.clone();

@@ -48,7 +48,7 @@ use crate::store::DataDir;
 mod batched;
 mod gpu;
 pub use batched::BATCHED;
-pub use gpu::{GPU_BATCH, GPU_IMAGES};
+pub use gpu::{GPU_BATCH, GPU_DERIVED, GPU_IMAGES};
 
 /// Which benchmark to run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

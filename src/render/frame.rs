@@ -5,6 +5,7 @@
 use glam::Vec3;
 
 use super::camera::Camera;
+use super::derived::{taxonomy_slot, Derived};
 use super::labels::Taxonomy;
 use super::prefetch::prefetch;
 use super::scene::RenderScene;
@@ -13,9 +14,9 @@ use super::scene::RenderScene;
 pub const NO_HIT: u32 = u32::MAX;
 
 /// Direction towards the light (world, normalised at use).
-const LIGHT: [f32; 3] = [0.35, 1.0, 0.55];
+pub(crate) const LIGHT: [f32; 3] = [0.35, 1.0, 0.55];
 /// Ambient share of the shading.
-const AMBIENT: f32 = 0.35;
+pub(crate) const AMBIENT: f32 = 0.35;
 
 /// How many pixels ahead [`Frame::color`] asks for a triangle's record: a frame's pixels
 /// show triangles scattered over the scene's arrays, and each would otherwise wait on memory
@@ -98,6 +99,9 @@ pub struct Frame {
     pub tri: Vec<u32>,
     /// Depth-buffer value per pixel in [0, 1] (1 when no hit).
     pub depth: Vec<f32>,
+    /// Images the renderer derived itself (the GPU ray tracer, when asked); the methods
+    /// below return them where present and derive on the CPU otherwise.
+    pub derived: Option<Box<Derived>>,
 }
 
 impl Frame {
@@ -109,13 +113,25 @@ impl Frame {
             height,
             tri: vec![NO_HIT; n],
             depth: vec![1.0; n],
+            derived: None,
         }
+    }
+
+    /// The renderer's image `pick` chooses, where it derived one.
+    fn derived_image<'a, T>(
+        &'a self,
+        pick: impl Fn(&'a Derived) -> &'a Option<T>,
+    ) -> Option<&'a T> {
+        self.derived.as_deref().and_then(|d| pick(d).as_ref())
     }
 
     /// Shaded RGB colour: the material colour, times the texture where the triangle has one
     /// (bilinear, coordinates exact at the pixel centre's ray), with one directional light
     /// plus ambient (both faces lit alike). Black where nothing is hit.
     pub fn color(&self, scene: &RenderScene, camera: &Camera) -> Vec<[u8; 3]> {
+        if let Some(c) = self.derived_image(|d| &d.color) {
+            return c.clone();
+        }
         let light = Vec3::from_array(LIGHT).normalize();
         let rays =
             (!scene.textures.is_empty()).then(|| PixelRays::new(camera, self.width, self.height));
@@ -150,6 +166,9 @@ impl Frame {
 
     /// Linear depth in metres along the viewing axis (0 where nothing is hit).
     pub fn linear_depth(&self, camera: &Camera) -> Vec<f32> {
+        if let Some(d) = self.derived_image(|d| &d.linear_depth) {
+            return d.clone();
+        }
         self.tri
             .iter()
             .zip(&self.depth)
@@ -165,6 +184,9 @@ impl Frame {
 
     /// World-space unit normals (zero where nothing is hit).
     pub fn normals(&self, scene: &RenderScene) -> Vec<[f32; 3]> {
+        if let Some(n) = self.derived_image(|d| &d.normals) {
+            return n.clone();
+        }
         self.tri
             .iter()
             .map(|&t| {
@@ -179,6 +201,9 @@ impl Frame {
 
     /// Semantic class per pixel in `taxonomy` (0 = void).
     pub fn semantic(&self, scene: &RenderScene, taxonomy: Taxonomy) -> Vec<u16> {
+        if let Some(s) = self.derived_image(|d| &d.semantic[taxonomy_slot(taxonomy)]) {
+            return s.clone();
+        }
         self.tri
             .iter()
             .map(|&t| match (t, taxonomy) {
@@ -192,6 +217,9 @@ impl Frame {
 
     /// Object instance per pixel (object index + 1; 0 for architecture and background).
     pub fn instance(&self, scene: &RenderScene) -> Vec<u32> {
+        if let Some(i) = self.derived_image(|d| &d.instance) {
+            return i.clone();
+        }
         self.tri
             .iter()
             .map(|&t| {
@@ -206,6 +234,9 @@ impl Frame {
 
     /// Room per pixel (room index + 1; 0 outside rooms).
     pub fn room(&self, scene: &RenderScene) -> Vec<u32> {
+        if let Some(r) = self.derived_image(|d| &d.room) {
+            return r.clone();
+        }
         self.tri
             .iter()
             .map(|&t| {
@@ -220,6 +251,9 @@ impl Frame {
 
     /// MINOS room class per pixel (0 also for none).
     pub fn room_class(&self, scene: &RenderScene) -> Vec<u8> {
+        if let Some(r) = self.derived_image(|d| &d.room_class) {
+            return r.clone();
+        }
         self.tri
             .iter()
             .map(|&t| {

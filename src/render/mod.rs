@@ -1,11 +1,12 @@
 //! Rendering: the scene as a triangle soup with per-triangle attributes (`scene`), the camera
-//! model (`camera`), frames and the images derived from them (`frame`), label taxonomies
+//! model (`camera`), frames and the images derived from them (`frame`; images a renderer derived itself, `derived`), label taxonomies
 //! (`labels`), the images sensors produce (`image`), textures (`texture`, `texture_library`), and two renderers producing the same frames, chosen in `renderer`: the CPU rasteriser (`cpu`, always
 //! available) and wgpu (`gpu`, when an adapter exists).
 
 pub mod bvh;
 pub mod camera;
 pub mod cpu;
+pub mod derived;
 pub mod frame;
 pub mod gpu;
 pub mod image;
@@ -19,6 +20,7 @@ pub mod texture_library;
 pub mod visualize;
 
 pub use camera::Camera;
+pub use derived::{Channel, Channels};
 pub use frame::{Frame, NO_HIT};
 pub use image::{Image, Modality};
 pub use labels::Taxonomy;

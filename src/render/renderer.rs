@@ -2,7 +2,7 @@
 //! exists, else the CPU, saying why in the log). Both produce the same frames.
 
 use super::gpu::{GpuError, GpuRenderer};
-use super::{cpu, Camera, Frame, RenderScene};
+use super::{cpu, Camera, Channels, Frame, RenderScene};
 
 /// Which renderer to use.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -69,6 +69,18 @@ impl Renderer {
 
     /// Renders cameras (any resolutions) in order.
     pub fn render(&self, scene: &RenderScene, cameras: &[Camera]) -> Result<Vec<Frame>, GpuError> {
+        self.render_with(scene, cameras, Channels::NONE)
+    }
+
+    /// [`Renderer::render`], asking a GPU renderer that derives images
+    /// ([`GpuRenderer::derives_images`]) for those of `channels` too; the CPU renderer's
+    /// frames carry none (its images are derived from the frame when read).
+    pub fn render_with(
+        &self,
+        scene: &RenderScene,
+        cameras: &[Camera],
+        channels: Channels,
+    ) -> Result<Vec<Frame>, GpuError> {
         match self {
             Renderer::Cpu => Ok(cameras.iter().map(|c| cpu::render(scene, c)).collect()),
             Renderer::Gpu(g) => {
@@ -87,7 +99,12 @@ impl Renderer {
                         })
                         .collect();
                     let cams: Vec<Camera> = group.iter().map(|&j| cameras[j]).collect();
-                    for (j, f) in group.iter().zip(g.render_batch(&cams)?) {
+                    let channels = if g.derives_images() {
+                        channels
+                    } else {
+                        Channels::NONE
+                    };
+                    for (j, f) in group.iter().zip(g.render_batch_with(&cams, channels)?) {
                         frames[*j] = Some(f);
                         done[*j] = true;
                     }

@@ -12,7 +12,7 @@ use rayon::prelude::*;
 use super::agent::Actions;
 use super::simulator::{Observation, Renderer, Simulator, Views};
 use crate::render::gpu::GpuError;
-use crate::render::{Camera, Frame};
+use crate::render::{Camera, Channels, Frame};
 
 /// Applies each simulator's actions (`actions[i]` to `sims[i]`) and observes them all.
 pub fn step_many(
@@ -48,7 +48,13 @@ pub fn observe_many(sims: &mut [&mut Simulator]) -> Vec<Result<Observation, GpuE
             .iter()
             .flat_map(|&i| views[i].unique.iter().copied())
             .collect();
-        match first.renderer().render(&first.assets().render, &cameras) {
+        let channels = members
+            .iter()
+            .fold(Channels::NONE, |c, &i| c.union(sims[i].image_channels()));
+        match first
+            .renderer()
+            .render_with(&first.assets().render, &cameras, channels)
+        {
             Ok(rendered) => {
                 let mut rendered = rendered.into_iter();
                 for &i in members {
@@ -70,7 +76,11 @@ pub fn observe_many(sims: &mut [&mut Simulator]) -> Vec<Result<Observation, GpuE
             let frames = match rendered {
                 Some(Ok(f)) => f,
                 Some(Err(e)) => return Err(GpuError::Render(e)),
-                None => sim.renderer().render(&sim.assets().render, &v.unique)?,
+                None => sim.renderer().render_with(
+                    &sim.assets().render,
+                    &v.unique,
+                    sim.image_channels(),
+                )?,
             };
             Ok(sim.observation_from(v, &frames))
         })

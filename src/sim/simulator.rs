@@ -13,7 +13,7 @@ use crate::navmesh::NavGrid;
 use crate::render::cpu::Method;
 use crate::render::gpu::GpuError;
 pub use crate::render::renderer::{Renderer, RendererChoice};
-use crate::render::{Camera, Frame, RenderScene};
+use crate::render::{Camera, Channels, Frame, RenderScene};
 use crate::scene::Scene;
 use crate::seed::{derive_seed, Rng};
 
@@ -501,8 +501,18 @@ impl Simulator {
     /// Observes the current state (sensors and measurements) without stepping.
     pub fn observe(&mut self) -> Result<Observation, GpuError> {
         let views = self.views();
-        let frames = self.renderer.render(&self.assets.render, &views.unique)?;
+        let frames =
+            self.renderer
+                .render_with(&self.assets.render, &views.unique, self.image_channels())?;
         Ok(self.observation_from(&views, &frames))
+    }
+
+    /// The images the simulator's camera sensors read from their frames (what a GPU
+    /// renderer is asked to derive).
+    pub(crate) fn image_channels(&self) -> Channels {
+        self.sensors.cameras.iter().fold(Channels::NONE, |c, s| {
+            c.union(Channels::for_modality(s.modality, s.taxonomy))
+        })
     }
 
     /// The cameras to render for an observation. Sensors that share a camera (colour,

@@ -1,8 +1,9 @@
 //! `bench render`'s batched GPU stages: the scene's views rendered in batches of
 //! [`BenchConfig::batch`] views with one submission and one read-back each, as batched
 //! stepping renders, then the same with colour, linear depth and semantic images derived from
-//! the frames on all threads. Both are timed by the wall clock, which — unlike this thread's
-//! CPU time — includes waiting for the GPU.
+//! the frames on all threads, and with those images derived on the GPU (its second compute
+//! pass) and read back finished. All are timed by the wall clock, which — unlike this
+//! thread's CPU time — includes waiting for the GPU.
 
 use std::hint::black_box;
 use std::time::Instant;
@@ -12,13 +13,15 @@ use rayon::prelude::*;
 
 use super::{BenchConfig, BenchError, Stage};
 use crate::render::gpu::{GpuRenderer, SceneSlot, View};
-use crate::render::{RenderScene, Taxonomy};
+use crate::render::{Channel, Channels, RenderScene, Taxonomy};
 use crate::sim::Simulator;
 
 /// Name of the stage that renders batches (triangle ids and depth, read back).
 pub const GPU_BATCH: &str = "gpu batch: ids + depth";
 /// Name of the stage that renders batches and derives the images on all threads.
 pub const GPU_IMAGES: &str = "gpu batch + colour, depth, semantic (all threads)";
+/// Name of the stage that renders batches with the images derived on the GPU.
+pub const GPU_DERIVED: &str = "gpu batch + colour, depth, semantic derived on the GPU";
 
 /// Batches are repeated for at least this long (seconds), after one batch to warm up.
 const MIN_SECONDS: f64 = 1.0;
@@ -53,7 +56,31 @@ pub(super) fn batches(
             Ok(())
         })
     })?;
-    Ok(vec![stage(GPU_BATCH, ids), stage(GPU_IMAGES, images)])
+    // The same images, derived by the GPU's second pass and read back with the frames (the
+    // frames' methods hand them out; a view whose rays overflowed is derived here).
+    let channels = Channels::NONE
+        .with(Channel::Color)
+        .with(Channel::Depth)
+        .with(Channel::Semantic(Taxonomy::Nyu40));
+    let mut stages = vec![stage(GPU_BATCH, ids), stage(GPU_IMAGES, images)];
+    if gpu.method() != crate::render::gpu::GpuMethod::RayTrace {
+        return Ok(stages);
+    }
+    let derived = pool.install(|| {
+        repeat(views.len(), || {
+            let frames = gpu
+                .render_views_with(&views, channels)
+                .map_err(|e| err(&e))?;
+            frames.par_iter().zip(&views).for_each(|(f, v)| {
+                black_box(f.color(scene, &v.camera));
+                black_box(f.linear_depth(&v.camera));
+                black_box(f.semantic(scene, Taxonomy::Nyu40));
+            });
+            Ok(())
+        })
+    })?;
+    stages.push(stage(GPU_DERIVED, derived));
+    Ok(stages)
 }
 
 /// A wall-clock stage of `(frames, seconds)`.

@@ -7,11 +7,15 @@
 //! uploaded side by side, and a batch of views — each a camera on one of them, all of one
 //! resolution — renders with one command encoder, one submission and one read-back; batches
 //! larger than the device's buffer or texture limits are split into as few submissions as fit.
+//! The ray tracer can also derive a batch's images (colour, linear depth, normals, labels) in a
+//! second compute pass (`derive.rs`), so they are read back finished ([`Channels`]).
 
+mod derive;
 mod raster;
 mod trace;
 
 use super::camera::Camera;
+use super::derived::Channels;
 use super::frame::Frame;
 use super::scene::RenderScene;
 
@@ -87,7 +91,14 @@ pub struct GpuRenderer {
     adapter: wgpu::AdapterInfo,
     /// The uploaded scenes, by [`SceneSlot`].
     scenes: Vec<Uploaded>,
+    /// Whether simulators observing through this renderer have their images derived on the
+    /// GPU ([`GpuRenderer::derives_images`]).
+    derive_images: bool,
 }
+
+/// The environment variable that, set to `0`, makes simulators derive images from a GPU
+/// renderer's ids and depth on the host instead of on the GPU (to measure the difference).
+pub const DERIVE_ENV: &str = "MINOS_GPU_DERIVE";
 
 /// An uploaded scene of a [`GpuRenderer`] (see [`GpuRenderer::add_scene`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -161,6 +172,7 @@ impl GpuRenderer {
             pipeline,
             adapter: info,
             scenes: Vec::new(),
+            derive_images: std::env::var_os(DERIVE_ENV).is_none_or(|v| v != "0"),
         })
     }
 
@@ -170,6 +182,18 @@ impl GpuRenderer {
             Pipeline::Trace(_) => GpuMethod::RayTrace,
             Pipeline::Raster(_) => GpuMethod::Rasterise,
         }
+    }
+
+    /// Whether simulators observing through this renderer ask it for finished images (the
+    /// default with the ray-tracing method; off with `MINOS_GPU_DERIVE=0` or
+    /// [`GpuRenderer::set_derives_images`]). The rasterising method never derives.
+    pub fn derives_images(&self) -> bool {
+        self.derive_images && self.method() == GpuMethod::RayTrace
+    }
+
+    /// Turns deriving images on the GPU for simulators on or off.
+    pub fn set_derives_images(&mut self, on: bool) {
+        self.derive_images = on;
     }
 
     /// Whether the adapter is a software one (lavapipe, WARP, SwiftShader: the CPU).
@@ -197,7 +221,7 @@ impl GpuRenderer {
     /// does not fit the device's buffer limits.
     pub fn add_scene(&mut self, scene: &RenderScene) -> Result<SceneSlot, GpuError> {
         let uploaded = match &self.pipeline {
-            Pipeline::Trace(t) => Uploaded::Trace(t.upload(&self.device, scene.bvh())?),
+            Pipeline::Trace(t) => Uploaded::Trace(t.upload(&self.device, scene)?),
             Pipeline::Raster(_) => Uploaded::Raster(raster::Raster::upload(&self.device, scene)),
         };
         self.scenes.push(uploaded);
@@ -212,6 +236,16 @@ impl GpuRenderer {
     /// Renders cameras of one resolution on the scene of [`GpuRenderer::upload`] (slot 0)
     /// in one submission. Frames come back in camera order.
     pub fn render_batch(&self, cameras: &[Camera]) -> Result<Vec<Frame>, GpuError> {
+        self.render_batch_with(cameras, Channels::NONE)
+    }
+
+    /// [`GpuRenderer::render_batch`] with the images of `channels` derived on the GPU
+    /// ([`GpuRenderer::render_views_with`]).
+    pub fn render_batch_with(
+        &self,
+        cameras: &[Camera],
+        channels: Channels,
+    ) -> Result<Vec<Frame>, GpuError> {
         let views: Vec<View> = cameras
             .iter()
             .map(|&camera| View {
@@ -219,7 +253,7 @@ impl GpuRenderer {
                 camera,
             })
             .collect();
-        self.render_views(&views)
+        self.render_views_with(&views, channels)
     }
 
     /// Renders views (cameras on any uploaded scenes, one resolution) with one command
@@ -227,6 +261,19 @@ impl GpuRenderer {
     /// device's limits); frames come back in view order, each frame's triangle ids those of
     /// its own scene.
     pub fn render_views(&self, views: &[View]) -> Result<Vec<Frame>, GpuError> {
+        self.render_views_with(views, Channels::NONE)
+    }
+
+    /// [`GpuRenderer::render_views`], each frame also carrying the images of `channels`
+    /// derived on the GPU in the same submission and read back with the ids and depth
+    /// ([`Frame::derived`]; the ray-tracing method only — the rasteriser's frames carry none,
+    /// and neither does a view whose rays the host cast again: [`Frame`]'s methods then
+    /// derive on the CPU).
+    pub fn render_views_with(
+        &self,
+        views: &[View],
+        channels: Channels,
+    ) -> Result<Vec<Frame>, GpuError> {
         let Some(first) = views.first() else {
             return Ok(Vec::new());
         };
@@ -260,7 +307,7 @@ impl GpuRenderer {
                         Uploaded::Raster(_) => None,
                     })
                     .collect();
-                t.render(device, queue, &scenes, views, (w, h))
+                t.render(device, queue, &scenes, views, (w, h), channels)
             }
             Pipeline::Raster(r) => {
                 let scenes: Vec<&raster::RasterScene> = self
@@ -351,6 +398,13 @@ mod tests {
         }
         assert!(hits > total / 2, "the cameras see the triangles");
         assert!(equal as f64 >= 0.995 * total as f64, "{equal} of {total}");
+        // Asked for images, such views come back without the GPU's (which saw the overflow
+        // marker), so the frame's methods derive them from the recast ids.
+        let derived = gpu.render_batch_with(&cameras, Channels::all()).unwrap();
+        for (f, d) in frames.iter().zip(&derived) {
+            assert_eq!((&f.tri, &f.depth), (&d.tri, &d.depth));
+            assert!(d.derived.is_none());
+        }
     }
 
     fn env<'a>(vars: &'a [(&'a str, &'a str)]) -> impl Fn(&str) -> Option<std::ffi::OsString> + 'a {

@@ -12,13 +12,19 @@
 //! tolerances (`tests/sim.rs`), not bit for bit. Its traversal stack holds [`STACK`] entries;
 //! a scene whose tree is deeper than that guarantees keeps a CPU copy of its hierarchy, and
 //! the rare pixels whose stack overflowed are cast again on the CPU.
+//!
+//! Where a batch asks for images ([`Channels`]), a second pass (`derive.rs`) derives them on
+//! the GPU from the ids and depth in the same submission, and they are read back with them.
 
 use rayon::prelude::*;
 use wgpu::util::DeviceExt;
 
+use super::derive::{self, DerivedScene, Deriver};
 use super::{GpuError, View};
 use crate::render::bvh::{Bvh, Ray};
+use crate::render::derived::Channels;
 use crate::render::frame::{Frame, PixelRays, RayBasis, NO_HIT};
+use crate::render::scene::RenderScene;
 
 /// The shader.
 const SHADER: &str = include_str!("trace.wgsl");
@@ -66,6 +72,8 @@ pub(super) struct Tracer {
     stack: usize,
     /// Buffer sets of earlier batches, reused by later ones (one per batch in flight).
     pool: std::sync::Mutex<Vec<BufferSet>>,
+    /// The second pass, deriving images from the ids and depth.
+    deriver: Deriver,
 }
 
 /// The buffers of one batch in flight and their bind group.
@@ -81,6 +89,9 @@ struct BufferSet {
     out: wgpu::Buffer,
     readback: wgpu::Buffer,
     bind: wgpu::BindGroup,
+    /// The derivation pass's uniform blocks (one per dispatch) and bind group.
+    derive_uniform: wgpu::Buffer,
+    derive_bind: wgpu::BindGroup,
 }
 
 /// A scene uploaded for ray tracing.
@@ -89,6 +100,9 @@ pub(super) struct TracedScene {
     /// The hierarchy, kept on the CPU only when it is deeper than the shader's stack
     /// guarantees (to cast the pixels whose stack overflowed).
     fallback: Option<Bvh>,
+    /// Attributes and textures for deriving images on the GPU (`None` where they did not
+    /// fit the device: the host derives that scene's images).
+    derive: Option<DerivedScene>,
 }
 
 /// A storage-buffer binding of the layouts.
@@ -164,6 +178,7 @@ impl Tracer {
             batch_layout,
             stack,
             pool: std::sync::Mutex::new(Vec::new()),
+            deriver: Deriver::new(device),
         }
     }
 
@@ -203,6 +218,35 @@ impl Tracer {
         );
         let out = buffer("trace output", out_bytes, U::STORAGE | U::COPY_SRC);
         let readback = buffer("trace read-back", out_bytes, U::COPY_DST | U::MAP_READ);
+        let derive_uniform = buffer(
+            "derive batches",
+            groups as u64 * BATCH_STRIDE,
+            U::UNIFORM | U::COPY_DST,
+        );
+        let derive_bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("derive batch"),
+            layout: &self.deriver.batch_layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: views_buffer.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: out.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                        buffer: &derive_uniform,
+                        offset: 0,
+                        size: wgpu::BufferSize::new(
+                            std::mem::size_of::<derive::DeriveRecord>() as u64
+                        ),
+                    }),
+                },
+            ],
+        });
         let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("trace batch"),
             layout: &self.batch_layout,
@@ -234,6 +278,8 @@ impl Tracer {
             out,
             readback,
             bind,
+            derive_uniform,
+            derive_bind,
         }
     }
 
@@ -245,9 +291,15 @@ impl Tracer {
         }
     }
 
-    /// Uploads the scene's hierarchy (`bvh`); fails when a buffer exceeds the device's
-    /// storage-binding limit.
-    pub(super) fn upload(&self, device: &wgpu::Device, bvh: &Bvh) -> Result<TracedScene, GpuError> {
+    /// Uploads the scene's hierarchy (built now if it is not yet) and, where they fit, its
+    /// attributes and textures for deriving images; fails when the hierarchy exceeds the
+    /// device's storage-binding limit.
+    pub(super) fn upload(
+        &self,
+        device: &wgpu::Device,
+        scene: &RenderScene,
+    ) -> Result<TracedScene, GpuError> {
+        let bvh = scene.bvh();
         let limit = device.limits().max_storage_buffer_binding_size;
         let buffer = |label, words: Vec<u32>| {
             let bytes = 4 * words.len() as u64;
@@ -284,11 +336,24 @@ impl Tracer {
         });
         // At most three entries are pushed per level of the path being visited.
         let fallback = (3 * bvh.depth() > self.stack).then(|| bvh.clone());
-        Ok(TracedScene { bind, fallback })
+        let derive = match self.deriver.upload(device, scene) {
+            Ok(d) => Some(d),
+            Err(e) => {
+                tracing::warn!("{e}: its images are derived on the CPU");
+                None
+            }
+        };
+        Ok(TracedScene {
+            bind,
+            fallback,
+            derive,
+        })
     }
 
-    /// Renders views of one resolution `w` × `h` (both non-zero) on uploaded `scenes`: as
-    /// many views per submission as the output buffer's binding limit allows.
+    /// Renders views of one resolution `w` × `h` (both non-zero) on uploaded `scenes`, with
+    /// the images of `channels` derived on the GPU (where every scene of the batch has its
+    /// attributes uploaded): as many views per submission as the output buffer's binding
+    /// limit allows.
     pub(super) fn render(
         &self,
         device: &wgpu::Device,
@@ -296,20 +361,28 @@ impl Tracer {
         scenes: &[&TracedScene],
         views: &[View],
         (w, h): (u32, u32),
+        channels: Channels,
     ) -> Result<Vec<Frame>, GpuError> {
-        let frame_bytes = 8 * u64::from(w) * u64::from(h);
+        let channels = if views.iter().all(|v| scenes[v.scene.0].derive.is_some()) {
+            channels
+        } else {
+            Channels::NONE
+        };
+        let frame_bytes =
+            4 * derive::words_per_pixel(channels) as u64 * u64::from(w) * u64::from(h);
         let limits = device.limits();
         let per_submission = (limits.max_storage_buffer_binding_size / frame_bytes)
             .min(u64::from(limits.max_compute_workgroups_per_dimension))
             .max(1) as usize;
         let mut frames = Vec::with_capacity(views.len());
         for chunk in views.chunks(per_submission) {
-            frames.extend(self.render_chunk(device, queue, scenes, chunk, (w, h))?);
+            frames.extend(self.render_chunk(device, queue, scenes, chunk, (w, h), channels)?);
         }
         Ok(frames)
     }
 
-    /// One submission: a dispatch per scene, one copy back.
+    /// One submission: a trace dispatch per scene, a derivation dispatch per scene where
+    /// `channels` asks for images, one copy back.
     fn render_chunk(
         &self,
         device: &wgpu::Device,
@@ -317,6 +390,7 @@ impl Tracer {
         scenes: &[&TracedScene],
         views: &[View],
         (w, h): (u32, u32),
+        channels: Channels,
     ) -> Result<Vec<Frame>, GpuError> {
         let n = views.len();
         // Views sorted by scene (stably), so each scene's views are one dispatch.
@@ -346,10 +420,21 @@ impl Tracer {
                 .copy_from_slice(bytemuck::bytes_of(&record));
         }
         let pixels = w as usize * h as usize;
-        let out_bytes = (2 * n * pixels * 4) as u64;
+        let (at, out_words) = derive::layout(channels, n, pixels);
+        let out_bytes = (out_words * 4) as u64;
         let set = self.buffers(device, n, out_bytes, groups.len());
         queue.write_buffer(&set.views, 0, bytemuck::cast_slice(&records));
         queue.write_buffer(&set.uniform, 0, &uniforms);
+        if !channels.is_empty() {
+            let mut blocks = vec![0u8; groups.len() * BATCH_STRIDE as usize];
+            for (g, &(_, first, _)) in groups.iter().enumerate() {
+                let record = derive::record(first, n as u32, (w, h), at);
+                let at = g * BATCH_STRIDE as usize;
+                blocks[at..at + std::mem::size_of::<derive::DeriveRecord>()]
+                    .copy_from_slice(bytemuck::bytes_of(&record));
+            }
+            queue.write_buffer(&set.derive_uniform, 0, &blocks);
+        }
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("trace"),
         });
@@ -364,13 +449,25 @@ impl Tracer {
                 pass.set_bind_group(1, &set.bind, &[(g as u64 * BATCH_STRIDE) as u32]);
                 pass.dispatch_workgroups(w.div_ceil(TILE), h.div_ceil(TILE), count);
             }
+            if !channels.is_empty() {
+                pass.set_pipeline(&self.deriver.pipeline);
+                for (g, &(scene, _, count)) in groups.iter().enumerate() {
+                    let Some(derived) = &scenes[scene].derive else {
+                        continue;
+                    };
+                    pass.set_bind_group(0, &derived.bind, &[]);
+                    pass.set_bind_group(1, &set.derive_bind, &[(g as u64 * BATCH_STRIDE) as u32]);
+                    pass.dispatch_workgroups(w.div_ceil(TILE), h.div_ceil(TILE), count);
+                }
+            }
         }
         encoder.copy_buffer_to_buffer(&set.out, 0, &set.readback, 0, out_bytes);
         queue.submit([encoder.finish()]);
         let slice = set.readback.slice(..out_bytes);
         let data = super::map_read(device, &slice)?;
         let words: &[u32] = bytemuck::cast_slice(&data);
-        let (ids, depths) = words.split_at(n * pixels);
+        let (ids, rest) = words.split_at(n * pixels);
+        let depths = &rest[..n * pixels];
         let frames: Vec<Frame> = (0..n)
             .into_par_iter()
             .map(|i| {
@@ -385,6 +482,9 @@ impl Tracer {
                 {
                     *d = f32::from_bits(*b);
                 }
+                if !channels.is_empty() {
+                    frame.derived = Some(Box::new(derive::unpack(words, channels, &at, i, pixels)));
+                }
                 frame
             })
             .collect();
@@ -396,6 +496,8 @@ impl Tracer {
             .zip(views)
             .map(|(mut frame, view)| {
                 if frame.tri.contains(&OVERFLOW) {
+                    // The host casts those rays and derives this view's images itself.
+                    frame.derived = None;
                     let bvh = scenes[view.scene.0].fallback.as_ref().ok_or_else(|| {
                         GpuError::Render(
                             "a ray overflowed the traversal stack of a shallow tree".into(),
