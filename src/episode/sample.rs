@@ -320,15 +320,38 @@ fn object_categories(grid: &NavGrid, cfg: &SampleConfig) -> Vec<String> {
     set.into_iter().collect()
 }
 
-/// Levels a path climbs or descends: the sum of the level changes between its consecutive
-/// corner spans.
+/// How far (m) above a level's floor height a floor still counts as that level's.
+const LEVEL_TOLERANCE: f32 = 0.3;
+
+/// The level a floor at height `y` is on: the level whose floor height is the highest at or
+/// below `y` + [`LEVEL_TOLERANCE`] (the lowest level when none is). Heights, not the spans'
+/// level labels, so that floor beside a stairwell (labelled with the stairs' level) and a
+/// half landing count as the floor they are at.
+pub fn level_at_height(grid: &NavGrid, y: f32) -> u32 {
+    let mut best: Option<(f32, usize)> = None;
+    let mut lowest: Option<(f32, usize)> = None;
+    for (k, &h) in grid.level_heights.iter().enumerate() {
+        if lowest.is_none_or(|(lh, _)| h < lh) {
+            lowest = Some((h, k));
+        }
+        if h <= y + LEVEL_TOLERANCE && best.is_none_or(|(bh, _)| h > bh) {
+            best = Some((h, k));
+        }
+    }
+    best.or(lowest).map_or(0, |(_, k)| k as u32)
+}
+
+/// Levels a path climbs or descends: the sum of the level changes ([`level_at_height`])
+/// between its consecutive corner spans.
 pub fn levels_crossed(grid: &NavGrid, spans: &[u32]) -> u32 {
+    let level = |s: u32| {
+        grid.spans
+            .get(s as usize)
+            .map_or(0, |s| i64::from(level_at_height(grid, s.y)))
+    };
     spans
         .windows(2)
-        .map(|w| {
-            let level = |s: u32| grid.spans.get(s as usize).map_or(0, |s| i64::from(s.level));
-            (level(w[1]) - level(w[0])).unsigned_abs() as u32
-        })
+        .map(|w| (level(w[1]) - level(w[0])).unsigned_abs() as u32)
         .sum()
 }
 
@@ -444,12 +467,14 @@ pub fn sample_scene(
         let mut goal_object = None;
         let (goal, mut path, goal_point) = match cfg.task {
             Task::Vln => {
-                // An object that is the only one of its category in its room, and a point
-                // next to it in that room; a random point where the island has none.
+                // An object that is the only one of its category in its room, and the centre
+                // of a span next to it in that room (so within GOAL_RADIUS of it); a random
+                // point where the island has none.
                 let drawn = match vln_goals.get(&island).and_then(|c| rng.pick(c)) {
                     Some((object, spans)) => {
                         goal_object = Some(*object);
-                        grid.random_point_from(&mut rng, spans)
+                        rng.pick(spans)
+                            .map(|&s| (s, grid.span_position(s as usize)))
                     }
                     None => grid.random_point_from(&mut rng, &by_island[&island]),
                 };

@@ -382,15 +382,16 @@ fn join(clauses: Vec<Clause>, detail: Detail, rng: &mut Rng) -> Rendered {
     let mut i = 0;
     while i < clauses.len() {
         let most = if detail == Detail::Brief { 3 } else { 2 };
-        let take = rng.range_usize(1, most + 1).min(clauses.len() - i);
+        let take = rng.range_usize(1, most).min(clauses.len() - i);
         let parts: Vec<&str> = clauses[i..i + take].iter().map(|c| c.text.as_str()).collect();
-        let sentence = match parts.len() {
-            1 => parts[0].to_string(),
-            2 => {
+        let sentence = match parts.as_slice() {
+            [one] => one.to_string(),
+            [a, b] => {
                 let glue = pick(rng, &[" and ", ", then ", " and then "]);
-                format!("{}{glue}{}", parts[0], parts[1])
+                format!("{a}{glue}{b}")
             }
-            _ => format!("{}, {} and {}", parts[0], parts[1], parts[2]),
+            [head @ .., last] => format!("{} and {last}", head.join(", ")),
+            [] => String::new(),
         };
         if !text.is_empty() {
             text.push(' ');

@@ -12,8 +12,9 @@
 //!   less than [`CORNER_MERGE`] apart add up to one turn. Below [`TURN_MIN`] degrees nothing
 //!   is said, below [`TURN_SHARP`] the turn is slight, from [`TURN_AROUND`] it is a turn
 //!   around. The first turn is from the start yaw to the first segment (from 45°).
-//! - **Stairs**: a change of level index between spans the path steps on; changes less than
-//!   [`STAIRS_MERGE`] apart add up (net), and a net change of zero says nothing.
+//! - **Stairs**: a change of level (by floor height: `sample::level_at_height`) between
+//!   spans the path steps on; changes less than [`STAIRS_MERGE`] apart add up (net), and a
+//!   net change of zero says nothing. The route's `levels` follow the stairs said.
 //! - **Landmarks**: per room of the path, the closest distinctive object ([`SceneIndex`])
 //!   whose box lies within [`LANDMARK_DISTANCE`] (XZ) of the path while the path is in that
 //!   room, not the goal object; it is mentioned at the path's closest point, on the side it
@@ -26,6 +27,7 @@
 use glam::{Vec2, Vec3};
 
 use super::landmarks::SceneIndex;
+use crate::episode::sample::level_at_height;
 use crate::navmesh::los::walk_line;
 use crate::navmesh::{NavGrid, NONE};
 
@@ -262,18 +264,16 @@ pub fn walk_route(
     let mut pending: Option<(f32, u32)> = None;
     let mut doors: Vec<u32> = Vec::new();
     let mut level_changes: Vec<(f32, i64)> = Vec::new();
-    let mut levels: Vec<u32> = Vec::new();
+    let mut level_now: Option<u32> = None;
     for &(at, s) in &steps {
         let span = &grid.spans[s as usize];
-        let level = u32::from(span.level);
-        if let Some(&last) = levels.last() {
+        let level = level_at_height(grid, span.y);
+        if let Some(last) = level_now {
             if last != level {
                 level_changes.push((at, i64::from(level) - i64::from(last)));
-                levels.push(level);
             }
-        } else {
-            levels.push(level);
         }
+        level_now = Some(level);
         let start = grid.span_objects.partition_point(|&(t, _)| t < s);
         for &(t, o) in &grid.span_objects[start..] {
             if t != s {
@@ -332,7 +332,11 @@ pub fn walk_route(
             .map(|&(_, r)| r)
     };
 
-    // Stairs: level changes grouped, net.
+    // Stairs: level changes grouped, net; the levels passed follow them.
+    let first_level = steps
+        .first()
+        .map(|&(_, s)| level_at_height(grid, grid.spans[s as usize].y));
+    let mut levels: Vec<u32> = first_level.into_iter().collect();
     let mut k = 0;
     while k < level_changes.len() {
         let (at, mut net) = level_changes[k];
@@ -343,6 +347,9 @@ pub fn walk_route(
             j += 1;
         }
         if net != 0 {
+            if let Some(&last) = levels.last() {
+                levels.push((i64::from(last) + net).max(0) as u32);
+            }
             events.push(Event::Stairs {
                 at,
                 up: net > 0,
