@@ -112,11 +112,7 @@ fn fixture() -> &'static Fixture {
         .episodes;
         assert!(vln.len() >= 4, "only {} VLN episodes", vln.len());
         export_vlnce(&dir.path().join("habitat").join("vln"), "val", &style, &vln).unwrap();
-        Fixture {
-            dir,
-            episodes,
-            vln,
-        }
+        Fixture { dir, episodes, vln }
     })
 }
 
@@ -548,7 +544,10 @@ fn vlnce_export_follows_habitat_labs_vln_episode_and_r2r_tokens() {
             keys_within(&what, &ep["instruction"], &[INSTRUCTION_DATA]);
             assert_eq!(ep["episode_id"].as_u64(), Some(k as u64));
             assert_eq!(ep["trajectory_id"].as_u64(), Some(t as u64 + 1));
-            assert_eq!(ep["instruction"]["instruction_text"].as_str(), Some(text.as_str()));
+            assert_eq!(
+                ep["instruction"]["instruction_text"].as_str(),
+                Some(text.as_str())
+            );
             // Tokens: the vocabulary's words of R2R's tokens, padded with <pad>.
             let tokens: Vec<&str> = ep["instruction"]["instruction_tokens"]
                 .as_array()

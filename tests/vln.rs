@@ -121,7 +121,11 @@ fn point_at(points: &[[f32; 3]], at: f32) -> (Vec3, Vec3) {
         let (a, b) = (Vec3::from_array(w[0]), Vec3::from_array(w[1]));
         let len = a.distance(b);
         if left <= len || std::ptr::eq(w, points.windows(2).last().unwrap()) {
-            let t = if len > 0.0 { (left / len).clamp(0.0, 1.0) } else { 0.0 };
+            let t = if len > 0.0 {
+                (left / len).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
             return (a.lerp(b, t), (b - a).normalize_or_zero());
         }
         left -= len;
@@ -160,8 +164,7 @@ fn rooms_along(grid: &NavGrid, points: &[[f32; 3]]) -> BTreeSet<u32> {
 fn every_landmark_room_and_stop_named_is_grounded_in_the_scene() {
     let batch = run(&vln_config(5), Shard::ALL);
     assert!(batch.total >= 30, "{} episodes", batch.total);
-    let mut by_scene: std::collections::BTreeMap<&str, Vec<(usize, &Episode)>> =
-        Default::default();
+    let mut by_scene: std::collections::BTreeMap<&str, Vec<(usize, &Episode)>> = Default::default();
     for e in &batch.episodes {
         let k: usize = e.episode_id.rsplit(':').next().unwrap().parse().unwrap();
         by_scene.entry(&e.scene_id).or_default().push((k, e));
@@ -196,13 +199,23 @@ fn every_landmark_room_and_stop_named_is_grounded_in_the_scene() {
                                 grid.rooms[room as usize].id
                             );
                             let words = room_words(grid.rooms[room as usize].class);
-                            assert!(text.contains(words), "{}: `{}` lacks `{words}`", e.episode_id, r.text);
+                            assert!(
+                                text.contains(words),
+                                "{}: `{}` lacks `{words}`",
+                                e.episode_id,
+                                r.text
+                            );
                         }
                         Mention::Landmark { object, at } => {
                             landmarks += 1;
                             let obj = &grid.objects[object as usize];
                             let name = category_words(&obj.category);
-                            assert!(text.contains(&name), "{}: `{}` lacks `{name}`", e.episode_id, r.text);
+                            assert!(
+                                text.contains(&name),
+                                "{}: `{}` lacks `{name}`",
+                                e.episode_id,
+                                r.text
+                            );
                             let (p, _) = point_at(&route.path, at);
                             let near = box_distance(p, obj.min, obj.max);
                             // Look at it from the path, eye height 1.25 m.
@@ -224,9 +237,7 @@ fn every_landmark_room_and_stop_named_is_grounded_in_the_scene() {
                                 far: 50.0,
                             };
                             let frame = minos::render::cpu::render(&render_scene, &camera);
-                            let visible = frame
-                                .instance(&render_scene)
-                                .contains(&(object + 1));
+                            let visible = frame.instance(&render_scene).contains(&(object + 1));
                             if visible {
                                 seen += 1;
                             }
@@ -251,11 +262,17 @@ fn every_landmark_room_and_stop_named_is_grounded_in_the_scene() {
                         }
                         Mention::Goal { object, room } => {
                             stops += 1;
-                            let Goal::Point { position } = e.goal else { unreachable!() };
+                            let Goal::Point { position } = e.goal else {
+                                unreachable!()
+                            };
                             let goal = Vec3::from_array(position);
                             let goal_room = grid.spans[grid.span_at(goal).unwrap() as usize].room;
                             if let Some(room) = room {
-                                assert_eq!(room, goal_room, "{}: stop names another room", e.episode_id);
+                                assert_eq!(
+                                    room, goal_room,
+                                    "{}: stop names another room",
+                                    e.episode_id
+                                );
                             }
                             let obj = &grid.objects[object as usize];
                             assert!(text.contains(&category_words(&obj.category)));
@@ -271,7 +288,11 @@ fn every_landmark_room_and_stop_named_is_grounded_in_the_scene() {
                                 })
                             };
                             let named = box_distance(goal, obj.min, obj.max);
-                            assert!(named <= 1.0 + 1e-3, "{}: stop {named} m from the object", e.episode_id);
+                            assert!(
+                                named <= 1.0 + 1e-3,
+                                "{}: stop {named} m from the object",
+                                e.episode_id
+                            );
                             for (i, o) in grid.objects.iter().enumerate() {
                                 if i as u32 != object
                                     && o.category.eq_ignore_ascii_case(&obj.category)
@@ -306,10 +327,16 @@ fn every_landmark_room_and_stop_named_is_grounded_in_the_scene() {
             }
         }
     }
-    assert!(landmarks > 20 && rooms_named > 50 && stops > 20, "{landmarks} {rooms_named} {stops}");
+    assert!(
+        landmarks > 20 && rooms_named > 50 && stops > 20,
+        "{landmarks} {rooms_named} {stops}"
+    );
     // Most landmarks are in view from where they are mentioned, not only near.
     println!("landmarks in view where mentioned: {seen} of {landmarks}");
-    assert!(seen * 100 >= landmarks * 85, "{seen} of {landmarks} landmarks in view");
+    assert!(
+        seen * 100 >= landmarks * 85,
+        "{seen} of {landmarks} landmarks in view"
+    );
 }
 
 #[test]
@@ -341,8 +368,9 @@ fn vln_episodes_are_byte_identical_whatever_the_threads_or_shards_and_read_back_
     let back = read_episodes(&a).unwrap();
     assert_eq!(back, one.episodes);
     assert!(back.iter().all(|e| e.task == Task::Vln
-        && e.route.as_ref().is_some_and(|r| r.instructions.len() == 3
-            && r.instructions.iter().all(|t| t.ends_with('.')))));
+        && e.route.as_ref().is_some_and(
+            |r| r.instructions.len() == 3 && r.instructions.iter().all(|t| t.ends_with('.'))
+        )));
     // Three different instructions per route, most of the time.
     let varied = back
         .iter()
@@ -368,7 +396,11 @@ fn vln_episodes_are_byte_identical_whatever_the_threads_or_shards_and_read_back_
         .collect();
     let mean = words.iter().sum::<usize>() as f64 / words.len() as f64;
     assert!((vln["words"]["mean"].as_f64().unwrap() - mean).abs() < 1e-9);
-    let hard = one.episodes.iter().filter(|e| e.difficulty.name() == "hard").count();
+    let hard = one
+        .episodes
+        .iter()
+        .filter(|e| e.difficulty.name() == "hard")
+        .count();
     assert_eq!(s["difficulty"]["hard"].as_u64().unwrap_or(0) as usize, hard);
     let multi = one.episodes.iter().filter(|e| e.levels_crossed > 0).count();
     assert!(multi > 0, "the two-level houses give routes across levels");
@@ -380,6 +412,28 @@ fn vln_episodes_are_byte_identical_whatever_the_threads_or_shards_and_read_back_
         .map(|(_, v)| v.as_u64().unwrap() as usize)
         .sum();
     assert_eq!(crossed, multi);
+    // R2R: one entry per route; the heading faces where the start yaw faces, seen in
+    // Matterport3D's z-up frame ((x, y, z) y-up is (x, −z, y) z-up; heading is clockwise
+    // from +y, so the facing direction is (sin h, cos h)).
+    let r2r = minos::episode::vln::export::export_r2r(dir.path(), "val", &one.episodes).unwrap();
+    let entries: serde_json::Value = serde_json::from_slice(&std::fs::read(&r2r).unwrap()).unwrap();
+    let entries = entries.as_array().unwrap();
+    assert_eq!(entries.len(), one.total);
+    for (i, (e, x)) in one.episodes.iter().zip(entries).enumerate() {
+        let route = e.route.as_ref().unwrap();
+        assert_eq!(x["path_id"].as_u64(), Some(i as u64 + 1));
+        assert_eq!(x["scan"].as_str(), Some(e.scene_id.as_str()));
+        assert_eq!(x["instructions"], serde_json::json!(route.instructions));
+        assert_eq!(x["path"].as_array().unwrap().len(), route.path.len());
+        // serde_json's default float parsing may differ in the last bit.
+        let d = x["distance"].as_f64().unwrap();
+        assert!((d - f64::from(e.geodesic_distance)).abs() < 1e-9, "{d}");
+        let h = x["heading"].as_f64().unwrap();
+        assert!((0.0..std::f64::consts::TAU).contains(&h));
+        let (s, c) = (f64::from(e.start_yaw).sin(), f64::from(e.start_yaw).cos());
+        let facing_zup = (-s, c);
+        assert!((h.sin() - facing_zup.0).abs() < 1e-6 && (h.cos() - facing_zup.1).abs() < 1e-6);
+    }
     // An episode file without the new columns (an older one) reads with no route.
     let mut plain = one.episodes[0].clone();
     plain.route = None;

@@ -268,7 +268,10 @@ pub fn config(a: &SampleArgs) -> anyhow::Result<EpisodesJob> {
         None => None,
         Some([format, dir]) if format == "habitat" => Some(PathBuf::from(dir)),
         Some([format, _]) if format == "vlnce" || format == "r2r" => None,
-        Some(other) => bail!("--export: unknown format `{}` (habitat, vlnce, r2r)", other[0]),
+        Some(other) => bail!(
+            "--export: unknown format `{}` (habitat, vlnce, r2r)",
+            other[0]
+        ),
     };
     let vln_export = match a.export.as_deref() {
         Some([format, dir]) if format == "vlnce" || format == "r2r" => {
@@ -287,7 +290,9 @@ pub fn config(a: &SampleArgs) -> anyhow::Result<EpisodesJob> {
         _ => None,
     };
     if task == TaskArg::Vln && habitat_export.is_some() {
-        bail!("--export habitat: VLN episodes export as `vlnce` (habitat-lab's R2RVLN-v1) or `r2r`");
+        bail!(
+            "--export habitat: VLN episodes export as `vlnce` (habitat-lab's R2RVLN-v1) or `r2r`"
+        );
     }
     if a.multi_level && task != TaskArg::Objectgoal {
         bail!("--multi-level: only ObjectGoal keeps to one level by default; other tasks already span levels");
@@ -716,6 +721,76 @@ mod tests {
             radius("--task pointgoal --preset minos-paper --success-radius 0.3"),
             0.3
         );
+    }
+
+    #[test]
+    fn objectgoal_keeps_to_one_level_presets_expand_and_vln_has_its_defaults() {
+        let dir = tempfile::tempdir().unwrap();
+        let data = DataDir::new(dir.path());
+        let lists = minos::split::SplitLists {
+            train: vec!["a".into()],
+            val: vec![],
+            test: vec![],
+        };
+        minos::split::write_split(&data, "s", &lists).unwrap();
+        let base = format!("--data {} --split s --out o.parquet", dir.path().display());
+        let job = |extra: &str| config_of(&format!("{base} {extra}"));
+        assert!(job("--task objectgoal").unwrap().sample.same_level);
+        assert!(
+            !job("--task objectgoal --multi-level")
+                .unwrap()
+                .sample
+                .same_level
+        );
+        assert!(!job("--task pointgoal").unwrap().sample.same_level);
+        assert!(
+            job("--task pointgoal --same-level")
+                .unwrap()
+                .sample
+                .same_level
+        );
+        let err = job("--task pointgoal --multi-level").unwrap_err();
+        assert!(err.to_string().starts_with("--multi-level"), "{err}");
+        let hm3d = job("--task objectgoal --categories hm3d").unwrap().sample;
+        assert_eq!(hm3d.categories, minos::episode::sample::HM3D_OBJECTNAV);
+        let mixed = job("--task objectgoal --categories minos,bed")
+            .unwrap()
+            .sample;
+        assert_eq!(mixed.categories, ["door", "arch", "bed"]);
+        let all = job("--task objectgoal --categories all --min-instances 2")
+            .unwrap()
+            .sample;
+        assert!(all.all_categories && all.categories.is_empty());
+        assert_eq!(all.min_instances, 2);
+        assert!(job("--task objectgoal --categories all,bed").is_err());
+        assert!(job("--task pointgoal --min-instances 2").is_err());
+        let vln = job("--task vln").unwrap().sample;
+        assert_eq!(vln.task, Task::Vln);
+        assert_eq!(
+            (
+                vln.min_geodesic,
+                vln.min_rooms,
+                vln.success_radius,
+                vln.instructions
+            ),
+            (4.0, 2, 3.0, 3)
+        );
+        let vln = job("--task vln --min-geodesic 2 --min-rooms 1 --instructions 5")
+            .unwrap()
+            .sample;
+        assert_eq!(
+            (vln.min_geodesic, vln.min_rooms, vln.instructions),
+            (2.0, 1, 5)
+        );
+        let j = job("--task vln --export vlnce out").unwrap();
+        assert_eq!(j.vln_export, Some((VlnFormat::VlnCe, PathBuf::from("out"))));
+        assert_eq!(j.habitat_export, None);
+        let j = job("--task vln --export r2r out").unwrap();
+        assert_eq!(j.vln_export, Some((VlnFormat::R2r, PathBuf::from("out"))));
+        let err = job("--task pointgoal --export vlnce out").unwrap_err();
+        assert!(err.to_string().contains("need --task vln"), "{err}");
+        let err = job("--task vln --export habitat out").unwrap_err();
+        assert!(err.to_string().contains("vlnce"), "{err}");
     }
 
     #[test]

@@ -150,9 +150,13 @@ impl<'a> RouteColumns<'a> {
         let mut strings = [None; 5];
         for (slot, name) in strings.iter_mut().zip(ROUTE_STRINGS) {
             if let Some(l) = list(name)? {
-                let v = l.values().as_any().downcast_ref::<StringArray>().ok_or_else(|| {
-                    BatchError::Format(format!("column `{name}` is not list<utf8>"))
-                })?;
+                let v = l
+                    .values()
+                    .as_any()
+                    .downcast_ref::<StringArray>()
+                    .ok_or_else(|| {
+                        BatchError::Format(format!("column `{name}` is not list<utf8>"))
+                    })?;
                 *slot = Some((l, v));
             }
         }

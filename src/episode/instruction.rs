@@ -14,11 +14,7 @@ const LEVEL_CHANGE: f32 = 0.5;
 
 /// The episode's instruction in English (a VLN episode's first instruction).
 pub fn instruction(episode: &Episode) -> String {
-    if let Some(text) = episode
-        .route
-        .as_ref()
-        .and_then(|r| r.instructions.first())
-    {
+    if let Some(text) = episode.route.as_ref().and_then(|r| r.instructions.first()) {
         return text.clone();
     }
     match &episode.goal {

@@ -210,8 +210,7 @@ impl Episode {
         }
         if let Some(route) = &self.route {
             for (k, p) in route.path.iter().enumerate() {
-                point(["route_path"; 3], p)
-                    .map_err(|(f, m)| (f, format!("point {k}: {m}")))?;
+                point(["route_path"; 3], p).map_err(|(f, m)| (f, format!("point {k}: {m}")))?;
             }
         }
         if !(self.success_radius.is_finite() && self.success_radius >= 0.0) {

@@ -253,11 +253,7 @@ impl VlnStats {
                 .collect(),
             vocabulary: vocabulary.len(),
             path_length: Summary::of(routes.iter().map(|r| length(r))),
-            corners: Summary::of(
-                routes
-                    .iter()
-                    .map(|r| r.path.len().saturating_sub(2) as f64),
-            ),
+            corners: Summary::of(routes.iter().map(|r| r.path.len().saturating_sub(2) as f64)),
             rooms: Summary::of(routes.iter().map(|r| r.rooms.len() as f64)),
             doors: Summary::of(routes.iter().map(|r| r.doors.len() as f64)),
             landmarks: Summary::of(routes.iter().map(|r| r.landmarks.len() as f64)),

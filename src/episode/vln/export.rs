@@ -203,10 +203,7 @@ fn write_file(path: &Path, bytes: &[u8], gzip: bool) -> Result<(), VlnExportErro
 
 /// Checks that a split name can be a file name component.
 fn check_split(split: &str, path: &Path) -> Result<(), VlnExportError> {
-    if split.is_empty()
-        || split.starts_with('.')
-        || split.contains(['/', '\\', '\0'])
-    {
+    if split.is_empty() || split.starts_with('.') || split.contains(['/', '\\', '\0']) {
         return Err(VlnExportError::Io {
             path: path.display().to_string(),
             source: std::io::Error::other(format!("split name `{split}` cannot be a file name")),
@@ -306,7 +303,11 @@ pub fn r2r_heading(yaw: f32) -> f64 {
 
 /// Writes `episodes` (VLN episodes with routes) as R2R's `R2R_<split>.json` in `dir`;
 /// returns the file written.
-pub fn export_r2r(dir: &Path, split: &str, episodes: &[Episode]) -> Result<PathBuf, VlnExportError> {
+pub fn export_r2r(
+    dir: &Path,
+    split: &str,
+    episodes: &[Episode],
+) -> Result<PathBuf, VlnExportError> {
     let path = dir.join(format!("R2R_{split}.json"));
     check_split(split, &path)?;
     let mut out = Vec::with_capacity(episodes.len());

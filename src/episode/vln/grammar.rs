@@ -73,7 +73,11 @@ pub struct Rendered {
 /// A room class in words: `living_room` → `living room`, `other` → `room`, `outdoor` →
 /// `outdoor area`.
 pub fn room_words(class: u8) -> &'static str {
-    match RoomClass::ALL.get(class as usize).copied().unwrap_or(RoomClass::Other) {
+    match RoomClass::ALL
+        .get(class as usize)
+        .copied()
+        .unwrap_or(RoomClass::Other)
+    {
         RoomClass::Other => "room",
         RoomClass::Bedroom => "bedroom",
         RoomClass::LivingRoom => "living room",
@@ -105,13 +109,51 @@ struct Clause {
     mentions: Vec<Mention>,
 }
 
+/// The clause for a landmark passed, if the detail level keeps it.
+fn landmark_clause(
+    grid: &NavGrid,
+    rng: &mut Rng,
+    detail: Detail,
+    at: f32,
+    object: u32,
+    side: super::walk::Side,
+) -> Option<Clause> {
+    let keep = match detail {
+        Detail::Full => true,
+        Detail::Medium => rng.chance(0.5),
+        Detail::Brief => false,
+    };
+    if !keep {
+        return None;
+    }
+    let name = category_words(&grid.objects[object as usize].category);
+    let text = match rng.below(4) {
+        0 => format!("walk past the {name}"),
+        1 => format!("pass the {name} on your {}", side.word()),
+        2 => format!("go past the {name}"),
+        _ => format!("keep the {name} on your {}", side.word()),
+    };
+    Some(Clause {
+        text,
+        mentions: vec![Mention::Landmark { object, at }],
+    })
+}
+
+fn say(clauses: &mut Vec<Clause>, text: String, mentions: Vec<Mention>) {
+    clauses.push(Clause { text, mentions });
+}
+
 fn pick<'a>(rng: &mut Rng, options: &[&'a str]) -> &'a str {
     rng.pick(options).copied().unwrap_or("")
 }
 
 fn turn_words(rng: &mut Rng, turn: Turn) -> String {
     match turn {
-        Turn::Around => pick(rng, &["turn around", "turn back", "turn all the way around"]).into(),
+        Turn::Around => pick(
+            rng,
+            &["turn around", "turn back", "turn all the way around"],
+        )
+        .into(),
         Turn::Full(side) => {
             let w = side.word();
             match rng.below(4) {
@@ -156,9 +198,11 @@ pub fn render(
     rng: &mut Rng,
 ) -> Rendered {
     let mut clauses: Vec<Clause> = Vec::new();
-    let mut say = |text: String, mentions: Vec<Mention>| clauses.push(Clause { text, mentions });
     if let Some(turn) = walk.initial_turn {
-        say(turn_words(rng, turn), Vec::new());
+        clauses.push(Clause {
+            text: turn_words(rng, turn),
+            mentions: Vec::new(),
+        });
     }
     let events = &walk.events;
     let mut used = vec![false; events.len()];
@@ -174,6 +218,26 @@ pub fn render(
             .find(|(j, e)| matches!(e, Event::Enter { .. }) && !used[k + 1 + j])
             .map(|(j, _)| k + 1 + j)
     };
+    // Events between `from` and `to` that a combined clause jumps over: landmarks are said
+    // first (they are passed on the way there), turns are part of the combined clause.
+    let flush =
+        |from: usize, to: usize, used: &mut [bool], rng: &mut Rng, out: &mut Vec<Clause>| {
+            for j in from + 1..to {
+                if used[j] {
+                    continue;
+                }
+                match events[j] {
+                    Event::Landmark {
+                        at, object, side, ..
+                    } => {
+                        used[j] = true;
+                        out.extend(landmark_clause(grid, rng, detail, at, object, side));
+                    }
+                    Event::Turn { .. } => used[j] = true,
+                    _ => {}
+                }
+            }
+        };
     for k in 0..events.len() {
         if used[k] {
             continue;
@@ -186,7 +250,15 @@ pub fn render(
                     .iter()
                     .enumerate()
                     .take_while(|(_, e)| e.at() - at <= super::walk::DOOR_TURN)
-                    .find(|(_, e)| matches!(e, Event::Door { turn_rank: Some(_), .. }))
+                    .find(|(_, e)| {
+                        matches!(
+                            e,
+                            Event::Door {
+                                turn_rank: Some(_),
+                                ..
+                            }
+                        )
+                    })
                     .map(|(j, _)| k + 1 + j);
                 if let Some(d) = door {
                     let Event::Door {
@@ -198,9 +270,13 @@ pub fn render(
                         continue;
                     };
                     used[d] = true;
+                    flush(k, d, &mut used, rng, &mut clauses);
                     let noun = if arch { "archway" } else { "door" };
                     let ordinal = if rank >= 2 {
-                        format!("{} ", ORDINALS.get(rank as usize - 1).copied().unwrap_or("next"))
+                        format!(
+                            "{} ",
+                            ORDINALS.get(rank as usize - 1).copied().unwrap_or("next")
+                        )
                     } else {
                         String::new()
                     };
@@ -209,17 +285,18 @@ pub fn render(
                         1 if rank >= 2 => {
                             format!("go through the {ordinal}{noun} on your {}", side.word())
                         }
-                        _ if rank >= 2 => format!(
-                            "turn {} at the {ordinal}{noun}",
-                            side.word()
-                        ),
+                        _ if rank >= 2 => format!("turn {} at the {ordinal}{noun}", side.word()),
                         _ => format!("turn {} through the {noun}", side.word()),
                     };
                     let mut mentions = Vec::new();
                     if let Some(e) = enter_after(d, &used) {
                         if let Event::Enter { at, room } = events[e] {
                             used[e] = true;
-                            text.push_str(&format!(" into {}", room_phrase(grid, room, current_room)));
+                            flush(d, e, &mut used, rng, &mut clauses);
+                            text.push_str(&format!(
+                                " into {}",
+                                room_phrase(grid, room, current_room)
+                            ));
                             if !left_start {
                                 left_start = true;
                             }
@@ -227,11 +304,11 @@ pub fn render(
                             mentions.push(Mention::Room { room, at });
                         }
                     }
-                    say(text, mentions);
+                    say(&mut clauses, text, mentions);
                 } else if detail == Detail::Full
                     || !matches!(turn, Turn::Slight(_)) && detail == Detail::Medium
                 {
-                    say(turn_words(rng, turn), Vec::new());
+                    say(&mut clauses, turn_words(rng, turn), Vec::new());
                 }
             }
             Event::Door { arch, .. } => {
@@ -246,11 +323,15 @@ pub fn render(
                             continue;
                         };
                         used[e] = true;
+                        flush(k, e, &mut used, rng, &mut clauses);
                         let into = room_phrase(grid, room, current_room);
                         let mut mentions = Vec::new();
                         let text = match (left_start, walk.start_room) {
                             (false, Some(start)) if detail != Detail::Brief && rng.chance(0.5) => {
-                                mentions.push(Mention::Room { room: start, at: 0.0 });
+                                mentions.push(Mention::Room {
+                                    room: start,
+                                    at: 0.0,
+                                });
                                 format!(
                                     "{} {} through the {noun} into {into}",
                                     pick(rng, &["leave", "exit", "walk out of"]),
@@ -265,11 +346,19 @@ pub fn render(
                         mentions.push(Mention::Room { room, at });
                         left_start = true;
                         current_room = Some(room);
-                        say(text, mentions);
+                        say(&mut clauses, text, mentions);
                     }
                     None if detail == Detail::Full => {
-                        let verb = pick(rng, &["go through", "walk through", "pass through", "go straight through"]);
-                        say(format!("{verb} the {noun}"), Vec::new());
+                        let verb = pick(
+                            rng,
+                            &[
+                                "go through",
+                                "walk through",
+                                "pass through",
+                                "go straight through",
+                            ],
+                        );
+                        say(&mut clauses, format!("{verb} the {noun}"), Vec::new());
                     }
                     None => {}
                 }
@@ -279,7 +368,10 @@ pub fn render(
                 let into = room_phrase(grid, room, current_room);
                 let text = match (left_start, walk.start_room) {
                     (false, Some(start)) if rng.chance(0.5) => {
-                        mentions.push(Mention::Room { room: start, at: 0.0 });
+                        mentions.push(Mention::Room {
+                            room: start,
+                            at: 0.0,
+                        });
                         format!(
                             "{} {} and {} {into}",
                             pick(rng, &["leave", "exit", "walk out of"]),
@@ -289,13 +381,22 @@ pub fn render(
                     }
                     _ => format!(
                         "{} {into}",
-                        pick(rng, &["enter", "go into", "walk into", "head into", "continue into"])
+                        pick(
+                            rng,
+                            &[
+                                "enter",
+                                "go into",
+                                "walk into",
+                                "head into",
+                                "continue into"
+                            ]
+                        )
                     ),
                 };
                 mentions.push(Mention::Room { room, at });
                 left_start = true;
                 current_room = Some(room);
-                say(text, mentions);
+                say(&mut clauses, text, mentions);
             }
             Event::Stairs { up, levels, .. } => {
                 let way = if up { "up" } else { "down" };
@@ -303,7 +404,10 @@ pub fn render(
                     format!(
                         "{} {way} the stairs {} floors",
                         pick(rng, &["go", "walk"]),
-                        ["two", "three", "four"].get(levels as usize - 2).copied().unwrap_or("several")
+                        ["two", "three", "four"]
+                            .get(levels as usize - 2)
+                            .copied()
+                            .unwrap_or("several")
                     )
                 } else {
                     match rng.below(3) {
@@ -313,37 +417,34 @@ pub fn render(
                         _ => "walk down the stairs".into(),
                     }
                 };
-                say(text, Vec::new());
+                say(&mut clauses, text, Vec::new());
             }
             Event::Landmark {
                 at, object, side, ..
             } => {
-                let keep = match detail {
-                    Detail::Full => true,
-                    Detail::Medium => rng.chance(0.5),
-                    Detail::Brief => false,
-                };
-                if !keep {
-                    continue;
+                if let Some(c) = landmark_clause(grid, rng, detail, at, object, side) {
+                    say(&mut clauses, c.text, c.mentions);
                 }
-                let name = category_words(&grid.objects[object as usize].category);
-                let text = match rng.below(4) {
-                    0 => format!("walk past the {name}"),
-                    1 => format!("pass the {name} on your {}", side.word()),
-                    2 => format!("go past the {name}"),
-                    _ => format!("keep the {name} on your {}", side.word()),
-                };
-                say(text, vec![Mention::Landmark { object, at }]);
             }
         }
     }
     // The stop.
     let goal_room = walk.goal_room;
-    let room_named = goal_room.filter(|&r| grid.rooms.get(r as usize).is_some_and(|r| r.class != 0));
+    let room_named =
+        goal_room.filter(|&r| grid.rooms.get(r as usize).is_some_and(|r| r.class != 0));
     let text = match goal_object {
         Some(o) => {
             let name = category_words(&grid.objects[o as usize].category);
-            let verb = pick(rng, &["stop next to", "stop beside", "wait by", "stop by", "stop near"]);
+            let verb = pick(
+                rng,
+                &[
+                    "stop next to",
+                    "stop beside",
+                    "wait by",
+                    "stop by",
+                    "stop near",
+                ],
+            );
             match room_named {
                 Some(r) => format!("{verb} the {name} in {}", room_phrase(grid, r, None)),
                 None => format!("{verb} the {name}"),
@@ -371,7 +472,7 @@ pub fn render(
             at: walk.length,
         });
     }
-    say(text, mentions);
+    say(&mut clauses, text, mentions);
     join(clauses, detail, rng)
 }
 
@@ -383,7 +484,10 @@ fn join(clauses: Vec<Clause>, detail: Detail, rng: &mut Rng) -> Rendered {
     while i < clauses.len() {
         let most = if detail == Detail::Brief { 3 } else { 2 };
         let take = rng.range_usize(1, most).min(clauses.len() - i);
-        let parts: Vec<&str> = clauses[i..i + take].iter().map(|c| c.text.as_str()).collect();
+        let parts: Vec<&str> = clauses[i..i + take]
+            .iter()
+            .map(|c| c.text.as_str())
+            .collect();
         let sentence = match parts.as_slice() {
             [one] => one.to_string(),
             [a, b] => {

@@ -5,7 +5,7 @@
 //!
 //! An object's room is the room most of the walkable spans within [`ROOM_PROBE`] of its box lie
 //! in. Landmarks are objects of at least [`MIN_LANDMARK_SIZE`] in some extent whose category is
-//! not structural ([`NOT_LANDMARKS`]: doors, walls, windows, stairs, …). Goal objects are
+//! not structural or moving ([`NOT_LANDMARKS`]: doors, walls, windows, stairs, people, …). Goal objects are
 //! landmarks with walkable floor of their own room within [`GOAL_RADIUS`] of their box.
 
 use std::collections::BTreeMap;
@@ -23,7 +23,7 @@ pub const MIN_LANDMARK_SIZE: f32 = 0.3;
 
 /// Categories never named as landmarks or goals (structure, not furniture), compared in
 /// lower case.
-pub const NOT_LANDMARKS: [&str; 22] = [
+pub const NOT_LANDMARKS: [&str; 24] = [
     "arch",
     "beam",
     "ceiling",
@@ -37,6 +37,8 @@ pub const NOT_LANDMARKS: [&str; 22] = [
     "object",
     "objects",
     "other",
+    "people",
+    "person",
     "railing",
     "stair",
     "stairs",
@@ -94,10 +96,7 @@ impl SceneIndex {
                 }
             }
             // The most frequent room; ties go to the lowest index.
-            if let Some((&r, _)) = counts
-                .iter()
-                .max_by(|a, b| a.1.cmp(b.1).then(b.0.cmp(a.0)))
-            {
+            if let Some((&r, _)) = counts.iter().max_by(|a, b| a.1.cmp(b.1).then(b.0.cmp(a.0))) {
                 *room = r;
             }
         }

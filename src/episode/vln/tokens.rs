@@ -71,7 +71,10 @@ impl Vocabulary {
         let words: Vec<String> = SPECIAL_TOKENS
             .iter()
             .map(|s| s.to_string())
-            .chain(set.into_iter().filter(|w| !SPECIAL_TOKENS.contains(&w.as_str())))
+            .chain(
+                set.into_iter()
+                    .filter(|w| !SPECIAL_TOKENS.contains(&w.as_str())),
+            )
             .collect();
         let index = words
             .iter()
@@ -116,7 +119,10 @@ mod tests {
                 "..."
             ]
         );
-        assert_eq!(tokenize("Go up. Stop!?"), ["go", "up", ".", "stop", "!", "?"]);
+        assert_eq!(
+            tokenize("Go up. Stop!?"),
+            ["go", "up", ".", "stop", "!", "?"]
+        );
     }
 
     #[test]

@@ -421,7 +421,10 @@ pub fn walk_route(
                 if best.is_some_and(|(bd, ..)| bd <= d) {
                     continue;
                 }
-                let centre = Vec2::new(0.5 * (obj.min[0] + obj.max[0]), 0.5 * (obj.min[2] + obj.max[2]));
+                let centre = Vec2::new(
+                    0.5 * (obj.min[0] + obj.max[0]),
+                    0.5 * (obj.min[2] + obj.max[2]),
+                );
                 let dir = dirs[i].unwrap_or(Vec2::new(0.0, -1.0));
                 let to = centre - xz(p);
                 let side = if signed_turn(dir, to) > 0.0 {
@@ -483,11 +486,18 @@ fn rank_turn_doors(
         else {
             continue;
         };
-        let Event::Door { object: through, .. } = events[d] else {
+        let Event::Door {
+            object: through, ..
+        } = events[d]
+        else {
             continue;
         };
         // The segment leading into the turn.
-        let Some(seg) = cum.iter().position(|&c| (c - at).abs() < 1e-4).and_then(|i| i.checked_sub(1)) else {
+        let Some(seg) = cum
+            .iter()
+            .position(|&c| (c - at).abs() < 1e-4)
+            .and_then(|i| i.checked_sub(1))
+        else {
             continue;
         };
         let (Some(dir), a, b) = (dirs[seg], xz(points[seg]), xz(points[seg + 1])) else {
@@ -504,7 +514,10 @@ fn rank_turn_doors(
                 continue;
             }
             let p = a.lerp(b, t);
-            let centre = Vec2::new(0.5 * (obj.min[0] + obj.max[0]), 0.5 * (obj.min[2] + obj.max[2]));
+            let centre = Vec2::new(
+                0.5 * (obj.min[0] + obj.max[0]),
+                0.5 * (obj.min[2] + obj.max[2]),
+            );
             let to = centre - p;
             // Beside the segment (not ahead of its end) and on the turn's side.
             if (centre - b).dot(dir) >= 0.0 {
@@ -541,7 +554,10 @@ mod tests {
             classify(signed_turn(north, Vec2::new(0.6, -0.8)), TURN_MIN),
             Some(Turn::Slight(Side::Right))
         );
-        assert_eq!(classify(signed_turn(north, Vec2::new(0.0, 1.0)), 30.0), Some(Turn::Around));
+        assert_eq!(
+            classify(signed_turn(north, Vec2::new(0.0, 1.0)), 30.0),
+            Some(Turn::Around)
+        );
         assert_eq!(classify(0.2, TURN_MIN), None);
         // The start yaw's forward is (−sin yaw, −cos yaw): yaw π/2 faces −X.
         let yaw = std::f32::consts::FRAC_PI_2;
