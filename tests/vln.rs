@@ -27,10 +27,12 @@ use minos::scene::{Scene, SceneRef};
 use minos::shard::Shard;
 use minos::store::DataDir;
 
-/// Furnished generated houses (two of them with two levels), baked, shared by the tests.
-fn data() -> &'static (tempfile::TempDir, DataDir, Vec<(String, String)>) {
-    static DATA: std::sync::OnceLock<(tempfile::TempDir, DataDir, Vec<(String, String)>)> =
-        std::sync::OnceLock::new();
+/// The fixture: its folder, the DATA folder, and the scenes with their subsets.
+type Fixture = (tempfile::TempDir, DataDir, Vec<(String, String)>);
+
+/// Furnished generated houses (some with two levels), baked, shared by the tests.
+fn data() -> &'static Fixture {
+    static DATA: std::sync::OnceLock<Fixture> = std::sync::OnceLock::new();
     DATA.get_or_init(|| {
         let dir = tempfile::tempdir().unwrap();
         let cfg = GenerateConfig {

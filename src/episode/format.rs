@@ -998,7 +998,9 @@ pub(crate) mod tests {
             goal_x goal_y goal_z goal_category goal_room_class goal_ids goal_positions \
             goal_view_points goal_room_ids goal_room_classes euclidean_distance \
             geodesic_distance path_num_doors \
-            path_num_rooms difficulty success_radius max_steps";
+            path_num_rooms difficulty success_radius max_steps levels_crossed route_path \
+            route_room_ids route_room_classes route_door_ids route_levels route_landmark_ids \
+            route_goal_object instructions";
         assert_eq!(names, expected.split_whitespace().collect::<Vec<_>>());
         let batch = reader.build().unwrap().next().unwrap().unwrap();
         // ObjectGoal row: goal_x/y/z is the first target's position; nulls where documented.

@@ -122,6 +122,30 @@ mod tests {
     }
 
     #[test]
+    fn a_vln_episode_is_said_by_its_first_route_instruction() {
+        let mut e = episode(
+            Goal::Point {
+                position: [1.0, 0.0, -3.0],
+            },
+            0.0,
+        );
+        e.task = Task::Vln;
+        e.route = Some(Box::new(crate::episode::vln::Route {
+            path: vec![[1.0, 0.0, 2.0], [1.0, 0.0, -3.0]],
+            rooms: vec![],
+            doors: vec![],
+            levels: vec![0],
+            landmarks: vec![],
+            goal_object: None,
+            instructions: vec!["Walk ahead. Stop.".into(), "Stop ahead.".into()],
+        }));
+        // LeRobot's task and `minos serve` read this.
+        assert_eq!(instruction(&e), "Walk ahead. Stop.");
+        e.route = None;
+        assert_eq!(instruction(&e), "go 5.0 m ahead");
+    }
+
+    #[test]
     fn point_goals_are_said_in_the_start_frame() {
         // Yaw 0 faces −Z: a goal 4.2 m along −Z and 1.3 m along −X is ahead and left.
         let goal = |dx: f32, dy: f32, dz: f32| Goal::Point {
