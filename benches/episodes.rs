@@ -1,7 +1,8 @@
 //! Episode sampling throughput: `cargo bench --bench episodes`.
 //!
 //! Generated furnished houses (default configuration), baked at 5 cm; episodes per second on
-//! one core for each task. Prints Markdown rows for `docs/PERFORMANCE.md`.
+//! one core for each task (ObjectGoal also with `--categories all`; VLN with three
+//! instructions per route). Prints Markdown rows for `docs/PERFORMANCE.md`.
 
 use std::time::Instant;
 
@@ -29,11 +30,25 @@ fn main() {
         .expect("pool");
     println!("| task | episodes | time (1 core) | episodes/s/core |\n|---|---|---|---|");
     let mut rejected = Vec::new();
-    for task in [Task::PointGoal, Task::ObjectGoal, Task::RoomGoal] {
+    // The tasks, ObjectGoal over every category of the scenes (open vocabulary), and VLN
+    // with three instructions per route and its CLI defaults (4 m, two rooms).
+    let runs = [
+        (Task::PointGoal, false),
+        (Task::ObjectGoal, false),
+        (Task::ObjectGoal, true),
+        (Task::RoomGoal, false),
+        (Task::Vln, false),
+    ];
+    for (task, all_categories) in runs {
+        let vln = task == Task::Vln;
         let cfg = SampleConfig {
             task,
             per_scene: 100,
             seed: 1,
+            all_categories,
+            min_geodesic: if vln { 4.0 } else { 1.0 },
+            min_rooms: if vln { 2 } else { 0 },
+            success_radius: if vln { 3.0 } else { 0.2 },
             ..SampleConfig::default()
         };
         let t = Instant::now();
@@ -49,8 +64,13 @@ fn main() {
         });
         let s = t.elapsed().as_secs_f64();
         println!(
-            "| {} | {} | {:.2} s | {:.0} |",
+            "| {}{} | {} | {:.2} s | {:.0} |",
             task.name(),
+            if all_categories {
+                " (all categories)"
+            } else {
+                ""
+            },
             batch.total,
             s,
             batch.total as f64 / s

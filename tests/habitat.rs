@@ -19,6 +19,8 @@ use minos::body::{AgentBody, BodyRule};
 use minos::episode::habitat::{export_habitat, import_habitat, yaw_from_quaternion, SceneIdStyle};
 use minos::episode::interchange::read_text_bytes;
 use minos::episode::sample::SampleConfig;
+use minos::episode::vln::export::export_vlnce;
+use minos::episode::vln::tokens::{tokenize, TOKENS_PER_INSTRUCTION};
 use minos::episode::{Episode, Goal, Task};
 use minos::generate::GenerateConfig;
 use minos::navmesh::NavGrid;
@@ -37,6 +39,8 @@ const SUFFIX: &str = ".glb";
 struct Fixture {
     dir: tempfile::TempDir,
     episodes: Vec<(Task, Vec<Episode>)>,
+    /// VLN episodes, exported as VLN-CE under `habitat/vln`.
+    vln: Vec<Episode>,
 }
 
 fn fixture() -> &'static Fixture {
@@ -89,7 +93,26 @@ fn fixture() -> &'static Fixture {
             .unwrap();
             episodes.push((task, batch.episodes));
         }
-        Fixture { dir, episodes }
+        let vln = sample_scenes(
+            &data,
+            &scenes,
+            &SampleConfig {
+                task: Task::Vln,
+                per_scene: 4,
+                seed: 3,
+                min_geodesic: 3.0,
+                min_rooms: 2,
+                success_radius: 3.0,
+                ..SampleConfig::default()
+            },
+            BodyRule::strict(AgentBody::HABITAT),
+            Shard::ALL,
+            &NoProgress,
+        )
+        .episodes;
+        assert!(vln.len() >= 4, "only {} VLN episodes", vln.len());
+        export_vlnce(&dir.path().join("habitat").join("vln"), "val", &style, &vln).unwrap();
+        Fixture { dir, episodes, vln }
     })
 }
 
@@ -463,4 +486,87 @@ fn habitat_labs_own_loaders_read_the_exports() {
             );
         }
     }
+    // VLN-CE: one episode per instruction, in order, the same texts.
+    let s = &summary["vln"];
+    let texts: Vec<String> = fixture()
+        .vln
+        .iter()
+        .flat_map(|e| e.route.as_ref().unwrap().instructions.clone())
+        .collect();
+    assert_eq!(s["episodes_via_split"].as_u64(), Some(texts.len() as u64));
+    let theirs: Vec<&str> = s["instructions"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_str().unwrap())
+        .collect();
+    assert_eq!(theirs, texts);
+    assert_eq!(s["trajectories"].as_u64(), Some(fixture().vln.len() as u64));
+}
+
+/// habitat-lab 0.3.3's `VLNEpisode` attributes and `InstructionData` fields.
+const VLN_EPISODE: &[&str] = &[
+    "episode_id",
+    "scene_id",
+    "scene_dataset_config",
+    "additional_obj_config_paths",
+    "start_position",
+    "start_rotation",
+    "info",
+    "goals",
+    "start_room",
+    "shortest_paths",
+    "reference_path",
+    "instruction",
+    "trajectory_id",
+];
+const INSTRUCTION_DATA: &[&str] = &["instruction_text", "instruction_tokens"];
+
+#[test]
+fn vlnce_export_follows_habitat_labs_vln_episode_and_r2r_tokens() {
+    let file = read_json(&fixture().dir.path().join("habitat/vln/val/val.json.gz"));
+    let words: Vec<&str> = file["instruction_vocab"]["word_list"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|w| w.as_str().unwrap())
+        .collect();
+    assert_eq!(&words[..2], &["<pad>", "<unk>"]);
+    let episodes = file["episodes"].as_array().unwrap();
+    let mut k = 0;
+    for (t, e) in fixture().vln.iter().enumerate() {
+        let route = e.route.as_ref().unwrap();
+        for text in &route.instructions {
+            let ep = &episodes[k];
+            k += 1;
+            let what = format!("episodes[{k}]");
+            keys_within(&what, ep, &[VLN_EPISODE]);
+            keys_within(&what, &ep["instruction"], &[INSTRUCTION_DATA]);
+            assert_eq!(ep["episode_id"].as_u64(), Some(k as u64));
+            assert_eq!(ep["trajectory_id"].as_u64(), Some(t as u64 + 1));
+            assert_eq!(
+                ep["instruction"]["instruction_text"].as_str(),
+                Some(text.as_str())
+            );
+            // Tokens: the vocabulary's words of R2R's tokens, padded with <pad>.
+            let tokens: Vec<&str> = ep["instruction"]["instruction_tokens"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|i| words[i.as_u64().unwrap() as usize])
+                .collect();
+            assert_eq!(tokens.len(), TOKENS_PER_INSTRUCTION);
+            let expected = tokenize(text);
+            assert_eq!(&tokens[..expected.len()], expected.as_slice());
+            assert!(tokens[expected.len()..].iter().all(|w| *w == "<pad>"));
+            // The reference path runs from the start to the goal.
+            let path = ep["reference_path"].as_array().unwrap();
+            assert_eq!(path[0], serde_json::json!(e.start_position.map(f64::from)));
+            assert_eq!(path.last().unwrap(), &ep["goals"][0]["position"]);
+            assert_eq!(ep["goals"][0]["radius"].as_f64(), Some(3.0));
+            assert_eq!(ep["info"]["levels_crossed"].as_u64(), Some(0));
+            assert!(ep["scene_id"].as_str().unwrap().ends_with(SUFFIX));
+        }
+    }
+    assert_eq!(k, episodes.len());
 }

@@ -385,6 +385,7 @@ pub fn sample_episodes<'py>(
     let success_radius = success_radius.unwrap_or(match task {
         Task::PointGoal => agent_preset.point_goal_radius(),
         Task::ObjectGoal | Task::RoomGoal => SampleConfig::default().success_radius,
+        Task::Vln => minos::episode::vln::DEFAULT_SUCCESS_RADIUS,
     });
     let shard: Shard = crate::convert::shard(shard)?;
     let habitat_export = export_habitat

@@ -195,6 +195,8 @@ pub fn point_episode(
         difficulty: Difficulty::Easy,
         success_radius,
         max_steps,
+        levels_crossed: 0,
+        route: None,
     }
 }
 

@@ -11,7 +11,8 @@ use minos::body::{AgentPreset, BodyRule};
 use minos::episode::format::{read_episodes, write_episodes};
 use minos::episode::habitat::{export_habitat, import_habitat, SceneIdStyle};
 use minos::episode::minos_csv::import_minos_csv;
-use minos::episode::sample::{SampleConfig, Select};
+use minos::episode::sample::{category_preset, SampleConfig, Select};
+use minos::episode::vln::export::{export_r2r, export_vlnce, VlnFormat};
 use minos::episode::Task;
 use minos::pipeline::episodes::sample_scenes;
 use minos::scene::RoomClass;
@@ -22,7 +23,7 @@ use minos::store::DataDir;
 use super::common::PresetArg;
 use super::Context;
 
-/// Sample navigable PointGoal, ObjectGoal or RoomGoal episodes, or import episode files.
+/// Sample navigable PointGoal, ObjectGoal, RoomGoal or VLN episodes, or import episode files.
 #[derive(Debug, clap::Args)]
 #[command(args_conflicts_with_subcommands = true)]
 pub struct Args {
@@ -56,11 +57,13 @@ enum ImportFormat {
 }
 
 /// Task of `--task`.
-#[derive(Debug, Clone, Copy, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 enum TaskArg {
     Pointgoal,
     Objectgoal,
     Roomgoal,
+    /// Vision-and-language navigation: routes with instructions in words.
+    Vln,
 }
 
 /// Instance selection of `--select`.
@@ -93,6 +96,9 @@ enum Stratify {
     minos episodes --data DATA --task objectgoal --categories door,arch --select closest --split all --subset val \\\n      --per-scene 10 --out eps/door_val.parquet --export habitat eps/habitat \\\n      --scene-prefix data/scene_datasets/minos/ --scene-suffix .glb\n  \
     minos episodes --data DATA --task roomgoal --room-types kitchen,bedroom --split all --per-scene 10 --out eps/rooms.parquet\n  \
     minos episodes --data DATA --task pointgoal --split all --shard 0/4 --out eps/part0.parquet\n  \
+    minos episodes --data DATA --task vln --split all --per-scene 20 --out eps/vln.parquet \\\n      --export vlnce eps/vlnce --scene-prefix mp3d/ --scene-suffix .glb\n  \
+    minos episodes --data DATA --task objectgoal --categories hm3d --split all --out eps/hm3d6.parquet\n  \
+    minos episodes --data DATA --task objectgoal --categories all --min-instances 2 --split all --out eps/ovon.parquet\n  \
     minos episodes import --from habitat val.json.gz --out eps/habitat_val.parquet"
 )]
 pub struct SampleArgs {
@@ -132,12 +138,24 @@ pub struct SampleArgs {
     #[arg(long, default_value_t = 1.5)]
     min_island_radius: f32,
     /// Success radius (m); MINOS used 0.25 (objects) and 0.4 (points). Default: 0.4 for
-    /// PointGoal episodes of MINOS's presets (minos, minos-gridworld, minos-paper), else 0.2.
+    /// PointGoal episodes of MINOS's presets (minos, minos-gridworld, minos-paper), 3.0 for
+    /// VLN (R2R's and VLN-CE's), else 0.2.
     #[arg(long)]
     success_radius: Option<f32>,
-    /// ObjectGoal categories, comma-separated (MINOS used doors).
+    /// ObjectGoal categories, comma-separated (MINOS used doors); or a preset: `minos`
+    /// (door, arch), `hm3d` (HM3D ObjectNav's 6: chair, bed, plant, toilet, tv_monitor,
+    /// sofa), `mpcat40` (Matterport3D ObjectNav's 21 mpcat40 goal categories); or `all`:
+    /// every category of each scene's objects (their most specific labels) with at least
+    /// --min-instances reachable instances. Categories are drawn uniformly among those
+    /// reachable from the start (balanced; counts in the statistics).
     #[arg(long, value_delimiter = ',', default_value = "door,arch")]
     categories: Vec<String>,
+    /// ObjectGoal: fewest reachable instances a category needs in a scene.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
+    min_instances: u32,
+    /// VLN: instructions per route (R2R has 3); the k-th is full, medium or brief in turn.
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=100))]
+    instructions: u32,
     /// RoomGoal classes, comma-separated, or `any`: other, bedroom, living_room, bathroom,
     /// kitchen, dining_room, office, hallway, outdoor.
     #[arg(long, value_delimiter = ',', default_value = "any")]
@@ -145,9 +163,9 @@ pub struct SampleArgs {
     /// Which goal instances count.
     #[arg(long, value_enum, default_value = "any")]
     select: SelectArg,
-    /// Shortest geodesic distance (m).
-    #[arg(long, default_value_t = 1.0)]
-    min_geodesic: f32,
+    /// Shortest geodesic distance (m). Default: 4 for VLN (routes worth describing), else 1.
+    #[arg(long)]
+    min_geodesic: Option<f32>,
     /// Longest geodesic distance (m).
     #[arg(long, default_value_t = 30.0)]
     max_geodesic: f32,
@@ -158,12 +176,17 @@ pub struct SampleArgs {
     /// Fewest doorways (doors and arches) on the shortest path (MINOS).
     #[arg(long, default_value_t = 0)]
     min_doors: u32,
-    /// Fewest rooms on the shortest path (MINOS).
-    #[arg(long, default_value_t = 0)]
-    min_rooms: u32,
-    /// Start and goal on the same level.
+    /// Fewest rooms on the shortest path (MINOS). Default: 2 for VLN (the route leaves the
+    /// start room), else 0.
     #[arg(long)]
+    min_rooms: Option<u32>,
+    /// Start and goal on the same level. The default for ObjectGoal, as in Habitat's 2023
+    /// ObjectNav challenge (single-floor episodes); other tasks span levels unless asked.
+    #[arg(long, conflicts_with = "multi_level")]
     same_level: bool,
+    /// ObjectGoal: allow start and goal on different levels (multi-floor episodes).
+    #[arg(long)]
+    multi_level: bool,
     /// Geodesic thresholds easy/medium and medium/hard (m), e.g. 3,6.
     #[arg(long, value_delimiter = ',', default_value = "3,6", num_args = 1)]
     bins: Vec<f32>,
@@ -223,6 +246,8 @@ pub struct EpisodesJob {
     pub out: PathBuf,
     /// Also export Habitat-Lab's layout into this folder.
     pub habitat_export: Option<PathBuf>,
+    /// Also export VLN episodes in this format into this folder.
+    pub vln_export: Option<(VlnFormat, PathBuf)>,
     /// How the Habitat export names scenes (`--scene-prefix`, `--scene-suffix`).
     pub scene_names: SceneIdStyle,
 }
@@ -242,8 +267,40 @@ pub fn config(a: &SampleArgs) -> anyhow::Result<EpisodesJob> {
     let habitat_export = match a.export.as_deref() {
         None => None,
         Some([format, dir]) if format == "habitat" => Some(PathBuf::from(dir)),
-        Some(other) => bail!("--export: unknown format `{}` (habitat)", other[0]),
+        Some([format, _]) if format == "vlnce" || format == "r2r" => None,
+        Some(other) => bail!(
+            "--export: unknown format `{}` (habitat, vlnce, r2r)",
+            other[0]
+        ),
     };
+    let vln_export = match a.export.as_deref() {
+        Some([format, dir]) if format == "vlnce" || format == "r2r" => {
+            if task != TaskArg::Vln {
+                bail!("--export {format}: VLN exports need --task vln");
+            }
+            Some((
+                if format == "vlnce" {
+                    VlnFormat::VlnCe
+                } else {
+                    VlnFormat::R2r
+                },
+                PathBuf::from(dir),
+            ))
+        }
+        _ => None,
+    };
+    if task == TaskArg::Vln && habitat_export.is_some() {
+        bail!(
+            "--export habitat: VLN episodes export as `vlnce` (habitat-lab's R2RVLN-v1) or `r2r`"
+        );
+    }
+    if a.multi_level && task != TaskArg::Objectgoal {
+        bail!("--multi-level: only ObjectGoal keeps to one level by default; other tasks already span levels");
+    }
+    let (categories, all_categories) = categories_of(&a.categories)?;
+    if task != TaskArg::Objectgoal && a.min_instances > 1 {
+        bail!("--min-instances: only for --task objectgoal");
+    }
     let scene_names = SceneIdStyle {
         prefix: a.scene_prefix.clone(),
         suffix: a.scene_suffix.clone(),
@@ -302,11 +359,13 @@ pub fn config(a: &SampleArgs) -> anyhow::Result<EpisodesJob> {
         Stratify::Off => false,
         Stratify::Auto => matches!(subset, Some(Subset::Val | Subset::Test)),
     };
+    let vln = task == TaskArg::Vln;
     let sample = SampleConfig {
         task: match task {
             TaskArg::Pointgoal => Task::PointGoal,
             TaskArg::Objectgoal => Task::ObjectGoal,
             TaskArg::Roomgoal => Task::RoomGoal,
+            TaskArg::Vln => Task::Vln,
         },
         per_scene: a.per_scene as usize,
         seed: a.seed,
@@ -314,20 +373,24 @@ pub fn config(a: &SampleArgs) -> anyhow::Result<EpisodesJob> {
         success_radius: a.success_radius.unwrap_or(match task {
             TaskArg::Pointgoal => AgentPreset::from(a.preset).point_goal_radius(),
             TaskArg::Objectgoal | TaskArg::Roomgoal => SampleConfig::default().success_radius,
+            TaskArg::Vln => minos::episode::vln::DEFAULT_SUCCESS_RADIUS,
         }),
-        categories: a.categories.clone(),
+        categories,
+        all_categories,
+        min_instances: a.min_instances,
+        instructions: a.instructions as usize,
         room_classes,
         select: match a.select {
             SelectArg::Any => Select::Any,
             SelectArg::Random => Select::Random,
             SelectArg::Closest => Select::Closest,
         },
-        min_geodesic: a.min_geodesic,
+        min_geodesic: a.min_geodesic.unwrap_or(if vln { 4.0 } else { 1.0 }),
         max_geodesic: a.max_geodesic,
         ratio_rule: !a.no_ratio_rule,
         min_doors: a.min_doors,
-        min_rooms: a.min_rooms,
-        same_level: a.same_level,
+        min_rooms: a.min_rooms.unwrap_or(if vln { 2 } else { 0 }),
+        same_level: a.same_level || (task == TaskArg::Objectgoal && !a.multi_level),
         bins: [a.bins[0], a.bins[1]],
         stratified,
         max_steps: a.max_steps,
@@ -347,8 +410,28 @@ pub fn config(a: &SampleArgs) -> anyhow::Result<EpisodesJob> {
             .map_err(anyhow::Error::msg)?,
         out: out.clone(),
         habitat_export,
+        vln_export,
         scene_names,
     })
+}
+
+/// `--categories` → (the categories, whether `all`): presets expand to their lists.
+fn categories_of(given: &[String]) -> anyhow::Result<(Vec<String>, bool)> {
+    if given.iter().any(|c| c == "all") {
+        if given.len() > 1 {
+            bail!("--categories all: give it alone");
+        }
+        return Ok((Vec::new(), true));
+    }
+    let mut out: Vec<String> = Vec::new();
+    for c in given {
+        match category_preset(c) {
+            Some(list) => out.extend(list.iter().map(|s| s.to_string())),
+            None => out.push(c.clone()),
+        }
+    }
+    out.dedup();
+    Ok((out, false))
 }
 
 /// Runs `minos episodes`.
@@ -442,7 +525,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         let bar = ctx.progress(job.scenes.len() as u64, "episodes");
         sample_scenes(&job.data, &job.scenes, cfg, job.body, job.shard, &bar)
     };
-    if cfg.task == Task::ObjectGoal {
+    if cfg.task == Task::ObjectGoal && !cfg.all_categories {
         check_categories(&cfg.categories, &batch, job.shard)?;
     }
     let stats_path = batch
@@ -473,6 +556,36 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
             }
         }
         ctx.say(format!("exported Habitat episodes -> {}", dir.display()));
+    }
+    if let Some((format, dir)) = &job.vln_export {
+        for (subset, split) in [
+            ("train", "train"),
+            ("val", "val"),
+            ("test", "test"),
+            ("", "all"),
+        ] {
+            let eps: Vec<_> = batch
+                .episodes
+                .iter()
+                .filter(|e| e.split == subset)
+                .cloned()
+                .collect();
+            if eps.is_empty() {
+                continue;
+            }
+            match format {
+                VlnFormat::VlnCe => export_vlnce(dir, split, &job.scene_names, &eps)?,
+                VlnFormat::R2r => export_r2r(dir, split, &eps)?,
+            };
+        }
+        ctx.say(format!(
+            "exported {} episodes -> {}",
+            match format {
+                VlnFormat::VlnCe => "VLN-CE",
+                VlnFormat::R2r => "R2R",
+            },
+            dir.display()
+        ));
     }
     let top: Vec<String> = {
         let mut r: Vec<(&String, &u64)> = batch.rejected.iter().collect();
@@ -608,6 +721,76 @@ mod tests {
             radius("--task pointgoal --preset minos-paper --success-radius 0.3"),
             0.3
         );
+    }
+
+    #[test]
+    fn objectgoal_keeps_to_one_level_presets_expand_and_vln_has_its_defaults() {
+        let dir = tempfile::tempdir().unwrap();
+        let data = DataDir::new(dir.path());
+        let lists = minos::split::SplitLists {
+            train: vec!["a".into()],
+            val: vec![],
+            test: vec![],
+        };
+        minos::split::write_split(&data, "s", &lists).unwrap();
+        let base = format!("--data {} --split s --out o.parquet", dir.path().display());
+        let job = |extra: &str| config_of(&format!("{base} {extra}"));
+        assert!(job("--task objectgoal").unwrap().sample.same_level);
+        assert!(
+            !job("--task objectgoal --multi-level")
+                .unwrap()
+                .sample
+                .same_level
+        );
+        assert!(!job("--task pointgoal").unwrap().sample.same_level);
+        assert!(
+            job("--task pointgoal --same-level")
+                .unwrap()
+                .sample
+                .same_level
+        );
+        let err = job("--task pointgoal --multi-level").unwrap_err();
+        assert!(err.to_string().starts_with("--multi-level"), "{err}");
+        let hm3d = job("--task objectgoal --categories hm3d").unwrap().sample;
+        assert_eq!(hm3d.categories, minos::episode::sample::HM3D_OBJECTNAV);
+        let mixed = job("--task objectgoal --categories minos,bed")
+            .unwrap()
+            .sample;
+        assert_eq!(mixed.categories, ["door", "arch", "bed"]);
+        let all = job("--task objectgoal --categories all --min-instances 2")
+            .unwrap()
+            .sample;
+        assert!(all.all_categories && all.categories.is_empty());
+        assert_eq!(all.min_instances, 2);
+        assert!(job("--task objectgoal --categories all,bed").is_err());
+        assert!(job("--task pointgoal --min-instances 2").is_err());
+        let vln = job("--task vln").unwrap().sample;
+        assert_eq!(vln.task, Task::Vln);
+        assert_eq!(
+            (
+                vln.min_geodesic,
+                vln.min_rooms,
+                vln.success_radius,
+                vln.instructions
+            ),
+            (4.0, 2, 3.0, 3)
+        );
+        let vln = job("--task vln --min-geodesic 2 --min-rooms 1 --instructions 5")
+            .unwrap()
+            .sample;
+        assert_eq!(
+            (vln.min_geodesic, vln.min_rooms, vln.instructions),
+            (2.0, 1, 5)
+        );
+        let j = job("--task vln --export vlnce out").unwrap();
+        assert_eq!(j.vln_export, Some((VlnFormat::VlnCe, PathBuf::from("out"))));
+        assert_eq!(j.habitat_export, None);
+        let j = job("--task vln --export r2r out").unwrap();
+        assert_eq!(j.vln_export, Some((VlnFormat::R2r, PathBuf::from("out"))));
+        let err = job("--task pointgoal --export vlnce out").unwrap_err();
+        assert!(err.to_string().contains("need --task vln"), "{err}");
+        let err = job("--task vln --export habitat out").unwrap_err();
+        assert!(err.to_string().contains("vlnce"), "{err}");
     }
 
     #[test]

@@ -33,6 +33,17 @@
 //! | `difficulty` | utf8 | `easy`, `medium` or `hard` |
 //! | `success_radius` | float32 | success radius (m) |
 //! | `max_steps` | uint32 | step limit |
+//! | `levels_crossed` | uint32 | levels the shortest path climbs or descends (sum of level changes between its corners) |
+//! | `route_path` | list\<fixed_size_list\<float32, 3\>\> | VLN: the reference path (start, corners, goal); empty for other tasks |
+//! | `route_room_ids`, `route_room_classes` | list\<utf8\> | VLN: the rooms the path passes, in order, and their MINOS classes |
+//! | `route_door_ids` | list\<utf8\> | VLN: the doorways passed through, in order |
+//! | `route_levels` | list\<uint32\> | VLN: the levels passed, in order |
+//! | `route_landmark_ids` | list\<utf8\> | VLN: the objects the instructions name as landmarks |
+//! | `route_goal_object` | utf8, nullable | VLN: the object the stop description names (null when none, and for other tasks) |
+//! | `instructions` | list\<utf8\> | VLN: the instructions in English; empty for other tasks |
+//!
+//! The columns from `levels_crossed` on are optional when reading (files written before them
+//! read with 0 levels and no route).
 //!
 //! Only `goal_category`, `goal_room_class` and the items of `goal_room_ids` /
 //! `goal_room_classes` hold nulls. The `goal_*` list columns have one entry per target, in the
@@ -47,6 +58,7 @@ use arrow::array::{
 };
 use arrow::datatypes::{Field, Schema};
 
+use super::vln::Route;
 use super::{Difficulty, Episode, Goal, GoalTarget, TargetRoom, Task};
 use crate::parquet_io::{read_batches, write_batches, writer_properties, ParquetFileError};
 
@@ -102,6 +114,177 @@ impl<'a> TargetRooms<'a> {
             [Some(id), Some(class)] => Some(TargetRoom { id, class }),
             _ => None,
         })
+    }
+}
+
+/// The optional VLN route columns (and `levels_crossed`) of a batch.
+struct RouteColumns<'a> {
+    levels_crossed: Option<&'a UInt32Array>,
+    path: Option<(&'a ListArray, Points<'a>)>,
+    strings: [Option<(&'a ListArray, &'a StringArray)>; 5],
+    levels: Option<(&'a ListArray, &'a UInt32Array)>,
+    goal_object: Option<&'a StringArray>,
+}
+
+/// The list<utf8> route columns, in the order of [`RouteColumns::strings`].
+const ROUTE_STRINGS: [&str; 5] = [
+    "route_room_ids",
+    "route_room_classes",
+    "route_door_ids",
+    "route_landmark_ids",
+    "instructions",
+];
+
+impl<'a> RouteColumns<'a> {
+    fn of(batch: &'a RecordBatch) -> Result<Self, BatchError> {
+        let list = |name: &str| -> Result<Option<&'a ListArray>, BatchError> {
+            batch
+                .column_by_name(name)
+                .map(|c| {
+                    c.as_any()
+                        .downcast_ref::<ListArray>()
+                        .ok_or_else(|| BatchError::Format(format!("column `{name}` is not a list")))
+                })
+                .transpose()
+        };
+        let mut strings = [None; 5];
+        for (slot, name) in strings.iter_mut().zip(ROUTE_STRINGS) {
+            if let Some(l) = list(name)? {
+                let v = l
+                    .values()
+                    .as_any()
+                    .downcast_ref::<StringArray>()
+                    .ok_or_else(|| {
+                        BatchError::Format(format!("column `{name}` is not list<utf8>"))
+                    })?;
+                *slot = Some((l, v));
+            }
+        }
+        let path = match list("route_path")? {
+            Some(l) => Some((
+                l,
+                Points::new(
+                    l.values()
+                        .as_any()
+                        .downcast_ref::<FixedSizeListArray>()
+                        .ok_or_else(|| {
+                            BatchError::Format("column `route_path` does not hold points".into())
+                        })?,
+                    "route_path",
+                )?,
+            )),
+            None => None,
+        };
+        let levels = match list("route_levels")? {
+            Some(l) => Some((
+                l,
+                l.values()
+                    .as_any()
+                    .downcast_ref::<UInt32Array>()
+                    .ok_or_else(|| {
+                        BatchError::Format("column `route_levels` is not list<uint32>".into())
+                    })?,
+            )),
+            None => None,
+        };
+        let levels_crossed = batch
+            .column_by_name("levels_crossed")
+            .map(|c| {
+                c.as_any().downcast_ref::<UInt32Array>().ok_or_else(|| {
+                    BatchError::Format("column `levels_crossed` is not uint32".into())
+                })
+            })
+            .transpose()?;
+        let goal_object = batch
+            .column_by_name("route_goal_object")
+            .map(|c| {
+                c.as_any().downcast_ref::<StringArray>().ok_or_else(|| {
+                    BatchError::Format("column `route_goal_object` is not utf8".into())
+                })
+            })
+            .transpose()?;
+        Ok(RouteColumns {
+            levels_crossed,
+            path,
+            strings,
+            levels,
+            goal_object,
+        })
+    }
+
+    /// Row `i`'s levels crossed (0 when the column is missing), as (column, message) on error.
+    fn levels_crossed(&self, i: usize) -> Result<u32, (&'static str, String)> {
+        match self.levels_crossed {
+            None => Ok(0),
+            Some(a) if a.is_null(i) => Err(("levels_crossed", "null value".into())),
+            Some(a) => Ok(a.value(i)),
+        }
+    }
+
+    /// Row `i`'s route; `None` when the file has no route columns or the row's path and
+    /// instructions are both empty.
+    fn route(&self, i: usize) -> Result<Option<Route>, (&'static str, String)> {
+        let Some((paths, points)) = &self.path else {
+            return Ok(None);
+        };
+        let range = |l: &ListArray, name: &'static str| {
+            if l.is_null(i) {
+                return Err((name, "null list".to_string()));
+            }
+            Ok(l.value_offsets()[i] as usize..l.value_offsets()[i + 1] as usize)
+        };
+        let path = range(paths, "route_path")?
+            .map(|k| {
+                points
+                    .get(k)
+                    .ok_or_else(|| ("route_path", "null point".to_string()))
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        let mut texts: [Vec<String>; 5] = Default::default();
+        for ((out, col), name) in texts.iter_mut().zip(&self.strings).zip(ROUTE_STRINGS) {
+            if let Some((l, v)) = col {
+                for k in range(l, name)? {
+                    if v.is_null(k) {
+                        return Err((name, "null item".into()));
+                    }
+                    out.push(v.value(k).to_string());
+                }
+            }
+        }
+        let [room_ids, room_classes, doors, landmarks, instructions] = texts;
+        if path.is_empty() && instructions.is_empty() {
+            return Ok(None);
+        }
+        if room_ids.len() != room_classes.len() {
+            return Err((
+                "route_room_classes",
+                format!(
+                    "{} room ids and {} classes: expected one class per room",
+                    room_ids.len(),
+                    room_classes.len()
+                ),
+            ));
+        }
+        let levels = match &self.levels {
+            Some((l, v)) => range(l, "route_levels")?.map(|k| v.value(k)).collect(),
+            None => Vec::new(),
+        };
+        Ok(Some(Route {
+            path,
+            rooms: room_ids
+                .into_iter()
+                .zip(room_classes)
+                .map(|(id, class)| TargetRoom { id, class })
+                .collect(),
+            doors,
+            levels,
+            landmarks,
+            goal_object: self
+                .goal_object
+                .filter(|g| !g.is_null(i))
+                .map(|g| g.value(i).to_string()),
+            instructions,
+        }))
     }
 }
 
@@ -191,7 +374,34 @@ fn to_batch(eps: &[Episode]) -> Result<RecordBatch, arrow::error::ArrowError> {
         room_classes.append(true);
     }
 
-    let columns: Vec<(&'static str, ArrayRef, bool)> = vec![
+    // The VLN route columns (empty lists, and a null goal object, for other tasks).
+    fn route(e: &Episode) -> Option<&Route> {
+        e.route.as_deref()
+    }
+    let strings = |f: &dyn Fn(&Route) -> Vec<&str>| -> ArrayRef {
+        let mut b = ListBuilder::new(StringBuilder::new());
+        for e in eps {
+            for v in route(e).map(f).unwrap_or_default() {
+                b.values().append_value(v);
+            }
+            b.append(true);
+        }
+        Arc::new(b.finish())
+    };
+    let mut route_path = ListBuilder::new(point());
+    let mut route_levels = ListBuilder::new(arrow::array::UInt32Builder::new());
+    for e in eps {
+        if let Some(r) = route(e) {
+            for p in &r.path {
+                route_path.values().values().append_slice(p);
+                route_path.values().append(true);
+            }
+            route_levels.values().append_slice(&r.levels);
+        }
+        route_path.append(true);
+        route_levels.append(true);
+    }
+    let mut columns: Vec<(&'static str, ArrayRef, bool)> = vec![
         ("episode_id", strs(&|e| &e.episode_id), false),
         ("scene_id", strs(&|e| &e.scene_id), false),
         ("split", strs(&|e| &e.split), false),
@@ -244,7 +454,50 @@ fn to_batch(eps: &[Episode]) -> Result<RecordBatch, arrow::error::ArrowError> {
         ("difficulty", strs(&|e| e.difficulty.name()), false),
         ("success_radius", f32s(&|e| e.success_radius), false),
         ("max_steps", u32s(&|e| e.max_steps), false),
+        ("levels_crossed", u32s(&|e| e.levels_crossed), false),
+        ("route_path", Arc::new(route_path.finish()), false),
     ];
+    columns.extend([
+        (
+            "route_room_ids",
+            strings(&|r| r.rooms.iter().map(|x| x.id.as_str()).collect()),
+            false,
+        ),
+        (
+            "route_room_classes",
+            strings(&|r| r.rooms.iter().map(|x| x.class.as_str()).collect()),
+            false,
+        ),
+        (
+            "route_door_ids",
+            strings(&|r| r.doors.iter().map(String::as_str).collect()),
+            false,
+        ),
+        (
+            "route_levels",
+            Arc::new(route_levels.finish()) as ArrayRef,
+            false,
+        ),
+        (
+            "route_landmark_ids",
+            strings(&|r| r.landmarks.iter().map(String::as_str).collect()),
+            false,
+        ),
+        (
+            "route_goal_object",
+            Arc::new(
+                eps.iter()
+                    .map(|e| route(e).and_then(|r| r.goal_object.as_deref()))
+                    .collect::<StringArray>(),
+            ),
+            true,
+        ),
+        (
+            "instructions",
+            strings(&|r| r.instructions.iter().map(String::as_str).collect()),
+            false,
+        ),
+    ]);
     let schema = Schema::new(
         columns
             .iter()
@@ -386,6 +639,7 @@ fn read_batch(
     let difficulty = column::<StringArray>(batch, "difficulty")?;
     let success_radius = f32col("success_radius")?;
     let max_steps = column::<UInt32Array>(batch, "max_steps")?;
+    let route_columns = RouteColumns::of(batch)?;
 
     let id_values = goal_ids
         .values()
@@ -441,7 +695,7 @@ fn read_batch(
         let difficulty_v = Difficulty::from_name(diff_name)
             .ok_or_else(|| bad("difficulty", format!("unknown difficulty `{diff_name}`")))?;
 
-        let goal = if task_v == Task::PointGoal {
+        let goal = if matches!(task_v, Task::PointGoal | Task::Vln) {
             Goal::Point {
                 position: [
                     get!(goal_xyz[0], "goal_x"),
@@ -540,6 +794,13 @@ fn read_batch(
             difficulty: difficulty_v,
             success_radius: get!(success_radius, "success_radius"),
             max_steps: get!(max_steps, "max_steps"),
+            levels_crossed: route_columns
+                .levels_crossed(i)
+                .map_err(|(c, m)| bad(c, m))?,
+            route: route_columns
+                .route(i)
+                .map_err(|(c, m)| bad(c, m))?
+                .map(Box::new),
         });
         if let Some(Err((column, message))) = out.last().map(Episode::validate) {
             return Err(bad(column, message));
@@ -575,6 +836,8 @@ pub(crate) mod tests {
             difficulty: Difficulty::Hard,
             success_radius: 0.2,
             max_steps: 500,
+            levels_crossed: 0,
+            route: None,
         };
         let object = Episode {
             episode_id: "house_a:objectgoal:00001".into(),
@@ -616,6 +879,7 @@ pub(crate) mod tests {
             difficulty: Difficulty::Easy,
             success_radius: 0.1,
             max_steps: 250,
+            levels_crossed: 1,
             ..base.clone()
         };
         let room = Episode {
@@ -734,7 +998,9 @@ pub(crate) mod tests {
             goal_x goal_y goal_z goal_category goal_room_class goal_ids goal_positions \
             goal_view_points goal_room_ids goal_room_classes euclidean_distance \
             geodesic_distance path_num_doors \
-            path_num_rooms difficulty success_radius max_steps";
+            path_num_rooms difficulty success_radius max_steps levels_crossed route_path \
+            route_room_ids route_room_classes route_door_ids route_levels route_landmark_ids \
+            route_goal_object instructions";
         assert_eq!(names, expected.split_whitespace().collect::<Vec<_>>());
         let batch = reader.build().unwrap().next().unwrap().unwrap();
         // ObjectGoal row: goal_x/y/z is the first target's position; nulls where documented.

@@ -1,5 +1,6 @@
 //! An episode's task in words, for policies that condition on language (LeRobot's `task`):
-//! "find a chair", "go to the kitchen", "go 4.2 m ahead and 1.3 m left".
+//! "find a chair", "go to the kitchen", "go 4.2 m ahead and 1.3 m left", and for a VLN
+//! episode its first route instruction ("Walk out of the bedroom and turn left. …").
 //!
 //! PointGoal instructions are in the start pose's frame (forward = −Z turned by the start yaw,
 //! right = +X turned likewise; see the coordinate conventions), rounded to 0.1 m; a height
@@ -11,8 +12,11 @@ use super::{Episode, Goal};
 /// Height difference (m) from which a PointGoal instruction says "up" or "down".
 const LEVEL_CHANGE: f32 = 0.5;
 
-/// The episode's instruction in English.
+/// The episode's instruction in English (a VLN episode's first instruction).
 pub fn instruction(episode: &Episode) -> String {
+    if let Some(text) = episode.route.as_ref().and_then(|r| r.instructions.first()) {
+        return text.clone();
+    }
     match &episode.goal {
         Goal::Object { category, .. } => format!("find {}", with_article(&words(category))),
         Goal::Room { class, .. } => format!("go to the {}", words(class)),
@@ -88,6 +92,8 @@ mod tests {
             difficulty: Difficulty::Easy,
             success_radius: 0.2,
             max_steps: 500,
+            levels_crossed: 0,
+            route: None,
         }
     }
 
@@ -113,6 +119,30 @@ mod tests {
             targets: vec![target],
         };
         assert_eq!(instruction(&episode(room, 0.0)), "go to the living room");
+    }
+
+    #[test]
+    fn a_vln_episode_is_said_by_its_first_route_instruction() {
+        let mut e = episode(
+            Goal::Point {
+                position: [1.0, 0.0, -3.0],
+            },
+            0.0,
+        );
+        e.task = Task::Vln;
+        e.route = Some(Box::new(crate::episode::vln::Route {
+            path: vec![[1.0, 0.0, 2.0], [1.0, 0.0, -3.0]],
+            rooms: vec![],
+            doors: vec![],
+            levels: vec![0],
+            landmarks: vec![],
+            goal_object: None,
+            instructions: vec!["Walk ahead. Stop.".into(), "Stop ahead.".into()],
+        }));
+        // LeRobot's task and `minos serve` read this.
+        assert_eq!(instruction(&e), "Walk ahead. Stop.");
+        e.route = None;
+        assert_eq!(instruction(&e), "go 5.0 m ahead");
     }
 
     #[test]

@@ -388,7 +388,7 @@ impl RowReader<'_, '_> {
             }
         };
         let goal = match task {
-            Task::PointGoal => Goal::Point { position: goal_pos },
+            Task::PointGoal | Task::Vln => Goal::Point { position: goal_pos },
             Task::ObjectGoal => {
                 let id = required(c.object_id, "goalObjectId")?;
                 let category = match self.opt_text(c.object_type) {
@@ -443,6 +443,8 @@ impl RowReader<'_, '_> {
             difficulty: difficulty_for_geodesic(geodesic_distance),
             success_radius: MINOS_SUCCESS_RADIUS,
             max_steps: DEFAULT_MAX_STEPS,
+            levels_crossed: 0,
+            route: None,
         })
     }
 }

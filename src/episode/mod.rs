@@ -1,5 +1,6 @@
-//! Episodes: navigable PointGoal / ObjectGoal / RoomGoal start–goal pairs, their Parquet
-//! file, and interchange with Habitat-Lab and MINOS formats.
+//! Episodes: navigable PointGoal / ObjectGoal / RoomGoal start–goal pairs and VLN routes with
+//! instructions in words, their Parquet file, and interchange with Habitat-Lab, VLN-CE, R2R and
+//! MINOS formats.
 
 pub mod format;
 pub mod goal;
@@ -8,6 +9,7 @@ pub mod instruction;
 pub mod interchange;
 pub mod minos_csv;
 pub mod sample;
+pub mod vln;
 
 use serde::{Deserialize, Serialize};
 
@@ -20,15 +22,21 @@ pub enum Task {
     ObjectGoal,
     /// Reach a room of a class.
     RoomGoal,
+    /// Follow a route described in words (vision-and-language navigation): the goal is the
+    /// route's end point, the episode's [`vln::Route`] holds the reference path and the
+    /// instructions.
+    Vln,
 }
 
 impl Task {
-    /// Name used on the command line and in files (`pointgoal`, `objectgoal`, `roomgoal`).
+    /// Name used on the command line and in files (`pointgoal`, `objectgoal`, `roomgoal`,
+    /// `vln`).
     pub fn name(self) -> &'static str {
         match self {
             Task::PointGoal => "pointgoal",
             Task::ObjectGoal => "objectgoal",
             Task::RoomGoal => "roomgoal",
+            Task::Vln => "vln",
         }
     }
 
@@ -38,6 +46,7 @@ impl Task {
             "pointgoal" => Some(Task::PointGoal),
             "objectgoal" => Some(Task::ObjectGoal),
             "roomgoal" => Some(Task::RoomGoal),
+            "vln" => Some(Task::Vln),
             _ => None,
         }
     }
@@ -156,6 +165,14 @@ pub struct Episode {
     pub success_radius: f32,
     /// Step limit.
     pub max_steps: u32,
+    /// Levels the shortest path climbs or descends: the sum of the level changes between
+    /// its consecutive corners (0 on one floor; 0 for imported episodes that do not say).
+    #[serde(default)]
+    pub levels_crossed: u32,
+    /// The route of a VLN episode (reference path, rooms, doors, instructions); `None` for
+    /// the other tasks.
+    #[serde(default)]
+    pub route: Option<Box<vln::Route>>,
 }
 
 impl Episode {
@@ -189,6 +206,11 @@ impl Episode {
                             .map_err(|(f, m)| (f, format!("target {j}: view point {v}: {m}")))?;
                     }
                 }
+            }
+        }
+        if let Some(route) = &self.route {
+            for (k, p) in route.path.iter().enumerate() {
+                point(["route_path"; 3], p).map_err(|(f, m)| (f, format!("point {k}: {m}")))?;
             }
         }
         if !(self.success_radius.is_finite() && self.success_radius >= 0.0) {
@@ -249,6 +271,8 @@ mod tests {
             difficulty: Difficulty::Easy,
             success_radius: 0.2,
             max_steps: 500,
+            levels_crossed: 0,
+            route: None,
         }
         .on_variant("empty");
         assert_eq!(e.scene_id, "h1@empty");
@@ -282,6 +306,8 @@ mod tests {
             difficulty: Difficulty::Medium,
             success_radius: 1.0,
             max_steps: 500,
+            levels_crossed: 0,
+            route: None,
         };
         assert_eq!(e.validate(), Ok(()));
         for (bad, what) in [

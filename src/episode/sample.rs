@@ -25,6 +25,8 @@ use crate::navmesh::{NavGrid, NONE};
 use crate::scene::RoomClass;
 use crate::seed::{derive_seed, Rng};
 
+use super::vln::landmarks::SceneIndex;
+use super::vln::{describe_route, instruction_seed, RouteEnds};
 use super::{Difficulty, Episode, Goal, GoalTarget, TargetRoom, Task};
 
 /// Which instance(s) of the goal category count.
@@ -53,6 +55,13 @@ pub struct SampleConfig {
     pub success_radius: f32,
     /// ObjectGoal categories.
     pub categories: Vec<String>,
+    /// ObjectGoal: every category of the scene's grid (its objects' most specific labels,
+    /// structure such as walls and floors left out) instead of `categories`.
+    pub all_categories: bool,
+    /// ObjectGoal: fewest reachable instances a category needs in a scene to be a goal.
+    pub min_instances: u32,
+    /// VLN: instructions generated per route.
+    pub instructions: usize,
     /// RoomGoal classes (`None`: any class).
     pub room_classes: Option<Vec<RoomClass>>,
     /// Which instances count.
@@ -89,6 +98,9 @@ impl Default for SampleConfig {
             min_island_radius: 1.5,
             success_radius: 0.2,
             categories: vec!["door".into(), "arch".into()],
+            all_categories: false,
+            min_instances: 1,
+            instructions: crate::episode::vln::DEFAULT_INSTRUCTIONS,
             room_classes: None,
             select: Select::Any,
             min_geodesic: 1.0,
@@ -215,9 +227,8 @@ fn room_of(grid: &NavGrid, spans: &[u32]) -> Option<TargetRoom> {
 /// The goal sets of a scene for the task: one per category (ObjectGoal) or room class (RoomGoal).
 fn goal_sets(grid: &NavGrid, cfg: &SampleConfig) -> Vec<GoalSet> {
     match cfg.task {
-        Task::PointGoal => Vec::new(),
-        Task::ObjectGoal => cfg
-            .categories
+        Task::PointGoal | Task::Vln => Vec::new(),
+        Task::ObjectGoal => object_categories(grid, cfg)
             .iter()
             .filter_map(|cat| {
                 let mut set = GoalSet {
@@ -246,7 +257,8 @@ fn goal_sets(grid: &NavGrid, cfg: &SampleConfig) -> Vec<GoalSet> {
                     });
                     set.spans.push(spans);
                 }
-                (!set.targets.is_empty()).then_some(set)
+                (!set.targets.is_empty() && set.targets.len() >= cfg.min_instances as usize)
+                    .then_some(set)
             })
             .collect(),
         Task::RoomGoal => {
@@ -288,6 +300,59 @@ fn goal_sets(grid: &NavGrid, cfg: &SampleConfig) -> Vec<GoalSet> {
                 .collect()
         }
     }
+}
+
+/// Categories that are structure, never ObjectGoal goals under `--categories all`.
+const STRUCTURE: [&str; 6] = ["ceiling", "floor", "unknown", "void", "wall", ""];
+
+/// The ObjectGoal categories of a scene: the configured list, or every category of the
+/// grid's objects (lower case, sorted, structure left out).
+fn object_categories(grid: &NavGrid, cfg: &SampleConfig) -> Vec<String> {
+    if !cfg.all_categories {
+        return cfg.categories.clone();
+    }
+    let set: std::collections::BTreeSet<String> = grid
+        .objects
+        .iter()
+        .map(|o| o.category.trim().to_ascii_lowercase())
+        .filter(|c| !STRUCTURE.contains(&c.as_str()))
+        .collect();
+    set.into_iter().collect()
+}
+
+/// How far (m) above a level's floor height a floor still counts as that level's.
+const LEVEL_TOLERANCE: f32 = 0.3;
+
+/// The level a floor at height `y` is on: the level whose floor height is the highest at or
+/// below `y` + [`LEVEL_TOLERANCE`] (the lowest level when none is). Heights, not the spans'
+/// level labels, so that floor beside a stairwell (labelled with the stairs' level) and a
+/// half landing count as the floor they are at.
+pub fn level_at_height(grid: &NavGrid, y: f32) -> u32 {
+    let mut best: Option<(f32, usize)> = None;
+    let mut lowest: Option<(f32, usize)> = None;
+    for (k, &h) in grid.level_heights.iter().enumerate() {
+        if lowest.is_none_or(|(lh, _)| h < lh) {
+            lowest = Some((h, k));
+        }
+        if h <= y + LEVEL_TOLERANCE && best.is_none_or(|(bh, _)| h > bh) {
+            best = Some((h, k));
+        }
+    }
+    best.or(lowest).map_or(0, |(_, k)| k as u32)
+}
+
+/// Levels a path climbs or descends: the sum of the level changes ([`level_at_height`])
+/// between its consecutive corner spans.
+pub fn levels_crossed(grid: &NavGrid, spans: &[u32]) -> u32 {
+    let level = |s: u32| {
+        grid.spans
+            .get(s as usize)
+            .map_or(0, |s| i64::from(level_at_height(grid, s.y)))
+    };
+    spans
+        .windows(2)
+        .map(|w| (level(w[1]) - level(w[0])).unsigned_abs() as u32)
+        .sum()
 }
 
 /// Lazily computed distance fields of goal span sets, keyed by (goal set, target or all).
@@ -345,15 +410,36 @@ pub fn sample_scene(
         m
     });
     let sets = goal_sets(grid, cfg);
-    if cfg.task != Task::PointGoal && sets.is_empty() {
+    if matches!(cfg.task, Task::ObjectGoal | Task::RoomGoal) && sets.is_empty() {
         out.unusable = Some(match cfg.task {
+            Task::ObjectGoal if cfg.all_categories => format!(
+                "no object category with {} or more reachable instances",
+                cfg.min_instances
+            ),
             Task::ObjectGoal => format!(
-                "no reachable object of categories {}",
-                cfg.categories.join(",")
+                "no reachable object of categories {}{}",
+                cfg.categories.join(","),
+                if cfg.min_instances > 1 {
+                    format!(" with {} or more reachable instances", cfg.min_instances)
+                } else {
+                    String::new()
+                }
             ),
             _ => "no room of the requested classes with walkable floor".into(),
         });
         return out;
+    }
+    // VLN: the scene's objects by room, and the objects a route may end next to, by island.
+    let vln_index = (cfg.task == Task::Vln).then(|| SceneIndex::new(grid));
+    let mut vln_goals: BTreeMap<u32, Vec<(u32, Vec<u32>)>> = BTreeMap::new();
+    for g in vln_index.iter().flat_map(|x| &x.goals) {
+        let mut by: BTreeMap<u32, Vec<u32>> = BTreeMap::new();
+        for &s in &g.spans {
+            by.entry(grid.spans[s as usize].island).or_default().push(s);
+        }
+        for (island, spans) in by {
+            vln_goals.entry(island).or_default().push((g.object, spans));
+        }
     }
     let geo = Geodesic::new(grid);
     let mut fields = FieldCache {
@@ -378,7 +464,44 @@ pub fn sample_scene(
         };
         let yaw = rng.range_f64(0.0, std::f64::consts::TAU) as f32;
         let island = grid.spans[start_span as usize].island;
+        let mut goal_object = None;
         let (goal, mut path, goal_point) = match cfg.task {
+            Task::Vln => {
+                // An object that is the only one of its category in its room, and the centre
+                // of a span next to it in that room (so within GOAL_RADIUS of it); a random
+                // point where the island has none.
+                let drawn = match vln_goals.get(&island).and_then(|c| rng.pick(c)) {
+                    Some((object, spans)) => {
+                        goal_object = Some(*object);
+                        rng.pick(spans)
+                            .map(|&s| (s, grid.span_position(s as usize)))
+                    }
+                    None => grid.random_point_from(&mut rng, &by_island[&island]),
+                };
+                let Some((goal_span, goal)) = drawn else {
+                    continue;
+                };
+                if start.distance(goal) > cfg.max_geodesic {
+                    reject(&mut out, "geodesic above --max-geodesic");
+                    continue;
+                }
+                match shortest_polyline_in(&geo, start_span, goal_span) {
+                    PathResult::Found(mut p) => {
+                        add_rooms_and_doors(grid, &mut p);
+                        (
+                            Goal::Point {
+                                position: goal.to_array(),
+                            },
+                            p,
+                            goal,
+                        )
+                    }
+                    PathResult::Unreachable => {
+                        reject(&mut out, "unreachable");
+                        continue;
+                    }
+                }
+            }
             Task::PointGoal => {
                 let Some((goal_span, goal)) = grid.random_point_from(&mut rng, &by_island[&island])
                 else {
@@ -472,8 +595,27 @@ pub fn sample_scene(
         if cfg.task == Task::PointGoal && !door_filters {
             add_rooms_and_doors(grid, &mut path);
         }
-        bin_counts[difficulty as usize] += 1;
         let index = out.episodes.len();
+        let route = match &vln_index {
+            Some(vi) => {
+                let described = describe_route(
+                    grid,
+                    vi,
+                    &path,
+                    RouteEnds {
+                        start,
+                        goal: goal_point,
+                        yaw,
+                        goal_object,
+                    },
+                    instruction_seed(seed, index),
+                    cfg.instructions,
+                );
+                Some(Box::new(described.route))
+            }
+            None => None,
+        };
+        bin_counts[difficulty as usize] += 1;
         out.episodes.push(Episode {
             episode_id: format!("{scene_id}:{}:{index:05}", cfg.task.name()),
             scene_id: scene_id.to_string(),
@@ -490,6 +632,8 @@ pub fn sample_scene(
             difficulty,
             success_radius: cfg.success_radius,
             max_steps: cfg.max_steps,
+            levels_crossed: levels_crossed(grid, &path.spans),
+            route,
         });
     }
     out
@@ -518,7 +662,7 @@ fn check(
     reject: &mut dyn FnMut(&'static str),
 ) -> Option<(f32, f32)> {
     let geodesic = match cfg.task {
-        Task::PointGoal => path_length_between(path, start, goal),
+        Task::PointGoal | Task::Vln => path_length_between(path, start, goal),
         // Object and room goals end at the nearest goal span.
         _ => path_length_between(path, start, *path.points.last().unwrap_or(&goal)),
     };
@@ -558,4 +702,45 @@ fn check(
         }
     }
     Some((geodesic, euclidean))
+}
+
+/// HM3D ObjectNav's six goal categories (Habitat challenge 2022–2023).
+pub const HM3D_OBJECTNAV: [&str; 6] = ["chair", "bed", "plant", "toilet", "tv_monitor", "sofa"];
+
+/// MINOS's ObjectGoal categories.
+pub const MINOS_OBJECTGOAL: [&str; 2] = ["door", "arch"];
+
+/// The 21 mpcat40 goal categories of Matterport3D ObjectNav (Habitat challenge 2020–2021).
+pub const MPCAT40_OBJECTNAV: [&str; 21] = [
+    "chair",
+    "table",
+    "picture",
+    "cabinet",
+    "cushion",
+    "sofa",
+    "bed",
+    "chest_of_drawers",
+    "plant",
+    "sink",
+    "toilet",
+    "stool",
+    "towel",
+    "tv_monitor",
+    "shower",
+    "bathtub",
+    "counter",
+    "fireplace",
+    "gym_equipment",
+    "seating",
+    "clothes",
+];
+
+/// The categories of a named preset (`hm3d`, `minos`, `mpcat40`), `None` for other names.
+pub fn category_preset(name: &str) -> Option<&'static [&'static str]> {
+    match name {
+        "hm3d" => Some(&HM3D_OBJECTNAV),
+        "minos" => Some(&MINOS_OBJECTGOAL),
+        "mpcat40" => Some(&MPCAT40_OBJECTNAV),
+        _ => None,
+    }
 }

@@ -50,6 +50,20 @@ pub struct EpisodeBatch {
     /// Mean of each episode's geodesic / Euclidean distance ratio: how much the layout makes
     /// the agent detour (MINOS compared it between empty and furnished houses).
     pub mean_ratio: f64,
+    /// Episodes per distance bin (`easy`, `medium`, `hard`).
+    #[serde(default)]
+    pub difficulty: BTreeMap<String, usize>,
+    /// Episodes per number of levels crossed (`"0"`, `"1"`, …).
+    #[serde(default)]
+    pub levels_crossed: BTreeMap<String, usize>,
+    /// ObjectGoal: the category vocabulary of the episodes — every goal category with its
+    /// episode count (categories are drawn uniformly among those reachable from the start,
+    /// so counts differ only where scenes lack a category). Empty for other tasks.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub categories: BTreeMap<String, usize>,
+    /// VLN: length and difficulty statistics of the routes and their instructions.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub vln: Option<VlnStats>,
     /// Per scene.
     pub scenes: BTreeMap<String, SceneStats>,
     /// The object categories (lower case) of the sampled scenes' grids: `minos episodes`
@@ -129,11 +143,148 @@ pub fn sample_scenes(
     batch
 }
 
+/// Length and difficulty statistics of VLN routes and instructions.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct VlnStats {
+    /// Routes.
+    pub routes: usize,
+    /// Instructions (routes × instructions per route).
+    pub instructions: usize,
+    /// Words per instruction (R2R's tokens without punctuation): mean, min, max.
+    pub words: Summary,
+    /// Words per instruction by its place in the route's list (0: full detail, 1: medium,
+    /// 2: brief, …): means.
+    pub words_by_detail: Vec<f64>,
+    /// Distinct words over all instructions.
+    pub vocabulary: usize,
+    /// Reference path length (m).
+    pub path_length: Summary,
+    /// Corners of the reference path (turns of the geodesic path).
+    pub corners: Summary,
+    /// Rooms passed.
+    pub rooms: Summary,
+    /// Doorways passed through.
+    pub doors: Summary,
+    /// Landmarks named (over the route's instructions).
+    pub landmarks: Summary,
+    /// Routes whose stop description names an object.
+    pub stop_at_object: usize,
+    /// Routes that change level (and name the stairs).
+    pub multi_level: usize,
+}
+
+/// Mean, smallest and largest of a quantity.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct Summary {
+    /// Mean.
+    pub mean: f64,
+    /// Smallest.
+    pub min: f64,
+    /// Largest.
+    pub max: f64,
+}
+
+impl Summary {
+    /// The summary of `values` (zeros when empty).
+    pub fn of(values: impl IntoIterator<Item = f64>) -> Summary {
+        let (mut n, mut sum, mut min, mut max) = (0usize, 0.0, f64::INFINITY, f64::NEG_INFINITY);
+        for v in values {
+            n += 1;
+            sum += v;
+            min = min.min(v);
+            max = max.max(v);
+        }
+        if n == 0 {
+            return Summary::default();
+        }
+        Summary {
+            mean: sum / n as f64,
+            min,
+            max,
+        }
+    }
+}
+
+impl VlnStats {
+    /// The statistics of the episodes' routes (`None` when none has one).
+    pub fn of(episodes: &[Episode]) -> Option<VlnStats> {
+        let routes: Vec<&crate::episode::vln::Route> =
+            episodes.iter().filter_map(|e| e.route.as_deref()).collect();
+        if routes.is_empty() {
+            return None;
+        }
+        let words = |t: &str| {
+            crate::episode::vln::tokens::tokenize(t)
+                .into_iter()
+                .filter(|w| w.chars().any(|c| c.is_alphanumeric()))
+                .collect::<Vec<_>>()
+        };
+        let mut vocabulary = std::collections::BTreeSet::new();
+        let mut counts: Vec<f64> = Vec::new();
+        let mut by_detail: Vec<(f64, usize)> = Vec::new();
+        for r in &routes {
+            for (k, t) in r.instructions.iter().enumerate() {
+                let w = words(t);
+                counts.push(w.len() as f64);
+                if by_detail.len() <= k {
+                    by_detail.resize(k + 1, (0.0, 0));
+                }
+                by_detail[k].0 += w.len() as f64;
+                by_detail[k].1 += 1;
+                vocabulary.extend(w);
+            }
+        }
+        let length = |r: &crate::episode::vln::Route| {
+            r.path
+                .windows(2)
+                .map(|w| {
+                    let d: f32 = (0..3).map(|a| (w[1][a] - w[0][a]).powi(2)).sum();
+                    f64::from(d.sqrt())
+                })
+                .sum::<f64>()
+        };
+        Some(VlnStats {
+            routes: routes.len(),
+            instructions: counts.len(),
+            words: Summary::of(counts.iter().copied()),
+            words_by_detail: by_detail
+                .iter()
+                .map(|(s, n)| if *n > 0 { s / *n as f64 } else { 0.0 })
+                .collect(),
+            vocabulary: vocabulary.len(),
+            path_length: Summary::of(routes.iter().map(|r| length(r))),
+            corners: Summary::of(routes.iter().map(|r| r.path.len().saturating_sub(2) as f64)),
+            rooms: Summary::of(routes.iter().map(|r| r.rooms.len() as f64)),
+            doors: Summary::of(routes.iter().map(|r| r.doors.len() as f64)),
+            landmarks: Summary::of(routes.iter().map(|r| r.landmarks.len() as f64)),
+            stop_at_object: routes.iter().filter(|r| r.goal_object.is_some()).count(),
+            multi_level: routes.iter().filter(|r| r.levels.len() > 1).count(),
+        })
+    }
+}
+
 impl EpisodeBatch {
-    /// Sets the totals and means from the episodes (in their order, so the same episodes
-    /// always give the same figures).
+    /// Sets the totals, means and distributions from the episodes (in their order, so the
+    /// same episodes always give the same figures).
     pub fn summarise(&mut self) {
         let batch = self;
+        batch.difficulty.clear();
+        batch.levels_crossed.clear();
+        batch.categories.clear();
+        for e in &batch.episodes {
+            *batch
+                .difficulty
+                .entry(e.difficulty.name().to_string())
+                .or_default() += 1;
+            *batch
+                .levels_crossed
+                .entry(e.levels_crossed.to_string())
+                .or_default() += 1;
+            if let crate::episode::Goal::Object { category, .. } = &e.goal {
+                *batch.categories.entry(category.clone()).or_default() += 1;
+            }
+        }
+        batch.vln = VlnStats::of(&batch.episodes);
         batch.total = batch.episodes.len();
         batch.mean_geodesic = 0.0;
         batch.mean_euclidean = 0.0;

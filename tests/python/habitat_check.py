@@ -1,7 +1,9 @@
 """Loads minos's Habitat exports with habitat-lab's own dataset classes (tests/habitat.rs).
 
 Usage: habitat_check.py DIR SPLIT SUFFIX
-  DIR/pointgoal, DIR/objectgoal, DIR/roomgoal each hold one export (DIR/<task>/<SPLIT>/...).
+  DIR/pointgoal, DIR/objectgoal, DIR/roomgoal each hold one export (DIR/<task>/<SPLIT>/...);
+  DIR/vln, when present, a VLN-CE export (DIR/vln/<SPLIT>/<SPLIT>.json.gz) loaded with
+  habitat-lab's VLNDatasetV1 (R2RVLN-v1).
 
 Every content file is loaded twice: through the split file (the dataset constructor, as a
 Habitat config does it) and on its own (`from_json` of a fresh dataset). Failed checks raise;
@@ -75,6 +77,8 @@ try:
     from habitat.core.simulator import AgentState
     from habitat.datasets.object_nav.object_nav_dataset import ObjectNavDatasetV1
     from habitat.datasets.pointnav.pointnav_dataset import PointNavDatasetV1
+    from habitat.datasets.vln.r2r_vln_dataset import VLNDatasetV1
+    from habitat.tasks.vln.vln import InstructionData, VLNEpisode
     from habitat.tasks.nav.nav import NavigationGoal
     from habitat.tasks.nav.object_nav_task import ObjectGoal
     from omegaconf import OmegaConf
@@ -166,12 +170,53 @@ def check_object(root, split, suffix, rooms):
     }
 
 
+def r2r_tokens(text):
+    """R2R's tokeniser (Matterport3D simulator's Tokenizer.split_sentence), written here."""
+    import re
+
+    toks = []
+    for word in [s.strip().lower() for s in re.split(r"(\W+)", text.strip()) if len(s.strip()) > 0]:
+        if all(c in ".,;:!?'\"()" for c in word) and not all(c in "." for c in word):
+            toks += list(word)
+        else:
+            toks.append(word)
+    return toks
+
+
+def check_vln(root, split, suffix):
+    ds = load_split(VLNDatasetV1, root, split)
+    vocab = ds.instruction_vocab
+    check(vocab.PAD_INDEX == 0 and vocab.UNK_INDEX == 1, "pad and unk indices")
+    trajectories = set()
+    for e in ds.episodes:
+        tag = e.info["minos_episode_id"]
+        check(isinstance(e, VLNEpisode), f"{tag}: episode type")
+        check(isinstance(e.instruction, InstructionData), f"{tag}: instruction type")
+        check(e.scene_id.endswith(suffix), f"{tag}: scene_id {e.scene_id}")
+        check(len(e.goals) == 1 and isinstance(e.goals[0], NavigationGoal), f"{tag}: goals")
+        check(e.reference_path[0] == list(e.start_position), f"{tag}: path starts at the start")
+        check(e.reference_path[-1] == list(e.goals[0].position), f"{tag}: path ends at the goal")
+        ids = [vocab.word2idx(w) for w in r2r_tokens(e.instruction.instruction_text)]
+        want = ids + [vocab.PAD_INDEX] * (len(e.instruction.instruction_tokens) - len(ids))
+        check(e.instruction.instruction_tokens == want, f"{tag}: tokens")
+        check(vocab.UNK_INDEX not in ids, f"{tag}: a word outside the vocabulary")
+        trajectories.add(e.trajectory_id)
+    return {
+        "episodes_via_split": len(ds.episodes),
+        "trajectories": len(trajectories),
+        "instructions": [e.instruction.instruction_text for e in ds.episodes],
+        "vocabulary": vocab.get_size(),
+    }
+
+
 def main():
     out, split, suffix = sys.argv[1], sys.argv[2], sys.argv[3]
     summary = {"habitat_lab": habitat.__version__}
     summary["pointgoal"] = check_point(os.path.join(out, "pointgoal"), split, suffix)
     summary["objectgoal"] = check_object(os.path.join(out, "objectgoal"), split, suffix, False)
     summary["roomgoal"] = check_object(os.path.join(out, "roomgoal"), split, suffix, True)
+    if os.path.isdir(os.path.join(out, "vln")):
+        summary["vln"] = check_vln(os.path.join(out, "vln"), split, suffix)
     summary["stubbed"] = sorted(stubbed)
     print(json.dumps(summary))
 

@@ -101,6 +101,7 @@ struct InfoOut<'a> {
     path_num_rooms: u32,
     success_radius: f64,
     max_steps: u32,
+    levels_crossed: u32,
 }
 
 #[derive(Serialize)]
@@ -251,6 +252,7 @@ pub fn export_habitat(
                     path_num_rooms: e.path_num_rooms,
                     success_radius: f64::from(e.success_radius),
                     max_steps: e.max_steps,
+                    levels_crossed: e.levels_crossed,
                 },
                 goals: Vec::new(),
                 object_category: None,

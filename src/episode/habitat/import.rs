@@ -335,7 +335,7 @@ fn read_episode(
 
     let mut point_radius = None;
     let goal = match task {
-        Task::PointGoal => {
+        Task::PointGoal | Task::Vln => {
             let goals = r.array("goals")?;
             let first = goals.first().ok_or_else(|| {
                 r.err("goals", "expected at least one goal for a PointNav episode")
@@ -434,5 +434,7 @@ fn read_episode(
         difficulty,
         success_radius,
         max_steps: info_uint("max_steps", u32max)?.map_or(DEFAULT_MAX_STEPS, |n| n as u32),
+        levels_crossed: info_uint("levels_crossed", u32max)?.unwrap_or(0) as u32,
+        route: None,
     })
 }

@@ -23,7 +23,8 @@
 //!   minos extension that Habitat ignores (it keeps `info` as a free dictionary),
 //!   `minos_episode_id` (the episode id again: Habitat's ObjectNav loader replaces
 //!   `episode_id` by the episode's index in its file), `task`, `split`, `seed`,
-//!   `path_num_doors`, `path_num_rooms`, `success_radius`, `max_steps`.
+//!   `path_num_doors`, `path_num_rooms`, `success_radius`, `max_steps`, `levels_crossed`
+//!   (levels the shortest path climbs or descends; read back on import, 0 when absent).
 //! - PointGoal: `goals` = `[{"position", "radius"}]` with the success radius.
 //! - ObjectGoal: `object_category` and an empty `goals` list; the targets go to the content
 //!   file's top-level `goals_by_category[key]` as `{"object_id", "object_name",
