@@ -52,14 +52,26 @@ def test_ingest_and_bake_report_like_the_cli(world):
     assert ing["compiled"] == 2 and ing["failed"] == 0
     assert sorted(s["id"] for s in ing["scenes"]) == world.scenes
     assert Path(ing["manifest"]).is_file()
-    assert world.baked == {"baked": 2, "up_to_date": 0, "failed": {}}
+    assert world.baked == {"baked": 2, "up_to_date": 0, "failed": {}, "replaced_body": {}}
     bar = Bar()
     again = minos.bake(world.data, previews=False, progress=bar)
-    assert again == {"baked": 0, "up_to_date": 2, "failed": {}}
+    assert again == {"baked": 0, "up_to_date": 2, "failed": {}, "replaced_body": {}}
     assert (bar.total, bar.n) == (2, 2)
     minos.ingest(world.gen, world.data)  # generate above rewrote the category table
     up = minos.ingest(world.gen, world.data)
     assert up["up_to_date"] == 2 and up["compiled"] == 0
+
+
+def test_a_bake_for_another_body_reports_the_grids_it_replaced(world, tmp_path):
+    # A copy of the DATA folder (its grids are Habitat's), baked for MINOS's body: every
+    # scene's grid is replaced, and the report names the body it was baked for.
+    data = tmp_path / "DATA"
+    shutil.copytree(world.data, data)
+    rep = minos.bake(data, preset="minos", previews=False)
+    assert rep["baked"] == 2 and set(rep["replaced_body"]) == set(world.scenes)
+    assert all("height 1.5 m" in body and "(habitat)" in body
+               for body in rep["replaced_body"].values()), rep
+    assert minos.bake(data, preset="minos", previews=False)["replaced_body"] == {}
 
 
 def test_errors_carry_the_cli_message(world, tmp_path, minos_bin):

@@ -324,7 +324,7 @@ fn object_categories(grid: &NavGrid, cfg: &SampleConfig) -> Vec<String> {
 const LEVEL_TOLERANCE: f32 = 0.3;
 
 /// The level a floor at height `y` is on: the level whose floor height is the highest at or
-/// below `y` + [`LEVEL_TOLERANCE`] (the lowest level when none is). Heights, not the spans'
+/// below `y` + a tolerance (the lowest level when none is). Heights, not the spans'
 /// level labels, so that floor beside a stairwell (labelled with the stairs' level) and a
 /// half landing count as the floor they are at.
 pub fn level_at_height(grid: &NavGrid, y: f32) -> u32 {

@@ -142,9 +142,9 @@ const CANDIDATE_YAWS: usize = 8;
 /// Side of the depth image each candidate view is judged by.
 const PROBE_SIZE: u32 = 32;
 
-/// The pose (x, floor y, z, yaw) with the most open view: among the [`CANDIDATE_PLACES`]
+/// The pose (x, floor y, z, yaw) with the most open view: among the 24
 /// walkable spans of largest clearance (inside rooms when there are rooms; ties by span
-/// index), at [`CANDIDATE_YAWS`] headings each, the one whose depth image (at the agent's eye,
+/// index), at 8 headings each, the one whose depth image (at the agent's eye,
 /// 90° field of view) has the largest median depth, pixels that see nothing counting as 0 —
 /// deterministic for a scene and agent. `None` when nothing is walkable.
 pub fn most_open_pose(

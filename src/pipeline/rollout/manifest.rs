@@ -43,8 +43,8 @@ fn configuration(cfg: &RunConfig) -> serde_json::Value {
 }
 
 /// The record an unfinished run keeps beside its parts (`.parts/run.json`), so that running
-/// it again continues it only when nothing that decides its bytes changed: the
-/// [`configuration`], the step limit, and the sha256 of its episodes (ids and all fields).
+/// it again continues it only when nothing that decides its bytes changed: the manifest's
+/// configuration without the command line, the step limit, and the sha256 of its episodes.
 pub fn unfinished_record(cfg: &RunConfig, mine: &[(usize, Episode)]) -> serde_json::Value {
     use sha2::{Digest, Sha256};
     let mut hash = Sha256::new();
