@@ -293,10 +293,11 @@ pub fn bake<'py>(
 
 /// `minos episodes`: samples `task` (`pointgoal`, `objectgoal`, `roomgoal`) episodes into
 /// the Parquet file `out` (statistics in `out.stats.json`; with `export_habitat=DIR`,
-/// Habitat-Lab's layout too). Options as the CLI's flags. Returns the statistics (total,
+/// Habitat-Lab's layout too). Options as the CLI's flags (`same_level` defaults to True for
+/// ObjectGoal, as in Habitat's 2023 challenge, False otherwise). Returns the statistics (total,
 /// means, rejected draws, per scene) with `out` and `stats`.
 #[pyfunction]
-#[pyo3(signature = (data, task, out, split = None, subset = None, variant = None, preset = "habitat", allow_body_mismatch = false, per_scene = 10, seed = 0, min_island_radius = 1.5, success_radius = None, categories = vec!["door".to_string(), "arch".to_string()], room_types = vec!["any".to_string()], select = "any", min_geodesic = 1.0, max_geodesic = 30.0, ratio_rule = true, min_doors = 0, min_rooms = 0, same_level = false, bins = (3.0, 6.0), stratify = "auto", max_steps = 500, shard = "0/1", export_habitat = None, scene_prefix = "", scene_suffix = "", threads = None, progress = None))]
+#[pyo3(signature = (data, task, out, split = None, subset = None, variant = None, preset = "habitat", allow_body_mismatch = false, per_scene = 10, seed = 0, min_island_radius = 1.5, success_radius = None, categories = vec!["door".to_string(), "arch".to_string()], room_types = vec!["any".to_string()], select = "any", min_geodesic = 1.0, max_geodesic = 30.0, ratio_rule = true, min_doors = 0, min_rooms = 0, same_level = None, bins = (3.0, 6.0), stratify = "auto", max_steps = 500, shard = "0/1", export_habitat = None, scene_prefix = "", scene_suffix = "", threads = None, progress = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn sample_episodes<'py>(
     py: Python<'py>,
@@ -320,7 +321,7 @@ pub fn sample_episodes<'py>(
     ratio_rule: bool,
     min_doors: u32,
     min_rooms: u32,
-    same_level: bool,
+    same_level: Option<bool>,
     bins: (f32, f32),
     stratify: &str,
     max_steps: u32,
@@ -454,7 +455,8 @@ pub fn sample_episodes<'py>(
                 ratio_rule,
                 min_doors,
                 min_rooms,
-                same_level,
+                // As the CLI: ObjectGoal keeps to one floor unless told otherwise.
+                same_level: same_level.unwrap_or(task == Task::ObjectGoal),
                 bins: [bins.0, bins.1],
                 stratified,
                 max_steps,
@@ -481,26 +483,13 @@ pub fn sample_episodes<'py>(
             write_bytes_atomic(&stats_path, &stats)
                 .with_context(|| stats_path.display().to_string())?;
             if let Some(dir) = &habitat_export {
-                for (subset, habitat_split) in [
-                    ("train", "train"),
-                    ("val", "val"),
-                    ("test", "test"),
-                    ("", "all"),
-                ] {
-                    let eps: Vec<Episode> = batch
-                        .episodes
-                        .iter()
-                        .filter(|e| e.split == subset)
-                        .cloned()
-                        .collect();
-                    if !eps.is_empty() {
-                        minos::episode::habitat::export_habitat(
-                            dir,
-                            habitat_split,
-                            &scene_names,
-                            &eps,
-                        )?;
-                    }
+                for (habitat_split, eps) in batch.export_splits() {
+                    minos::episode::habitat::export_habitat(
+                        dir,
+                        habitat_split,
+                        &scene_names,
+                        &eps,
+                    )?;
                 }
             }
             Ok((batch, stats_path))

@@ -539,40 +539,13 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     }
     if let Some(dir) = &job.habitat_export {
         // Episodes of no split (no --split given) go into Habitat's split `all`.
-        for (subset, habitat_split) in [
-            ("train", "train"),
-            ("val", "val"),
-            ("test", "test"),
-            ("", "all"),
-        ] {
-            let eps: Vec<_> = batch
-                .episodes
-                .iter()
-                .filter(|e| e.split == subset)
-                .cloned()
-                .collect();
-            if !eps.is_empty() {
-                export_habitat(dir, habitat_split, &job.scene_names, &eps)?;
-            }
+        for (habitat_split, eps) in batch.export_splits() {
+            export_habitat(dir, habitat_split, &job.scene_names, &eps)?;
         }
         ctx.say(format!("exported Habitat episodes -> {}", dir.display()));
     }
     if let Some((format, dir)) = &job.vln_export {
-        for (subset, split) in [
-            ("train", "train"),
-            ("val", "val"),
-            ("test", "test"),
-            ("", "all"),
-        ] {
-            let eps: Vec<_> = batch
-                .episodes
-                .iter()
-                .filter(|e| e.split == subset)
-                .cloned()
-                .collect();
-            if eps.is_empty() {
-                continue;
-            }
+        for (split, eps) in batch.export_splits() {
             match format {
                 VlnFormat::VlnCe => export_vlnce(dir, split, &job.scene_names, &eps)?,
                 VlnFormat::R2r => export_r2r(dir, split, &eps)?,

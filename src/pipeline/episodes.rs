@@ -264,6 +264,29 @@ impl VlnStats {
 }
 
 impl EpisodeBatch {
+    /// The episodes grouped by the split names exports use — `train`, `val`, `test`, and
+    /// `all` for episodes of no split (sampled without `--split`) —, each group in episode
+    /// order, empty groups left out.
+    pub fn export_splits(&self) -> Vec<(&'static str, Vec<Episode>)> {
+        [
+            ("train", "train"),
+            ("val", "val"),
+            ("test", "test"),
+            ("", "all"),
+        ]
+        .into_iter()
+        .filter_map(|(subset, name)| {
+            let eps: Vec<Episode> = self
+                .episodes
+                .iter()
+                .filter(|e| e.split == subset)
+                .cloned()
+                .collect();
+            (!eps.is_empty()).then_some((name, eps))
+        })
+        .collect()
+    }
+
     /// Sets the totals, means and distributions from the episodes (in their order, so the
     /// same episodes always give the same figures).
     pub fn summarise(&mut self) {
