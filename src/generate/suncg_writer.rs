@@ -5,7 +5,8 @@
 //! material named `wood`, tiles in kitchens and bathrooms, a checker in hallways).
 //!
 //! Every file is written atomically, and `house.json` last, so a house whose `house.json`
-//! exists is complete.
+//! exists is complete; a house's room meshes are flushed to stable storage together (one
+//! `syncfs`) before its `house.json` is written durably.
 
 use std::fmt::Write as _;
 use std::io;
@@ -13,7 +14,7 @@ use std::path::Path;
 
 use serde_json::{json, Value};
 
-use crate::atomic::write_bytes_atomic;
+use crate::atomic::{sync_filesystem, write_bytes_atomic, write_bytes_staged};
 
 use super::catalog::catalog;
 use super::objwrite::{mtl_text, MtlMaterial, ObjText};
@@ -157,7 +158,7 @@ fn write_obj_mtl(
     obj: ObjText,
     material: SurfaceMaterial,
 ) -> io::Result<()> {
-    write_bytes_atomic(
+    write_bytes_staged(
         &dir.join(format!("{stem}.obj")),
         obj.finish(&[material.name.to_string()]).as_bytes(),
     )?;
@@ -167,7 +168,7 @@ fn write_obj_mtl(
         1.0,
         material.texture.map(|t| t.mtl_path()),
     );
-    write_bytes_atomic(
+    write_bytes_staged(
         &dir.join(format!("{stem}.mtl")),
         mtl_text(&[mtl]).as_bytes(),
     )
@@ -342,6 +343,9 @@ pub fn write_house(root: &Path, plan: &HousePlan) -> io::Result<()> {
         "levels": levels,
     });
     let bytes = serde_json::to_vec(&house).map_err(io::Error::other)?;
+    // The house's room meshes were written without a flush each: one flush of the file
+    // system makes them durable before `house.json` marks the house complete.
+    sync_filesystem(root)?;
     write_bytes_atomic(
         &root.join("house").join(&plan.id).join("house.json"),
         &bytes,
