@@ -282,15 +282,19 @@ fn a_killed_run_resumed_gives_identical_bytes() {
     let killed = dir.path().join("killed");
     let mut child = cmd(&killed, false).spawn().unwrap();
     let parts = killed.join(".parts");
-    let start = std::time::Instant::now();
-    loop {
-        let done = std::fs::read_dir(&parts)
+    // The `.json` files of the part folder: each finished episode's metrics, and `run.json`.
+    let finished = |p: &Path| {
+        std::fs::read_dir(p)
             .map(|d| {
                 d.flatten()
                     .filter(|e| e.path().extension().is_some_and(|x| x == "json"))
                     .count()
             })
-            .unwrap_or(0);
+            .unwrap_or(0)
+    };
+    let start = std::time::Instant::now();
+    loop {
+        let done = finished(&parts);
         if done >= 3 || start.elapsed().as_secs() > 60 {
             break;
         }
@@ -301,13 +305,6 @@ fn a_killed_run_resumed_gives_identical_bytes() {
     let interrupted = !killed.join("episodes.parquet").exists();
     if interrupted {
         // Run again with another seed, it refuses, keeps the finished episodes and says how.
-        let finished = |p: &Path| {
-            std::fs::read_dir(p)
-                .unwrap()
-                .flatten()
-                .filter(|e| e.path().extension().is_some_and(|x| x == "json"))
-                .count()
-        };
         let before = finished(&parts);
         let again = cmd(&killed, false).args(["--seed", "1"]).output().unwrap();
         let stderr = String::from_utf8_lossy(&again.stderr);

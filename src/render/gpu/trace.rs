@@ -223,52 +223,22 @@ impl Tracer {
             groups as u64 * BATCH_STRIDE,
             U::UNIFORM | U::COPY_DST,
         );
-        let derive_bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("derive batch"),
-            layout: &self.deriver.batch_layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: views_buffer.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: out.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                        buffer: &derive_uniform,
-                        offset: 0,
-                        size: wgpu::BufferSize::new(
-                            std::mem::size_of::<derive::DeriveRecord>() as u64
-                        ),
-                    }),
-                },
-            ],
-        });
-        let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("trace batch"),
-            layout: &self.batch_layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: views_buffer.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: out.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                        buffer: &uniform,
-                        offset: 0,
-                        size: wgpu::BufferSize::new(std::mem::size_of::<BatchRecord>() as u64),
-                    }),
-                },
-            ],
-        });
+        let derive_bind = batch_bind_group(
+            device,
+            "derive batch",
+            &self.deriver.batch_layout,
+            [&views_buffer, &out],
+            &derive_uniform,
+            std::mem::size_of::<derive::DeriveRecord>(),
+        );
+        let bind = batch_bind_group(
+            device,
+            "trace batch",
+            &self.batch_layout,
+            [&views_buffer, &out],
+            &uniform,
+            std::mem::size_of::<BatchRecord>(),
+        );
         BufferSet {
             views_capacity: views,
             out_capacity: out_bytes,
@@ -512,6 +482,41 @@ impl Tracer {
 }
 
 /// The shader's record of `view`, output slot `slot`.
+/// The bind group of a batch's dispatches, for the trace pass and the derive pass alike:
+/// the view records (binding 0), the output buffer (1) and one `record`-sized block of the
+/// per-dispatch uniform buffer (2, bound with a dynamic offset).
+fn batch_bind_group(
+    device: &wgpu::Device,
+    label: &str,
+    layout: &wgpu::BindGroupLayout,
+    [views, out]: [&wgpu::Buffer; 2],
+    uniform: &wgpu::Buffer,
+    record: usize,
+) -> wgpu::BindGroup {
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some(label),
+        layout,
+        entries: &[
+            wgpu::BindGroupEntry {
+                binding: 0,
+                resource: views.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 1,
+                resource: out.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 2,
+                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                    buffer: uniform,
+                    offset: 0,
+                    size: wgpu::BufferSize::new(record as u64),
+                }),
+            },
+        ],
+    })
+}
+
 fn view_record(view: &View, slot: u32) -> ViewRecord {
     let c = &view.camera;
     let b = RayBasis::new(c, c.width, c.height);
