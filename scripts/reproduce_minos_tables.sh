@@ -4,6 +4,7 @@
 #   scripts/reproduce_minos_tables.sh ROOT --list       the cells and whether they are done
 #   scripts/reproduce_minos_tables.sh ROOT --cell NAME  one cell (repeatable)
 #   scripts/reproduce_minos_tables.sh ROOT --report     ROOT/tables.md from the finished cells
+#   scripts/reproduce_minos_tables.sh ROOT --random-only  every cell up to its random row (minutes)
 # Needs: the `minos` binary on PATH and the minos wheel with torch, lerobot and gymnasium in
 # the Python environment ($PYTHON, default python3). Uses CUDA when torch sees a GPU.
 set -euo pipefail

@@ -767,6 +767,72 @@ fn one_error(out: &std::process::Output) -> String {
 }
 
 #[test]
+fn minos_random_presses_forward_and_turns_together_and_repeats_for_a_seed() {
+    let dir = tempfile::tempdir().unwrap();
+    let episodes = first_episodes(|t| t == Task::PointGoal, 4);
+    let out = run_cli(
+        dir.path(),
+        &episodes,
+        "minos-random",
+        &["--max-steps", "60"],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let table = dir.path().join("out/trajectories.parquet");
+    let (mut steps, mut forward, mut together) = (0usize, 0usize, 0usize);
+    for b in all_batches(&table) {
+        let strengths = column::<arrow::array::ListArray>(&b, "action_strengths");
+        let actions = column::<StringArray>(&b, "action");
+        for r in 0..b.num_rows() {
+            if actions.value(r) == "stop" {
+                continue;
+            }
+            let v = strengths.value(r);
+            let v = v.as_any().downcast_ref::<Float32Array>().unwrap();
+            // forward, backward, strafe left/right, turn left/right, look up/down
+            let s: Vec<f32> = (0..v.len()).map(|k| v.value(k)).collect();
+            assert!(s.iter().all(|x| *x == 0.0 || *x == 1.0), "{s:?}");
+            assert_eq!((s[1], s[2], s[3], s[6], s[7]), (0.0, 0.0, 0.0, 0.0, 0.0));
+            steps += 1;
+            forward += usize::from(s[0] == 1.0);
+            together += usize::from(s[0] == 1.0 && (s[4] == 1.0) != (s[5] == 1.0));
+        }
+    }
+    // Forward on half the steps (the uniform `random` agent: a third), moving and turning at
+    // once on a quarter.
+    assert!(steps >= 100, "{steps} steps");
+    let share = |n: usize| n as f64 / steps as f64;
+    assert!(
+        (0.4..0.6).contains(&share(forward)),
+        "forward on {forward} of {steps}"
+    );
+    assert!(
+        (0.15..0.35).contains(&share(together)),
+        "together on {together} of {steps}"
+    );
+    // The same seed replays the same button presses.
+    let again = tempfile::tempdir().unwrap();
+    let out = run_cli(
+        again.path(),
+        &episodes,
+        "minos-random",
+        &["--max-steps", "60"],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(
+        std::fs::read(&table).unwrap(),
+        std::fs::read(again.path().join("out/trajectories.parquet")).unwrap()
+    );
+}
+
+#[test]
 fn run_checks_every_scene_once_before_writing_anything() {
     let dir = tempfile::tempdir().unwrap();
     let episodes = &data().1;

@@ -16,16 +16,16 @@ use minos::body::BodyRule;
 use minos::episode::format::{read_episodes, write_episodes};
 use minos::episode::habitat::SceneIdStyle;
 use minos::episode::sample::{SampleConfig, Select};
-use minos::episode::{Episode, Task};
+use minos::episode::Task;
 use minos::generate::{GenerateConfig, OutputFormat};
-use minos::io::tables::{read_replay, ImageEncoding};
+use minos::io::tables::ImageEncoding;
 use minos::lock::LockMode;
 use minos::navmesh::params::params_from_toml;
 use minos::navmesh::NavParams;
 use minos::pipeline::bake::{self as bake_driver, BakeConfig, BakeOutcome};
 use minos::pipeline::episodes::sample_scenes;
 use minos::pipeline::ingest::{ingest_with, read_id_list, DatasetFormat, IngestConfig, Outcome};
-use minos::pipeline::rollout::{select, AgentKind, Provenance, RerunOutput, RunConfig};
+use minos::pipeline::rollout::{AgentKind, Provenance, RerunOutput, RunConfig};
 use minos::run::metrics::Reward;
 use minos::scene::RoomClass;
 use minos::shard::Shard;
@@ -502,51 +502,6 @@ pub fn sample_episodes<'py>(
     Ok(d)
 }
 
-/// The agent `agent` names (`random`, `forward`, `oracle`, `replay:FILE`, `external:CMD`).
-fn agent_kind(name: &str) -> anyhow::Result<AgentKind> {
-    Ok(match name {
-        "random" => AgentKind::Random,
-        "forward" => AgentKind::Forward,
-        "oracle" => AgentKind::Oracle,
-        other => match (other.strip_prefix("replay:"), other.strip_prefix("external:")) {
-            (Some(file), _) => {
-                AgentKind::Replay(read_replay(Path::new(file)).map_err(anyhow::Error::msg)?)
-            }
-            (_, Some(cmd)) if !cmd.trim().is_empty() => AgentKind::External(cmd.to_string()),
-            _ => bail!(
-                "--agent: unknown agent `{other}` (random, forward, oracle, replay:FILE, external:CMD)"
-            ),
-        },
-    })
-}
-
-/// Refuses a replay file without steps for some episode to run, as the CLI does.
-fn check_replay(
-    agent: &AgentKind,
-    name: &str,
-    episodes: &[Episode],
-    shard: Shard,
-) -> anyhow::Result<()> {
-    let (AgentKind::Replay(by_episode), Some(file)) = (agent, name.strip_prefix("replay:")) else {
-        return Ok(());
-    };
-    let mine = select(episodes, shard);
-    let missing: Vec<&str> = mine
-        .iter()
-        .map(|(_, e)| e.episode_id.as_str())
-        .filter(|id| !by_episode.contains_key(*id))
-        .collect();
-    if let Some(first) = missing.first() {
-        bail!(
-            "--agent replay:{file}: {file} has no steps for {} of the {} episodes to run (first: \
-             {first}); replay the trajectories.parquet of a run over the same episodes",
-            missing.len(),
-            mine.len()
-        );
-    }
-    Ok(())
-}
-
 /// `minos run`: rolls out the episodes of `episodes` (a file) with `agent` into `out`
 /// (Parquet tables, metrics.json, manifest.json; LeRobot with `format="lerobot"`; a rerun
 /// recording with `rerun=FILE`). Returns `{"episodes": n, "resumed": n, "steps": n,
@@ -627,14 +582,14 @@ pub fn run<'py>(
     let start = std::time::Instant::now();
     let report = py
         .detach(|| -> anyhow::Result<_> {
-            let kind = agent_kind(agent)?;
+            let kind = AgentKind::from_name(agent).context("agent")?;
             let mut eps = read_episodes(&episodes_file)?;
             if let Some(name) = variant {
                 data.read_variant(name)
                     .map_err(|e| anyhow!("--variant {name}: {e}"))?;
                 eps = eps.into_iter().map(|e| e.on_variant(name)).collect();
             }
-            check_replay(&kind, agent, &eps, shard)?;
+            kind.check_covers(agent, &eps, shard).context("agent")?;
             let cfg = RunConfig {
                 batch: None,
                 data: data.clone(),

@@ -229,6 +229,39 @@ def test_tables_name_every_paper_cell_and_report_what_is_not_run(tmp_path):
     assert "point-suncg-furnished-small" in rep and "| — |" in rep
 
 
+def test_a_cells_random_row_is_minos_random_averaged_over_seeds(world, tmp_path):
+    # `random_only`: houses, episodes and MINOS's random agent (`minos run --agent
+    # minos-random`) once per seed; no oracle dataset, no training. The row is the mean of
+    # the seeds' metrics.json, recomputed here from the runs.
+    from minos.learn.cell import CellConfig, random_file, run_cell
+
+    lists = world.data / "splits" / "learn-random-row"
+    lists.mkdir(parents=True, exist_ok=True)
+    (lists / "train.txt").write_text(world.scenes[0] + "\n")
+    (lists / "val.txt").write_text("")
+    (lists / "test.txt").write_text("".join(s + "\n" for s in world.scenes))
+    cfg = CellConfig(work=str(tmp_path / "cell"), data=str(world.data), split="learn-random-row",
+                     preset="habitat", per_scene=1, test_per_scene=3, max_steps=40,
+                     random_seeds=2, ratio_rule=False, min_doors=1)
+    assert run_cell(cfg, progress=False, random_only=True) == []
+    work = tmp_path / "cell"
+    assert not (work / "runs" / "oracle-train").exists()
+    row = json.loads(random_file(work, cfg).read_text())
+    seeds = [json.loads((work / "runs" / f"minos-random-s{k}" / "metrics.json").read_text())
+             for k in range(2)]
+    assert row["agent"] == "minos-random" and len(row["seeds"]) == 2
+    for key in ("success", "spl", "speed", "steps"):
+        want = sum(s["groups"]["all"][key] for s in seeds) / 2
+        assert math.isclose(row["aggregate"][key], want, abs_tol=1e-9), key
+    tests = minos.read_episodes(work / "eps" / "test.parquet")
+    assert row["aggregate"]["episodes"] == len(tests) > 0
+    # The cell's episodes keep MINOS's filter: a doorway on every shortest path.
+    import pyarrow.parquet as pq
+
+    doors = pq.read_table(work / "eps" / "test.parquet").column("path_num_doors").to_pylist()
+    assert doors and min(doors) >= 1, doors
+
+
 def test_datasets_mix_with_object_categories_renumbered(world, oracle_dataset, tmp_path):
     # Two exports (PointGoal oracle frames and ObjectGoal oracle frames, as a user mixes
     # oracle runs with people's `minos serve` sessions) load as one set of demonstrations:

@@ -2,19 +2,19 @@
 //! [`minos::pipeline::rollout::run`], which writes the tables and the manifest; prints the
 //! metrics table.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::ExitCode;
 
-use anyhow::bail;
+use anyhow::Context as _;
 use minos::body::AgentPreset;
 use minos::episode::format::read_episodes;
 use minos::episode::Episode;
-use minos::io::tables::{read_replay, ImageEncoding};
+use minos::io::tables::ImageEncoding;
 use minos::pipeline::rollout::{
-    run_with as run_episodes, select, AgentKind, Provenance, RerunOutput, RolloutError, RunConfig,
+    run_with as run_episodes, AgentKind, Provenance, RerunOutput, RolloutError, RunConfig,
 };
 use minos::run::metrics::{render_table, Reward};
-use minos::shard::{Shard, ShardSpec};
+use minos::shard::ShardSpec;
 use minos::sim::{AgentConfig, SensorSuite};
 use minos::store::DataDir;
 
@@ -85,8 +85,10 @@ pub struct Args {
     /// read `<scene>@NAME`); a variant that changes geometry needs `minos bake --variant NAME`.
     #[arg(long, value_name = "NAME")]
     variant: Option<String>,
-    /// Agent: random, forward, oracle, replay:FILE or external:CMD (a process speaking JSON
-    /// lines on stdin/stdout, see docs/EXTERNAL_AGENT.md).
+    /// Agent: random (uniform over the moves), minos-random (MINOS's random baseline: each
+    /// move pressed with probability ½ per step, so forward and a turn can combine), forward,
+    /// oracle, replay:FILE or external:CMD (a process speaking JSON lines on stdin/stdout, see
+    /// docs/EXTERNAL_AGENT.md).
     #[arg(long)]
     agent: String,
     /// Agent preset (body and motion); the grids must be baked for its body.
@@ -151,57 +153,11 @@ pub struct Args {
     rerun_episodes: usize,
 }
 
-/// The agent `--agent` names (reads the replay file of `replay:FILE`).
-fn agent_kind(name: &str) -> anyhow::Result<AgentKind> {
-    Ok(match name {
-        "random" => AgentKind::Random,
-        "forward" => AgentKind::Forward,
-        "oracle" => AgentKind::Oracle,
-        other => match (other.strip_prefix("replay:"), other.strip_prefix("external:")) {
-            (Some(file), _) => {
-                AgentKind::Replay(read_replay(Path::new(file)).map_err(anyhow::Error::msg)?)
-            }
-            (_, Some(cmd)) if !cmd.trim().is_empty() => AgentKind::External(cmd.to_string()),
-            _ => bail!(
-                "--agent: unknown agent `{other}` (random, forward, oracle, replay:FILE, external:CMD)"
-            ),
-        },
-    })
-}
-
-/// Refuses a replay file that has no steps for some episode this shard runs: one error naming
-/// the file, before anything runs.
-fn check_replay(
-    agent: &AgentKind,
-    name: &str,
-    episodes: &[Episode],
-    shard: Shard,
-) -> anyhow::Result<()> {
-    let (AgentKind::Replay(by_episode), Some(file)) = (agent, name.strip_prefix("replay:")) else {
-        return Ok(());
-    };
-    let mine = select(episodes, shard);
-    let missing: Vec<&str> = mine
-        .iter()
-        .map(|(_, e)| e.episode_id.as_str())
-        .filter(|id| !by_episode.contains_key(*id))
-        .collect();
-    if let Some(first) = missing.first() {
-        bail!(
-            "--agent replay:{file}: {file} has no steps for {} of the {} episodes to run (first: \
-             {first}); replay the trajectories.parquet of a run over the same episodes",
-            missing.len(),
-            mine.len()
-        );
-    }
-    Ok(())
-}
-
 /// Flags → the run's configuration and its episodes (reads the episode, sensor and replay
 /// files and checks the variant).
 pub fn config(args: &Args) -> anyhow::Result<(RunConfig, Vec<Episode>)> {
     let data = DataDir::new(&args.data);
-    let agent = agent_kind(&args.agent)?;
+    let agent = AgentKind::from_name(&args.agent).context("--agent")?;
     let preset = AgentPreset::from(args.preset);
     let sensors = sensor_suite(args.sensors.as_deref(), || {
         SensorSuite::for_preset(preset, args.size)
@@ -216,7 +172,9 @@ pub fn config(args: &Args) -> anyhow::Result<(RunConfig, Vec<Episode>)> {
         .shard
         .resolve(|k| std::env::var(k).ok())
         .map_err(anyhow::Error::msg)?;
-    check_replay(&agent, &args.agent, &episodes, shard)?;
+    agent
+        .check_covers(&args.agent, &episodes, shard)
+        .context("--agent")?;
     let cfg = RunConfig {
         batch: args.batch.map(|b| b as usize),
         data,
@@ -305,21 +263,6 @@ mod tests {
 
     fn args(line: &str) -> Args {
         parse_flags::<Args>(line).expect("flags parse")
-    }
-
-    #[test]
-    fn agents_are_named_or_refused() {
-        assert_eq!(agent_kind("oracle").unwrap(), AgentKind::Oracle);
-        assert_eq!(
-            agent_kind("external:python3 p.py").unwrap(),
-            AgentKind::External("python3 p.py".into())
-        );
-        assert!(agent_kind("external: ").is_err());
-        assert!(agent_kind("greedy").is_err());
-        let missing = agent_kind("replay:/nonexistent/t.parquet")
-            .unwrap_err()
-            .to_string();
-        assert!(missing.contains("/nonexistent/t.parquet"), "{missing}");
     }
 
     #[test]

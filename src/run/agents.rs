@@ -1,4 +1,5 @@
-//! Agents that drive a simulator: `random` (uniform over the action set), `forward` (forward,
+//! Agents that drive a simulator: `random` (uniform over the action set), `minos-random`
+//! (MINOS's random baseline: every button pressed with probability ½), `forward` (forward,
 //! turning on collision), `oracle` (plans over reachable states, see `oracle.rs`), `replay`
 //! (actions from a trajectory file) and `external` (a process speaking JSON lines, see
 //! `external.rs`). An agent returns the actions of the next step or `stop`.
@@ -160,6 +161,62 @@ impl Agent for RandomAgent {
     }
 }
 
+/// MINOS's random baseline (`RoomSimulator.get_random_action`, the agent behind the paper's
+/// "random" rows): each action of the action set is pressed independently with probability
+/// ½ at full strength, so a step may move forward and turn at once, opposite turns cancel and
+/// one step in 2ⁿ (n actions) is idle. For the paper's forward / turn left / turn right agent
+/// that is forward on half the steps against a third for [`RandomAgent`].
+pub struct MinosRandomAgent {
+    seed: u64,
+    rng: Rng,
+}
+
+impl MinosRandomAgent {
+    /// A MINOS random agent for the run's seed.
+    pub fn new(seed: u64) -> Self {
+        MinosRandomAgent {
+            seed,
+            rng: Rng::new(seed),
+        }
+    }
+}
+
+impl Agent for MinosRandomAgent {
+    fn reset(&mut self, episode: &Episode, _sim: &Simulator) -> Result<(), AgentError> {
+        self.rng = Rng::new(derive_seed(
+            self.seed,
+            &[&episode.episode_id, "minos-random-agent"],
+        ));
+        Ok(())
+    }
+    fn decide(&mut self, _obs: &Observation, sim: &Simulator) -> Result<Decision, AgentError> {
+        Ok(Decision::Act(press_each_half(
+            action_set(sim),
+            &mut self.rng,
+        )))
+    }
+}
+
+/// The actions of `set` each pressed with probability ½ (one draw per action, in order).
+fn press_each_half(set: &[&str], rng: &mut Rng) -> Actions {
+    let mut pressed = Actions::IDLE;
+    for name in set {
+        let press = rng.below(2) == 1;
+        if let (true, Some(one)) = (press, Actions::single(name)) {
+            let [f, b, sl, sr, tl, tr, lu, ld] = one.strengths();
+            pressed.forward += f;
+            pressed.backward += b;
+            pressed.strafe_left += sl;
+            pressed.strafe_right += sr;
+            pressed.turn_left += tl;
+            pressed.turn_right += tr;
+            pressed.look_up += lu;
+            pressed.look_down += ld;
+        }
+    }
+    pressed
+}
+
 /// Forward until a collision, then a few turns in a random direction.
 pub struct ForwardAgent {
     seed: u64,
@@ -249,5 +306,34 @@ impl Agent for ReplayAgent {
     }
     fn stops(&self) -> bool {
         true
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn minos_random_presses_each_button_independently_with_probability_half() {
+        let set = ["forward", "turn_left", "turn_right"];
+        let mut rng = Rng::new(7);
+        let n = 80_000;
+        let mut combos = [0usize; 8];
+        for _ in 0..n {
+            let a = press_each_half(&set, &mut rng);
+            for s in a.strengths() {
+                assert!(s == 0.0 || s == 1.0, "{a:?}");
+            }
+            assert_eq!((a.backward, a.strafe_left, a.look_up), (0.0, 0.0, 0.0));
+            let bit = |x: f32| usize::from(x == 1.0);
+            combos[bit(a.forward) | bit(a.turn_left) << 1 | bit(a.turn_right) << 2] += 1;
+        }
+        // Eight equally likely combinations (idle, each button, each pair, all three): each
+        // within 5 standard deviations of n/8.
+        let sd = (n as f64 * (1.0 / 8.0) * (7.0 / 8.0)).sqrt();
+        for (i, c) in combos.iter().enumerate() {
+            let off = (*c as f64 - n as f64 / 8.0).abs();
+            assert!(off < 5.0 * sd, "combination {i:03b}: {c} of {n}");
+        }
     }
 }

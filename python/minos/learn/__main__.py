@@ -83,6 +83,8 @@ def _parser() -> argparse.ArgumentParser:
                     "every cell not done yet)")
     tb.add_argument("--list", action="store_true", help="list the cells, done or not")
     tb.add_argument("--report", action="store_true", help="only write ROOT/tables.md")
+    tb.add_argument("--random-only", action="store_true", help="stop each cell after its "
+                    "random row (the task-difficulty check: no oracle dataset, no training)")
     tb.add_argument("--device", default="auto")
 
     c = sub.add_parser("cell", help="DATA → episodes → oracle → LeRobot → train → eval → table")
@@ -95,7 +97,13 @@ def _parser() -> argparse.ArgumentParser:
     c.add_argument("--test-houses", type=int, default=10)
     c.add_argument("--rooms", type=_range, default=(2, 2), help="MIN..MAX rooms (default 2..2)")
     c.add_argument("--task", default="pointgoal", choices=["pointgoal", "objectgoal", "roomgoal"])
-    c.add_argument("--categories", nargs="*", help="ObjectGoal categories, e.g. door")
+    c.add_argument("--categories", nargs="*", help="ObjectGoal categories, e.g. door arch")
+    c.add_argument("--min-doors", type=int, default=0,
+                   help="fewest doorways on an episode's shortest path (MINOS's filter)")
+    c.add_argument("--no-ratio-rule", action="store_true",
+                   help="keep straight-line episodes (no geodesic/Euclidean rule, as MINOS)")
+    c.add_argument("--random-agent", default="minos-random", choices=["minos-random", "random"],
+                   help="the random row's agent (minos-random: MINOS's baseline)")
     c.add_argument("--variant", help="scene variant (`empty` is made here)")
     c.add_argument("--format", default="suncg", choices=["suncg", "mp3d"],
                    help="generated houses' format (mp3d: Matterport3D-format houses)")
@@ -130,13 +138,16 @@ def main(argv: list[str] | None = None) -> int:
             (root / "tables.md").write_text(tables.report(root))
             print(tables.report(root))
             return 0
-        tables.run(root, args.cell, device=args.device, progress=progress)
+        tables.run(root, args.cell, device=args.device, progress=progress,
+                   random_only=args.random_only)
         return 0
     if args.command == "cell":
         cfg = CellConfig(
             work=args.work, modalities=args.modalities or ["M"], data=args.data,
             split=args.split, houses=args.houses, test_houses=args.test_houses,
             rooms=args.rooms, task=args.task, categories=args.categories,
+            min_doors=args.min_doors, ratio_rule=not args.no_ratio_rule,
+            random_agent=args.random_agent,
             variant=args.variant, format=args.format, preset=args.preset, per_scene=args.per_scene,
             test_per_scene=args.test_per_scene, max_steps=args.max_steps, size=args.size,
             memory=args.memory, hidden=args.hidden, epochs=args.epochs,

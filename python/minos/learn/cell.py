@@ -43,7 +43,9 @@ class CellConfig:
     rooms: tuple[int, int] = (2, 2)
     levels: tuple[int, int] = (1, 1)
     task: str = "pointgoal"
-    categories: Optional[list[str]] = None  # ObjectGoal categories, e.g. ["door"]
+    categories: Optional[list[str]] = None  # ObjectGoal categories, e.g. ["door", "arch"]
+    min_doors: int = 0  # fewest doorways on the shortest path (MINOS's `pathNumDoors` filter)
+    ratio_rule: bool = True  # Habitat's geodesic/Euclidean rule (MINOS had none)
     variant: Optional[str] = None  # a scene variant; `empty` is made here (MINOS emptyRoom)
     format: str = "suncg"  # generated houses' on-disk format: suncg or mp3d
     preset: str = "minos-paper"
@@ -61,6 +63,10 @@ class CellConfig:
     num_envs: int = 8
     sample: bool = True
     seed: int = 0
+    # The random row: `minos-random` is MINOS's baseline (each button pressed with
+    # probability ½), `random` uniform over the moves; averaged over this many seeds.
+    random_agent: str = "minos-random"
+    random_seeds: int = 5
     device: str = "auto"
 
 
@@ -134,19 +140,51 @@ def _episodes(cfg: CellConfig, data: Path, split: str, subset: str, out: Path,
         stats = minos.sample_episodes(data, cfg.task, out, split=split, subset=subset,
                                       variant=cfg.variant, preset=cfg.preset,
                                       per_scene=per_scene, seed=seed,
-                                      max_steps=cfg.max_steps, **kw)
+                                      max_steps=cfg.max_steps, min_doors=cfg.min_doors,
+                                      ratio_rule=cfg.ratio_rule, **kw)
         _log(f"{subset} episodes -> {out} ({stats.get('total', '?')} episodes)")
     return out
 
 
-def run_cell(cfg: CellConfig, progress: bool = True) -> list[dict]:
+def random_file(work: Path, cfg: CellConfig) -> Path:
+    """Where the cell's random row is written."""
+    return Path(work) / "results" / f"{cfg.random_agent}-s{cfg.seed}.json"
+
+
+def _random_row(cfg: CellConfig, data: Path, test_eps: Path, work: Path) -> dict:
+    """The random agent's row: ``minos run --agent <random_agent>`` on the test episodes,
+    once per seed (``seed`` … ``seed + random_seeds − 1``); the aggregate is the mean over
+    seeds, each seed's aggregate kept under ``"seeds"``. The agent never looks at an image,
+    so the runs render 16² frames."""
+    import minos
+
+    t0 = time.perf_counter()
+    per_seed = []
+    for k in range(cfg.random_seeds):
+        out = work / "runs" / f"{cfg.random_agent}-s{cfg.seed + k}"
+        if not (out / "metrics.json").is_file():
+            minos.run(data, test_eps, cfg.random_agent, out, variant=cfg.variant,
+                      preset=cfg.preset, size=16, max_steps=cfg.max_steps, seed=cfg.seed + k,
+                      resume=True)
+        per_seed.append(json.loads((out / "metrics.json").read_text())["groups"]["all"])
+    keys = ("success", "spl", "soft_spl", "speed", "steps", "collisions", "path_length")
+    agg = {k: float(np.mean([a[k] for a in per_seed])) for k in keys}
+    agg["episodes"] = per_seed[0]["episodes"]
+    agg["failed"] = max(a["failed"] for a in per_seed)
+    return {"agent": cfg.random_agent, "aggregate": agg, "seeds": per_seed,
+            "seconds": time.perf_counter() - t0}
+
+
+def run_cell(cfg: CellConfig, progress: bool = True, random_only: bool = False) -> list[dict]:
     """Runs (or resumes) the cell; returns one result dict per modality set (also written to
-    ``WORK/results/<name>.json`` and, as Markdown, to ``WORK/results.md``)."""
+    ``WORK/results/<name>.json`` and, as Markdown, to ``WORK/results.md``). With
+    ``random_only``, stops after the random row (houses, episodes and the random runs: the
+    task-difficulty check, without the oracle's dataset or any training)."""
     import minos
 
     from .data import load_lerobot
     from .dagger import dagger
-    from .evaluate import evaluate_policy, evaluate_random, make_env
+    from .evaluate import evaluate_policy, make_env
     from .features import keys_for
     from .train import TrainConfig, make_policy, train_bc
 
@@ -161,6 +199,20 @@ def run_cell(cfg: CellConfig, progress: bool = True) -> list[dict]:
     test_eps = _episodes(cfg, data, split, "test", work / "eps" / "test.parquet",
                          cfg.test_per_scene, cfg.seed + 1)
     times["data"] = time.perf_counter() - t0
+
+    results_dir = work / "results"
+    results_dir.mkdir(exist_ok=True)
+    rfile = random_file(work, cfg)
+    if rfile.is_file():
+        rand = json.loads(rfile.read_text())
+    else:
+        rand = _random_row(cfg, data, test_eps, work)
+        rfile.write_text(json.dumps(rand, indent=1))
+    ra = rand["aggregate"]
+    _log(f"random ({cfg.random_agent}, {cfg.random_seeds} seeds): success {ra['success']:.3f} "
+         f"SPL {ra['spl']:.3f} speed {ra['speed']:.3f}")
+    if random_only:
+        return []
 
     t0 = time.perf_counter()
     run_dir = work / "runs" / "oracle-train"
@@ -186,18 +238,8 @@ def run_cell(cfg: CellConfig, progress: bool = True) -> list[dict]:
     _log(f"dataset: {demos.num_frames} frames, {demos.num_episodes} episodes, loaded in "
          f"{times['load']:.1f} s; actions {demos.label_counts()}")
 
-    results_dir = work / "results"
-    results_dir.mkdir(exist_ok=True)
     env = make_env(data, test_eps, agent=cfg.preset, num_envs=cfg.num_envs, size=cfg.size,
                    seed=cfg.seed, max_steps=cfg.max_steps, variant=cfg.variant)
-    random_file = results_dir / f"random-s{cfg.seed}.json"
-    if random_file.is_file():
-        rand = json.loads(random_file.read_text())
-    else:
-        rand = evaluate_random(env, seed=cfg.seed, max_steps=cfg.max_steps, progress=progress)
-        random_file.write_text(json.dumps(rand, indent=1))
-    ra = rand["aggregate"]
-    _log(f"random: success {ra['success']:.3f} SPL {ra['spl']:.3f} speed {ra['speed']:.3f}")
 
     rows = []
     for mods in sets:

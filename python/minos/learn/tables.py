@@ -8,9 +8,14 @@
 
 Every cell uses the paper's agent (``--preset minos-paper``: forward / turn left / turn right,
 0.4 m point radius, 1.09 m eye, grey 90° camera), 84² images, a 500-step limit and 10 test
-episodes per unseen house (train/test split by house). The data sizes are chosen so that a
-cell's training and evaluation fit about 10 minutes of a 2-core CPU (docs/RESULTS.md says
-what each cell chose and what it took). A modality-table cell is one row of one column; the
+episodes per unseen house (train/test split by house), sampled as MINOS's environment configs
+(``minos/config/envs/*.py``) filtered them: at least one doorway on the shortest path in small
+(2-room) houses and two in medium (3–5-room) houses, no geodesic/Euclidean rule, doors and
+arches as ObjectGoal targets; the random rows are MINOS's random agent (``minos-random``: each
+button pressed with probability ½ per step), averaged over five seeds. The data sizes are
+chosen so that a cell's training and evaluation fit about 10 minutes of a 2-core CPU
+(docs/RESULTS.md says what each cell chose and what it took). ``--random-only`` stops each
+cell after its random row: the task-difficulty check in minutes, without training. A modality-table cell is one row of one column; the
 rows of a column share its houses, episodes and oracle dataset (made by the first one run).
 """
 
@@ -21,7 +26,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Optional
 
-from .cell import CellConfig, run_cell
+from .cell import CellConfig, random_file, run_cell
 from .features import modality_name, parse_modalities
 
 #: The paper's numbers: complexity cells → (random success %, best agent success %, agent).
@@ -37,8 +42,10 @@ PAPER_COMPLEXITY = {
     "room-mp3d-small": (5.0, 14.0, "?"),
 }
 
-#: The modality table (DFP, ObjectGoal door): row → {column: (success %, speed %)}.
-MOD_COLUMNS = ("room-empty", "house-empty", "room-furnished", "house-furnished")
+#: The modality table (DFP, ObjectGoal door): row → {column: (success %, speed %)}. The
+#: columns are MINOS's ``objectgoal_suncg_{se,me,sf,mf}`` configs: small (2 rooms) and medium
+#: (3–5 rooms) houses, empty and furnished.
+MOD_COLUMNS = ("small-empty", "medium-empty", "small-furnished", "medium-furnished")
 PAPER_MODALITIES = {
     "random": [(23.1, 12.7), (18.8, 11.3), (9.5, 5.2), (6.5, 3.1)],
     "M": [(90.6, 68.1), (66.5, 49.5), (46.2, 27.2), (25.8, 12.2)],
@@ -55,10 +62,13 @@ COMPLEXITY_ROWS = ["M", "M+D"]
 
 
 def _complexity() -> dict[str, CellConfig]:
+    # MINOS's episode filters: `pathNumDoors > 0` in 2-room SUNCG houses, `> 1` in 3–5-room
+    # ones, `pathNumRooms > 0` for Matterport3D; no geodesic/Euclidean ratio rule.
     base = CellConfig(work="", modalities=list(COMPLEXITY_ROWS), preset="minos-paper",
-                      per_scene=10, test_per_scene=10, max_steps=500, size=84, epochs=10)
-    small = dict(houses=40, test_houses=10, rooms=(2, 2))
-    medium = dict(houses=30, test_houses=10, rooms=(3, 5), epochs=8)
+                      per_scene=10, test_per_scene=10, max_steps=500, size=84, epochs=10,
+                      ratio_rule=False)
+    small = dict(houses=40, test_houses=10, rooms=(2, 2), min_doors=1)
+    medium = dict(houses=30, test_houses=10, rooms=(3, 5), epochs=8, min_doors=2)
     mp_small = dict(houses=24, test_houses=8, rooms=(3, 10), format="mp3d", epochs=8)
     mp_medium = dict(houses=16, test_houses=6, rooms=(11, 24), format="mp3d", epochs=6,
                      per_scene=8)
@@ -77,14 +87,18 @@ def _complexity() -> dict[str, CellConfig]:
 
 
 def _modalities() -> dict[str, CellConfig]:
-    base = CellConfig(work="", task="objectgoal", categories=["door"], preset="minos-paper",
-                      per_scene=10, test_per_scene=10, max_steps=500, size=84, epochs=8)
+    # MINOS's objectgoal_suncg_* configs: goals `['arch', 'door']`, `pathNumDoors > 0` in
+    # 2-room houses and `> 1` in 3–5-room ones, no ratio rule.
+    base = CellConfig(work="", task="objectgoal", categories=["door", "arch"],
+                      preset="minos-paper", per_scene=10, test_per_scene=10, max_steps=500,
+                      size=84, epochs=8, ratio_rule=False)
+    small = dict(rooms=(2, 2), min_doors=1, houses=100, test_houses=30)
+    medium = dict(rooms=(3, 5), min_doors=2, houses=24, test_houses=8)
     cols = {
-        # A single room yields ~3.5 door episodes per house (not 10): 100 houses, 30 for test.
-        "room-empty": dict(variant="empty", rooms=(1, 1), houses=100, test_houses=30),
-        "house-empty": dict(variant="empty", rooms=(3, 5), houses=24, test_houses=8),
-        "room-furnished": dict(rooms=(1, 1), houses=100, test_houses=30),
-        "house-furnished": dict(rooms=(3, 5), houses=24, test_houses=8),
+        "small-empty": dict(variant="empty", **small),
+        "medium-empty": dict(variant="empty", **medium),
+        "small-furnished": dict(**small),
+        "medium-furnished": dict(**medium),
     }
     out = {}
     for col, kw in cols.items():
@@ -112,17 +126,23 @@ def is_done(root: Path, name: str, cfg: CellConfig) -> bool:
 
 
 def run(root: str | Path, names: Optional[list[str]] = None, device: str = "auto",
-        progress: bool = True) -> None:
-    """Runs the named cells (default: every cell not done yet), then rewrites the report."""
+        progress: bool = True, random_only: bool = False) -> None:
+    """Runs the named cells (default: every cell not done yet), then rewrites the report.
+    With ``random_only``, each cell stops after its random row (the task-difficulty check:
+    houses, episodes and the random agent's runs, minutes for all cells)."""
     root = Path(root)
     all_cells = cells()
-    todo = names or [n for n, c in all_cells.items() if not is_done(root, n, c)]
+    if random_only:
+        todo = names or [n for n, c in all_cells.items()
+                         if not random_file(root / c.work, c).is_file()]
+    else:
+        todo = names or [n for n, c in all_cells.items() if not is_done(root, n, c)]
     for name in todo:
         if name not in all_cells:
             raise SystemExit(f"no cell `{name}` (see --list)")
         cfg = replace(all_cells[name], work=str(root / all_cells[name].work), device=device)
         print(f"[minos.learn tables] cell {name}", flush=True)
-        run_cell(cfg, progress=progress)
+        run_cell(cfg, progress=progress, random_only=random_only)
         (root / "tables.md").write_text(report(root))
     (root / "tables.md").write_text(report(root))
 
@@ -144,7 +164,7 @@ def report(root: str | Path) -> str:
         cfg = allc[name]
         m = _load(_row_file(root, cfg, "M"))
         row = _load(_row_file(root, cfg, "M+D"))
-        rand = _load(root / cfg.work / "results" / f"random-s{cfg.seed}.json")
+        rand = _load(random_file(root / cfg.work, cfg))
         rs = rand["aggregate"]["success"] if rand else None
         md = f"{pct(row['success'])} ({pct(row['spl'])})" if row else "—"
         some = row or m
@@ -172,7 +192,7 @@ def report(root: str | Path) -> str:
             ps, pv = paper[j]
             cfg = allc[f"door-{col}/{MOD_ROWS[0]}"]
             if row_name == "random":
-                r = _load(root / cfg.work / "results" / f"random-s{cfg.seed}.json")
+                r = _load(random_file(root / cfg.work, cfg))
                 got = (r["aggregate"]["success"], r["aggregate"]["speed"]) if r else None
             else:
                 r = _load(_row_file(root, cfg, row_name))

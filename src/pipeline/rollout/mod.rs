@@ -8,6 +8,7 @@
 //! rerun viewer while they roll out (`DIR/.parts/<index>.rrd`, finished before the metrics
 //! file) and joined into one `.rrd` at the end; recording never changes the tables.
 
+mod agent_kind;
 mod batched;
 mod episode;
 mod live;
@@ -31,13 +32,13 @@ use crate::lock::{DirLock, LockError, LockMode};
 use crate::navmesh::geodesic::Geodesic;
 use crate::progress::Progress;
 use crate::render::Renderer;
-use crate::run::agents::Decision;
 use crate::run::metrics::{aggregate, Aggregate, EpisodeMetrics, MetricRow, Reward};
 use crate::shard::Shard;
 use crate::sim::{AgentConfig, SensorSuite};
 use crate::store::DataDir;
 
 pub use crate::render::RendererChoice;
+pub use agent_kind::{AgentKind, AgentNameError, AGENT_NAMES};
 pub use episode::EpisodeError;
 pub use live::{run_live, EpisodeSource, PLAYED};
 use parts::part;
@@ -46,21 +47,6 @@ use scene::SceneRun;
 
 /// `robot_type` of a run's LeRobot copy.
 pub const LEROBOT_ROBOT_TYPE: &str = "minos-agent";
-
-/// Which agent drives.
-#[derive(Debug, Clone, PartialEq)]
-pub enum AgentKind {
-    /// Uniform over the action set.
-    Random,
-    /// Forward, turning on collision.
-    Forward,
-    /// Plans over reachable states and stops at the goal.
-    Oracle,
-    /// Decisions from a trajectory table, per episode.
-    Replay(std::collections::HashMap<String, Vec<Decision>>),
-    /// A process speaking JSON lines (one per scene thread).
-    External(String),
-}
 
 /// What a run does.
 #[derive(Debug, Clone)]

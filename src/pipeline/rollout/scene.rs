@@ -7,7 +7,9 @@ use std::sync::Arc;
 use super::{AgentKind, RunConfig};
 use crate::navmesh::geodesic::Geodesic;
 use crate::render::{Renderer, RendererChoice};
-use crate::run::agents::{Agent, AgentError, ForwardAgent, RandomAgent, ReplayAgent};
+use crate::run::agents::{
+    Agent, AgentError, ForwardAgent, MinosRandomAgent, RandomAgent, ReplayAgent,
+};
 use crate::run::external::ExternalAgent;
 use crate::run::oracle::OracleAgent;
 use crate::run::stepper::{EpisodeStepper, StepperConfig, DEFAULT_MAX_STEPS};
@@ -95,6 +97,7 @@ pub fn load(cfg: &RunConfig, scene_id: &str) -> Result<(Simulator, Arc<SceneAsse
 pub fn make_agent(kind: &AgentKind, seed: u64) -> Result<Box<dyn Agent>, AgentError> {
     Ok(match kind {
         AgentKind::Random => Box::new(RandomAgent::new(seed)),
+        AgentKind::MinosRandom => Box::new(MinosRandomAgent::new(seed)),
         AgentKind::Forward => Box::new(ForwardAgent::new(seed)),
         AgentKind::Oracle => Box::new(OracleAgent::new()),
         AgentKind::Replay(m) => Box::new(ReplayAgent::new(m.clone())),
