@@ -5,6 +5,8 @@ falls → DAgger round → evaluation in VectorNavEnv). Skipped without torch or
 
 import json
 import math
+import os
+import shutil
 
 import numpy as np
 import pytest
@@ -225,6 +227,14 @@ def test_tables_name_every_paper_cell_and_report_what_is_not_run(tmp_path):
             assert f"door-{col}/{row}" in names
     assert all(c.preset == "minos-paper" and c.max_steps == 500 and c.size == 84
                for c in names.values())
+    # As MINOS's env configs: one random goal instance, doorways on the path by house size,
+    # no Habitat ratio rule, the empty cells on the furnished houses' episodes.
+    for name, c in names.items():
+        assert not c.ratio_rule and c.random_agent == "minos-random", name
+        assert c.select == ("any" if c.task == "pointgoal" else "random"), name
+        if c.format == "suncg":
+            assert c.min_doors == (1 if c.rooms == (2, 2) else 2), name
+        assert c.episodes_on_base == (c.variant == "empty"), name
     rep = tables.report(tmp_path)
     assert "point-suncg-furnished-small" in rep and "| — |" in rep
 
@@ -260,6 +270,37 @@ def test_a_cells_random_row_is_minos_random_averaged_over_seeds(world, tmp_path)
 
     doors = pq.read_table(work / "eps" / "test.parquet").column("path_num_doors").to_pylist()
     assert doors and min(doors) >= 1, doors
+
+
+def test_an_empty_cell_runs_the_furnished_houses_episodes_without_furniture(
+        world, minos_bin, tmp_path, monkeypatch):
+    # MINOS's empty configs shared the furnished ones' episode states: with
+    # `episodes_on_base`, the episodes are sampled on the scenes as they are (ids without a
+    # variant) and run on the `empty` variant (the runs' episode ids read `<scene>@empty`).
+    from minos.learn.cell import CellConfig, run_cell
+
+    monkeypatch.setenv("PATH", f"{minos_bin.parent}{os.pathsep}{os.environ['PATH']}")
+    data = tmp_path / "DATA"
+    shutil.copytree(world.data, data)
+    lists = data / "splits" / "learn-empty"
+    lists.mkdir(parents=True, exist_ok=True)
+    (lists / "train.txt").write_text(world.scenes[0] + "\n")
+    (lists / "val.txt").write_text("")
+    (lists / "test.txt").write_text("".join(s + "\n" for s in world.scenes))
+    from minos.learn.cell import _make_variant
+
+    _make_variant(data, "empty")
+    minos.bake(data, preset="habitat", previews=False, variant="empty")
+    cfg = CellConfig(work=str(tmp_path / "cell"), data=str(data), split="learn-empty",
+                     preset="habitat", per_scene=1, test_per_scene=2, max_steps=20,
+                     random_seeds=1, variant="empty", episodes_on_base=True)
+    run_cell(cfg, progress=False, random_only=True)
+    test_eps = minos.read_episodes(tmp_path / "cell" / "eps" / "test.parquet")
+    sampled = {e.scene_id for e in test_eps}
+    assert sampled and all("@" not in s for s in sampled), sampled
+    runs = tmp_path / "cell" / "runs"
+    ran = json.loads((runs / "minos-random-s0" / "metrics.json").read_text())
+    assert ran["episodes"] and all("@empty" in e["episode_id"] for e in ran["episodes"])
 
 
 def test_datasets_mix_with_object_categories_renumbered(world, oracle_dataset, tmp_path):

@@ -98,6 +98,8 @@ def _parser() -> argparse.ArgumentParser:
     c.add_argument("--rooms", type=_range, default=(2, 2), help="MIN..MAX rooms (default 2..2)")
     c.add_argument("--task", default="pointgoal", choices=["pointgoal", "objectgoal", "roomgoal"])
     c.add_argument("--categories", nargs="*", help="ObjectGoal categories, e.g. door arch")
+    c.add_argument("--select", default="any", choices=["any", "random", "closest"],
+                   help="which goal instances count (random: one, as MINOS)")
     c.add_argument("--min-doors", type=int, default=0,
                    help="fewest doorways on an episode's shortest path (MINOS's filter)")
     c.add_argument("--no-ratio-rule", action="store_true",
@@ -146,7 +148,7 @@ def main(argv: list[str] | None = None) -> int:
             work=args.work, modalities=args.modalities or ["M"], data=args.data,
             split=args.split, houses=args.houses, test_houses=args.test_houses,
             rooms=args.rooms, task=args.task, categories=args.categories,
-            min_doors=args.min_doors, ratio_rule=not args.no_ratio_rule,
+            select=args.select, min_doors=args.min_doors, ratio_rule=not args.no_ratio_rule,
             random_agent=args.random_agent,
             variant=args.variant, format=args.format, preset=args.preset, per_scene=args.per_scene,
             test_per_scene=args.test_per_scene, max_steps=args.max_steps, size=args.size,

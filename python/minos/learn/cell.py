@@ -44,9 +44,13 @@ class CellConfig:
     levels: tuple[int, int] = (1, 1)
     task: str = "pointgoal"
     categories: Optional[list[str]] = None  # ObjectGoal categories, e.g. ["door", "arch"]
+    select: str = "any"  # which goal instances count: any, random (one, as MINOS), closest
     min_doors: int = 0  # fewest doorways on the shortest path (MINOS's `pathNumDoors` filter)
     ratio_rule: bool = True  # Habitat's geodesic/Euclidean rule (MINOS had none)
     variant: Optional[str] = None  # a scene variant; `empty` is made here (MINOS emptyRoom)
+    # Sample the episodes on the scenes as given and run them on `variant`: MINOS's empty
+    # configs (`pointgoal_suncg_se`, ...) shared the furnished ones' episode states.
+    episodes_on_base: bool = False
     format: str = "suncg"  # generated houses' on-disk format: suncg or mp3d
     preset: str = "minos-paper"
     per_scene: int = 10
@@ -137,10 +141,12 @@ def _episodes(cfg: CellConfig, data: Path, split: str, subset: str, out: Path,
         kw = {}
         if cfg.categories:
             kw["categories"] = cfg.categories
+        on = None if cfg.episodes_on_base else cfg.variant
         stats = minos.sample_episodes(data, cfg.task, out, split=split, subset=subset,
-                                      variant=cfg.variant, preset=cfg.preset,
+                                      variant=on, preset=cfg.preset,
                                       per_scene=per_scene, seed=seed,
-                                      max_steps=cfg.max_steps, min_doors=cfg.min_doors,
+                                      max_steps=cfg.max_steps, select=cfg.select,
+                                      min_doors=cfg.min_doors,
                                       ratio_rule=cfg.ratio_rule, **kw)
         _log(f"{subset} episodes -> {out} ({stats.get('total', '?')} episodes)")
     return out

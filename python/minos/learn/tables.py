@@ -9,14 +9,17 @@
 Every cell uses the paper's agent (``--preset minos-paper``: forward / turn left / turn right,
 0.4 m point radius, 1.09 m eye, grey 90° camera), 84² images, a 500-step limit and 10 test
 episodes per unseen house (train/test split by house), sampled as MINOS's environment configs
-(``minos/config/envs/*.py``) filtered them: at least one doorway on the shortest path in small
-(2-room) houses and two in medium (3–5-room) houses, no geodesic/Euclidean rule, doors and
-arches as ObjectGoal targets; the random rows are MINOS's random agent (``minos-random``: each
-button pressed with probability ½ per step), averaged over five seeds. The data sizes are
-chosen so that a cell's training and evaluation fit about 10 minutes of a 2-core CPU
-(docs/RESULTS.md says what each cell chose and what it took). ``--random-only`` stops each
-cell after its random row: the task-difficulty check in minutes, without training. A modality-table cell is one row of one column; the
-rows of a column share its houses, episodes and oracle dataset (made by the first one run).
+(``minos/config/envs/*.py``) did: at least one doorway on the shortest path in small (2-room)
+houses and two in medium (3–5-room) houses, no geodesic/Euclidean rule, one random door or
+arch (ObjectGoal) or room (RoomGoal) as the goal (``select: random``), and the empty cells'
+episodes sampled in the furnished houses and run with the furniture removed (MINOS's empty and
+furnished configs shared one states file). The random
+rows are MINOS's random agent (``minos-random``: each button pressed with probability ½ per
+step), averaged over five seeds. The data sizes are chosen so that a cell's training and
+evaluation fit about 10 minutes of a 2-core CPU (docs/RESULTS.md says what each cell chose and
+what it took). ``--random-only`` stops each cell after its random row: the task-difficulty
+check in minutes, without training. A modality-table cell is one row of one column; the rows
+of a column share its houses, episodes and oracle dataset (made by the first one run).
 """
 
 from __future__ import annotations
@@ -63,7 +66,8 @@ COMPLEXITY_ROWS = ["M", "M+D"]
 
 def _complexity() -> dict[str, CellConfig]:
     # MINOS's episode filters: `pathNumDoors > 0` in 2-room SUNCG houses, `> 1` in 3–5-room
-    # ones, `pathNumRooms > 0` for Matterport3D; no geodesic/Euclidean ratio rule.
+    # ones, `pathNumRooms > 0` for Matterport3D; no geodesic/Euclidean ratio rule; RoomGoal's
+    # goal is one random room (`select: random`, success in that room only).
     base = CellConfig(work="", modalities=list(COMPLEXITY_ROWS), preset="minos-paper",
                       per_scene=10, test_per_scene=10, max_steps=500, size=84, epochs=10,
                       ratio_rule=False)
@@ -73,30 +77,34 @@ def _complexity() -> dict[str, CellConfig]:
     mp_medium = dict(houses=16, test_houses=6, rooms=(11, 24), format="mp3d", epochs=6,
                      per_scene=8)
     c = {
-        "point-suncg-empty-small": replace(base, variant="empty", **small),
-        "point-suncg-empty-medium": replace(base, variant="empty", **medium),
+        "point-suncg-empty-small": replace(base, variant="empty", episodes_on_base=True,
+                                           **small),
+        "point-suncg-empty-medium": replace(base, variant="empty", episodes_on_base=True,
+                                            **medium),
         "point-suncg-furnished-small": replace(base, **small),
         "point-suncg-furnished-medium": replace(base, **medium),
         "point-mp3d-small": replace(base, **mp_small),
         "point-mp3d-medium": replace(base, **mp_medium),
-        "room-suncg-furnished-small": replace(base, task="roomgoal", **small),
-        "room-suncg-furnished-medium": replace(base, task="roomgoal", **medium),
-        "room-mp3d-small": replace(base, task="roomgoal", **mp_small),
+        "room-suncg-furnished-small": replace(base, task="roomgoal", select="random", **small),
+        "room-suncg-furnished-medium": replace(base, task="roomgoal", select="random",
+                                               **medium),
+        "room-mp3d-small": replace(base, task="roomgoal", select="random", **mp_small),
     }
     return c
 
 
 def _modalities() -> dict[str, CellConfig]:
-    # MINOS's objectgoal_suncg_* configs: goals `['arch', 'door']`, `pathNumDoors > 0` in
-    # 2-room houses and `> 1` in 3–5-room ones, no ratio rule.
-    base = CellConfig(work="", task="objectgoal", categories=["door", "arch"],
+    # MINOS's objectgoal_suncg_* configs: one random instance of `['arch', 'door']` is the
+    # goal (`select: random`), `pathNumDoors > 0` in 2-room houses and `> 1` in 3–5-room
+    # ones, no ratio rule.
+    base = CellConfig(work="", task="objectgoal", categories=["door", "arch"], select="random",
                       preset="minos-paper", per_scene=10, test_per_scene=10, max_steps=500,
                       size=84, epochs=8, ratio_rule=False)
     small = dict(rooms=(2, 2), min_doors=1, houses=100, test_houses=30)
     medium = dict(rooms=(3, 5), min_doors=2, houses=24, test_houses=8)
     cols = {
-        "small-empty": dict(variant="empty", **small),
-        "medium-empty": dict(variant="empty", **medium),
+        "small-empty": dict(variant="empty", episodes_on_base=True, **small),
+        "medium-empty": dict(variant="empty", episodes_on_base=True, **medium),
         "small-furnished": dict(**small),
         "medium-furnished": dict(**medium),
     }
