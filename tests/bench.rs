@@ -160,7 +160,7 @@ fn clock(v: &Value, name: &str) -> String {
 #[test]
 fn bench_render_on_wgpu_times_batches_by_the_wall_clock() {
     if let Err(e) = minos::render::gpu::GpuRenderer::new() {
-        eprintln!("skipped: {e}");
+        common::skip(e);
         return;
     }
     let dir = tempfile::tempdir().unwrap();

@@ -427,7 +427,7 @@ fn a_full_disk_fails_with_one_line_naming_the_file_and_the_next_run_completes() 
     let fs = match Tmpfs::mount(&mnt, scenes_bytes / 2) {
         Ok(fs) => fs,
         Err(why) => {
-            eprintln!("skipped: {why}");
+            common::skip(why);
             return;
         }
     };

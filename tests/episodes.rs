@@ -377,10 +377,10 @@ fn python_with_pandas() -> Option<String> {
     match probe {
         Ok(o) if o.status.success() => Some(python),
         _ => {
-            eprintln!(
-                "skipped: `{python} -c 'import pyarrow, pandas'` fails (pip install pyarrow \
-                 pandas polars duckdb, or set MINOS_PYTHON to a Python that has them)"
-            );
+            common::skip(format!(
+                "`{python} -c 'import pyarrow, pandas'` fails (pip install pyarrow pandas \
+                 polars duckdb, or set MINOS_PYTHON to a Python that has them)"
+            ));
             None
         }
     }
@@ -420,8 +420,8 @@ fn episode_files_rewritten_by_pandas_polars_duckdb_and_pyarrow_read_back_the_sam
         "{said}\n{}",
         String::from_utf8_lossy(&rewrite.stderr)
     );
-    for line in said.lines().filter(|l| l.starts_with("skipped")) {
-        eprintln!("{line}");
+    for line in said.lines().filter_map(|l| l.strip_prefix("skipped: ")) {
+        common::skip(line);
     }
     let files: Vec<&str> = said.lines().filter(|l| l.ends_with(".parquet")).collect();
     // pyarrow and pandas at least, each with every compression.

@@ -436,16 +436,18 @@ fn habitat_labs_own_loaders_read_the_exports() {
     let run = match run {
         Ok(r) => r,
         Err(e) => {
-            println!("skipped: cannot run `{python}` ({e}); set MINOS_HABITAT_PYTHON");
+            common::skip(format!(
+                "cannot run `{python}` ({e}); set MINOS_HABITAT_PYTHON"
+            ));
             return;
         }
     };
     let stdout = String::from_utf8_lossy(&run.stdout);
     if run.status.code() == Some(3) {
-        println!(
-            "skipped: `{python}` cannot import habitat-lab ({}); set MINOS_HABITAT_PYTHON",
+        common::skip(format!(
+            "`{python}` cannot import habitat-lab ({}); set MINOS_HABITAT_PYTHON",
             stdout.trim()
-        );
+        ));
         return;
     }
     assert!(

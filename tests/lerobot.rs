@@ -813,10 +813,10 @@ fn lerobot_itself_loads_the_dataset() {
     match probe {
         Ok(o) if o.status.success() => {}
         _ => {
-            eprintln!(
-                "skipped: `{python} -c 'import lerobot'` fails (pip install lerobot, or set \
+            common::skip(format!(
+                "`{python} -c 'import lerobot'` fails (pip install lerobot, or set \
                  MINOS_PYTHON to a Python that has it)"
-            );
+            ));
             return;
         }
     }
@@ -923,10 +923,10 @@ fn the_dataset_card_and_provenance_record_check_out() {
         .output()
         .is_ok_and(|o| o.status.success());
     if !has_hub {
-        eprintln!(
-            "skipped the huggingface_hub check: `{python} -c 'import huggingface_hub'` fails \
-             (pip install huggingface_hub, or set MINOS_PYTHON)"
-        );
+        common::skip(format!(
+            "the huggingface_hub check: `{python} -c 'import huggingface_hub'` fails (pip \
+             install huggingface_hub, or set MINOS_PYTHON)"
+        ));
         return;
     }
     let script = "import sys; from huggingface_hub import DatasetCard; \

@@ -161,7 +161,7 @@ fn doors_rooms_and_levels_of_generated_houses_connect_as_planned() {
 #[test]
 fn real_suncg_sample_bakes_with_free_floor_around_the_furniture() {
     let Some(data) = std::env::var_os("MINOS_REAL_DATA").map(PathBuf::from) else {
-        eprintln!("skipped: MINOS_REAL_DATA is not set");
+        common::skip("MINOS_REAL_DATA is not set");
         return;
     };
     let dir = tempfile::tempdir().unwrap();

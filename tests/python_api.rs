@@ -8,6 +8,8 @@
 //! compiled dependencies. Without python3, its venv module or a reachable package registry the
 //! test says that it skipped and why; once the tools are there, a failing build or test fails.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -118,7 +120,7 @@ fn the_python_package_builds_and_its_tests_pass() {
     let python = match venv() {
         Ok(p) => p,
         Err(why) => {
-            println!("skipped: {why}");
+            common::skip(why);
             return;
         }
     };
@@ -148,6 +150,7 @@ fn the_python_package_builds_and_its_tests_pass() {
             "-m",
             "pytest",
             "-q",
+            "-rs",
             "-p",
             "no:cacheprovider",
             "python/tests",
@@ -157,6 +160,12 @@ fn the_python_package_builds_and_its_tests_pass() {
     .expect("pytest runs");
     let report = tail(&o);
     println!("{report}");
+    // pytest's `-rs` summary: one `SKIPPED [n] file:line: reason` line per skip reason.
+    for line in String::from_utf8_lossy(&o.stdout).lines() {
+        if let Some(rest) = line.strip_prefix("SKIPPED ") {
+            common::skip(format!("pytest {rest}"));
+        }
+    }
     assert!(o.status.success(), "pytest failed:\n{report}");
     assert!(report.contains(" passed"), "pytest ran no test:\n{report}");
 }

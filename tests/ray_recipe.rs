@@ -200,7 +200,7 @@ fn the_ray_recipe_gives_the_one_process_bytes_despite_a_killed_worker() {
     let python = match ray_python() {
         Ok(p) => p,
         Err(why) => {
-            eprintln!("skipped: {why}");
+            common::skip(why);
             return;
         }
     };

@@ -2,6 +2,8 @@
 //! (set by `.ci/run` to `../shared/datasets` when that folder exists); the expected counts are
 //! computed here from the scene JSON itself with serde_json, not copied from the dataset.
 
+mod common;
+
 use std::collections::{BTreeMap, HashMap, HashSet};
 use std::path::PathBuf;
 
@@ -19,7 +21,7 @@ fn real_data() -> Option<PathBuf> {
     match std::env::var_os("MINOS_REAL_DATA") {
         Some(p) => Some(PathBuf::from(p)),
         None => {
-            eprintln!("skipped: MINOS_REAL_DATA is not set");
+            common::skip("MINOS_REAL_DATA is not set");
             None
         }
     }

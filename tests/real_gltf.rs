@@ -4,6 +4,8 @@
 //! Gated on `MINOS_REAL_DATA` (the shared datasets folder); files are read in place or
 //! copied into a temporary folder, never into the repository.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 
 use glam::Vec3;
@@ -20,7 +22,7 @@ fn real_data() -> Option<PathBuf> {
     match std::env::var_os("MINOS_REAL_DATA") {
         Some(p) => Some(PathBuf::from(p)),
         None => {
-            eprintln!("skipped: MINOS_REAL_DATA is not set");
+            common::skip("MINOS_REAL_DATA is not set");
             None
         }
     }

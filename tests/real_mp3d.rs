@@ -2,6 +2,8 @@
 //! describes, and their proxy geometry is navigable between the panoramas R2R links. Gated on
 //! `MINOS_REAL_DATA` (the folder holding `matterport3d/`).
 
+mod common;
+
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::PathBuf;
 use std::time::Instant;
@@ -26,7 +28,7 @@ fn real_data() -> Option<PathBuf> {
     match std::env::var_os("MINOS_REAL_DATA") {
         Some(p) => Some(PathBuf::from(p).join("matterport3d")),
         None => {
-            eprintln!("skipped: MINOS_REAL_DATA is not set");
+            common::skip("MINOS_REAL_DATA is not set");
             None
         }
     }

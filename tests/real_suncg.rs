@@ -1,6 +1,8 @@
 //! The real public SUNCG sample loads as the issue describes. Gated on `MINOS_REAL_DATA`
 //! (set by `.ci/run` to `../shared/datasets` when that folder exists).
 
+mod common;
+
 use std::collections::BTreeSet;
 use std::path::PathBuf;
 
@@ -13,7 +15,7 @@ fn real_data() -> Option<PathBuf> {
     match std::env::var_os("MINOS_REAL_DATA") {
         Some(p) => Some(PathBuf::from(p)),
         None => {
-            eprintln!("skipped: MINOS_REAL_DATA is not set");
+            common::skip("MINOS_REAL_DATA is not set");
             None
         }
     }

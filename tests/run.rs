@@ -1542,7 +1542,7 @@ fn runs_stepped_in_lockstep_batches_write_the_per_thread_bytes() {
     let mut episodes = first_episodes(|t| t == Task::PointGoal, 5);
     episodes.extend(first_episodes(|t| t != Task::PointGoal, 4));
     let gpu = minos::render::gpu::GpuRenderer::new()
-        .map_err(|e| eprintln!("skipped: the wgpu part: {e}"))
+        .map_err(|e| common::skip(format!("the wgpu part: {e}")))
         .is_ok();
     let mut renderers = vec![RendererChoice::Cpu];
     if gpu {

@@ -171,9 +171,9 @@ fn launch(browser: &Path, profile: &Path, url: &str) -> (Browser, u16) {
 #[test]
 fn a_person_in_chromium_reaches_the_goal_and_the_demo_replays() {
     let Some(browser) = chromium() else {
-        println!(
-            "skipped: no Chromium (install Debian's `chromium` package, as .ci/run does when \
-             root, or set MINOS_CHROMIUM)"
+        common::skip(
+            "no Chromium (install Debian's `chromium` package, as .ci/run does when root, or \
+             set MINOS_CHROMIUM)",
         );
         return;
     };

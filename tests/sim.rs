@@ -389,7 +389,7 @@ fn cpu_and_wgpu_agree(method: minos::render::gpu::GpuMethod) {
     let mut gpu = match minos::render::gpu::GpuRenderer::with_method(method) {
         Ok(g) => g,
         Err(e) => {
-            eprintln!("skipped: {e}");
+            common::skip(e);
             return;
         }
     };
@@ -483,7 +483,7 @@ fn wgpu_renders_views_of_several_scenes_in_one_batch() {
     let mut gpu = match minos::render::gpu::GpuRenderer::new() {
         Ok(g) => g,
         Err(e) => {
-            eprintln!("skipped: {e}");
+            common::skip(e);
             return;
         }
     };
@@ -578,7 +578,7 @@ fn wgpu_derives_the_images_the_cpu_derives_from_its_frames() {
     let mut gpu = match minos::render::gpu::GpuRenderer::new() {
         Ok(g) => g,
         Err(e) => {
-            eprintln!("skipped: {e}");
+            common::skip(e);
             return;
         }
     };
@@ -717,7 +717,7 @@ fn stepping_many_simulators_at_once_observes_what_each_observes_alone() {
     let mut choices = vec![RendererChoice::Cpu];
     match minos::render::gpu::GpuRenderer::new() {
         Ok(_) => choices.push(RendererChoice::Wgpu),
-        Err(e) => eprintln!("skipped: wgpu part: {e}"),
+        Err(e) => common::skip(format!("wgpu part: {e}")),
     }
     for choice in choices {
         let renderer = Arc::new(Renderer::new(choice, &assets.render).unwrap());

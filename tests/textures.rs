@@ -3,6 +3,8 @@
 //! oblique floor the texel boundary lies where the world midpoint projects (perspective-
 //! correct, not the screen midpoint); a missing texture file falls back to the flat colour.
 
+mod common;
+
 use std::path::Path;
 
 use glam::{Mat4, Vec3};
@@ -93,7 +95,7 @@ fn render_all(rs: &RenderScene, cam: &Camera) -> Vec<(&'static str, Vec<[u8; 3]>
             let frame = g.render_batch(&[*cam]).unwrap().remove(0);
             out.push(("wgpu", frame.color(rs, cam)));
         }
-        Err(e) => eprintln!("wgpu skipped: {e}"),
+        Err(e) => common::skip(format!("the wgpu part: {e}")),
     }
     out
 }

@@ -4,6 +4,10 @@
 
 pub mod scenes;
 pub mod serve;
+pub mod skip;
+
+#[allow(unused_imports)] // not every test binary skips anything
+pub use skip::skip;
 
 use std::path::{Path, PathBuf};
 
