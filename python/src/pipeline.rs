@@ -11,11 +11,11 @@ use anyhow::{anyhow, bail, Context as _};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use minos::atomic::{sweep_stale_of, write_bytes_atomic};
 use minos::body::BodyRule;
-use minos::episode::format::{read_episodes, write_episodes};
+use minos::episode::format::read_episodes;
 use minos::episode::habitat::SceneIdStyle;
 use minos::episode::sample::{SampleConfig, Select};
+use minos::episode::vln::export::VlnFormat;
 use minos::episode::Task;
 use minos::generate::{GenerateConfig, OutputFormat};
 use minos::io::tables::ImageEncoding;
@@ -23,11 +23,13 @@ use minos::lock::LockMode;
 use minos::navmesh::params::params_from_toml;
 use minos::navmesh::NavParams;
 use minos::pipeline::bake::{self as bake_driver, BakeConfig, BakeOutcome};
-use minos::pipeline::episodes::sample_scenes;
+use minos::pipeline::episodes::{
+    default_min_geodesic, default_min_rooms, default_success_radius, expand_categories,
+    parse_room_classes, run_job, select_scenes, EpisodesJob,
+};
 use minos::pipeline::ingest::{ingest_with, read_id_list, DatasetFormat, IngestConfig, Outcome};
 use minos::pipeline::rollout::{AgentKind, Provenance, RerunOutput, RunConfig};
 use minos::run::metrics::Reward;
-use minos::scene::RoomClass;
 use minos::shard::Shard;
 use minos::sim::AgentConfig;
 use minos::split::{read_split, Subset};
@@ -291,13 +293,16 @@ pub fn bake<'py>(
     Ok(d)
 }
 
-/// `minos episodes`: samples `task` (`pointgoal`, `objectgoal`, `roomgoal`) episodes into
-/// the Parquet file `out` (statistics in `out.stats.json`; with `export_habitat=DIR`,
-/// Habitat-Lab's layout too). Options as the CLI's flags (`same_level` defaults to True for
-/// ObjectGoal, as in Habitat's 2023 challenge, False otherwise). Returns the statistics (total,
-/// means, rejected draws, per scene) with `out` and `stats`.
+/// `minos episodes`: samples `task` (`pointgoal`, `objectgoal`, `roomgoal`, `vln`) episodes
+/// into the Parquet file `out` (statistics in `out.stats.json`, provenance in
+/// `out.provenance.json`; with `export_habitat=DIR`, Habitat-Lab's layout too; VLN episodes
+/// with `export_vlnce=DIR` or `export_r2r=DIR`). Options as the CLI's flags (`same_level`
+/// defaults to True for ObjectGoal, as in Habitat's 2023 challenge, False otherwise;
+/// `min_geodesic` and `min_rooms` to 4 m and 2 rooms for VLN, else 1 m and none;
+/// `categories` takes presets and `["all"]`). Returns the statistics (total, means, rejected
+/// draws, per scene) with `out`, `stats`, `provenance` and `warnings`.
 #[pyfunction]
-#[pyo3(signature = (data, task, out, split = None, subset = None, variant = None, preset = "habitat", allow_body_mismatch = false, per_scene = 10, seed = 0, min_island_radius = 1.5, success_radius = None, categories = vec!["door".to_string(), "arch".to_string()], room_types = vec!["any".to_string()], select = "any", min_geodesic = 1.0, max_geodesic = 30.0, ratio_rule = true, min_doors = 0, min_rooms = 0, same_level = None, bins = (3.0, 6.0), stratify = "auto", max_steps = 500, shard = "0/1", export_habitat = None, scene_prefix = "", scene_suffix = "", threads = None, progress = None))]
+#[pyo3(signature = (data, task, out, split = None, subset = None, variant = None, preset = "habitat", allow_body_mismatch = false, per_scene = 10, seed = 0, min_island_radius = 1.5, success_radius = None, categories = vec!["door".to_string(), "arch".to_string()], min_instances = 1, instructions = 3, room_types = vec!["any".to_string()], select = "any", min_geodesic = None, max_geodesic = 30.0, ratio_rule = true, min_doors = 0, min_rooms = None, same_level = None, bins = (3.0, 6.0), stratify = "auto", max_steps = 500, shard = "0/1", export_habitat = None, export_vlnce = None, export_r2r = None, scene_prefix = "", scene_suffix = "", threads = None, progress = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn sample_episodes<'py>(
     py: Python<'py>,
@@ -314,19 +319,23 @@ pub fn sample_episodes<'py>(
     min_island_radius: f32,
     success_radius: Option<f32>,
     categories: Vec<String>,
+    min_instances: u32,
+    instructions: usize,
     room_types: Vec<String>,
     select: &str,
-    min_geodesic: f32,
+    min_geodesic: Option<f32>,
     max_geodesic: f32,
     ratio_rule: bool,
     min_doors: u32,
-    min_rooms: u32,
+    min_rooms: Option<u32>,
     same_level: Option<bool>,
     bins: (f32, f32),
     stratify: &str,
     max_steps: u32,
     shard: &str,
     export_habitat: Option<&Bound<'py, PyAny>>,
+    export_vlnce: Option<&Bound<'py, PyAny>>,
+    export_r2r: Option<&Bound<'py, PyAny>>,
     scene_prefix: &str,
     scene_suffix: &str,
     threads: Option<usize>,
@@ -336,7 +345,7 @@ pub fn sample_episodes<'py>(
     let out = path_of(out)?;
     let task = Task::from_name(task).ok_or_else(|| {
         msg_err(format!(
-            "task: unknown task `{task}` (pointgoal, objectgoal, roomgoal)"
+            "task: unknown task `{task}` (pointgoal, objectgoal, roomgoal, vln)"
         ))
     })?;
     let subset = match subset {
@@ -350,14 +359,9 @@ pub fn sample_episodes<'py>(
             )))
         }
     };
-    if subset.is_some() && split.is_none() {
-        return Err(msg_err(
-            "--subset needs --split (without one, every ingested scene is used)",
-        ));
-    }
     if bins.0 > bins.1 {
         return Err(msg_err(
-            "--bins: expected two increasing distances, e.g. 3,6",
+            "bins: expected two increasing distances, e.g. (3, 6)",
         ));
     }
     let select = match select {
@@ -380,125 +384,93 @@ pub fn sample_episodes<'py>(
             )))
         }
     };
+    let (categories, all_categories) = expand_categories(&categories)
+        .ok_or_else(|| msg_err("categories: give [\"all\"] alone"))?;
+    let room_classes = parse_room_classes(&room_types)
+        .map_err(|t| msg_err(format!("room_types: unknown class `{t}`")))?;
     let agent_preset = crate::convert::preset(preset)?;
-    let body = agent_preset.body();
-    // As `minos episodes`: MINOS's 0.4 m for PointGoal of MINOS's presets, else 0.2 m.
-    let success_radius = success_radius.unwrap_or(match task {
-        Task::PointGoal => agent_preset.point_goal_radius(),
-        Task::ObjectGoal | Task::RoomGoal => SampleConfig::default().success_radius,
-        Task::Vln => minos::episode::vln::DEFAULT_SUCCESS_RADIUS,
-    });
-    let shard: Shard = crate::convert::shard(shard)?;
-    let habitat_export = export_habitat
-        .filter(|e| !e.is_none())
-        .map(path_of)
-        .transpose()?;
+    let dir_of =
+        |e: Option<&Bound<'py, PyAny>>| e.filter(|e| !e.is_none()).map(path_of).transpose();
+    let habitat_export = dir_of(export_habitat)?;
+    let vln_export = match (dir_of(export_vlnce)?, dir_of(export_r2r)?) {
+        (Some(_), Some(_)) => return Err(msg_err("give export_vlnce or export_r2r, not both")),
+        (Some(d), None) => Some((VlnFormat::VlnCe, d)),
+        (None, Some(d)) => Some((VlnFormat::R2r, d)),
+        (None, None) => None,
+    };
+    if vln_export.is_some() && task != Task::Vln {
+        return Err(msg_err(
+            "export_vlnce / export_r2r: VLN exports need task=\"vln\"",
+        ));
+    }
+    if task == Task::Vln && habitat_export.is_some() {
+        return Err(msg_err(
+            "export_habitat: VLN episodes export as export_vlnce (habitat-lab's R2RVLN-v1) or export_r2r",
+        ));
+    }
     let scene_names = SceneIdStyle {
         prefix: scene_prefix.to_string(),
         suffix: scene_suffix.to_string(),
     };
+    scene_names
+        .check()
+        .map_err(|e| msg_err(format!("scene_suffix: {e}")))?;
+    let sample = SampleConfig {
+        task,
+        per_scene,
+        seed,
+        min_island_radius,
+        success_radius: success_radius
+            .unwrap_or_else(|| default_success_radius(task, agent_preset)),
+        categories,
+        all_categories,
+        min_instances,
+        instructions,
+        room_classes,
+        select,
+        min_geodesic: min_geodesic.unwrap_or_else(|| default_min_geodesic(task)),
+        max_geodesic,
+        ratio_rule,
+        min_doors,
+        min_rooms: min_rooms.unwrap_or_else(|| default_min_rooms(task)),
+        // As the CLI: ObjectGoal keeps to one floor unless told otherwise.
+        same_level: same_level.unwrap_or(task == Task::ObjectGoal),
+        bins: [bins.0, bins.1],
+        stratified,
+        max_steps,
+        ..SampleConfig::default()
+    };
+    let shard: Shard = crate::convert::shard(shard)?;
     let bar = PyProgress::new(progress, 0);
-    let (batch, stats_path) = py
+    let outcome = py
         .detach(|| -> anyhow::Result<_> {
-            scene_names
-                .check()
-                .map_err(|e| anyhow!("--scene-suffix: {e}"))?;
-            let room_classes = if room_types.iter().any(|t| t == "any") {
-                None
-            } else {
-                Some(
-                    room_types
-                        .iter()
-                        .map(|t| {
-                            RoomClass::from_name(t)
-                                .with_context(|| format!("--room-types: unknown class `{t}`"))
-                        })
-                        .collect::<anyhow::Result<Vec<_>>>()?,
-                )
+            let job = EpisodesJob {
+                scenes: select_scenes(&data, split, subset, variant)?,
+                data: data.clone(),
+                sample,
+                body: BodyRule {
+                    body: agent_preset.body(),
+                    allow_mismatch: allow_body_mismatch,
+                },
+                shard,
+                out: out.clone(),
+                habitat_export,
+                vln_export,
+                scene_names,
+                command: vec!["minos.sample_episodes".to_string()],
             };
-            let refs = |ids: &[String]| {
-                data.refs(ids, variant)
-                    .map_err(|e| anyhow!("--variant {}: {e}", variant.unwrap_or_default()))
-            };
-            let mut scenes = Vec::new();
-            match split {
-                Some(split) => {
-                    let lists =
-                        read_split(&data, split).with_context(|| format!("--split {split}"))?;
-                    for part in Subset::ALL {
-                        if subset.is_none_or(|s| s == part) {
-                            scenes.extend(
-                                refs(lists.get(part))?
-                                    .into_iter()
-                                    .map(|r| (r.to_string(), part.name().to_string())),
-                            );
-                        }
-                    }
-                }
-                None => scenes.extend(
-                    refs(&data.ingested_ids()?)?
-                        .into_iter()
-                        .map(|r| (r.to_string(), String::new())),
-                ),
-            }
-            let cfg = SampleConfig {
-                task,
-                per_scene,
-                seed,
-                min_island_radius,
-                success_radius,
-                categories,
-                room_classes,
-                select,
-                min_geodesic,
-                max_geodesic,
-                ratio_rule,
-                min_doors,
-                min_rooms,
-                // As the CLI: ObjectGoal keeps to one floor unless told otherwise.
-                same_level: same_level.unwrap_or(task == Task::ObjectGoal),
-                bins: [bins.0, bins.1],
-                stratified,
-                max_steps,
-                ..SampleConfig::default()
-            };
-            let rule = BodyRule {
-                body,
-                allow_mismatch: allow_body_mismatch,
-            };
-            minos::progress::Progress::set_total(&bar, scenes.len() as u64);
-            let batch = with_threads(threads, || {
-                sample_scenes(&data, &scenes, &cfg, rule, shard, &bar)
-            })
-            .map_err(anyhow::Error::msg)?;
-            let stats_path = PathBuf::from(format!("{}.stats.json", out.display()));
-            for path in [&out, &stats_path] {
-                sweep_stale_of(path).with_context(|| {
-                    format!("{}: removing stale temporary files", path.display())
-                })?;
-            }
-            write_episodes(&out, &batch.episodes)
-                .with_context(|| format!("writing {}", out.display()))?;
-            let stats = serde_json::to_vec_pretty(&batch).context("statistics")?;
-            write_bytes_atomic(&stats_path, &stats)
-                .with_context(|| stats_path.display().to_string())?;
-            if let Some(dir) = &habitat_export {
-                for (habitat_split, eps) in batch.export_splits() {
-                    minos::episode::habitat::export_habitat(
-                        dir,
-                        habitat_split,
-                        &scene_names,
-                        &eps,
-                    )?;
-                }
-            }
-            Ok((batch, stats_path))
+            Ok(with_threads(threads, || run_job(&job, &bar)).map_err(anyhow::Error::msg)??)
         })
         .map_err(py_err)?;
-    let stats = serde_json::to_value(&batch).map_err(msg_err)?;
+    for w in &outcome.warnings {
+        tracing::warn!("{w}");
+    }
+    let stats = serde_json::to_value(&outcome.batch).map_err(msg_err)?;
     let d = to_py(py, &stats)?.cast_into::<PyDict>()?;
     d.set_item("out", out)?;
-    d.set_item("stats", stats_path)?;
+    d.set_item("stats", &outcome.stats_path)?;
+    d.set_item("provenance", &outcome.provenance_path)?;
+    d.set_item("warnings", &outcome.warnings)?;
     Ok(d)
 }
 

@@ -9,15 +9,17 @@ use std::process::ExitCode;
 use anyhow::{bail, Context as _};
 use minos::body::{AgentPreset, BodyRule};
 use minos::episode::format::{read_episodes, write_episodes};
-use minos::episode::habitat::{export_habitat, import_habitat, SceneIdStyle};
+use minos::episode::habitat::{import_habitat, SceneIdStyle};
 use minos::episode::minos_csv::import_minos_csv;
-use minos::episode::sample::{category_preset, SampleConfig, Select};
-use minos::episode::vln::export::{export_r2r, export_vlnce, VlnFormat};
+use minos::episode::sample::{SampleConfig, Select};
+use minos::episode::vln::export::VlnFormat;
 use minos::episode::Task;
-use minos::pipeline::episodes::sample_scenes;
-use minos::scene::RoomClass;
-use minos::shard::{Shard, ShardSpec};
-use minos::split::{read_split, Subset};
+use minos::pipeline::episodes::{
+    default_min_geodesic, default_min_rooms, default_success_radius, expand_categories,
+    parse_room_classes, run_job, select_scenes, EpisodesJob, EpisodesJobError,
+};
+use minos::shard::ShardSpec;
+use minos::split::Subset;
 use minos::store::DataDir;
 
 use super::common::PresetArg;
@@ -64,6 +66,17 @@ enum TaskArg {
     Roomgoal,
     /// Vision-and-language navigation: routes with instructions in words.
     Vln,
+}
+
+impl From<TaskArg> for Task {
+    fn from(t: TaskArg) -> Task {
+        match t {
+            TaskArg::Pointgoal => Task::PointGoal,
+            TaskArg::Objectgoal => Task::ObjectGoal,
+            TaskArg::Roomgoal => Task::RoomGoal,
+            TaskArg::Vln => Task::Vln,
+        }
+    }
 }
 
 /// Instance selection of `--select`.
@@ -229,29 +242,6 @@ struct ImportArgs {
     out: Option<PathBuf>,
 }
 
-/// What `minos episodes` samples and where it writes.
-#[derive(Debug, Clone)]
-pub struct EpisodesJob {
-    /// The DATA folder.
-    pub data: DataDir,
-    /// `(scene reference, subset)` of every selected scene.
-    pub scenes: Vec<(String, String)>,
-    /// Sampling parameters.
-    pub sample: SampleConfig,
-    /// The body the episodes are for.
-    pub body: BodyRule,
-    /// This process's shard of the scenes.
-    pub shard: Shard,
-    /// The episode file.
-    pub out: PathBuf,
-    /// Also export Habitat-Lab's layout into this folder.
-    pub habitat_export: Option<PathBuf>,
-    /// Also export VLN episodes in this format into this folder.
-    pub vln_export: Option<(VlnFormat, PathBuf)>,
-    /// How the Habitat export names scenes (`--scene-prefix`, `--scene-suffix`).
-    pub scene_names: SceneIdStyle,
-}
-
 /// Flags → the job (reads the split lists and checks the variant).
 pub fn config(a: &SampleArgs) -> anyhow::Result<EpisodesJob> {
     let (Some(data), Some(task), Some(out)) = (a.data.as_ref(), a.task, a.out.as_ref()) else {
@@ -297,7 +287,8 @@ pub fn config(a: &SampleArgs) -> anyhow::Result<EpisodesJob> {
     if a.multi_level && task != TaskArg::Objectgoal {
         bail!("--multi-level: only ObjectGoal keeps to one level by default; other tasks already span levels");
     }
-    let (categories, all_categories) = categories_of(&a.categories)?;
+    let (categories, all_categories) =
+        expand_categories(&a.categories).context("--categories all: give it alone")?;
     if task != TaskArg::Objectgoal && a.min_instances > 1 {
         bail!("--min-instances: only for --task objectgoal");
     }
@@ -308,73 +299,28 @@ pub fn config(a: &SampleArgs) -> anyhow::Result<EpisodesJob> {
     scene_names
         .check()
         .map_err(|e| anyhow::anyhow!("--scene-suffix: {e}"))?;
-    let room_classes = if a.room_types.iter().any(|t| t == "any") {
-        None
-    } else {
-        Some(
-            a.room_types
-                .iter()
-                .map(|t| {
-                    RoomClass::from_name(t)
-                        .with_context(|| format!("--room-types: unknown class `{t}`"))
-                })
-                .collect::<anyhow::Result<Vec<_>>>()?,
-        )
-    };
+    let room_classes = parse_room_classes(&a.room_types)
+        .map_err(|t| anyhow::anyhow!("--room-types: unknown class `{t}`"))?;
     let subset = a.subset.map(|s| match s {
         SubsetArg::Train => Subset::Train,
         SubsetArg::Val => Subset::Val,
         SubsetArg::Test => Subset::Test,
     });
-    let refs = |ids: &[String]| {
-        data.refs(ids, a.variant.as_deref()).map_err(|e| {
-            anyhow::anyhow!(
-                "--variant {}: {e}",
-                a.variant.as_deref().unwrap_or_default()
-            )
-        })
-    };
-    let mut scenes = Vec::new();
-    match &a.split {
-        Some(split) => {
-            let lists = read_split(&data, split).with_context(|| format!("--split {split}"))?;
-            for part in Subset::ALL {
-                if subset.is_none_or(|s| s == part) {
-                    scenes.extend(
-                        refs(lists.get(part))?
-                            .into_iter()
-                            .map(|r| (r.to_string(), part.name().to_string())),
-                    );
-                }
-            }
-        }
-        None => scenes.extend(
-            refs(&data.ingested_ids()?)?
-                .into_iter()
-                .map(|r| (r.to_string(), String::new())),
-        ),
-    }
+    // The library's errors name the split or the variant (as Python reports them).
+    let scenes = select_scenes(&data, a.split.as_deref(), subset, a.variant.as_deref())?;
     let stratified = match a.stratify {
         Stratify::On => true,
         Stratify::Off => false,
         Stratify::Auto => matches!(subset, Some(Subset::Val | Subset::Test)),
     };
-    let vln = task == TaskArg::Vln;
     let sample = SampleConfig {
-        task: match task {
-            TaskArg::Pointgoal => Task::PointGoal,
-            TaskArg::Objectgoal => Task::ObjectGoal,
-            TaskArg::Roomgoal => Task::RoomGoal,
-            TaskArg::Vln => Task::Vln,
-        },
+        task: task.into(),
         per_scene: a.per_scene as usize,
         seed: a.seed,
         min_island_radius: a.min_island_radius,
-        success_radius: a.success_radius.unwrap_or(match task {
-            TaskArg::Pointgoal => AgentPreset::from(a.preset).point_goal_radius(),
-            TaskArg::Objectgoal | TaskArg::Roomgoal => SampleConfig::default().success_radius,
-            TaskArg::Vln => minos::episode::vln::DEFAULT_SUCCESS_RADIUS,
-        }),
+        success_radius: a
+            .success_radius
+            .unwrap_or_else(|| default_success_radius(task.into(), AgentPreset::from(a.preset))),
         categories,
         all_categories,
         min_instances: a.min_instances,
@@ -385,11 +331,11 @@ pub fn config(a: &SampleArgs) -> anyhow::Result<EpisodesJob> {
             SelectArg::Random => Select::Random,
             SelectArg::Closest => Select::Closest,
         },
-        min_geodesic: a.min_geodesic.unwrap_or(if vln { 4.0 } else { 1.0 }),
+        min_geodesic: a.min_geodesic.unwrap_or(default_min_geodesic(task.into())),
         max_geodesic: a.max_geodesic,
         ratio_rule: !a.no_ratio_rule,
         min_doors: a.min_doors,
-        min_rooms: a.min_rooms.unwrap_or(if vln { 2 } else { 0 }),
+        min_rooms: a.min_rooms.unwrap_or(default_min_rooms(task.into())),
         same_level: a.same_level || (task == TaskArg::Objectgoal && !a.multi_level),
         bins: [a.bins[0], a.bins[1]],
         stratified,
@@ -412,145 +358,32 @@ pub fn config(a: &SampleArgs) -> anyhow::Result<EpisodesJob> {
         habitat_export,
         vln_export,
         scene_names,
+        command: std::env::args().collect(),
     })
 }
 
-/// `--categories` → (the categories, whether `all`): presets expand to their lists.
-fn categories_of(given: &[String]) -> anyhow::Result<(Vec<String>, bool)> {
-    if given.iter().any(|c| c == "all") {
-        if given.len() > 1 {
-            bail!("--categories all: give it alone");
-        }
-        return Ok((Vec::new(), true));
-    }
-    let mut out: Vec<String> = Vec::new();
-    for c in given {
-        match category_preset(c) {
-            Some(list) => out.extend(list.iter().map(|s| s.to_string())),
-            None => out.push(c.clone()),
-        }
-    }
-    out.dedup();
-    Ok((out, false))
-}
-
-/// Runs `minos episodes`.
-/// Checks the ObjectGoal categories against the objects of the sampled scenes: when none of
-/// them names an object of any scene (a typo, which would otherwise give no episodes and a
-/// warning per scene) it is an error; a category missing beside found ones is one warning. A
-/// shard sees only its scenes, so there it is always one warning.
-fn check_categories(
-    categories: &[String],
-    batch: &minos::pipeline::episodes::EpisodeBatch,
-    shard: Shard,
-) -> anyhow::Result<()> {
-    let found = &batch.object_categories;
-    if found.is_empty() {
-        // No grid read, or no objects at all: the per-scene problems say so.
-        return Ok(());
-    }
-    let missing: Vec<&str> = categories
-        .iter()
-        .filter(|c| !found.contains(&c.to_ascii_lowercase()))
-        .map(String::as_str)
-        .collect();
-    if missing.is_empty() {
-        return Ok(());
-    }
-    const SHOWN: usize = 12;
-    let mut known: Vec<&str> = found.iter().take(SHOWN).map(String::as_str).collect();
-    if found.len() > SHOWN {
-        known.push("…");
-    }
-    let message = format!(
-        "--categories: no object of the {} scene(s) has category {} (known: {})",
-        batch.scenes.len(),
-        missing
-            .iter()
-            .map(|c| format!("`{c}`"))
-            .collect::<Vec<_>>()
-            .join(", "),
-        known.join(", ")
-    );
-    if missing.len() == categories.len() && shard.count == 1 {
-        bail!("{message}");
-    }
-    tracing::warn!("{message}");
-    Ok(())
-}
-
-/// Writes `<out>.provenance.json` beside the episode file: minos version and commit, the
-/// command line and resolved configuration, the scenes with the checksums of their compiled
-/// and source files, and the checksums of the episode file and its statistics.
-fn write_provenance(
-    job: &EpisodesJob,
-    batch: &minos::pipeline::episodes::EpisodeBatch,
-    stats_path: &std::path::Path,
-) -> anyhow::Result<()> {
-    use minos::provenance;
-    let out = &job.out;
-    let name = |p: &std::path::Path| {
-        p.file_name()
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_default()
-    };
-    let mut files = serde_json::Map::new();
-    for p in [out.as_path(), stats_path] {
-        files.insert(name(p), serde_json::json!(provenance::sha256_file(p)?));
-    }
-    let record = serde_json::json!({
-        "format": provenance::FORMAT,
-        "kind": "episodes",
-        "minos": provenance::MINOS,
-        "command": std::env::args().collect::<Vec<_>>(),
-        "configuration": format!("{:?}", job.sample),
-        "seed": job.sample.seed,
-        "shard": job.shard.to_string(),
-        "body": format!("{:?}", job.body),
-        "scenes": minos::store::provenance::scene_records(&job.data, batch.scenes.keys().map(String::as_str)),
-        "files": files,
-    });
-    let path = PathBuf::from(format!("{}.provenance.json", out.display()));
-    provenance::write_record(&path, &record)?;
-    Ok(())
-}
-
+/// Runs `minos episodes` (or `minos episodes import`).
 pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     if let Some(Sub::Import(a)) = args.command {
         return import(a, ctx);
     }
     let job = config(&args.sample)?;
     let (cfg, out) = (&job.sample, &job.out);
-    let batch = {
+    let outcome = {
         let bar = ctx.progress(job.scenes.len() as u64, "episodes");
-        sample_scenes(&job.data, &job.scenes, cfg, job.body, job.shard, &bar)
+        run_job(&job, &bar).map_err(|e| match e {
+            EpisodesJobError::UnknownCategories { .. } => anyhow::anyhow!("--categories: {e}"),
+            other => other.into(),
+        })?
     };
-    if cfg.task == Task::ObjectGoal && !cfg.all_categories {
-        check_categories(&cfg.categories, &batch, job.shard)?;
+    for w in &outcome.warnings {
+        tracing::warn!("{w}");
     }
-    let stats_path = batch
-        .write(out)
-        .with_context(|| format!("writing {}", out.display()))?;
-    write_provenance(&job, &batch, &stats_path)?;
-    for (id, s) in &batch.scenes {
-        if let Some(p) = &s.problem {
-            tracing::warn!("scene {id}: {p}");
-        }
-    }
+    let (batch, stats_path) = (&outcome.batch, &outcome.stats_path);
     if let Some(dir) = &job.habitat_export {
-        // Episodes of no split (no --split given) go into Habitat's split `all`.
-        for (habitat_split, eps) in batch.export_splits() {
-            export_habitat(dir, habitat_split, &job.scene_names, &eps)?;
-        }
         ctx.say(format!("exported Habitat episodes -> {}", dir.display()));
     }
     if let Some((format, dir)) = &job.vln_export {
-        for (split, eps) in batch.export_splits() {
-            match format {
-                VlnFormat::VlnCe => export_vlnce(dir, split, &job.scene_names, &eps)?,
-                VlnFormat::R2r => export_r2r(dir, split, &eps)?,
-            };
-        }
         ctx.say(format!(
             "exported {} episodes -> {}",
             match format {
@@ -638,7 +471,7 @@ mod tests {
         assert!(err.to_string().contains("`attic`"), "{err}");
         // Only then is the split read: a missing DATA folder names the split.
         let err = config_of(base).unwrap_err();
-        assert!(err.to_string().contains("--split s"), "{err}");
+        assert!(err.to_string().contains("split `s`"), "{err}");
         assert!(parse_flags::<SampleArgs>(&format!("{base} --subset dev")).is_err());
         assert!(parse_flags::<SampleArgs>(&format!("{base} --preset default")).is_err());
     }

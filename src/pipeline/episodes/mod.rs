@@ -18,6 +18,12 @@ use crate::scene::SceneRef;
 use crate::shard::Shard;
 use crate::store::DataDir;
 
+mod job;
+pub use job::{
+    default_min_geodesic, default_min_rooms, default_success_radius, expand_categories,
+    parse_room_classes, run_job, select_scenes, EpisodesJob, EpisodesJobError, EpisodesOutcome,
+};
+
 /// Per-scene outcome in the statistics.
 #[derive(Debug, Clone, Default, Serialize, Deserialize)]
 pub struct SceneStats {
