@@ -770,17 +770,15 @@ fn one_error(out: &std::process::Output) -> String {
 fn minos_random_presses_forward_and_turns_together_and_repeats_for_a_seed() {
     let dir = tempfile::tempdir().unwrap();
     let episodes = first_episodes(|t| t == Task::PointGoal, 4);
-    let out = run_cli(
-        dir.path(),
-        &episodes,
-        "minos-random",
-        &["--max-steps", "60"],
-    );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let run_into = |dir: &Path| {
+        let out = run_cli(dir, &episodes, "minos-random", &["--max-steps", "60"]);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    };
+    run_into(dir.path());
     let table = dir.path().join("out/trajectories.parquet");
     let (mut steps, mut forward, mut together) = (0usize, 0usize, 0usize);
     for b in all_batches(&table) {
@@ -815,17 +813,7 @@ fn minos_random_presses_forward_and_turns_together_and_repeats_for_a_seed() {
     );
     // The same seed replays the same button presses.
     let again = tempfile::tempdir().unwrap();
-    let out = run_cli(
-        again.path(),
-        &episodes,
-        "minos-random",
-        &["--max-steps", "60"],
-    );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    run_into(again.path());
     assert_eq!(
         std::fs::read(&table).unwrap(),
         std::fs::read(again.path().join("out/trajectories.parquet")).unwrap()
