@@ -164,7 +164,12 @@ fn the_colour_camera_is_a_video_feature_laid_out_as_lerobot_v3() {
     let data = table(&root.join("data/chunk-000/file-000.parquet"));
     assert!(data.column_by_name(KEY).is_none());
     assert!(data.column_by_name("observation.depth").is_some());
-    let hf: Value = serde_json::from_str(&data.schema().metadata()["huggingface"]).expect("json");
+    let reader = ParquetRecordBatchReaderBuilder::try_new(
+        std::fs::File::open(root.join("data/chunk-000/file-000.parquet")).expect("open"),
+    )
+    .expect("parquet");
+    let hf: Value =
+        serde_json::from_str(&reader.schema().metadata()["huggingface"]).expect("json");
     assert!(hf["info"]["features"].get(KEY).is_none(), "{hf}");
 
     // Episodes follow each other in one file, each from where the last ended.

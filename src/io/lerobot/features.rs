@@ -680,6 +680,35 @@ mod tests {
     }
 
     #[test]
+    fn with_video_colour_becomes_a_video_feature_and_the_rest_stays() {
+        let mut odd = camera("odd", Modality::Color, PixelType::U8, 3);
+        odd.format.width = 85;
+        let cams = vec![
+            camera("rgb", Modality::Color, PixelType::U8, 3),
+            camera("gray", Modality::Gray, PixelType::U8, 1),
+            camera("depth", Modality::Depth, PixelType::F32, 1),
+            odd,
+        ];
+        let f = features(&cams, &RunShape::default(), Some(10)).expect("valid");
+        assert_eq!(f[2].kind, FeatureKind::Video { camera: 0, fps: 10 });
+        assert!(!f[2].in_data());
+        let info = f[2].info(&cams);
+        assert_eq!(info["dtype"], "video");
+        assert_eq!(info["shape"], json!([64, 84, 3]));
+        assert_eq!(info["info"]["video.fps"], 10);
+        assert_eq!(info["info"]["video.codec"], "h264");
+        assert_eq!(f[2].stat_layout(), StatLayout::Image);
+        // Grey, depth and an odd-width colour camera (no 4:2:0 video) stay image files.
+        for k in [3, 4, 5] {
+            assert_eq!(f[k].info(&cams)["dtype"], "image", "{}", f[k].key);
+            assert!(f[k].in_data());
+        }
+        // Without video, colour is an image.
+        let f = features(&cams, &RunShape::default(), None).expect("valid");
+        assert_eq!(f[2].kind, FeatureKind::Image(0));
+    }
+
+    #[test]
     fn each_camera_gets_the_file_that_keeps_its_values() {
         let file = |m, t, c| camera("x", m, t, c).image_file();
         assert_eq!(

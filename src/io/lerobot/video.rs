@@ -322,6 +322,66 @@ mod tests {
         assert_eq!(yuv, vec![82, 82, 82, 82, 90, 240]);
     }
 
+    /// A moving gradient with a square: frames that differ, as a camera's do.
+    fn frame(k: usize, w: usize, h: usize) -> Vec<u8> {
+        let mut f = Vec::with_capacity(w * h * 3);
+        for y in 0..h {
+            for x in 0..w {
+                let inside = (x + 2 * k) % w < 12 && y > 8 && y < 24;
+                f.extend_from_slice(&[
+                    ((x * 255) / w) as u8,
+                    ((y * 255) / h) as u8,
+                    if inside { 230 } else { 40 },
+                ]);
+            }
+        }
+        f
+    }
+
+    fn write(path: &Path, frames: &[Vec<u8>], episode_starts: &[usize]) {
+        let mut v = VideoFile::create(path.to_path_buf(), FileIndex::default(), 48, 32, 10)
+            .expect("create");
+        for (k, f) in frames.iter().enumerate() {
+            v.push(f, episode_starts.contains(&k)).expect("push");
+        }
+        v.close().expect("close");
+    }
+
+    #[test]
+    fn the_same_frames_give_the_same_bytes_and_decode_back_close() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let frames: Vec<Vec<u8>> = (0..12).map(|k| frame(k, 48, 32)).collect();
+        let (a, b) = (dir.path().join("a.mp4"), dir.path().join("b.mp4"));
+        write(&a, &frames, &[0, 5]);
+        write(&b, &frames, &[0, 5]);
+        let bytes = std::fs::read(&a).expect("read");
+        assert_eq!(bytes, std::fs::read(&b).expect("read"));
+        let v = super::super::video_read::read_video(&a, true).expect("decodes");
+        assert_eq!((v.codec.as_str(), v.width, v.height), ("avc1", 48, 32));
+        assert_eq!(v.timescale, 10 * TICKS_PER_FRAME);
+        let times: Vec<u64> = v.samples.iter().map(|s| s.0).collect();
+        assert_eq!(times, (0..12).map(|k| k * 1000).collect::<Vec<u64>>());
+        // Key frames where episodes start (and nowhere else within 30 frames).
+        let keys: Vec<usize> = (0..12).filter(|k| v.samples[*k].1).collect();
+        assert_eq!(keys, vec![0, 5]);
+        assert_eq!(v.frames.len(), 12);
+        for (k, (raw, dec)) in frames.iter().zip(&v.frames).enumerate() {
+            let mse = raw
+                .iter()
+                .zip(dec)
+                .map(|(x, y)| (f64::from(*x) - f64::from(*y)).powi(2))
+                .sum::<f64>()
+                / raw.len() as f64;
+            let psnr = 10.0 * (255.0f64 * 255.0 / mse.max(1e-9)).log10();
+            assert!(psnr > 30.0, "frame {k}: {psnr:.1} dB");
+        }
+        // Damaged index or data: a one-line error, never a panic.
+        let cut = dir.path().join("cut.mp4");
+        std::fs::write(&cut, &bytes[..bytes.len() / 2]).expect("write");
+        let e = super::super::video_read::read_video(&cut, true).expect_err("cut");
+        assert!(!e.contains('\n'), "{e}");
+    }
+
     #[test]
     fn shapes_h264_cannot_take_are_refused() {
         assert!(video_shape_ok(84, 84) && video_shape_ok(256, 256) && video_shape_ok(640, 480));

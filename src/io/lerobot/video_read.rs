@@ -6,7 +6,7 @@ use std::fs::File;
 use std::io::BufReader;
 use std::path::Path;
 
-use openh264::decoder::Decoder;
+use openh264::decoder::{Decoder, DecoderConfig};
 use openh264::formats::YUVSource;
 use openh264::OpenH264API;
 
@@ -96,7 +96,7 @@ fn read_from(reader: BufReader<File>, size: u64, decode: bool) -> Result<VideoCo
     let count = mp4.sample_count(track).map_err(|e| format!("MP4: {e}"))?;
     let mut decoder = if decode {
         Some(
-            Decoder::with_api_config(OpenH264API::from_source(), Default::default())
+            Decoder::with_api_config(OpenH264API::from_source(), DecoderConfig::new())
                 .map_err(|e| format!("H.264 decoder: {e}"))?,
         )
     } else {
