@@ -144,7 +144,10 @@ fn the_colour_camera_is_a_video_feature_laid_out_as_lerobot_v3() {
     let f = &info["features"][KEY];
     assert_eq!(f["dtype"], "video");
     assert_eq!(f["shape"], serde_json::json!([SIZE[1], SIZE[0], 3]));
-    assert_eq!(f["names"], serde_json::json!(["height", "width", "channels"]));
+    assert_eq!(
+        f["names"],
+        serde_json::json!(["height", "width", "channels"])
+    );
     let fps = info["fps"].as_u64().expect("fps");
     for (k, v) in [
         ("video.height", serde_json::json!(SIZE[1])),
@@ -168,8 +171,7 @@ fn the_colour_camera_is_a_video_feature_laid_out_as_lerobot_v3() {
         std::fs::File::open(root.join("data/chunk-000/file-000.parquet")).expect("open"),
     )
     .expect("parquet");
-    let hf: Value =
-        serde_json::from_str(&reader.schema().metadata()["huggingface"]).expect("json");
+    let hf: Value = serde_json::from_str(&reader.schema().metadata()["huggingface"]).expect("json");
     assert!(hf["info"]["features"].get(KEY).is_none(), "{hf}");
 
     // Episodes follow each other in one file, each from where the last ended.
@@ -202,7 +204,10 @@ fn the_colour_camera_is_a_video_feature_laid_out_as_lerobot_v3() {
     }
     let mut first = 0usize;
     for l in &lengths {
-        assert!(contents.samples[first].1, "frame {first} is not a key frame");
+        assert!(
+            contents.samples[first].1,
+            "frame {first} is not a key frame"
+        );
         first += *l as usize;
     }
 }
@@ -363,7 +368,10 @@ fn verify_decodes_the_videos_and_finds_what_is_wrong_with_them() {
     let eps = table(&meta);
     let col = format!("videos/{KEY}/from_timestamp");
     let mut from = floats(&eps, &col);
-    from[1] += 1.0 / json(&shifted.join("meta/info.json"))["fps"].as_f64().expect("fps");
+    from[1] += 1.0
+        / json(&shifted.join("meta/info.json"))["fps"]
+            .as_f64()
+            .expect("fps");
     let mean_col = format!("stats/{KEY}/mean");
     let columns: Vec<std::sync::Arc<dyn Array>> = eps
         .schema()
@@ -379,7 +387,10 @@ fn verify_decodes_the_videos_and_finds_what_is_wrong_with_them() {
                     arrow::array::ListBuilder::new(arrow::array::Float64Builder::new()),
                 ));
                 for r in 0..eps.num_rows() {
-                    let old = eps.column(i).as_any().downcast_ref::<arrow::array::ListArray>()
+                    let old = eps
+                        .column(i)
+                        .as_any()
+                        .downcast_ref::<arrow::array::ListArray>()
                         .expect("list")
                         .value(r);
                     let old = old
@@ -398,7 +409,10 @@ fn verify_decodes_the_videos_and_finds_what_is_wrong_with_them() {
                             .downcast_ref::<Float64Array>()
                             .expect("f64")
                             .value(0);
-                        b.values().values().values().append_value(if r == 0 { 1.0 } else { v });
+                        b.values()
+                            .values()
+                            .values()
+                            .append_value(if r == 0 { 1.0 } else { v });
                         b.values().values().append(true);
                         b.values().append(true);
                     }

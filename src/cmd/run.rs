@@ -207,7 +207,9 @@ fn check_replay(
 /// files and checks the variant).
 pub fn config(args: &Args) -> anyhow::Result<(RunConfig, Vec<Episode>)> {
     if args.video && args.format != FormatArg::Lerobot {
-        anyhow::bail!("--video: colour cameras as video are a LeRobot feature; add --format lerobot");
+        anyhow::bail!(
+            "--video: colour cameras as video are a LeRobot feature; add --format lerobot"
+        );
     }
     let data = DataDir::new(&args.data);
     let agent = agent_kind(&args.agent)?;

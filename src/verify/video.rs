@@ -63,7 +63,9 @@ pub(super) fn check(
     let mut frames_checked = 0u64;
     for (key, shape) in videos {
         let f_info = info.pointer(&format!("/features/{}/info", key.replace('/', "~1")));
-        let declared_fps = f_info.and_then(|i| i.get("video.fps")).and_then(Value::as_u64);
+        let declared_fps = f_info
+            .and_then(|i| i.get("video.fps"))
+            .and_then(Value::as_u64);
         if declared_fps != Some(fps) {
             found.problem(
                 &info_path,
@@ -71,7 +73,9 @@ pub(super) fn check(
                 format!("{declared_fps:?} where the dataset's fps is {fps}"),
             );
         }
-        let codec = f_info.and_then(|i| i.get("video.codec")).and_then(Value::as_str);
+        let codec = f_info
+            .and_then(|i| i.get("video.codec"))
+            .and_then(Value::as_str);
         if codec != Some(CODEC) {
             found.problem(
                 &info_path,
@@ -109,16 +113,19 @@ pub(super) fn check(
                 .column_by_name(&format!("stats/{key}/mean"))
                 .map(|c| tables::cell_f64(c.as_ref(), m.row))
                 .unwrap_or_default();
-            by_file.entry((c as i64, f as i64)).or_default().push(Place {
-                episode: *e,
-                length: length as u64,
-                file: (c as i64, f as i64),
-                from,
-                to,
-                mean,
-                meta: m.path.clone(),
-                row: m.row,
-            });
+            by_file
+                .entry((c as i64, f as i64))
+                .or_default()
+                .push(Place {
+                    episode: *e,
+                    length: length as u64,
+                    file: (c as i64, f as i64),
+                    from,
+                    to,
+                    mean,
+                    meta: m.path.clone(),
+                    row: m.row,
+                });
         }
         for ((chunk, file), places) in &by_file {
             let rel = format!("videos/{key}/chunk-{chunk:03}/file-{file:03}.mp4");

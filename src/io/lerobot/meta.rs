@@ -8,8 +8,8 @@ use std::path::Path;
 use std::sync::Arc;
 
 use arrow::array::{
-    ArrayRef, Float64Array, Float64Builder, Int64Array, Int64Builder, ListBuilder, RecordBatch, StringArray,
-    StringBuilder,
+    ArrayRef, Float64Array, Float64Builder, Int64Array, Int64Builder, ListBuilder, RecordBatch,
+    StringArray, StringBuilder,
 };
 use arrow::datatypes::{Field, Schema};
 use parquet::arrow::ArrowWriter;
@@ -249,19 +249,35 @@ pub fn write_episodes(
             let at = |e: &EpisodeMeta| e.videos.get(v).copied();
             push(
                 &format!("videos/{key}/chunk_index"),
-                Arc::new(rows.iter().map(|e| at(e).map(|p| p.file.chunk as i64)).collect::<Int64Array>()),
+                Arc::new(
+                    rows.iter()
+                        .map(|e| at(e).map(|p| p.file.chunk as i64))
+                        .collect::<Int64Array>(),
+                ),
             );
             push(
                 &format!("videos/{key}/file_index"),
-                Arc::new(rows.iter().map(|e| at(e).map(|p| p.file.file as i64)).collect::<Int64Array>()),
+                Arc::new(
+                    rows.iter()
+                        .map(|e| at(e).map(|p| p.file.file as i64))
+                        .collect::<Int64Array>(),
+                ),
             );
             push(
                 &format!("videos/{key}/from_timestamp"),
-                Arc::new(rows.iter().map(|e| at(e).map(|p| p.from_timestamp)).collect::<Float64Array>()),
+                Arc::new(
+                    rows.iter()
+                        .map(|e| at(e).map(|p| p.from_timestamp))
+                        .collect::<Float64Array>(),
+                ),
             );
             push(
                 &format!("videos/{key}/to_timestamp"),
-                Arc::new(rows.iter().map(|e| at(e).map(|p| p.to_timestamp)).collect::<Float64Array>()),
+                Arc::new(
+                    rows.iter()
+                        .map(|e| at(e).map(|p| p.to_timestamp))
+                        .collect::<Float64Array>(),
+                ),
             );
         }
         push("meta/episodes/chunk_index", ints(&|_| place.chunk as i64));

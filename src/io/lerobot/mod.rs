@@ -50,12 +50,12 @@ use crate::parquet_io::ParquetFileError;
 use crate::progress::Progress;
 use data::{data_schema, episode_batch, EpisodeFrames};
 use features::FeatureError;
+pub use meta::FileIndex;
 pub use meta::CODEBASE_VERSION;
 use meta::{EpisodeMeta, VideoPlace};
-pub use meta::FileIndex;
-use video::{video_file_path, VideoFile};
 pub use source::RunTables;
 use source::{read_episodes, read_steps, ObservationRows, StepRow};
+use video::{video_file_path, VideoFile};
 
 /// Why the LeRobot copy could not be written; every message names the file.
 #[derive(Debug, thiserror::Error)]

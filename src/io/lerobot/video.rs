@@ -27,8 +27,7 @@ use openh264::OpenH264API;
 use super::meta::FileIndex;
 
 /// LeRobot's `video_path` template.
-pub const VIDEO_PATH: &str =
-    "videos/{video_key}/chunk-{chunk_index:03d}/file-{file_index:03d}.mp4";
+pub const VIDEO_PATH: &str = "videos/{video_key}/chunk-{chunk_index:03d}/file-{file_index:03d}.mp4";
 
 /// Largest video file before the next episode starts a new one (LeRobot's default), MB.
 pub const VIDEO_FILE_MB: u64 = 200;

@@ -84,7 +84,10 @@ fn read_from(reader: BufReader<File>, size: u64, decode: bool) -> Result<VideoCo
         })
         .collect();
     if videos.len() != 1 {
-        return Err(format!("{} video tracks where one is expected", videos.len()));
+        return Err(format!(
+            "{} video tracks where one is expected",
+            videos.len()
+        ));
     }
     let (track, width, height, timescale, codec, sps, pps) = videos.remove(0);
     if codec != "avc1" {

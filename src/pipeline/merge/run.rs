@@ -515,8 +515,7 @@ pub fn merge_runs(
             .pointer("/body/dt")
             .and_then(Value::as_f64)
             .ok_or_else(|| shard_error(&first.dir.join("manifest.json"), "no body.dt"))?;
-        write_lerobot(out, dt as f32, Some(&manifest), first.lerobot_video)
-            .map_err(write_error)?;
+        write_lerobot(out, dt as f32, Some(&manifest), first.lerobot_video).map_err(write_error)?;
     }
     progress.advance(1);
 
