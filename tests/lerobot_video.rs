@@ -186,10 +186,10 @@ fn the_colour_camera_is_a_video_feature_laid_out_as_lerobot_v3() {
         .iter()
         .all(|c| *c == 0));
     let mut start = 0i64;
-    for e in 0..lengths.len() {
-        assert_eq!(from[e], start as f64 / fps as f64, "episode {e}");
-        start += lengths[e];
-        assert_eq!(to[e], start as f64 / fps as f64, "episode {e}");
+    for (e, ((length, from), to)) in lengths.iter().zip(&from).zip(&to).enumerate() {
+        assert_eq!(*from, start as f64 / fps as f64, "episode {e}");
+        start += length;
+        assert_eq!(*to, start as f64 / fps as f64, "episode {e}");
     }
     let video = root.join(format!("videos/{KEY}/chunk-000/file-000.mp4"));
     let contents = read_video(&video, false).expect("mp4");
@@ -277,13 +277,13 @@ fn every_frame_decodes_close_to_the_raw_frame() {
     }
     // Frames are not merely close to some frame: each is closest to its own raw frame
     // among its neighbours (no shift by one).
-    for k in 1..raw.len() - 1 {
-        if raw[k] == raw[k - 1] || raw[k] == raw[k + 1] {
+    for (k, (w, d)) in raw.windows(3).zip(&decoded.frames[1..]).enumerate() {
+        if w[1] == w[0] || w[1] == w[2] {
             continue;
         }
-        let own = psnr(&raw[k], &decoded.frames[k]);
-        assert!(own >= psnr(&raw[k - 1], &decoded.frames[k]), "frame {k}");
-        assert!(own >= psnr(&raw[k + 1], &decoded.frames[k]), "frame {k}");
+        let own = psnr(&w[1], d);
+        assert!(own >= psnr(&w[0], d), "frame {}", k + 1);
+        assert!(own >= psnr(&w[2], d), "frame {}", k + 1);
     }
 }
 

@@ -65,6 +65,7 @@ fn run_config(data: &DataDir, out: &Path, agent: AgentKind) -> RunConfig {
         reward: Reward::DistTime,
         encoding: ImageEncoding::Raw,
         lerobot: false,
+        lerobot_video: false,
         rerun: None,
         allow_body_mismatch: false,
         provenance: Provenance::default(),

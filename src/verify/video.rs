@@ -184,7 +184,7 @@ fn check_file(path: &Path, shape: &[u64], fps: u64, places: &[Place], found: &mu
         );
     }
     let ts = u64::from(contents.timescale);
-    if ts == 0 || ts % fps != 0 {
+    if ts == 0 || !ts.is_multiple_of(fps) {
         found.problem(
             path,
             "track",
@@ -270,8 +270,8 @@ fn channel_means(frames: &[Vec<u8>]) -> [f64; 3] {
     let mut count = 0u64;
     for f in frames {
         for px in f.chunks_exact(3) {
-            for c in 0..3 {
-                sum[c] += u64::from(px[c]);
+            for (s, v) in sum.iter_mut().zip(px) {
+                *s += u64::from(*v);
             }
             count += 1;
         }

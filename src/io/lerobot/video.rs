@@ -57,8 +57,8 @@ pub type VideoError = String;
 pub fn video_shape_ok(width: u32, height: u32) -> bool {
     width >= 16
         && height >= 16
-        && width % 2 == 0
-        && height % 2 == 0
+        && width.is_multiple_of(2)
+        && height.is_multiple_of(2)
         && width.max(height) <= 3840
         && width.min(height) <= 2160
 }

@@ -63,33 +63,29 @@ pub fn read_video(path: &Path, decode: bool) -> Result<VideoContents, String> {
 
 fn read_from(reader: BufReader<File>, size: u64, decode: bool) -> Result<VideoContents, String> {
     let mut mp4 = mp4::Mp4Reader::read_header(reader, size).map_err(|e| format!("MP4: {e}"))?;
-    let mut videos: Vec<(u32, u32, u32, u32, String, Vec<u8>, Vec<u8>)> = mp4
+    let videos: Vec<&mp4::Mp4Track> = mp4
         .tracks()
         .values()
         .filter(|t| matches!(t.track_type(), Ok(mp4::TrackType::Video)))
-        .map(|t| {
-            (
-                t.track_id(),
-                u32::from(t.width()),
-                u32::from(t.height()),
-                t.timescale(),
-                t.box_type().map(|b| b.to_string()).unwrap_or_default(),
-                t.sequence_parameter_set()
-                    .map(<[u8]>::to_vec)
-                    .unwrap_or_default(),
-                t.picture_parameter_set()
-                    .map(<[u8]>::to_vec)
-                    .unwrap_or_default(),
-            )
-        })
         .collect();
-    if videos.len() != 1 {
+    let [t] = videos[..] else {
         return Err(format!(
             "{} video tracks where one is expected",
             videos.len()
         ));
-    }
-    let (track, width, height, timescale, codec, sps, pps) = videos.remove(0);
+    };
+    let track = t.track_id();
+    let (width, height) = (u32::from(t.width()), u32::from(t.height()));
+    let timescale = t.timescale();
+    let codec = t.box_type().map(|b| b.to_string()).unwrap_or_default();
+    let sps = t
+        .sequence_parameter_set()
+        .map(<[u8]>::to_vec)
+        .unwrap_or_default();
+    let pps = t
+        .picture_parameter_set()
+        .map(<[u8]>::to_vec)
+        .unwrap_or_default();
     if codec != "avc1" {
         return Err(format!("codec `{codec}` where `avc1` (H.264) is expected"));
     }
