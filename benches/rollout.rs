@@ -155,6 +155,7 @@ fn main() {
             reward: Reward::Geodesic,
             encoding: ImageEncoding::Raw,
             lerobot: false,
+            lerobot_video: false,
             rerun: None,
             allow_body_mismatch: false,
             provenance: Default::default(),

@@ -86,6 +86,7 @@ fn config(f: &Fixture, name: &str, encoding: ImageEncoding) -> RunConfig {
         reward: Reward::Geodesic,
         encoding,
         lerobot: true,
+        lerobot_video: false,
         rerun: None,
         allow_body_mismatch: false,
         provenance: Default::default(),

@@ -115,6 +115,7 @@ fn config(data: &DataDir, out: &Path, body: AgentConfig) -> RunConfig {
         reward: Reward::Geodesic,
         encoding: ImageEncoding::Raw,
         lerobot: false,
+        lerobot_video: false,
         rerun: None,
         allow_body_mismatch: false,
         provenance: Default::default(),

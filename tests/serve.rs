@@ -65,6 +65,7 @@ fn run_config(data: &DataDir, out: &Path, agent: AgentKind) -> RunConfig {
         reward: Reward::DistTime,
         encoding: ImageEncoding::Raw,
         lerobot: false,
+        lerobot_video: false,
         rerun: None,
         allow_body_mismatch: false,
         provenance: Provenance::default(),
@@ -249,6 +250,7 @@ fn a_session_records_what_minos_run_writes_and_replays_byte_for_byte() {
             fps: 10,
             robot_type: "human".into(),
             run: None,
+            video: false,
         },
         &NoProgress,
     )

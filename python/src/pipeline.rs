@@ -577,6 +577,7 @@ pub fn run<'py>(
                 reward,
                 encoding,
                 lerobot,
+                lerobot_video: false,
                 rerun,
                 allow_body_mismatch,
                 provenance: Provenance {

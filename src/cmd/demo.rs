@@ -200,6 +200,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         reward: Reward::Geodesic,
         encoding: ImageEncoding::Raw,
         lerobot: true,
+        lerobot_video: false,
         rerun: Some(RerunOutput {
             path: recording.clone(),
             episodes: 1,

@@ -13,15 +13,18 @@ use super::Context;
 const AFTER_HELP: &str = "\
 The dataset is LeRobot's v3.0 layout (meta/info.json, meta/stats.json, meta/tasks.parquet,
 meta/episodes/…, data/chunk-000/file-000.parquet), loadable offline with
-`LeRobotDataset(\"minos/run\", root=OUT)`. Colour and grey cameras are PNG `image` features;
-depth, normals and label images are lossless arrays under `observation.<sensor>`; every
+`LeRobotDataset(\"minos/run\", root=OUT)`. Colour and grey cameras are lossless `image` features;
+depth and label images lossless image files and normals arrays under `observation.<sensor>`; every
 episode's task is its instruction (\"find a chair\", \"go to the kitchen\", \"go 4.2 m ahead
 and 1.3 m left\"). The frame rate is the agent's steps per second from the run's
-manifest.json unless --fps is given.
+manifest.json unless --fps is given. With --video, colour cameras are H.264 `video` features
+in videos/<key>/chunk-000/file-000.mp4 (lossy, many times smaller; LeRobot decodes them with
+torchcodec, which needs the FFmpeg libraries, or PyAV).
 
 Examples:
   minos export-dataset --run runs/oracle --out datasets/oracle-lerobot
-  minos export-dataset --run minos-demo/run --out /tmp/demo-lerobot --fps 10";
+  minos export-dataset --run minos-demo/run --out /tmp/demo-lerobot --fps 10
+  minos export-dataset --run runs/oracle --out datasets/oracle-video --video";
 
 /// Dataset formats of `--format`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -46,6 +49,11 @@ pub struct Args {
     /// Frames per second (default: the agent's steps per second from DIR/manifest.json).
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=10_000))]
     fps: Option<u32>,
+    /// Colour cameras as H.264 video features in MP4 files (`videos/<key>/…`, LeRobot's
+    /// layout; lossy, many times smaller) rather than lossless image files in the data files
+    /// (the default). Depth and labels stay lossless either way.
+    #[arg(long)]
+    video: bool,
 }
 
 /// What to export.
@@ -96,6 +104,7 @@ pub fn config(args: &Args) -> anyhow::Result<ExportConfig> {
                 .ok()
                 .and_then(|b| serde_json::from_slice(&b).ok())
                 .map(|m| minos::io::lerobot::run_configuration(&m)),
+            video: args.video,
         },
     })
 }

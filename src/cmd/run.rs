@@ -133,6 +133,12 @@ pub struct Args {
     /// `LeRobotDataset(repo_id, root="DIR/lerobot")` (see also `minos export-dataset`).
     #[arg(long, value_enum, default_value = "parquet")]
     format: FormatArg,
+    /// With `--format lerobot`: colour cameras as H.264 video features in MP4 files
+    /// (`videos/<key>/chunk-000/file-000.mp4`, LeRobot's layout; lossy, many times smaller)
+    /// rather than lossless image files in the data files (the default, which every LeRobot
+    /// install reads without a video decoder). Depth and labels stay lossless either way.
+    #[arg(long)]
+    video: bool,
     /// Renderer.
     #[arg(long, value_enum, default_value = "cpu")]
     renderer: RendererArg,
@@ -156,6 +162,11 @@ pub struct Args {
 /// Flags → the run's configuration and its episodes (reads the episode, sensor and replay
 /// files and checks the variant).
 pub fn config(args: &Args) -> anyhow::Result<(RunConfig, Vec<Episode>)> {
+    if args.video && args.format != FormatArg::Lerobot {
+        anyhow::bail!(
+            "--video: colour cameras as video are a LeRobot feature; add --format lerobot"
+        );
+    }
     let data = DataDir::new(&args.data);
     let agent = AgentKind::from_name(&args.agent).context("--agent")?;
     let preset = AgentPreset::from(args.preset);
@@ -197,6 +208,7 @@ pub fn config(args: &Args) -> anyhow::Result<(RunConfig, Vec<Episode>)> {
             EncodingArg::Png => ImageEncoding::Png,
         },
         lerobot: args.format == FormatArg::Lerobot,
+        lerobot_video: args.video,
         rerun: args.rerun.as_ref().map(|path| RerunOutput {
             path: path.clone(),
             episodes: args.rerun_episodes,

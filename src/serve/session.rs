@@ -183,6 +183,7 @@ pub fn run(shared: Arc<Shared>, name: &str, start: Start, link: Arc<Link>, sessi
         reward: shared.reward,
         encoding: shared.encoding,
         lerobot: false,
+        lerobot_video: false,
         rerun: None,
         allow_body_mismatch: false,
         provenance: Provenance {

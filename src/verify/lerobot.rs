@@ -51,8 +51,13 @@ impl Declared {
         self.dtype == "image"
     }
 
+    /// A video feature: in `videos/`, not a column of the data files.
+    fn is_video(&self) -> bool {
+        self.dtype == "video"
+    }
+
     fn layout(&self) -> StatLayout {
-        if self.is_image() || self.shape.len() == 3 {
+        if self.is_image() || self.is_video() || self.shape.len() == 3 {
             StatLayout::Image
         } else {
             StatLayout::Flat
@@ -131,10 +136,13 @@ struct Current {
 }
 
 /// One row of `meta/episodes`.
-struct EpisodeRow {
-    path: PathBuf,
-    batch: RecordBatch,
-    row: usize,
+pub(super) struct EpisodeRow {
+    /// The `meta/episodes` file.
+    pub(super) path: PathBuf,
+    /// Its rows.
+    pub(super) batch: RecordBatch,
+    /// The episode's row.
+    pub(super) row: usize,
 }
 
 /// Checks the dataset's files against each other; the frames it holds, when known.
@@ -335,6 +343,12 @@ pub(super) fn check_dataset(root: &Path, found: &mut Found) -> Option<usize> {
         );
     }
     dataset_stats(root, &declared, &all_stats, found);
+    let videos: Vec<(String, Vec<u64>)> = declared
+        .iter()
+        .filter(|d| d.is_video())
+        .map(|d| (d.key.clone(), d.shape.clone()))
+        .collect();
+    super::video::check(root, &info, fps, &videos, &metas, found);
     found.checked.push(format!(
         "LeRobot: {episodes_seen} episodes, {index} frames, statistics recomputed"
     ));
@@ -351,6 +365,18 @@ fn schema_columns(
 ) -> Option<Vec<Option<usize>>> {
     let mut out = Vec::with_capacity(declared.len());
     for d in declared {
+        if d.is_video() {
+            // In `videos/` (checked by `video::check`).
+            if schema.index_of(&d.key).is_ok() {
+                found.problem(
+                    path,
+                    format!("column `{}`", d.key),
+                    "a video feature of info.json stored as a column",
+                );
+            }
+            out.push(None);
+            continue;
+        }
         match schema.index_of(&d.key) {
             Err(_) => {
                 found.problem(
@@ -376,7 +402,7 @@ fn schema_columns(
         }
     }
     for f in schema.fields() {
-        if !declared.iter().any(|d| &d.key == f.name()) {
+        if !declared.iter().any(|d| &d.key == f.name() && !d.is_video()) {
             found.problem(
                 path,
                 format!("column `{}`", f.name()),

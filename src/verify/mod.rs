@@ -14,7 +14,9 @@
 //!   `index`, `episode_index`, `frame_index` and `timestamp` continuity, episode boundaries
 //!   against `meta/episodes`, the totals, every image decoding with its declared shape, and
 //!   the statistics recomputed from the frames (per episode exactly, and `stats.json` as
-//!   LeRobot aggregates them);
+//!   LeRobot aggregates them); video features (`video.rs`): every MP4 file decoded frame by
+//!   frame at the declared size, frame times, episode places and key frames, and each
+//!   episode's mean colour against its decoded frames;
 //! - episode files (`episodes.rs`): the file decodes, and with a DATA folder every start and
 //!   goal lies on its scene's baked grid and the stored geodesic distance re-computes within
 //!   [`GEODESIC_TOLERANCE`];
@@ -26,6 +28,7 @@ mod episodes;
 mod lerobot;
 mod run;
 mod tables;
+mod video;
 
 use std::collections::BTreeMap;
 use std::fmt;

@@ -102,6 +102,16 @@ def _to_frame_layout(key: str, v: torch.Tensor) -> torch.Tensor:
     return v.reshape(len(v), -1).float()
 
 
+def video_backend() -> str:
+    """LeRobot's default video decoder, torchcodec, when it loads (it needs the FFmpeg
+    libraries of the system), else PyAV (whose wheels carry their own FFmpeg)."""
+    try:
+        import torchcodec.decoders  # noqa: F401
+        return "torchcodec"
+    except Exception:  # ImportError, or OSError/RuntimeError when FFmpeg is missing
+        return "pyav"
+
+
 def load_lerobot(root: str | Path, env_actions: Sequence[str], keys: Optional[Sequence[str]] = None,
                  repo_id: str = "minos/run", batch_size: int = 64, num_workers: int = 2,
                  decode: str = "arrow",
@@ -130,11 +140,15 @@ def load_lerobot(root: str | Path, env_actions: Sequence[str], keys: Optional[Se
     strength_names = list(feats["action"].get("names") or ACTION_STRENGTHS)
     wanted = list(keys) if keys is not None else sorted(set(names) - {"state"})
     _require(root, wanted, names)
-    ds = LeRobotDataset(repo_id, root=str(root))
+    videos = {k for k, f in feats.items() if f.get("dtype") == "video"}
+    ds = LeRobotDataset(repo_id, root=str(root),
+                        video_backend=video_backend() if videos else None)
 
     columns = list(_BOOKKEEPING) + [names[k] for k in wanted]
-    # Decode only what is needed: depth and labels are the slow columns.
-    ds.hf_dataset = ds.hf_dataset.select_columns(sorted(set(columns) | {"timestamp", "task_index"}))
+    # Decode only what is needed: depth and labels are the slow columns. Video features are
+    # not columns: LeRobot decodes them from videos/ at each frame's timestamp.
+    table = (set(columns) - videos) | {"timestamp", "task_index"}
+    ds.hf_dataset = ds.hf_dataset.select_columns(sorted(table))
     if decode == "lerobot":
         ds.hf_dataset.set_transform(hf_transform_to_torch)
     elif decode == "arrow":
@@ -252,5 +266,5 @@ def available_keys(root: str | Path, repo_id: str = "minos/run") -> tuple[set[st
 
 __all__ = [
     "Demonstrations", "available_keys", "dataset_tasks", "goal_objects", "load_lerobot",
-    "load_many",
+    "load_many", "video_backend",
 ]

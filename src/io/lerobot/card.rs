@@ -137,7 +137,7 @@ pub fn dataset_card(info: &Value) -> String {
          ```python\n\
          from lerobot.datasets.lerobot_dataset import LeRobotDataset\n\
          dataset = LeRobotDataset(\"<user>/<dataset>\", root=\"path/to/this/folder\")\n\
-         ```\n",
+         ```\n{videos}",
         version = info
             .get("codebase_version")
             .and_then(Value::as_str)
@@ -149,6 +149,14 @@ pub fn dataset_card(info: &Value) -> String {
         robot = info.get("robot_type").and_then(Value::as_str).unwrap_or(""),
         minos = MINOS.version,
         commit = MINOS.commit,
+        videos = if info.get("video_path").is_some_and(|p| !p.is_null()) {
+            "\nColour cameras are `video` features: H.264 in MP4 under `videos/` (lossy; depth \
+             and labels stay lossless in the data files). LeRobot decodes them with torchcodec, \
+             which needs the FFmpeg libraries, or with PyAV: `LeRobotDataset(..., \
+             video_backend=\"pyav\")`.\n"
+        } else {
+            ""
+        },
     )
 }
 

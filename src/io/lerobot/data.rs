@@ -37,15 +37,17 @@ pub struct EpisodeFrames<'a> {
     pub fps: u32,
 }
 
-/// The data files' schema: one nullable column per feature (as Hugging Face writes them)
-/// and the `huggingface` metadata naming each column's `datasets` feature.
+/// The data files' schema: one nullable column per feature but videos (as Hugging Face
+/// writes them) and the `huggingface` metadata naming each column's `datasets` feature.
 pub fn data_schema(features: &[Feature], cameras: &[Camera]) -> SchemaRef {
     let fields: Vec<Field> = features
         .iter()
+        .filter(|f| f.in_data())
         .map(|f| Field::new(&f.key, f.arrow_type(cameras), true))
         .collect();
     let hf: serde_json::Map<String, serde_json::Value> = features
         .iter()
+        .filter(|f| f.in_data())
         .map(|f| (f.key.clone(), f.hf(cameras)))
         .collect();
     let meta = json!({"info": {"features": hf}}).to_string();
@@ -55,7 +57,8 @@ pub fn data_schema(features: &[Feature], cameras: &[Camera]) -> SchemaRef {
 /// An image that could not be laid out (the caller names the file and episode).
 pub type FrameError = String;
 
-/// Builds the episode's batch and its statistics (one per feature, in feature order).
+/// Builds the episode's batch (video features are not columns) and its statistics (one per
+/// feature, in feature order; a video's from the camera's own frames).
 pub fn episode_batch(
     features: &[Feature],
     cameras: &[Camera],
@@ -96,6 +99,10 @@ pub fn episode_batch(
             }
             FeatureKind::GoalObject(vocabulary) => goal_object_column(vocabulary, ep, frames)?,
             FeatureKind::Frame(v) => frame_column(*v, ep, frames),
+            FeatureKind::Video { camera, .. } => {
+                stats.push(picture_stats(*camera, 3, ep, frames));
+                continue;
+            }
             FeatureKind::Image(c) | FeatureKind::Array(c) => match cameras[*c].image_file() {
                 Some(file) => image_column(*c, file, &cameras[*c].format, ep, frames)?,
                 None => array_column(*c, &cameras[*c].format, ep, frames)?,
@@ -244,6 +251,21 @@ fn image_column(
         None,
     );
     Ok((Arc::new(column), stats))
+}
+
+/// Statistics of an 8-bit camera's frames per channel in [0, 1] (as [`image_column`]).
+fn picture_stats(camera: usize, c: usize, ep: &EpisodeFrames, frames: u64) -> FeatureStats {
+    let mut hist = vec![[0u64; 256]; c];
+    for frame in &ep.images {
+        if let Image::U8 { data, .. } = &frame[camera] {
+            for px in data.chunks_exact(c) {
+                for (k, v) in px.iter().enumerate() {
+                    hist[k][*v as usize] += 1;
+                }
+            }
+        }
+    }
+    FeatureStats::of_histograms(&hist, frames)
 }
 
 /// Appends every value of `img` to its channel's list (channels interleaved).

@@ -7,6 +7,7 @@
 //! | `observation.state` | float32 \[5\]: x, y, z, yaw, tilt | the pose before the action |
 //! | `action` | float32 \[9\]: the eight action strengths and `stop` | the decision |
 //! | `observation.images.<sensor>` | `image` [h, w, c] (PPM / PGM) | colour and grey cameras |
+//! | `observation.images.<sensor>` | `video` [h, w, 3] (H.264 in MP4, [`super::video`]) | colour cameras with `--video` |
 //! | `observation.<sensor>` | `image` [h, w, 1] (PFM / PGM / TIFF), lossless | depth (metres), semantic, instance, room and room-class ids |
 //! | `observation.<sensor>` | the sensor's dtype [c, h, w], lossless | several-channel arrays (normals) |
 //! | `observation.goal`, `.goal_room`, `.at_goal`, `.contact`, `.collision`, `.previous_action`, `.steps_left` | float32 vectors | the per-step features ([`crate::run::step_features`]) of the trajectory row |
@@ -67,6 +68,15 @@ impl Camera {
         matches!(self.modality, Modality::Color | Modality::Gray)
             && self.format.dtype == PixelType::U8
             && matches!(self.format.channels, 1 | 3)
+    }
+
+    /// Whether the camera can become a LeRobot `video` feature (`--video`): 8-bit colour
+    /// with even sides H.264 takes ([`super::video::video_shape_ok`]).
+    pub fn is_video(&self) -> bool {
+        self.modality == Modality::Color
+            && self.format.dtype == PixelType::U8
+            && self.format.channels == 3
+            && super::video::video_shape_ok(self.format.width, self.format.height)
     }
 
     /// The file each frame is stored as, or `None` for a channel-first array.
@@ -256,6 +266,14 @@ pub enum FeatureKind {
     /// The colour or grey camera `cameras[i]` (`observation.images.<name>`), as 8-bit
     /// image files.
     Image(usize),
+    /// The colour camera `cameras[camera]` (`observation.images.<name>`) as a video of
+    /// `fps` frames a second ([`super::video`]); not a column of the data files.
+    Video {
+        /// Its index in the cameras.
+        camera: usize,
+        /// Frames per second.
+        fps: u32,
+    },
     /// Any other camera `cameras[i]` (`observation.<name>`): as image files that keep its
     /// values where it has [`Camera::image_file`], else as a [c, h, w] array of its dtype.
     Array(usize),
@@ -293,8 +311,13 @@ pub struct RunShape {
     pub goal_objects: Vec<String>,
 }
 
-/// The dataset's features, in column order, for the run's cameras and shape.
-pub fn features(cameras: &[Camera], shape: &RunShape) -> Result<Vec<Feature>, FeatureError> {
+/// The dataset's features, in column order, for the run's cameras and shape; with
+/// `video_fps`, colour cameras H.264 takes become video features of that frame rate.
+pub fn features(
+    cameras: &[Camera],
+    shape: &RunShape,
+    video_fps: Option<u32>,
+) -> Result<Vec<Feature>, FeatureError> {
     let mut out: Vec<Feature> = [VectorValue::State, VectorValue::Action]
         .into_iter()
         .map(|v| Feature {
@@ -310,7 +333,12 @@ pub fn features(cameras: &[Camera], shape: &RunShape) -> Result<Vec<Feature>, Fe
         if c.name.is_empty() || c.name.contains('/') {
             return Err(bad("LeRobot feature names cannot be empty or contain `/`"));
         }
-        if c.is_image() {
+        if let Some(fps) = video_fps.filter(|_| c.is_video()) {
+            out.push(Feature {
+                key: format!("observation.images.{}", c.name),
+                kind: FeatureKind::Video { camera: i, fps },
+            });
+        } else if c.is_image() {
             out.push(Feature {
                 key: format!("observation.images.{}", c.name),
                 kind: FeatureKind::Image(i),
@@ -410,6 +438,30 @@ impl Feature {
             FeatureKind::Frame(v) => {
                 json!({"dtype": scalar_name(v.scalar()), "shape": [1], "names": null})
             }
+            FeatureKind::Video { camera, fps } => {
+                let c = &cameras[*camera];
+                let f = &c.format;
+                json!({
+                    "dtype": "video",
+                    "shape": [f.height, f.width, 3],
+                    "names": ["height", "width", "channels"],
+                    "info": {
+                        "video.height": f.height,
+                        "video.width": f.width,
+                        "video.codec": super::video::CODEC,
+                        "video.pix_fmt": super::video::PIX_FMT,
+                        "video.is_depth_map": false,
+                        "video.fps": fps,
+                        "video.channels": 3,
+                        "has_audio": false,
+                        "minos.sensor": c.name,
+                        "minos.modality": modality_name(c.modality),
+                        "minos.sensor_dtype": f.dtype.name(),
+                        "minos.storage": super::video::STORAGE,
+                        "minos.tensor": format!("float32 [3, {}, {}] in [0, 1]", f.height, f.width),
+                    },
+                })
+            }
             FeatureKind::Image(i) | FeatureKind::Array(i) => {
                 let c = &cameras[*i];
                 let f = &c.format;
@@ -470,6 +522,8 @@ impl Feature {
             }),
             FeatureKind::GoalObject(_) => json!({"dtype": "int64", "_type": "Value"}),
             FeatureKind::Frame(v) => json!({"dtype": scalar_name(v.scalar()), "_type": "Value"}),
+            // Not a column: LeRobot decodes it from the video files.
+            FeatureKind::Video { .. } => Value::Null,
             FeatureKind::Image(i) | FeatureKind::Array(i) => {
                 let c = &cameras[*i];
                 let f = &c.format;
@@ -499,6 +553,7 @@ impl Feature {
                 Scalar::Bool => DataType::Boolean,
                 Scalar::I64 => DataType::Int64,
             },
+            FeatureKind::Video { .. } => DataType::Null,
             FeatureKind::Image(i) | FeatureKind::Array(i) => match cameras[*i].image_file() {
                 Some(_) => DataType::Struct(Fields::from(vec![
                     Field::new("bytes", DataType::Binary, true),
@@ -509,11 +564,18 @@ impl Feature {
         }
     }
 
+    /// Whether it is a column of the data files (video features are in `videos/`).
+    pub fn in_data(&self) -> bool {
+        !matches!(self.kind, FeatureKind::Video { .. })
+    }
+
     /// How its statistics are nested: per channel as (c, 1, 1) for cameras, which
     /// broadcasts against their channel-first tensors.
     pub fn stat_layout(&self) -> StatLayout {
         match self.kind {
-            FeatureKind::Image(_) | FeatureKind::Array(_) => StatLayout::Image,
+            FeatureKind::Image(_) | FeatureKind::Array(_) | FeatureKind::Video { .. } => {
+                StatLayout::Image
+            }
             _ => StatLayout::Flat,
         }
     }
@@ -547,7 +609,7 @@ mod tests {
             camera("rooms", Modality::RoomClass, PixelType::U8, 1),
             camera("normal", Modality::Normal, PixelType::F32, 3),
         ];
-        let f = features(&cams, &RunShape::default()).expect("valid");
+        let f = features(&cams, &RunShape::default(), None).expect("valid");
         let keys: Vec<&str> = f.iter().map(|f| f.key.as_str()).collect();
         assert_eq!(
             &keys[..6],
@@ -618,6 +680,35 @@ mod tests {
     }
 
     #[test]
+    fn with_video_colour_becomes_a_video_feature_and_the_rest_stays() {
+        let mut odd = camera("odd", Modality::Color, PixelType::U8, 3);
+        odd.format.width = 85;
+        let cams = vec![
+            camera("rgb", Modality::Color, PixelType::U8, 3),
+            camera("gray", Modality::Gray, PixelType::U8, 1),
+            camera("depth", Modality::Depth, PixelType::F32, 1),
+            odd,
+        ];
+        let f = features(&cams, &RunShape::default(), Some(10)).expect("valid");
+        assert_eq!(f[2].kind, FeatureKind::Video { camera: 0, fps: 10 });
+        assert!(!f[2].in_data());
+        let info = f[2].info(&cams);
+        assert_eq!(info["dtype"], "video");
+        assert_eq!(info["shape"], json!([64, 84, 3]));
+        assert_eq!(info["info"]["video.fps"], 10);
+        assert_eq!(info["info"]["video.codec"], "h264");
+        assert_eq!(f[2].stat_layout(), StatLayout::Image);
+        // Grey, depth and an odd-width colour camera (no 4:2:0 video) stay image files.
+        for k in [3, 4, 5] {
+            assert_eq!(f[k].info(&cams)["dtype"], "image", "{}", f[k].key);
+            assert!(f[k].in_data());
+        }
+        // Without video, colour is an image.
+        let f = features(&cams, &RunShape::default(), None).expect("valid");
+        assert_eq!(f[2].kind, FeatureKind::Image(0));
+    }
+
+    #[test]
     fn each_camera_gets_the_file_that_keeps_its_values() {
         let file = |m, t, c| camera("x", m, t, c).image_file();
         assert_eq!(
@@ -658,7 +749,7 @@ mod tests {
     fn sensor_names_that_make_bad_keys_are_refused() {
         for name in ["a/b", "", "state", "depth_image"] {
             let cams = vec![camera(name, Modality::Depth, PixelType::F32, 1)];
-            let e = features(&cams, &RunShape::default())
+            let e = features(&cams, &RunShape::default(), None)
                 .expect_err(name)
                 .to_string();
             assert!(e.contains(&format!("sensor `{name}`")), "{e}");
@@ -666,7 +757,8 @@ mod tests {
         // An image sensor may be called anything LeRobot accepts.
         assert!(features(
             &[camera("image", Modality::Color, PixelType::U8, 3)],
-            &RunShape::default()
+            &RunShape::default(),
+            None
         )
         .is_ok());
     }

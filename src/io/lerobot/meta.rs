@@ -8,8 +8,8 @@ use std::path::Path;
 use std::sync::Arc;
 
 use arrow::array::{
-    ArrayRef, Float64Builder, Int64Array, Int64Builder, ListBuilder, RecordBatch, StringArray,
-    StringBuilder,
+    ArrayRef, Float64Array, Float64Builder, Int64Array, Int64Builder, ListBuilder, RecordBatch,
+    StringArray, StringBuilder,
 };
 use arrow::datatypes::{Field, Schema};
 use parquet::arrow::ArrowWriter;
@@ -88,6 +88,19 @@ pub struct EpisodeMeta {
     pub scene_id: String,
     /// Statistics per feature, in feature order.
     pub stats: Vec<FeatureStats>,
+    /// Where its frames are in each video feature's files, in feature order.
+    pub videos: Vec<VideoPlace>,
+}
+
+/// An episode's place in one camera's video files.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct VideoPlace {
+    /// The video file.
+    pub file: FileIndex,
+    /// When its first frame is shown, seconds from the file's start.
+    pub from_timestamp: f64,
+    /// When its last frame ends.
+    pub to_timestamp: f64,
 }
 
 /// Episode rows per `meta/episodes` file.
@@ -231,6 +244,42 @@ pub fn write_episodes(
         push("data/file_index", ints(&|e| e.data.file as i64));
         push("dataset_from_index", ints(&|e| e.from_index));
         push("dataset_to_index", ints(&|e| e.to_index));
+        let video_keys = features.iter().filter(|f| !f.in_data()).map(|f| &f.key);
+        for (v, key) in video_keys.enumerate() {
+            let at = |e: &EpisodeMeta| e.videos.get(v).copied();
+            push(
+                &format!("videos/{key}/chunk_index"),
+                Arc::new(
+                    rows.iter()
+                        .map(|e| at(e).map(|p| p.file.chunk as i64))
+                        .collect::<Int64Array>(),
+                ),
+            );
+            push(
+                &format!("videos/{key}/file_index"),
+                Arc::new(
+                    rows.iter()
+                        .map(|e| at(e).map(|p| p.file.file as i64))
+                        .collect::<Int64Array>(),
+                ),
+            );
+            push(
+                &format!("videos/{key}/from_timestamp"),
+                Arc::new(
+                    rows.iter()
+                        .map(|e| at(e).map(|p| p.from_timestamp))
+                        .collect::<Float64Array>(),
+                ),
+            );
+            push(
+                &format!("videos/{key}/to_timestamp"),
+                Arc::new(
+                    rows.iter()
+                        .map(|e| at(e).map(|p| p.to_timestamp))
+                        .collect::<Float64Array>(),
+                ),
+            );
+        }
         push("meta/episodes/chunk_index", ints(&|_| place.chunk as i64));
         push("meta/episodes/file_index", ints(&|_| place.file as i64));
         push(
@@ -329,6 +378,7 @@ pub fn info_json(
     total_tasks: usize,
     splits: Value,
 ) -> Value {
+    let has_video = features.iter().any(|f| !f.in_data());
     let feats: serde_json::Map<String, Value> = features
         .iter()
         .map(|f| (f.key.clone(), f.info(cameras)))
@@ -341,11 +391,11 @@ pub fn info_json(
         "total_tasks": total_tasks,
         "chunks_size": CHUNK_SIZE,
         "data_files_size_in_mb": DATA_FILE_MB,
-        "video_files_size_in_mb": 200,
+        "video_files_size_in_mb": super::video::VIDEO_FILE_MB,
         "fps": fps,
         "splits": splits,
         "data_path": DATA_PATH,
-        "video_path": null,
+        "video_path": if has_video { json!(super::video::VIDEO_PATH) } else { Value::Null },
         "features": feats,
     })
 }

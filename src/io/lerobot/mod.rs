@@ -13,6 +13,9 @@
 //! DIR/data/chunk-000/file-000.parquet         the frames, episodes whole and in order, with
 //!                                             the Hugging Face `datasets` features as schema
 //!                                             metadata; a new file after 100 MB
+//! DIR/videos/<key>/chunk-000/file-000.mp4     with `video`: each colour camera's frames as
+//!                                             H.264 in MP4, episodes whole and in order
+//!                                             ([`video`]); a new file after 200 MB
 //! DIR/README.md                               the dataset card (Hugging Face YAML header)
 //! DIR/meta/provenance.json                    minos version and commit, sha256 of the run
 //!                                             tables it was made from and of every file
@@ -32,6 +35,8 @@ pub mod image_file;
 mod meta;
 pub mod source;
 pub mod stats;
+pub mod video;
+pub mod video_read;
 
 use std::fs::File;
 use std::path::{Path, PathBuf};
@@ -45,10 +50,12 @@ use crate::parquet_io::ParquetFileError;
 use crate::progress::Progress;
 use data::{data_schema, episode_batch, EpisodeFrames};
 use features::FeatureError;
+pub use meta::FileIndex;
 pub use meta::CODEBASE_VERSION;
-use meta::{EpisodeMeta, FileIndex};
+use meta::{EpisodeMeta, VideoPlace};
 pub use source::RunTables;
 use source::{read_episodes, read_steps, ObservationRows, StepRow};
+use video::{video_file_path, VideoFile};
 
 /// Why the LeRobot copy could not be written; every message names the file.
 #[derive(Debug, thiserror::Error)]
@@ -124,6 +131,9 @@ pub struct DatasetOptions {
     /// between the shards of one run or name this copy (see [`run_configuration`]); written
     /// into `meta/provenance.json` as `run`.
     pub run: Option<serde_json::Value>,
+    /// Colour cameras as video features (H.264 in MP4 under `videos/`, lossy, ≈ 10–30×
+    /// smaller) rather than lossless image files in the data files.
+    pub video: bool,
 }
 
 /// The run configuration a LeRobot copy records: the run manifest `manifest` without
@@ -316,11 +326,27 @@ fn write_into(
     let mut observations = ObservationRows::open(&tables.observations)?;
     let cameras = observations.cameras().to_vec();
     let shape = run_shape(&steps, &tables.trajectories)?;
-    let features =
-        features::features(&cameras, &shape).map_err(|source| LerobotError::Feature {
+    let video_fps = options.video.then_some(options.fps);
+    let features = features::features(&cameras, &shape, video_fps).map_err(|source| {
+        LerobotError::Feature {
             path: tables.observations.clone(),
             source,
-        })?;
+        }
+    })?;
+    // One writer per video feature: its key, camera, the file being filled and the next
+    // file's place.
+    let mut videos: Vec<VideoStream> = features
+        .iter()
+        .filter_map(|f| match f.kind {
+            features::FeatureKind::Video { camera, .. } => Some(VideoStream {
+                key: f.key.clone(),
+                camera,
+                file: None,
+                next: FileIndex::default(),
+            }),
+            _ => None,
+        })
+        .collect();
     let schema = data_schema(&features, &cameras);
     progress.set_total(episodes.len() as u64);
 
@@ -403,6 +429,10 @@ fn write_into(
                     message: format!("episode `{}`: {message}", ep.episode_id),
                 }
             })?;
+        let mut places = Vec::with_capacity(videos.len());
+        for v in &mut videos {
+            places.push(v.write_episode(root, &cameras, &frames, options.fps, &ep.episode_id)?);
+        }
         let current = match file.take() {
             Some(f) if f.writer.bytes_written() < limit as usize => f,
             Some(f) => {
@@ -436,6 +466,7 @@ fn write_into(
             episode_id: ep.episode_id.clone(),
             scene_id: ep.scene_id.clone(),
             stats,
+            videos: places,
         });
         frames_total += n as i64;
         file = Some(current);
@@ -463,6 +494,14 @@ fn write_into(
             // No episode: LeRobot still needs a data file to find.
             data_files += 1;
             DataFile::open(root, next_index, schema.clone())?.close()?;
+        }
+    }
+
+    for v in videos {
+        if let Some(f) = v.file {
+            let path = f.path.clone();
+            f.close()
+                .map_err(|message| LerobotError::Write { path, message })?;
         }
     }
 
@@ -503,4 +542,69 @@ fn write_into(
         tasks: tasks.len(),
         data_files,
     })
+}
+
+/// One video feature's files being written.
+struct VideoStream {
+    key: String,
+    camera: usize,
+    file: Option<VideoFile>,
+    next: FileIndex,
+}
+
+impl VideoStream {
+    /// Appends the episode's frames of this camera (to a new file once the current one
+    /// holds [`video::VIDEO_FILE_MB`]) and says where they are.
+    fn write_episode(
+        &mut self,
+        root: &Path,
+        cameras: &[features::Camera],
+        frames: &EpisodeFrames,
+        fps: u32,
+        episode_id: &str,
+    ) -> Result<VideoPlace, LerobotError> {
+        let limit = video::VIDEO_FILE_MB * 1024 * 1024;
+        if let Some(f) = self.file.take_if(|f| f.bytes >= limit) {
+            let path = f.path.clone();
+            f.close()
+                .map_err(|message| LerobotError::Write { path, message })?;
+        }
+        let format = &cameras[self.camera].format;
+        let file = match &mut self.file {
+            Some(f) => f,
+            None => {
+                let index = self.next;
+                self.next = index.next();
+                let path = video_file_path(root, &self.key, index);
+                let f = VideoFile::create(path.clone(), index, format.width, format.height, fps)
+                    .map_err(|message| LerobotError::Write { path, message })?;
+                self.file.insert(f)
+            }
+        };
+        let from_timestamp = file.next_timestamp();
+        for (i, images) in frames.images.iter().enumerate() {
+            let rgb = match images.get(self.camera) {
+                Some(crate::render::Image::U8 { data, channels: 3 }) => data.as_slice(),
+                _ => {
+                    return Err(LerobotError::Mismatch {
+                        path: file.path.clone(),
+                        message: format!(
+                            "episode `{episode_id}` frame {i}: camera `{}` is not 8-bit RGB",
+                            cameras[self.camera].name
+                        ),
+                    })
+                }
+            };
+            file.push(rgb, i == 0)
+                .map_err(|message| LerobotError::Write {
+                    path: file.path.clone(),
+                    message: format!("episode `{episode_id}`: {message}"),
+                })?;
+        }
+        Ok(VideoPlace {
+            file: file.index,
+            from_timestamp,
+            to_timestamp: file.next_timestamp(),
+        })
+    }
 }

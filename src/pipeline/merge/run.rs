@@ -55,6 +55,8 @@ struct ShardRun {
     episodes: RecordBatch,
     failures: Vec<FailedEpisode>,
     lerobot: bool,
+    /// Its LeRobot copy stores cameras as video (`info.json` has a `video_path`).
+    lerobot_video: bool,
 }
 
 fn shard_error(path: &Path, e: impl std::fmt::Display) -> MergeError {
@@ -107,6 +109,10 @@ fn read_shard(dir: &Path) -> Result<(ShardRun, Shard), MergeError> {
         episodes,
         failures,
         lerobot: dir.join("lerobot").join("meta").join("info.json").is_file(),
+        lerobot_video: std::fs::read(dir.join("lerobot").join("meta").join("info.json"))
+            .ok()
+            .and_then(|b| serde_json::from_slice::<Value>(&b).ok())
+            .is_some_and(|info| info.get("video_path").is_some_and(|p| !p.is_null())),
     };
     Ok((run, shard))
 }
@@ -509,7 +515,7 @@ pub fn merge_runs(
             .pointer("/body/dt")
             .and_then(Value::as_f64)
             .ok_or_else(|| shard_error(&first.dir.join("manifest.json"), "no body.dt"))?;
-        write_lerobot(out, dt as f32, Some(&manifest)).map_err(write_error)?;
+        write_lerobot(out, dt as f32, Some(&manifest), first.lerobot_video).map_err(write_error)?;
     }
     progress.advance(1);
 

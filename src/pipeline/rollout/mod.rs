@@ -79,6 +79,8 @@ pub struct RunConfig {
     pub encoding: ImageEncoding,
     /// Also write the run as a LeRobot v3.0 dataset in `out/lerobot/`.
     pub lerobot: bool,
+    /// In that dataset, colour cameras as H.264 video features (`--video`).
+    pub lerobot_video: bool,
     /// Also record episodes for the rerun viewer.
     pub rerun: Option<RerunOutput>,
     /// Run on grids baked for another body than `body` (recorded in the manifest).
@@ -627,7 +629,7 @@ fn finish(
     }
     let manifest = manifest::value(cfg, mine.iter().map(|(_, e)| e.scene_id.as_str()));
     if cfg.lerobot {
-        write_lerobot(&cfg.out, cfg.body.dt, Some(&manifest))?;
+        write_lerobot(&cfg.out, cfg.body.dt, Some(&manifest), cfg.lerobot_video)?;
     }
     manifest::write(cfg, manifest)
 }
@@ -693,16 +695,19 @@ pub fn write_metrics(
 
 /// Writes the LeRobot copy of the run tables in `out` into `out/lerobot` (`dt`: the agent's
 /// time step, which gives the dataset's fps; `manifest`: the run's, recorded in the copy's
-/// provenance as [`crate::io::lerobot::run_configuration`] says).
+/// provenance as [`crate::io::lerobot::run_configuration`] says; `video`: colour cameras as
+/// video features).
 pub fn write_lerobot(
     out: &Path,
     dt: f32,
     manifest: Option<&serde_json::Value>,
+    video: bool,
 ) -> Result<(), RolloutError> {
     let options = crate::io::lerobot::DatasetOptions {
         fps: crate::io::lerobot::fps_of_step(dt),
         robot_type: LEROBOT_ROBOT_TYPE.into(),
         run: manifest.map(crate::io::lerobot::run_configuration),
+        video,
     };
     crate::io::lerobot::write_dataset(
         &crate::io::lerobot::RunTables::in_dir(out),

@@ -1,0 +1,391 @@
+//! Colour cameras as video (`--video`): each camera's frames, episode after episode, as
+//! H.264 in MP4 files laid out as LeRobot v3.0 lays out its videos
+//! (`videos/<key>/chunk-NNN/file-NNN.mp4`, a new file after [`VIDEO_FILE_MB`]).
+//!
+//! Encoding is OpenH264's (the `openh264` crate, built from its bundled source: no system
+//! library or ffmpeg), constrained baseline, rate control off at a constant QP, one thread,
+//! no frame skipping: the same frames give the same bytes. Every episode starts with an IDR
+//! frame (and another comes every [`KEYFRAME_INTERVAL`] frames), so a reader seeks to an
+//! episode or a frame without decoding what comes before it. Frame `k` of a file is shown at
+//! `k / fps` seconds exactly (track timescale `1000 · fps`, 1000 ticks a frame), which is
+//! what LeRobot's `from_timestamp + timestamp` queries find. The RGB → YUV 4:2:0 conversion
+//! is defined here (BT.601 limited range, integer arithmetic, chroma the mean of each 2×2
+//! block) and signalled in the stream's VUI, so it cannot change with a dependency's SIMD path.
+
+use std::fs::File;
+use std::io::BufWriter;
+use std::path::{Path, PathBuf};
+
+use mp4::{AvcConfig, MediaConfig, Mp4Config, Mp4Sample, Mp4Writer, TrackConfig, TrackType};
+use openh264::encoder::{
+    Encoder, EncoderConfig, FrameType, IntraFramePeriod, Profile, RateControlMode, UsageType,
+    VuiConfig,
+};
+use openh264::formats::YUVBuffer;
+use openh264::OpenH264API;
+
+use super::meta::FileIndex;
+
+/// LeRobot's `video_path` template.
+pub const VIDEO_PATH: &str = "videos/{video_key}/chunk-{chunk_index:03d}/file-{file_index:03d}.mp4";
+
+/// Largest video file before the next episode starts a new one (LeRobot's default), MB.
+pub const VIDEO_FILE_MB: u64 = 200;
+
+/// Frames between key (IDR) frames within an episode: a random frame is at most this many
+/// frames of decoding away (LeRobot's own encoder uses 2; a longer interval makes smaller
+/// files).
+pub const KEYFRAME_INTERVAL: u32 = 30;
+
+/// The codec's name as LeRobot's `info.json` records it (`video.codec`).
+pub const CODEC: &str = "h264";
+
+/// How `info.json` describes the storage (`minos.storage`).
+pub const STORAGE: &str = "H.264 (OpenH264, constant QP 26, BT.601 limited range) in MP4, lossy";
+
+/// The pixel format (`video.pix_fmt`).
+pub const PIX_FMT: &str = "yuv420p";
+
+/// Ticks of the track's clock per frame (the timescale is this × fps).
+pub const TICKS_PER_FRAME: u32 = 1000;
+
+/// Why a video could not be written (the caller names the file).
+pub type VideoError = String;
+
+/// Whether a camera of this shape can be a video feature: three 8-bit channels and even
+/// sides (4:2:0 chroma covers 2×2 blocks) within H.264's level 5.2.
+pub fn video_shape_ok(width: u32, height: u32) -> bool {
+    width >= 16
+        && height >= 16
+        && width.is_multiple_of(2)
+        && height.is_multiple_of(2)
+        && width.max(height) <= 3840
+        && width.min(height) <= 2160
+}
+
+/// RGB (interleaved, 8-bit) as planar YUV 4:2:0 (I420), BT.601 limited range.
+pub fn rgb_to_i420(rgb: &[u8], width: usize, height: usize) -> Vec<u8> {
+    let (cw, ch) = (width / 2, height / 2);
+    let mut out = vec![0u8; width * height + 2 * cw * ch];
+    let (y_plane, uv) = out.split_at_mut(width * height);
+    let (u_plane, v_plane) = uv.split_at_mut(cw * ch);
+    let px = |x: usize, y: usize| {
+        let i = 3 * (y * width + x);
+        (
+            i32::from(rgb[i]),
+            i32::from(rgb[i + 1]),
+            i32::from(rgb[i + 2]),
+        )
+    };
+    for y in 0..height {
+        for x in 0..width {
+            let (r, g, b) = px(x, y);
+            y_plane[y * width + x] = (((66 * r + 129 * g + 25 * b + 128) >> 8) + 16) as u8;
+        }
+    }
+    for j in 0..ch {
+        for i in 0..cw {
+            let (mut r, mut g, mut b) = (0, 0, 0);
+            for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+                let p = px(2 * i + dx, 2 * j + dy);
+                r += p.0;
+                g += p.1;
+                b += p.2;
+            }
+            // The block's mean, rounded, then the BT.601 chroma rows.
+            let (r, g, b) = ((r + 2) >> 2, (g + 2) >> 2, (b + 2) >> 2);
+            u_plane[j * cw + i] = (((-38 * r - 74 * g + 112 * b + 128) >> 8) + 128) as u8;
+            v_plane[j * cw + i] = (((112 * r - 94 * g - 18 * b + 128) >> 8) + 128) as u8;
+        }
+    }
+    out
+}
+
+/// The encoder's settings (see the module documentation).
+fn encoder_config() -> EncoderConfig {
+    EncoderConfig::new()
+        .usage_type(UsageType::CameraVideoRealTime)
+        .profile(Profile::Baseline)
+        .rate_control_mode(RateControlMode::Off)
+        .skip_frames(false)
+        .scene_change_detect(false)
+        .adaptive_quantization(false)
+        .background_detection(false)
+        .intra_frame_period(IntraFramePeriod::from_num_frames(KEYFRAME_INTERVAL))
+        .num_threads(1)
+        .vui(VuiConfig::bt601())
+}
+
+/// A NAL unit's payload without its Annex B start code.
+fn strip_start_code(nal: &[u8]) -> &[u8] {
+    if nal.starts_with(&[0, 0, 0, 1]) {
+        &nal[4..]
+    } else if nal.starts_with(&[0, 0, 1]) {
+        &nal[3..]
+    } else {
+        nal
+    }
+}
+
+/// One camera's video file being filled.
+pub struct VideoFile {
+    /// Where it is in the `videos/<key>/` folder.
+    pub index: FileIndex,
+    /// Its path.
+    pub path: PathBuf,
+    width: u32,
+    height: u32,
+    fps: u32,
+    encoder: Encoder,
+    writer: Option<Mp4Writer<BufWriter<File>>>,
+    pending: Option<BufWriter<File>>,
+    /// Frames written so far.
+    pub frames: u64,
+    /// Bytes of encoded frames written so far.
+    pub bytes: u64,
+}
+
+impl VideoFile {
+    /// Creates `path` for frames of `width`×`height` at `fps`.
+    pub fn create(
+        path: PathBuf,
+        index: FileIndex,
+        width: u32,
+        height: u32,
+        fps: u32,
+    ) -> Result<VideoFile, VideoError> {
+        if let Some(dir) = path.parent() {
+            std::fs::create_dir_all(dir).map_err(|e| e.to_string())?;
+        }
+        let file = File::create(&path).map_err(|e| e.to_string())?;
+        let encoder = Encoder::with_api_config(OpenH264API::from_source(), encoder_config())
+            .map_err(|e| format!("H.264 encoder: {e}"))?;
+        Ok(VideoFile {
+            index,
+            path,
+            width,
+            height,
+            fps: fps.max(1),
+            encoder,
+            writer: None,
+            pending: Some(BufWriter::new(file)),
+            frames: 0,
+            bytes: 0,
+        })
+    }
+
+    /// The time the next frame will be shown at, in seconds from the file's start.
+    pub fn next_timestamp(&self) -> f64 {
+        self.frames as f64 / f64::from(self.fps)
+    }
+
+    /// Encodes one frame (interleaved RGB, `width × height × 3` bytes); `episode_start`
+    /// makes it a key frame.
+    pub fn push(&mut self, rgb: &[u8], episode_start: bool) -> Result<(), VideoError> {
+        let (w, h) = (self.width as usize, self.height as usize);
+        if rgb.len() != w * h * 3 {
+            return Err(format!(
+                "frame {}: {} bytes where {w}×{h} RGB has {}",
+                self.frames,
+                rgb.len(),
+                w * h * 3
+            ));
+        }
+        let yuv = YUVBuffer::from_vec(rgb_to_i420(rgb, w, h), w, h);
+        if episode_start && self.frames > 0 {
+            self.encoder.force_intra_frame();
+        }
+        let stream = self
+            .encoder
+            .encode(&yuv)
+            .map_err(|e| format!("frame {}: H.264 encoder: {e}", self.frames))?;
+        let is_sync = stream.frame_type() == FrameType::IDR;
+        let (mut sps, mut pps, mut sample) = (None, None, Vec::new());
+        for l in 0..stream.num_layers() {
+            let Some(layer) = stream.layer(l) else {
+                continue;
+            };
+            for k in 0..layer.nal_count() {
+                let Some(nal) = layer.nal_unit(k).map(strip_start_code) else {
+                    continue;
+                };
+                match nal.first().map(|b| b & 0x1f) {
+                    Some(7) => sps = Some(nal.to_vec()),
+                    Some(8) => pps = Some(nal.to_vec()),
+                    Some(_) => {
+                        sample.extend_from_slice(&(nal.len() as u32).to_be_bytes());
+                        sample.extend_from_slice(nal);
+                    }
+                    None => {}
+                }
+            }
+        }
+        if sample.is_empty() {
+            return Err(format!(
+                "frame {}: the H.264 encoder gave no picture",
+                self.frames
+            ));
+        }
+        if self.writer.is_none() {
+            let (Some(sps), Some(pps)) = (sps, pps) else {
+                return Err("the H.264 encoder's first frame has no parameter sets".into());
+            };
+            let Some(out) = self.pending.take() else {
+                return Err("the video file is closed".into());
+            };
+            let mut writer = Mp4Writer::write_start(
+                out,
+                &Mp4Config {
+                    major_brand: mp4::FourCC { value: *b"isom" },
+                    minor_version: 512,
+                    compatible_brands: [b"isom", b"iso2", b"avc1", b"mp41"]
+                        .into_iter()
+                        .map(|b| mp4::FourCC { value: *b })
+                        .collect(),
+                    timescale: 1000,
+                },
+            )
+            .map_err(|e| e.to_string())?;
+            writer
+                .add_track(&TrackConfig {
+                    track_type: TrackType::Video,
+                    timescale: TICKS_PER_FRAME * self.fps,
+                    language: "und".into(),
+                    media_conf: MediaConfig::AvcConfig(AvcConfig {
+                        width: self.width as u16,
+                        height: self.height as u16,
+                        seq_param_set: sps,
+                        pic_param_set: pps,
+                    }),
+                })
+                .map_err(|e| e.to_string())?;
+            self.writer = Some(writer);
+        }
+        let Some(writer) = self.writer.as_mut() else {
+            return Err("the video file is closed".into());
+        };
+        self.bytes += sample.len() as u64;
+        writer
+            .write_sample(
+                1,
+                &Mp4Sample {
+                    start_time: self.frames * u64::from(TICKS_PER_FRAME),
+                    duration: TICKS_PER_FRAME,
+                    rendering_offset: 0,
+                    is_sync,
+                    bytes: sample.into(),
+                },
+            )
+            .map_err(|e| format!("frame {}: {e}", self.frames))?;
+        self.frames += 1;
+        Ok(())
+    }
+
+    /// Writes the index (`moov`) and closes the file.
+    pub fn close(mut self) -> Result<(), VideoError> {
+        use std::io::Write;
+        match self.writer.take() {
+            Some(mut w) => {
+                w.write_end().map_err(|e| e.to_string())?;
+                w.into_writer().flush().map_err(|e| e.to_string())
+            }
+            None => Err("a video file without frames".into()),
+        }
+    }
+}
+
+/// The path of a camera's video file under the dataset root.
+pub fn video_file_path(root: &Path, key: &str, index: FileIndex) -> PathBuf {
+    root.join(format!(
+        "videos/{key}/chunk-{:03}/file-{:03}.mp4",
+        index.chunk, index.file
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn grey_levels_map_to_studio_range_luma_and_neutral_chroma() {
+        // Black, white and mid grey: Y 16, 235, 126; U = V = 128 (BT.601 limited range).
+        for (v, y) in [(0u8, 16u8), (255, 235), (128, 126)] {
+            let rgb = vec![v; 4 * 4 * 3];
+            let yuv = rgb_to_i420(&rgb, 4, 4);
+            assert!(yuv[..16].iter().all(|p| *p == y), "{v}: {:?}", &yuv[..16]);
+            assert!(yuv[16..].iter().all(|p| *p == 128), "{v}: {:?}", &yuv[16..]);
+        }
+        // Pure red: Y 82, U 90, V 240 (the textbook BT.601 values).
+        let red: Vec<u8> = [255u8, 0, 0].repeat(4);
+        let yuv = rgb_to_i420(&red, 2, 2);
+        assert_eq!(yuv, vec![82, 82, 82, 82, 90, 240]);
+    }
+
+    /// A moving gradient with a square: frames that differ, as a camera's do.
+    fn frame(k: usize, w: usize, h: usize) -> Vec<u8> {
+        let mut f = Vec::with_capacity(w * h * 3);
+        for y in 0..h {
+            for x in 0..w {
+                let inside = (x + 2 * k) % w < 12 && y > 8 && y < 24;
+                f.extend_from_slice(&[
+                    ((x * 255) / w) as u8,
+                    ((y * 255) / h) as u8,
+                    if inside { 230 } else { 40 },
+                ]);
+            }
+        }
+        f
+    }
+
+    fn write(path: &Path, frames: &[Vec<u8>], episode_starts: &[usize]) {
+        let mut v = VideoFile::create(path.to_path_buf(), FileIndex::default(), 48, 32, 10)
+            .expect("create");
+        for (k, f) in frames.iter().enumerate() {
+            v.push(f, episode_starts.contains(&k)).expect("push");
+        }
+        v.close().expect("close");
+    }
+
+    #[test]
+    fn the_same_frames_give_the_same_bytes_and_decode_back_close() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let frames: Vec<Vec<u8>> = (0..12).map(|k| frame(k, 48, 32)).collect();
+        let (a, b) = (dir.path().join("a.mp4"), dir.path().join("b.mp4"));
+        write(&a, &frames, &[0, 5]);
+        write(&b, &frames, &[0, 5]);
+        let bytes = std::fs::read(&a).expect("read");
+        assert_eq!(bytes, std::fs::read(&b).expect("read"));
+        let v = super::super::video_read::read_video(&a, true).expect("decodes");
+        assert_eq!((v.codec.as_str(), v.width, v.height), ("avc1", 48, 32));
+        assert_eq!(v.timescale, 10 * TICKS_PER_FRAME);
+        let times: Vec<u64> = v.samples.iter().map(|s| s.0).collect();
+        assert_eq!(times, (0..12).map(|k| k * 1000).collect::<Vec<u64>>());
+        // Key frames where episodes start (and nowhere else within 30 frames).
+        let keys: Vec<usize> = (0..12).filter(|k| v.samples[*k].1).collect();
+        assert_eq!(keys, vec![0, 5]);
+        assert_eq!(v.frames.len(), 12);
+        for (k, (raw, dec)) in frames.iter().zip(&v.frames).enumerate() {
+            let mse = raw
+                .iter()
+                .zip(dec)
+                .map(|(x, y)| (f64::from(*x) - f64::from(*y)).powi(2))
+                .sum::<f64>()
+                / raw.len() as f64;
+            let psnr = 10.0 * (255.0f64 * 255.0 / mse.max(1e-9)).log10();
+            // Hard-edged saturated shapes are the worst case for 4:2:0 chroma (≈ 30 dB
+            // here); rendered rooms decode at 38–42 dB (tests/lerobot_video.rs).
+            assert!(psnr > 28.0, "frame {k}: {psnr:.1} dB");
+        }
+        // Damaged index or data: a one-line error, never a panic.
+        let cut = dir.path().join("cut.mp4");
+        std::fs::write(&cut, &bytes[..bytes.len() / 2]).expect("write");
+        let e = super::super::video_read::read_video(&cut, true).expect_err("cut");
+        assert!(!e.contains('\n'), "{e}");
+    }
+
+    #[test]
+    fn shapes_h264_cannot_take_are_refused() {
+        assert!(video_shape_ok(84, 84) && video_shape_ok(256, 256) && video_shape_ok(640, 480));
+        assert!(!video_shape_ok(85, 84) && !video_shape_ok(84, 9) && !video_shape_ok(4096, 16));
+    }
+}
