@@ -264,13 +264,12 @@ pub fn write_dataset_of(
     options: &DatasetOptions,
     progress: &dyn Progress,
 ) -> Result<DatasetSummary, LerobotError> {
-    let Some(first) = sources.first() else {
+    if sources.is_empty() {
         return Err(LerobotError::Mismatch {
             path: out.to_path_buf(),
             message: "no run to export".into(),
         });
-    };
-    let tables = &first.tables;
+    }
     let parent = out
         .parent()
         .filter(|p| !p.as_os_str().is_empty())

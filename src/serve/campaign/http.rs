@@ -24,7 +24,7 @@ use crate::serve::{App, Slot};
 const OPERATOR_PAGE: &str = include_str!("operator.html");
 
 /// The campaign's routes (answering 404 on a server without a campaign).
-pub fn routes() -> Router<Arc<App>> {
+pub(in crate::serve) fn routes() -> Router<Arc<App>> {
     Router::new()
         .route("/api/campaign/join", post(join))
         .route("/operator", get(operator_page))

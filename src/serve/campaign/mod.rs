@@ -13,7 +13,7 @@
 
 pub mod assign;
 pub mod config;
-pub mod http;
+pub(super) mod http;
 pub mod links;
 pub mod record;
 
