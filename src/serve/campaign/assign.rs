@@ -99,7 +99,7 @@ impl Ledger {
             .iter()
             .find(|id| {
                 let t = self.tallies.get(*id).copied().unwrap_or_default();
-                !played(*id) && t.accepted + t.in_flight < self.k
+                !played(id) && t.accepted + t.in_flight < self.k
             })
             .map(|id| Assignment::Episode(id.clone()))
             .unwrap_or(Assignment::Done)
