@@ -5,8 +5,9 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::Context as _;
-use minos::io::lerobot::{fps_of_step, write_dataset, DatasetOptions, RunTables};
+use minos::io::lerobot::{fps_of_step, write_dataset_of, DatasetOptions, DemoSource, RunTables};
 use minos::pipeline::rollout::LEROBOT_ROBOT_TYPE;
+use minos::serve::campaign::record::{SessionQc, QC_FILE};
 
 use super::Context;
 
@@ -21,8 +22,13 @@ manifest.json unless --fps is given. With --video, colour cameras are H.264 `vid
 in videos/<key>/chunk-000/file-000.mp4 (lossy, many times smaller; LeRobot decodes them with
 torchcodec, which needs the FFmpeg libraries, or PyAV).
 
+Several --run folders (or every session of --campaign-state) are merged into one dataset,
+in order; with --accepted only the demonstrations a campaign's quality checks accepted
+(each session's qc.json) go in, never a tutorial.
+
 Examples:
   minos export-dataset --run runs/oracle --out datasets/oracle-lerobot
+  minos export-dataset --campaign-state study.state --accepted --out datasets/humans
   minos export-dataset --run minos-demo/run --out /tmp/demo-lerobot --fps 10
   minos export-dataset --run runs/oracle --out datasets/oracle-video --video";
 
@@ -37,9 +43,16 @@ enum DatasetFormat {
 #[derive(Debug, clap::Args)]
 #[command(after_help = AFTER_HELP)]
 pub struct Args {
-    /// A run folder written by `minos run` (trajectories, observations and episodes tables).
+    /// A run folder written by `minos run` or a `minos serve` session (trajectories,
+    /// observations and episodes tables); repeat to merge several.
+    #[arg(long, value_name = "DIR", required_unless_present = "campaign_state")]
+    run: Vec<PathBuf>,
+    /// A campaign's state folder: every session in it (after the --run folders).
     #[arg(long, value_name = "DIR")]
-    run: PathBuf,
+    campaign_state: Option<PathBuf>,
+    /// Only the demonstrations accepted by the campaign's quality checks (`qc.json`).
+    #[arg(long)]
+    accepted: bool,
     /// The dataset folder to write (replaced when the new one is complete).
     #[arg(long, value_name = "DIR")]
     out: PathBuf,
@@ -59,8 +72,10 @@ pub struct Args {
 /// What to export.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ExportConfig {
-    /// The run's tables.
+    /// The run's tables (the first run's, when there are several).
     pub tables: RunTables,
+    /// Every run, with the episodes kept of each.
+    pub sources: Vec<DemoSource>,
     /// The dataset folder.
     pub out: PathBuf,
     /// Dataset options.
@@ -89,18 +104,50 @@ fn manifest_step(run: &Path) -> anyhow::Result<f32> {
 /// Flags → what to export (reads the run's manifest.json for the frame rate).
 pub fn config(args: &Args) -> anyhow::Result<ExportConfig> {
     let DatasetFormat::Lerobot = args.format;
+    let mut runs = args.run.clone();
+    if let Some(state) = &args.campaign_state {
+        // Sessions that finished no episode have no tables.
+        runs.extend(
+            minos::serve::campaign::session_folders(state)?
+                .into_iter()
+                .filter(|s| s.join("episodes.parquet").is_file()),
+        );
+    }
+    let Some(first) = runs.first().cloned() else {
+        anyhow::bail!("no run to export (the campaign has no session yet)");
+    };
     let fps = match args.fps {
         Some(fps) => fps,
-        None => fps_of_step(manifest_step(&args.run)?),
+        None => fps_of_step(manifest_step(&first)?),
     };
+    let mut sources = Vec::with_capacity(runs.len());
+    for run in &runs {
+        let keep = if args.accepted {
+            if !run.join(QC_FILE).is_file() {
+                anyhow::bail!(
+                    "{}: no quality records (qc.json): --accepted needs a campaign session",
+                    run.display()
+                );
+            }
+            Some(SessionQc::load(run)?.accepted().into_iter().collect())
+        } else {
+            None
+        };
+        sources.push(DemoSource {
+            tables: RunTables::in_dir(run),
+            keep,
+        });
+    }
+    let run_dir = &first;
     Ok(ExportConfig {
-        tables: RunTables::in_dir(&args.run),
+        sources,
+        tables: RunTables::in_dir(run_dir),
         out: args.out.clone(),
         options: DatasetOptions {
             fps,
             robot_type: LEROBOT_ROBOT_TYPE.into(),
             // The run's configuration, when its manifest is there to read.
-            run: std::fs::read(args.run.join("manifest.json"))
+            run: std::fs::read(run_dir.join("manifest.json"))
                 .ok()
                 .and_then(|b| serde_json::from_slice(&b).ok())
                 .map(|m| minos::io::lerobot::run_configuration(&m)),
@@ -113,7 +160,7 @@ pub fn config(args: &Args) -> anyhow::Result<ExportConfig> {
 pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     let cfg = config(&args)?;
     let bar = ctx.progress(0, "episodes");
-    let summary = write_dataset(&cfg.tables, &cfg.out, &cfg.options, &bar)?;
+    let summary = write_dataset_of(&cfg.sources, &cfg.out, &cfg.options, &bar)?;
     drop(bar);
     ctx.say(format!(
         "{}: LeRobot {} dataset, {} episodes, {} frames, {} tasks, {} data file(s), {} fps",

@@ -8,6 +8,7 @@ use clap::{Parser, Subcommand};
 
 mod bake;
 mod bench;
+mod campaign;
 mod common;
 mod demo;
 mod diff;
@@ -88,6 +89,8 @@ enum Command {
     View(view::Args),
     /// Serve a web page to explore scenes and record human demonstrations.
     Serve(serve::Args),
+    /// Demonstration campaigns of `minos serve --campaign`: participant links.
+    Campaign(campaign::Args),
     /// Run the whole pipeline on generated houses into ./minos-demo/.
     Demo(demo::Args),
     /// Measure bake, episode sampling, rendering or rollouts on one ingested scene.
@@ -133,6 +136,7 @@ pub fn main() -> ExitCode {
         Command::Merge(a) => merge::run(a, &ctx),
         Command::View(a) => view::run(a, &ctx),
         Command::Serve(a) => serve::run(a, &ctx),
+        Command::Campaign(a) => campaign::run(a, &ctx),
         Command::Demo(a) => demo::run(a, &ctx),
         Command::Bench(a) => bench::run(a, &ctx),
         Command::Verify(a) => verify::run(a, &ctx),

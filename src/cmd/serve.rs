@@ -12,6 +12,7 @@ use minos::body::AgentPreset;
 use minos::episode::format::read_episodes;
 use minos::io::tables::ImageEncoding;
 use minos::run::metrics::Reward;
+use minos::serve::campaign::{Campaign, CampaignSpec};
 use minos::serve::{ServeConfig, Shared};
 use minos::sim::{AgentConfig, SensorSuite};
 use minos::store::DataDir;
@@ -48,8 +49,13 @@ pub struct Args {
     #[arg(long)]
     data: PathBuf,
     /// Episode file from `minos episodes` (without it, sessions explore a scene).
-    #[arg(long)]
+    #[arg(long, conflicts_with = "campaign")]
     episodes: Option<PathBuf>,
+    /// Campaign file (TOML): episodes, demonstrations per episode, tutorial, instructions,
+    /// agent and quality thresholds; sessions are opened only by participants' links
+    /// (`minos campaign links`) and recorded in the campaign's state folder.
+    #[arg(long, value_name = "FILE")]
+    campaign: Option<PathBuf>,
     /// Address to listen on.
     #[arg(long, default_value = "127.0.0.1:8080")]
     bind: SocketAddr,
@@ -96,24 +102,46 @@ pub fn config(args: &Args) -> anyhow::Result<(ServeConfig, SocketAddr)> {
     if args.access_token.as_deref() == Some("") {
         bail!("--access-token: empty");
     }
+    let spec = args
+        .campaign
+        .as_deref()
+        .map(CampaignSpec::read)
+        .transpose()?;
     let data = DataDir::new(&args.data);
     let scenes = data
         .ingested_ids()
         .with_context(|| format!("--data {}", args.data.display()))?;
-    let episodes = match &args.episodes {
+    let episodes_file = match &spec {
+        Some(c) => Some(c.episodes.clone()),
+        None => args.episodes.clone(),
+    };
+    let episodes = match &episodes_file {
         Some(path) => read_episodes(path)?,
         None => Vec::new(),
     };
-    let preset = AgentPreset::from(args.preset);
-    let sensors = sensor_suite(args.sensors.as_deref(), || {
-        SensorSuite::for_preset(preset, args.size)
+    // A campaign's agent and sensors win over the flags.
+    let preset = spec
+        .as_ref()
+        .and_then(|c| c.preset)
+        .unwrap_or(AgentPreset::from(args.preset));
+    let size = spec.as_ref().and_then(|c| c.size).unwrap_or(args.size);
+    let sensor_file = spec
+        .as_ref()
+        .and_then(|c| c.sensors.clone())
+        .or_else(|| args.sensors.clone());
+    let sensors = sensor_suite(sensor_file.as_deref(), || {
+        SensorSuite::for_preset(preset, size)
     })?;
+    let out = match &spec {
+        Some(c) => c.state.join(minos::serve::campaign::DEMOS),
+        None => args.out.clone(),
+    };
     let shared = Shared {
         data,
         episodes,
-        episodes_file: args.episodes.clone(),
+        episodes_file,
         scenes,
-        out: args.out.clone(),
+        out,
         preset,
         body: AgentConfig::preset(preset),
         sensors,
@@ -142,6 +170,9 @@ pub fn config(args: &Args) -> anyhow::Result<(ServeConfig, SocketAddr)> {
 /// Runs `minos serve`.
 pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     let (cfg, bind) = config(&args)?;
+    if let Some(file) = &args.campaign {
+        return run_campaign(file, cfg, bind, ctx);
+    }
     let (episodes, scenes) = (cfg.shared.episodes.len(), cfg.shared.scenes.len());
     let running = minos::serve::start(cfg, bind)?;
     let query = if args.access_token.is_some() {
@@ -154,6 +185,37 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
          open http://{}/{query}   (Ctrl-C stops; finished episodes are already on disk)",
         AgentPreset::from(args.preset).name(),
         args.out.display(),
+        running.addr,
+    ));
+    running.wait();
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Serves the campaign `file` (its state folder swept and its ledger rebuilt first).
+fn run_campaign(
+    file: &std::path::Path,
+    cfg: ServeConfig,
+    bind: SocketAddr,
+    ctx: &Context,
+) -> anyhow::Result<ExitCode> {
+    let spec = CampaignSpec::read(file)?;
+    let state = spec.state.clone();
+    let campaign = Campaign::open(spec, &cfg.shared.episodes)?;
+    let status = campaign.status();
+    let (_, operator_from) = minos::serve::campaign::links::operator_token(&state)?;
+    let running = minos::serve::start_campaign(cfg, campaign, bind)?;
+    ctx.say(format!(
+        "campaign {}: {} of {} episodes covered, {} demonstrations recorded -> {}\n\
+         participants open their links (minos campaign links --campaign {} --count N)\n\
+         operator page: http://{}/operator?operator=<token from {operator_from}>\n\
+         open http://{}/   (Ctrl-C stops; finished episodes are already on disk)",
+        file.display(),
+        status["episodes_covered"],
+        status["episodes_total"],
+        status["demos"].as_array().map_or(0, Vec::len),
+        state.display(),
+        file.display(),
+        running.addr,
         running.addr,
     ));
     running.wait();

@@ -9,5 +9,6 @@ pub mod agents;
 pub mod external;
 pub mod metrics;
 pub mod oracle;
+pub mod qc;
 pub mod step_features;
 pub mod stepper;

@@ -37,6 +37,7 @@ pub fn router(app: Arc<App>) -> Router {
         .route("/api/info", get(info))
         .route("/api/sessions", post(create))
         .route("/api/sessions/{token}/ws", get(socket))
+        .merge(super::campaign::http::routes())
         .fallback(not_found)
         .layer(middleware::from_fn_with_state(app.clone(), guard))
         .with_state(app)
@@ -158,6 +159,12 @@ async fn create(State(app): State<Arc<App>>, body: axum::body::Bytes) -> Respons
             Err(e) => return error(StatusCode::BAD_REQUEST, format!("request body: {e}")),
         }
     };
+    if app.campaign.is_some() {
+        return error(
+            StatusCode::FORBIDDEN,
+            "this server runs a campaign: open your participant link",
+        );
+    }
     let s = &app.shared;
     let (start, scene) = match (&req.episode, &req.scene) {
         (Some(_), Some(_)) => {

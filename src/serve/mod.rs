@@ -15,6 +15,7 @@
 //! from a page of another origin is refused; a socket that does not connect in time, a page
 //! idle too long or one that stops reading ends its session.
 
+pub mod campaign;
 pub mod frames;
 mod http;
 pub mod session;
@@ -68,6 +69,9 @@ pub enum ServeError {
     /// The tokio runtime could not start.
     #[error("runtime: {0}")]
     Runtime(std::io::Error),
+    /// A campaign's episode cannot be served.
+    #[error("{0}")]
+    Campaign(String),
 }
 
 /// A session: created by `POST /api/sessions`, started when its WebSocket connects.
@@ -97,6 +101,8 @@ struct App {
     slots: Mutex<HashMap<String, Slot>>,
     /// `shared.data`'s root and `shared.out`, canonical.
     data_root: PathBuf,
+    /// The campaign this server runs (`minos serve --campaign`).
+    campaign: Option<Arc<campaign::Campaign>>,
 }
 
 impl App {
@@ -112,8 +118,20 @@ impl App {
     /// Drops the sessions whose socket did not connect in time.
     fn reap(&self) {
         let timeout = self.connect_timeout;
-        self.slots()
-            .retain(|_, s| s.start.is_none() || s.created.elapsed() < timeout);
+        let mut dropped = Vec::new();
+        self.slots().retain(|_, s| {
+            let keep = s.start.is_none() || s.created.elapsed() < timeout;
+            if !keep {
+                dropped.push((s.name.clone(), s.start.take()));
+            }
+            keep
+        });
+        // A campaign session that never connected frees its participant's seat.
+        for (name, start) in dropped {
+            if let Some(Start::Campaign(seat)) = start {
+                seat.campaign.close_session(&seat.participant, &name);
+            }
+        }
     }
 
     /// Whether the files scene `id` is loaded from lie inside the DATA folder (a symbolic
@@ -205,6 +223,25 @@ fn canonical(path: &Path) -> Result<PathBuf, ServeError> {
 
 /// Binds `bind` and serves `cfg` on a thread of its own until stopped.
 pub fn start(cfg: ServeConfig, bind: SocketAddr) -> Result<Running, ServeError> {
+    launch(cfg, None, bind)
+}
+
+/// Serves `campaign` (opened over `cfg.shared.episodes`, its sessions recorded in
+/// `cfg.shared.out`, which must be the campaign's `demos_dir`) as [`start`] serves `cfg`;
+/// sessions are created only from participants' links.
+pub fn start_campaign(
+    cfg: ServeConfig,
+    campaign: campaign::Campaign,
+    bind: SocketAddr,
+) -> Result<Running, ServeError> {
+    launch(cfg, Some(Arc::new(campaign)), bind)
+}
+
+fn launch(
+    cfg: ServeConfig,
+    campaign: Option<Arc<campaign::Campaign>>,
+    bind: SocketAddr,
+) -> Result<Running, ServeError> {
     let ServeConfig {
         mut shared,
         access_token,
@@ -218,7 +255,9 @@ pub fn start(cfg: ServeConfig, bind: SocketAddr) -> Result<Running, ServeError> 
     })?;
     shared.out = canonical(&shared.out)?;
     let data_root = canonical(shared.data.root())?;
-    shared.episodes = playable_episodes(std::mem::take(&mut shared.episodes), &shared.scenes);
+    if campaign.is_none() {
+        shared.episodes = playable_episodes(std::mem::take(&mut shared.episodes), &shared.scenes);
+    }
     let listener = std::net::TcpListener::bind(bind)
         .map_err(|source| ServeError::Bind { addr: bind, source })?;
     let addr = listener
@@ -236,7 +275,24 @@ pub fn start(cfg: ServeConfig, bind: SocketAddr) -> Result<Running, ServeError> 
         page: http::page(),
         slots: Mutex::new(HashMap::new()),
         data_root,
+        campaign,
     });
+    if let Some(c) = &app.campaign {
+        // Every scene a participant may be handed lies inside DATA.
+        let mut scenes: Vec<&str> = c
+            .selection
+            .pool
+            .iter()
+            .chain(&c.selection.tutorial)
+            .filter_map(|&i| app.shared.episodes.get(i))
+            .map(|e| e.scene_id.as_str())
+            .collect();
+        scenes.sort();
+        scenes.dedup();
+        for scene in scenes {
+            app.contained(scene).map_err(ServeError::Campaign)?;
+        }
+    }
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
         .thread_name("minos-serve")

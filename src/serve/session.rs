@@ -110,6 +110,8 @@ pub enum Start {
     Episode(usize),
     /// Free exploration of this scene (a random start and a point goal one may ignore).
     Explore(String),
+    /// A campaign participant's session: the campaign hands out the episodes.
+    Campaign(super::campaign::Seat),
 }
 
 /// A message from the page.
@@ -194,9 +196,17 @@ pub fn run(shared: Arc<Shared>, name: &str, start: Start, link: Arc<Link>, sessi
             preset: Some(shared.preset),
         },
     };
+    let clock = Arc::new(Mutex::new(Clock::default()));
+    let seat = match &start {
+        Start::Campaign(seat) => Some(seat.clone()),
+        _ => None,
+    };
     let mut source = Source {
         shared: shared.clone(),
         link: link.clone(),
+        seat,
+        name: name.to_string(),
+        clock: clock.clone(),
         start: Some(start),
         cursor: 0,
         scene: None,
@@ -208,6 +218,7 @@ pub fn run(shared: Arc<Shared>, name: &str, start: Start, link: Arc<Link>, sessi
         link: link.clone(),
         episode: None,
         map: None,
+        clock,
     });
     let end = match run_live(&cfg, &mut source, agent, LockMode::Fail) {
         Ok(report) => json!({"type": "end", "episodes": report.episodes.len(), "session": name}),
@@ -224,12 +235,24 @@ fn cfg_episodes_file(shared: &Shared, name: &str) -> PathBuf {
     shared.out.join(name).join(crate::pipeline::rollout::PLAYED)
 }
 
+/// The wall-clock times of an episode's actions (for its quality record; never in the
+/// tables, which a replay must reproduce).
+#[derive(Debug, Default)]
+struct Clock {
+    /// When the episode was shown.
+    shown: Option<std::time::Instant>,
+    /// Seconds since then of each action taken.
+    actions: Vec<f32>,
+}
+
 /// The person at the page, as the run's agent.
 struct HumanAgent {
     link: Arc<Link>,
     episode: Option<Episode>,
     /// The map last sent: scene, level.
     map: Option<(String, u16)>,
+    /// Action times of the current episode.
+    clock: Arc<Mutex<Clock>>,
 }
 
 fn gone() -> AgentError {
@@ -291,6 +314,10 @@ impl Agent for HumanAgent {
         }
         self.map = Some(key);
         self.episode = Some(episode.clone());
+        *self.clock.lock().unwrap_or_else(PoisonError::into_inner) = Clock {
+            shown: Some(std::time::Instant::now()),
+            actions: Vec::new(),
+        };
         Ok(())
     }
 
@@ -330,7 +357,12 @@ impl Agent for HumanAgent {
         }
         loop {
             match self.link.wait() {
-                Some(Command::Act(d)) => return Ok(d),
+                Some(Command::Act(d)) => {
+                    let mut clock = self.clock.lock().unwrap_or_else(PoisonError::into_inner);
+                    let t = clock.shown.map_or(0.0, |s| s.elapsed().as_secs_f32());
+                    clock.actions.push(t);
+                    return Ok(d);
+                }
                 // "Next" only means something between episodes.
                 Some(Command::Next(_)) => continue,
                 Some(Command::End) | None => return Err(gone()),
@@ -348,6 +380,12 @@ impl Agent for HumanAgent {
 struct Source {
     shared: Arc<Shared>,
     link: Arc<Link>,
+    /// The campaign seat of a participant's session.
+    seat: Option<super::campaign::Seat>,
+    /// The session's name (its folder).
+    name: String,
+    /// Action times of the current episode.
+    clock: Arc<Mutex<Clock>>,
     start: Option<Start>,
     /// Index in the episode file after the last episode handed out.
     cursor: usize,
@@ -395,6 +433,20 @@ impl Source {
         Ok(ep)
     }
 
+    /// The campaign's next episode for this participant, or `None` (after telling the page)
+    /// when nothing is left.
+    fn campaign_next(&mut self) -> Option<Episode> {
+        let seat = self.seat.as_ref()?;
+        match seat.campaign.assign(&seat.participant) {
+            Some(i) => Some(self.episode_at(i)),
+            None => {
+                self.link
+                    .text(json!({"type": "campaign_done", "played": self.played}));
+                None
+            }
+        }
+    }
+
     fn error(&self, message: &str) {
         self.link
             .text(json!({"type": "error", "message": message, "fatal": false}));
@@ -413,12 +465,14 @@ impl EpisodeSource for Source {
                         Err(m) => self.error(&m),
                     }
                 }
+                Start::Campaign(_) => return self.campaign_next(),
             }
         }
         loop {
             match self.link.wait()? {
                 Command::Act(_) => continue,
                 Command::End => return None,
+                Command::Next(_) if self.seat.is_some() => return self.campaign_next(),
                 Command::Next(Some(id)) => {
                     match self.shared.episodes.iter().position(|e| e.episode_id == id) {
                         Some(i) => return Some(self.episode_at(i)),
@@ -445,14 +499,44 @@ impl EpisodeSource for Source {
         let msg = match outcome {
             Ok(m) => {
                 self.played += 1;
+                let mut more = self.scene.is_some() || self.cursor < self.shared.episodes.len();
+                let mut qc = serde_json::Value::Null;
+                if let Some(seat) = &self.seat {
+                    let times = std::mem::take(
+                        &mut self
+                            .clock
+                            .lock()
+                            .unwrap_or_else(PoisonError::into_inner)
+                            .actions,
+                    );
+                    match seat
+                        .campaign
+                        .finished(&seat.participant, &self.name, episode, m, &times)
+                    {
+                        Ok(entry) => qc = json!(entry.verdict),
+                        Err(e) => tracing::error!("session {}: {e}", self.name),
+                    }
+                    more = seat.campaign.more_for(&seat.participant);
+                }
                 json!({"type": "done", "episode_id": episode.episode_id, "metrics": m,
-                       "played": self.played,
-                       "more": self.scene.is_some() || self.cursor < self.shared.episodes.len()})
+                       "played": self.played, "more": more, "qc": qc})
             }
             Err(problem) => {
+                if let Some(seat) = &self.seat {
+                    seat.campaign.release(&seat.participant);
+                }
                 json!({"type": "error", "episode_id": episode.episode_id, "message": problem, "fatal": false})
             }
         };
         self.link.text(msg);
+    }
+}
+
+impl Drop for Source {
+    /// A campaign session's unfinished episode goes back to the campaign's pool.
+    fn drop(&mut self) {
+        if let Some(seat) = &self.seat {
+            seat.campaign.close_session(&seat.participant, &self.name);
+        }
     }
 }

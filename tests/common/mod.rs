@@ -2,6 +2,7 @@
 
 #![allow(dead_code)]
 
+pub mod browser;
 pub mod scenes;
 pub mod serve;
 pub mod skip;

@@ -23,7 +23,7 @@ fn provenance_error(e: provenance::ProvenanceError) -> LerobotError {
 /// Writes `root/README.md` from `root/meta/info.json`, then `root/meta/provenance.json`.
 /// Neither names the folder: a copy written elsewhere has the same bytes.
 pub fn write_card_and_provenance(
-    tables: &RunTables,
+    sources: &[&RunTables],
     root: &Path,
     run: Option<&Value>,
 ) -> Result<(), LerobotError> {
@@ -39,11 +39,23 @@ pub fn write_card_and_provenance(
     let readme = root.join("README.md");
     write_bytes_atomic(&readme, dataset_card(&info).as_bytes()).map_err(io(&readme))?;
     let mut source = serde_json::Map::new();
-    for table in [&tables.episodes, &tables.trajectories, &tables.observations] {
-        let key = table
-            .file_name()
+    let name = |p: &Path| {
+        p.file_name()
             .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_default();
+            .unwrap_or_default()
+    };
+    for (table, run) in sources.iter().flat_map(|t| {
+        [&t.episodes, &t.trajectories, &t.observations]
+            .into_iter()
+            .map(move |f| (f, t))
+    }) {
+        // One run: the file's name (as always); several: `<run folder>/<file>`.
+        let key = if sources.len() == 1 {
+            name(table)
+        } else {
+            let folder = run.episodes.parent().map(name).unwrap_or_default();
+            format!("{folder}/{}", name(table))
+        };
         let sum = provenance::sha256_file(table).map_err(provenance_error)?;
         source.insert(key, json!(sum));
     }

@@ -50,11 +50,11 @@ use crate::parquet_io::ParquetFileError;
 use crate::progress::Progress;
 use data::{data_schema, episode_batch, EpisodeFrames};
 use features::FeatureError;
-pub use meta::FileIndex;
 pub use meta::CODEBASE_VERSION;
+pub use meta::FileIndex;
 use meta::{EpisodeMeta, VideoPlace};
 pub use source::RunTables;
-use source::{read_episodes, read_steps, ObservationRows, StepRow};
+use source::{read_episodes, read_steps, EpisodeRow, ObservationRows, StepRow};
 use video::{video_file_path, VideoFile};
 
 /// Why the LeRobot copy could not be written; every message names the file.
@@ -249,6 +249,37 @@ pub fn write_dataset(
     options: &DatasetOptions,
     progress: &dyn Progress,
 ) -> Result<DatasetSummary, LerobotError> {
+    let source = DemoSource {
+        tables: tables.clone(),
+        keep: None,
+    };
+    write_dataset_of(std::slice::from_ref(&source), out, options, progress)
+}
+
+/// One run among those a dataset is made of, and which of its episodes go in.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DemoSource {
+    /// The run's tables.
+    pub tables: RunTables,
+    /// Only these episode ids (`None`: every episode).
+    pub keep: Option<std::collections::BTreeSet<String>>,
+}
+
+/// Writes one LeRobot v3.0 dataset of the kept episodes of every run of `sources`, in
+/// order (several sessions of `minos serve` merged, or only their accepted
+/// demonstrations); the runs must have the same cameras. Replaces `out` once complete.
+pub fn write_dataset_of(
+    sources: &[DemoSource],
+    out: &Path,
+    options: &DatasetOptions,
+    progress: &dyn Progress,
+) -> Result<DatasetSummary, LerobotError> {
+    if sources.is_empty() {
+        return Err(LerobotError::Mismatch {
+            path: out.to_path_buf(),
+            message: "no run to export".into(),
+        });
+    }
     let parent = out
         .parent()
         .filter(|p| !p.as_os_str().is_empty())
@@ -264,8 +295,9 @@ pub fn write_dataset(
     if tmp.exists() {
         std::fs::remove_dir_all(&tmp).map_err(io(&tmp))?;
     }
-    let result = write_into(tables, &tmp, options, progress).and_then(|summary| {
-        card::write_card_and_provenance(tables, &tmp, options.run.as_ref()).map(|()| summary)
+    let all: Vec<&RunTables> = sources.iter().map(|s| &s.tables).collect();
+    let result = write_into(sources, &tmp, options, progress).and_then(|summary| {
+        card::write_card_and_provenance(&all, &tmp, options.run.as_ref()).map(|()| summary)
     });
     match result {
         Ok(summary) => {
@@ -316,20 +348,39 @@ fn run_shape(steps: &[StepRow], path: &Path) -> Result<features::RunShape, Lerob
 
 /// Writes the dataset into the (new, empty) folder `root`.
 fn write_into(
-    tables: &RunTables,
+    sources: &[DemoSource],
     root: &Path,
     options: &DatasetOptions,
     progress: &dyn Progress,
 ) -> Result<DatasetSummary, LerobotError> {
-    let episodes = read_episodes(&tables.episodes)?;
-    let steps = read_steps(&tables.trajectories)?;
-    let mut observations = ObservationRows::open(&tables.observations)?;
-    let cameras = observations.cameras().to_vec();
-    let shape = run_shape(&steps, &tables.trajectories)?;
+    // Every run's episodes and steps first: the features cover the goals of them all.
+    let mut read = Vec::with_capacity(sources.len());
+    for src in sources {
+        let tables = &src.tables;
+        let episodes = read_episodes(&tables.episodes)?;
+        let steps = read_steps(&tables.trajectories)?;
+        run_shape(&steps, &tables.trajectories)?;
+        read.push((src, episodes, steps));
+    }
+    let Some((first, ..)) = read.first() else {
+        return Err(LerobotError::Mismatch {
+            path: root.to_path_buf(),
+            message: "no run to export".into(),
+        });
+    };
+    let cameras = ObservationRows::open(&first.tables.observations)?
+        .cameras()
+        .to_vec();
+    let every_step: Vec<StepRow> = read
+        .iter()
+        .flat_map(|(_, _, steps)| steps.iter().cloned())
+        .collect();
+    let shape = run_shape(&every_step, &first.tables.trajectories)?;
+    drop(every_step);
     let video_fps = options.video.then_some(options.fps);
     let features = features::features(&cameras, &shape, video_fps).map_err(|source| {
         LerobotError::Feature {
-            path: tables.observations.clone(),
+            path: first.tables.observations.clone(),
             source,
         }
     })?;
@@ -348,145 +399,174 @@ fn write_into(
         })
         .collect();
     let schema = data_schema(&features, &cameras);
-    progress.set_total(episodes.len() as u64);
+    fn kept(src: &DemoSource, id: &str) -> bool {
+        src.keep.as_ref().is_none_or(|k| k.contains(id))
+    }
+    let total: usize = read
+        .iter()
+        .map(|(src, eps, _)| eps.iter().filter(|e| kept(src, &e.episode_id)).count())
+        .sum();
+    progress.set_total(total as u64);
 
     // Tasks in order of first appearance.
     let mut tasks: Vec<String> = Vec::new();
-    let mut metas: Vec<EpisodeMeta> = Vec::with_capacity(episodes.len());
+    let mut metas: Vec<EpisodeMeta> = Vec::with_capacity(total);
     let mut file: Option<DataFile> = None;
     let mut next_index = FileIndex::default();
     let mut data_files = 0;
-    let mut rest: &[StepRow] = &steps;
     let mut frames_total: i64 = 0;
     let limit = meta::DATA_FILE_MB * 1024 * 1024;
-    for (k, ep) in episodes.iter().enumerate() {
-        let n = rest
-            .iter()
-            .take_while(|s| s.episode_id == ep.episode_id)
-            .count();
-        let (mine, after) = rest.split_at(n);
-        rest = after;
-        if n == 0 {
+    let mut episodes: Vec<EpisodeRow> = Vec::with_capacity(total);
+    for (src, run_episodes, steps) in &read {
+        let tables = &src.tables;
+        let mut observations = ObservationRows::open(&tables.observations)?;
+        if observations.cameras() != cameras.as_slice() {
+            return Err(LerobotError::Mismatch {
+                path: tables.observations.clone(),
+                message: format!("other cameras than {}", first.tables.observations.display()),
+            });
+        }
+        let mut rest: &[StepRow] = steps;
+        for (row, ep) in run_episodes.iter().enumerate() {
+            let n = rest
+                .iter()
+                .take_while(|s| s.episode_id == ep.episode_id)
+                .count();
+            let (mine, after) = rest.split_at(n);
+            rest = after;
+            if n == 0 {
+                return Err(LerobotError::Mismatch {
+                    path: tables.trajectories.clone(),
+                    message: format!(
+                        "episode `{}` (row {row} of {}) has no trajectory rows where the table \
+                     reaches it (episodes must be in the same order in both tables)",
+                        ep.episode_id,
+                        tables.episodes.display()
+                    ),
+                });
+            }
+            if let Some((i, s)) = mine.iter().enumerate().find(|(i, s)| s.step as usize != *i) {
+                return Err(LerobotError::Mismatch {
+                    path: tables.trajectories.clone(),
+                    message: format!(
+                        "episode `{}`: row {i} is step {}, expected {i}",
+                        ep.episode_id, s.step
+                    ),
+                });
+            }
+            let mut images = Vec::with_capacity(n);
+            for i in 0..n {
+                let row = observations.next_row()?;
+                match row {
+                    Some((id, step, imgs)) if id == ep.episode_id && step as usize == i => {
+                        images.push(imgs)
+                    }
+                    other => {
+                        let got = other
+                            .map(|(id, step, _)| format!("episode `{id}` step {step}"))
+                            .unwrap_or_else(|| "the end of the table".into());
+                        return Err(LerobotError::Mismatch {
+                            path: tables.observations.clone(),
+                            message: format!(
+                                "expected episode `{}` step {i}, found {got}",
+                                ep.episode_id
+                            ),
+                        });
+                    }
+                }
+            }
+            if !kept(src, &ep.episode_id) {
+                continue;
+            }
+            let k = metas.len();
+            episodes.push(ep.clone());
+            let task_index = match tasks.iter().position(|t| *t == ep.instruction) {
+                Some(t) => t,
+                None => {
+                    tasks.push(ep.instruction.clone());
+                    tasks.len() - 1
+                }
+            };
+            let frames = EpisodeFrames {
+                steps: mine,
+                images,
+                episode_index: k as i64,
+                first_index: frames_total,
+                task_index: task_index as i64,
+                fps: options.fps,
+            };
+            let (batch, stats) =
+                episode_batch(&features, &cameras, &schema, &frames).map_err(|message| {
+                    LerobotError::Mismatch {
+                        path: tables.observations.clone(),
+                        message: format!("episode `{}`: {message}", ep.episode_id),
+                    }
+                })?;
+            let mut places = Vec::with_capacity(videos.len());
+            for v in &mut videos {
+                places.push(v.write_episode(
+                    root,
+                    &cameras,
+                    &frames,
+                    options.fps,
+                    &ep.episode_id,
+                )?);
+            }
+            let current = match file.take() {
+                Some(f) if f.writer.bytes_written() < limit as usize => f,
+                Some(f) => {
+                    f.close()?;
+                    next_index = next_index.next();
+                    data_files += 1;
+                    DataFile::open(root, next_index, schema.clone())?
+                }
+                None => {
+                    data_files += 1;
+                    DataFile::open(root, next_index, schema.clone())?
+                }
+            };
+            let mut current = current;
+            let werr = |path: &Path, e: parquet::errors::ParquetError| LerobotError::Write {
+                path: path.to_path_buf(),
+                message: e.to_string(),
+            };
+            current
+                .writer
+                .write(&batch)
+                .map_err(|e| werr(&current.path, e))?;
+            current.writer.flush().map_err(|e| werr(&current.path, e))?;
+            metas.push(EpisodeMeta {
+                episode_index: k as i64,
+                task: ep.instruction.clone(),
+                length: n as i64,
+                data: current.index,
+                from_index: frames_total,
+                to_index: frames_total + n as i64,
+                episode_id: ep.episode_id.clone(),
+                scene_id: ep.scene_id.clone(),
+                stats,
+                videos: places,
+            });
+            frames_total += n as i64;
+            file = Some(current);
+            progress.advance(1);
+        }
+        if !rest.is_empty() {
             return Err(LerobotError::Mismatch {
                 path: tables.trajectories.clone(),
                 message: format!(
-                    "episode `{}` (row {k} of {}) has no trajectory rows where the table \
-                     reaches it (episodes must be in the same order in both tables)",
-                    ep.episode_id,
+                    "rows of episode `{}` are not in {}",
+                    rest[0].episode_id,
                     tables.episodes.display()
                 ),
             });
         }
-        if let Some((i, s)) = mine.iter().enumerate().find(|(i, s)| s.step as usize != *i) {
+        if let Some((id, step, _)) = observations.next_row()? {
             return Err(LerobotError::Mismatch {
-                path: tables.trajectories.clone(),
-                message: format!(
-                    "episode `{}`: row {i} is step {}, expected {i}",
-                    ep.episode_id, s.step
-                ),
+                path: tables.observations.clone(),
+                message: format!("episode `{id}` step {step} has no trajectory row"),
             });
         }
-        let mut images = Vec::with_capacity(n);
-        for i in 0..n {
-            let row = observations.next_row()?;
-            match row {
-                Some((id, step, imgs)) if id == ep.episode_id && step as usize == i => {
-                    images.push(imgs)
-                }
-                other => {
-                    let got = other
-                        .map(|(id, step, _)| format!("episode `{id}` step {step}"))
-                        .unwrap_or_else(|| "the end of the table".into());
-                    return Err(LerobotError::Mismatch {
-                        path: tables.observations.clone(),
-                        message: format!(
-                            "expected episode `{}` step {i}, found {got}",
-                            ep.episode_id
-                        ),
-                    });
-                }
-            }
-        }
-        let task_index = match tasks.iter().position(|t| *t == ep.instruction) {
-            Some(t) => t,
-            None => {
-                tasks.push(ep.instruction.clone());
-                tasks.len() - 1
-            }
-        };
-        let frames = EpisodeFrames {
-            steps: mine,
-            images,
-            episode_index: k as i64,
-            first_index: frames_total,
-            task_index: task_index as i64,
-            fps: options.fps,
-        };
-        let (batch, stats) =
-            episode_batch(&features, &cameras, &schema, &frames).map_err(|message| {
-                LerobotError::Mismatch {
-                    path: tables.observations.clone(),
-                    message: format!("episode `{}`: {message}", ep.episode_id),
-                }
-            })?;
-        let mut places = Vec::with_capacity(videos.len());
-        for v in &mut videos {
-            places.push(v.write_episode(root, &cameras, &frames, options.fps, &ep.episode_id)?);
-        }
-        let current = match file.take() {
-            Some(f) if f.writer.bytes_written() < limit as usize => f,
-            Some(f) => {
-                f.close()?;
-                next_index = next_index.next();
-                data_files += 1;
-                DataFile::open(root, next_index, schema.clone())?
-            }
-            None => {
-                data_files += 1;
-                DataFile::open(root, next_index, schema.clone())?
-            }
-        };
-        let mut current = current;
-        let werr = |path: &Path, e: parquet::errors::ParquetError| LerobotError::Write {
-            path: path.to_path_buf(),
-            message: e.to_string(),
-        };
-        current
-            .writer
-            .write(&batch)
-            .map_err(|e| werr(&current.path, e))?;
-        current.writer.flush().map_err(|e| werr(&current.path, e))?;
-        metas.push(EpisodeMeta {
-            episode_index: k as i64,
-            task: ep.instruction.clone(),
-            length: n as i64,
-            data: current.index,
-            from_index: frames_total,
-            to_index: frames_total + n as i64,
-            episode_id: ep.episode_id.clone(),
-            scene_id: ep.scene_id.clone(),
-            stats,
-            videos: places,
-        });
-        frames_total += n as i64;
-        file = Some(current);
-        progress.advance(1);
-    }
-    if !rest.is_empty() {
-        return Err(LerobotError::Mismatch {
-            path: tables.trajectories.clone(),
-            message: format!(
-                "rows of episode `{}` are not in {}",
-                rest[0].episode_id,
-                tables.episodes.display()
-            ),
-        });
-    }
-    if let Some((id, step, _)) = observations.next_row()? {
-        return Err(LerobotError::Mismatch {
-            path: tables.observations.clone(),
-            message: format!("episode `{id}` step {step} has no trajectory row"),
-        });
     }
     match file {
         Some(f) => f.close()?,
@@ -496,7 +576,6 @@ fn write_into(
             DataFile::open(root, next_index, schema.clone())?.close()?;
         }
     }
-
     for v in videos {
         if let Some(f) = v.file {
             let path = f.path.clone();
@@ -504,6 +583,7 @@ fn write_into(
                 .map_err(|message| LerobotError::Write { path, message })?;
         }
     }
+
 
     meta::write_tasks(root, &tasks)?;
     meta::write_episodes(root, &metas, &features)?;

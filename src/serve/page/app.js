@@ -5,6 +5,8 @@
   const $ = (id) => document.getElementById(id);
   const params = new URLSearchParams(location.search);
   const access = params.get("access");
+  // A campaign participant's link: the campaign chooses the episodes.
+  const participant = params.get("participant");
   const headers = access ? { "x-minos-access": access } : {};
   const KEYS = {
     ArrowUp: "forward", w: "forward", ArrowDown: "backward", s: "backward",
@@ -30,20 +32,26 @@
     if (params.get("episode")) $("episode").value = params.get("episode");
     if (params.get("scene")) $("scene").value = params.get("scene");
     if (params.get("path") === "1") $("show-path").checked = true;
-    if (params.has("autostart")) start();
+    if (participant) {
+      $("chooser").style.display = "none";
+      state.campaign = true;
+      start();
+    } else if (params.has("autostart")) start();
   }
 
   async function start(ev) {
     if (ev) ev.preventDefault();
     if (ws) { ws.send(JSON.stringify({ end: true })); ws.close(); ws = null; }
     const scene = $("scene").value, episode = $("episode").value;
-    const body = scene ? { scene } : episode ? { episode } : {};
-    const r = await fetch("/api/sessions", {
+    const body = participant ? { participant } : scene ? { scene } : episode ? { episode } : {};
+    const r = await fetch(participant ? "/api/campaign/join" : "/api/sessions", {
       method: "POST", headers: { ...headers, "content-type": "application/json" }, body: JSON.stringify(body),
     });
     const reply = await r.json();
     if (!r.ok) { showError(reply.error); return; }
     state.session = reply.name; state.ended = false;
+    if (participant && reply.instructions) $("preset").textContent = reply.instructions;
+    if (participant && reply.tutorial) $("result").textContent = "First a short tutorial episode.";
     $("session").textContent = "session " + reply.name;
     const proto = location.protocol === "https:" ? "wss" : "ws";
     const q = access ? "?access=" + encodeURIComponent(access) : "";
@@ -90,6 +98,9 @@
         `${m.played} episode(s) recorded` + (m.more ? " · N for the next" : "");
     } else if (m.type === "error") {
       state.busy = false; showError(m.message);
+    } else if (m.type === "campaign_done") {
+      state.campaignDone = true;
+      $("instruction").textContent = "Thank you! There is nothing left for you to play; you may close this page.";
     } else if (m.type === "end") {
       $("result").textContent += ` · session over: ${m.episodes} episode(s) recorded in ${m.session}`;
     }

@@ -1,0 +1,197 @@
+//! A campaign in a real browser: headless Chromium opens a participant's link, the page
+//! shows the campaign's instructions, the test presses the oracle's keys through the tutorial
+//! and the campaign episode the server hands out, and the page thanks the participant when
+//! nothing is left; then the operator page, opened with its token, lists both
+//! demonstrations with their verdicts. Without Chromium the test says it skipped and why.
+
+mod common;
+
+use std::path::PathBuf;
+use std::time::Duration;
+
+use common::baked_houses;
+use common::browser::{chromium, launch, Cdp};
+use minos::body::AgentPreset;
+use minos::episode::format::write_episodes;
+use minos::generate::GenerateConfig;
+use minos::io::tables::{read_replay, ImageEncoding};
+use minos::pipeline::rollout::{run, AgentKind, Provenance, RunConfig};
+use minos::progress::NoProgress;
+use minos::run::metrics::Reward;
+use minos::serve::campaign::links::mint;
+use minos::serve::campaign::{Campaign, CampaignSpec};
+use minos::serve::{start_campaign, ServeConfig, Shared};
+use minos::shard::Shard;
+use minos::sim::{AgentConfig, RendererChoice, SensorSuite};
+use serde_json::Value;
+
+#[test]
+fn a_participant_goes_from_tutorial_to_done_and_the_operator_sees_it() {
+    let Some(browser) = chromium() else {
+        println!(
+            "skipped: no Chromium (install Debian's `chromium` package, as .ci/run does when \
+             root, or set MINOS_CHROMIUM)"
+        );
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let (data, ids) = baked_houses(
+        dir.path(),
+        &GenerateConfig {
+            houses: 1,
+            seed: 5,
+            rooms: (3, 4),
+            levels: (1, 1),
+            closed_door_prob: 0.0,
+        },
+    );
+    let scenes: Vec<(String, String)> = ids.iter().map(|id| (id.clone(), "val".into())).collect();
+    // A PointGoal tutorial and one ObjectGoal campaign episode.
+    let episodes: Vec<_> = common::every_task_episodes(&data, &scenes, 1, 3)
+        .into_iter()
+        .take(2)
+        .collect();
+    let body = AgentConfig::habitat();
+    let sensors = SensorSuite::minos(64);
+    let oracle_dir = dir.path().join("oracle");
+    run(
+        &RunConfig {
+            batch: None,
+            data: data.clone(),
+            out: oracle_dir.clone(),
+            agent: AgentKind::Oracle,
+            body,
+            sensors: sensors.clone(),
+            renderer: RendererChoice::Cpu,
+            max_steps: None,
+            seed: 0,
+            shard: Shard::ALL,
+            resume: false,
+            reward: Reward::DistTime,
+            encoding: ImageEncoding::Raw,
+            lerobot: false,
+            rerun: None,
+            allow_body_mismatch: false,
+            provenance: Provenance::default(),
+        },
+        &episodes,
+        &NoProgress,
+    )
+    .unwrap();
+    let oracle = read_replay(&oracle_dir.join("trajectories.parquet")).unwrap();
+    let episodes_file = dir.path().join("episodes.parquet");
+    write_episodes(&episodes_file, &episodes).unwrap();
+    let file = dir.path().join("study.toml");
+    std::fs::write(
+        &file,
+        format!(
+            "episodes = {:?}\ndemos_per_episode = 1\ntutorial = {:?}\n\
+             instructions = \"Walk to the goal and press Space there.\"\n",
+            episodes_file.display().to_string(),
+            episodes[0].episode_id
+        ),
+    )
+    .unwrap();
+    let spec = CampaignSpec::read(&file).unwrap();
+    let link = mint(&spec.state, 1).unwrap().remove(0);
+    let operator = std::fs::read_to_string(spec.state.join("operator.token"))
+        .unwrap()
+        .trim()
+        .to_string();
+    let campaign = Campaign::open(spec, &episodes).unwrap();
+    let out: PathBuf = campaign.demos_dir.clone();
+    let running = start_campaign(
+        ServeConfig {
+            shared: Shared {
+                data: data.clone(),
+                episodes: episodes.clone(),
+                episodes_file: Some(episodes_file),
+                scenes: ids.clone(),
+                out,
+                preset: AgentPreset::Habitat,
+                body,
+                sensors,
+                renderer: RendererChoice::Cpu,
+                reward: Reward::DistTime,
+                encoding: ImageEncoding::Raw,
+                seed: 0,
+                idle: Duration::from_secs(120),
+                command: vec!["minos".into(), "serve".into()],
+            },
+            access_token: None,
+            max_sessions: 2,
+            connect_timeout: Duration::from_secs(30),
+            send_timeout: Duration::from_secs(10),
+        },
+        campaign,
+        "127.0.0.1:0".parse().unwrap(),
+    )
+    .unwrap();
+    let addr = running.addr;
+    let profile = dir.path().join("chromium-profile");
+    let url = format!("http://{addr}/?participant={}", link.token);
+    let (_browser, port) = launch(&browser, &profile, &url);
+    let rt = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .unwrap();
+    rt.block_on(async {
+        let mut cdp = Cdp::first_page(port).await;
+        cdp.until("window.minos && window.minos.step !== null && window.minos.frames > 0")
+            .await;
+        // The participant's page: no episode chooser, the campaign's instructions, the
+        // tutorial first.
+        let chooser = cdp
+            .eval("getComputedStyle(document.getElementById('chooser')).display")
+            .await;
+        assert_eq!(chooser, "none");
+        let header = cdp.eval("document.getElementById('preset').textContent").await;
+        assert_eq!(header, "Walk to the goal and press Space there.");
+        let id = cdp.eval("window.minos.episode.episode_id").await;
+        assert_eq!(id, episodes[0].episode_id.as_str());
+        cdp.play(&oracle[&episodes[0].episode_id], 0).await;
+        // N: the campaign's episode.
+        cdp.press("n", "KeyN", 78).await;
+        cdp.until(&format!(
+            "window.minos.episode.episode_id === {:?} && window.minos.step !== null",
+            episodes[1].episode_id
+        ))
+        .await;
+        cdp.play(&oracle[&episodes[1].episode_id], 1).await;
+        let r = cdp.eval("window.minos.results[1]").await;
+        assert_eq!(r["metrics"]["success"], true, "{r}");
+        assert_eq!(r["qc"]["accepted"], true, "{r}");
+        assert_eq!(r["more"], false, "{r}");
+        // N again: nothing left, the page says thank you.
+        cdp.press("n", "KeyN", 78).await;
+        cdp.until("window.minos.campaignDone === true").await;
+        let text = cdp
+            .eval("document.getElementById('instruction').textContent")
+            .await;
+        assert!(text.as_str().unwrap().starts_with("Thank you"), "{text}");
+
+        // The operator page with its token: both demonstrations, the episode covered.
+        cdp.call(
+            "Page.navigate",
+            serde_json::json!({"url": format!("http://{addr}/operator?operator={operator}")}),
+        )
+        .await;
+        cdp.until("window.operator && window.operator.status !== null && window.operator.status.demos.length === 2")
+            .await;
+        let rows = cdp
+            .eval("[...document.querySelectorAll('#demos tbody tr')].map(r => r.cells[2].textContent)")
+            .await;
+        assert_eq!(rows, serde_json::json!(["tutorial", "accepted"]));
+        let summary: Value = cdp
+            .eval("document.getElementById('summary').textContent")
+            .await;
+        assert!(
+            summary.as_str().unwrap().starts_with("1 of 1 episodes"),
+            "{summary}"
+        );
+        // Without the token the page is refused.
+        let (code, _) = common::serve::http(addr, "GET", "/operator", &[], None);
+        assert_eq!(code, 401);
+    });
+    running.stop();
+}
