@@ -297,10 +297,17 @@ fn main() {
     let colour: Vec<u8> = (0..size * size)
         .flat_map(|i| {
             let (x, y) = (i % size, i / size);
-            [(x * 255 / size) as u8, (y * 255 / size) as u8, ((x ^ y) & 0xff) as u8]
+            [
+                (x * 255 / size) as u8,
+                (y * 255 / size) as u8,
+                ((x ^ y) & 0xff) as u8,
+            ]
         })
         .collect();
-    for (what, rgb) in [("semantic view", &semantic), ("gradient test image", &colour)] {
+    for (what, rgb) in [
+        ("semantic view", &semantic),
+        ("gradient test image", &colour),
+    ] {
         let mut line = format!("a {size}² {what}:");
         for format in [FrameFormat::Raw, FrameFormat::default(), FrameFormat::Png] {
             let n = 200;

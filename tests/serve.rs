@@ -154,7 +154,11 @@ fn head(addr: SocketAddr, target: &str, host: &str) -> (u16, String) {
     use std::io::{Read, Write};
     let mut s = std::net::TcpStream::connect(addr).expect("connect");
     s.set_read_timeout(Some(Duration::from_secs(30))).unwrap();
-    write!(s, "GET {target} HTTP/1.1\r\nHost: {host}\r\nConnection: close\r\n\r\n").unwrap();
+    write!(
+        s,
+        "GET {target} HTTP/1.1\r\nHost: {host}\r\nConnection: close\r\n\r\n"
+    )
+    .unwrap();
     let mut out = Vec::new();
     let _ = s.read_to_end(&mut out);
     let text = String::from_utf8_lossy(&out).to_string();
@@ -632,7 +636,13 @@ fn people_are_offered_exactly_the_presets_actions() {
     runtime().block_on(async {
         let mut ws = connect(a, &token, "").await;
         // Refused, one by one, naming the action and the preset; no step is taken.
-        for name in ["backward", "strafe_left", "strafe_right", "look_up", "look_down"] {
+        for name in [
+            "backward",
+            "strafe_left",
+            "strafe_right",
+            "look_up",
+            "look_down",
+        ] {
             send(&mut ws, &format!(r#"{{"action":"{name}"}}"#)).await;
         }
         send(&mut ws, r#"{"action":"turn_left"}"#).await;
@@ -650,7 +660,13 @@ fn people_are_offered_exactly_the_presets_actions() {
         // The turn is the first step taken after step 0: the five before did nothing.
         assert_eq!(steps, vec![0, 1]);
         assert_eq!(errors.len(), 5, "{errors:?}");
-        for (e, name) in errors.iter().zip(["backward", "strafe_left", "strafe_right", "look_up", "look_down"]) {
+        for (e, name) in errors.iter().zip([
+            "backward",
+            "strafe_left",
+            "strafe_right",
+            "look_up",
+            "look_down",
+        ]) {
             assert!(e.contains(name) && e.contains("habitat"), "{e}");
         }
     });
@@ -689,7 +705,13 @@ fn nonsense_settings_are_refused_at_start_up() {
     let out = f.dir.path().join("demos-nonsense");
     let base = || serve_config(f, &out, None, Duration::from_secs(60));
     let cases: Vec<(&str, ServeConfig)> = vec![
-        ("max sessions 0", ServeConfig { max_sessions: 0, ..base() }),
+        (
+            "max sessions 0",
+            ServeConfig {
+                max_sessions: 0,
+                ..base()
+            },
+        ),
         ("idle timeout", {
             let mut c = base();
             c.shared.idle = Duration::ZERO;
@@ -700,16 +722,40 @@ fn nonsense_settings_are_refused_at_start_up() {
             c.shared.sensors = SensorSuite::minos(0);
             c
         }),
-        ("messages per second", ServeConfig {
-            rate: RateLimits { messages_per_second: 0, ..RateLimits::default() },
-            ..base()
-        }),
-        ("sessions per minute", ServeConfig {
-            rate: RateLimits { sessions_per_minute: 0, ..RateLimits::default() },
-            ..base()
-        }),
-        ("connect timeout", ServeConfig { connect_timeout: Duration::ZERO, ..base() }),
-        ("access token: empty", ServeConfig { access_token: Some(String::new()), ..base() }),
+        (
+            "messages per second",
+            ServeConfig {
+                rate: RateLimits {
+                    messages_per_second: 0,
+                    ..RateLimits::default()
+                },
+                ..base()
+            },
+        ),
+        (
+            "sessions per minute",
+            ServeConfig {
+                rate: RateLimits {
+                    sessions_per_minute: 0,
+                    ..RateLimits::default()
+                },
+                ..base()
+            },
+        ),
+        (
+            "connect timeout",
+            ServeConfig {
+                connect_timeout: Duration::ZERO,
+                ..base()
+            },
+        ),
+        (
+            "access token: empty",
+            ServeConfig {
+                access_token: Some(String::new()),
+                ..base()
+            },
+        ),
         ("JPEG quality 0", {
             let mut c = base();
             c.shared.frames = FrameFormat::Jpeg(0);
@@ -734,11 +780,19 @@ fn only_this_servers_host_names_are_answered() {
     let running = start(cfg, "127.0.0.1:0".parse().unwrap()).unwrap();
     let a = running.addr;
     let port = a.port();
-    for host in [a.to_string(), format!("localhost:{port}"), format!("lab.example.org:{port}")] {
+    for host in [
+        a.to_string(),
+        format!("localhost:{port}"),
+        format!("lab.example.org:{port}"),
+    ] {
         assert_eq!(head(a, "/api/info", &host).0, 200, "{host}");
     }
     // DNS rebinding: the attacker's name resolved to this machine; the browser says so.
-    for host in [format!("evil.example:{port}"), format!("127.0.0.1.evil.example:{port}"), String::new()] {
+    for host in [
+        format!("evil.example:{port}"),
+        format!("127.0.0.1.evil.example:{port}"),
+        String::new(),
+    ] {
         let (status, _) = head(a, "/api/info", &host);
         assert_eq!(status, 421, "{host:?}");
     }
@@ -761,16 +815,22 @@ fn pages_and_answers_carry_a_content_security_policy() {
         .expect("a policy")
         .to_string();
     // The page runs its own script and style, by hash, and nothing else.
-    assert!(csp.contains("default-src 'none'") && csp.contains("script-src 'sha256-"), "{csp}");
-    assert!(!csp.contains("unsafe-inline") && csp.contains("frame-ancestors 'none'"), "{csp}");
+    assert!(
+        csp.contains("default-src 'none'") && csp.contains("script-src 'sha256-"),
+        "{csp}"
+    );
+    assert!(
+        !csp.contains("unsafe-inline") && csp.contains("frame-ancestors 'none'"),
+        "{csp}"
+    );
     let (_, body) = http(a, "GET", "/", &[], None);
     let script = body
         .split("<script>")
         .nth(1)
         .and_then(|s| s.split("</script>").next())
         .expect("the inline script");
-    use sha2::Digest as _;
     use base64::Engine as _;
+    use sha2::Digest as _;
     let hash = base64::engine::general_purpose::STANDARD.encode(sha2::Sha256::digest(script));
     // (`head` lowercases the response head.)
     let expected = format!("'sha256-{hash}'").to_lowercase();
@@ -817,7 +877,10 @@ fn new_sessions_and_messages_are_rate_limited_per_token() {
         while refused < 15 {
             if let Some(Msg::Json(v)) = recv(&mut ws).await {
                 if v["type"] == "error" {
-                    assert!(v["message"].as_str().unwrap().contains("too many messages"), "{v}");
+                    assert!(
+                        v["message"].as_str().unwrap().contains("too many messages"),
+                        "{v}"
+                    );
                     refused += 1;
                 }
             }

@@ -182,7 +182,11 @@ pub fn config(args: &Args) -> anyhow::Result<(RunConfig, Vec<Episode>)> {
     let sensors = sensor_suite(args.sensors.as_deref(), || {
         SensorSuite::for_preset(preset, args.size)
     })?;
-    let episodes = on_variant(&data, args.variant.as_deref(), read_episodes(&args.episodes)?)?;
+    let episodes = on_variant(
+        &data,
+        args.variant.as_deref(),
+        read_episodes(&args.episodes)?,
+    )?;
     let shard = args
         .shard
         .resolve(|k| std::env::var(k).ok())

@@ -213,11 +213,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     let has_token = cfg.access_token.is_some();
     let running = minos::serve::start(cfg, bind)?;
     let (episodes, scenes) = running.offered();
-    let query = if has_token {
-        "?access=<token>"
-    } else {
-        ""
-    };
+    let query = if has_token { "?access=<token>" } else { "" };
     ctx.say(format!(
         "serving {episodes} episodes and {scenes} scenes (preset {}) -> sessions recorded in {}\n\
          open http://{}/{query}   (Ctrl-C stops; finished episodes are already on disk)",
@@ -255,27 +251,43 @@ mod tests {
         let remote = "--data /nonexistent --bind 0.0.0.0:8080";
         let a = parse_flags::<Args>(&format!("{remote} --access-token-file {}", file.display()))
             .expect("flags");
-        assert_eq!(access_token(&a, None).unwrap().as_deref(), Some("f1le-t0ken"));
+        assert_eq!(
+            access_token(&a, None).unwrap().as_deref(),
+            Some("f1le-t0ken")
+        );
         // A remote bind with a token from a file gets past the token check (and fails on
         // the missing DATA folder).
         let e = config(&a, None).unwrap_err().to_string();
         assert!(e.contains("/nonexistent"), "{e}");
         let a = parse_flags::<Args>(remote).expect("flags");
         assert_eq!(
-            access_token(&a, Some("env-t0ken\n".into())).unwrap().as_deref(),
+            access_token(&a, Some("env-t0ken\n".into()))
+                .unwrap()
+                .as_deref(),
             Some("env-t0ken")
         );
-        let e = config(&a, Some("env-t0ken".into())).unwrap_err().to_string();
+        let e = config(&a, Some("env-t0ken".into()))
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("/nonexistent"), "{e}");
         assert!(access_token(&a, Some(" ".into())).is_err());
         std::fs::write(&file, "\n").unwrap();
         let a = parse_flags::<Args>(&format!("{remote} --access-token-file {}", file.display()))
             .expect("flags");
-        assert!(access_token(&a, None).unwrap_err().to_string().contains("empty"));
+        assert!(access_token(&a, None)
+            .unwrap_err()
+            .to_string()
+            .contains("empty"));
         let missing = dir.path().join("missing.txt");
-        let a = parse_flags::<Args>(&format!("{remote} --access-token-file {}", missing.display()))
-            .expect("flags");
-        assert!(access_token(&a, None).unwrap_err().to_string().contains("missing.txt"));
+        let a = parse_flags::<Args>(&format!(
+            "{remote} --access-token-file {}",
+            missing.display()
+        ))
+        .expect("flags");
+        assert!(access_token(&a, None)
+            .unwrap_err()
+            .to_string()
+            .contains("missing.txt"));
     }
 
     #[test]
@@ -294,7 +306,10 @@ mod tests {
             "--data D --max-sessions 0 --max-messages-per-second 0 --jpeg-quality 0",
         )
         .expect("flags");
-        assert_eq!((a.max_sessions, a.max_messages_per_second, a.jpeg_quality), (0, 0, 0));
+        assert_eq!(
+            (a.max_sessions, a.max_messages_per_second, a.jpeg_quality),
+            (0, 0, 0)
+        );
         assert!(parse_flags::<Args>("--data D --lossless-frames --jpeg-quality 50").is_err());
     }
 }

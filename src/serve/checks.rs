@@ -26,7 +26,10 @@ pub fn settings(cfg: &ServeConfig) -> Result<(), ServeError> {
             return bad("access token: empty".into());
         }
         if token.chars().any(|c| c.is_whitespace() || c.is_control()) {
-            return bad("access token: holds spaces or control characters (it travels in URLs and headers)".into());
+            return bad(
+                "access token: holds spaces or control characters (it travels in URLs and headers)"
+                    .into(),
+            );
         }
     }
     let s = &cfg.shared;
@@ -63,7 +66,11 @@ pub fn settings(cfg: &ServeConfig) -> Result<(), ServeError> {
             return bad(format!("JPEG quality {q}: must be 1 to 100"));
         }
     }
-    if cfg.allowed_hosts.iter().any(|h| h.is_empty() || h.contains(['/', ' ', ':'])) {
+    if cfg
+        .allowed_hosts
+        .iter()
+        .any(|h| h.is_empty() || h.contains(['/', ' ', ':']))
+    {
         return bad("allowed host: give host names without scheme, port or path".into());
     }
     Ok(())
@@ -114,7 +121,9 @@ pub fn grids(shared: &Shared) -> Result<Vec<String>, ServeError> {
         }
     }
     if unbaked > 0 {
-        tracing::warn!("{unbaked} ingested scenes have no grid and cannot be explored (run `minos bake`)");
+        tracing::warn!(
+            "{unbaked} ingested scenes have no grid and cannot be explored (run `minos bake`)"
+        );
     }
     if !problems.is_empty() {
         let listed: Vec<String> = problems

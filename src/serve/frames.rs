@@ -92,7 +92,12 @@ pub fn camera_message(
 }
 
 /// `rgb` as a PNG (fast compression, the Sub filter) appended to `out`.
-fn png_fast(out: &mut Vec<u8>, rgb: &[u8], width: u32, height: u32) -> Result<(), image::ImageError> {
+fn png_fast(
+    out: &mut Vec<u8>,
+    rgb: &[u8],
+    width: u32,
+    height: u32,
+) -> Result<(), image::ImageError> {
     image::codecs::png::PngEncoder::new_with_quality(
         out,
         image::codecs::png::CompressionType::Fast,

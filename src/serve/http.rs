@@ -68,7 +68,10 @@ async fn guard(State(app): State<Arc<App>>, req: Request, next: Next) -> Respons
 }
 
 async fn checked(app: &App, req: Request, next: Next) -> Response {
-    let host = req.headers().get(header::HOST).and_then(|h| h.to_str().ok());
+    let host = req
+        .headers()
+        .get(header::HOST)
+        .and_then(|h| h.to_str().ok());
     if !host_allowed(host, app.addr, &app.allowed_hosts) {
         tracing::warn!(
             "refused a request for host {:?} (not this server's; --allowed-host NAME lets a name in)",

@@ -280,7 +280,10 @@ pub fn start(cfg: ServeConfig, bind: SocketAddr) -> Result<Running, ServeError> 
         connect_timeout,
         send_timeout,
         addr,
-        allowed_hosts: allowed_hosts.iter().map(|h| h.to_ascii_lowercase()).collect(),
+        allowed_hosts: allowed_hosts
+            .iter()
+            .map(|h| h.to_ascii_lowercase())
+            .collect(),
         rate,
         new_sessions: rate::Keyed::new(
             f64::from(rate.sessions_per_minute) / 60.0,

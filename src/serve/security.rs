@@ -113,11 +113,27 @@ mod tests {
     fn only_this_servers_names_are_hosts() {
         let local: SocketAddr = "127.0.0.1:8080".parse().unwrap();
         let ok = |h: &str| host_allowed(Some(h), local, &[]);
-        for h in ["127.0.0.1:8080", "localhost:8080", "LOCALHOST", "[::1]:8080", "127.0.0.1", "localhost."] {
+        for h in [
+            "127.0.0.1:8080",
+            "localhost:8080",
+            "LOCALHOST",
+            "[::1]:8080",
+            "127.0.0.1",
+            "localhost.",
+        ] {
             assert!(ok(h), "{h}");
         }
         // DNS rebinding: a name of the attacker's that resolves to 127.0.0.1.
-        for h in ["evil.example:8080", "evil.example", "localhost.evil.example", "10.0.0.7:8080", "", "a b", "x:y:z", "[::1]x"] {
+        for h in [
+            "evil.example:8080",
+            "evil.example",
+            "localhost.evil.example",
+            "10.0.0.7:8080",
+            "",
+            "a b",
+            "x:y:z",
+            "[::1]x",
+        ] {
             assert!(!ok(h), "{h}");
         }
         assert!(!host_allowed(None, local, &[]));
@@ -136,7 +152,10 @@ mod tests {
     fn the_page_policy_allows_exactly_its_own_script() {
         let p = page_policy("alert(1)", "b{}");
         // sha256("alert(1)") in base64, computed independently (openssl dgst -sha256 -binary | base64).
-        assert!(p.contains("'sha256-bhHHL3z2vDgxUt0W3dWQOrprscmda2Y5pLsLg4GF+pI='"), "{p}");
+        assert!(
+            p.contains("'sha256-bhHHL3z2vDgxUt0W3dWQOrprscmda2Y5pLsLg4GF+pI='"),
+            "{p}"
+        );
         assert!(!p.contains("unsafe-inline") && p.contains("frame-ancestors 'none'"));
     }
 }

@@ -55,7 +55,11 @@ mod tests {
         assert!(same("", ""));
         // A difference in the first or the last byte, or only in length, is a difference.
         let t = "f".repeat(64);
-        for other in [format!("0{}", &t[1..]), format!("{}0", &t[..63]), t[..63].to_string()] {
+        for other in [
+            format!("0{}", &t[1..]),
+            format!("{}0", &t[..63]),
+            t[..63].to_string(),
+        ] {
             assert!(!same(&t, &other), "{other}");
         }
     }

@@ -190,7 +190,14 @@ mod tests {
         assert!(parse(r#"{"action":"fly"}"#, &s).is_err());
         // Habitat's agent moves forward and turns: nothing else is offered or taken.
         assert_eq!(s.actions(), ["forward", "turn_left", "turn_right", "stop"]);
-        for name in ["backward", "strafe_left", "strafe_right", "look_up", "look_down", "idle"] {
+        for name in [
+            "backward",
+            "strafe_left",
+            "strafe_right",
+            "look_up",
+            "look_down",
+            "idle",
+        ] {
             let e = parse(&format!(r#"{{"action":"{name}"}}"#), &s).unwrap_err();
             assert!(
                 e.contains(name) && e.contains("habitat") && e.contains("turn_right"),
@@ -204,7 +211,10 @@ mod tests {
             ..shared()
         };
         for name in ["backward", "strafe_left", "strafe_right"] {
-            assert!(parse(&format!(r#"{{"action":"{name}"}}"#), &minos).is_ok(), "{name}");
+            assert!(
+                parse(&format!(r#"{{"action":"{name}"}}"#), &minos).is_ok(),
+                "{name}"
+            );
         }
         assert!(parse(r#"{"action":"look_up"}"#, &minos).is_err());
         assert!(parse("not json", &s).is_err());

@@ -189,7 +189,10 @@ fn finish_parts(cfg: &RunConfig, parts: &Path) -> Result<RunReport, RolloutError
         let metrics = match read_done(parts, i) {
             Ok(m) => m,
             Err(e) => {
-                tracing::warn!("{}: {e}: episode left out", part(parts, i, "json").display());
+                tracing::warn!(
+                    "{}: {e}: episode left out",
+                    part(parts, i, "json").display()
+                );
                 continue;
             }
         };
