@@ -119,11 +119,9 @@ async fn session(
     ws.send(Message::Text(r#"{"action":"turn_left"}"#.into()))
         .await
         .unwrap();
-    let mut steps = 0;
+    let mut seen = 0;
     let mut want = 2;
-    let mut last = frame(&mut ws, &mut steps, want)
-        .await
-        .expect("first frames");
+    let mut last = frame(&mut ws, &mut seen, want).await.expect("first frames");
     let mut latencies = Vec::new();
     let begin = Instant::now();
     // Key presses on a fixed schedule, every `period` (like a key held down), one in flight
@@ -138,7 +136,7 @@ async fn session(
         i += 1;
         ws.send(Message::Text(action.into())).await.unwrap();
         want += 1;
-        match frame(&mut ws, &mut steps, want).await {
+        match frame(&mut ws, &mut seen, want).await {
             Some(f) => last = f,
             None => break,
         }

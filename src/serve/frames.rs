@@ -63,6 +63,17 @@ impl FrameFormat {
     pub fn lossless(self) -> bool {
         !matches!(self, FrameFormat::Jpeg(_))
     }
+
+    /// The format a camera of `modality` is sent in: JPEG only for colour (and grey) images;
+    /// depth, labels and normals — flat areas with hard edges, where JPEG smears and costs
+    /// more (PNG of a 256² label image: ≈ 0.02–0.05 ms against 1.4–3 ms as JPEG) — go as PNG.
+    pub fn for_modality(self, modality: Modality) -> FrameFormat {
+        match (self, modality) {
+            (FrameFormat::Jpeg(_), Modality::Color | Modality::Gray) => self,
+            (FrameFormat::Jpeg(_), _) => FrameFormat::Png,
+            _ => self,
+        }
+    }
 }
 
 /// The camera message of `rgb` (`width` × `height` RGB pixels) as camera `index`, its
@@ -285,5 +296,13 @@ mod tests {
             / rgb.len() as f64;
         assert!(mae < 4.0, "mean error {mae}");
         assert!(FrameFormat::Png.lossless() && !FrameFormat::default().lossless());
+        let jpeg = FrameFormat::default();
+        assert_eq!(jpeg.for_modality(Modality::Color), jpeg);
+        assert_eq!(jpeg.for_modality(Modality::Semantic), FrameFormat::Png);
+        assert_eq!(jpeg.for_modality(Modality::Depth), FrameFormat::Png);
+        assert_eq!(
+            FrameFormat::Raw.for_modality(Modality::Depth),
+            FrameFormat::Raw
+        );
     }
 }

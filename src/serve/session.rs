@@ -346,7 +346,8 @@ impl Agent for HumanAgent {
                 continue;
             };
             let [w, h] = cam.resolution;
-            let msg = frames::camera_message(self.frames, i as u8, w, h, &rgb).map_err(|e| {
+            let format = self.frames.for_modality(cam.modality);
+            let msg = frames::camera_message(format, i as u8, w, h, &rgb).map_err(|e| {
                 AgentError::External {
                     command: "human".into(),
                     message: format!("camera {}: {e}", cam.name),
