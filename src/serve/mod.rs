@@ -321,6 +321,14 @@ pub fn start(cfg: ServeConfig, bind: SocketAddr) -> Result<Running, ServeError> 
                         reaper.reap();
                     }
                 });
+                // Frames are small messages sent back to back: without TCP_NODELAY, Nagle's
+                // algorithm holds each one until the last is acknowledged (40 ms delayed ACKs).
+                use axum::serve::ListenerExt as _;
+                let listener = listener.tap_io(|tcp| {
+                    if let Err(e) = tcp.set_nodelay(true) {
+                        tracing::debug!("TCP_NODELAY: {e}");
+                    }
+                });
                 let serve = axum::serve(listener, router).with_graceful_shutdown(async {
                     let _ = rx.await;
                 });
