@@ -4,16 +4,20 @@
 //! agent and MINOS's RGB-D-semantic sensors at 256² on the CPU renderer, observations written
 //! raw to Parquet, the server in this process, clients over real WebSockets on localhost.
 //!
+//! Every session asks for all three views (colour, depth, semantic), sent as the server's
+//! frame format (`MINOS_BENCH_FRAMES`: `jpeg`, the default of `minos serve`; `png`, its
+//! `--lossless-frames`; or `raw`); a key press's frame is its last view's message.
+//!
 //! 1. Latency: one session; the time from sending a key press (an action) to receiving the
-//!    new colour frame, over many steps (median, 90th and 99th percentile).
-//! 2. Concurrency: N sessions (`MINOS_BENCH_SESSIONS`, default 8), each pressing a key
-//!    every 100 ms (a person holding a key at 10 presses/s; as on the page, one action in
-//!    flight, so a late frame delays the next press and later ones catch up); the frames
-//!    per second each session gets and its latencies.
-//! 3. Frame encodings: building the raw RGB message of a 256² frame vs encoding it as PNG.
+//!    new frames, over many steps (median, 90th and 99th percentile).
+//! 2. Load: N sessions (`MINOS_BENCH_SESSIONS`, default 12), each pressing a key every
+//!    100 ms (a person holding a key at 10 presses/s; as on the page, one action in flight,
+//!    so a late frame delays the next press and later ones catch up); the frames per second
+//!    each session gets and the latencies of all (p50, p90, p99).
+//! 3. Frame encodings: a 256² view's message as raw RGB, JPEG and PNG (time and bytes).
 //!
 //! `MINOS_BENCH_STEPS` (default 200) sets the steps of the latency run, `MINOS_BENCH_SECONDS`
-//! (default 20) the length of the concurrency run.
+//! (default 20) the length of the load run.
 
 mod support;
 
@@ -28,7 +32,7 @@ use minos::io::tables::ImageEncoding;
 use minos::pipeline::episodes::sample_scenes;
 use minos::progress::NoProgress;
 use minos::run::metrics::Reward;
-use minos::serve::{start, ServeConfig, Shared};
+use minos::serve::{start, FrameFormat, RateLimits, ServeConfig, Shared};
 use minos::shard::Shard;
 use minos::sim::{AgentConfig, RendererChoice, SensorSuite};
 use minos::store::DataDir;
@@ -74,11 +78,15 @@ const WALK: [&str; 8] = [
     "turn_right",
 ];
 
-/// Waits for the next colour frame (answering an episode's end with "next"); its RGB pixels.
-async fn frame(ws: &mut Ws) -> Option<Vec<u8>> {
+/// Waits for the frames of step `want` of the session (counting every step message since it
+/// began; answering an episode's end with "next"); that step's last view's message.
+async fn frame(ws: &mut Ws, steps: &mut u64, want: u64) -> Option<Vec<u8>> {
     while let Some(Ok(m)) = ws.next().await {
         match m {
-            Message::Binary(b) if b[0] == 1 && b[1] == 0 => return Some(b[8..].to_vec()),
+            Message::Binary(b) if b[0] == 1 && b[1] == 2 && *steps >= want => {
+                return Some(b.to_vec())
+            }
+            Message::Text(t) if t.as_str().contains("\"type\":\"step\"") => *steps += 1,
             Message::Text(t) if t.as_str().contains("\"type\":\"done\"") => {
                 ws.send(Message::Text(r#"{"next":null}"#.into()))
                     .await
@@ -103,7 +111,17 @@ async fn session(
         .unwrap();
     let url = format!("ws://{addr}/api/sessions/{token}/ws");
     let (mut ws, _) = tokio_tungstenite::connect_async(url).await.unwrap();
-    let mut last = frame(&mut ws).await.expect("first frame");
+    ws.send(Message::Text(r#"{"views":["depth","semantic"]}"#.into()))
+        .await
+        .unwrap();
+    // The first step's frames may go out before the views are asked for: the next ones
+    // carry all three.
+    ws.send(Message::Text(r#"{"action":"turn_left"}"#.into()))
+        .await
+        .unwrap();
+    let mut seen = 0;
+    let mut want = 2;
+    let mut last = frame(&mut ws, &mut seen, want).await.expect("first frames");
     let mut latencies = Vec::new();
     let begin = Instant::now();
     // Key presses on a fixed schedule, every `period` (like a key held down), one in flight
@@ -117,7 +135,8 @@ async fn session(
         let action = format!(r#"{{"action":"{}"}}"#, WALK[i % WALK.len()]);
         i += 1;
         ws.send(Message::Text(action.into())).await.unwrap();
-        match frame(&mut ws).await {
+        want += 1;
+        match frame(&mut ws, &mut seen, want).await {
             Some(f) => last = f,
             None => break,
         }
@@ -125,6 +144,17 @@ async fn session(
     }
     let _ = ws.send(Message::Text(r#"{"end":true}"#.into())).await;
     (latencies, last)
+}
+
+/// The RGB pixels of a camera message, whatever its format.
+fn decoded(message: &[u8]) -> Vec<u8> {
+    if message[6] == 0 {
+        return message[8..].to_vec();
+    }
+    image::load_from_memory(&message[8..])
+        .expect("a decodable frame")
+        .to_rgb8()
+        .into_raw()
 }
 
 fn percentile(sorted: &[f64], p: f64) -> f64 {
@@ -166,7 +196,12 @@ fn main() {
     )
     .episodes;
     let size = env("MINOS_BENCH_SIZE", 256) as u32;
-    let sessions = env("MINOS_BENCH_SESSIONS", 8) as usize;
+    let sessions = env("MINOS_BENCH_SESSIONS", 12) as usize;
+    let frames = match std::env::var("MINOS_BENCH_FRAMES").as_deref() {
+        Ok("raw") => FrameFormat::Raw,
+        Ok("png") => FrameFormat::Png,
+        _ => FrameFormat::default(),
+    };
     let running = start(
         ServeConfig {
             shared: Shared {
@@ -184,11 +219,15 @@ fn main() {
                 seed: 0,
                 idle: Duration::from_secs(60),
                 command: Vec::new(),
+                variant: None,
+                frames,
             },
             access_token: None,
             max_sessions: sessions.max(1) + 1,
             connect_timeout: Duration::from_secs(30),
             send_timeout: Duration::from_secs(10),
+            allowed_hosts: Vec::new(),
+            rate: RateLimits::default(),
         },
         "127.0.0.1:0".parse().unwrap(),
     )
@@ -200,8 +239,10 @@ fn main() {
         .build()
         .unwrap();
     println!(
-        "serve: 1 house ({}), RGB-D-semantic {size}² on the CPU renderer, raw Parquet, {} cores",
+        "serve: 1 house ({}), RGB-D-semantic {size}² on the CPU renderer, raw Parquet, \
+         frames as {}, {} cores",
         ids[0],
+        frames.name(),
         std::thread::available_parallelism().map_or(0, |n| n.get())
     );
     let steps = env("MINOS_BENCH_STEPS", 200) as usize;
@@ -212,7 +253,7 @@ fn main() {
         steps,
     ));
     println!(
-        "key press -> frame, 1 session, back to back: {}",
+        "key press -> frames, 1 session, back to back: {}",
         summary(one)
     );
     let seconds = env("MINOS_BENCH_SECONDS", 20);
@@ -243,37 +284,42 @@ fn main() {
     let min_fps = fps.iter().copied().fold(f64::INFINITY, f64::min);
     println!(
         "{sessions} sessions pressing 10 keys/s for {seconds} s ({wall:.1} s with set-up): \
-         {:.1} frames/s per session (min {min_fps:.1}), {:.0} frames/s in all; latency {}",
+         {:.1} frames/s per session (min {min_fps:.1}), {:.0} frames/s in all; key press -> \
+         frames {}",
         fps.iter().sum::<f64>() / fps.len() as f64,
         fps.iter().sum::<f64>(),
         summary(all.into_iter().flatten().collect())
     );
-    // Frame encodings: what the server sends (raw RGB) against PNG.
-    let n = 200;
-    let t = Instant::now();
-    let mut bytes = 0;
-    for _ in 0..n {
-        bytes = minos::serve::frames::message(1, 0, size, size, &pixels).len();
+    // Frame encodings of the last semantic view seen and of a synthetic colour-like view.
+    let semantic = decoded(&pixels);
+    let colour: Vec<u8> = (0..size * size)
+        .flat_map(|i| {
+            let (x, y) = (i % size, i / size);
+            [
+                (x * 255 / size) as u8,
+                (y * 255 / size) as u8,
+                ((x ^ y) & 0xff) as u8,
+            ]
+        })
+        .collect();
+    for (what, rgb) in [
+        ("semantic view", &semantic),
+        ("gradient test image", &colour),
+    ] {
+        let mut line = format!("a {size}² {what}:");
+        for format in [FrameFormat::Raw, FrameFormat::default(), FrameFormat::Png] {
+            let n = 200;
+            let t = Instant::now();
+            let mut bytes = 0;
+            for _ in 0..n {
+                bytes = minos::serve::frames::camera_message(format, 0, size, size, rgb)
+                    .unwrap()
+                    .len();
+            }
+            let ms = t.elapsed().as_secs_f64() / n as f64 * 1e3;
+            line += &format!(" {} {ms:.3} ms ({bytes} bytes);", format.name());
+        }
+        println!("{line}");
     }
-    let raw = t.elapsed().as_secs_f64() / n as f64 * 1e3;
-    let t = Instant::now();
-    let mut png_bytes = 0;
-    for _ in 0..n {
-        let mut png = Vec::new();
-        use image::ImageEncoder as _;
-        image::codecs::png::PngEncoder::new_with_quality(
-            &mut png,
-            image::codecs::png::CompressionType::Fast,
-            image::codecs::png::FilterType::Sub,
-        )
-        .write_image(&pixels, size, size, image::ExtendedColorType::Rgb8)
-        .unwrap();
-        png_bytes = png.len();
-    }
-    let png = t.elapsed().as_secs_f64() / n as f64 * 1e3;
-    println!(
-        "a {size}² colour frame: raw message {raw:.3} ms ({bytes} bytes), PNG (fast) {png:.2} ms \
-         ({png_bytes} bytes; the last frame seen)"
-    );
     running.stop();
 }

@@ -24,7 +24,7 @@ use minos::pipeline::rollout::{run, AgentKind, Provenance, RunConfig, PLAYED};
 use minos::progress::NoProgress;
 use minos::run::agents::Decision;
 use minos::run::metrics::Reward;
-use minos::serve::{start, Running, ServeConfig, Shared};
+use minos::serve::{start, FrameFormat, RateLimits, Running, ServeConfig, ServeError, Shared};
 use minos::shard::Shard;
 use minos::sim::{AgentConfig, RendererChoice, SensorSuite};
 use minos::store::DataDir;
@@ -124,21 +124,52 @@ fn shared(f: &Fixture, out: &Path, idle: Duration) -> Shared {
         seed: 0,
         idle,
         command: vec!["minos".into(), "serve".into()],
+        variant: None,
+        frames: FrameFormat::default(),
+    }
+}
+
+fn serve_config(f: &Fixture, out: &Path, access: Option<&str>, idle: Duration) -> ServeConfig {
+    ServeConfig {
+        shared: shared(f, out, idle),
+        access_token: access.map(str::to_string),
+        max_sessions: 4,
+        connect_timeout: Duration::from_millis(800),
+        send_timeout: Duration::from_secs(5),
+        allowed_hosts: Vec::new(),
+        rate: RateLimits::default(),
     }
 }
 
 fn server(f: &Fixture, out: &Path, access: Option<&str>, idle: Duration) -> Running {
     start(
-        ServeConfig {
-            shared: shared(f, out, idle),
-            access_token: access.map(str::to_string),
-            max_sessions: 4,
-            connect_timeout: Duration::from_millis(800),
-            send_timeout: Duration::from_secs(5),
-        },
+        serve_config(f, out, access, idle),
         "127.0.0.1:0".parse().unwrap(),
     )
     .expect("server starts")
+}
+
+/// A raw HTTP/1.1 request with `host` as its `Host`; the status and the response's head
+/// (status line and headers, lowercase).
+fn head(addr: SocketAddr, target: &str, host: &str) -> (u16, String) {
+    use std::io::{Read, Write};
+    let mut s = std::net::TcpStream::connect(addr).expect("connect");
+    s.set_read_timeout(Some(Duration::from_secs(30))).unwrap();
+    write!(
+        s,
+        "GET {target} HTTP/1.1\r\nHost: {host}\r\nConnection: close\r\n\r\n"
+    )
+    .unwrap();
+    let mut out = Vec::new();
+    let _ = s.read_to_end(&mut out);
+    let text = String::from_utf8_lossy(&out).to_string();
+    let status = text
+        .split_whitespace()
+        .nth(1)
+        .and_then(|c| c.parse().ok())
+        .unwrap_or(0);
+    let head = text.split("\r\n\r\n").next().unwrap_or("").to_lowercase();
+    (status, head)
 }
 
 fn runtime() -> tokio::runtime::Runtime {
@@ -287,6 +318,7 @@ fn tokens_access_and_origins_are_enforced() {
     let info: serde_json::Value = serde_json::from_str(&info).unwrap();
     assert_eq!(info["episodes"].as_array().unwrap().len(), 3);
     assert_eq!(info["preset"], "habitat");
+    assert_eq!(info["frames"], "jpeg");
     // Another origin cannot create sessions.
     let evil = [
         ("x-minos-access", "s3cret"),
@@ -358,6 +390,8 @@ fn no_request_reaches_outside_data_and_the_output_folder() {
             max_sessions: 4,
             connect_timeout: Duration::from_secs(5),
             send_timeout: Duration::from_secs(5),
+            allowed_hosts: Vec::new(),
+            rate: RateLimits::default(),
         },
         "127.0.0.1:0".parse().unwrap(),
     )
@@ -489,6 +523,7 @@ fn a_server_killed_mid_episode_leaves_the_finished_episodes_whole() {
         .arg(&episodes)
         .arg("--out")
         .arg(&out)
+        .args(["--reward", "geodesic", "--seed", "7"])
         .stdout(std::process::Stdio::piped())
         .spawn()
         .expect("minos serve starts");
@@ -518,6 +553,37 @@ fn a_server_killed_mid_episode_leaves_the_finished_episodes_whole() {
         child.wait().unwrap();
     });
     let session = out.join(&name);
+    // Killed: the finished episode is in its parts, and no table looks complete.
+    assert!(session.join(".parts").is_dir());
+    assert!(!session.join("trajectories.parquet").exists());
+    // The next start on the same output folder writes the session's outputs from the
+    // finished episode (before it listens) and removes the parts.
+    let mut again = minos()
+        .args(["serve", "--bind", "127.0.0.1:0", "--size", "32", "--data"])
+        .arg(f.data.root())
+        .arg("--episodes")
+        .arg(&episodes)
+        .arg("--out")
+        .arg(&out)
+        .args(["--reward", "geodesic", "--seed", "7"])
+        .stdout(std::process::Stdio::piped())
+        .spawn()
+        .expect("minos serve starts again");
+    let mut lines = std::io::BufReader::new(again.stdout.take().unwrap()).lines();
+    while !lines
+        .next()
+        .expect("a line")
+        .expect("text")
+        .contains("open http://")
+    {}
+    again.kill().expect("stop");
+    again.wait().unwrap();
+    assert!(!session.join(".parts").exists(), "parts removed");
+    assert_eq!(
+        std::fs::read(session.join(minos::lock::LOCK_FILE)).unwrap(),
+        b"",
+        "the lock is released"
+    );
     // Exactly the finished episode, in whole files.
     let steps = read_replay(&session.join("trajectories.parquet")).expect("readable table");
     assert_eq!(steps.keys().collect::<Vec<_>>(), vec![&first.episode_id]);
@@ -534,10 +600,14 @@ fn a_server_killed_mid_episode_leaves_the_finished_episodes_whole() {
         .filter(|n| n.contains(".tmp-"))
         .collect();
     assert!(stray.is_empty(), "{stray:?}");
-    // Its replay gives the same tables.
+    // Its replay, with the server's --reward and --seed, gives the same tables.
     let replay_dir = f.dir.path().join("replay-killed");
     run(
-        &run_config(&f.data, &replay_dir, AgentKind::Replay(steps)),
+        &RunConfig {
+            reward: Reward::Geodesic,
+            seed: 7,
+            ..run_config(&f.data, &replay_dir, AgentKind::Replay(steps))
+        },
         std::slice::from_ref(first),
         &NoProgress,
     )
@@ -548,4 +618,276 @@ fn a_server_killed_mid_episode_leaves_the_finished_episodes_whole() {
             "{file}"
         );
     }
+}
+
+#[test]
+fn people_are_offered_exactly_the_presets_actions() {
+    let f = fixture();
+    let out = f.dir.path().join("demos-actions");
+    let running = server(f, &out, None, Duration::from_secs(60));
+    let a = running.addr;
+    let (status, info) = http(a, "GET", "/api/info", &[], None);
+    assert_eq!(status, 200);
+    let info: serde_json::Value = serde_json::from_str(&info).unwrap();
+    // Habitat's agent: what NavEnv's Discrete(4) and Habitat express.
+    assert_eq!(
+        info["actions"],
+        serde_json::json!(["forward", "turn_left", "turn_right", "stop"])
+    );
+    let (token, _) = create(a, "{}", &[]);
+    runtime().block_on(async {
+        let mut ws = connect(a, &token, "").await;
+        // Refused, one by one, naming the action and the preset; no step is taken.
+        for name in [
+            "backward",
+            "strafe_left",
+            "strafe_right",
+            "look_up",
+            "look_down",
+        ] {
+            send(&mut ws, &format!(r#"{{"action":"{name}"}}"#)).await;
+        }
+        send(&mut ws, r#"{"action":"turn_left"}"#).await;
+        let mut errors = Vec::new();
+        let mut steps = Vec::new();
+        while steps.len() < 2 {
+            if let Some(Msg::Json(v)) = recv(&mut ws).await {
+                match v["type"].as_str() {
+                    Some("error") => errors.push(v["message"].as_str().unwrap().to_string()),
+                    Some("step") => steps.push(v["step"].as_u64().unwrap()),
+                    _ => {}
+                }
+            }
+        }
+        // The turn is the first step taken after step 0: the five before did nothing.
+        assert_eq!(steps, vec![0, 1]);
+        assert_eq!(errors.len(), 5, "{errors:?}");
+        for (e, name) in errors.iter().zip([
+            "backward",
+            "strafe_left",
+            "strafe_right",
+            "look_up",
+            "look_down",
+        ]) {
+            assert!(e.contains(name) && e.contains("habitat"), "{e}");
+        }
+    });
+    running.stop();
+}
+
+#[test]
+fn grids_baked_for_another_body_are_refused_at_start_up() {
+    let f = fixture();
+    let out = f.dir.path().join("demos-mismatch");
+    // The fixture's grids are baked for Habitat's body; MINOS's agent is another body.
+    let mut cfg = serve_config(f, &out, None, Duration::from_secs(60));
+    cfg.shared.preset = AgentPreset::Minos;
+    cfg.shared.body = AgentConfig::preset(AgentPreset::Minos);
+    let e = start(cfg, "127.0.0.1:0".parse().unwrap())
+        .err()
+        .expect("refused");
+    assert!(matches!(e, ServeError::NotReady(_)), "{e}");
+    let text = e.to_string();
+    assert!(
+        text.contains("--preset minos") && text.contains("baked for body") && !text.contains('\n'),
+        "{text}"
+    );
+    // Only for exploration (no episode file): refused all the same.
+    let mut cfg = serve_config(f, &out, None, Duration::from_secs(60));
+    cfg.shared.episodes.clear();
+    cfg.shared.preset = AgentPreset::MinosGridworld;
+    cfg.shared.body = AgentConfig::preset(AgentPreset::MinosGridworld);
+    assert!(start(cfg, "127.0.0.1:0".parse().unwrap()).is_err());
+    assert!(!out.exists() || std::fs::read_dir(&out).unwrap().count() == 0);
+}
+
+#[test]
+fn nonsense_settings_are_refused_at_start_up() {
+    let f = fixture();
+    let out = f.dir.path().join("demos-nonsense");
+    let base = || serve_config(f, &out, None, Duration::from_secs(60));
+    let cases: Vec<(&str, ServeConfig)> = vec![
+        (
+            "max sessions 0",
+            ServeConfig {
+                max_sessions: 0,
+                ..base()
+            },
+        ),
+        ("idle timeout", {
+            let mut c = base();
+            c.shared.idle = Duration::ZERO;
+            c
+        }),
+        ("0×0 pixels", {
+            let mut c = base();
+            c.shared.sensors = SensorSuite::minos(0);
+            c
+        }),
+        (
+            "messages per second",
+            ServeConfig {
+                rate: RateLimits {
+                    messages_per_second: 0,
+                    ..RateLimits::default()
+                },
+                ..base()
+            },
+        ),
+        (
+            "sessions per minute",
+            ServeConfig {
+                rate: RateLimits {
+                    sessions_per_minute: 0,
+                    ..RateLimits::default()
+                },
+                ..base()
+            },
+        ),
+        (
+            "connect timeout",
+            ServeConfig {
+                connect_timeout: Duration::ZERO,
+                ..base()
+            },
+        ),
+        (
+            "access token: empty",
+            ServeConfig {
+                access_token: Some(String::new()),
+                ..base()
+            },
+        ),
+        ("JPEG quality 0", {
+            let mut c = base();
+            c.shared.frames = FrameFormat::Jpeg(0);
+            c
+        }),
+    ];
+    for (says, cfg) in cases {
+        let e = start(cfg, "127.0.0.1:0".parse().unwrap())
+            .err()
+            .unwrap_or_else(|| panic!("{says}: accepted"));
+        assert!(matches!(e, ServeError::Setting(_)), "{says}: {e}");
+        assert!(e.to_string().contains(says), "{says}: {e}");
+    }
+}
+
+#[test]
+fn only_this_servers_host_names_are_answered() {
+    let f = fixture();
+    let out = f.dir.path().join("demos-hosts");
+    let mut cfg = serve_config(f, &out, None, Duration::from_secs(60));
+    cfg.allowed_hosts = vec!["Lab.Example.org".into()];
+    let running = start(cfg, "127.0.0.1:0".parse().unwrap()).unwrap();
+    let a = running.addr;
+    let port = a.port();
+    for host in [
+        a.to_string(),
+        format!("localhost:{port}"),
+        format!("lab.example.org:{port}"),
+    ] {
+        assert_eq!(head(a, "/api/info", &host).0, 200, "{host}");
+    }
+    // DNS rebinding: the attacker's name resolved to this machine; the browser says so.
+    for host in [
+        format!("evil.example:{port}"),
+        format!("127.0.0.1.evil.example:{port}"),
+        String::new(),
+    ] {
+        let (status, _) = head(a, "/api/info", &host);
+        assert_eq!(status, 421, "{host:?}");
+    }
+    let (status, _) = head(a, "/", &format!("evil.example:{port}"));
+    assert_eq!(status, 421);
+    running.stop();
+}
+
+#[test]
+fn pages_and_answers_carry_a_content_security_policy() {
+    let f = fixture();
+    let out = f.dir.path().join("demos-headers");
+    let running = server(f, &out, None, Duration::from_secs(60));
+    let a = running.addr;
+    let (status, page) = head(a, "/", &a.to_string());
+    assert_eq!(status, 200);
+    let csp = page
+        .lines()
+        .find_map(|l| l.strip_prefix("content-security-policy: "))
+        .expect("a policy")
+        .to_string();
+    // The page runs its own script and style, by hash, and nothing else.
+    assert!(
+        csp.contains("default-src 'none'") && csp.contains("script-src 'sha256-"),
+        "{csp}"
+    );
+    assert!(
+        !csp.contains("unsafe-inline") && csp.contains("frame-ancestors 'none'"),
+        "{csp}"
+    );
+    let (_, body) = http(a, "GET", "/", &[], None);
+    let script = body
+        .split("<script>")
+        .nth(1)
+        .and_then(|s| s.split("</script>").next())
+        .expect("the inline script");
+    use base64::Engine as _;
+    use sha2::Digest as _;
+    let hash = base64::engine::general_purpose::STANDARD.encode(sha2::Sha256::digest(script));
+    // (`head` lowercases the response head.)
+    let expected = format!("'sha256-{hash}'").to_lowercase();
+    assert!(csp.contains(&expected), "the hash is the page's script's");
+    for target in ["/", "/api/info", "/nothing-here"] {
+        let (_, h) = head(a, target, &a.to_string());
+        for expected in [
+            "x-content-type-options: nosniff",
+            "x-frame-options: deny",
+            "referrer-policy: no-referrer",
+            "cross-origin-opener-policy: same-origin",
+            "content-security-policy: default-src 'none'",
+        ] {
+            assert!(h.contains(expected), "{target}: {expected}\n{h}");
+        }
+    }
+    running.stop();
+}
+
+#[test]
+fn new_sessions_and_messages_are_rate_limited_per_token() {
+    let f = fixture();
+    let out = f.dir.path().join("demos-rate");
+    let mut cfg = serve_config(f, &out, Some("s3cret"), Duration::from_secs(60));
+    cfg.rate = RateLimits {
+        messages_per_second: 5,
+        sessions_per_minute: 2,
+    };
+    let running = start(cfg, "127.0.0.1:0".parse().unwrap()).unwrap();
+    let a = running.addr;
+    let auth = [("x-minos-access", "s3cret")];
+    let (token, _) = create(a, "{}", &auth);
+    create(a, "{}", &auth);
+    let (status, reply) = http(a, "POST", "/api/sessions", &auth, Some("{}"));
+    assert_eq!(status, 429, "{reply}");
+    assert!(reply.contains("2 new sessions a minute"), "{reply}");
+    runtime().block_on(async {
+        let mut ws = connect(a, &token, "?access=s3cret").await;
+        // A burst of 2 × 5 messages goes through; the rest of 30 at once are refused.
+        for _ in 0..30 {
+            send(&mut ws, r#"{"views":[]}"#).await;
+        }
+        let mut refused = 0;
+        while refused < 15 {
+            if let Some(Msg::Json(v)) = recv(&mut ws).await {
+                if v["type"] == "error" {
+                    assert!(
+                        v["message"].as_str().unwrap().contains("too many messages"),
+                        "{v}"
+                    );
+                    refused += 1;
+                }
+            }
+        }
+        send(&mut ws, r#"{"end":true}"#).await;
+    });
+    running.stop();
 }

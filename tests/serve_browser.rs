@@ -25,7 +25,7 @@ use minos::pipeline::rollout::{run, AgentKind, Provenance, RunConfig, PLAYED};
 use minos::progress::NoProgress;
 use minos::run::agents::Decision;
 use minos::run::metrics::Reward;
-use minos::serve::{start, ServeConfig, Shared};
+use minos::serve::{start, FrameFormat, RateLimits, ServeConfig, Shared};
 use minos::shard::Shard;
 use minos::sim::{AgentConfig, RendererChoice, SensorSuite};
 use serde_json::{json, Value};
@@ -255,11 +255,16 @@ fn a_person_in_chromium_reaches_the_goal_and_the_demo_replays() {
                 seed: 0,
                 idle: Duration::from_secs(120),
                 command: vec!["minos".into(), "serve".into()],
+                variant: None,
+                // JPEG frames, as people get them: the page decodes them.
+                frames: FrameFormat::default(),
             },
             access_token: Some("browser-test".into()),
             max_sessions: 2,
             connect_timeout: Duration::from_secs(30),
             send_timeout: Duration::from_secs(10),
+            allowed_hosts: Vec::new(),
+            rate: RateLimits::default(),
         },
         "127.0.0.1:0".parse::<SocketAddr>().unwrap(),
     )

@@ -9,8 +9,11 @@ use std::time::{Duration, Instant};
 use anyhow::Context as _;
 use indicatif::{ProgressBar, ProgressStyle};
 use minos::body::AgentPreset;
+use minos::episode::Episode;
+use minos::io::tables::ImageEncoding;
 use minos::lock::LockMode;
 use minos::render::RendererChoice;
+use minos::run::metrics::Reward;
 use minos::sim::SensorSuite;
 use minos::split::read_split;
 use minos::store::DataDir;
@@ -255,6 +258,64 @@ impl From<RendererArg> for RendererChoice {
             RendererArg::Wgpu => RendererChoice::Wgpu,
         }
     }
+}
+
+/// Rewards of `--reward` (`run` and `serve`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum RewardArg {
+    /// MINOS: decrease of the Euclidean distance minus the normalised time of a step.
+    #[value(name = "dist_time")]
+    DistTime,
+    /// MINOS: decrease of the shortest-path distance.
+    #[value(name = "path_delta")]
+    PathDelta,
+    /// Habitat: decrease of the geodesic distance − 0.01 per step + 2.5 on success.
+    Geodesic,
+}
+
+impl From<RewardArg> for Reward {
+    fn from(r: RewardArg) -> Self {
+        match r {
+            RewardArg::DistTime => Reward::DistTime,
+            RewardArg::PathDelta => Reward::PathDelta,
+            RewardArg::Geodesic => Reward::Geodesic,
+        }
+    }
+}
+
+/// Image storage of `--image-encoding` (`run` and `serve`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum EncodingArg {
+    /// Raw little-endian pixels (shape and dtype in the column metadata).
+    Raw,
+    /// PNG: lossless for colour and ids (16-bit labels; u32 ids as RGBA bytes), depth as
+    /// 16-bit millimetres and normals as 16-bit values (the quantisation is in the column
+    /// metadata).
+    Png,
+}
+
+impl From<EncodingArg> for ImageEncoding {
+    fn from(e: EncodingArg) -> Self {
+        match e {
+            EncodingArg::Raw => ImageEncoding::Raw,
+            EncodingArg::Png => ImageEncoding::Png,
+        }
+    }
+}
+
+/// Moves `episodes` onto variant `name` of their scenes (`--variant` of `run` and `serve`)
+/// after checking that the DATA folder defines it.
+pub fn on_variant(
+    data: &DataDir,
+    name: Option<&str>,
+    episodes: Vec<Episode>,
+) -> anyhow::Result<Vec<Episode>> {
+    let Some(name) = name else {
+        return Ok(episodes);
+    };
+    data.read_variant(name)
+        .map_err(|e| anyhow::anyhow!("--variant {name}: {e}"))?;
+    Ok(episodes.into_iter().map(|e| e.on_variant(name)).collect())
 }
 
 /// The most worker threads `--threads` accepts: far above any machine's cores, low enough

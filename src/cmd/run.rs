@@ -9,41 +9,16 @@ use anyhow::Context as _;
 use minos::body::AgentPreset;
 use minos::episode::format::read_episodes;
 use minos::episode::Episode;
-use minos::io::tables::ImageEncoding;
 use minos::pipeline::rollout::{
     run_with as run_episodes, AgentKind, Provenance, RerunOutput, RolloutError, RunConfig,
 };
-use minos::run::metrics::{render_table, Reward};
+use minos::run::metrics::render_table;
 use minos::shard::ShardSpec;
 use minos::sim::{AgentConfig, SensorSuite};
 use minos::store::DataDir;
 
-use super::common::{sensor_suite, PresetArg, RendererArg};
+use super::common::{on_variant, sensor_suite, EncodingArg, PresetArg, RendererArg, RewardArg};
 use super::Context;
-
-/// Rewards of `--reward`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-enum RewardArg {
-    /// MINOS: decrease of the Euclidean distance minus the normalised time of a step.
-    #[value(name = "dist_time")]
-    DistTime,
-    /// MINOS: decrease of the shortest-path distance.
-    #[value(name = "path_delta")]
-    PathDelta,
-    /// Habitat: decrease of the geodesic distance − 0.01 per step + 2.5 on success.
-    Geodesic,
-}
-
-/// Encodings of `--image-encoding`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-enum EncodingArg {
-    /// Raw little-endian pixels (shape and dtype in the column metadata).
-    Raw,
-    /// PNG: lossless for colour and ids (16-bit labels; u32 ids as RGBA bytes), depth as
-    /// 16-bit millimetres and normals as 16-bit values (the quantisation is in the column
-    /// metadata).
-    Png,
-}
 
 /// Layouts of `--format`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -173,12 +148,11 @@ pub fn config(args: &Args) -> anyhow::Result<(RunConfig, Vec<Episode>)> {
     let sensors = sensor_suite(args.sensors.as_deref(), || {
         SensorSuite::for_preset(preset, args.size)
     })?;
-    let mut episodes = read_episodes(&args.episodes)?;
-    if let Some(name) = &args.variant {
-        data.read_variant(name)
-            .map_err(|e| anyhow::anyhow!("--variant {name}: {e}"))?;
-        episodes = episodes.into_iter().map(|e| e.on_variant(name)).collect();
-    }
+    let episodes = on_variant(
+        &data,
+        args.variant.as_deref(),
+        read_episodes(&args.episodes)?,
+    )?;
     let shard = args
         .shard
         .resolve(|k| std::env::var(k).ok())
@@ -198,15 +172,8 @@ pub fn config(args: &Args) -> anyhow::Result<(RunConfig, Vec<Episode>)> {
         seed: args.seed,
         shard,
         resume: args.resume,
-        reward: match args.reward {
-            RewardArg::DistTime => Reward::DistTime,
-            RewardArg::PathDelta => Reward::PathDelta,
-            RewardArg::Geodesic => Reward::Geodesic,
-        },
-        encoding: match args.image_encoding {
-            EncodingArg::Raw => ImageEncoding::Raw,
-            EncodingArg::Png => ImageEncoding::Png,
-        },
+        reward: args.reward.into(),
+        encoding: args.image_encoding.into(),
         lerobot: args.format == FormatArg::Lerobot,
         lerobot_video: args.video,
         rerun: args.rerun.as_ref().map(|path| RerunOutput {

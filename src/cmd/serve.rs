@@ -1,6 +1,6 @@
-//! `minos serve`: flags → [`ServeConfig`] ([`config`]: DATA, episodes, agent, sensors,
-//! address and tokens), then [`minos::serve::start`]; prints the page's address and serves
-//! until the process ends.
+//! `minos serve`: flags → [`ServeConfig`] ([`config`]: DATA, episodes, variant, agent,
+//! sensors, reward, seed, address, tokens, host names, frames and limits), then
+//! [`minos::serve::start`]; prints the page's address and serves until the process ends.
 
 use std::net::SocketAddr;
 use std::path::PathBuf;
@@ -10,24 +10,17 @@ use std::time::Duration;
 use anyhow::{bail, Context as _};
 use minos::body::AgentPreset;
 use minos::episode::format::read_episodes;
-use minos::io::tables::ImageEncoding;
-use minos::run::metrics::Reward;
 use minos::serve::campaign::{Campaign, CampaignSpec};
-use minos::serve::{ServeConfig, Shared};
+use minos::serve::frames::DEFAULT_JPEG_QUALITY;
+use minos::serve::{FrameFormat, RateLimits, ServeConfig, Shared};
 use minos::sim::{AgentConfig, SensorSuite};
 use minos::store::DataDir;
 
-use super::common::{sensor_suite, PresetArg, RendererArg};
-use super::Context;
+use super::common::{on_variant, sensor_suite, EncodingArg, PresetArg, RendererArg, RewardArg};
 
-/// Encodings of `--image-encoding`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-enum EncodingArg {
-    /// Raw little-endian pixels.
-    Raw,
-    /// PNG (lossless but for float depth, 1 mm steps, and normals).
-    Png,
-}
+/// The environment variable an access token may come from (out of sight of `ps`).
+pub const ACCESS_TOKEN_ENV: &str = "MINOS_ACCESS_TOKEN";
+use super::Context;
 
 /// Serve a web page to explore scenes and record human demonstrations.
 ///
@@ -37,12 +30,15 @@ enum EncodingArg {
 /// manifest.json, plus played.parquet, the episodes it finished. `minos run --episodes
 /// DEMOS/<session>/played.parquet --agent replay:DEMOS/<session>/trajectories.parquet` (same
 /// --preset and --size) reproduces its tables byte for byte; `minos export-dataset` turns it
-/// into a LeRobot dataset. Binds to localhost; another address needs --access-token.
+/// into a LeRobot dataset. People are offered exactly the agent preset's actions (Habitat's:
+/// forward, turn left, turn right, stop). Binds to localhost; another address needs an
+/// access token (--access-token-file FILE or MINOS_ACCESS_TOKEN; --access-token shows it to
+/// every user of `ps`).
 #[derive(Debug, clap::Args)]
 #[command(
     after_help = "Examples:\n  minos serve --data DATA --episodes eps/point.parquet\n  \
     minos serve --data DATA --out demos --preset minos\n  \
-    minos serve --data DATA --episodes eps/object.parquet --bind 0.0.0.0:8080 --access-token \"$(openssl rand -hex 16)\""
+    openssl rand -hex 16 > token.txt; minos serve --data DATA --episodes eps/object.parquet --bind 0.0.0.0:8080 --access-token-file token.txt --allowed-host lab.example.org"
 )]
 pub struct Args {
     /// DATA folder (ingested and baked).
@@ -56,6 +52,10 @@ pub struct Args {
     /// (`minos campaign links`) and recorded in the campaign's state folder.
     #[arg(long, value_name = "FILE")]
     campaign: Option<PathBuf>,
+    /// Play every episode on this variant of its scene (scene and episode ids in the outputs
+    /// read `<scene>@NAME`, as with `minos run --variant`); explored scenes are loaded on it.
+    #[arg(long, value_name = "NAME")]
+    variant: Option<String>,
     /// Address to listen on.
     #[arg(long, default_value = "127.0.0.1:8080")]
     bind: SocketAddr,
@@ -63,9 +63,18 @@ pub struct Args {
     #[arg(long, default_value = "demos")]
     out: PathBuf,
     /// Token every request must carry (open the page as http://HOST:PORT/?access=TOKEN);
-    /// required to listen on an address other than localhost.
-    #[arg(long)]
+    /// required to listen on an address other than localhost. Visible to every user of the
+    /// machine in `ps`: prefer --access-token-file or the MINOS_ACCESS_TOKEN variable.
+    #[arg(long, conflicts_with = "access_token_file")]
     access_token: Option<String>,
+    /// File holding the access token (its first line; surrounding white space ignored).
+    #[arg(long, value_name = "FILE")]
+    access_token_file: Option<PathBuf>,
+    /// A host name the page may be reached by besides localhost and addresses (the name in
+    /// the link you send; repeatable). Requests for any other name are refused (DNS
+    /// rebinding).
+    #[arg(long = "allowed-host", value_name = "NAME")]
+    allowed_hosts: Vec<String>,
     /// Agent preset (body and motion); the grids must be baked for its body.
     #[arg(long, value_enum, default_value_t)]
     preset: PresetArg,
@@ -82,25 +91,75 @@ pub struct Args {
     /// Image storage in observations.parquet.
     #[arg(long, value_enum, default_value = "raw")]
     image_encoding: EncodingArg,
+    /// Reward recorded with each step: dist_time (MINOS), path_delta (MINOS) or geodesic
+    /// (Habitat), as `minos run --reward`.
+    #[arg(long, value_enum, default_value = "dist_time")]
+    reward: RewardArg,
+    /// Seed of sensor noise (as `minos run --seed`) and of free-exploration episodes.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Send camera images to the page losslessly (PNG) instead of as JPEG.
+    #[arg(long, conflicts_with = "jpeg_quality")]
+    lossless_frames: bool,
+    /// JPEG quality of the camera images sent to the page (1-100).
+    #[arg(long, default_value_t = DEFAULT_JPEG_QUALITY)]
+    jpeg_quality: u8,
     /// Sessions at once, at most (each holds a simulator).
     #[arg(long, default_value_t = 16)]
     max_sessions: usize,
     /// A session ends after this many seconds without a key press.
     #[arg(long, default_value_t = 600)]
     idle_timeout: u64,
+    /// Messages a page may send per second (key presses; twice as many in a burst).
+    #[arg(long, default_value_t = RateLimits::default().messages_per_second)]
+    max_messages_per_second: u32,
+    /// New sessions per minute per access token (as many in a burst).
+    #[arg(long, default_value_t = RateLimits::default().sessions_per_minute)]
+    max_new_sessions_per_minute: u32,
 }
 
-/// Flags → the server's configuration (reads the episode and sensor files and the manifest).
-pub fn config(args: &Args) -> anyhow::Result<(ServeConfig, SocketAddr)> {
-    if !args.bind.ip().is_loopback() && args.access_token.is_none() {
+/// The access token: `--access-token`, the first line of `--access-token-file`, or
+/// `env` (the value of [`ACCESS_TOKEN_ENV`]), in that order; none of them, none.
+fn access_token(args: &Args, env: Option<String>) -> anyhow::Result<Option<String>> {
+    if let Some(t) = &args.access_token {
+        return Ok(Some(t.clone()));
+    }
+    if let Some(path) = &args.access_token_file {
+        let text = std::fs::read_to_string(path)
+            .with_context(|| format!("--access-token-file {}", path.display()))?;
+        let token = text.lines().next().unwrap_or("").trim();
+        if token.is_empty() {
+            bail!("--access-token-file {}: empty", path.display());
+        }
+        return Ok(Some(token.to_string()));
+    }
+    match env {
+        Some(t) if t.trim().is_empty() => bail!("{ACCESS_TOKEN_ENV}: empty"),
+        Some(t) => Ok(Some(t.trim().to_string())),
+        None => Ok(None),
+    }
+}
+
+/// Flags → the server's configuration (reads the episode, sensor and token files, the
+/// manifest and the variant; `env`: the value of [`ACCESS_TOKEN_ENV`]).
+pub fn config(args: &Args, env: Option<String>) -> anyhow::Result<(ServeConfig, SocketAddr)> {
+    let access_token = access_token(args, env)?;
+    if !args.bind.ip().is_loopback() && access_token.is_none() {
         bail!(
-            "--bind {}: listening beyond this machine needs --access-token TOKEN (visitors open \
+            "--bind {}: listening beyond this machine needs an access token \
+             (--access-token-file FILE or {ACCESS_TOKEN_ENV}; visitors open \
              http://HOST:PORT/?access=TOKEN)",
             args.bind
         );
     }
     if args.access_token.as_deref() == Some("") {
         bail!("--access-token: empty");
+    }
+    if args.size == 0 {
+        bail!("--size 0: images need at least one pixel");
+    }
+    if args.idle_timeout == 0 {
+        bail!("--idle-timeout 0: every session would end at once");
     }
     let spec = args
         .campaign
@@ -119,6 +178,7 @@ pub fn config(args: &Args) -> anyhow::Result<(ServeConfig, SocketAddr)> {
         Some(path) => read_episodes(path)?,
         None => Vec::new(),
     };
+    let episodes = on_variant(&data, args.variant.as_deref(), episodes)?;
     // A campaign's agent and sensors win over the flags.
     let preset = spec
         .as_ref()
@@ -146,22 +206,30 @@ pub fn config(args: &Args) -> anyhow::Result<(ServeConfig, SocketAddr)> {
         body: AgentConfig::preset(preset),
         sensors,
         renderer: args.renderer.into(),
-        reward: Reward::DistTime,
-        encoding: match args.image_encoding {
-            EncodingArg::Raw => ImageEncoding::Raw,
-            EncodingArg::Png => ImageEncoding::Png,
-        },
-        seed: 0,
-        idle: Duration::from_secs(args.idle_timeout.max(1)),
+        reward: args.reward.into(),
+        encoding: args.image_encoding.into(),
+        seed: args.seed,
+        idle: Duration::from_secs(args.idle_timeout),
         command: std::env::args().collect(),
+        variant: args.variant.clone(),
+        frames: if args.lossless_frames {
+            FrameFormat::Png
+        } else {
+            FrameFormat::Jpeg(args.jpeg_quality)
+        },
     };
     Ok((
         ServeConfig {
             shared,
-            access_token: args.access_token.clone(),
+            access_token,
             max_sessions: args.max_sessions,
             connect_timeout: Duration::from_secs(30),
             send_timeout: Duration::from_secs(10),
+            allowed_hosts: args.allowed_hosts.clone(),
+            rate: RateLimits {
+                messages_per_second: args.max_messages_per_second,
+                sessions_per_minute: args.max_new_sessions_per_minute,
+            },
         },
         args.bind,
     ))
@@ -169,17 +237,14 @@ pub fn config(args: &Args) -> anyhow::Result<(ServeConfig, SocketAddr)> {
 
 /// Runs `minos serve`.
 pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
-    let (cfg, bind) = config(&args)?;
+    let (cfg, bind) = config(&args, std::env::var(ACCESS_TOKEN_ENV).ok())?;
     if let Some(file) = &args.campaign {
         return run_campaign(file, cfg, bind, ctx);
     }
-    let (episodes, scenes) = (cfg.shared.episodes.len(), cfg.shared.scenes.len());
+    let has_token = cfg.access_token.is_some();
     let running = minos::serve::start(cfg, bind)?;
-    let query = if args.access_token.is_some() {
-        "?access=<token>"
-    } else {
-        ""
-    };
+    let (episodes, scenes) = running.offered();
+    let query = if has_token { "?access=<token>" } else { "" };
     ctx.say(format!(
         "serving {episodes} episodes and {scenes} scenes (preset {}) -> sessions recorded in {}\n\
          open http://{}/{query}   (Ctrl-C stops; finished episodes are already on disk)",
@@ -200,6 +265,9 @@ fn run_campaign(
 ) -> anyhow::Result<ExitCode> {
     let spec = CampaignSpec::read(file)?;
     let state = spec.state.clone();
+    // A killed server's sessions hold finished episodes in their parts: finish them before
+    // the ledger is rebuilt from the session folders.
+    minos::serve::finish_interrupted_sessions(&cfg.shared);
     let campaign = Campaign::open(spec, &cfg.shared.episodes)?;
     let status = campaign.status();
     let (_, operator_from) = minos::serve::campaign::links::operator_token(&state)?;
@@ -230,13 +298,83 @@ mod tests {
     #[test]
     fn remote_binds_need_an_access_token() {
         let a = parse_flags::<Args>("--data /nonexistent --bind 0.0.0.0:8080").expect("flags");
-        let e = config(&a).unwrap_err().to_string();
-        assert!(e.contains("--access-token"), "{e}");
+        let e = config(&a, None).unwrap_err().to_string();
+        assert!(e.contains("access token"), "{e}");
         // Localhost needs none (it fails later, on the missing DATA folder).
         let a = parse_flags::<Args>("--data /nonexistent").expect("flags");
         assert_eq!(a.bind, "127.0.0.1:8080".parse::<SocketAddr>().unwrap());
-        let e = config(&a).unwrap_err().to_string();
+        let e = config(&a, None).unwrap_err().to_string();
         assert!(e.contains("/nonexistent"), "{e}");
         assert!(parse_flags::<Args>("--data D --image-encoding jpeg").is_err());
+    }
+
+    #[test]
+    fn the_access_token_comes_from_a_file_or_the_environment() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("token.txt");
+        std::fs::write(&file, "  f1le-t0ken \nsecond line\n").unwrap();
+        let remote = "--data /nonexistent --bind 0.0.0.0:8080";
+        let a = parse_flags::<Args>(&format!("{remote} --access-token-file {}", file.display()))
+            .expect("flags");
+        assert_eq!(
+            access_token(&a, None).unwrap().as_deref(),
+            Some("f1le-t0ken")
+        );
+        // A remote bind with a token from a file gets past the token check (and fails on
+        // the missing DATA folder).
+        let e = config(&a, None).unwrap_err().to_string();
+        assert!(e.contains("/nonexistent"), "{e}");
+        let a = parse_flags::<Args>(remote).expect("flags");
+        assert_eq!(
+            access_token(&a, Some("env-t0ken\n".into()))
+                .unwrap()
+                .as_deref(),
+            Some("env-t0ken")
+        );
+        let e = config(&a, Some("env-t0ken".into()))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("/nonexistent"), "{e}");
+        assert!(access_token(&a, Some(" ".into())).is_err());
+        std::fs::write(&file, "\n").unwrap();
+        let a = parse_flags::<Args>(&format!("{remote} --access-token-file {}", file.display()))
+            .expect("flags");
+        assert!(access_token(&a, None)
+            .unwrap_err()
+            .to_string()
+            .contains("empty"));
+        let missing = dir.path().join("missing.txt");
+        let a = parse_flags::<Args>(&format!(
+            "{remote} --access-token-file {}",
+            missing.display()
+        ))
+        .expect("flags");
+        assert!(access_token(&a, None)
+            .unwrap_err()
+            .to_string()
+            .contains("missing.txt"));
+    }
+
+    #[test]
+    fn nonsense_settings_are_refused() {
+        for (bad, says) in [
+            ("--size 0", "--size 0"),
+            ("--idle-timeout 0", "--idle-timeout 0"),
+            ("--access-token=", "empty"),
+        ] {
+            let a = parse_flags::<Args>(&format!("--data /nonexistent {bad}")).expect("flags");
+            let e = config(&a, None).unwrap_err().to_string();
+            assert!(e.contains(says), "{bad}: {e}");
+        }
+        // The rest reach the library's checks (tests/serve.rs): here they parse.
+        let a = parse_flags::<Args>(
+            "--data D --max-sessions 0 --max-messages-per-second 0 --jpeg-quality 0",
+        )
+        .expect("flags");
+        assert_eq!(
+            (a.max_sessions, a.max_messages_per_second, a.jpeg_quality),
+            (0, 0, 0)
+        );
+        assert!(parse_flags::<Args>("--data D --lossless-frames --jpeg-quality 50").is_err());
     }
 }

@@ -1,6 +1,8 @@
 //! What the page draws, as bytes: each camera image turned into RGB pixels (colour as is,
-//! depth grey — near is bright —, labels in their fixed colours), the top-down map of the
-//! navigation grid as a PNG, and the binary WebSocket messages that carry them.
+//! depth grey — near is bright —, labels in their fixed colours) and compressed as the
+//! server's [`FrameFormat`] says (JPEG by default, PNG when lossless frames are asked for),
+//! the top-down map of the navigation grid as a PNG, and the binary WebSocket messages that
+//! carry them.
 
 use image::ImageEncoder as _;
 
@@ -14,8 +16,106 @@ pub const KIND_CAMERA: u8 = 1;
 /// First byte of a binary message: the map of the current level as a PNG.
 pub const KIND_MAP: u8 = 2;
 /// Bytes before the payload of a binary message: kind, camera index, width and height (u16
-/// little-endian), two zero bytes.
+/// little-endian), the payload's format ([`FrameFormat::code`]; 0 for the map, a PNG), a
+/// zero byte.
 pub const HEADER: usize = 8;
+
+/// How camera images travel to the page.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FrameFormat {
+    /// JPEG at this quality (1–100): small, lossy (the default).
+    Jpeg(u8),
+    /// PNG (fast compression): lossless.
+    Png,
+    /// The RGB pixels as they are: lossless, no compression (for a client on this machine).
+    Raw,
+}
+
+impl Default for FrameFormat {
+    fn default() -> Self {
+        FrameFormat::Jpeg(DEFAULT_JPEG_QUALITY)
+    }
+}
+
+/// JPEG quality of [`FrameFormat::default`].
+pub const DEFAULT_JPEG_QUALITY: u8 = 85;
+
+impl FrameFormat {
+    /// The format's byte in a message header: 0 raw RGB, 1 JPEG, 2 PNG.
+    pub fn code(self) -> u8 {
+        match self {
+            FrameFormat::Raw => 0,
+            FrameFormat::Jpeg(_) => 1,
+            FrameFormat::Png => 2,
+        }
+    }
+
+    /// Its name, as the page's `/api/info` says it.
+    pub fn name(self) -> &'static str {
+        match self {
+            FrameFormat::Raw => "raw",
+            FrameFormat::Jpeg(_) => "jpeg",
+            FrameFormat::Png => "png",
+        }
+    }
+
+    /// Whether the page sees exactly the pixels.
+    pub fn lossless(self) -> bool {
+        !matches!(self, FrameFormat::Jpeg(_))
+    }
+
+    /// The format a camera of `modality` is sent in: JPEG only for colour (and grey) images;
+    /// depth, labels and normals — flat areas with hard edges, where JPEG smears and costs
+    /// more (PNG of a 256² label image: ≈ 0.02–0.05 ms against 1.4–3 ms as JPEG) — go as PNG.
+    pub fn for_modality(self, modality: Modality) -> FrameFormat {
+        match (self, modality) {
+            (FrameFormat::Jpeg(_), Modality::Color | Modality::Gray) => self,
+            (FrameFormat::Jpeg(_), _) => FrameFormat::Png,
+            _ => self,
+        }
+    }
+}
+
+/// The camera message of `rgb` (`width` × `height` RGB pixels) as camera `index`, its
+/// pixels compressed as `format` says.
+pub fn camera_message(
+    format: FrameFormat,
+    index: u8,
+    width: u32,
+    height: u32,
+    rgb: &[u8],
+) -> Result<Vec<u8>, image::ImageError> {
+    let mut out = message(KIND_CAMERA, index, width, height, &[]);
+    out[6] = format.code();
+    match format {
+        FrameFormat::Raw => out.extend_from_slice(rgb),
+        FrameFormat::Jpeg(quality) => {
+            out.reserve(rgb.len() / 8);
+            image::codecs::jpeg::JpegEncoder::new_with_quality(&mut out, quality.clamp(1, 100))
+                .write_image(rgb, width, height, image::ExtendedColorType::Rgb8)?;
+        }
+        FrameFormat::Png => {
+            out.reserve(rgb.len() / 4);
+            png_fast(&mut out, rgb, width, height)?;
+        }
+    }
+    Ok(out)
+}
+
+/// `rgb` as a PNG (fast compression, the Sub filter) appended to `out`.
+fn png_fast(
+    out: &mut Vec<u8>,
+    rgb: &[u8],
+    width: u32,
+    height: u32,
+) -> Result<(), image::ImageError> {
+    image::codecs::png::PngEncoder::new_with_quality(
+        out,
+        image::codecs::png::CompressionType::Fast,
+        image::codecs::png::FilterType::Sub,
+    )
+    .write_image(rgb, width, height, image::ExtendedColorType::Rgb8)
+}
 
 /// Depth shown as black from this far on (m).
 const DEPTH_SHOWN: f32 = 10.0;
@@ -111,17 +211,7 @@ pub fn map(grid: &NavGrid, level: u16) -> Result<Map, image::ImageError> {
     let scale = (MAP_SIDE / grid.nx.max(grid.nz).max(1)).max(1);
     let img = render_level(grid, level, scale);
     let mut png = Vec::new();
-    image::codecs::png::PngEncoder::new_with_quality(
-        &mut png,
-        image::codecs::png::CompressionType::Fast,
-        image::codecs::png::FilterType::Sub,
-    )
-    .write_image(
-        img.as_raw(),
-        img.width(),
-        img.height(),
-        image::ExtendedColorType::Rgb8,
-    )?;
+    png_fast(&mut png, img.as_raw(), img.width(), img.height())?;
     Ok(Map {
         png,
         size: [img.width(), img.height()],
@@ -164,5 +254,55 @@ mod tests {
     fn messages_carry_their_header() {
         let m = message(KIND_CAMERA, 2, 300, 2, &[9, 8]);
         assert_eq!(m, vec![1, 2, 44, 1, 2, 0, 0, 0, 9, 8]);
+    }
+
+    /// A 64² test picture: smooth gradients with a hard edge.
+    fn picture() -> Vec<u8> {
+        (0..64u32 * 64)
+            .flat_map(|i| {
+                let (x, y) = (i % 64, i / 64);
+                let edge = if x > 32 { 200 } else { 20 };
+                [(x * 4) as u8, (y * 4) as u8, edge]
+            })
+            .collect()
+    }
+
+    #[test]
+    fn frames_decode_to_their_pixels_exactly_when_lossless_and_closely_as_jpeg() {
+        let rgb = picture();
+        let decode = |m: &[u8]| {
+            image::load_from_memory(&m[HEADER..])
+                .expect("decodable")
+                .to_rgb8()
+                .into_raw()
+        };
+        let png = camera_message(FrameFormat::Png, 1, 64, 64, &rgb).expect("png");
+        assert_eq!(&png[..HEADER], &[1, 1, 64, 0, 64, 0, 2, 0]);
+        assert_eq!(decode(&png), rgb, "PNG frames are lossless");
+        let raw = camera_message(FrameFormat::Raw, 0, 64, 64, &rgb).expect("raw");
+        assert_eq!(raw[6], 0);
+        assert_eq!(&raw[HEADER..], &rgb[..]);
+        let jpeg = camera_message(FrameFormat::default(), 0, 64, 64, &rgb).expect("jpeg");
+        assert_eq!(jpeg[6], 1);
+        assert!(jpeg.len() < rgb.len() / 4, "{} bytes", jpeg.len());
+        let back = decode(&jpeg);
+        assert_eq!(back.len(), rgb.len());
+        // Mean absolute error of a quality-85 JPEG of smooth gradients: a few levels.
+        let mae = back
+            .iter()
+            .zip(&rgb)
+            .map(|(a, b)| (i32::from(*a) - i32::from(*b)).abs())
+            .sum::<i32>() as f64
+            / rgb.len() as f64;
+        assert!(mae < 4.0, "mean error {mae}");
+        assert!(FrameFormat::Png.lossless() && !FrameFormat::default().lossless());
+        let jpeg = FrameFormat::default();
+        assert_eq!(jpeg.for_modality(Modality::Color), jpeg);
+        assert_eq!(jpeg.for_modality(Modality::Semantic), FrameFormat::Png);
+        assert_eq!(jpeg.for_modality(Modality::Depth), FrameFormat::Png);
+        assert_eq!(
+            FrameFormat::Raw.for_modality(Modality::Depth),
+            FrameFormat::Raw
+        );
     }
 }

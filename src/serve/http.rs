@@ -1,5 +1,6 @@
 //! The HTTP side of `minos serve`: the page, the server's description, creating sessions,
-//! and the guard every request passes (access token, same origin).
+//! and the guard every request passes (its `Host` this server's, the access token, same
+//! origin; the security headers added to every response).
 
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -14,6 +15,7 @@ use axum::{Json, Router};
 use serde::Deserialize;
 use serde_json::json;
 
+use super::security::{add_headers, host_allowed, API_POLICY};
 use super::session::{Shared, Start};
 use super::token::{looks_like_token, random_hex, same, session_token};
 use super::{App, Slot};
@@ -28,6 +30,11 @@ const SCRIPT: &str = include_str!("page/app.js");
 pub fn page() -> String {
     HTML.replace("/*STYLE*/", STYLE)
         .replace("/*SCRIPT*/", SCRIPT)
+}
+
+/// The content-security policy of [`page`]: its own inline script and style, by hash.
+pub fn page_policy() -> String {
+    super::security::page_policy(SCRIPT, STYLE)
 }
 
 /// Every route, behind the guard.
@@ -52,19 +59,32 @@ async fn not_found() -> Response {
     error(StatusCode::NOT_FOUND, "not found")
 }
 
-/// Refuses a request without the access token (when the server has one) and one sent by a
-/// page of another origin (its `Origin` is not the `Host` it was sent to).
+/// Refuses a request whose `Host` is not this server's (DNS rebinding), one without the
+/// access token (when the server has one) and one sent by a page of another origin (its
+/// `Origin` is not the `Host` it was sent to); adds the security headers to every response.
 async fn guard(State(app): State<Arc<App>>, req: Request, next: Next) -> Response {
+    let mut response = checked(&app, req, next).await;
+    add_headers(response.headers_mut(), API_POLICY);
+    response
+}
+
+async fn checked(app: &App, req: Request, next: Next) -> Response {
+    let host = req
+        .headers()
+        .get(header::HOST)
+        .and_then(|h| h.to_str().ok());
+    if !host_allowed(host, app.addr, &app.allowed_hosts) {
+        tracing::warn!(
+            "refused a request for host {:?} (not this server's; --allowed-host NAME lets a name in)",
+            host.unwrap_or("")
+        );
+        return error(
+            StatusCode::MISDIRECTED_REQUEST,
+            "this server does not answer for that host name",
+        );
+    }
     if let Some(expected) = &app.access_token {
-        let from_header = req
-            .headers()
-            .get("x-minos-access")
-            .and_then(|v| v.to_str().ok())
-            .map(str::to_string);
-        let from_query = Query::<HashMap<String, String>>::try_from_uri(req.uri())
-            .ok()
-            .and_then(|q| q.0.get("access").cloned());
-        let given = from_header.or(from_query).unwrap_or_default();
+        let given = credential(req.headers(), req.uri());
         if !same(&given, expected) {
             return error(
                 StatusCode::UNAUTHORIZED,
@@ -98,19 +118,13 @@ fn same_origin(headers: &HeaderMap) -> bool {
 async fn index(State(app): State<Arc<App>>) -> Response {
     let mut r = app.page.clone().into_response();
     let h = r.headers_mut();
-    let set = |h: &mut HeaderMap, k: header::HeaderName, v: &'static str| {
-        h.insert(k, HeaderValue::from_static(v));
-    };
-    set(h, header::CONTENT_TYPE, "text/html; charset=utf-8");
-    set(h, header::CACHE_CONTROL, "no-store");
-    set(h, header::REFERRER_POLICY, "no-referrer");
-    set(h, header::X_CONTENT_TYPE_OPTIONS, "nosniff");
-    set(
-        h,
-        header::CONTENT_SECURITY_POLICY,
-        "default-src 'none'; script-src 'unsafe-inline'; style-src 'unsafe-inline'; \
-         img-src 'self' blob: data:; connect-src 'self'",
+    h.insert(
+        header::CONTENT_TYPE,
+        HeaderValue::from_static("text/html; charset=utf-8"),
     );
+    if let Ok(policy) = HeaderValue::from_str(&app.page_policy) {
+        h.insert(header::CONTENT_SECURITY_POLICY, policy);
+    }
     r
 }
 
@@ -130,7 +144,8 @@ async fn info(State(app): State<Arc<App>>) -> Response {
         .collect();
     Json(json!({
         "preset": s.preset.name(),
-        "actions": Shared::actions(),
+        "actions": s.actions(),
+        "frames": s.frames.name(),
         "sensors": sensors,
         "scenes": s.scenes,
         "episodes": episodes,
@@ -149,8 +164,37 @@ struct CreateRequest {
     scene: Option<String>,
 }
 
+/// The access token a request carries (header or query), if any.
+fn credential(headers: &HeaderMap, uri: &axum::http::Uri) -> String {
+    headers
+        .get("x-minos-access")
+        .and_then(|v| v.to_str().ok())
+        .map(str::to_string)
+        .or_else(|| {
+            Query::<HashMap<String, String>>::try_from_uri(uri)
+                .ok()
+                .and_then(|q| q.0.get("access").cloned())
+        })
+        .unwrap_or_default()
+}
+
 /// Creates a session: its token (the only way to its socket) and its name (its folder).
-async fn create(State(app): State<Arc<App>>, body: axum::body::Bytes) -> Response {
+/// Sessions are rate-limited per access token (see [`super::RateLimits`]).
+async fn create(
+    State(app): State<Arc<App>>,
+    headers: HeaderMap,
+    uri: axum::http::Uri,
+    body: axum::body::Bytes,
+) -> Response {
+    if !app.new_sessions.take(&credential(&headers, &uri)) {
+        return error(
+            StatusCode::TOO_MANY_REQUESTS,
+            format!(
+                "more than {} new sessions a minute: try again shortly",
+                app.rate.sessions_per_minute
+            ),
+        );
+    }
     let req: CreateRequest = if body.iter().all(u8::is_ascii_whitespace) {
         CreateRequest::default()
     } else {

@@ -11,13 +11,23 @@
 //! camera images and the map out, see [`frames`]). Nothing in a request names a file: scenes
 //! and episodes are looked up among those the server loaded, session folders are named by
 //! the server. Security: session tokens are 256 random bits from the OS; with an access
-//! token every request must carry it (`?access=` or the `x-minos-access` header); a request
-//! from a page of another origin is refused; a socket that does not connect in time, a page
-//! idle too long or one that stops reading ends its session.
+//! token every request must carry it (`?access=` or the `x-minos-access` header), compared
+//! in constant time; a request whose `Host` is not this server's (DNS rebinding) or that
+//! comes from a page of another origin is refused; every response carries a
+//! content-security policy and the headers that go with it ([`security`]); new sessions per
+//! access token and messages per session are rate-limited ([`RateLimits`]); a socket that
+//! does not connect in time, a page idle too long or one that stops reading ends its session;
+//! settings that make no sense and grids baked for another body than the agent's are refused
+//! at start-up ([`checks`]). A server starting on an output folder first finishes the
+//! sessions a killed server left there ([`recover`]).
 
 pub mod campaign;
+mod checks;
 pub mod frames;
 mod http;
+pub mod rate;
+mod recover;
+mod security;
 pub mod session;
 pub mod token;
 mod ws;
@@ -30,6 +40,8 @@ use std::time::{Duration, Instant};
 
 use crate::episode::Episode;
 use crate::scene::SceneRef;
+pub use frames::FrameFormat;
+pub use rate::RateLimits;
 pub use session::{Shared, Start};
 
 /// How a server runs, beyond what its sessions share.
@@ -45,6 +57,11 @@ pub struct ServeConfig {
     pub connect_timeout: Duration,
     /// A page that does not take a message within this is disconnected.
     pub send_timeout: Duration,
+    /// Host names the server answers for besides `localhost` and addresses (lowercase; the
+    /// names people reach it by, behind a proxy or on a network).
+    pub allowed_hosts: Vec<String>,
+    /// Rate limits of new sessions and of messages.
+    pub rate: RateLimits,
 }
 
 /// Why a server could not start.
@@ -72,6 +89,13 @@ pub enum ServeError {
     /// A campaign's episode cannot be served.
     #[error("{0}")]
     Campaign(String),
+    /// A setting makes no sense (the message names it and why).
+    #[error("{0}")]
+    Setting(String),
+    /// Scenes to be played cannot be (not baked, or baked for another body than the
+    /// agent's); the message lists them.
+    #[error("{0}")]
+    NotReady(String),
 }
 
 /// A session: created by `POST /api/sessions`, started when its WebSocket connects.
@@ -95,8 +119,18 @@ struct App {
     max_sessions: usize,
     connect_timeout: Duration,
     send_timeout: Duration,
+    /// The address the server listens on.
+    addr: SocketAddr,
+    /// Host names it answers for besides localhost and addresses.
+    allowed_hosts: Vec<String>,
+    /// Rate limits.
+    rate: RateLimits,
+    /// New sessions per access token.
+    new_sessions: rate::Keyed,
     /// The page, with its style and script inlined.
     page: String,
+    /// The page's content-security policy.
+    page_policy: String,
     /// Sessions by token.
     slots: Mutex<HashMap<String, Slot>>,
     /// `shared.data`'s root and `shared.out`, canonical.
@@ -169,6 +203,11 @@ impl Running {
         self.app.slots().len()
     }
 
+    /// The episodes and the scenes (for exploration) it offers, after the start-up checks.
+    pub fn offered(&self) -> (usize, usize) {
+        (self.app.shared.episodes.len(), self.app.shared.scenes.len())
+    }
+
     /// Blocks until the server stops (it runs until the process ends).
     pub fn wait(mut self) {
         if let Some(t) = self.thread.take() {
@@ -221,9 +260,18 @@ fn canonical(path: &Path) -> Result<PathBuf, ServeError> {
     })
 }
 
-/// Binds `bind` and serves `cfg` on a thread of its own until stopped.
+/// Binds `bind` and serves `cfg` on a thread of its own until stopped. Refuses settings
+/// that make no sense and scenes whose grids do not serve the agent ([`ServeError`]), then
+/// finishes the sessions a killed server left in the output folder, before it listens.
 pub fn start(cfg: ServeConfig, bind: SocketAddr) -> Result<Running, ServeError> {
     launch(cfg, None, bind)
+}
+
+/// Finishes the sessions a killed server left in `shared.out` (their finished episodes'
+/// tables written, the interrupted episode dropped, no litter): [`start`] does it before it
+/// listens; a campaign does it before it rebuilds its ledger from the sessions on disk.
+pub fn finish_interrupted_sessions(shared: &Shared) {
+    recover::finish_sessions(shared);
 }
 
 /// Serves `campaign` (opened over `cfg.shared.episodes`, its sessions recorded in
@@ -242,12 +290,15 @@ fn launch(
     campaign: Option<Arc<campaign::Campaign>>,
     bind: SocketAddr,
 ) -> Result<Running, ServeError> {
+    checks::settings(&cfg)?;
     let ServeConfig {
         mut shared,
         access_token,
         max_sessions,
         connect_timeout,
         send_timeout,
+        allowed_hosts,
+        rate,
     } = cfg;
     std::fs::create_dir_all(&shared.out).map_err(|source| ServeError::Io {
         path: shared.out.clone(),
@@ -258,6 +309,8 @@ fn launch(
     if campaign.is_none() {
         shared.episodes = playable_episodes(std::mem::take(&mut shared.episodes), &shared.scenes);
     }
+    shared.scenes = checks::grids(&shared)?;
+    recover::finish_sessions(&shared);
     let listener = std::net::TcpListener::bind(bind)
         .map_err(|source| ServeError::Bind { addr: bind, source })?;
     let addr = listener
@@ -268,11 +321,22 @@ fn launch(
         .map_err(|source| ServeError::Bind { addr: bind, source })?;
     let app = Arc::new(App {
         shared: Arc::new(shared),
-        access_token: access_token.filter(|t| !t.is_empty()),
-        max_sessions: max_sessions.max(1),
+        access_token,
+        max_sessions,
         connect_timeout,
         send_timeout,
+        addr,
+        allowed_hosts: allowed_hosts
+            .iter()
+            .map(|h| h.to_ascii_lowercase())
+            .collect(),
+        rate,
+        new_sessions: rate::Keyed::new(
+            f64::from(rate.sessions_per_minute) / 60.0,
+            f64::from(rate.sessions_per_minute),
+        ),
         page: http::page(),
+        page_policy: http::page_policy(),
         slots: Mutex::new(HashMap::new()),
         data_root,
         campaign,
@@ -318,6 +382,14 @@ fn launch(
                     loop {
                         tick.tick().await;
                         reaper.reap();
+                    }
+                });
+                // Frames are small messages sent back to back: without TCP_NODELAY, Nagle's
+                // algorithm holds each one until the last is acknowledged (40 ms delayed ACKs).
+                use axum::serve::ListenerExt as _;
+                let listener = listener.tap_io(|tcp| {
+                    if let Err(e) = tcp.set_nodelay(true) {
+                        tracing::debug!("TCP_NODELAY: {e}");
                     }
                 });
                 let serve = axum::serve(listener, router).with_graceful_shutdown(async {

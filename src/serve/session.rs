@@ -14,7 +14,7 @@ use std::time::Duration;
 
 use serde_json::json;
 
-use super::frames::{self, display_rgb, KIND_CAMERA, KIND_MAP};
+use super::frames::{self, display_rgb, FrameFormat, KIND_MAP};
 use crate::body::{AgentPreset, BodyRule};
 use crate::episode::goal::{goal_positions, shortest_path};
 use crate::episode::instruction::instruction;
@@ -30,7 +30,7 @@ use crate::progress::NoProgress;
 use crate::run::agents::{Agent, AgentError, Decision, STOP};
 use crate::run::metrics::{reached, EpisodeMetrics, Reward};
 use crate::shard::Shard;
-use crate::sim::{Actions, AgentConfig, Observation, SensorSuite, Simulator};
+use crate::sim::{AgentConfig, Observation, SensorSuite, Simulator};
 use crate::store::DataDir;
 
 /// Step limit of a free-exploration episode.
@@ -61,24 +61,40 @@ pub struct Shared {
     pub reward: Reward,
     /// Image storage of the observations.
     pub encoding: ImageEncoding,
-    /// Seed of sensor noise.
+    /// Seed of sensor noise and of the sessions' free-exploration episodes.
     pub seed: u64,
     /// A session ends after this long without a message from its page.
     pub idle: Duration,
     /// The server's command line (for each session's manifest).
     pub command: Vec<String>,
+    /// The variant every episode is played on (its ids already read `<scene>@NAME`, as
+    /// `minos run --variant` moves them); explored scenes are loaded on it too.
+    pub variant: Option<String>,
+    /// How camera images travel to the page.
+    pub frames: FrameFormat,
 }
 
 impl Shared {
-    /// The single actions of the page, `stop` last.
-    pub fn actions() -> Vec<&'static str> {
-        let mut names: Vec<&str> = Actions::NAMES
-            .iter()
-            .copied()
-            .filter(|n| *n != "idle")
-            .collect();
+    /// The actions people are offered: exactly the agent's action set (what a policy
+    /// trained on the recordings can do, e.g. Habitat's forward and turns), `stop` last.
+    pub fn actions(&self) -> Vec<&'static str> {
+        let mut names: Vec<&str> = self.body.action_names().to_vec();
         names.push(STOP);
         names
+    }
+
+    /// The decision named `name` when it is one of [`Shared::actions`]; otherwise why not.
+    pub fn decision(&self, name: &str) -> Result<Decision, String> {
+        let offered = self.actions();
+        match Decision::from_name(name) {
+            Some(d) if offered.contains(&name) => Ok(d),
+            known => Err(format!(
+                "{} action `{name}`: the {} agent's actions are {}",
+                if known.is_some() { "no" } else { "unknown" },
+                self.preset.name(),
+                offered.join(", ")
+            )),
+        }
     }
 
     /// Bit mask of the cameras sent with every step: the first colour camera (or the first).
@@ -166,10 +182,9 @@ impl Link {
     }
 }
 
-/// Runs session `name` until its page leaves; writes into `shared.out/<name>/`. Tells the
-/// page how it ended.
-pub fn run(shared: Arc<Shared>, name: &str, start: Start, link: Arc<Link>, session_seed: u64) {
-    let cfg = RunConfig {
+/// The run configuration of session `name` (its folder `shared.out/<name>/`).
+pub fn run_config(shared: &Shared, name: &str) -> RunConfig {
+    RunConfig {
         batch: Some(1),
         data: shared.data.clone(),
         out: shared.out.join(name),
@@ -190,12 +205,18 @@ pub fn run(shared: Arc<Shared>, name: &str, start: Start, link: Arc<Link>, sessi
         allow_body_mismatch: false,
         provenance: Provenance {
             command: shared.command.clone(),
-            episodes_file: Some(cfg_episodes_file(&shared, name)),
-            variant: None,
+            episodes_file: Some(cfg_episodes_file(shared, name)),
+            variant: shared.variant.clone(),
             agent: format!("human:{name}"),
             preset: Some(shared.preset),
         },
-    };
+    }
+}
+
+/// Runs session `name` until its page leaves; writes into `shared.out/<name>/`. Tells the
+/// page how it ended.
+pub fn run(shared: Arc<Shared>, name: &str, start: Start, link: Arc<Link>, session_seed: u64) {
+    let cfg = run_config(&shared, name);
     let clock = Arc::new(Mutex::new(Clock::default()));
     let seat = match &start {
         Start::Campaign(seat) => Some(seat.clone()),
@@ -219,6 +240,7 @@ pub fn run(shared: Arc<Shared>, name: &str, start: Start, link: Arc<Link>, sessi
         episode: None,
         map: None,
         clock,
+        frames: shared.frames,
     });
     let end = match run_live(&cfg, &mut source, agent, LockMode::Fail) {
         Ok(report) => json!({"type": "end", "episodes": report.episodes.len(), "session": name}),
@@ -253,6 +275,8 @@ struct HumanAgent {
     map: Option<(String, u16)>,
     /// Action times of the current episode.
     clock: Arc<Mutex<Clock>>,
+    /// How camera images are sent.
+    frames: FrameFormat,
 }
 
 fn gone() -> AgentError {
@@ -350,7 +374,13 @@ impl Agent for HumanAgent {
                 continue;
             };
             let [w, h] = cam.resolution;
-            let msg = frames::message(KIND_CAMERA, i as u8, w, h, &rgb);
+            let format = self.frames.for_modality(cam.modality);
+            let msg = frames::camera_message(format, i as u8, w, h, &rgb).map_err(|e| {
+                AgentError::External {
+                    command: "human".into(),
+                    message: format!("camera {}: {e}", cam.name),
+                }
+            })?;
             if !self.link.send(Update::Binary(msg)) {
                 return Err(gone());
             }
@@ -410,6 +440,12 @@ impl Source {
         let n = self.explored;
         self.explored += 1;
         let seed = crate::seed::derive_seed(self.session_seed, &[scene, &n.to_string(), "explore"]);
+        let scene = &match &self.shared.variant {
+            Some(v) => crate::scene::SceneRef::base(scene)
+                .with_variant(Some(v))
+                .to_string(),
+            None => scene.to_string(),
+        };
         let batch = sample_scenes(
             &self.shared.data,
             &[(scene.to_string(), String::new())],

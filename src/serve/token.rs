@@ -1,5 +1,5 @@
 //! Secrets of `minos serve`: session tokens drawn from the operating system's random source,
-//! and comparisons that take the same time wherever two strings differ.
+//! and comparisons that take the same time whatever the strings hold and wherever they differ.
 
 /// Bytes of randomness in a session token (shown as twice as many hex digits).
 pub const TOKEN_BYTES: usize = 32;
@@ -21,10 +21,14 @@ pub fn looks_like_token(s: &str) -> bool {
     s.len() == TOKEN_BYTES * 2 && s.bytes().all(|b| matches!(b, b'0'..=b'9' | b'a'..=b'f'))
 }
 
-/// `a == b` in time that depends only on their lengths.
+/// `a == b` in time that depends on neither string's contents nor on where they differ:
+/// their sha256 digests (32 bytes, whatever the lengths) compared in constant time
+/// ([`subtle`], which keeps the optimiser from shortcutting the comparison).
 pub fn same(a: &str, b: &str) -> bool {
-    let (a, b) = (a.as_bytes(), b.as_bytes());
-    a.len() == b.len() && a.iter().zip(b).fold(0u8, |acc, (x, y)| acc | (x ^ y)) == 0
+    use sha2::{Digest, Sha256};
+    use subtle::ConstantTimeEq;
+    let (a, b) = (Sha256::digest(a.as_bytes()), Sha256::digest(b.as_bytes()));
+    a.as_slice().ct_eq(b.as_slice()).into()
 }
 
 #[cfg(test)]
@@ -47,6 +51,16 @@ mod tests {
         assert!(same("abc", "abc"));
         assert!(!same("abc", "abd"));
         assert!(!same("abc", "abcd"));
+        assert!(!same("abc", ""));
         assert!(same("", ""));
+        // A difference in the first or the last byte, or only in length, is a difference.
+        let t = "f".repeat(64);
+        for other in [
+            format!("0{}", &t[1..]),
+            format!("{}0", &t[..63]),
+            t[..63].to_string(),
+        ] {
+            assert!(!same(&t, &other), "{other}");
+        }
     }
 }

@@ -1,6 +1,6 @@
 //! A session's WebSocket: starts the session's thread, forwards the page's commands to it
-//! and its updates to the page. Commands are JSON: `{"action": NAME}` (an action of
-//! `Actions::NAMES` or `stop`), `{"next": null | EPISODE_ID}`, `{"views": [CAMERA, …]}`
+//! and its updates to the page. Commands are JSON: `{"action": NAME}` (one of the agent's
+//! actions, [`Shared::actions`], or `stop`; any other is refused), `{"next": null | EPISODE_ID}`, `{"views": [CAMERA, …]}`
 //! (the cameras to send besides colour), `{"end": true}`.
 
 use std::sync::atomic::{AtomicU32, Ordering};
@@ -9,9 +9,9 @@ use std::sync::{Arc, Mutex};
 use axum::extract::ws::{Message, WebSocket};
 use serde_json::{json, Value};
 
+use super::rate::Bucket;
 use super::session::{self, Command, Link, Shared, Start, Update};
 use super::App;
-use crate::run::agents::Decision;
 
 /// What a text message from the page asks.
 #[derive(Debug, PartialEq)]
@@ -25,8 +25,7 @@ fn parse(text: &str, shared: &Shared) -> Result<Parsed, String> {
     let v: Value = serde_json::from_str(text).map_err(|e| format!("not JSON: {e}"))?;
     if let Some(a) = v.get("action") {
         let name = a.as_str().ok_or("action: not text")?;
-        let d = Decision::from_name(name).ok_or_else(|| format!("unknown action `{name}`"))?;
-        return Ok(Parsed::Command(Command::Act(d)));
+        return Ok(Parsed::Command(Command::Act(shared.decision(name)?)));
     }
     if let Some(n) = v.get("next") {
         return Ok(Parsed::Command(Command::Next(
@@ -81,9 +80,21 @@ pub async fn drive(
         return;
     }
     let send_timeout = app.send_timeout;
+    // The session token's rate limit: a burst of two seconds' worth, then the rate.
+    let per_second = f64::from(app.rate.messages_per_second);
+    let mut bucket = Bucket::new(per_second, 2.0 * per_second, std::time::Instant::now());
     loop {
         tokio::select! {
             incoming = socket.recv() => match incoming {
+                Some(Ok(Message::Text(_))) if !bucket.take(std::time::Instant::now()) => {
+                    let reply = json!({"type": "error", "fatal": false, "message": format!(
+                        "too many messages: at most {} a second; this one was ignored",
+                        app.rate.messages_per_second)});
+                    let send = socket.send(Message::Text(reply.to_string().into()));
+                    if !matches!(tokio::time::timeout(send_timeout, send).await, Ok(Ok(()))) {
+                        break;
+                    }
+                }
                 Some(Ok(Message::Text(text))) => match parse(text.as_str(), &app.shared) {
                     Ok(Parsed::Views(mask)) => views.store(mask, Ordering::Relaxed),
                     Ok(Parsed::Command(c)) => {
@@ -123,6 +134,7 @@ pub async fn drive(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::run::agents::Decision;
 
     fn shared() -> Shared {
         Shared {
@@ -140,6 +152,8 @@ mod tests {
             seed: 0,
             idle: std::time::Duration::from_secs(1),
             command: Vec::new(),
+            variant: None,
+            frames: Default::default(),
         }
     }
 
@@ -174,6 +188,35 @@ mod tests {
         );
         assert_eq!(parse(r#"{"views":["../x"]}"#, &s), Ok(Parsed::Views(0b001)));
         assert!(parse(r#"{"action":"fly"}"#, &s).is_err());
+        // Habitat's agent moves forward and turns: nothing else is offered or taken.
+        assert_eq!(s.actions(), ["forward", "turn_left", "turn_right", "stop"]);
+        for name in [
+            "backward",
+            "strafe_left",
+            "strafe_right",
+            "look_up",
+            "look_down",
+            "idle",
+        ] {
+            let e = parse(&format!(r#"{{"action":"{name}"}}"#), &s).unwrap_err();
+            assert!(
+                e.contains(name) && e.contains("habitat") && e.contains("turn_right"),
+                "{e}"
+            );
+        }
+        // MINOS's continuous agent also backs and strafes (and does not look up or down).
+        let minos = Shared {
+            preset: crate::body::AgentPreset::Minos,
+            body: crate::sim::AgentConfig::preset(crate::body::AgentPreset::Minos),
+            ..shared()
+        };
+        for name in ["backward", "strafe_left", "strafe_right"] {
+            assert!(
+                parse(&format!(r#"{{"action":"{name}"}}"#), &minos).is_ok(),
+                "{name}"
+            );
+        }
+        assert!(parse(r#"{"action":"look_up"}"#, &minos).is_err());
         assert!(parse("not json", &s).is_err());
         assert!(parse(r#"{"hello":1}"#, &s).is_err());
     }

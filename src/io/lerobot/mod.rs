@@ -50,8 +50,8 @@ use crate::parquet_io::ParquetFileError;
 use crate::progress::Progress;
 use data::{data_schema, episode_batch, EpisodeFrames};
 use features::FeatureError;
-pub use meta::CODEBASE_VERSION;
 pub use meta::FileIndex;
+pub use meta::CODEBASE_VERSION;
 use meta::{EpisodeMeta, VideoPlace};
 pub use source::RunTables;
 use source::{read_episodes, read_steps, EpisodeRow, ObservationRows, StepRow};
@@ -583,7 +583,6 @@ fn write_into(
                 .map_err(|message| LerobotError::Write { path, message })?;
         }
     }
-
 
     meta::write_tasks(root, &tasks)?;
     meta::write_episodes(root, &metas, &features)?;

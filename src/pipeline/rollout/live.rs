@@ -1,22 +1,29 @@
 //! A run fed one episode at a time by its caller: an interactive session (`minos serve`)
 //! plays the episodes a person chooses, with an agent that waits for that person's actions.
 //! Each episode is rolled out exactly as [`run_with`](super::run_with) rolls it out (the
-//! same simulator set-up, episode loop and part files), and after each finished episode the
-//! run's tables, `metrics.json` and `manifest.json` are rewritten from the finished parts
-//! (each file under a temporary name, then renamed), so the output folder always holds a
-//! complete run of the episodes finished so far, in episode-id order: a session killed
-//! mid-episode leaves exactly the episodes it finished, and `minos run --agent
-//! replay:DIR/trajectories.parquet` over them gives the same tables. The finished episodes
-//! themselves are written last, as an episode file, `DIR/played.parquet` ([`PLAYED`]): the
-//! `--episodes` of that replay.
+//! same simulator set-up, episode loop and part files). A finished episode costs only its
+//! own files: its parts in `DIR/.parts/` (`<index>.traj.parquet`, `<index>.obs.parquet`,
+//! the episode itself as `<index>.episode.parquet`, and `<index>.json`, its metrics, last —
+//! the mark that it finished), each written under a temporary name and renamed, so nothing
+//! grows with the episodes already played. When the run ends (the source has no more), the
+//! run's tables, `metrics.json` and `manifest.json` are written once from the finished parts,
+//! in episode-id order, then the finished episodes in the order played as an episode file,
+//! `DIR/played.parquet` ([`PLAYED`]): the `--episodes` of `minos run --agent
+//! replay:DIR/trajectories.parquet`, which gives the same tables. A run killed mid-session
+//! leaves its finished episodes in `DIR/.parts/` and no table; [`finish_live`] (which `minos
+//! serve` calls on its output folder at start-up) writes the outputs from them — the same
+//! bytes as if the session had ended normally after its last finished episode — and removes
+//! the parts.
 
 use std::collections::BTreeSet;
 use std::path::Path;
 
 use super::episode::run_episode;
+use super::parts::{part, read_done};
 use super::scene::{self, SceneRun};
 use super::{finish, io_error, preflight, Failed, RolloutError, RunConfig, RunReport};
 use crate::atomic::sweep_stale;
+use crate::episode::format::{read_episodes, write_episodes};
 use crate::episode::Episode;
 use crate::lock::{DirLock, LockMode};
 use crate::navmesh::geodesic::Geodesic;
@@ -27,21 +34,28 @@ use crate::run::metrics::EpisodeMetrics;
 /// its tables.
 pub const PLAYED: &str = "played.parquet";
 
+/// Extension of the part file that holds an episode of a live run (its episode record).
+const EPISODE_PART: &str = "episode.parquet";
+
 /// Where the episodes of a live run come from, and who hears how they ended.
 pub trait EpisodeSource {
     /// The next episode to play (it may block while a person chooses); `None` ends the run.
     fn next(&mut self) -> Option<Episode>;
-    /// An episode ended: its metrics once the run's outputs include it, or why it did not
+    /// An episode ended: its metrics once its part files are complete (the run's outputs
+    /// will include it, even if the process dies now: see [`finish_live`]), or why it did not
     /// finish (its scene cannot run, it was played already, the agent gave up).
     fn finished(&mut self, episode: &Episode, outcome: Result<&EpisodeMetrics, String>);
 }
 
 /// Plays the episodes `source` hands out with `agent` into `cfg.out` (holding its writer
-/// lock, taken as `mode` says), rewriting the run's outputs after every finished episode;
-/// returns when `source` has no more. `cfg.agent`, `cfg.shard`, `cfg.resume` and
+/// lock, taken as `mode` says), each into its own part files; when `source` has no more,
+/// writes the run's outputs from them. `cfg.agent`, `cfg.shard`, `cfg.resume` and
 /// `cfg.rerun` are not used: the agent is `agent`, and every episode is played once (an
 /// episode id played already is refused). An episode that fails is reported to `source`
-/// and left out of the outputs; only a file that cannot be written stops the run.
+/// and left out of the outputs; only a file that cannot be written stops the run. Finished
+/// episodes that a killed earlier run left in `cfg.out` are first made into that run's
+/// outputs ([`finish_live`]), which this run's then replace (`minos serve` gives every
+/// session a folder of its own, so this does not happen there).
 pub fn run_live(
     cfg: &RunConfig,
     source: &mut dyn EpisodeSource,
@@ -54,7 +68,7 @@ pub fn run_live(
         sweep_stale(dir).map_err(io_error(dir))?;
     }
     if parts.exists() {
-        std::fs::remove_dir_all(&parts).map_err(io_error(&parts))?;
+        finish_parts(cfg, &parts)?;
     }
     std::fs::create_dir_all(&parts).map_err(io_error(&parts))?;
     let mut live = Live {
@@ -107,9 +121,85 @@ pub fn run_live(
         agent = Some(run.agent);
         // A pending episode of the same scene (after a refused one) reloads it: rare.
     }
+    live.write_outputs()?;
     if live.report.failures.is_empty() {
         let _ = std::fs::remove_dir_all(&parts);
     }
+    Ok(live.report)
+}
+
+/// Writes the outputs of a live run that was killed: the finished episodes in
+/// `cfg.out/.parts/` (those whose metrics and episode parts exist, in the order played)
+/// become the run's tables, `metrics.json`, `manifest.json` and `played.parquet` — the bytes
+/// the run would have written had it ended after its last finished episode — and the parts,
+/// and whatever a killed writer left under temporary names, are removed. `None` when
+/// `cfg.out` holds no parts (nothing to do); `Some` with an empty report when none of its
+/// episodes finished (the folder is then left without tables, as such a run leaves it).
+/// Takes the folder's writer lock (fails at once while a live process holds it).
+pub fn finish_live(cfg: &RunConfig) -> Result<Option<RunReport>, RolloutError> {
+    let parts = cfg.out.join(".parts");
+    if !parts.is_dir() {
+        return Ok(None);
+    }
+    let _lock = DirLock::acquire(&cfg.out, "serve", LockMode::Fail)?;
+    for dir in [cfg.out.as_path(), parts.as_path()] {
+        sweep_stale(dir).map_err(io_error(dir))?;
+    }
+    finish_parts(cfg, &parts).map(Some)
+}
+
+/// [`finish_live`] with the lock held and the temporaries swept.
+fn finish_parts(cfg: &RunConfig, parts: &Path) -> Result<RunReport, RolloutError> {
+    let mut indices: Vec<usize> = Vec::new();
+    for entry in std::fs::read_dir(parts).map_err(io_error(parts))? {
+        let name = entry.map_err(io_error(parts))?.file_name();
+        let name = name.to_string_lossy();
+        if let Some(stem) = name.strip_suffix(".json") {
+            if !stem.is_empty() && stem.bytes().all(|b| b.is_ascii_digit()) {
+                if let Ok(i) = stem.parse() {
+                    indices.push(i);
+                }
+            }
+        }
+    }
+    indices.sort_unstable();
+    let mut live = Live {
+        cfg,
+        parts,
+        played: Vec::new(),
+        report: RunReport::default(),
+    };
+    for i in indices {
+        let episode_part = part(parts, i, EPISODE_PART);
+        let episode = match read_episodes(&episode_part) {
+            Ok(mut e) if e.len() == 1 => e.remove(0),
+            Ok(e) => {
+                tracing::warn!(
+                    "{}: {} episodes, not one: left out",
+                    episode_part.display(),
+                    e.len()
+                );
+                continue;
+            }
+            Err(e) => {
+                tracing::warn!("{e}: episode left out");
+                continue;
+            }
+        };
+        let metrics = match read_done(parts, i) {
+            Ok(m) => m,
+            Err(e) => {
+                tracing::warn!(
+                    "{}: {e}: episode left out",
+                    part(parts, i, "json").display()
+                );
+                continue;
+            }
+        };
+        live.played.push((i, episode, metrics));
+    }
+    live.write_outputs()?;
+    std::fs::remove_dir_all(parts).map_err(io_error(parts))?;
     Ok(live.report)
 }
 
@@ -135,12 +225,25 @@ impl Live<'_> {
         preflight::check(self.cfg, &[(0, ep.clone())]).map_err(|e| e.to_string())
     }
 
-    /// Plays `ep` into its part files, then rewrites the run's outputs with it.
+    /// Plays `ep` into its part files: the episode record first, its metrics last.
     fn play(&mut self, run: &mut SceneRun<'_>, ep: &Episode) -> Result<EpisodeMetrics, Failed> {
         let index = self.played.len();
+        write_episodes(
+            &part(self.parts, index, EPISODE_PART),
+            std::slice::from_ref(ep),
+        )
+        .map_err(|e| Failed::Write(e.to_string()))?;
         let m = run_episode(run, ep, self.cfg, self.parts, index, false).map_err(Failed::of)?;
         self.played.push((index, ep.clone(), m));
-        // The outputs of `run_with` over the finished episodes: in episode-id order.
+        Ok(m)
+    }
+
+    /// Writes the outputs of `run_with` over the finished episodes (in episode-id order),
+    /// then the finished episodes in the order played. Nothing when none finished.
+    fn write_outputs(&mut self) -> Result<(), RolloutError> {
+        if self.played.is_empty() {
+            return Ok(());
+        }
         let mut sorted: Vec<&(usize, Episode, EpisodeMetrics)> = self.played.iter().collect();
         sorted.sort_by(|a, b| a.1.episode_id.cmp(&b.1.episode_id));
         let mine: Vec<(usize, Episode)> = sorted.iter().map(|(i, e, _)| (*i, e.clone())).collect();
@@ -151,11 +254,9 @@ impl Live<'_> {
             self.parts,
             &BTreeSet::new(),
             &mut self.report,
-        )
-        .map_err(|e| Failed::Write(e.to_string()))?;
+        )?;
         let played: Vec<Episode> = self.played.iter().map(|(_, e, _)| e.clone()).collect();
-        crate::episode::format::write_episodes(&self.cfg.out.join(PLAYED), &played)
-            .map_err(|e| Failed::Write(e.to_string()))?;
-        Ok(m)
+        write_episodes(&self.cfg.out.join(PLAYED), &played)
+            .map_err(|e| RolloutError::Write(e.to_string()))
     }
 }

@@ -40,7 +40,7 @@ use crate::store::DataDir;
 pub use crate::render::RendererChoice;
 pub use agent_kind::{AgentKind, AgentNameError, AGENT_NAMES};
 pub use episode::EpisodeError;
-pub use live::{run_live, EpisodeSource, PLAYED};
+pub use live::{finish_live, run_live, EpisodeSource, PLAYED};
 use parts::part;
 pub use scene::load_assets as load_scene_assets;
 use scene::SceneRun;

@@ -18,13 +18,20 @@
     info: null, session: null, episode: null, step: null, done: false, busy: false,
     queued: null, sentAt: 0, latencies: [], frames: 0, results: [], ended: false, error: null,
   };
-  let ws = null, mapImage = null, episodeStart = 0, cameras = [];
+  let ws = null, mapImage = null, episodeStart = 0, cameras = [], offered = new Set();
 
   async function init() {
     const r = await fetch("/api/info", { headers });
     if (!r.ok) { $("instruction").textContent = "The server refused: " + (await r.text()); return; }
     const info = state.info = await r.json();
     cameras = info.sensors;
+    // Exactly the agent's actions: the others' buttons go, their keys do nothing.
+    offered = new Set(info.actions);
+    for (const b of document.querySelectorAll("button[data-action]")) b.hidden = !offered.has(b.dataset.action);
+    const names = { forward: "W/↑ forward", backward: "S/↓ back", turn_left: "A/← turn left",
+      turn_right: "D/→ turn right", strafe_left: "Q strafe left", strafe_right: "E strafe right",
+      look_up: "R look up", look_down: "F look down", stop: "Space stop (say you are at the goal)" };
+    $("keys").textContent = "Keys: " + info.actions.map((a) => names[a] || a).join(" · ") + " · N next episode";
     $("preset").textContent = "agent preset: " + info.preset;
     for (const e of info.episodes) $("episode").add(new Option(`${e.id} — ${e.instruction}`, e.id));
     if (!info.episodes.length) $("episode").add(new Option("(no episode file)", ""));
@@ -120,21 +127,33 @@
     const cam = cameras[index];
     const canvas = $("cam-" + (cam ? cam.name : "color")) || $("cam-color");
     if (canvas.width !== w || canvas.height !== h) { canvas.width = w; canvas.height = h; }
-    const rgb = new Uint8Array(buf, 8), ctx = canvas.getContext("2d");
-    const img = ctx.createImageData(w, h), px = img.data;
-    for (let i = 0, j = 0; i < rgb.length; i += 3, j += 4) {
-      px[j] = rgb[i]; px[j + 1] = rgb[i + 1]; px[j + 2] = rgb[i + 2]; px[j + 3] = 255;
-    }
-    ctx.putImageData(img, 0, 0);
-    if (cam && cam.modality === "color") {
-      state.frames++;
-      if (state.busy) {
-        const ms = performance.now() - state.sentAt;
-        state.latencies.push(ms);
-        $("latency").textContent = `${ms.toFixed(0)} ms`;
-        state.busy = false;
-        if (state.queued) { const a = state.queued; state.queued = null; act(a); }
+    const ctx = canvas.getContext("2d"), format = head.getUint8(6);
+    const shown = () => { if (cam && cam.modality === "color") frameShown(); };
+    if (format === 0) {
+      // Raw RGB pixels.
+      const rgb = new Uint8Array(buf, 8), img = ctx.createImageData(w, h), px = img.data;
+      for (let i = 0, j = 0; i < rgb.length; i += 3, j += 4) {
+        px[j] = rgb[i]; px[j + 1] = rgb[i + 1]; px[j + 2] = rgb[i + 2]; px[j + 3] = 255;
       }
+      ctx.putImageData(img, 0, 0);
+      shown();
+      return;
+    }
+    const type = format === 1 ? "image/jpeg" : "image/png";
+    createImageBitmap(new Blob([new Uint8Array(buf, 8)], { type }))
+      .then((bitmap) => { ctx.drawImage(bitmap, 0, 0); bitmap.close(); shown(); })
+      .catch((e) => showError("a frame could not be decoded: " + e));
+  }
+
+  // The colour frame of the last action is on screen: its latency, and the queued action.
+  function frameShown() {
+    state.frames++;
+    if (state.busy) {
+      const ms = performance.now() - state.sentAt;
+      state.latencies.push(ms);
+      $("latency").textContent = `${ms.toFixed(0)} ms`;
+      state.busy = false;
+      if (state.queued) { const a = state.queued; state.queued = null; act(a); }
     }
   }
 
@@ -163,6 +182,7 @@
   }
 
   function act(name) {
+    if (!offered.has(name)) return;
     if (!ws || ws.readyState !== 1 || !state.episode || state.done || state.step == null) return;
     if (state.busy) { state.queued = name; return; }
     state.busy = true; state.sentAt = performance.now();
