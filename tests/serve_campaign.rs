@@ -28,7 +28,7 @@ use minos::run::metrics::Reward;
 use minos::serve::campaign::links::{mint, Participant};
 use minos::serve::campaign::record::SessionQc;
 use minos::serve::campaign::{Campaign, CampaignSpec};
-use minos::serve::{start_campaign, Running, ServeConfig, Shared};
+use minos::serve::{start_campaign, FrameFormat, RateLimits, Running, ServeConfig, Shared};
 use minos::shard::Shard;
 use minos::sim::{AgentConfig, RendererChoice, SensorSuite};
 use minos::store::DataDir;
@@ -67,6 +67,7 @@ fn run_config(data: &DataDir, out: &Path, agent: AgentKind) -> RunConfig {
         reward: Reward::DistTime,
         encoding: ImageEncoding::Raw,
         lerobot: false,
+        lerobot_video: false,
         rerun: None,
         allow_body_mismatch: false,
         provenance: Provenance::default(),
@@ -198,6 +199,8 @@ fn start(f: &Fixture, campaign: Campaign) -> Running {
         seed: 0,
         idle: Duration::from_secs(60),
         command: vec!["minos".into(), "serve".into()],
+        variant: None,
+        frames: FrameFormat::default(),
     };
     start_campaign(
         ServeConfig {
@@ -206,6 +209,8 @@ fn start(f: &Fixture, campaign: Campaign) -> Running {
             max_sessions: 4,
             connect_timeout: Duration::from_secs(5),
             send_timeout: Duration::from_secs(5),
+            allowed_hosts: Vec::new(),
+            rate: RateLimits::default(),
         },
         campaign,
         "127.0.0.1:0".parse().unwrap(),

@@ -20,7 +20,7 @@ use minos::progress::NoProgress;
 use minos::run::metrics::Reward;
 use minos::serve::campaign::links::mint;
 use minos::serve::campaign::{Campaign, CampaignSpec};
-use minos::serve::{start_campaign, ServeConfig, Shared};
+use minos::serve::{start_campaign, FrameFormat, RateLimits, ServeConfig, Shared};
 use minos::shard::Shard;
 use minos::sim::{AgentConfig, RendererChoice, SensorSuite};
 use serde_json::Value;
@@ -28,9 +28,9 @@ use serde_json::Value;
 #[test]
 fn a_participant_goes_from_tutorial_to_done_and_the_operator_sees_it() {
     let Some(browser) = chromium() else {
-        println!(
-            "skipped: no Chromium (install Debian's `chromium` package, as .ci/run does when \
-             root, or set MINOS_CHROMIUM)"
+        common::skip(
+            "no Chromium (install Debian's `chromium` package, as .ci/run does when root, or \
+             set MINOS_CHROMIUM)",
         );
         return;
     };
@@ -70,6 +70,7 @@ fn a_participant_goes_from_tutorial_to_done_and_the_operator_sees_it() {
             reward: Reward::DistTime,
             encoding: ImageEncoding::Raw,
             lerobot: false,
+            lerobot_video: false,
             rerun: None,
             allow_body_mismatch: false,
             provenance: Provenance::default(),
@@ -117,11 +118,15 @@ fn a_participant_goes_from_tutorial_to_done_and_the_operator_sees_it() {
                 seed: 0,
                 idle: Duration::from_secs(120),
                 command: vec!["minos".into(), "serve".into()],
+                variant: None,
+                frames: FrameFormat::default(),
             },
             access_token: None,
             max_sessions: 2,
             connect_timeout: Duration::from_secs(30),
             send_timeout: Duration::from_secs(10),
+            allowed_hosts: Vec::new(),
+            rate: RateLimits::default(),
         },
         campaign,
         "127.0.0.1:0".parse().unwrap(),

@@ -21,7 +21,7 @@ pub fn host_allowed(host: Option<&str>, bound: SocketAddr, allowed: &[String]) -
         // An address is not a name: no rebinding can make a page of another site send it.
         return ip.is_loopback() || ip == bound.ip() || bound.ip().is_unspecified();
     }
-    name == "localhost" || allowed.iter().any(|a| *a == name)
+    name == "localhost" || allowed.contains(&name)
 }
 
 /// The host name of a `Host` header without its port, lowercase, without a final dot (IPv6
