@@ -137,9 +137,16 @@ fn serve_config(f: &Fixture, out: &Path, access: Option<&str>, idle: Duration) -
         connect_timeout: Duration::from_millis(800),
         send_timeout: Duration::from_secs(5),
         allowed_hosts: Vec::new(),
-        rate: RateLimits::default(),
+        // A scripted client answers each frame at once, faster than a person's keys.
+        rate: SCRIPTED,
     }
 }
+
+/// Rate limits for scripted clients (the rate-limit test sets its own).
+const SCRIPTED: RateLimits = RateLimits {
+    messages_per_second: 10_000,
+    sessions_per_minute: 10_000,
+};
 
 fn server(f: &Fixture, out: &Path, access: Option<&str>, idle: Duration) -> Running {
     start(
@@ -391,7 +398,7 @@ fn no_request_reaches_outside_data_and_the_output_folder() {
             connect_timeout: Duration::from_secs(5),
             send_timeout: Duration::from_secs(5),
             allowed_hosts: Vec::new(),
-            rate: RateLimits::default(),
+            rate: SCRIPTED,
         },
         "127.0.0.1:0".parse().unwrap(),
     )

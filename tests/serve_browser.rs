@@ -9,13 +9,11 @@
 mod common;
 
 use std::net::SocketAddr;
-use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use common::baked_houses;
-use common::serve::{http, Ws};
-use futures_util::{SinkExt, StreamExt};
+use common::browser::{chromium, key_of, launch, Cdp};
 use minos::body::AgentPreset;
 use minos::episode::sample::SampleConfig;
 use minos::episode::Task;
@@ -29,144 +27,6 @@ use minos::serve::{start, FrameFormat, RateLimits, ServeConfig, Shared};
 use minos::shard::Shard;
 use minos::sim::{AgentConfig, RendererChoice, SensorSuite};
 use serde_json::{json, Value};
-use tokio_tungstenite::tungstenite::Message;
-
-/// The Chromium binary: `MINOS_CHROMIUM`, or `chromium` / `chromium-browser` on the PATH.
-fn chromium() -> Option<PathBuf> {
-    if let Some(p) = std::env::var_os("MINOS_CHROMIUM") {
-        return Some(PathBuf::from(p));
-    }
-    let path = std::env::var_os("PATH")?;
-    std::env::split_paths(&path)
-        .flat_map(|d| ["chromium", "chromium-browser"].map(|n| d.join(n)))
-        .find(|p| p.is_file())
-}
-
-/// Kills the browser when the test ends, however it ends.
-struct Browser(Child);
-
-impl Drop for Browser {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
-/// A DevTools protocol connection to one page.
-struct Cdp {
-    ws: Ws,
-    next: u64,
-}
-
-impl Cdp {
-    async fn call(&mut self, method: &str, params: Value) -> Value {
-        self.next += 1;
-        let id = self.next;
-        let msg = json!({"id": id, "method": method, "params": params}).to_string();
-        self.ws.send(Message::Text(msg.into())).await.expect("send");
-        loop {
-            let m = tokio::time::timeout(Duration::from_secs(60), self.ws.next())
-                .await
-                .expect("DevTools answers")
-                .expect("open")
-                .expect("message");
-            if let Message::Text(t) = m {
-                let v: Value = serde_json::from_str(t.as_str()).expect("JSON");
-                if v["id"] == id {
-                    assert!(v.get("error").is_none(), "{method}: {v}");
-                    return v["result"].clone();
-                }
-            }
-        }
-    }
-
-    /// Evaluates `expr` in the page and returns its value.
-    async fn eval(&mut self, expr: &str) -> Value {
-        let r = self
-            .call(
-                "Runtime.evaluate",
-                json!({"expression": expr, "returnByValue": true}),
-            )
-            .await;
-        r["result"]["value"].clone()
-    }
-
-    /// Polls `expr` until it is true (fails the test after 60 s).
-    async fn until(&mut self, expr: &str) {
-        let t = Instant::now();
-        while self.eval(expr).await != Value::Bool(true) {
-            assert!(t.elapsed() < Duration::from_secs(60), "never true: {expr}");
-            tokio::time::sleep(Duration::from_millis(20)).await;
-        }
-    }
-
-    /// Presses and releases a key as a keyboard would.
-    async fn press(&mut self, key: &str, code: &str, key_code: u32) {
-        let text = if key.chars().count() == 1 { key } else { "" };
-        for kind in ["keyDown", "keyUp"] {
-            self.call(
-                "Input.dispatchKeyEvent",
-                json!({"type": kind, "key": key, "code": code, "text": if kind == "keyDown" { text } else { "" },
-                       "windowsVirtualKeyCode": key_code, "nativeVirtualKeyCode": key_code}),
-            )
-            .await;
-        }
-    }
-}
-
-/// The key the page maps to a decision.
-fn key_of(d: &Decision) -> (&'static str, &'static str, u32) {
-    match d.name().as_str() {
-        "forward" => ("ArrowUp", "ArrowUp", 38),
-        "backward" => ("ArrowDown", "ArrowDown", 40),
-        "turn_left" => ("ArrowLeft", "ArrowLeft", 37),
-        "turn_right" => ("ArrowRight", "ArrowRight", 39),
-        "strafe_left" => ("q", "KeyQ", 81),
-        "strafe_right" => ("e", "KeyE", 69),
-        "look_up" => ("r", "KeyR", 82),
-        "look_down" => ("f", "KeyF", 70),
-        "stop" => (" ", "Space", 32),
-        other => panic!("no key for {other}"),
-    }
-}
-
-/// Starts Chromium on `url`; returns it and its DevTools port.
-fn launch(browser: &Path, profile: &Path, url: &str) -> (Browser, u16) {
-    let mut child = Command::new(browser)
-        .args([
-            "--headless=new",
-            "--no-sandbox",
-            "--disable-gpu",
-            "--no-first-run",
-            "--disable-extensions",
-            "--window-size=1280,1000",
-            "--remote-debugging-port=0",
-        ])
-        .arg(format!("--user-data-dir={}", profile.display()))
-        .arg(url)
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("chromium starts");
-    // Chromium writes its port into the profile's DevToolsActivePort.
-    let t = Instant::now();
-    let port = loop {
-        if let Ok(text) = std::fs::read_to_string(profile.join("DevToolsActivePort")) {
-            if let Some(p) = text.lines().next().and_then(|l| l.trim().parse().ok()) {
-                break p;
-            }
-        }
-        if let Ok(Some(status)) = child.try_wait() {
-            panic!("chromium exited: {status}");
-        }
-        assert!(
-            t.elapsed() < Duration::from_secs(60),
-            "chromium gave no DevTools port"
-        );
-        std::thread::sleep(Duration::from_millis(100));
-    };
-    (Browser(child), port)
-}
 
 #[test]
 fn a_person_in_chromium_reaches_the_goal_and_the_demo_replays() {
@@ -275,27 +135,12 @@ fn a_person_in_chromium_reaches_the_goal_and_the_demo_replays() {
     );
     let profile = dir.path().join("chromium-profile");
     let (_browser, port) = launch(&browser, &profile, &url);
-    let devtools: SocketAddr = format!("127.0.0.1:{port}").parse().unwrap();
-    let (_, targets) = http(devtools, "GET", "/json/list", &[], None);
-    let targets: Value = serde_json::from_str(&targets).expect("DevTools targets");
-    let page = targets
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|t| t["type"] == "page")
-        .expect("a page")["webSocketDebuggerUrl"]
-        .as_str()
-        .unwrap()
-        .to_string();
     let rt = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()
         .unwrap();
     let name = rt.block_on(async {
-        let (ws, _) = tokio_tungstenite::connect_async(page)
-            .await
-            .expect("DevTools socket");
-        let mut cdp = Cdp { ws, next: 0 };
+        let mut cdp = Cdp::first_page(port).await;
         cdp.until("window.minos && window.minos.step !== null && window.minos.frames > 0")
             .await;
         let text = cdp

@@ -210,7 +210,11 @@ fn start(f: &Fixture, campaign: Campaign) -> Running {
             connect_timeout: Duration::from_secs(5),
             send_timeout: Duration::from_secs(5),
             allowed_hosts: Vec::new(),
-            rate: RateLimits::default(),
+            // A scripted client answers each frame at once, faster than a person's keys.
+            rate: RateLimits {
+                messages_per_second: 10_000,
+                sessions_per_minute: 10_000,
+            },
         },
         campaign,
         "127.0.0.1:0".parse().unwrap(),
@@ -360,6 +364,8 @@ fn serve_process(f: &Fixture, file: &Path) -> (std::process::Child, SocketAddr) 
         .arg(f.data.root())
         .arg("--campaign")
         .arg(file)
+        // A scripted client answers each frame at once, faster than a person's keys.
+        .args(["--max-messages-per-second", "10000"])
         .stdout(std::process::Stdio::piped())
         .spawn()
         .expect("minos serve starts");

@@ -137,6 +137,9 @@ struct App {
     data_root: PathBuf,
     /// The campaign this server runs (`minos serve --campaign`).
     campaign: Option<Arc<campaign::Campaign>>,
+    /// Session threads still running (a stopped server waits for them to write their
+    /// tables).
+    session_threads: std::sync::atomic::AtomicUsize,
 }
 
 impl App {
@@ -215,7 +218,8 @@ impl Running {
         }
     }
 
-    /// Stops listening and closes every socket (sessions then end as if their page left).
+    /// Stops listening and closes every socket (sessions then end as if their page left),
+    /// and returns once every session has written its tables (at most a minute).
     pub fn stop(mut self) {
         self.halt();
     }
@@ -226,6 +230,16 @@ impl Running {
         }
         if let Some(t) = self.thread.take() {
             let _ = t.join();
+        }
+        let deadline = std::time::Instant::now() + Duration::from_secs(60);
+        while self
+            .app
+            .session_threads
+            .load(std::sync::atomic::Ordering::Acquire)
+            > 0
+            && std::time::Instant::now() < deadline
+        {
+            std::thread::sleep(Duration::from_millis(20));
         }
     }
 }
@@ -340,6 +354,7 @@ fn launch(
         slots: Mutex::new(HashMap::new()),
         data_root,
         campaign,
+        session_threads: std::sync::atomic::AtomicUsize::new(0),
     });
     if let Some(c) = &app.campaign {
         // Every scene a participant may be handed lies inside DATA.

@@ -68,14 +68,17 @@ pub async fn drive(
     let shared = app.shared.clone();
     let ending = app.clone();
     let thread_token = token.clone();
+    app.session_threads.fetch_add(1, Ordering::AcqRel);
     let spawned = std::thread::Builder::new()
         .name(format!("session {name}"))
         .spawn(move || {
             session::run(shared, &name, start, link, seed);
             ending.remove(&thread_token);
+            ending.session_threads.fetch_sub(1, Ordering::AcqRel);
             tracing::info!("session {name} ended");
         });
     if spawned.is_err() {
+        app.session_threads.fetch_sub(1, Ordering::AcqRel);
         app.remove(&token);
         return;
     }
