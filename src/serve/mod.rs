@@ -14,12 +14,12 @@
 //! token every request must carry it (`?access=` or the `x-minos-access` header), compared
 //! in constant time; a request whose `Host` is not this server's (DNS rebinding) or that
 //! comes from a page of another origin is refused; every response carries a
-//! content-security policy and the headers that go with it ([`security`]); new sessions per
+//! content-security policy and the headers that go with it (`security.rs`); new sessions per
 //! access token and messages per session are rate-limited ([`RateLimits`]); a socket that
 //! does not connect in time, a page idle too long or one that stops reading ends its session;
 //! settings that make no sense and grids baked for another body than the agent's are refused
-//! at start-up ([`checks`]). A server starting on an output folder first finishes the
-//! sessions a killed server left there ([`recover`]).
+//! at start-up (`checks.rs`). A server starting on an output folder first finishes the
+//! sessions a killed server left there (`recover.rs`).
 
 pub mod campaign;
 mod checks;

@@ -43,7 +43,7 @@ pub struct FileIndex {
 }
 
 impl FileIndex {
-    /// The next file (a new chunk after [`CHUNK_SIZE`] files), as LeRobot numbers them.
+    /// The next file (a new chunk after `CHUNK_SIZE` files), as LeRobot numbers them.
     pub fn next(self) -> FileIndex {
         if self.file + 1 == CHUNK_SIZE {
             FileIndex {
