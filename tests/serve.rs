@@ -13,19 +13,18 @@ use std::path::Path;
 use std::sync::OnceLock;
 use std::time::{Duration, Instant};
 
-use common::serve::{connect, create, http, play, recv, send, Msg};
+use common::serve::{connect, create, http, play, recv, run_config, send, Msg, SCRIPTED_RATE};
 use common::{baked_houses, every_task_episodes, minos};
 use minos::body::AgentPreset;
 use minos::episode::format::read_episodes;
 use minos::episode::Episode;
 use minos::generate::GenerateConfig;
 use minos::io::tables::{read_replay, ImageEncoding};
-use minos::pipeline::rollout::{run, AgentKind, Provenance, RunConfig, PLAYED};
+use minos::pipeline::rollout::{run, AgentKind, RunConfig, PLAYED};
 use minos::progress::NoProgress;
 use minos::run::agents::Decision;
 use minos::run::metrics::Reward;
 use minos::serve::{start, FrameFormat, RateLimits, Running, ServeConfig, ServeError, Shared};
-use minos::shard::Shard;
 use minos::sim::{AgentConfig, RendererChoice, SensorSuite};
 use minos::store::DataDir;
 
@@ -49,29 +48,6 @@ fn sensors() -> SensorSuite {
     SensorSuite::minos(32)
 }
 
-fn run_config(data: &DataDir, out: &Path, agent: AgentKind) -> RunConfig {
-    RunConfig {
-        batch: None,
-        data: data.clone(),
-        out: out.to_path_buf(),
-        agent,
-        body: AgentConfig::habitat(),
-        sensors: sensors(),
-        renderer: RendererChoice::Cpu,
-        max_steps: None,
-        seed: 0,
-        shard: Shard::ALL,
-        resume: false,
-        reward: Reward::DistTime,
-        encoding: ImageEncoding::Raw,
-        lerobot: false,
-        lerobot_video: false,
-        rerun: None,
-        allow_body_mismatch: false,
-        provenance: Provenance::default(),
-    }
-}
-
 /// One generated house, baked; one episode of each task on it; the oracle run over them.
 fn fixture() -> &'static Fixture {
     static F: OnceLock<Fixture> = OnceLock::new();
@@ -92,7 +68,7 @@ fn fixture() -> &'static Fixture {
         assert_eq!(episodes.len(), 3, "one episode per task");
         let out = dir.path().join("oracle");
         let report = run(
-            &run_config(&data, &out, AgentKind::Oracle),
+            &run_config(&data, &out, AgentKind::Oracle, sensors()),
             &episodes,
             &NoProgress,
         )
@@ -137,16 +113,9 @@ fn serve_config(f: &Fixture, out: &Path, access: Option<&str>, idle: Duration) -
         connect_timeout: Duration::from_millis(800),
         send_timeout: Duration::from_secs(5),
         allowed_hosts: Vec::new(),
-        // A scripted client answers each frame at once, faster than a person's keys.
-        rate: SCRIPTED,
+        rate: SCRIPTED_RATE,
     }
 }
-
-/// Rate limits for scripted clients (the rate-limit test sets its own).
-const SCRIPTED: RateLimits = RateLimits {
-    messages_per_second: 10_000,
-    sessions_per_minute: 10_000,
-};
 
 fn server(f: &Fixture, out: &Path, access: Option<&str>, idle: Duration) -> Running {
     start(
@@ -269,7 +238,7 @@ fn a_session_records_what_minos_run_writes_and_replays_byte_for_byte() {
     let replay_dir = f.dir.path().join("replay");
     let steps = read_replay(&session.join("trajectories.parquet")).expect("session steps");
     run(
-        &run_config(&f.data, &replay_dir, AgentKind::Replay(steps)),
+        &run_config(&f.data, &replay_dir, AgentKind::Replay(steps), sensors()),
         &played,
         &NoProgress,
     )
@@ -398,7 +367,7 @@ fn no_request_reaches_outside_data_and_the_output_folder() {
             connect_timeout: Duration::from_secs(5),
             send_timeout: Duration::from_secs(5),
             allowed_hosts: Vec::new(),
-            rate: SCRIPTED,
+            rate: SCRIPTED_RATE,
         },
         "127.0.0.1:0".parse().unwrap(),
     )
@@ -613,7 +582,7 @@ fn a_server_killed_mid_episode_leaves_the_finished_episodes_whole() {
         &RunConfig {
             reward: Reward::Geodesic,
             seed: 7,
-            ..run_config(&f.data, &replay_dir, AgentKind::Replay(steps))
+            ..run_config(&f.data, &replay_dir, AgentKind::Replay(steps), sensors())
         },
         std::slice::from_ref(first),
         &NoProgress,

@@ -14,22 +14,21 @@ use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 use std::time::{Duration, Instant};
 
-use common::serve::{connect, http, play, recv, send, Msg, Ws};
+use common::serve::{connect, http, play, recv, run_config, send, Msg, Ws, SCRIPTED_RATE};
 use common::{baked_houses, every_task_episodes, minos, RunOk};
 use minos::body::AgentPreset;
 use minos::episode::format::{read_episodes, write_episodes};
 use minos::episode::Episode;
 use minos::generate::GenerateConfig;
 use minos::io::tables::{read_replay, ImageEncoding};
-use minos::pipeline::rollout::{run, AgentKind, Provenance, RunConfig, PLAYED};
+use minos::pipeline::rollout::{run, AgentKind, PLAYED};
 use minos::progress::NoProgress;
 use minos::run::agents::Decision;
 use minos::run::metrics::Reward;
 use minos::serve::campaign::links::{mint, Participant};
 use minos::serve::campaign::record::SessionQc;
 use minos::serve::campaign::{Campaign, CampaignSpec};
-use minos::serve::{start_campaign, FrameFormat, RateLimits, Running, ServeConfig, Shared};
-use minos::shard::Shard;
+use minos::serve::{start_campaign, FrameFormat, Running, ServeConfig, Shared};
 use minos::sim::{AgentConfig, RendererChoice, SensorSuite};
 use minos::store::DataDir;
 use serde_json::Value;
@@ -51,29 +50,6 @@ struct Fixture {
     oracle: std::collections::HashMap<String, Vec<Decision>>,
 }
 
-fn run_config(data: &DataDir, out: &Path, agent: AgentKind) -> RunConfig {
-    RunConfig {
-        batch: None,
-        data: data.clone(),
-        out: out.to_path_buf(),
-        agent,
-        body: AgentConfig::habitat(),
-        sensors: SensorSuite::minos(32),
-        renderer: RendererChoice::Cpu,
-        max_steps: None,
-        seed: 0,
-        shard: Shard::ALL,
-        resume: false,
-        reward: Reward::DistTime,
-        encoding: ImageEncoding::Raw,
-        lerobot: false,
-        lerobot_video: false,
-        rerun: None,
-        allow_body_mismatch: false,
-        provenance: Provenance::default(),
-    }
-}
-
 fn fixture() -> &'static Fixture {
     static F: OnceLock<Fixture> = OnceLock::new();
     F.get_or_init(|| {
@@ -93,7 +69,7 @@ fn fixture() -> &'static Fixture {
         assert_eq!(episodes.len(), 3, "one episode per task");
         let out = dir.path().join("oracle");
         run(
-            &run_config(&data, &out, AgentKind::Oracle),
+            &run_config(&data, &out, AgentKind::Oracle, SensorSuite::minos(32)),
             &episodes,
             &NoProgress,
         )
@@ -210,11 +186,7 @@ fn start(f: &Fixture, campaign: Campaign) -> Running {
             connect_timeout: Duration::from_secs(5),
             send_timeout: Duration::from_secs(5),
             allowed_hosts: Vec::new(),
-            // A scripted client answers each frame at once, faster than a person's keys.
-            rate: RateLimits {
-                messages_per_second: 10_000,
-                sessions_per_minute: 10_000,
-            },
+            rate: SCRIPTED_RATE,
         },
         campaign,
         "127.0.0.1:0".parse().unwrap(),
@@ -451,7 +423,12 @@ fn a_server_killed_at_any_moment_loses_no_finished_episode_and_leaves_no_litter(
         let replay_dir = dir.join("replay");
         let steps = read_replay(&session.join("trajectories.parquet")).unwrap();
         run(
-            &run_config(&f.data, &replay_dir, AgentKind::Replay(steps)),
+            &run_config(
+                &f.data,
+                &replay_dir,
+                AgentKind::Replay(steps),
+                SensorSuite::minos(32),
+            ),
             &played,
             &NoProgress,
         )

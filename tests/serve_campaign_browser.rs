@@ -15,13 +15,12 @@ use minos::body::AgentPreset;
 use minos::episode::format::write_episodes;
 use minos::generate::GenerateConfig;
 use minos::io::tables::{read_replay, ImageEncoding};
-use minos::pipeline::rollout::{run, AgentKind, Provenance, RunConfig};
+use minos::pipeline::rollout::{run, AgentKind};
 use minos::progress::NoProgress;
 use minos::run::metrics::Reward;
 use minos::serve::campaign::links::mint;
 use minos::serve::campaign::{Campaign, CampaignSpec};
 use minos::serve::{start_campaign, FrameFormat, RateLimits, ServeConfig, Shared};
-use minos::shard::Shard;
 use minos::sim::{AgentConfig, RendererChoice, SensorSuite};
 use serde_json::Value;
 
@@ -55,26 +54,7 @@ fn a_participant_goes_from_tutorial_to_done_and_the_operator_sees_it() {
     let sensors = SensorSuite::minos(64);
     let oracle_dir = dir.path().join("oracle");
     run(
-        &RunConfig {
-            batch: None,
-            data: data.clone(),
-            out: oracle_dir.clone(),
-            agent: AgentKind::Oracle,
-            body,
-            sensors: sensors.clone(),
-            renderer: RendererChoice::Cpu,
-            max_steps: None,
-            seed: 0,
-            shard: Shard::ALL,
-            resume: false,
-            reward: Reward::DistTime,
-            encoding: ImageEncoding::Raw,
-            lerobot: false,
-            lerobot_video: false,
-            rerun: None,
-            allow_body_mismatch: false,
-            provenance: Provenance::default(),
-        },
+        &common::serve::run_config(&data, &oracle_dir, AgentKind::Oracle, sensors.clone()),
         &episodes,
         &NoProgress,
     )

@@ -133,3 +133,41 @@ pub async fn play(ws: &mut Ws, decisions: &[Decision]) -> Value {
         }
     }
 }
+
+/// The run a session's recording is compared with: Habitat's body, `sensors`, the CPU
+/// renderer, seed 0, MINOS's reward, raw images, plain Parquet (what the serve fixtures'
+/// servers record with).
+pub fn run_config(
+    data: &minos::store::DataDir,
+    out: &std::path::Path,
+    agent: minos::pipeline::rollout::AgentKind,
+    sensors: minos::sim::SensorSuite,
+) -> minos::pipeline::rollout::RunConfig {
+    minos::pipeline::rollout::RunConfig {
+        batch: None,
+        data: data.clone(),
+        out: out.to_path_buf(),
+        agent,
+        body: minos::sim::AgentConfig::habitat(),
+        sensors,
+        renderer: minos::sim::RendererChoice::Cpu,
+        max_steps: None,
+        seed: 0,
+        shard: minos::shard::Shard::ALL,
+        resume: false,
+        reward: minos::run::metrics::Reward::DistTime,
+        encoding: minos::io::tables::ImageEncoding::Raw,
+        lerobot: false,
+        lerobot_video: false,
+        rerun: None,
+        allow_body_mismatch: false,
+        provenance: Default::default(),
+    }
+}
+
+/// Rate limits for scripted clients, which answer each frame at once, faster than a
+/// person's keys (the rate-limit tests set their own).
+pub const SCRIPTED_RATE: minos::serve::RateLimits = minos::serve::RateLimits {
+    messages_per_second: 10_000,
+    sessions_per_minute: 10_000,
+};
