@@ -690,7 +690,9 @@ fn wgpu_derives_the_images_the_cpu_derives_from_its_frames() {
         gpu.adapter_name()
     );
     assert!(hits > color_n / 2, "the cameras see the houses");
-    assert!(depth_err < 1e-5, "{depth_err}");
+    // Bit for bit on lavapipe; within 2.8e-5 (relative: 0.03 mm at 1 m) on an NVIDIA H100,
+    // whose shader compiler need not round as the CPU does (WGSL allows fused operations).
+    assert!(depth_err < 1e-4, "{depth_err}");
     assert!(equal >= 0.999, "{equal}");
 }
 
