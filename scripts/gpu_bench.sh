@@ -25,7 +25,7 @@ cd "$(dirname "$0")/.."
 MINOS=${MINOS:-${CARGO_TARGET_DIR:-$PWD/target}/release/minos}
 WORK=${WORK:-$(mktemp -d -t minos-gpu-XXXXXX)}
 SCANS=${SCANS:-"1000000 3000000"}
-SIZES=${SIZES:-"64 84 128 256"}
+SIZES=${SIZES-"64 84 128 256"}
 BATCH=${BATCH:-1024}
 EPISODES=${EPISODES:-40}
 ENVS=${ENVS:-256}
@@ -57,6 +57,16 @@ for tris in $SCANS; do
     MINOS_GPU_DERIVE=0 "$MINOS" bench run --data "$d/DATA" --episodes "$EPISODES" --renderer wgpu --envs "$ENVS" $RUN_FLAGS --json \
         >"$WORK/json/run-wgpuhost-$tris.json" 2>"$WORK/json/run-wgpuhost-$tris.err" ||
         echo "wgpu run (host derivation) $tris: $(tail -1 "$WORK/json/run-wgpuhost-$tris.err")"
+    # STARTS_POOL=separate: the same two wgpu runs with the episodes' starts on their own
+    # thread pool (MINOS_BENCH_STARTS_POOL), an experiment.
+    if [ "${STARTS_POOL:-}" = separate ]; then
+        for derive in 1 0; do
+            tag=$([ $derive = 1 ] && echo wgpusep || echo wgpuhostsep)
+            MINOS_BENCH_STARTS_POOL=separate MINOS_GPU_DERIVE=$derive "$MINOS" bench run --data "$d/DATA" --episodes "$EPISODES" \
+                --renderer wgpu --envs "$ENVS" $RUN_FLAGS --json >"$WORK/json/run-$tag-$tris.json" 2>"$WORK/json/run-$tag-$tris.err" ||
+                echo "wgpu run ($tag) $tris: $(tail -1 "$WORK/json/run-$tag-$tris.err")"
+        done
+    fi
 done
 
 # VectorNavEnv with random actions, CPU renderer against wgpu, on the first scan (where the
@@ -107,6 +117,25 @@ for f in sorted(folder.glob("run-cpu-*.json")):
     tris = int(f.stem.split("-")[2])
     cpu, gpu, host = load(f.name), load(f"run-wgpu-{tris}.json"), load(f"run-wgpuhost-{tris}.json")
     print(f'| scan {tris:,} ({cpu["threads"]} threads, {cpu.get("envs", 0)} envs) | {rate(cpu, "rollout loop")} | {rate(cpu, "rollout loop, all threads")} | {rate(gpu, "rollout loop, all threads")} | {rate(cpu, "rollout loop, batched")} | {rate(gpu, "rollout loop, batched")} | {rate(host, "rollout loop, batched")} |')
+# Where a lockstep step of the batched loop goes (ms per step of the whole batch).
+runs = [(f"{label}, scan {int(f.stem.split('-')[-1]):,}", load(f.name)) for label, pattern in
+        [("CPU", "run-cpu-*.json"), ("wgpu", "run-wgpu-*.json"), ("wgpu, host derivation", "run-wgpuhost-*.json"),
+         ("wgpu, starts on their own pool", "run-wgpusep-*.json"),
+         ("wgpu, host derivation, starts on their own pool", "run-wgpuhostsep-*.json")]
+        for f in sorted(folder.glob(pattern))]
+runs = [(l, r) for l, r in runs if r and any(s["stage"].startswith("batched: ") for s in r["stages"])]
+if runs:
+    names = [s["stage"] for s in runs[0][1]["stages"] if s["stage"].startswith("batched: ")]
+    print()
+    print("| batched loop (ms per lockstep step) | steps/s | lockstep steps | " + " | ".join(n[len("batched: "):] for n in names) + " | whole step |")
+    print("|---" * (len(names) + 4) + "|")
+    for label, r in runs:
+        by = {s["stage"]: s for s in r["stages"]}
+        n = by[names[0]]["count"] or 1
+        cells = [f'{1000 * by[k]["seconds"] / n:.1f}' if k in by else "–" for k in names]
+        whole = by.get("rollout loop, batched")
+        if whole:
+            print(f"| {label} | {rate(r, 'rollout loop, batched')} | {n:,} | " + " | ".join(cells) + f' | {1000 * whole["seconds"] / n:.1f} |')
 vec = folder / "vector_env.txt"
 if vec.exists():
     print()

@@ -135,12 +135,51 @@ fn bench_json_has_consistent_counts_for_every_benchmark() {
         stages(&batched).iter().all(|s| s.0 != "rollout loop"),
         "--throughput-only has no per-core loop"
     );
+    // Where the lockstep's time went: every phase, counted in lockstep steps (two
+    // environments: at least half a step each), by the wall clock, within the whole loop.
+    let lockstep = count(&batched, minos::pipeline::bench::PHASES[0]);
+    assert!(
+        lockstep >= steps.div_ceil(2) && lockstep <= steps,
+        "{batched}"
+    );
+    let mut phases = 0.0;
+    for name in minos::pipeline::bench::PHASES {
+        assert_eq!(count(&batched, name), lockstep, "{name}");
+        assert_eq!(clock(&batched, name), "wall", "{name}");
+        if !name.contains("(all calls") {
+            phases += seconds(&batched, name);
+        }
+    }
+    assert!(
+        seconds(&batched, minos::pipeline::bench::PHASES[7]) > 0.0,
+        "the CPU renders while observing"
+    );
+    let whole = seconds(&batched, "rollout loop, batched");
+    assert!(
+        phases > 0.0 && phases <= whole,
+        "{phases} s of phases in {whole} s"
+    );
+    // The GPU's own clocks (its work, unpacking) are zero on the CPU renderer; they overlap
+    // the render calls and are not added again.
+    let part = |k: usize| seconds(&batched, minos::pipeline::bench::PHASES[k]);
+    assert_eq!((part(5), part(6)), (0.0, 0.0));
     assert_eq!(clock(&run, "rollout loop"), clock(&run, "sample"));
     assert_eq!(
         render["adapter"],
         Value::Null,
         "the CPU renderer names no adapter"
     );
+}
+
+/// The seconds of a stage.
+fn seconds(v: &Value, name: &str) -> f64 {
+    v["stages"]
+        .as_array()
+        .expect("stages")
+        .iter()
+        .find(|s| s["stage"] == name)
+        .and_then(|s| s["seconds"].as_f64())
+        .unwrap_or_else(|| panic!("no seconds for {name} in {v}"))
 }
 
 /// The clock a stage was timed by (`wall` or `thread-cpu`).

@@ -47,7 +47,7 @@ use crate::store::DataDir;
 
 mod batched;
 mod gpu;
-pub use batched::BATCHED;
+pub use batched::{BATCHED, PHASES, STARTS_POOL_ENV};
 pub use gpu::{GPU_BATCH, GPU_DERIVED, GPU_IMAGES};
 
 /// Which benchmark to run.
@@ -518,15 +518,21 @@ fn bench_on_this_thread(cfg: &BenchConfig) -> Result<BenchReport, BenchError> {
                 }
                 if cfg.envs > 0 {
                     let pool = thread_pool(cfg.threads)?;
-                    let (steps, wall) = pool
-                        .install(|| batched::rollout_batched(sim, &assets.grid, &eps, cfg.envs))?;
+                    let separate =
+                        std::env::var(batched::STARTS_POOL_ENV).is_ok_and(|v| v == "separate");
+                    let own = separate.then(|| thread_pool(cfg.threads)).transpose()?;
+                    let starts = own.as_ref().unwrap_or(&pool);
+                    let run = pool.install(|| {
+                        batched::rollout_batched(sim, &assets.grid, &eps, cfg.envs, starts)
+                    })?;
                     timer.stages.push(Stage {
                         name: batched::BATCHED,
-                        count: steps,
+                        count: run.steps,
                         unit: "steps",
-                        seconds: wall,
+                        seconds: run.seconds,
                         wall: true,
                     });
+                    timer.stages.extend(run.phase_stages());
                     report.threads = cfg.threads;
                     report.envs = cfg.envs;
                     if let Renderer::Gpu(g) = &**sim.renderer() {

@@ -21,7 +21,7 @@ pub use crate::episode::interchange::DEFAULT_MAX_STEPS;
 use crate::episode::Episode;
 use crate::navmesh::geodesic::Geodesic;
 use crate::render::gpu::GpuError;
-use crate::sim::batch::observe_many;
+use crate::sim::batch::{observe_many_timed, PhaseTimes};
 use crate::sim::AgentConfig;
 use crate::sim::{Actions, Observation, Simulator};
 
@@ -451,7 +451,8 @@ pub enum Command<'e> {
 }
 
 /// Runs `commands[i]` on `steppers[i]` for every i at once, in parallel on the current rayon
-/// pool, with every new observation rendered together ([`observe_many`]: the cameras of the
+/// pool, with every new observation rendered together
+/// ([`observe_many`](crate::sim::batch::observe_many): the cameras of the
 /// steppers that share a renderer in one render call). Each stepper is independent: the
 /// outcomes are those of running them one by one. The first failure in batch order is
 /// returned.
@@ -463,6 +464,15 @@ pub fn step_many<'s>(
     steppers: &'s mut [EpisodeStepper],
     commands: &[Command<'_>],
 ) -> Result<Vec<StepOutcome<'s>>, StepError> {
+    step_many_timed(steppers, commands, &mut PhaseTimes::default())
+}
+
+/// [`step_many`], adding the time of its phases to `times` (and counting the batch).
+pub fn step_many_timed<'s>(
+    steppers: &'s mut [EpisodeStepper],
+    commands: &[Command<'_>],
+    times: &mut PhaseTimes,
+) -> Result<Vec<StepOutcome<'s>>, StepError> {
     if steppers.len() != commands.len() {
         return Err(StepError::Batch {
             steppers: steppers.len(),
@@ -472,18 +482,20 @@ pub fn step_many<'s>(
     // Motion (and resets, stops) in parallel; then every new observation at once — the
     // cameras of all steppers sharing a renderer in one render call, one GPU submission —
     // and the bookkeeping in parallel.
+    let t = std::time::Instant::now();
     let pending: Vec<Pending> = steppers
         .par_iter_mut()
         .zip(commands.par_iter())
         .map(|(s, c)| s.begin(*c))
         .collect::<Result<_, _>>()?;
+    PhaseTimes::lap(&mut times.motion, t);
     let mut sims: Vec<&mut Simulator> = steppers
         .iter_mut()
         .zip(&pending)
         .filter(|(_, p)| p.observes())
         .map(|(s, _)| &mut s.sim)
         .collect();
-    let mut observed = observe_many(&mut sims).into_iter();
+    let mut observed = observe_many_timed(&mut sims, times).into_iter();
     let mut observations: Vec<Option<Observation>> = Vec::with_capacity(pending.len());
     for p in &pending {
         observations.push(if p.observes() {
@@ -496,10 +508,14 @@ pub fn step_many<'s>(
             None
         });
     }
-    Ok(steppers
+    let t = std::time::Instant::now();
+    let outcomes = steppers
         .par_iter_mut()
         .zip(pending.into_par_iter())
         .zip(observations.into_par_iter())
         .map(|((s, p), o)| s.finish(p, o))
-        .collect())
+        .collect();
+    PhaseTimes::lap(&mut times.finish, t);
+    times.batches += 1;
+    Ok(outcomes)
 }

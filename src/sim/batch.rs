@@ -6,6 +6,7 @@
 //! on that simulator alone (a frame does not depend on the batch it was rendered in).
 
 use std::sync::Arc;
+use std::time::{Duration, Instant};
 
 use rayon::prelude::*;
 
@@ -25,10 +26,49 @@ pub fn step_many(
     observe_many(sims)
 }
 
+/// Wall-clock time of the phases of batched steps, summed over calls: which part of a
+/// lockstep step bounds it (for benchmarks; timing costs a few clock reads per batch).
+#[derive(Debug, Default, Clone, Copy, PartialEq)]
+pub struct PhaseTimes {
+    /// Moving the agents (and resets, stops), in parallel.
+    pub motion: Duration,
+    /// The cameras' poses, in parallel.
+    pub views: Duration,
+    /// The shared renderers' calls, one after another: on a GPU the submission, the GPU's
+    /// work, the read-back and unpacking the frames.
+    pub render: Duration,
+    /// Observations from the frames (images derived on the host where the GPU did not,
+    /// measurements; CPU-rendered simulators render here), in parallel.
+    pub observe: Duration,
+    /// Bookkeeping after the observations (rewards, episode ends), in parallel.
+    pub finish: Duration,
+    /// Batched steps timed.
+    pub batches: u64,
+}
+
+impl PhaseTimes {
+    /// Adds the time since `start` to `phase` and returns now.
+    pub fn lap(phase: &mut Duration, start: Instant) -> Instant {
+        let now = Instant::now();
+        *phase += now - start;
+        now
+    }
+}
+
 /// Observes every simulator: the cameras of simulators sharing a GPU renderer in one render
 /// call, the others (CPU renderer) each on its own, in parallel.
 pub fn observe_many(sims: &mut [&mut Simulator]) -> Vec<Result<Observation, GpuError>> {
+    observe_many_timed(sims, &mut PhaseTimes::default())
+}
+
+/// [`observe_many`], adding the time of its phases to `times`.
+pub fn observe_many_timed(
+    sims: &mut [&mut Simulator],
+    times: &mut PhaseTimes,
+) -> Vec<Result<Observation, GpuError>> {
+    let t = Instant::now();
     let views: Vec<Views> = sims.par_iter().map(|s| s.views()).collect();
+    let t = PhaseTimes::lap(&mut times.views, t);
     let mut frames: Vec<Option<Result<Vec<Frame>, String>>> = sims.iter().map(|_| None).collect();
     // Simulators sharing a GPU renderer (and so its scene), in order of first appearance.
     let mut groups: Vec<(*const Renderer, Vec<usize>)> = Vec::new();
@@ -69,7 +109,9 @@ pub fn observe_many(sims: &mut [&mut Simulator]) -> Vec<Result<Observation, GpuE
             }
         }
     }
-    sims.par_iter_mut()
+    let t = PhaseTimes::lap(&mut times.render, t);
+    let observations = sims
+        .par_iter_mut()
         .zip(views.par_iter())
         .zip(frames.into_par_iter())
         .map(|((sim, v), rendered)| {
@@ -84,5 +126,7 @@ pub fn observe_many(sims: &mut [&mut Simulator]) -> Vec<Result<Observation, GpuE
             };
             Ok(sim.observation_from(v, &frames))
         })
-        .collect()
+        .collect();
+    PhaseTimes::lap(&mut times.observe, t);
+    observations
 }

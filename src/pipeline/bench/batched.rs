@@ -7,7 +7,7 @@
 //! clock.
 
 use std::sync::atomic::{AtomicUsize, Ordering};
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use rayon::prelude::*;
 
@@ -17,11 +17,82 @@ use crate::navmesh::geodesic::Geodesic;
 use crate::navmesh::NavGrid;
 use crate::run::agents::{Agent, Decision};
 use crate::run::oracle::OracleAgent;
-use crate::run::stepper::{step_many, Command, EpisodeStepper};
+use crate::run::stepper::{step_many_timed, Command, EpisodeStepper};
+use crate::sim::batch::PhaseTimes;
 use crate::sim::Simulator;
+
+use super::Stage;
+
+/// The environment variable that, set to `separate`, runs the batched rollout's episode
+/// starts on a thread pool of their own (as many threads again) instead of the lockstep's:
+/// an experiment on whether the lockstep's parallel loops wait behind starts they picked up.
+pub const STARTS_POOL_ENV: &str = "MINOS_BENCH_STARTS_POOL";
 
 /// Name of the batched rollout stage.
 pub const BATCHED: &str = "rollout loop, batched";
+
+/// Names of the batched rollout's phases (wall-clock time of the lockstep, counted in
+/// lockstep steps): where a step of the whole batch goes. The two GPU parts are the ray
+/// tracer's own clocks over every render call of the run — the lockstep's and those of the
+/// episodes' starts (their first frames) running beside it —, so they may exceed the
+/// lockstep's render calls; zero on the CPU renderer.
+pub const PHASES: [&str; 9] = [
+    "batched: waiting for episode starts",
+    "batched: decisions",
+    "batched: motion",
+    "batched: camera poses",
+    "batched: render calls (GPU: submission, work, read-back, unpacking)",
+    "batched: GPU work and read-back (all calls, the starts' first frames too)",
+    "batched: unpacking frames (all calls, the starts' first frames too)",
+    "batched: observations from frames",
+    "batched: step bookkeeping",
+];
+
+/// What the batched rollout measured.
+pub(super) struct BatchedRun {
+    /// Steps taken.
+    pub steps: u64,
+    /// Wall-clock seconds of the whole rollout.
+    pub seconds: f64,
+    /// The lockstep's phases.
+    pub phases: PhaseTimes,
+    /// Time the lockstep spent deciding (the oracles, in parallel).
+    pub decide: Duration,
+    /// Time it waited with no environment ready.
+    pub waiting: Duration,
+    /// The GPU's work and read-back, and unpacking the frames, over every render call of the
+    /// run (the starts' too; zero on the CPU renderer).
+    pub read_back: (Duration, Duration),
+}
+
+impl BatchedRun {
+    /// The phases as wall-clock stages named [`PHASES`], counted in lockstep steps.
+    pub fn phase_stages(&self) -> Vec<Stage> {
+        let p = &self.phases;
+        let times = [
+            self.waiting,
+            self.decide,
+            p.motion,
+            p.views,
+            p.render,
+            self.read_back.0,
+            self.read_back.1,
+            p.observe,
+            p.finish,
+        ];
+        PHASES
+            .iter()
+            .zip(times)
+            .map(|(name, t)| Stage {
+                name,
+                count: p.batches,
+                unit: "lockstep steps",
+                seconds: t.as_secs_f64(),
+                wall: true,
+            })
+            .collect()
+    }
+}
 
 /// One environment of the batch: a stepper and its oracle.
 type Env = (EpisodeStepper, OracleAgent);
@@ -44,7 +115,9 @@ fn start_next(
 }
 
 /// The oracle's rollout over `eps` with `envs` environments (siblings of `sim`) stepped
-/// together on the current rayon pool: the steps taken and the wall-clock seconds.
+/// together on the current rayon pool, the episodes' starts running on `starts` (the current
+/// pool or another): the steps taken, the wall-clock seconds and where the lockstep's time
+/// went.
 ///
 /// Starting an episode (its goal field and the oracle's plan: tens of milliseconds on a
 /// large scan) runs as a task beside the lockstep, so the other environments keep stepping;
@@ -55,11 +128,19 @@ pub(super) fn rollout_batched(
     grid: &NavGrid,
     eps: &[Episode],
     envs: usize,
-) -> Result<(u64, f64), BenchError> {
+    starts: &rayon::ThreadPool,
+) -> Result<BatchedRun, BenchError> {
     let start = Instant::now();
+    let (mut phases, mut decide, mut waiting) =
+        (PhaseTimes::default(), Duration::ZERO, Duration::ZERO);
+    let gpu_times = || match &**sim.renderer() {
+        crate::render::Renderer::Gpu(g) => g.read_back_times(),
+        crate::render::Renderer::Cpu => Default::default(),
+    };
+    let before = gpu_times();
     let geo = Geodesic::new(grid);
     let next = AtomicUsize::new(0);
-    let steps = rayon::scope(|scope| -> Result<u64, BenchError> {
+    let steps = starts.in_place_scope(|scope| -> Result<u64, BenchError> {
         let (geo, next) = (&geo, &next);
         let (ready_tx, ready) = std::sync::mpsc::channel::<Result<Option<Env>, BenchError>>();
         // Starts `env`'s next episode as a task; it comes back through `ready` (`None` when
@@ -80,6 +161,7 @@ pub(super) fn rollout_batched(
         loop {
             // Environments whose episode is ready join; with none stepping, wait for one
             // (running tasks on this thread meanwhile, so one thread suffices).
+            let t = Instant::now();
             loop {
                 match ready.try_recv() {
                     Ok(env) => {
@@ -97,6 +179,7 @@ pub(super) fn rollout_batched(
                     Err(_) => break,
                 }
             }
+            let t = PhaseTimes::lap(&mut waiting, t);
             if steppers.is_empty() {
                 break;
             }
@@ -106,6 +189,7 @@ pub(super) fn rollout_batched(
                 .map(|(s, a)| a.decide(s.observation(), s.sim()))
                 .collect::<Result<Vec<Decision>, _>>()
                 .map_err(|e| BenchError(e.to_string()))?;
+            PhaseTimes::lap(&mut decide, t);
             // An oracle's stop ends its episode (the per-core loop takes no step for it);
             // the others step together, and those that reach the step limit end too.
             let mut stepping: Vec<Env> = Vec::with_capacity(steppers.len());
@@ -123,7 +207,7 @@ pub(super) fn rollout_batched(
                 .filter(|d| *d != Decision::Stop)
                 .map(Command::Step)
                 .collect();
-            let ended: Vec<bool> = step_many(&mut steppers, &commands)
+            let ended: Vec<bool> = step_many_timed(&mut steppers, &commands, &mut phases)
                 .map_err(|e| BenchError(e.to_string()))?
                 .iter()
                 .map(|o| o.done())
@@ -142,5 +226,14 @@ pub(super) fn rollout_batched(
         }
         Ok(steps)
     })?;
-    Ok((steps, start.elapsed().as_secs_f64()))
+    let seconds = start.elapsed().as_secs_f64();
+    let after = gpu_times();
+    Ok(BatchedRun {
+        steps,
+        seconds,
+        phases,
+        decide,
+        waiting,
+        read_back: (after.0 - before.0, after.1 - before.1),
+    })
 }

@@ -201,6 +201,16 @@ impl GpuRenderer {
         self.adapter.device_type == wgpu::DeviceType::Cpu
     }
 
+    /// Wall-clock time the ray tracer's batches spent from submission until their read-back
+    /// was mapped (the GPU's work and the copy to host memory), and unpacking their frames,
+    /// summed since the renderer was made (zero for the rasteriser).
+    pub fn read_back_times(&self) -> (std::time::Duration, std::time::Duration) {
+        match &self.pipeline {
+            Pipeline::Trace(t) => t.times(),
+            Pipeline::Raster(_) => Default::default(),
+        }
+    }
+
     /// "name (backend, device type)" of the adapter in use.
     pub fn adapter_name(&self) -> String {
         format!(

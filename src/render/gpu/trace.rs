@@ -74,6 +74,10 @@ pub(super) struct Tracer {
     pool: std::sync::Mutex<Vec<BufferSet>>,
     /// The second pass, deriving images from the ids and depth.
     deriver: Deriver,
+    /// Nanoseconds spent from submission until the read-back was mapped, and unpacking the
+    /// frames, summed over batches ([`Tracer::times`]).
+    waited_ns: std::sync::atomic::AtomicU64,
+    unpacked_ns: std::sync::atomic::AtomicU64,
 }
 
 /// The buffers of one batch in flight and their bind group.
@@ -179,7 +183,20 @@ impl Tracer {
             stack,
             pool: std::sync::Mutex::new(Vec::new()),
             deriver: Deriver::new(device),
+            waited_ns: Default::default(),
+            unpacked_ns: Default::default(),
         }
+    }
+
+    /// Time spent from submission until the read-back was mapped (the GPU's work and the
+    /// copy to host memory), and unpacking the frames from it, summed over every batch.
+    pub(super) fn times(&self) -> (std::time::Duration, std::time::Duration) {
+        use std::sync::atomic::Ordering::Relaxed;
+        let d = std::time::Duration::from_nanos;
+        (
+            d(self.waited_ns.load(Relaxed)),
+            d(self.unpacked_ns.load(Relaxed)),
+        )
     }
 
     /// A buffer set with room for `views` views, `out_bytes` of output and `groups`
@@ -432,9 +449,11 @@ impl Tracer {
             }
         }
         encoder.copy_buffer_to_buffer(&set.out, 0, &set.readback, 0, out_bytes);
+        let submitted = std::time::Instant::now();
         queue.submit([encoder.finish()]);
         let slice = set.readback.slice(..out_bytes);
         let data = super::map_read(device, &slice)?;
+        let mapped = std::time::Instant::now();
         let words: &[u32] = bytemuck::cast_slice(&data);
         let (ids, rest) = words.split_at(n * pixels);
         let depths = &rest[..n * pixels];
@@ -461,6 +480,10 @@ impl Tracer {
         drop(data);
         set.readback.unmap();
         self.give_back(set);
+        let nanos = |d: std::time::Duration| u64::try_from(d.as_nanos()).unwrap_or(u64::MAX);
+        let relaxed = std::sync::atomic::Ordering::Relaxed;
+        self.waited_ns.fetch_add(nanos(mapped - submitted), relaxed);
+        self.unpacked_ns.fetch_add(nanos(mapped.elapsed()), relaxed);
         frames
             .into_iter()
             .zip(views)
