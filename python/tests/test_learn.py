@@ -235,8 +235,26 @@ def test_tables_name_every_paper_cell_and_report_what_is_not_run(tmp_path):
         if c.format == "suncg":
             assert c.min_doors == (1 if c.rooms == (2, 2) else 2), name
         assert c.episodes_on_base == (c.variant == "empty"), name
+        # Two DAgger rounds for every row that sees; measurements alone are cloned only.
+        assert c.dagger == 2 and not c.dagger_blind, name
     rep = tables.report(tmp_path)
     assert "point-suncg-furnished-small" in rep and "| — |" in rep
+
+
+def test_dagger_rows_are_other_rows_than_their_cloned_ones(tmp_path):
+    from minos.learn.cell import CellConfig, dagger_rounds, row_file
+
+    seeing, blind = ("M", "D"), ("M",)
+    cfg = CellConfig(work=str(tmp_path), dagger=2, dagger_blind=False)
+    assert (dagger_rounds(cfg, seeing), dagger_rounds(cfg, blind)) == (2, 0)
+    assert row_file(tmp_path, cfg, seeing).name == "MD-gru-s0-dagger2.json"
+    assert row_file(tmp_path, cfg, blind).name == "M-gru-s0.json"
+    # As asked on the command line (`cell --dagger 1`): every row, measurements alone too.
+    asked = CellConfig(work=str(tmp_path), dagger=1)
+    assert dagger_rounds(asked, blind) == 1
+    assert row_file(tmp_path, asked, blind).name == "M-gru-s0-dagger1.json"
+    none = CellConfig(work=str(tmp_path))
+    assert row_file(tmp_path, none, seeing).name == "MD-gru-s0.json"
 
 
 def test_a_cells_random_row_is_minos_random_averaged_over_seeds(world, tmp_path):

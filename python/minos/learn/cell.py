@@ -64,6 +64,10 @@ class CellConfig:
     lr: float = 1e-3
     dagger: int = 0
     beta: float = 0.5
+    # Whether rows of measurements alone get the DAgger rounds too. The tables say no: near a
+    # wall the oracle's correction is not a function of what such a policy observes, and
+    # DAgger made it worse (docs/RESULTS.md).
+    dagger_blind: bool = True
     num_envs: int = 8
     sample: bool = True
     seed: int = 0
@@ -72,6 +76,24 @@ class CellConfig:
     random_agent: str = "minos-random"
     random_seeds: int = 5
     device: str = "auto"
+
+
+def dagger_rounds(cfg: CellConfig, mods: tuple[str, ...]) -> int:
+    """The DAgger rounds of a row with modalities ``mods``: ``cfg.dagger``, except for rows of
+    measurements alone when ``cfg.dagger_blind`` is off."""
+    if not cfg.dagger_blind and set(mods) <= {"M"}:
+        return 0
+    return cfg.dagger
+
+
+def row_file(work: Path, cfg: CellConfig, mods: tuple[str, ...]) -> Path:
+    """Where a row's result is written: ``WORK/results/<MODS>-<memory>-s<seed>[-dagger<N>].json``
+    (a row trained with DAgger is another row than its behaviour-cloned one)."""
+    rounds = dagger_rounds(cfg, mods)
+    tag = f"{modality_name(mods).replace('+', '')}-{cfg.memory}-s{cfg.seed}"
+    if rounds:
+        tag += f"-dagger{rounds}"
+    return Path(work) / "results" / f"{tag}.json"
 
 
 def _log(msg: str) -> None:
@@ -250,8 +272,9 @@ def run_cell(cfg: CellConfig, progress: bool = True, random_only: bool = False) 
     rows = []
     for mods in sets:
         name = modality_name(mods)
-        tag = f"{name.replace('+', '')}-{cfg.memory}-s{cfg.seed}"
-        out_file = results_dir / f"{tag}.json"
+        rounds = dagger_rounds(cfg, mods)
+        out_file = row_file(work, cfg, mods)
+        tag = out_file.stem
         if out_file.is_file():
             rows.append(json.loads(out_file.read_text()))
             continue
@@ -264,12 +287,12 @@ def run_cell(cfg: CellConfig, progress: bool = True, random_only: bool = False) 
         history = train_bc(policy, demos, tc, checkpoint=ckpt, resume=True, progress=progress)
         train_s = time.perf_counter() - t0
         dag = []
-        if cfg.dagger:
+        if rounds:
             train_env = make_env(data, train_eps, agent=cfg.preset, num_envs=cfg.num_envs,
                                  size=cfg.size, seed=cfg.seed, max_steps=cfg.max_steps,
                                  variant=cfg.variant)
             sub = _subset(demos, policy.spec.keys)
-            dag = dagger(policy, sub, train_env, tc, iterations=cfg.dagger, beta=cfg.beta,
+            dag = dagger(policy, sub, train_env, tc, iterations=rounds, beta=cfg.beta,
                          checkpoint=ckpt.with_name(ckpt.stem + "-dagger.pt"), progress=progress)
             train_s = time.perf_counter() - t0
         t0 = time.perf_counter()

@@ -15,7 +15,10 @@ arch (ObjectGoal) or room (RoomGoal) as the goal (``select: random``), and the e
 episodes sampled in the furnished houses and run with the furniture removed (MINOS's empty and
 furnished configs shared one states file). The random
 rows are MINOS's random agent (``minos-random``: each button pressed with probability ½ per
-step), averaged over five seeds. The data sizes are chosen so that a cell's training and
+step), averaged over five seeds. Every row that sees more than the measurements is
+behaviour-cloned from the oracle and then trained in two DAgger rounds (the oracle labelling
+the states the policy reaches in the training houses); rows of measurements alone are cloned
+only. The data sizes are chosen so that a cell's training and
 evaluation fit about 10 minutes of a 2-core CPU (docs/RESULTS.md says what each cell chose and
 what it took). ``--random-only`` stops each cell after its random row: the task-difficulty
 check in minutes, without training. A modality-table cell is one row of one column; the rows
@@ -29,7 +32,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Optional
 
-from .cell import CellConfig, random_file, run_cell
+from .cell import CellConfig, random_file, row_file, run_cell
 from .features import modality_name, parse_modalities
 
 #: The paper's numbers: complexity cells → (random success %, best agent success %, agent).
@@ -70,7 +73,7 @@ def _complexity() -> dict[str, CellConfig]:
     # goal is one random room (`select: random`, success in that room only).
     base = CellConfig(work="", modalities=list(COMPLEXITY_ROWS), preset="minos-paper",
                       per_scene=10, test_per_scene=10, max_steps=500, size=84, epochs=10,
-                      ratio_rule=False)
+                      ratio_rule=False, dagger=2, dagger_blind=False)
     small = dict(houses=40, test_houses=10, rooms=(2, 2), min_doors=1)
     medium = dict(houses=30, test_houses=10, rooms=(3, 5), epochs=8, min_doors=2)
     mp_small = dict(houses=24, test_houses=8, rooms=(3, 10), format="mp3d", epochs=8)
@@ -99,7 +102,7 @@ def _modalities() -> dict[str, CellConfig]:
     # ones, no ratio rule.
     base = CellConfig(work="", task="objectgoal", categories=["door", "arch"], select="random",
                       preset="minos-paper", per_scene=10, test_per_scene=10, max_steps=500,
-                      size=84, epochs=8, ratio_rule=False)
+                      size=84, epochs=8, ratio_rule=False, dagger=2, dagger_blind=False)
     small = dict(rooms=(2, 2), min_doors=1, houses=100, test_houses=30)
     medium = dict(rooms=(3, 5), min_doors=2, houses=24, test_houses=8)
     cols = {
@@ -124,9 +127,7 @@ def cells() -> dict[str, CellConfig]:
 
 
 def _row_file(root: Path, cfg: CellConfig, row: str) -> Path:
-    mods = parse_modalities(row)
-    tag = f"{modality_name(mods).replace('+', '')}-{cfg.memory}-s{cfg.seed}"
-    return root / cfg.work / "results" / f"{tag}.json"
+    return row_file(root / cfg.work, cfg, parse_modalities(row))
 
 
 def is_done(root: Path, name: str, cfg: CellConfig) -> bool:
