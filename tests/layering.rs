@@ -390,3 +390,114 @@ fn the_python_bindings_stand_above_the_library() {
         }
     }
 }
+
+/// The repository's files and folders, relative, `/`-separated, folders ending in `/`
+/// (build outputs, version control and caches left out).
+fn repository_paths(root: &Path, dir: &Path, out: &mut Vec<String>) {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for entry in entries.flatten() {
+        let path = entry.path();
+        let name = entry.file_name().to_string_lossy().into_owned();
+        if matches!(
+            name.as_str(),
+            "target" | ".git" | "node_modules" | "__pycache__" | ".venv"
+        ) {
+            continue;
+        }
+        let rel = path
+            .strip_prefix(root)
+            .expect("under the root")
+            .to_string_lossy()
+            .replace('\\', "/");
+        if path.is_dir() {
+            out.push(format!("{rel}/"));
+            repository_paths(root, &path, out);
+        } else {
+            out.push(rel);
+        }
+    }
+}
+
+/// The `code` spans of a Markdown text that name a file or folder: no spaces or
+/// placeholders, ending in `/` or a source, script or document extension.
+fn named_paths(doc: &str) -> Vec<String> {
+    doc.split('`')
+        .skip(1)
+        .step_by(2)
+        .filter(|t| {
+            !t.is_empty()
+                && !t.contains(|c: char| c.is_whitespace() || "<>*{}…:$".contains(c))
+                && [".rs", ".wgsl", ".py", ".sh", ".md", ".toml", "/"]
+                    .iter()
+                    .any(|ext| t.ends_with(ext))
+        })
+        .map(str::to_string)
+        .collect()
+}
+
+/// `docs/ARCHITECTURE.md` stays true: every file or folder it names exists (in full, as
+/// `src/run/`, or relative to the module it describes, as `oracle/continuous.rs`), every
+/// top-level module has its entry, and every file or folder directly inside a module's
+/// folder is named — a renamed, removed or new file fails here until the code map follows.
+#[test]
+fn the_architecture_doc_names_what_exists_and_everything_is_named() {
+    let here = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let doc = std::fs::read_to_string(here.join("docs/ARCHITECTURE.md")).expect("the doc");
+    let mut paths = Vec::new();
+    repository_paths(here, here, &mut paths);
+    let named = named_paths(&doc);
+    assert!(named.len() > 100, "the code map names the files");
+    // Folders of the data minos reads and writes (a DATA folder, SUNCG, a LeRobot dataset)
+    // and the server's root route, which the doc names too.
+    let data_folders = ["scenes/", "nav/", "stats/", "meta/", "texture/", "/"];
+    let missing: Vec<&String> = named
+        .iter()
+        .filter(|t| !data_folders.contains(&t.as_str()))
+        .filter(|t| {
+            !paths
+                .iter()
+                .any(|p| p == *t || p.ends_with(&format!("/{t}")))
+        })
+        .collect();
+    assert!(
+        missing.is_empty(),
+        "docs/ARCHITECTURE.md names what does not exist: {missing:?}"
+    );
+    // Every top-level module, and every file or folder one level inside a module's folder.
+    let mentions = |name: &str| {
+        named
+            .iter()
+            .any(|t| format!("/{t}").contains(&format!("/{name}")))
+    };
+    let mut unnamed = Vec::new();
+    for (module, _) in FLOORS {
+        let file = format!("src/{module}.rs");
+        let folder = format!("src/{module}/");
+        if !(named.contains(&file) || named.contains(&folder)) {
+            unnamed.push(format!("{file} or {folder}"));
+        }
+    }
+    for p in &paths {
+        let Some(rest) = p.strip_prefix("src/") else {
+            continue;
+        };
+        let parts: Vec<&str> = rest.trim_end_matches('/').split('/').collect();
+        if parts.len() != 2 || !(p.ends_with(".rs") || p.ends_with('/')) {
+            continue;
+        }
+        let name = if p.ends_with('/') {
+            format!("{}/", parts[1])
+        } else {
+            parts[1].to_string()
+        };
+        if name != "mod.rs" && !mentions(&name) {
+            unnamed.push(p.clone());
+        }
+    }
+    assert!(
+        unnamed.is_empty(),
+        "docs/ARCHITECTURE.md does not name: {unnamed:?}"
+    );
+}
