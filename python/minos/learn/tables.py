@@ -32,7 +32,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Optional
 
-from .cell import CellConfig, random_file, row_file, run_cell
+from .cell import CellConfig, dagger_rounds, random_file, row_file, run_cell
 from .features import modality_name, parse_modalities
 
 #: The paper's numbers: complexity cells → (random success %, best agent success %, agent).
@@ -165,9 +165,15 @@ def report(root: str | Path) -> str:
     root = Path(root)
     allc = cells()
     pct = lambda v: "—" if v is None else f"{100 * v:.1f}"  # noqa: E731
+    def how(cfg: CellConfig, row: str) -> str:
+        rounds = dagger_rounds(cfg, parse_modalities(row))
+        return f"cloned + {rounds} DAgger rounds" if rounds else "cloned"
+
+    first = next(iter(allc.values()))
     lines = ["## Complexity (success %)", "",
              "| cell | rooms | houses (train/test) | test eps | paper random | minos random | "
-             "paper best | minos M | minos M+D (SPL) | train frames | cell s |",
+             f"paper best | minos M ({how(first, 'M')}) | minos M+D, {how(first, 'M+D')} (SPL) "
+             "| train frames | cell s |",
              "|---|---|---|---|---|---|---|---|---|---|---|"]
     for name, (prand, pbest, agent) in PAPER_COMPLEXITY.items():
         cfg = allc[name]
@@ -192,7 +198,9 @@ def report(root: str | Path) -> str:
             f"{cfg.houses - cfg.test_houses}/{cfg.test_houses} | {eps} | {prand} | {pct(rs)} | "
             f"{pbest} ({agent}) | {pct(m['success'] if m else None)} | {md} | {frames} | "
             f"{secs} |")
-    lines += ["", "## Modalities (ObjectGoal door, success / speed %; paper DFP in brackets)", "",
+    door = allc[f"door-{MOD_COLUMNS[0]}/M+D"]
+    lines += ["", "## Modalities (ObjectGoal door, success / speed %; paper DFP in brackets; "
+              f"M {how(door, 'M')}, the other rows {how(door, 'M+D')})", "",
               "| row | " + " | ".join(MOD_COLUMNS) + " |",
               "|---|" + "---|" * len(MOD_COLUMNS)]
     for row_name, paper in PAPER_MODALITIES.items():
