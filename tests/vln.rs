@@ -443,3 +443,84 @@ fn vln_episodes_are_byte_identical_whatever_the_threads_or_shards_and_read_back_
     write_episodes(&b, &[plain.clone()]).unwrap();
     assert_eq!(read_episodes(&b).unwrap(), [plain]);
 }
+
+/// `minos run --agent oracle` on VLN episodes scores how closely the agent followed each
+/// reference path (nDTW, recomputed here from the trajectory table): the oracle, walking
+/// the shortest path the reference is, follows it closely; the table's other tasks have none.
+#[test]
+fn the_oracle_follows_the_reference_path_by_ndtw() {
+    use arrow::array::{Array, Float32Array, StringArray};
+    use common::RunOk;
+
+    let (_, data, _) = data();
+    let dir = tempfile::tempdir().unwrap();
+    let eps = dir.path().join("vln.parquet");
+    let mut batch = run(&vln_config(11), Shard::ALL);
+    batch.episodes.truncate(8);
+    write_episodes(&eps, &batch.episodes).unwrap();
+    let out = dir.path().join("run");
+    common::minos()
+        .args(["-q", "run", "--agent", "oracle", "--size", "16", "--data"])
+        .arg(data.root())
+        .arg("--episodes")
+        .arg(&eps)
+        .arg("--out")
+        .arg(&out)
+        .ok_output();
+    let table = |name: &str| {
+        let f = std::fs::File::open(out.join(name)).unwrap();
+        let builder =
+            parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder::try_new(f).unwrap();
+        let schema = builder.schema().clone();
+        let batches: Vec<_> = builder.build().unwrap().map(|b| b.unwrap()).collect();
+        arrow::compute::concat_batches(&schema, &batches).unwrap()
+    };
+    let episodes = table("episodes.parquet");
+    let trajectories = table("trajectories.parquet");
+    let col = |b: &arrow::record_batch::RecordBatch, n: &str| b.column_by_name(n).unwrap().clone();
+    let ids = col(&episodes, "episode_id");
+    let ids = ids.as_any().downcast_ref::<StringArray>().unwrap();
+    let ndtw = col(&episodes, "ndtw");
+    let ndtw = ndtw.as_any().downcast_ref::<Float32Array>().unwrap();
+    let t_ids = col(&trajectories, "episode_id");
+    let t_ids = t_ids.as_any().downcast_ref::<StringArray>().unwrap();
+    let xyz: Vec<std::sync::Arc<dyn Array>> = ["x", "y", "z"]
+        .iter()
+        .map(|n| col(&trajectories, n))
+        .collect();
+    let xyz: Vec<&Float32Array> = xyz
+        .iter()
+        .map(|a| a.as_any().downcast_ref::<Float32Array>().unwrap())
+        .collect();
+    assert_eq!(ids.len(), batch.episodes.len());
+    let mut total = 0.0;
+    for (r, e) in batch.episodes.iter().enumerate() {
+        assert_eq!(ids.value(r), e.episode_id);
+        let walked: Vec<[f32; 3]> = (0..t_ids.len())
+            .filter(|&k| t_ids.value(k) == e.episode_id)
+            .map(|k| [xyz[0].value(k), xyz[1].value(k), xyz[2].value(k)])
+            .collect();
+        let route = e.route.as_ref().unwrap();
+        let want = minos::run::metrics::ndtw(&route.path, &walked);
+        assert!(!ndtw.is_null(r), "{}", e.episode_id);
+        assert!(
+            (ndtw.value(r) - want).abs() < 1e-4,
+            "{}: {} stored, {want} from the trajectory",
+            e.episode_id,
+            ndtw.value(r)
+        );
+        total += ndtw.value(r);
+    }
+    let mean = total / batch.episodes.len() as f32;
+    assert!(
+        mean > 0.8,
+        "the oracle strays from the reference paths: nDTW {mean}"
+    );
+    let metrics: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("metrics.json")).unwrap()).unwrap();
+    let reported = metrics["groups"]["all"]["ndtw"].as_f64().unwrap();
+    assert!(
+        (reported - f64::from(mean)).abs() < 1e-4,
+        "{reported} against {mean}"
+    );
+}

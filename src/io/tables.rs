@@ -592,6 +592,7 @@ pub fn write_episode_table(
         Field::new("steps", DataType::UInt32, false),
         Field::new("collisions", DataType::UInt32, false),
         Field::new("final_geodesic", DataType::Float32, true),
+        Field::new("ndtw", DataType::Float32, true),
         Field::new("instruction", DataType::Utf8, false),
     ]));
     let s = |f: &dyn Fn(&crate::episode::Episode) -> String| -> ArrayRef {
@@ -631,6 +632,11 @@ pub fn write_episode_table(
         Arc::new(
             rows.iter()
                 .map(|(_, m)| m.final_geodesic.is_finite().then_some(m.final_geodesic))
+                .collect::<Float32Array>(),
+        ),
+        Arc::new(
+            rows.iter()
+                .map(|(_, m)| m.ndtw.is_finite().then_some(m.ndtw))
                 .collect::<Float32Array>(),
         ),
         s(&crate::episode::instruction::instruction),

@@ -77,7 +77,7 @@ impl Reward {
 }
 
 /// The metrics of one episode.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct EpisodeMetrics {
     /// Reached the goal (and stopped, for agents that must).
     pub success: bool,
@@ -95,6 +95,9 @@ pub struct EpisodeMetrics {
     pub collisions: u32,
     /// Geodesic distance left at the end (m; NaN when unknown).
     pub final_geodesic: f32,
+    /// How closely the agent followed a VLN episode's reference path ([`ndtw`]); NaN for the
+    /// other tasks.
+    pub ndtw: f32,
 }
 
 impl EpisodeMetrics {
@@ -131,8 +134,75 @@ impl EpisodeMetrics {
             steps,
             collisions,
             final_geodesic,
+            ndtw: f32::NAN,
         }
     }
+}
+
+impl Default for EpisodeMetrics {
+    /// A failed episode of no steps, with the distances left and nDTW unknown (NaN).
+    fn default() -> Self {
+        EpisodeMetrics {
+            success: false,
+            speed: 0.0,
+            spl: 0.0,
+            soft_spl: 0.0,
+            path_length: 0.0,
+            steps: 0,
+            collisions: 0,
+            final_geodesic: f32::NAN,
+            ndtw: f32::NAN,
+        }
+    }
+}
+
+/// nDTW's distance threshold (m): VLN-CE's success distance.
+pub const NDTW_THRESHOLD: f32 = 3.0;
+
+/// The spacing (m) a reference path is resampled at for [`ndtw`]: the Habitat agent's step,
+/// as VLN-CE's reference locations are one per step.
+pub const NDTW_SPACING: f32 = 0.25;
+
+/// Normalised dynamic time warping (Ilharco et al. 2019, "General Evaluation for Instruction
+/// Conditioned Navigation using Dynamic Time Warping"): how closely `query` — the positions
+/// the agent passed, its start first — follows `reference`, a path's corners.
+/// `exp(−DTW(R, Q) / (|R| · NDTW_THRESHOLD))`, where `R` is the reference resampled every
+/// [`NDTW_SPACING`] metres along its segments (its corners kept) and DTW sums the Euclidean
+/// distances of the best monotone matching of `R`'s points to `Q`'s. 1 when the query visits
+/// the reference's points in order, falling towards 0 as it strays; NaN when either is
+/// empty.
+pub fn ndtw(reference: &[[f32; 3]], query: &[[f32; 3]]) -> f32 {
+    let r = resample(reference, NDTW_SPACING);
+    if r.is_empty() || query.is_empty() {
+        return f32::NAN;
+    }
+    let q: Vec<glam::Vec3> = query.iter().map(|p| glam::Vec3::from_array(*p)).collect();
+    // dtw[j] over the query for the previous and the current reference point.
+    let mut prev = vec![f64::INFINITY; q.len() + 1];
+    prev[0] = 0.0;
+    let mut cur = vec![f64::INFINITY; q.len() + 1];
+    for a in &r {
+        cur[0] = f64::INFINITY;
+        for (j, b) in q.iter().enumerate() {
+            let d = f64::from(a.distance(*b));
+            cur[j + 1] = d + prev[j].min(prev[j + 1]).min(cur[j]);
+        }
+        std::mem::swap(&mut prev, &mut cur);
+    }
+    let dtw = prev[q.len()];
+    (-dtw / (r.len() as f64 * f64::from(NDTW_THRESHOLD))).exp() as f32
+}
+
+/// `path`'s corners with points every `spacing` metres along each segment between them.
+fn resample(path: &[[f32; 3]], spacing: f32) -> Vec<glam::Vec3> {
+    let mut out = Vec::new();
+    for w in path.windows(2) {
+        let (a, b) = (glam::Vec3::from_array(w[0]), glam::Vec3::from_array(w[1]));
+        let n = (a.distance(b) / spacing).ceil().max(1.0) as usize;
+        out.extend((0..n).map(|k| a.lerp(b, k as f32 / n as f32)));
+    }
+    out.extend(path.last().map(|p| glam::Vec3::from_array(*p)));
+    out
 }
 
 /// Means over a group of episodes. Episodes that failed with an error (the oracle found no
@@ -160,12 +230,16 @@ pub struct Aggregate {
     pub steps: f64,
     /// Mean collisions of the finished episodes.
     pub collisions: f64,
+    /// Mean nDTW of the finished episodes that have one (VLN); absent when none has.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub ndtw: Option<f64>,
 }
 
 impl Aggregate {
     /// Means of `metrics`; `None` is an episode that failed with an error.
     pub fn of<'a>(metrics: impl Iterator<Item = Option<&'a EpisodeMetrics>>) -> Self {
         let mut a = Aggregate::default();
+        let (mut ndtw_sum, mut ndtw_n) = (0.0, 0usize);
         for m in metrics {
             a.episodes += 1;
             let Some(m) = m else {
@@ -179,7 +253,12 @@ impl Aggregate {
             a.path_length += f64::from(m.path_length);
             a.steps += f64::from(m.steps);
             a.collisions += f64::from(m.collisions);
+            if m.ndtw.is_finite() {
+                ndtw_sum += f64::from(m.ndtw);
+                ndtw_n += 1;
+            }
         }
+        a.ndtw = (ndtw_n > 0).then(|| ndtw_sum / ndtw_n as f64);
         let all = a.episodes.max(1) as f64;
         for v in [&mut a.success, &mut a.speed, &mut a.spl, &mut a.soft_spl] {
             *v /= all;
@@ -224,13 +303,19 @@ pub fn aggregate(rows: &[MetricRow]) -> BTreeMap<String, Aggregate> {
 /// The printed table of aggregates (`failed`: episodes that failed with an error, counted
 /// as failures in every rate).
 pub fn render_table(groups: &BTreeMap<String, Aggregate>) -> String {
+    // An nDTW column only where some group has VLN episodes.
+    let with_ndtw = groups.values().any(|a| a.ndtw.is_some());
     let mut s = format!(
-        "{:<24}{:>9}{:>8}{:>9}{:>8}{:>8}{:>9}{:>9}{:>8}\n",
+        "{:<24}{:>9}{:>8}{:>9}{:>8}{:>8}{:>9}{:>9}{:>8}",
         "group", "episodes", "failed", "success", "SPL", "SoftSPL", "speed", "path m", "coll."
     );
+    if with_ndtw {
+        s.push_str(&format!("{:>8}", "nDTW"));
+    }
+    s.push('\n');
     for (k, a) in groups {
         s.push_str(&format!(
-            "{:<24}{:>9}{:>8}{:>8.1}%{:>8.3}{:>8.3}{:>9.3}{:>9.2}{:>8.1}\n",
+            "{:<24}{:>9}{:>8}{:>8.1}%{:>8.3}{:>8.3}{:>9.3}{:>9.2}{:>8.1}",
             k,
             a.episodes,
             a.failed,
@@ -241,6 +326,13 @@ pub fn render_table(groups: &BTreeMap<String, Aggregate>) -> String {
             a.path_length,
             a.collisions
         ));
+        if with_ndtw {
+            match a.ndtw {
+                Some(v) => s.push_str(&format!("{v:>8.3}")),
+                None => s.push_str(&format!("{:>8}", "–")),
+            }
+        }
+        s.push('\n');
     }
     s
 }
@@ -266,6 +358,82 @@ mod tests {
                 .abs()
                 < 1e-5
         );
+    }
+
+    /// DTW by its recursive definition, memoised: the reference for the rolling-row one.
+    fn dtw_by_definition(r: &[glam::Vec3], q: &[glam::Vec3]) -> f64 {
+        fn go(
+            i: usize,
+            j: usize,
+            r: &[glam::Vec3],
+            q: &[glam::Vec3],
+            memo: &mut std::collections::HashMap<(usize, usize), f64>,
+        ) -> f64 {
+            if let Some(v) = memo.get(&(i, j)) {
+                return *v;
+            }
+            let d = f64::from(r[i].distance(q[j]));
+            let v = match (i, j) {
+                (0, 0) => d,
+                (0, _) => d + go(0, j - 1, r, q, memo),
+                (_, 0) => d + go(i - 1, 0, r, q, memo),
+                _ => {
+                    d + go(i - 1, j - 1, r, q, memo)
+                        .min(go(i - 1, j, r, q, memo))
+                        .min(go(i, j - 1, r, q, memo))
+                }
+            };
+            memo.insert((i, j), v);
+            v
+        }
+        go(r.len() - 1, q.len() - 1, r, q, &mut Default::default())
+    }
+
+    #[test]
+    fn ndtw_follows_its_definition() {
+        // An L-shaped reference, 2 m then 1.5 m: resampled every 0.25 m, corners kept.
+        let reference = [[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [2.0, 0.0, -1.5]];
+        let r = resample(&reference, NDTW_SPACING);
+        assert_eq!(r.len(), 8 + 6 + 1);
+        assert!(r
+            .windows(2)
+            .all(|w| (w[0].distance(w[1]) - 0.25).abs() < 1e-5));
+        // Walking the reference's own points: a perfect follow.
+        let on: Vec<[f32; 3]> = r.iter().map(|p| p.to_array()).collect();
+        assert!((ndtw(&reference, &on) - 1.0).abs() < 1e-6);
+        // The same walk 1 m to the side: every point matched 1 m away, exp(−1/3).
+        let beside: Vec<[f32; 3]> = r.iter().map(|p| (*p + glam::Vec3::Y).to_array()).collect();
+        assert!((ndtw(&reference, &beside) - (-1.0f32 / 3.0).exp()).abs() < 1e-5);
+        // A walk that cuts the corner and stops short, at agent-sized steps: the rolling
+        // rows equal the recursive definition.
+        let cut: Vec<[f32; 3]> = (0..12)
+            .map(|k| {
+                let t = k as f32 / 11.0;
+                [1.8 * t, 0.0, -1.2 * t * t]
+            })
+            .collect();
+        let q: Vec<glam::Vec3> = cut.iter().map(|p| glam::Vec3::from_array(*p)).collect();
+        let want = (-dtw_by_definition(&r, &q) / (r.len() as f64 * 3.0)).exp() as f32;
+        let got = ndtw(&reference, &cut);
+        assert!((got - want).abs() < 1e-6, "{got} against {want}");
+        assert!(got < 1.0 && got > (-1.0f32 / 3.0).exp(), "{got}");
+        assert!(ndtw(&reference, &[]).is_nan() && ndtw(&[], &cut).is_nan());
+    }
+
+    #[test]
+    fn the_mean_ndtw_is_over_the_episodes_that_have_one() {
+        let mut vln = EpisodeMetrics::finish(true, 50, 500, 10.0, 2, 8.0, 0.1);
+        vln.ndtw = 0.8;
+        let mut other = vln;
+        other.ndtw = 0.4;
+        let point = EpisodeMetrics::finish(true, 50, 500, 10.0, 2, 8.0, 0.1);
+        let a = Aggregate::of([Some(&vln), Some(&other), Some(&point), None].into_iter());
+        assert!((a.ndtw.unwrap() - 0.6).abs() < 1e-6, "{:?}", a.ndtw);
+        let none = Aggregate::of([Some(&point)].into_iter());
+        assert_eq!(none.ndtw, None);
+        assert!(!serde_json::to_string(&none).unwrap().contains("ndtw"));
+        let table = render_table(&[("all".to_string(), a)].into_iter().collect());
+        assert!(table.contains("nDTW") && table.contains("0.600"), "{table}");
     }
 
     #[test]

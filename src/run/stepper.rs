@@ -26,7 +26,7 @@ use crate::sim::AgentConfig;
 use crate::sim::{Actions, Observation, Simulator};
 
 use super::agents::{Decision, STOP};
-use super::metrics::{reached, EpisodeMetrics, Reward};
+use super::metrics::{ndtw, reached, EpisodeMetrics, Reward};
 use super::step_features::StepFeatures;
 
 /// Why a stepper could not step.
@@ -163,6 +163,9 @@ pub struct EpisodeStepper {
     /// The decision that led to the latest observation (`None` at the episode's start).
     previous: Option<Decision>,
     path_length: f32,
+    /// The positions the agent passed, the start first, for a VLN episode's nDTW (empty for
+    /// other tasks).
+    trajectory: Vec<[f32; 3]>,
     collisions: u32,
     success: bool,
     ended: bool,
@@ -182,6 +185,7 @@ impl EpisodeStepper {
             decisions: 0,
             previous: None,
             path_length: 0.0,
+            trajectory: Vec::new(),
             collisions: 0,
             success: false,
             ended: false,
@@ -282,6 +286,10 @@ impl EpisodeStepper {
         self.decisions = 0;
         self.previous = None;
         self.path_length = 0.0;
+        self.trajectory.clear();
+        if episode.route.is_some() {
+            self.trajectory.push(self.sim.state().position);
+        }
         self.collisions = 0;
         self.success = false;
         self.ended = false;
@@ -357,6 +365,9 @@ impl EpisodeStepper {
                 self.steps += 1;
                 let to = self.sim.state();
                 self.path_length += Vec3::from_array(from).distance(Vec3::from_array(to.position));
+                if !self.trajectory.is_empty() {
+                    self.trajectory.push(to.position);
+                }
                 self.collisions += u32::from(m.collision);
                 let arrived = !self.cfg.require_stop
                     && self
@@ -400,7 +411,7 @@ impl EpisodeStepper {
     /// decision, a final `stop` included.
     pub fn metrics(&self) -> Result<EpisodeMetrics, StepError> {
         let ep = self.episode.as_ref().ok_or(StepError::NotReset)?;
-        Ok(EpisodeMetrics::finish(
+        let mut m = EpisodeMetrics::finish(
             self.success,
             self.decisions,
             self.limit,
@@ -408,7 +419,11 @@ impl EpisodeStepper {
             self.collisions,
             ep.geodesic_distance,
             self.obs.measurements.goal_geodesic.unwrap_or(f32::NAN),
-        ))
+        );
+        if let Some(route) = &ep.route {
+            m.ndtw = ndtw(&route.path, &self.trajectory);
+        }
+        Ok(m)
     }
 
     /// Runs `command`: a reset (an outcome with `reset` set) or a step.

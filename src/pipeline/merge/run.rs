@@ -207,6 +207,7 @@ fn metric_rows(batch: &RecordBatch, path: &Path) -> Result<MetricRows, MergeErro
         f("final_geodesic")?,
     );
     let (steps, collisions) = (u("steps")?, u("collisions")?);
+    let ndtw = f("ndtw")?;
     let mut rows = Vec::with_capacity(batch.num_rows());
     let mut names = Vec::with_capacity(batch.num_rows());
     for r in 0..batch.num_rows() {
@@ -222,6 +223,11 @@ fn metric_rows(batch: &RecordBatch, path: &Path) -> Result<MetricRows, MergeErro
                 f32::NAN
             } else {
                 final_geodesic.value(r)
+            },
+            ndtw: if ndtw.is_null(r) {
+                f32::NAN
+            } else {
+                ndtw.value(r)
             },
         };
         rows.push((

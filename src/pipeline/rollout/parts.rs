@@ -39,6 +39,9 @@ pub struct PartDone {
     steps: u32,
     collisions: u32,
     final_geodesic: Option<f32>,
+    /// VLN episodes only (parts written before nDTW existed have none).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    ndtw: Option<f32>,
 }
 
 impl From<&PartDone> for EpisodeMetrics {
@@ -52,6 +55,7 @@ impl From<&PartDone> for EpisodeMetrics {
             steps: p.steps,
             collisions: p.collisions,
             final_geodesic: p.final_geodesic.unwrap_or(f32::NAN),
+            ndtw: p.ndtw.unwrap_or(f32::NAN),
         }
     }
 }
@@ -73,6 +77,7 @@ pub fn write_done(
         steps: m.steps,
         collisions: m.collisions,
         final_geodesic: m.final_geodesic.is_finite().then_some(m.final_geodesic),
+        ndtw: m.ndtw.is_finite().then_some(m.ndtw),
     };
     let path = part(dir, index, "json");
     let json = serde_json::to_vec(&done).map_err(|e| format!("{}: {e}", path.display()))?;

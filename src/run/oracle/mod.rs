@@ -17,6 +17,9 @@
 //! reachable states are quite alike) plan in `continuous.rs`: greedy turn-then-forward steps
 //! checked the same way, and a hybrid A* that merges the states of one coarse cell.
 //!
+//! A VLN episode is walked to the end of its reference path (within 0.5 m), not
+//! only into its success radius.
+//!
 //! Every plan uses only the agent's action set
 //! ([`AgentConfig::action_names`](crate::sim::AgentConfig::action_names)): the MINOS paper's
 //! agent plans with forward and turns alone.
@@ -34,6 +37,11 @@ use crate::sim::{Actions, Observation, Simulator};
 
 use super::agents::{action_set, Agent, AgentError, Decision};
 use super::metrics::reached;
+
+/// The radius (m) the oracle walks a VLN episode to: the reference path's end, not the edge
+/// of the success radius (3 m in VLN-CE), so that it follows the whole reference path (nDTW)
+/// and its stop is a success all the same.
+const VLN_ARRIVAL: f32 = 0.5;
 
 /// Largest number of states one plan may expand.
 const MAX_EXPANSIONS: usize = 40_000;
@@ -353,10 +361,26 @@ fn search(
 
 impl Agent for OracleAgent {
     fn reset(&mut self, episode: &Episode, sim: &Simulator) -> Result<(), AgentError> {
-        self.episode = Some(episode.clone());
+        // A VLN episode is walked to its reference path's end (where the plan is possible),
+        // not to the edge of its success radius.
+        let to_the_end = episode.route.is_some() && episode.success_radius > VLN_ARRIVAL;
+        let planned = to_the_end
+            .then(|| Episode {
+                success_radius: VLN_ARRIVAL,
+                ..episode.clone()
+            })
+            .and_then(|e| Some((plan(sim, &e, sim.state())?, e)));
+        let (steps, planned) = match planned {
+            Some(p) => p,
+            None => (
+                plan(sim, episode, sim.state())
+                    .ok_or_else(|| AgentError::NoPlan(episode.episode_id.clone()))?,
+                episode.clone(),
+            ),
+        };
+        self.episode = Some(planned);
         self.next = 0;
-        self.plan = plan(sim, episode, sim.state())
-            .ok_or_else(|| AgentError::NoPlan(episode.episode_id.clone()))?;
+        self.plan = steps;
         self.expected = None;
         Ok(())
     }
