@@ -18,10 +18,11 @@ use minos::navmesh::NavParams;
 use minos::pipeline::ingest::{ingest, IngestConfig};
 use minos::progress::NoProgress;
 use minos::render::gpu::GpuRenderer;
+use minos::render::Renderer;
+use minos::render::RendererChoice;
 use minos::render::{cpu, raycast, Camera, Frame, RenderScene};
 use minos::seed::Rng;
-use minos::sim::simulator::Renderer;
-use minos::sim::{Actions, AgentConfig, RendererChoice, SceneAssets, SensorSuite, Simulator};
+use minos::sim::{Actions, AgentConfig, SceneAssets, SensorSuite, Simulator};
 
 #[path = "support/dense.rs"]
 mod dense;

@@ -23,13 +23,14 @@ use minos::navmesh::geodesic::Geodesic;
 use minos::pipeline::episodes::sample_scenes;
 use minos::pipeline::rollout::{run, AgentKind, RunConfig};
 use minos::progress::NoProgress;
+use minos::render::Renderer;
+use minos::render::RendererChoice;
 use minos::run::agents::{Agent, Decision};
 use minos::run::metrics::Reward;
 use minos::run::oracle::OracleAgent;
 use minos::run::stepper::{EpisodeStepper, StepperConfig, DEFAULT_MAX_STEPS};
 use minos::shard::Shard;
-use minos::sim::simulator::Renderer;
-use minos::sim::{AgentConfig, RendererChoice, SceneAssets, SensorSuite, Simulator};
+use minos::sim::{AgentConfig, SceneAssets, SensorSuite, Simulator};
 
 /// CPU time (s) of the whole process (all threads), from `/proc/self/stat` (Linux; `None`
 /// elsewhere). On a shared, busy box CPU time is steadier than wall time.

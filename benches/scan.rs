@@ -15,7 +15,8 @@ use minos::pipeline::bake::{bake_scenes, BakeConfig};
 use minos::pipeline::bench::{bench, BenchConfig, BenchKind};
 use minos::pipeline::ingest::{ingest, DatasetFormat, IngestConfig};
 use minos::progress::NoProgress;
-use minos::sim::{AgentConfig, RendererChoice, SensorSuite};
+use minos::render::RendererChoice;
+use minos::sim::{AgentConfig, SensorSuite};
 use minos::store::DataDir;
 
 fn env(name: &str, default: u64) -> u64 {

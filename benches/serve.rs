@@ -31,10 +31,11 @@ use minos::episode::Task;
 use minos::io::tables::ImageEncoding;
 use minos::pipeline::episodes::sample_scenes;
 use minos::progress::NoProgress;
+use minos::render::RendererChoice;
 use minos::run::metrics::Reward;
 use minos::serve::{start, FrameFormat, RateLimits, ServeConfig, Shared};
 use minos::shard::Shard;
-use minos::sim::{AgentConfig, RendererChoice, SensorSuite};
+use minos::sim::{AgentConfig, SensorSuite};
 use minos::store::DataDir;
 use tokio_tungstenite::tungstenite::Message;
 

@@ -346,7 +346,7 @@ fn a_simulator_reset_to_an_episode_measures_its_stored_geodesic() {
         let agent = minos::sim::AgentConfig::habitat();
         let assets =
             Arc::new(minos::sim::SceneAssets::new(&scene, grid(&e.scene_id), &agent).unwrap());
-        let renderer = Arc::new(minos::sim::simulator::Renderer::Cpu);
+        let renderer = Arc::new(minos::render::Renderer::Cpu);
         let sensors = minos::sim::SensorSuite {
             cameras: vec![],
             contact: None,

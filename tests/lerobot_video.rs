@@ -17,9 +17,10 @@ use minos::io::lerobot::video_read::read_video;
 use minos::io::tables::ImageEncoding;
 use minos::pipeline::rollout::{run, AgentKind, RunConfig};
 use minos::progress::NoProgress;
+use minos::render::RendererChoice;
 use minos::run::metrics::Reward;
 use minos::shard::Shard;
-use minos::sim::{AgentConfig, RendererChoice, SensorSuite};
+use minos::sim::{AgentConfig, SensorSuite};
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 use serde_json::Value;
 

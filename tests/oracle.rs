@@ -18,9 +18,10 @@ use minos::io::tables::ImageEncoding;
 use minos::pipeline::episodes::sample_scenes;
 use minos::pipeline::rollout::{run, AgentKind, RunConfig};
 use minos::progress::NoProgress;
+use minos::render::RendererChoice;
 use minos::run::metrics::Reward;
 use minos::shard::Shard;
-use minos::sim::{AgentConfig, RendererChoice, SensorSuite};
+use minos::sim::{AgentConfig, SensorSuite};
 use minos::store::DataDir;
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 
@@ -195,13 +196,13 @@ fn the_papers_sensors_are_grey_and_90_degrees() {
     let grey = suite
         .cameras
         .iter()
-        .find(|c| c.modality == minos::sim::sensors::Modality::Gray)
+        .find(|c| c.modality == minos::render::Modality::Gray)
         .expect("a grey camera");
     assert_eq!((grey.vfov, grey.resolution), (90.0, [84, 84]));
     assert!(suite
         .cameras
         .iter()
-        .all(|c| c.modality != minos::sim::sensors::Modality::Color));
+        .all(|c| c.modality != minos::render::Modality::Color));
     assert_eq!(
         SensorSuite::for_preset(AgentPreset::Minos, 84),
         SensorSuite::minos(84)

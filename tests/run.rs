@@ -14,10 +14,11 @@ use minos::generate::GenerateConfig;
 use minos::io::tables::ImageEncoding;
 use minos::pipeline::rollout::{run, AgentKind, RunConfig};
 use minos::progress::NoProgress;
+use minos::render::RendererChoice;
 use minos::run::agents::Decision;
 use minos::run::metrics::Reward;
 use minos::shard::Shard;
-use minos::sim::{AgentConfig, RendererChoice, SensorSuite};
+use minos::sim::{AgentConfig, SensorSuite};
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 
 fn data() -> &'static (tempfile::TempDir, Vec<Episode>) {
@@ -174,7 +175,7 @@ fn observations_read_back_bit_for_bit_and_replays_reproduce_poses() {
     let assets = Arc::new(minos::sim::SceneAssets::new(&scene, grid, &body).unwrap());
     let mut sim = minos::sim::Simulator::new(
         assets,
-        Arc::new(minos::sim::simulator::Renderer::Cpu),
+        Arc::new(minos::render::Renderer::Cpu),
         body,
         sensors,
         500,

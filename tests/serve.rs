@@ -22,10 +22,11 @@ use minos::generate::GenerateConfig;
 use minos::io::tables::{read_replay, ImageEncoding};
 use minos::pipeline::rollout::{run, AgentKind, RunConfig, PLAYED};
 use minos::progress::NoProgress;
+use minos::render::RendererChoice;
 use minos::run::agents::Decision;
 use minos::run::metrics::Reward;
 use minos::serve::{start, FrameFormat, RateLimits, Running, ServeConfig, ServeError, Shared};
-use minos::sim::{AgentConfig, RendererChoice, SensorSuite};
+use minos::sim::{AgentConfig, SensorSuite};
 use minos::store::DataDir;
 
 /// Files a run writes that must match byte for byte (the manifest names the agent).

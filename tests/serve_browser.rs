@@ -21,11 +21,12 @@ use minos::generate::GenerateConfig;
 use minos::io::tables::{read_replay, ImageEncoding};
 use minos::pipeline::rollout::{run, AgentKind, Provenance, RunConfig, PLAYED};
 use minos::progress::NoProgress;
+use minos::render::RendererChoice;
 use minos::run::agents::Decision;
 use minos::run::metrics::Reward;
 use minos::serve::{start, FrameFormat, RateLimits, ServeConfig, Shared};
 use minos::shard::Shard;
-use minos::sim::{AgentConfig, RendererChoice, SensorSuite};
+use minos::sim::{AgentConfig, SensorSuite};
 use serde_json::{json, Value};
 
 #[test]

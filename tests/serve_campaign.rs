@@ -23,13 +23,14 @@ use minos::generate::GenerateConfig;
 use minos::io::tables::{read_replay, ImageEncoding};
 use minos::pipeline::rollout::{run, AgentKind, PLAYED};
 use minos::progress::NoProgress;
+use minos::render::RendererChoice;
 use minos::run::agents::Decision;
 use minos::run::metrics::Reward;
 use minos::serve::campaign::links::{mint, Participant};
 use minos::serve::campaign::record::SessionQc;
 use minos::serve::campaign::{Campaign, CampaignSpec};
 use minos::serve::{start_campaign, FrameFormat, Running, ServeConfig, Shared};
-use minos::sim::{AgentConfig, RendererChoice, SensorSuite};
+use minos::sim::{AgentConfig, SensorSuite};
 use minos::store::DataDir;
 use serde_json::Value;
 

@@ -17,11 +17,12 @@ use minos::generate::GenerateConfig;
 use minos::io::tables::{read_replay, ImageEncoding};
 use minos::pipeline::rollout::{run, AgentKind};
 use minos::progress::NoProgress;
+use minos::render::RendererChoice;
 use minos::run::metrics::Reward;
 use minos::serve::campaign::links::mint;
 use minos::serve::campaign::{Campaign, CampaignSpec};
 use minos::serve::{start_campaign, FrameFormat, RateLimits, ServeConfig, Shared};
-use minos::sim::{AgentConfig, RendererChoice, SensorSuite};
+use minos::sim::{AgentConfig, SensorSuite};
 use serde_json::Value;
 
 #[test]

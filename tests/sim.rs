@@ -12,13 +12,12 @@ use glam::Vec3;
 use minos::navmesh::build::build;
 use minos::navmesh::route::route;
 use minos::navmesh::NavParams;
+use minos::render::Renderer;
+use minos::render::RendererChoice;
 use minos::render::{cpu, Camera, RenderScene};
+use minos::render::{Image, Modality};
 use minos::scene::{ObjectFlags, RoomClass, Scene};
-use minos::sim::sensors::{Image, Modality};
-use minos::sim::simulator::Renderer;
-use minos::sim::{
-    Actions, AgentConfig, GoalSpec, RendererChoice, SceneAssets, SensorSuite, Simulator,
-};
+use minos::sim::{Actions, AgentConfig, GoalSpec, SceneAssets, SensorSuite, Simulator};
 
 fn sim_with(scene: &Scene, agent: AgentConfig, sensors: SensorSuite) -> Simulator {
     let grid = build(scene, &NavParams::for_body(agent.body)).unwrap();

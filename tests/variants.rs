@@ -22,6 +22,9 @@ use minos::pipeline::episodes::sample_scenes;
 use minos::pipeline::variants::collect_stats;
 use minos::progress::NoProgress;
 use minos::render::labels::Taxonomy;
+use minos::render::Renderer;
+use minos::render::RendererChoice;
+use minos::render::{Image, Modality};
 use minos::scene::variants::materials::{
     effective_material, material_key, object_category, surface_category, used_slots,
     DEFAULT_FRACTIONS,
@@ -30,9 +33,7 @@ use minos::scene::variants::{MaterialStats, Retexture, TextureSet, VariantSpec};
 use minos::scene::Scene;
 use minos::seed::Rng;
 use minos::shard::Shard;
-use minos::sim::sensors::{Image, Modality};
-use minos::sim::simulator::Renderer;
-use minos::sim::{AgentConfig, RendererChoice, SceneAssets, SensorSuite, Simulator};
+use minos::sim::{AgentConfig, SceneAssets, SensorSuite, Simulator};
 use minos::store::DataDir;
 
 /// Generated (`cfg`), ingested houses in `dir/data`; returns that DATA folder and the ids.

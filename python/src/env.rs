@@ -11,9 +11,10 @@ use pyo3::types::PyDict;
 use minos::episode::format::read_episodes;
 use minos::episode::Episode;
 use minos::pipeline::vector_env::{EnvOutcome, VectorEnv, VectorEnvConfig, VectorEnvError};
+use minos::render::Image;
 use minos::run::metrics::Reward;
 use minos::run::step_features::StepFeatures;
-use minos::sim::sensors::{CameraSensor, Image};
+use minos::sim::sensors::CameraSensor;
 use minos::sim::{AgentConfig, Observation};
 use minos::store::DataDir;
 

@@ -12,11 +12,12 @@ use pyo3::types::PyDict;
 
 use minos::episode::{Difficulty, Episode, Goal, Task};
 use minos::pipeline::rollout::load_scene_assets;
+use minos::render::Image;
 use minos::render::{Renderer, RendererChoice};
 use minos::run::agents::{action_set, Agent, Decision, STOP};
 use minos::run::metrics::reached;
 use minos::run::oracle::OracleAgent;
-use minos::sim::sensors::{dtype_of, CameraSensor, Image};
+use minos::sim::sensors::{dtype_of, CameraSensor};
 use minos::sim::{Actions, AgentConfig, GoalSpec, Observation, SceneAssets, SensorSuite};
 use minos::store::DataDir;
 

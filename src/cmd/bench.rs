@@ -149,7 +149,7 @@ mod tests {
     use super::*;
     use crate::cmd::common::parse_flags;
     use minos::body::AgentBody;
-    use minos::sim::RendererChoice;
+    use minos::render::RendererChoice;
 
     #[test]
     fn flags_become_the_benchmark() {

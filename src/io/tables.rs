@@ -23,10 +23,11 @@ use crate::atomic::temp_path;
 pub use crate::io::image_codec::ImageEncoding;
 use crate::io::image_codec::{encode_cell, CellFormat};
 use crate::parquet_io::{self, writer_properties};
+use crate::render::Image;
 use crate::run::agents::Decision;
 use crate::run::step_features::StepFeatures;
 use crate::scene::taxonomy::RoomClass;
-use crate::sim::sensors::{CameraSensor, Image};
+use crate::sim::sensors::CameraSensor;
 
 /// Observation rows per row group.
 pub const ROW_GROUP: usize = 32;

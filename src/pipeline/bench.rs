@@ -37,12 +37,13 @@ use crate::navmesh::build::build;
 use crate::navmesh::geodesic::Geodesic;
 use crate::navmesh::{NavGrid, NavParams};
 use crate::render::Renderer;
+use crate::render::RendererChoice;
 use crate::run::agents::{Agent, Decision};
 use crate::run::oracle::OracleAgent;
 use crate::run::stepper::{EpisodeStepper, StepperConfig, DEFAULT_MAX_STEPS};
 use crate::scene::{Scene, SceneRef};
 use crate::seed::{derive_seed, Rng};
-use crate::sim::{AgentConfig, RendererChoice, SceneAssets, SensorSuite, Simulator};
+use crate::sim::{AgentConfig, SceneAssets, SensorSuite, Simulator};
 use crate::store::DataDir;
 
 mod batched;

@@ -23,10 +23,9 @@ use crate::episode::{Episode, Task};
 use crate::io::tables::ImageEncoding;
 use crate::lock::LockMode;
 use crate::pipeline::episodes::sample_scenes;
-use crate::pipeline::rollout::{
-    run_live, AgentKind, EpisodeSource, Provenance, RendererChoice, RunConfig,
-};
+use crate::pipeline::rollout::{run_live, AgentKind, EpisodeSource, Provenance, RunConfig};
 use crate::progress::NoProgress;
+use crate::render::RendererChoice;
 use crate::run::agents::{Agent, AgentError, Decision, STOP};
 use crate::run::metrics::{reached, EpisodeMetrics, Reward};
 use crate::shard::Shard;

@@ -11,8 +11,9 @@ use std::time::{Duration, Instant};
 use rayon::prelude::*;
 
 use super::agent::Actions;
-use super::simulator::{Observation, Renderer, Simulator, Views};
+use super::simulator::{Observation, Simulator, Views};
 use crate::render::gpu::GpuError;
+use crate::render::Renderer;
 use crate::render::{Camera, Channels, Frame};
 
 /// Applies each simulator's actions (`actions[i]` to `sims[i]`) and observes them all.

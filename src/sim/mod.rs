@@ -11,4 +11,4 @@ pub mod simulator;
 
 pub use agent::{Actions, AgentConfig, AgentState};
 pub use sensors::SensorSuite;
-pub use simulator::{GoalSpec, Observation, RendererChoice, SceneAssets, Simulator};
+pub use simulator::{GoalSpec, Observation, SceneAssets, Simulator};

@@ -5,8 +5,8 @@
 use serde::{Deserialize, Serialize};
 
 use crate::body::AgentPreset;
-pub use crate::render::image::{Image, Modality};
 use crate::render::{Frame, RenderScene, Taxonomy};
+use crate::render::{Image, Modality};
 use crate::seed::Rng;
 
 /// How depth is stored.

@@ -12,14 +12,15 @@ use crate::navmesh::path::{path_from_field, PathResult};
 use crate::navmesh::NavGrid;
 use crate::render::cpu::Method;
 use crate::render::gpu::GpuError;
-pub use crate::render::renderer::{Renderer, RendererChoice};
+use crate::render::Renderer;
 use crate::render::{Camera, Channels, Frame, RenderScene};
 use crate::scene::Scene;
 use crate::seed::{derive_seed, Rng};
 
 use super::agent::{intended_motion, Actions, AgentConfig, AgentState};
 use super::collision::CollisionWorld;
-use super::sensors::{Image, SensorSuite};
+use super::sensors::SensorSuite;
+use crate::render::Image;
 
 /// Errors building a simulator.
 #[derive(Debug, thiserror::Error)]

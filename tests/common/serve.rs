@@ -150,7 +150,7 @@ pub fn run_config(
         agent,
         body: minos::sim::AgentConfig::habitat(),
         sensors,
-        renderer: minos::sim::RendererChoice::Cpu,
+        renderer: minos::render::RendererChoice::Cpu,
         max_steps: None,
         seed: 0,
         shard: minos::shard::Shard::ALL,

@@ -13,7 +13,8 @@ use super::scene::{annotation, log_coordinates, log_episode_plan, log_nav, log_s
 use super::{RecordingError, RrdFile};
 use crate::episode::Episode;
 use crate::render::Camera;
-use crate::sim::sensors::{CameraSensor, DepthEncoding, Image as SensorImage, Modality};
+use crate::render::{Image as SensorImage, Modality};
+use crate::sim::sensors::{CameraSensor, DepthEncoding};
 use crate::sim::{AgentConfig, AgentState, Observation, SceneAssets};
 
 /// The agent's base (pose per step).

@@ -37,7 +37,7 @@ use crate::shard::Shard;
 use crate::sim::{AgentConfig, SensorSuite};
 use crate::store::DataDir;
 
-pub use crate::render::RendererChoice;
+use crate::render::RendererChoice;
 pub use agent_kind::{AgentKind, AgentNameError, AGENT_NAMES};
 pub use episode::EpisodeError;
 pub use live::{finish_live, run_live, EpisodeSource, PLAYED};
