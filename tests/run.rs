@@ -1403,6 +1403,22 @@ fn the_stepper_numbers_actions_once_and_refuses_steps_outside_an_episode() {
     ));
     let outs = step_many(&mut batch, &[Command::Reset(&ep)]).unwrap();
     assert!(outs[0].reset);
+    // Prepared without observing (as a batch's start beside the lockstep): neither a step
+    // nor a second observation before its first observation, which is the reset's own.
+    let reset_obs = batch[0].reset(&ep).unwrap().clone();
+    assert!(matches!(
+        step_many(&mut batch, &[Command::Observe]),
+        Err(StepError::NotPrepared)
+    ));
+    batch[0].prepare_in(&ep, None);
+    assert!(matches!(batch[0].step(turn), Err(StepError::NotPrepared)));
+    let outs = step_many(&mut batch, &[Command::Observe]).unwrap();
+    assert!(outs[0].reset && outs[0].steps == 0 && outs[0].reward == 0.0);
+    assert_eq!(
+        outs[0].obs, &reset_obs,
+        "the first observation is the reset's"
+    );
+    assert!(batch[0].step(turn).unwrap().steps == 1);
 }
 
 #[test]

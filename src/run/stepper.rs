@@ -41,6 +41,10 @@ pub enum StepError {
     /// `step` after the episode ended (terminated or truncated): reset it first.
     #[error("episode {0} has ended: reset the stepper to an episode before stepping it")]
     Ended(String),
+    /// [`Command::Observe`] with no prepared episode waiting for its first observation, or
+    /// a step before that observation.
+    #[error("the episode stepper has no prepared episode waiting for its first observation")]
+    NotPrepared,
     /// A batch with a different number of commands than steppers.
     #[error("{commands} commands for {steppers} steppers")]
     Batch {
@@ -169,6 +173,8 @@ pub struct EpisodeStepper {
     collisions: u32,
     success: bool,
     ended: bool,
+    /// Prepared ([`EpisodeStepper::prepare_in`]) and not yet observed.
+    unobserved: bool,
 }
 
 impl EpisodeStepper {
@@ -189,6 +195,7 @@ impl EpisodeStepper {
             collisions: 0,
             success: false,
             ended: false,
+            unobserved: false,
         }
     }
 
@@ -273,9 +280,21 @@ impl EpisodeStepper {
         episode: &Episode,
         geo: Option<&Geodesic<'_>>,
     ) -> Result<&Observation, StepError> {
+        self.prepare_in(episode, geo);
+        self.unobserved = false;
+        self.observe_first()
+    }
+
+    /// Sets the stepper up for `episode` — the simulator reset (its goal field on `geo`'s
+    /// query structures when given), the bookkeeping restarted — without observing its start:
+    /// the first observation is the next [`Command::Observe`]'s, which a batch renders with
+    /// the other environments' frames ([`step_many`]). The expensive part of a start (the
+    /// goal field) can so run beside a lockstep while its first frame joins the lockstep's
+    /// render call.
+    pub fn prepare_in(&mut self, episode: &Episode, geo: Option<&Geodesic<'_>>) {
         self.sim.reset_episode_in(episode, geo);
         self.restart(episode);
-        self.observe_first()
+        self.unobserved = true;
     }
 
     /// Resets the episode's bookkeeping to `episode` without touching the simulator.
@@ -315,11 +334,22 @@ impl EpisodeStepper {
             Command::Reset(episode) => {
                 self.sim.reset_episode_in(episode, None);
                 self.restart(episode);
+                self.unobserved = false;
+                return Ok(Pending::Reset);
+            }
+            Command::Observe => {
+                if !self.unobserved {
+                    return Err(StepError::NotPrepared);
+                }
+                self.unobserved = false;
                 return Ok(Pending::Reset);
             }
             Command::Step(decision) => decision,
         };
         let ep = self.episode.as_ref().ok_or(StepError::NotReset)?;
+        if self.unobserved {
+            return Err(StepError::NotPrepared);
+        }
         if self.ended {
             return Err(StepError::Ended(ep.episode_id.clone()));
         }
@@ -461,6 +491,9 @@ impl Pending {
 pub enum Command<'e> {
     /// Reset to this episode (and observe).
     Reset(&'e Episode),
+    /// Observe the start of the episode [`EpisodeStepper::prepare_in`] set up (an outcome
+    /// with `reset` set, as [`Command::Reset`]'s).
+    Observe,
     /// Take this decision.
     Step(Decision),
 }

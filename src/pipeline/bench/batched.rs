@@ -97,8 +97,9 @@ impl BatchedRun {
 /// One environment of the batch: a stepper and its oracle.
 type Env = (EpisodeStepper, OracleAgent);
 
-/// Starts the next unclaimed episode on `env`, if any (reset, first frame, plan, as the
-/// per-core loop does); `false` when none is left.
+/// Prepares the next unclaimed episode on `env`, if any (the reset with its goal field, the
+/// oracle's plan; its first frame comes with the lockstep's next render call); `false` when
+/// none is left.
 fn start_next(
     (stepper, agent): &mut Env,
     eps: &[Episode],
@@ -109,7 +110,7 @@ fn start_next(
     let Some(ep) = eps.get(next.fetch_add(1, Ordering::Relaxed)) else {
         return Ok(false);
     };
-    stepper.reset_in(ep, Some(geo)).map_err(|e| err(&e))?;
+    stepper.prepare_in(ep, Some(geo));
     agent.reset(ep, stepper.sim()).map_err(|e| err(&e))?;
     Ok(true)
 }
@@ -121,7 +122,8 @@ fn start_next(
 ///
 /// Starting an episode (its goal field and the oracle's plan: tens of milliseconds on a
 /// large scan) runs as a task beside the lockstep, so the other environments keep stepping;
-/// the environment rejoins the batch when its episode is ready. Which batch an environment
+/// the environment rejoins the batch when its episode is ready, and its first frame is
+/// rendered with the batch's next step (one render call for all, on a GPU one submission). Which batch an environment
 /// steps in never changes what it observes, so the steps are those of the per-core loop.
 pub(super) fn rollout_batched(
     sim: &Simulator,
@@ -155,8 +157,10 @@ pub(super) fn rollout_batched(
         for _ in 0..pending {
             begin((oracle_stepper(sim.sibling()), OracleAgent::new()));
         }
-        // The batch: steppers (a slice, for `step_many`) and their oracles, side by side.
+        // The batch: steppers (a slice, for `step_many`) and their oracles, side by side;
+        // `fresh`: joined with its episode prepared, its first frame not yet observed.
         let (mut steppers, mut agents): (Vec<EpisodeStepper>, Vec<OracleAgent>) = (vec![], vec![]);
+        let mut fresh: Vec<bool> = Vec::new();
         let mut steps = 0u64;
         loop {
             // Environments whose episode is ready join; with none stepping, wait for one
@@ -169,6 +173,7 @@ pub(super) fn rollout_batched(
                         if let Some((stepper, agent)) = env? {
                             steppers.push(stepper);
                             agents.push(agent);
+                            fresh.push(true);
                         }
                     }
                     Err(_) if steppers.is_empty() && pending > 0 => {
@@ -183,36 +188,48 @@ pub(super) fn rollout_batched(
             if steppers.is_empty() {
                 break;
             }
+            // The fresh environments observe their first frame; the others decide.
             let decisions = steppers
                 .par_iter()
                 .zip(agents.par_iter_mut())
-                .map(|(s, a)| a.decide(s.observation(), s.sim()))
-                .collect::<Result<Vec<Decision>, _>>()
+                .zip(fresh.par_iter())
+                .map(|((s, a), &new)| match new {
+                    true => Ok(None),
+                    false => a.decide(s.observation(), s.sim()).map(Some),
+                })
+                .collect::<Result<Vec<Option<Decision>>, _>>()
                 .map_err(|e| BenchError(e.to_string()))?;
             PhaseTimes::lap(&mut decide, t);
             // An oracle's stop ends its episode (the per-core loop takes no step for it);
-            // the others step together, and those that reach the step limit end too.
+            // the others step (or observe) together, and those that reach the step limit end.
             let mut stepping: Vec<Env> = Vec::with_capacity(steppers.len());
+            let mut commands: Vec<Command> = Vec::with_capacity(steppers.len());
             for ((stepper, agent), d) in steppers.drain(..).zip(agents.drain(..)).zip(&decisions) {
-                if *d == Decision::Stop {
-                    pending += 1;
-                    begin((stepper, agent));
-                } else {
-                    stepping.push((stepper, agent));
+                match d {
+                    Some(Decision::Stop) => {
+                        pending += 1;
+                        begin((stepper, agent));
+                    }
+                    Some(d) => {
+                        commands.push(Command::Step(*d));
+                        stepping.push((stepper, agent));
+                    }
+                    None => {
+                        commands.push(Command::Observe);
+                        stepping.push((stepper, agent));
+                    }
                 }
             }
             (steppers, agents) = stepping.into_iter().unzip();
-            let commands: Vec<Command> = decisions
-                .into_iter()
-                .filter(|d| *d != Decision::Stop)
-                .map(Command::Step)
-                .collect();
             let ended: Vec<bool> = step_many_timed(&mut steppers, &commands, &mut phases)
                 .map_err(|e| BenchError(e.to_string()))?
                 .iter()
                 .map(|o| o.done())
                 .collect();
-            steps += commands.len() as u64;
+            steps += commands
+                .iter()
+                .filter(|c| matches!(c, Command::Step(_)))
+                .count() as u64;
             let mut kept: Vec<Env> = Vec::with_capacity(steppers.len());
             for (env, ended) in steppers.drain(..).zip(agents.drain(..)).zip(ended) {
                 if ended {
@@ -223,6 +240,7 @@ pub(super) fn rollout_batched(
                 }
             }
             (steppers, agents) = kept.into_iter().unzip();
+            fresh = vec![false; steppers.len()];
         }
         Ok(steps)
     })?;

@@ -4,7 +4,8 @@
 //! wgpu renderer, instead of one per environment). Each environment writes its episode's
 //! parts as the per-thread loop does ([`EpisodeParts`]), and every episode is seeded from
 //! its own id, so the run's outputs are the same bytes whatever the batch size. Episodes
-//! start beside the lockstep, each as a task of its own.
+//! start beside the lockstep, each as a task of its own, and their first frames are rendered
+//! with the lockstep's next step.
 
 use rayon::prelude::*;
 
@@ -20,6 +21,8 @@ use crate::sim::{SceneAssets, Simulator};
 struct Active {
     index: usize,
     parts: EpisodeParts,
+    /// Prepared, its first frame not yet observed (the next lockstep step observes it).
+    fresh: bool,
 }
 
 /// One environment: its stepper and agent.
@@ -31,7 +34,8 @@ type Env = (EpisodeStepper, Box<dyn Agent>);
 type Started = (Option<(Env, Active)>, Vec<Outcome>);
 
 /// Takes the next episodes of `queue` for `env` until one opens (reset with its goal field,
-/// the agent's plan, its first frame, its part files) or none is left.
+/// the agent's plan, its part files; its first frame comes with the lockstep's next render
+/// call) or none is left.
 fn start_next(
     (mut stepper, mut agent): Env,
     queue: Queue<'_>,
@@ -41,13 +45,17 @@ fn start_next(
     let mut out = Vec::new();
     while let Some((i, ep)) = w.next(queue, &mut out) {
         let opened = (|| {
-            stepper.reset_in(ep, Some(geo))?;
+            stepper.prepare_in(ep, Some(geo));
             agent.reset(ep, stepper.sim())?;
             EpisodeParts::open(&stepper, ep, w.cfg, w.parts, *i, w.recorded.contains(i))
         })();
         match opened {
             Ok(parts) => {
-                let active = Active { index: *i, parts };
+                let active = Active {
+                    index: *i,
+                    parts,
+                    fresh: true,
+                };
                 return (Some(((stepper, agent), active)), out);
             }
             Err(e) => w.done((*i, Err(Failed::of(e))), &mut out),
@@ -161,8 +169,9 @@ fn stepper_for(sim: Simulator, agent: &dyn Agent, cfg: &super::RunConfig) -> Epi
 }
 
 /// One lockstep step of the batch: every environment decides and writes the observation it
-/// decided on, all step together, each records its step; episodes that ended (or failed)
-/// write their last parts and leave their slot empty.
+/// decided on (one that has just joined observes its episode's first frame instead), all step
+/// together, each records its step; episodes that ended (or failed) write their last parts
+/// and leave their slot empty.
 fn step_once(
     steppers: &mut [EpisodeStepper],
     agents: &mut [Box<dyn Agent>],
@@ -170,7 +179,8 @@ fn step_once(
     w: Workers<'_>,
     out: &mut Vec<Outcome>,
 ) {
-    let decided: Vec<Result<Decision, EpisodeError>> = steppers
+    // `None`: a fresh environment, observing its first frame.
+    let decided: Vec<Result<Option<Decision>, EpisodeError>> = steppers
         .par_iter()
         .zip(agents.par_iter_mut())
         .zip(active.par_iter_mut())
@@ -178,16 +188,20 @@ fn step_once(
             let a = slot.as_mut().ok_or_else(|| {
                 EpisodeError::Part("an environment stepped without an episode".into())
             })?;
+            if a.fresh {
+                return Ok(None);
+            }
             let d = agent.decide(stepper.observation(), stepper.sim())?;
             a.parts.before(stepper, &d)?;
-            Ok(d)
+            Ok(Some(d))
         })
         .collect();
     let mut commands = Vec::with_capacity(decided.len());
     let mut failed = vec![None; decided.len()];
     for (k, d) in decided.into_iter().enumerate() {
         match d {
-            Ok(d) => commands.push(Command::Step(d)),
+            Ok(Some(d)) => commands.push(Command::Step(d)),
+            Ok(None) => commands.push(Command::Observe),
             Err(e) => {
                 // The episode ends here as a failure; its environment stops (an idle
                 // step) and takes the next episode.
@@ -205,6 +219,11 @@ fn step_once(
             .zip(failed.par_iter())
             .map(|((o, slot), f)| match (f, slot.as_mut()) {
                 (Some(_), _) | (_, None) => None,
+                // A first observation is no step: nothing to record.
+                (None, Some(a)) if a.fresh => {
+                    a.fresh = false;
+                    None
+                }
                 (None, Some(a)) => a.parts.after(o).err().map(Failed::of),
             })
             .collect()),
