@@ -476,11 +476,12 @@ pub fn sample_episodes<'py>(
 
 /// `minos run`: rolls out the episodes of `episodes` (a file) with `agent` into `out`
 /// (Parquet tables, metrics.json, manifest.json; LeRobot with `format="lerobot"`; a rerun
-/// recording with `rerun=FILE`). Returns `{"episodes": n, "resumed": n, "steps": n,
+/// recording with `rerun=FILE`; colour cameras as H.264 video features with `video=True`;
+/// `batch` environments per scene stepped in lockstep, as `--batch`). Returns `{"episodes": n, "resumed": n, "steps": n,
 /// "seconds": s, "failures": [(id, error)], "groups": {group: aggregates}, "metrics": [per
 /// episode]}`; a run that cannot start raises MinosError.
 #[pyfunction]
-#[pyo3(signature = (data, episodes, agent, out, variant = None, preset = "habitat", allow_body_mismatch = false, sensors = None, size = 84, max_steps = None, seed = 0, shard = "0/1", resume = false, reward = "dist_time", image_encoding = "raw", format = "parquet", renderer = "cpu", rerun = None, rerun_episodes = 1, threads = None, wait = false, progress = None))]
+#[pyo3(signature = (data, episodes, agent, out, variant = None, preset = "habitat", allow_body_mismatch = false, sensors = None, size = 84, max_steps = None, seed = 0, shard = "0/1", resume = false, reward = "dist_time", image_encoding = "raw", format = "parquet", video = false, renderer = "cpu", batch = None, rerun = None, rerun_episodes = 1, threads = None, wait = false, progress = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn run<'py>(
     py: Python<'py>,
@@ -500,7 +501,9 @@ pub fn run<'py>(
     reward: &str,
     image_encoding: &str,
     format: &str,
+    video: bool,
     renderer: &str,
+    batch: Option<usize>,
     rerun: Option<&Bound<'py, PyAny>>,
     rerun_episodes: usize,
     threads: Option<usize>,
@@ -563,7 +566,7 @@ pub fn run<'py>(
             }
             kind.check_covers(agent, &eps, shard).context("agent")?;
             let cfg = RunConfig {
-                batch: None,
+                batch,
                 data: data.clone(),
                 out: out.clone(),
                 agent: kind,
@@ -577,7 +580,7 @@ pub fn run<'py>(
                 reward,
                 encoding,
                 lerobot,
-                lerobot_video: false,
+                lerobot_video: video,
                 rerun,
                 allow_body_mismatch,
                 provenance: Provenance {

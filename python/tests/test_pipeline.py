@@ -154,6 +154,23 @@ def test_run_writes_what_the_cli_writes(world, tmp_path, minos_bin):
         assert (tmp_path / "py" / name).read_bytes() == (tmp_path / "cli" / name).read_bytes(), name
 
 
+def test_run_takes_the_clis_video_and_batch_options(world, tmp_path, minos_bin):
+    # `video=True` is `--format lerobot --video`: the same dataset files; `batch=N` is
+    # `--batch N`: lockstep batches write the bytes of one simulator per thread.
+    minos.run(world.data, world.point, "oracle", tmp_path / "py", size=16, format="lerobot",
+              video=True, batch=3)
+    cli(minos_bin, "run", "--data", world.data, "--episodes", world.point, "--agent", "oracle",
+        "--size", "16", "--format", "lerobot", "--video", "--out", tmp_path / "cli")
+    videos = sorted(p.relative_to(tmp_path / "py")
+                    for p in (tmp_path / "py" / "lerobot" / "videos").rglob("*.mp4"))
+    assert videos, "video=True writes the colour cameras as MP4 files"
+    for name in videos + [Path("lerobot/meta/info.json"), Path("episodes.parquet"),
+                          Path("trajectories.parquet")]:
+        assert (tmp_path / "py" / name).read_bytes() == (tmp_path / "cli" / name).read_bytes(), name
+    with pytest.raises(minos.MinosError, match="video are a feature of the LeRobot copy"):
+        minos.run(world.data, world.point, "oracle", tmp_path / "no", size=16, video=True)
+
+
 def test_verify_and_diff_report_what_the_cli_prints(world, tmp_path, minos_bin):
     # Python's run writes no sidecar record for the episode file: the sampled file is checked
     # on the grids (and its missing sidecar reported), the run folder is clean.

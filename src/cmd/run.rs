@@ -137,11 +137,6 @@ pub struct Args {
 /// Flags → the run's configuration and its episodes (reads the episode, sensor and replay
 /// files and checks the variant).
 pub fn config(args: &Args) -> anyhow::Result<(RunConfig, Vec<Episode>)> {
-    if args.video && args.format != FormatArg::Lerobot {
-        anyhow::bail!(
-            "--video: colour cameras as video are a LeRobot feature; add --format lerobot"
-        );
-    }
     let data = DataDir::new(&args.data);
     let agent = AgentKind::from_name(&args.agent).context("--agent")?;
     let preset = AgentPreset::from(args.preset);

@@ -137,6 +137,9 @@ pub enum RolloutError {
     /// The joined recording could not be written.
     #[error(transparent)]
     Recording(#[from] RecordingError),
+    /// Video features were asked for without the LeRobot copy they belong to.
+    #[error("colour cameras as video are a feature of the LeRobot copy: ask for it too")]
+    VideoWithoutLerobot,
     /// The LeRobot copy could not be written.
     #[error("lerobot: {0}")]
     Lerobot(#[from] crate::io::lerobot::LerobotError),
@@ -264,6 +267,9 @@ pub fn run_with(
     mode: LockMode,
     progress: &dyn Progress,
 ) -> Result<RunReport, RolloutError> {
+    if cfg.lerobot_video && !cfg.lerobot {
+        return Err(RolloutError::VideoWithoutLerobot);
+    }
     let mine = select(episodes, cfg.shard);
     preflight::check(cfg, &mine)?;
     let _lock = DirLock::acquire(&cfg.out, "run", mode)?;
