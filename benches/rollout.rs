@@ -146,7 +146,7 @@ fn main() {
             data: minos::store::DataDir::new(&data),
             out: dir.path().join(format!("run-{}", task.name())),
             agent: AgentKind::Oracle,
-            body,
+            agent_config: body,
             sensors: sensors.clone(),
             renderer: RendererChoice::Cpu,
             max_steps: None,

@@ -212,7 +212,7 @@ fn main() {
                 scenes: ids.clone(),
                 out: dir.path().join("demos"),
                 preset: AgentPreset::Habitat,
-                body,
+                agent_config: body,
                 sensors: SensorSuite::minos(size),
                 renderer: RendererChoice::Cpu,
                 reward: Reward::DistTime,

@@ -77,7 +77,7 @@ fn config(f: &Fixture, name: &str, encoding: ImageEncoding) -> RunConfig {
         data: minos::store::DataDir::new(f.dir.path().join("DATA")),
         out: f.dir.path().join(name),
         agent: AgentKind::Oracle,
-        body: AgentConfig::habitat(),
+        agent_config: AgentConfig::habitat(),
         sensors: sensors(),
         renderer: RendererChoice::Cpu,
         max_steps: Some(40),

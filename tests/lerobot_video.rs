@@ -72,7 +72,7 @@ fn config(f: &Fixture) -> RunConfig {
         data: minos::store::DataDir::new(f.dir.path().join("DATA")),
         out: f.dir.path().join("run"),
         agent: AgentKind::Oracle,
-        body: AgentConfig::habitat(),
+        agent_config: AgentConfig::habitat(),
         sensors,
         renderer: RendererChoice::Cpu,
         max_steps: Some(40),

@@ -103,7 +103,7 @@ fn config(data: &DataDir, out: &Path, body: AgentConfig) -> RunConfig {
         data: data.clone(),
         out: out.to_path_buf(),
         agent: AgentKind::Oracle,
-        body,
+        agent_config: body,
         sensors: SensorSuite {
             cameras: vec![],
             contact: None,

@@ -49,7 +49,7 @@ fn config(out: &Path, agent: AgentKind, sensors: SensorSuite) -> RunConfig {
         data: minos::store::DataDir::new(data().0.path().join("DATA")),
         out: out.to_path_buf(),
         agent,
-        body: AgentConfig::habitat(),
+        agent_config: AgentConfig::habitat(),
         sensors,
         renderer: RendererChoice::Cpu,
         max_steps: None,
@@ -1154,7 +1154,7 @@ fn the_rollout_and_the_vector_env_step_the_same_episodes_alike() {
             let env_cfg = VectorEnvConfig {
                 data: cfg.data.clone(),
                 num_envs,
-                body: cfg.body,
+                agent_config: cfg.agent_config,
                 sensors: sensors.clone(),
                 renderer: cfg.renderer,
                 reward: cfg.reward,
@@ -1251,7 +1251,7 @@ fn vector_envs_of_1_to_32_environments_on_1_to_32_threads_reset_and_step() {
     let cfg = VectorEnvConfig {
         data: data_dir,
         num_envs: 1,
-        body: AgentConfig::habitat(),
+        agent_config: AgentConfig::habitat(),
         sensors,
         renderer: RendererChoice::Cpu,
         reward: Reward::Geodesic,

@@ -93,7 +93,7 @@ fn shared(f: &Fixture, out: &Path, idle: Duration) -> Shared {
         scenes: f.data.ingested_ids().expect("ids"),
         out: out.to_path_buf(),
         preset: AgentPreset::Habitat,
-        body: AgentConfig::habitat(),
+        agent_config: AgentConfig::habitat(),
         sensors: sensors(),
         renderer: RendererChoice::Cpu,
         reward: Reward::DistTime,
@@ -659,7 +659,7 @@ fn grids_baked_for_another_body_are_refused_at_start_up() {
     // The fixture's grids are baked for Habitat's body; MINOS's agent is another body.
     let mut cfg = serve_config(f, &out, None, Duration::from_secs(60));
     cfg.shared.preset = AgentPreset::Minos;
-    cfg.shared.body = AgentConfig::preset(AgentPreset::Minos);
+    cfg.shared.agent_config = AgentConfig::preset(AgentPreset::Minos);
     let e = start(cfg, "127.0.0.1:0".parse().unwrap())
         .err()
         .expect("refused");
@@ -673,7 +673,7 @@ fn grids_baked_for_another_body_are_refused_at_start_up() {
     let mut cfg = serve_config(f, &out, None, Duration::from_secs(60));
     cfg.shared.episodes.clear();
     cfg.shared.preset = AgentPreset::MinosGridworld;
-    cfg.shared.body = AgentConfig::preset(AgentPreset::MinosGridworld);
+    cfg.shared.agent_config = AgentConfig::preset(AgentPreset::MinosGridworld);
     assert!(start(cfg, "127.0.0.1:0".parse().unwrap()).is_err());
     assert!(!out.exists() || std::fs::read_dir(&out).unwrap().count() == 0);
 }

@@ -168,7 +168,7 @@ fn start(f: &Fixture, campaign: Campaign) -> Running {
         scenes: f.data.ingested_ids().expect("ids"),
         out: campaign.demos_dir.clone(),
         preset: AgentPreset::Habitat,
-        body: AgentConfig::habitat(),
+        agent_config: AgentConfig::habitat(),
         sensors: SensorSuite::minos(32),
         renderer: RendererChoice::Cpu,
         reward: Reward::DistTime,

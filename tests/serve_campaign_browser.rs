@@ -91,7 +91,7 @@ fn a_participant_goes_from_tutorial_to_done_and_the_operator_sees_it() {
                 scenes: ids.clone(),
                 out,
                 preset: AgentPreset::Habitat,
-                body,
+                agent_config: body,
                 sensors,
                 renderer: RendererChoice::Cpu,
                 reward: Reward::DistTime,

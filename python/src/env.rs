@@ -275,7 +275,7 @@ impl VecCore {
         let cfg = VectorEnvConfig {
             data,
             num_envs,
-            body,
+            agent_config: body,
             sensors: suite,
             renderer,
             reward,

@@ -448,7 +448,7 @@ pub fn sample_episodes<'py>(
                 scenes: select_scenes(&data, split, subset, variant)?,
                 data: data.clone(),
                 sample,
-                body: BodyRule {
+                body_rule: BodyRule {
                     body: agent_preset.body(),
                     allow_mismatch: allow_body_mismatch,
                 },
@@ -570,7 +570,7 @@ pub fn run<'py>(
                 data: data.clone(),
                 out: out.clone(),
                 agent: kind,
-                body: AgentConfig::preset(preset_value),
+                agent_config: AgentConfig::preset(preset_value),
                 sensors,
                 renderer,
                 max_steps,

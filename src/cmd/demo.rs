@@ -190,7 +190,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         data: store.clone(),
         out: run_dir.clone(),
         agent: AgentKind::Oracle,
-        body: AgentConfig::preset(preset),
+        agent_config: AgentConfig::preset(preset),
         sensors: SensorSuite::minos(84),
         renderer: RendererChoice::Cpu,
         max_steps: None,

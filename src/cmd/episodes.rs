@@ -346,7 +346,7 @@ pub fn config(a: &SampleArgs) -> anyhow::Result<EpisodesJob> {
         data,
         scenes,
         sample,
-        body: BodyRule {
+        body_rule: BodyRule {
             body: AgentPreset::from(a.preset).body(),
             allow_mismatch: a.allow_body_mismatch,
         },
@@ -493,8 +493,8 @@ mod tests {
         let job = config_of(&line).unwrap();
         assert_eq!(job.scenes, [("c".to_string(), "val".to_string())]);
         assert!(job.sample.stratified, "val subsets stratify by default");
-        assert_eq!(job.body.body, minos::body::AgentBody::MINOS);
-        assert!(!job.body.allow_mismatch);
+        assert_eq!(job.body_rule.body, minos::body::AgentBody::MINOS);
+        assert!(!job.body_rule.allow_mismatch);
         let job = config_of(&line.replace(" --subset val", "")).unwrap();
         assert_eq!(job.scenes.len(), 3);
         assert!(!job.sample.stratified);

@@ -160,7 +160,7 @@ pub fn config(args: &Args) -> anyhow::Result<(RunConfig, Vec<Episode>)> {
         data,
         out: args.out.clone(),
         agent,
-        body: AgentConfig::preset(preset),
+        agent_config: AgentConfig::preset(preset),
         sensors,
         renderer: args.renderer.into(),
         max_steps: args.max_steps,

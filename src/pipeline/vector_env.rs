@@ -39,7 +39,7 @@ pub struct VectorEnvConfig {
     /// Number of environments.
     pub num_envs: usize,
     /// Body and motion.
-    pub body: AgentConfig,
+    pub agent_config: AgentConfig,
     /// Sensors.
     pub sensors: SensorSuite,
     /// Renderer.
@@ -191,7 +191,7 @@ impl VectorEnv {
                     let (assets, renderer) = load_scene_assets(
                         &cfg.data,
                         id,
-                        &cfg.body,
+                        &cfg.agent_config,
                         cfg.renderer,
                         cfg.allow_body_mismatch,
                     )
@@ -228,11 +228,11 @@ impl VectorEnv {
             episodes,
             scene_of,
             scenes,
-            body: cfg.body,
+            body: cfg.agent_config,
             sensors: cfg.sensors.clone(),
             seed: cfg.seed,
             stepping,
-            actions: ActionSpace::of(&cfg.body),
+            actions: ActionSpace::of(&cfg.agent_config),
             steppers: Vec::with_capacity(cfg.num_envs),
             slots: Vec::with_capacity(cfg.num_envs),
             pool,

@@ -81,7 +81,7 @@ pub fn settings(cfg: &ServeConfig) -> Result<(), ServeError> {
 /// ingested scene that has a grid (those without one are not offered for exploration; on
 /// `shared.variant` when it is set). Returns the scenes offered for exploration.
 pub fn grids(shared: &Shared) -> Result<Vec<String>, ServeError> {
-    let body = shared.body.body;
+    let body = shared.agent_config.body;
     let mut problems: BTreeMap<String, Vec<String>> = BTreeMap::new();
     let played: BTreeSet<&str> = shared
         .episodes

@@ -51,7 +51,7 @@ pub struct Shared {
     /// The agent preset.
     pub preset: AgentPreset,
     /// Body and motion.
-    pub body: AgentConfig,
+    pub agent_config: AgentConfig,
     /// Sensors recorded (and shown).
     pub sensors: SensorSuite,
     /// Renderer.
@@ -77,7 +77,7 @@ impl Shared {
     /// The actions people are offered: exactly the agent's action set (what a policy
     /// trained on the recordings can do, e.g. Habitat's forward and turns), `stop` last.
     pub fn actions(&self) -> Vec<&'static str> {
-        let mut names: Vec<&str> = self.body.action_names().to_vec();
+        let mut names: Vec<&str> = self.agent_config.action_names().to_vec();
         names.push(STOP);
         names
     }
@@ -189,7 +189,7 @@ pub fn run_config(shared: &Shared, name: &str) -> RunConfig {
         out: shared.out.join(name),
         // Not used by a live run: the agent is the person.
         agent: AgentKind::Replay(Default::default()),
-        body: shared.body,
+        agent_config: shared.agent_config,
         sensors: shared.sensors.clone(),
         renderer: shared.renderer,
         max_steps: None,
@@ -455,7 +455,7 @@ impl Source {
                 max_steps: EXPLORE_STEPS,
                 ..Default::default()
             },
-            BodyRule::strict(self.shared.body.body),
+            BodyRule::strict(self.shared.agent_config.body),
             Shard::ALL,
             &NoProgress,
         );

@@ -147,7 +147,7 @@ mod tests {
             scenes: Vec::new(),
             out: "/nonexistent".into(),
             preset: crate::body::AgentPreset::Habitat,
-            body: crate::sim::AgentConfig::habitat(),
+            agent_config: crate::sim::AgentConfig::habitat(),
             sensors: crate::sim::SensorSuite::minos(8),
             renderer: crate::render::RendererChoice::Cpu,
             reward: crate::run::metrics::Reward::Geodesic,
@@ -210,7 +210,7 @@ mod tests {
         // MINOS's continuous agent also backs and strafes (and does not look up or down).
         let minos = Shared {
             preset: crate::body::AgentPreset::Minos,
-            body: crate::sim::AgentConfig::preset(crate::body::AgentPreset::Minos),
+            agent_config: crate::sim::AgentConfig::preset(crate::body::AgentPreset::Minos),
             ..shared()
         };
         for name in ["backward", "strafe_left", "strafe_right"] {

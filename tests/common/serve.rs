@@ -148,7 +148,7 @@ pub fn run_config(
         data: data.clone(),
         out: out.to_path_buf(),
         agent,
-        body: minos::sim::AgentConfig::habitat(),
+        agent_config: minos::sim::AgentConfig::habitat(),
         sensors,
         renderer: minos::render::RendererChoice::Cpu,
         max_steps: None,

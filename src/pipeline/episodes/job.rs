@@ -30,7 +30,7 @@ pub struct EpisodesJob {
     /// Sampling parameters.
     pub sample: SampleConfig,
     /// The body the episodes are for.
-    pub body: BodyRule,
+    pub body_rule: BodyRule,
     /// This process's shard of the scenes.
     pub shard: Shard,
     /// The episode file.
@@ -217,7 +217,14 @@ pub fn run_job(
     progress: &dyn Progress,
 ) -> Result<EpisodesOutcome, EpisodesJobError> {
     let cfg = &job.sample;
-    let batch = sample_scenes(&job.data, &job.scenes, cfg, job.body, job.shard, progress);
+    let batch = sample_scenes(
+        &job.data,
+        &job.scenes,
+        cfg,
+        job.body_rule,
+        job.shard,
+        progress,
+    );
     let mut warnings = Vec::new();
     if cfg.task == Task::ObjectGoal && !cfg.all_categories {
         if let Some(w) = check_categories(&cfg.categories, &batch, job.shard)? {
@@ -319,7 +326,7 @@ fn write_provenance(
         "configuration": format!("{:?}", job.sample),
         "seed": job.sample.seed,
         "shard": job.shard.to_string(),
-        "body": format!("{:?}", job.body),
+        "body": format!("{:?}", job.body_rule),
         "scenes": crate::store::provenance::scene_records(
             &job.data,
             batch.scenes.keys().map(String::as_str)

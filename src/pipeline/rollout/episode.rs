@@ -100,7 +100,7 @@ impl EpisodeParts {
                 ep,
                 stepper.sim().assets(),
                 &cfg.sensors.cameras,
-                &cfg.body,
+                &cfg.agent_config,
             )?)
         } else {
             None

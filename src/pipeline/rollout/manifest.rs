@@ -27,7 +27,7 @@ fn configuration(cfg: &RunConfig) -> serde_json::Value {
         "variant": p.variant,
         "agent": p.agent,
         "preset": p.preset.map(|p| p.name()),
-        "body": cfg.body,
+        "body": cfg.agent_config,
         "sensors": cfg.sensors,
         "seed": cfg.seed,
         "shard": cfg.shard.to_string(),

@@ -58,7 +58,7 @@ pub struct RunConfig {
     /// The agent.
     pub agent: AgentKind,
     /// Body and motion.
-    pub body: AgentConfig,
+    pub agent_config: AgentConfig,
     /// Sensors.
     pub sensors: SensorSuite,
     /// Renderer.
@@ -635,7 +635,12 @@ fn finish(
     }
     let manifest = manifest::value(cfg, mine.iter().map(|(_, e)| e.scene_id.as_str()));
     if cfg.lerobot {
-        write_lerobot(&cfg.out, cfg.body.dt, Some(&manifest), cfg.lerobot_video)?;
+        write_lerobot(
+            &cfg.out,
+            cfg.agent_config.dt,
+            Some(&manifest),
+            cfg.lerobot_video,
+        )?;
     }
     manifest::write(cfg, manifest)
 }

@@ -70,7 +70,7 @@ fn scene_problem(cfg: &RunConfig, scene: &SceneRef) -> Result<(), String> {
     }
     let params = data.read_grid_params(scene).map_err(|e| e.to_string())?;
     if !cfg.allow_body_mismatch {
-        cfg.body
+        cfg.agent_config
             .body
             .check_grid(&params.body)
             .map_err(|e| e.to_string())?;

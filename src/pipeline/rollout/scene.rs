@@ -78,14 +78,14 @@ pub fn load(cfg: &RunConfig, scene_id: &str) -> Result<(Simulator, Arc<SceneAsse
     let (assets, renderer) = load_assets(
         &cfg.data,
         scene_id,
-        &cfg.body,
+        &cfg.agent_config,
         cfg.renderer,
         cfg.allow_body_mismatch,
     )?;
     let sim = Simulator::new(
         assets.clone(),
         renderer,
-        cfg.body,
+        cfg.agent_config,
         cfg.sensors.clone(),
         cfg.max_steps.unwrap_or(DEFAULT_MAX_STEPS),
         cfg.seed,
