@@ -171,25 +171,28 @@ fn bench_json_has_consistent_counts_for_every_benchmark() {
     );
 }
 
-/// The seconds of a stage.
-fn seconds(v: &Value, name: &str) -> f64 {
+/// A field of the stage named `name`.
+fn stage_field<'v>(v: &'v Value, name: &str, field: &str) -> &'v Value {
     v["stages"]
         .as_array()
         .expect("stages")
         .iter()
         .find(|s| s["stage"] == name)
-        .and_then(|s| s["seconds"].as_f64())
+        .map(|s| &s[field])
+        .unwrap_or_else(|| panic!("no stage {name} in {v}"))
+}
+
+/// The seconds of a stage.
+fn seconds(v: &Value, name: &str) -> f64 {
+    stage_field(v, name, "seconds")
+        .as_f64()
         .unwrap_or_else(|| panic!("no seconds for {name} in {v}"))
 }
 
 /// The clock a stage was timed by (`wall` or `thread-cpu`).
 fn clock(v: &Value, name: &str) -> String {
-    v["stages"]
-        .as_array()
-        .expect("stages")
-        .iter()
-        .find(|s| s["stage"] == name)
-        .and_then(|s| s["clock"].as_str())
+    stage_field(v, name, "clock")
+        .as_str()
         .unwrap_or_else(|| panic!("no clock for {name} in {v}"))
         .to_string()
 }
