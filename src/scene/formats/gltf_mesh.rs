@@ -79,17 +79,9 @@ impl GltfFile {
         })?;
         let (json, blob) = split_glb(path, &bytes)?;
         let mut value: serde_json::Value = serde_json::from_slice(&json).map_err(|e| {
-            let what = e.to_string();
-            let what = what
-                .rfind(" at line ")
-                .map_or(what.as_str(), |i| &what[..i]);
             LoadError::parse(
                 path,
-                format!(
-                    "invalid glTF JSON: line {} column {}: {what}",
-                    e.line(),
-                    e.column()
-                ),
+                format!("invalid glTF JSON: {}", super::json_error_text(&e)),
             )
         })?;
         accept_image_only_extensions(&mut value);

@@ -140,6 +140,26 @@ pub fn load_mesh_file(path: &Path) -> Result<Mesh, LoadError> {
     Ok(mesh)
 }
 
+/// serde_json's message without its ` at line L column C` suffix (the loaders say where
+/// themselves, see [`json_error_text`]).
+pub fn json_message(e: &serde_json::Error) -> String {
+    let s = e.to_string();
+    match s.rfind(" at line ") {
+        Some(i) => s[..i].to_string(),
+        None => s,
+    }
+}
+
+/// A JSON error as every loader words it: `line L column C: what` (one line).
+pub fn json_error_text(e: &serde_json::Error) -> String {
+    format!(
+        "line {} column {}: {}",
+        e.line(),
+        e.column(),
+        json_message(e)
+    )
+}
+
 /// Replaces the bare tokens `NaN`, `Infinity` and `-Infinity` (which Python's json module
 /// writes but JSON forbids) by `null` outside strings, so that the loader can report the node
 /// holding them instead of a bare syntax error. Lines and columns before them are unchanged.

@@ -159,17 +159,8 @@ impl SuncgLoader {
             path: path.clone(),
             source,
         })?;
-        let json: HouseJson = serde_json::from_slice(&nan_tokens_to_null(&bytes)).map_err(|e| {
-            LoadError::parse(
-                path,
-                format!(
-                    "line {} column {}: {}",
-                    e.line(),
-                    e.column(),
-                    strip_position(&e)
-                ),
-            )
-        })?;
+        let json: HouseJson = serde_json::from_slice(&nan_tokens_to_null(&bytes))
+            .map_err(|e| LoadError::parse(path, crate::scene::formats::json_error_text(&e)))?;
         let mut ctx = HouseBuild {
             loader: self,
             house,
@@ -598,15 +589,6 @@ fn parse_hex_color(s: &str) -> Option<[f32; 4]> {
     let v = u32::from_str_radix(h, 16).ok()?;
     let c = |shift: u32| ((v >> shift) & 0xff) as f32 / 255.0;
     Some([c(16), c(8), c(0), 1.0])
-}
-
-/// serde_json's message without its trailing " at line L column C".
-fn strip_position(e: &serde_json::Error) -> String {
-    let s = e.to_string();
-    match s.rfind(" at line ") {
-        Some(i) => s[..i].to_string(),
-        None => s,
-    }
 }
 
 #[cfg(test)]

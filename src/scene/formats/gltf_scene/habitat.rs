@@ -183,15 +183,7 @@ fn finite_vec(v: [f64; 3], path: &Path, record: &str, field: &str) -> Result<Vec
 
 /// serde_json's message as `line L column C: what`, without its trailing position.
 pub fn json_error(path: &Path, e: &serde_json::Error) -> LoadError {
-    let s = e.to_string();
-    let what = match s.rfind(" at line ") {
-        Some(i) => &s[..i],
-        None => s.as_str(),
-    };
-    LoadError::parse(
-        path,
-        format!("line {} column {}: {what}", e.line(), e.column()),
-    )
+    LoadError::parse(path, crate::scene::formats::json_error_text(e))
 }
 
 /// Reads a JSON file.
@@ -483,7 +475,7 @@ fn instance(
     warnings: &mut Vec<String>,
 ) -> Result<Instance, LoadError> {
     let json: InstanceJson = serde_json::from_value(value)
-        .map_err(|e| LoadError::node(path, &record, strip_position(&e)))?;
+        .map_err(|e| LoadError::node(path, &record, crate::scene::formats::json_message(&e)))?;
     let template = json
         .template_name
         .map(|t| t.trim().to_string())
@@ -563,14 +555,6 @@ fn instance(
         motion,
         origin,
     })
-}
-
-fn strip_position(e: &serde_json::Error) -> String {
-    let s = e.to_string();
-    match s.rfind(" at line ") {
-        Some(i) => s[..i].to_string(),
-        None => s,
-    }
 }
 
 /// A region annotation of a `*.semantic_config.json`: a labelled floor polygon.

@@ -130,14 +130,8 @@ impl FrontJson {
     /// Parses the file's bytes; the error is `line L column C: what` (one line).
     pub fn parse(bytes: &[u8]) -> Result<FrontJson, String> {
         let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
-        serde_json::from_slice(&crate::scene::formats::nan_tokens_to_null(bytes)).map_err(|e| {
-            format!(
-                "line {} column {}: {}",
-                e.line(),
-                e.column(),
-                strip_position(&e)
-            )
-        })
+        serde_json::from_slice(&crate::scene::formats::nan_tokens_to_null(bytes))
+            .map_err(|e| crate::scene::formats::json_error_text(&e))
     }
 
     /// Every string listed in `extension.door[].ref` (the furniture and meshes of doors).
@@ -160,15 +154,6 @@ impl FrontJson {
             })
             .map(str::to_string)
             .collect()
-    }
-}
-
-/// serde_json's message without its trailing " at line L column C".
-fn strip_position(e: &serde_json::Error) -> String {
-    let s = e.to_string();
-    match s.rfind(" at line ") {
-        Some(i) => s[..i].to_string(),
-        None => s,
     }
 }
 
