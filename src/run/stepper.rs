@@ -199,6 +199,12 @@ impl EpisodeStepper {
         }
     }
 
+    /// Whether the episode [`EpisodeStepper::prepare_in`] set up waits for its first
+    /// observation ([`Command::Observe`]).
+    pub fn awaits_first_observation(&self) -> bool {
+        self.unobserved
+    }
+
     /// The simulator (for agents deciding, recorders, hooks).
     pub fn sim(&self) -> &Simulator {
         &self.sim

@@ -123,8 +123,9 @@ fn start_next(
 /// Starting an episode (its goal field and the oracle's plan: tens of milliseconds on a
 /// large scan) runs as a task beside the lockstep, so the other environments keep stepping;
 /// the environment rejoins the batch when its episode is ready, and its first frame is
-/// rendered with the batch's next step (one render call for all, on a GPU one submission). Which batch an environment
-/// steps in never changes what it observes, so the steps are those of the per-core loop.
+/// rendered with the batch's next step (one render call for all, on a GPU one submission).
+/// Which batch an environment steps in never changes what it observes, so the steps are
+/// those of the per-core loop.
 pub(super) fn rollout_batched(
     sim: &Simulator,
     grid: &NavGrid,
@@ -157,10 +158,8 @@ pub(super) fn rollout_batched(
         for _ in 0..pending {
             begin((oracle_stepper(sim.sibling()), OracleAgent::new()));
         }
-        // The batch: steppers (a slice, for `step_many`) and their oracles, side by side;
-        // `fresh`: joined with its episode prepared, its first frame not yet observed.
+        // The batch: steppers (a slice, for `step_many`) and their oracles, side by side.
         let (mut steppers, mut agents): (Vec<EpisodeStepper>, Vec<OracleAgent>) = (vec![], vec![]);
-        let mut fresh: Vec<bool> = Vec::new();
         let mut steps = 0u64;
         loop {
             // Environments whose episode is ready join; with none stepping, wait for one
@@ -173,7 +172,6 @@ pub(super) fn rollout_batched(
                         if let Some((stepper, agent)) = env? {
                             steppers.push(stepper);
                             agents.push(agent);
-                            fresh.push(true);
                         }
                     }
                     Err(_) if steppers.is_empty() && pending > 0 => {
@@ -188,12 +186,11 @@ pub(super) fn rollout_batched(
             if steppers.is_empty() {
                 break;
             }
-            // The fresh environments observe their first frame; the others decide.
+            // The environments that joined observe their first frame; the others decide.
             let decisions = steppers
                 .par_iter()
                 .zip(agents.par_iter_mut())
-                .zip(fresh.par_iter())
-                .map(|((s, a), &new)| match new {
+                .map(|(s, a)| match s.awaits_first_observation() {
                     true => Ok(None),
                     false => a.decide(s.observation(), s.sim()).map(Some),
                 })
@@ -240,7 +237,6 @@ pub(super) fn rollout_batched(
                 }
             }
             (steppers, agents) = kept.into_iter().unzip();
-            fresh = vec![false; steppers.len()];
         }
         Ok(steps)
     })?;

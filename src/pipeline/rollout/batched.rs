@@ -21,8 +21,6 @@ use crate::sim::{SceneAssets, Simulator};
 struct Active {
     index: usize,
     parts: EpisodeParts,
-    /// Prepared, its first frame not yet observed (the next lockstep step observes it).
-    fresh: bool,
 }
 
 /// One environment: its stepper and agent.
@@ -51,11 +49,7 @@ fn start_next(
         })();
         match opened {
             Ok(parts) => {
-                let active = Active {
-                    index: *i,
-                    parts,
-                    fresh: true,
-                };
+                let active = Active { index: *i, parts };
                 return (Some(((stepper, agent), active)), out);
             }
             Err(e) => w.done((*i, Err(Failed::of(e))), &mut out),
@@ -179,7 +173,7 @@ fn step_once(
     w: Workers<'_>,
     out: &mut Vec<Outcome>,
 ) {
-    // `None`: a fresh environment, observing its first frame.
+    // `None`: an environment that has just joined, observing its first frame.
     let decided: Vec<Result<Option<Decision>, EpisodeError>> = steppers
         .par_iter()
         .zip(agents.par_iter_mut())
@@ -188,7 +182,7 @@ fn step_once(
             let a = slot.as_mut().ok_or_else(|| {
                 EpisodeError::Part("an environment stepped without an episode".into())
             })?;
-            if a.fresh {
+            if stepper.awaits_first_observation() {
                 return Ok(None);
             }
             let d = agent.decide(stepper.observation(), stepper.sim())?;
@@ -216,14 +210,11 @@ fn step_once(
         Ok(outcomes) => Ok(outcomes
             .par_iter()
             .zip(active.par_iter_mut())
-            .zip(failed.par_iter())
-            .map(|((o, slot), f)| match (f, slot.as_mut()) {
+            .zip(failed.par_iter().zip(commands.par_iter()))
+            .map(|((o, slot), (f, c))| match (f, slot.as_mut()) {
                 (Some(_), _) | (_, None) => None,
                 // A first observation is no step: nothing to record.
-                (None, Some(a)) if a.fresh => {
-                    a.fresh = false;
-                    None
-                }
+                (None, Some(_)) if *c == Command::Observe => None,
                 (None, Some(a)) => a.parts.after(o).err().map(Failed::of),
             })
             .collect()),
