@@ -248,7 +248,7 @@ impl CameraSensor {
         match self.modality {
             Modality::Color => Image::U8 {
                 channels: 3,
-                data: frame.color(scene, camera).into_iter().flatten().collect(),
+                data: frame.color(scene, camera).into_flattened(),
             },
             Modality::Gray => Image::U8 {
                 channels: 1,
@@ -290,7 +290,7 @@ impl CameraSensor {
             }
             Modality::Normal => Image::F32 {
                 channels: 3,
-                data: frame.normals(scene).into_iter().flatten().collect(),
+                data: frame.normals(scene).into_flattened(),
             },
             Modality::Semantic => Image::U16(frame.semantic(scene, self.taxonomy)),
             Modality::Instance => Image::U32(frame.instance(scene)),

@@ -11,6 +11,7 @@
 //! second compute pass (`derive.rs`), so they are read back finished ([`Channels`]).
 
 mod derive;
+mod pool;
 mod raster;
 mod trace;
 

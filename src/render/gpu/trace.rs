@@ -20,6 +20,7 @@ use rayon::prelude::*;
 use wgpu::util::DeviceExt;
 
 use super::derive::{self, DerivedScene, Deriver};
+use super::pool::{Room, SizedPool};
 use super::{GpuError, View};
 use crate::render::bvh::{Bvh, Ray};
 use crate::render::derived::Channels;
@@ -36,6 +37,8 @@ const STACK: usize = 64;
 const OVERFLOW: u32 = 0xffff_fffe;
 /// Stride of the per-dispatch uniform blocks (dynamic offsets must be 256-aligned).
 const BATCH_STRIDE: u64 = 256;
+/// Buffer sets the pool keeps (batches in flight at once, from several threads).
+const POOLED_SETS: usize = 4;
 
 /// One view as the shader reads it (`View` in `trace.wgsl`).
 #[repr(C)]
@@ -71,7 +74,7 @@ pub(super) struct Tracer {
     /// Entries of the shader's traversal stack.
     stack: usize,
     /// Buffer sets of earlier batches, reused by later ones (one per batch in flight).
-    pool: std::sync::Mutex<Vec<BufferSet>>,
+    pool: std::sync::Mutex<SizedPool<BufferSet>>,
     /// The second pass, deriving images from the ids and depth.
     deriver: Deriver,
     /// Nanoseconds spent from submission until the read-back was mapped, and unpacking the
@@ -82,12 +85,6 @@ pub(super) struct Tracer {
 
 /// The buffers of one batch in flight and their bind group.
 struct BufferSet {
-    /// Views it has room for.
-    views_capacity: usize,
-    /// Output bytes it has room for.
-    out_capacity: u64,
-    /// Dispatches (uniform blocks) it has room for.
-    groups_capacity: usize,
     views: wgpu::Buffer,
     uniform: wgpu::Buffer,
     out: wgpu::Buffer,
@@ -181,7 +178,7 @@ impl Tracer {
             scene_layout,
             batch_layout,
             stack,
-            pool: std::sync::Mutex::new(Vec::new()),
+            pool: std::sync::Mutex::new(SizedPool::new(POOLED_SETS)),
             deriver: Deriver::new(device),
             waited_ns: Default::default(),
             unpacked_ns: Default::default(),
@@ -199,24 +196,16 @@ impl Tracer {
         )
     }
 
-    /// A buffer set with room for `views` views, `out_bytes` of output and `groups`
-    /// dispatches: one from the pool, or a new one.
-    fn buffers(
-        &self,
-        device: &wgpu::Device,
-        views: usize,
-        out_bytes: u64,
-        groups: usize,
-    ) -> BufferSet {
-        let fits = |s: &BufferSet| {
-            s.views_capacity >= views && s.out_capacity >= out_bytes && s.groups_capacity >= groups
-        };
+    /// A buffer set with room for `need`: the smallest in the pool that holds it, or a new
+    /// one with room to grow ([`Room::grown`], at most `max_views` views); with its room.
+    fn buffers(&self, device: &wgpu::Device, need: Room, max_views: usize) -> (Room, BufferSet) {
         {
             let mut pool = self.pool.lock().unwrap_or_else(|e| e.into_inner());
-            if let Some(i) = pool.iter().position(fits) {
-                return pool.swap_remove(i);
+            if let Some(set) = pool.take(&need) {
+                return set;
             }
         }
+        let room = need.grown(max_views);
         let buffer = |label, size: u64, usage| {
             device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some(label),
@@ -226,20 +215,13 @@ impl Tracer {
             })
         };
         use wgpu::BufferUsages as U;
-        let view_bytes = (views * std::mem::size_of::<ViewRecord>()) as u64;
+        let view_bytes = (room.views * std::mem::size_of::<ViewRecord>()) as u64;
         let views_buffer = buffer("trace views", view_bytes, U::STORAGE | U::COPY_DST);
-        let uniform = buffer(
-            "trace batches",
-            groups as u64 * BATCH_STRIDE,
-            U::UNIFORM | U::COPY_DST,
-        );
-        let out = buffer("trace output", out_bytes, U::STORAGE | U::COPY_SRC);
-        let readback = buffer("trace read-back", out_bytes, U::COPY_DST | U::MAP_READ);
-        let derive_uniform = buffer(
-            "derive batches",
-            groups as u64 * BATCH_STRIDE,
-            U::UNIFORM | U::COPY_DST,
-        );
+        let uniform_bytes = room.groups as u64 * BATCH_STRIDE;
+        let uniform = buffer("trace batches", uniform_bytes, U::UNIFORM | U::COPY_DST);
+        let out = buffer("trace output", room.bytes, U::STORAGE | U::COPY_SRC);
+        let readback = buffer("trace read-back", room.bytes, U::COPY_DST | U::MAP_READ);
+        let derive_uniform = buffer("derive batches", uniform_bytes, U::UNIFORM | U::COPY_DST);
         let derive_bind = batch_bind_group(
             device,
             "derive batch",
@@ -256,10 +238,7 @@ impl Tracer {
             &uniform,
             std::mem::size_of::<BatchRecord>(),
         );
-        BufferSet {
-            views_capacity: views,
-            out_capacity: out_bytes,
-            groups_capacity: groups,
+        let set = BufferSet {
             views: views_buffer,
             uniform,
             out,
@@ -267,15 +246,14 @@ impl Tracer {
             bind,
             derive_uniform,
             derive_bind,
-        }
+        };
+        (room, set)
     }
 
-    /// Returns a buffer set to the pool (keeping at most a few).
-    fn give_back(&self, set: BufferSet) {
+    /// Returns a buffer set to the pool ([`SizedPool::put`]).
+    fn give_back(&self, room: Room, set: BufferSet) {
         let mut pool = self.pool.lock().unwrap_or_else(|e| e.into_inner());
-        if pool.len() < 4 {
-            pool.push(set);
-        }
+        pool.put(room, set);
     }
 
     /// Uploads the scene's hierarchy (built now if it is not yet) and, where they fit, its
@@ -363,20 +341,21 @@ impl Tracer {
             .max(1) as usize;
         let mut frames = Vec::with_capacity(views.len());
         for chunk in views.chunks(per_submission) {
-            frames.extend(self.render_chunk(device, queue, scenes, chunk, (w, h), channels)?);
+            let size = ((w, h), per_submission);
+            frames.extend(self.render_chunk(device, queue, scenes, chunk, size, channels)?);
         }
         Ok(frames)
     }
 
-    /// One submission: a trace dispatch per scene, a derivation dispatch per scene where
-    /// `channels` asks for images, one copy back.
+    /// One submission (of at most `max_views` views): a trace dispatch per scene, a
+    /// derivation dispatch per scene where `channels` asks for images, one copy back.
     fn render_chunk(
         &self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         scenes: &[&TracedScene],
         views: &[View],
-        (w, h): (u32, u32),
+        ((w, h), max_views): ((u32, u32), usize),
         channels: Channels,
     ) -> Result<Vec<Frame>, GpuError> {
         let n = views.len();
@@ -409,7 +388,12 @@ impl Tracer {
         let pixels = w as usize * h as usize;
         let (at, out_words) = derive::layout(channels, n, pixels);
         let out_bytes = (out_words * 4) as u64;
-        let set = self.buffers(device, n, out_bytes, groups.len());
+        let need = Room {
+            views: n,
+            bytes: out_bytes,
+            groups: groups.len(),
+        };
+        let (room, set) = self.buffers(device, need, max_views);
         queue.write_buffer(&set.views, 0, bytemuck::cast_slice(&records));
         queue.write_buffer(&set.uniform, 0, &uniforms);
         if !channels.is_empty() {
@@ -479,13 +463,15 @@ impl Tracer {
             .collect();
         drop(data);
         set.readback.unmap();
-        self.give_back(set);
+        self.give_back(room, set);
         let nanos = |d: std::time::Duration| u64::try_from(d.as_nanos()).unwrap_or(u64::MAX);
         let relaxed = std::sync::atomic::Ordering::Relaxed;
         self.waited_ns.fetch_add(nanos(mapped - submitted), relaxed);
         self.unpacked_ns.fetch_add(nanos(mapped.elapsed()), relaxed);
+        // In parallel: a view whose rays overflowed is cast again on the host, and the
+        // lockstep of a batched rollout waits for the slowest of them.
         frames
-            .into_iter()
+            .into_par_iter()
             .zip(views)
             .map(|(mut frame, view)| {
                 if frame.tri.contains(&OVERFLOW) {
