@@ -457,3 +457,118 @@ fn episode_files_rewritten_by_pandas_polars_duckdb_and_pyarrow_read_back_the_sam
     }
     eprintln!("{} rewritten episode files read back", files.len());
 }
+
+/// MINOS's episode states: PointGoal episodes with a doorway on the path give their starts to
+/// ObjectGoal episodes, which keep each start's position and yaw, in order, and draw their
+/// own goal; the starts file round-trips through Parquet; a scene without starts, or a start
+/// off the floor, yields no episode and says why.
+#[test]
+fn given_starts_get_the_tasks_goals_in_order() {
+    use minos::episode::sample::Start;
+    use minos::pipeline::episodes::{read_starts, sample_scenes_from, StartsByScene};
+
+    let (dir, scenes) = data();
+    let states = run(
+        &SampleConfig {
+            task: Task::PointGoal,
+            per_scene: 6,
+            seed: 3,
+            min_doors: 1,
+            ratio_rule: false,
+            ..SampleConfig::default()
+        },
+        Shard::ALL,
+    );
+    assert!(states.total >= 20, "{} states", states.total);
+    let file = dir.path().join("states.parquet");
+    write_episodes(&file, &states.episodes).unwrap();
+    let mut starts = read_starts(&file).unwrap();
+    let mut expected = StartsByScene::new();
+    for e in &states.episodes {
+        expected.entry(e.scene_id.clone()).or_default().push(Start {
+            position: e.start_position,
+            yaw: e.start_yaw,
+        });
+    }
+    assert_eq!(starts, expected);
+    // One scene loses its starts; another gets one in mid-air first.
+    let (without, _) = &scenes[0];
+    starts.remove(without);
+    let (lifted, _) = scenes
+        .iter()
+        .skip(1)
+        .find(|(id, _)| starts.contains_key(id))
+        .unwrap();
+    let first = starts[lifted][0];
+    starts.get_mut(lifted).unwrap().insert(
+        0,
+        Start {
+            position: [
+                first.position[0],
+                first.position[1] + 50.0,
+                first.position[2],
+            ],
+            ..first
+        },
+    );
+    let cfg = SampleConfig {
+        task: Task::ObjectGoal,
+        select: Select::Random,
+        per_scene: 6,
+        seed: 3,
+        ..SampleConfig::default()
+    };
+    let batch = sample_scenes_from(
+        &minos::store::DataDir::new(dir.path().join("DATA")),
+        scenes,
+        &cfg,
+        BodyRule::strict(AgentBody::HABITAT),
+        Shard::ALL,
+        Some(&starts),
+        &NoProgress,
+    );
+    assert_eq!(
+        batch.scenes[without].problem.as_deref(),
+        Some("no starts given for this scene")
+    );
+    assert_eq!(
+        batch.rejected.get("given start off the usable floor"),
+        Some(&1)
+    );
+    assert!(
+        batch.total * 2 >= states.total,
+        "{} of {} starts got a goal",
+        batch.total,
+        states.total
+    );
+    for (id, given) in &starts {
+        let eps: Vec<_> = batch
+            .episodes
+            .iter()
+            .filter(|e| &e.scene_id == id)
+            .collect();
+        // The episodes' starts are the given ones, in order (those whose goal draw was
+        // rejected left out), each with its yaw.
+        let mut rest = given.iter();
+        for e in &eps {
+            assert!(
+                rest.any(|s| s.position == e.start_position && s.yaw == e.start_yaw),
+                "{}: start {:?} not among the given ones in order",
+                e.episode_id,
+                e.start_position
+            );
+            assert!(matches!(&e.goal, Goal::Object { targets, .. } if targets.len() == 1));
+        }
+    }
+    // The same starts and seed give the same episodes.
+    let again = sample_scenes_from(
+        &minos::store::DataDir::new(dir.path().join("DATA")),
+        scenes,
+        &cfg,
+        BodyRule::strict(AgentBody::HABITAT),
+        Shard::ALL,
+        Some(&starts),
+        &NoProgress,
+    );
+    assert_eq!(again.episodes, batch.episodes);
+}

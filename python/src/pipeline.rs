@@ -299,10 +299,11 @@ pub fn bake<'py>(
 /// with `export_vlnce=DIR` or `export_r2r=DIR`). Options as the CLI's flags (`same_level`
 /// defaults to True for ObjectGoal, as in Habitat's 2023 challenge, False otherwise;
 /// `min_geodesic` and `min_rooms` to 4 m and 2 rooms for VLN, else 1 m and none;
-/// `categories` takes presets and `["all"]`). Returns the statistics (total, means, rejected
+/// `categories` takes presets and `["all"]`; `starts=FILE` takes each scene's starts from an
+/// episode file, as `--starts`). Returns the statistics (total, means, rejected
 /// draws, per scene) with `out`, `stats`, `provenance` and `warnings`.
 #[pyfunction]
-#[pyo3(signature = (data, task, out, split = None, subset = None, variant = None, preset = "habitat", allow_body_mismatch = false, per_scene = 10, seed = 0, min_island_radius = 1.5, success_radius = None, categories = vec!["door".to_string(), "arch".to_string()], min_instances = 1, instructions = 3, room_types = vec!["any".to_string()], select = "any", min_geodesic = None, max_geodesic = 30.0, ratio_rule = true, min_doors = 0, min_rooms = None, same_level = None, bins = (3.0, 6.0), stratify = "auto", max_steps = 500, shard = "0/1", export_habitat = None, export_vlnce = None, export_r2r = None, scene_prefix = "", scene_suffix = "", threads = None, progress = None))]
+#[pyo3(signature = (data, task, out, split = None, subset = None, variant = None, preset = "habitat", allow_body_mismatch = false, per_scene = 10, seed = 0, min_island_radius = 1.5, success_radius = None, categories = vec!["door".to_string(), "arch".to_string()], min_instances = 1, instructions = 3, room_types = vec!["any".to_string()], select = "any", min_geodesic = None, max_geodesic = 30.0, ratio_rule = true, min_doors = 0, min_rooms = None, same_level = None, bins = (3.0, 6.0), stratify = "auto", max_steps = 500, shard = "0/1", export_habitat = None, export_vlnce = None, export_r2r = None, scene_prefix = "", scene_suffix = "", starts = None, threads = None, progress = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn sample_episodes<'py>(
     py: Python<'py>,
@@ -338,11 +339,13 @@ pub fn sample_episodes<'py>(
     export_r2r: Option<&Bound<'py, PyAny>>,
     scene_prefix: &str,
     scene_suffix: &str,
+    starts: Option<&Bound<'py, PyAny>>,
     threads: Option<usize>,
     progress: Option<Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let data = DataDir::new(path_of(data)?);
     let out = path_of(out)?;
+    let starts = starts.map(path_of).transpose()?;
     let task = Task::from_name(task).ok_or_else(|| {
         msg_err(format!(
             "task: unknown task `{task}` (pointgoal, objectgoal, roomgoal, vln)"
@@ -458,6 +461,7 @@ pub fn sample_episodes<'py>(
                 vln_export,
                 scene_names,
                 command: vec!["minos.sample_episodes".to_string()],
+                starts,
             };
             Ok(with_threads(threads, || run_job(&job, &bar)).map_err(anyhow::Error::msg)??)
         })

@@ -235,6 +235,8 @@ def test_tables_name_every_paper_cell_and_report_what_is_not_run(tmp_path):
         if c.format == "suncg":
             assert c.min_doors == (1 if c.rooms == (2, 2) else 2), name
         assert c.episodes_on_base == (c.variant == "empty"), name
+        # The door cells' goals are drawn from the starts of MINOS's episode states.
+        assert c.states == (c.task == "objectgoal"), name
         # Two DAgger rounds for every row that sees; measurements alone are cloned only.
         assert c.dagger == 2 and not c.dagger_blind, name
     rep = tables.report(tmp_path)
@@ -288,6 +290,39 @@ def test_a_cells_random_row_is_minos_random_averaged_over_seeds(world, tmp_path)
 
     doors = pq.read_table(work / "eps" / "test.parquet").column("path_num_doors").to_pylist()
     assert doors and min(doors) >= 1, doors
+
+
+def test_a_cells_door_goals_come_from_the_starts_of_its_episode_states(world, tmp_path):
+    # `states`: PointGoal episodes with a doorway on the path are the states (MINOS's
+    # `pathNumDoors` filter reads them), and each ObjectGoal episode starts at one of them,
+    # in order, with its own random door or arch as the goal.
+    from minos.learn.cell import CellConfig, run_cell
+
+    lists = world.data / "splits" / "learn-states"
+    lists.mkdir(parents=True, exist_ok=True)
+    (lists / "train.txt").write_text(world.scenes[0] + "\n")
+    (lists / "val.txt").write_text("")
+    (lists / "test.txt").write_text("".join(s + "\n" for s in world.scenes))
+    cfg = CellConfig(work=str(tmp_path / "cell"), data=str(world.data), split="learn-states",
+                     preset="habitat", per_scene=2, test_per_scene=4, max_steps=20,
+                     random_seeds=1, ratio_rule=False, min_doors=1, task="objectgoal",
+                     categories=["door", "arch"], select="random", states=True)
+    run_cell(cfg, progress=False, random_only=True)
+    import pyarrow.parquet as pq
+
+    eps = tmp_path / "cell" / "eps"
+    states = pq.read_table(eps / "test-states.parquet").to_pylist()
+    goals = pq.read_table(eps / "test.parquet").to_pylist()
+    assert states and min(s["path_num_doors"] for s in states) >= 1
+    assert all(s["task"] == "pointgoal" for s in states)
+    assert goals and all(g["task"] == "objectgoal" for g in goals)
+    for scene in {g["scene_id"] for g in goals}:
+        given = [(s["start_x"], s["start_y"], s["start_z"], s["start_yaw"])
+                 for s in states if s["scene_id"] == scene]
+        got = [(g["start_x"], g["start_y"], g["start_z"], g["start_yaw"])
+               for g in goals if g["scene_id"] == scene]
+        rest = iter(given)
+        assert all(any(s == g for s in rest) for g in got), (scene, got, given)
 
 
 def test_an_empty_cell_runs_the_furnished_houses_episodes_without_furniture(

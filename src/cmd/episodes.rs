@@ -193,6 +193,12 @@ pub struct SampleArgs {
     /// start room), else 0.
     #[arg(long)]
     min_rooms: Option<u32>,
+    /// Take each scene's starts (positions and yaws, in file order) from this episode file
+    /// instead of drawing them, and draw a goal for each: MINOS's episode states (its tasks
+    /// shared one file of starts, filtered by their PointGoal paths' doors — sample those
+    /// with `--task pointgoal --min-doors N`, then the task's goals with `--starts`).
+    #[arg(long, value_name = "EPISODES")]
+    starts: Option<PathBuf>,
     /// Start and goal on the same level. The default for ObjectGoal, as in Habitat's 2023
     /// ObjectNav challenge (single-floor episodes); other tasks span levels unless asked.
     #[arg(long, conflicts_with = "multi_level")]
@@ -359,6 +365,7 @@ pub fn config(a: &SampleArgs) -> anyhow::Result<EpisodesJob> {
         vln_export,
         scene_names,
         command: std::env::args().collect(),
+        starts: a.starts.clone(),
     })
 }
 

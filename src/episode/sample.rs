@@ -2,6 +2,10 @@
 //! yaw on an island large enough, and a goal on the same island, filtered by distance, the
 //! geodesic/Euclidean ratio, doors and rooms on the shortest path, level, and distance bins.
 //!
+//! Starts can instead be given ([`sample_scene_from`]): each start of a list, in order, gets a
+//! goal drawn for the task, as MINOS's tasks drew their goals from the starts of one
+//! episode-states file (`states_file`, filtered by its PointGoal paths' doors and rooms).
+//!
 //! Every choice draws from one generator seeded from `(seed, scene id, task)`, so a scene's
 //! episodes never depend on thread count, scene order or sharding. Rejected draws are counted
 //! by reason so users can see why a scene yields few episodes.
@@ -115,6 +119,15 @@ impl Default for SampleConfig {
             attempts_per_episode: 200,
         }
     }
+}
+
+/// A given start: where the agent stands (on the floor) and where it faces.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Start {
+    /// Position (m, world frame, on the floor).
+    pub position: [f32; 3],
+    /// Yaw (radians, [`Episode::start_yaw`]'s convention).
+    pub yaw: f32,
 }
 
 /// Why draws were rejected, with counts.
@@ -381,6 +394,20 @@ pub fn sample_scene(
     split: &str,
     cfg: &SampleConfig,
 ) -> SceneEpisodes {
+    sample_scene_from(grid, scene_id, split, cfg, None)
+}
+
+/// [`sample_scene`], with the starts given where `starts` is: each start, in order, is used
+/// once, with a goal drawn for it and the same filters (a draw the filters reject leaves
+/// that start without an episode); a start off the floor the sampler would draw from
+/// (walkable, in a room, on an island large enough) is rejected.
+pub fn sample_scene_from(
+    grid: &NavGrid,
+    scene_id: &str,
+    split: &str,
+    cfg: &SampleConfig,
+    starts: Option<&[Start]>,
+) -> SceneEpisodes {
     let seed = derive_seed(cfg.seed, &[scene_id, cfg.task.name(), "episodes"]);
     let mut rng = Rng::new(seed);
     let mut out = SceneEpisodes::default();
@@ -389,21 +416,25 @@ pub fn sample_scene(
         .iter()
         .map(|i| i.radius >= cfg.min_island_radius)
         .collect();
-    let starts: Vec<u32> = grid
+    let floor: Vec<u32> = grid
         .walkable_spans(None)
         .into_iter()
         .filter(|&s| {
             islands[grid.spans[s as usize].island as usize] && grid.spans[s as usize].room != NONE
         })
         .collect();
-    if starts.is_empty() {
+    if starts.is_some_and(|given| given.is_empty()) {
+        out.unusable = Some("no starts given for this scene".into());
+        return out;
+    }
+    if floor.is_empty() {
         out.unusable = Some(format!(
             "no walkable floor inside a room on an island of radius >= {} m",
             cfg.min_island_radius
         ));
         return out;
     }
-    let by_island: BTreeMap<u32, Vec<u32>> = starts.iter().fold(BTreeMap::new(), |mut m, &s| {
+    let by_island: BTreeMap<u32, Vec<u32>> = floor.iter().fold(BTreeMap::new(), |mut m, &s| {
         m.entry(grid.spans[s as usize].island)
             .or_insert_with(Vec::new)
             .push(s);
@@ -449,20 +480,41 @@ pub fn sample_scene(
     let per_bin = cfg.per_scene.div_ceil(3);
     let door_filters = cfg.min_doors > 0 || cfg.min_rooms > 0;
     let mut bin_counts = [0usize; 3];
-    let attempts = cfg
-        .per_scene
-        .saturating_mul(cfg.attempts_per_episode)
-        .max(1);
+    let attempts = match starts {
+        Some(given) => given.len(),
+        None => cfg
+            .per_scene
+            .saturating_mul(cfg.attempts_per_episode)
+            .max(1),
+    };
+    let on_floor: std::collections::BTreeSet<u32> = match starts {
+        Some(_) => floor.iter().copied().collect(),
+        None => Default::default(),
+    };
     let reject =
         |out: &mut SceneEpisodes, why: &'static str| *out.rejected.entry(why).or_insert(0) += 1;
-    for _ in 0..attempts {
+    for attempt in 0..attempts {
         if out.episodes.len() >= cfg.per_scene {
             break;
         }
-        let Some((start_span, start)) = grid.random_point_from(&mut rng, &starts) else {
-            break;
+        let (start_span, start, yaw) = match starts.and_then(|given| given.get(attempt)) {
+            Some(given) => {
+                let at = Vec3::from_array(given.position);
+                match grid.snap(at).filter(|s| on_floor.contains(s)) {
+                    Some(span) => (span, at, given.yaw),
+                    None => {
+                        reject(&mut out, "given start off the usable floor");
+                        continue;
+                    }
+                }
+            }
+            None => {
+                let Some((span, at)) = grid.random_point_from(&mut rng, &floor) else {
+                    break;
+                };
+                (span, at, rng.range_f64(0.0, std::f64::consts::TAU) as f32)
+            }
         };
-        let yaw = rng.range_f64(0.0, std::f64::consts::TAU) as f32;
         let island = grid.spans[start_span as usize].island;
         let mut goal_object = None;
         let (goal, mut path, goal_point) = match cfg.task {

@@ -104,6 +104,12 @@ def _parser() -> argparse.ArgumentParser:
                    help="fewest doorways on an episode's shortest path (MINOS's filter)")
     c.add_argument("--no-ratio-rule", action="store_true",
                    help="keep straight-line episodes (no geodesic/Euclidean rule, as MINOS)")
+    c.add_argument("--states", action="store_true",
+                   help="MINOS's episode states: starts of PointGoal episodes sampled with "
+                        "--min-doors, the task's goal drawn from each")
+    c.add_argument("--episodes-on-base", action="store_true",
+                   help="sample on the scenes as given and run on --variant (MINOS's empty "
+                        "configs shared the furnished ones' episode states)")
     c.add_argument("--random-agent", default="minos-random", choices=["minos-random", "random"],
                    help="the random row's agent (minos-random: MINOS's baseline)")
     c.add_argument("--variant", help="scene variant (`empty` is made here)")
@@ -149,6 +155,7 @@ def main(argv: list[str] | None = None) -> int:
             split=args.split, houses=args.houses, test_houses=args.test_houses,
             rooms=args.rooms, task=args.task, categories=args.categories,
             select=args.select, min_doors=args.min_doors, ratio_rule=not args.no_ratio_rule,
+            states=args.states, episodes_on_base=args.episodes_on_base,
             random_agent=args.random_agent,
             variant=args.variant, format=args.format, preset=args.preset, per_scene=args.per_scene,
             test_per_scene=args.test_per_scene, max_steps=args.max_steps, size=args.size,

@@ -51,6 +51,11 @@ class CellConfig:
     # Sample the episodes on the scenes as given and run them on `variant`: MINOS's empty
     # configs (`pointgoal_suncg_se`, ...) shared the furnished ones' episode states.
     episodes_on_base: bool = False
+    # MINOS's episode states: the starts are those of PointGoal episodes sampled with the door
+    # filter (`min_doors`), and the task's goal is drawn from each start. MINOS's ObjectGoal
+    # configs filter on the states file's `pathNumDoors`, whose paths go to point goals, not
+    # to the door that becomes the goal.
+    states: bool = False
     format: str = "suncg"  # generated houses' on-disk format: suncg or mp3d
     preset: str = "minos-paper"
     per_scene: int = 10
@@ -164,12 +169,20 @@ def _episodes(cfg: CellConfig, data: Path, split: str, subset: str, out: Path,
         if cfg.categories:
             kw["categories"] = cfg.categories
         on = None if cfg.episodes_on_base else cfg.variant
-        stats = minos.sample_episodes(data, cfg.task, out, split=split, subset=subset,
-                                      variant=on, preset=cfg.preset,
-                                      per_scene=per_scene, seed=seed,
-                                      max_steps=cfg.max_steps, select=cfg.select,
-                                      min_doors=cfg.min_doors,
-                                      ratio_rule=cfg.ratio_rule, **kw)
+        common = dict(split=split, subset=subset, variant=on, preset=cfg.preset,
+                      per_scene=per_scene, seed=seed, max_steps=cfg.max_steps,
+                      ratio_rule=cfg.ratio_rule)
+        min_doors = cfg.min_doors
+        if cfg.states and cfg.task != "pointgoal":
+            states = out.with_name(f"{out.stem}-states.parquet")
+            if not states.is_file():
+                st = minos.sample_episodes(data, "pointgoal", states, min_doors=min_doors,
+                                           **common)
+                _log(f"{subset} episode states -> {states} ({st.get('total', '?')} starts)")
+            kw["starts"] = states
+            min_doors = 0
+        stats = minos.sample_episodes(data, cfg.task, out, select=cfg.select,
+                                      min_doors=min_doors, **common, **kw)
         _log(f"{subset} episodes -> {out} ({stats.get('total', '?')} episodes)")
     return out
 

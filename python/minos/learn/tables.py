@@ -98,11 +98,13 @@ def _complexity() -> dict[str, CellConfig]:
 
 def _modalities() -> dict[str, CellConfig]:
     # MINOS's objectgoal_suncg_* configs: one random instance of `['arch', 'door']` is the
-    # goal (`select: random`), `pathNumDoors > 0` in 2-room houses and `> 1` in 3–5-room
-    # ones, no ratio rule.
+    # goal (`select: random`), from the starts of the episode states (`states`), which have
+    # `pathNumDoors > 0` in 2-room houses and `> 1` in 3–5-room ones on their PointGoal
+    # paths; no ratio rule.
     base = CellConfig(work="", task="objectgoal", categories=["door", "arch"], select="random",
                       preset="minos-paper", per_scene=10, test_per_scene=10, max_steps=500,
-                      size=84, epochs=8, ratio_rule=False, dagger=2, dagger_blind=False)
+                      size=84, epochs=8, ratio_rule=False, dagger=2, dagger_blind=False,
+                      states=True)
     small = dict(rooms=(2, 2), min_doors=1, houses=100, test_houses=30)
     medium = dict(rooms=(3, 5), min_doors=2, houses=24, test_houses=8)
     cols = {

@@ -18,7 +18,8 @@ use crate::shard::Shard;
 use crate::split::{read_split, SplitError, Subset};
 use crate::store::{DataDir, StoreError};
 
-use super::{sample_scenes, BatchWriteError, EpisodeBatch};
+use super::{read_starts, sample_scenes_from, BatchWriteError, EpisodeBatch};
+use crate::episode::format::EpisodeFileError;
 
 /// What a job samples and where it writes.
 #[derive(Debug, Clone)]
@@ -43,6 +44,10 @@ pub struct EpisodesJob {
     pub scene_names: SceneIdStyle,
     /// The command line (or call) recorded in the provenance file.
     pub command: Vec<String>,
+    /// Take each scene's starts from this episode file (in its order) instead of drawing
+    /// them: MINOS's episode states, e.g. the starts of PointGoal episodes sampled with
+    /// `min_doors`, given ObjectGoal goals.
+    pub starts: Option<PathBuf>,
 }
 
 /// What a job did.
@@ -91,6 +96,9 @@ pub enum EpisodesJobError {
         /// Some categories the scenes do have.
         known: String,
     },
+    /// The file of given starts could not be read.
+    #[error("starts: {0}")]
+    Starts(#[source] EpisodeFileError),
     /// The episode file or its statistics.
     #[error(transparent)]
     Write(#[from] BatchWriteError),
@@ -217,12 +225,17 @@ pub fn run_job(
     progress: &dyn Progress,
 ) -> Result<EpisodesOutcome, EpisodesJobError> {
     let cfg = &job.sample;
-    let batch = sample_scenes(
+    let starts = match &job.starts {
+        Some(path) => Some(read_starts(path).map_err(EpisodesJobError::Starts)?),
+        None => None,
+    };
+    let batch = sample_scenes_from(
         &job.data,
         &job.scenes,
         cfg,
         job.body_rule,
         job.shard,
+        starts.as_ref(),
         progress,
     );
     let mut warnings = Vec::new();
@@ -318,6 +331,13 @@ fn write_provenance(
     for p in [job.out.as_path(), stats_path] {
         files.insert(name(p), serde_json::json!(provenance::sha256_file(p)?));
     }
+    let starts = match &job.starts {
+        Some(p) => serde_json::json!({
+            "path": p.display().to_string(),
+            "checksum": provenance::sha256_file(p)?,
+        }),
+        None => serde_json::Value::Null,
+    };
     let record = serde_json::json!({
         "format": provenance::FORMAT,
         "kind": "episodes",
@@ -325,6 +345,7 @@ fn write_provenance(
         "command": job.command,
         "configuration": format!("{:?}", job.sample),
         "seed": job.sample.seed,
+        "starts": starts,
         "shard": job.shard.to_string(),
         "body": format!("{:?}", job.body_rule),
         "scenes": crate::store::provenance::scene_records(

@@ -10,8 +10,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::atomic::{sweep_stale_of, write_bytes_atomic};
 use crate::body::BodyRule;
-use crate::episode::format::{write_episodes, EpisodeFileError};
-use crate::episode::sample::{sample_scene, SampleConfig, SceneEpisodes};
+use crate::episode::format::{read_episodes, write_episodes, EpisodeFileError};
+use crate::episode::sample::{sample_scene_from, SampleConfig, SceneEpisodes, Start};
 use crate::episode::Episode;
 use crate::progress::Progress;
 use crate::scene::SceneRef;
@@ -78,6 +78,22 @@ pub struct EpisodeBatch {
     pub object_categories: std::collections::BTreeSet<String>,
 }
 
+/// Given starts by scene id, each scene's in the order given ([`read_starts`]).
+pub type StartsByScene = BTreeMap<String, Vec<Start>>;
+
+/// The starts (positions and yaws) of an episode file's episodes, by scene id in file order:
+/// MINOS's episode states, for sampling another task's goals from the same starts.
+pub fn read_starts(path: &Path) -> Result<StartsByScene, EpisodeFileError> {
+    let mut out = StartsByScene::new();
+    for e in read_episodes(path)? {
+        out.entry(e.scene_id).or_default().push(Start {
+            position: e.start_position,
+            yaw: e.start_yaw,
+        });
+    }
+    Ok(out)
+}
+
 /// Samples `cfg` over `scenes` (`(scene id, split subset)`), reading grids from `data`; a
 /// scene whose grid was baked for another body than `body`'s is a problem of that scene.
 pub fn sample_scenes(
@@ -86,6 +102,21 @@ pub fn sample_scenes(
     cfg: &SampleConfig,
     body: BodyRule,
     shard: Shard,
+    progress: &dyn Progress,
+) -> EpisodeBatch {
+    sample_scenes_from(data, scenes, cfg, body, shard, None, progress)
+}
+
+/// [`sample_scenes`], each scene's episodes from its given starts where `starts` is
+/// ([`sample_scene_from`]; a scene without starts there yields none, a problem of that
+/// scene).
+pub fn sample_scenes_from(
+    data: &DataDir,
+    scenes: &[(String, String)],
+    cfg: &SampleConfig,
+    body: BodyRule,
+    shard: Shard,
+    starts: Option<&StartsByScene>,
     progress: &dyn Progress,
 ) -> EpisodeBatch {
     let mut sorted: Vec<&(String, String)> = scenes.iter().collect();
@@ -112,7 +143,8 @@ pub fn sample_scenes(
                         .iter()
                         .map(|o| o.category.to_ascii_lowercase())
                         .collect();
-                    Ok((sample_scene(&grid, id, split, cfg), categories))
+                    let given = starts.map(|m| m.get(id).map(Vec::as_slice).unwrap_or(&[]));
+                    Ok((sample_scene_from(&grid, id, split, cfg, given), categories))
                 });
             progress.advance(1);
             (id.clone(), r)
@@ -129,13 +161,18 @@ pub fn sample_scenes(
                     *batch.rejected.entry(why.to_string()).or_insert(0) += n;
                     stats.rejected.insert(why.to_string(), *n);
                 }
+                let given = starts.map(|m| m.get(&id).map_or(0, Vec::len).min(cfg.per_scene));
+                let wanted = given.unwrap_or(cfg.per_scene);
                 stats.problem = s.unusable.or_else(|| {
-                    (s.episodes.len() < cfg.per_scene).then(|| {
-                        format!(
-                            "only {} of {} episodes after all attempts",
-                            s.episodes.len(),
-                            cfg.per_scene
-                        )
+                    (s.episodes.len() < wanted).then(|| match given {
+                        Some(_) => format!(
+                            "only {} of {wanted} given starts got an episode",
+                            s.episodes.len()
+                        ),
+                        None => format!(
+                            "only {} of {wanted} episodes after all attempts",
+                            s.episodes.len()
+                        ),
                     })
                 });
                 batch.episodes.extend(s.episodes);
