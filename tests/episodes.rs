@@ -518,15 +518,18 @@ fn given_starts_get_the_tasks_goals_in_order() {
         seed: 3,
         ..SampleConfig::default()
     };
-    let batch = sample_scenes_from(
-        &minos::store::DataDir::new(dir.path().join("DATA")),
-        scenes,
-        &cfg,
-        BodyRule::strict(AgentBody::HABITAT),
-        Shard::ALL,
-        Some(&starts),
-        &NoProgress,
-    );
+    let sample = |starts: &StartsByScene| {
+        sample_scenes_from(
+            &minos::store::DataDir::new(dir.path().join("DATA")),
+            scenes,
+            &cfg,
+            BodyRule::strict(AgentBody::HABITAT),
+            Shard::ALL,
+            Some(starts),
+            &NoProgress,
+        )
+    };
+    let batch = sample(&starts);
     assert_eq!(
         batch.scenes[without].problem.as_deref(),
         Some("no starts given for this scene")
@@ -561,14 +564,5 @@ fn given_starts_get_the_tasks_goals_in_order() {
         }
     }
     // The same starts and seed give the same episodes.
-    let again = sample_scenes_from(
-        &minos::store::DataDir::new(dir.path().join("DATA")),
-        scenes,
-        &cfg,
-        BodyRule::strict(AgentBody::HABITAT),
-        Shard::ALL,
-        Some(&starts),
-        &NoProgress,
-    );
-    assert_eq!(again.episodes, batch.episodes);
+    assert_eq!(sample(&starts).episodes, batch.episodes);
 }

@@ -259,17 +259,22 @@ def test_dagger_rows_are_other_rows_than_their_cloned_ones(tmp_path):
     assert row_file(tmp_path, none, seeing).name == "MD-gru-s0.json"
 
 
+def _split(data, name, scenes):
+    """Writes split ``name`` into ``data``: the first scene to train on, every scene to test."""
+    lists = data / "splits" / name
+    lists.mkdir(parents=True, exist_ok=True)
+    (lists / "train.txt").write_text(scenes[0] + "\n")
+    (lists / "val.txt").write_text("")
+    (lists / "test.txt").write_text("".join(s + "\n" for s in scenes))
+
+
 def test_a_cells_random_row_is_minos_random_averaged_over_seeds(world, tmp_path):
     # `random_only`: houses, episodes and MINOS's random agent (`minos run --agent
     # minos-random`) once per seed; no oracle dataset, no training. The row is the mean of
     # the seeds' metrics.json, recomputed here from the runs.
     from minos.learn.cell import CellConfig, random_file, run_cell
 
-    lists = world.data / "splits" / "learn-random-row"
-    lists.mkdir(parents=True, exist_ok=True)
-    (lists / "train.txt").write_text(world.scenes[0] + "\n")
-    (lists / "val.txt").write_text("")
-    (lists / "test.txt").write_text("".join(s + "\n" for s in world.scenes))
+    _split(world.data, "learn-random-row", world.scenes)
     cfg = CellConfig(work=str(tmp_path / "cell"), data=str(world.data), split="learn-random-row",
                      preset="habitat", per_scene=1, test_per_scene=3, max_steps=40,
                      random_seeds=2, ratio_rule=False, min_doors=1)
@@ -298,11 +303,7 @@ def test_a_cells_door_goals_come_from_the_starts_of_its_episode_states(world, tm
     # in order, with its own random door or arch as the goal.
     from minos.learn.cell import CellConfig, run_cell
 
-    lists = world.data / "splits" / "learn-states"
-    lists.mkdir(parents=True, exist_ok=True)
-    (lists / "train.txt").write_text(world.scenes[0] + "\n")
-    (lists / "val.txt").write_text("")
-    (lists / "test.txt").write_text("".join(s + "\n" for s in world.scenes))
+    _split(world.data, "learn-states", world.scenes)
     cfg = CellConfig(work=str(tmp_path / "cell"), data=str(world.data), split="learn-states",
                      preset="habitat", per_scene=2, test_per_scene=4, max_steps=20,
                      random_seeds=1, ratio_rule=False, min_doors=1, task="objectgoal",
@@ -335,11 +336,7 @@ def test_an_empty_cell_runs_the_furnished_houses_episodes_without_furniture(
     monkeypatch.setenv("PATH", f"{minos_bin.parent}{os.pathsep}{os.environ['PATH']}")
     data = tmp_path / "DATA"
     shutil.copytree(world.data, data)
-    lists = data / "splits" / "learn-empty"
-    lists.mkdir(parents=True, exist_ok=True)
-    (lists / "train.txt").write_text(world.scenes[0] + "\n")
-    (lists / "val.txt").write_text("")
-    (lists / "test.txt").write_text("".join(s + "\n" for s in world.scenes))
+    _split(data, "learn-empty", world.scenes)
     from minos.learn.cell import _make_variant
 
     _make_variant(data, "empty")
