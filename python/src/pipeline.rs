@@ -69,10 +69,11 @@ fn split_or_all(data: &DataDir, split: Option<&str>) -> anyhow::Result<Vec<Strin
     })
 }
 
-/// `minos generate`: procedural houses in SUNCG's (or Matterport3D's) layout into `out`.
-/// Returns `{"written": [ids], "skipped": [ids]}`.
+/// `minos generate`: procedural houses in SUNCG's (or Matterport3D's) layout into `out`;
+/// `format="mp3d-scan"` writes scan-like Matterport3D houses (`--scan`, about
+/// `scan_triangles` triangles each). Returns `{"written": [ids], "skipped": [ids]}`.
 #[pyfunction]
-#[pyo3(signature = (out, houses = 10, seed = 0, rooms = (3, 8), levels = (1, 2), closed_doors = 0.25, format = "suncg", force = false, progress = None))]
+#[pyo3(signature = (out, houses = 10, seed = 0, rooms = (3, 8), levels = (1, 2), closed_doors = 0.25, format = "suncg", force = false, scan_triangles = minos::generate::scan::DEFAULT_TRIANGLES, progress = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn generate<'py>(
     py: Python<'py>,
@@ -84,15 +85,20 @@ pub fn generate<'py>(
     closed_doors: f64,
     format: &str,
     force: bool,
+    scan_triangles: u64,
     progress: Option<Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let out = path_of(out)?;
     let format = match format {
         "suncg" => OutputFormat::Suncg,
         "mp3d" => OutputFormat::Mp3d,
+        "mp3d-scan" => OutputFormat::Mp3dScan(minos::generate::ScanOptions {
+            triangles: scan_triangles,
+            noise: minos::generate::scan::DEFAULT_NOISE,
+        }),
         other => {
             return Err(msg_err(format!(
-                "format: unknown format `{other}` (suncg, mp3d)"
+                "format: unknown format `{other}` (suncg, mp3d, mp3d-scan)"
             )))
         }
     };

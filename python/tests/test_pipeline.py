@@ -39,6 +39,27 @@ def test_generate_resumes_and_reports_progress(world, tmp_path):
     assert (out / "house").is_dir()
 
 
+def test_generate_writes_scan_like_matterport3d_houses_of_the_asked_size(tmp_path):
+    # format="mp3d-scan" is `minos generate --scan`: Matterport3D's layout, the mesh a dense
+    # scan of about `scan_triangles` triangles (the PLY header's face count, read here).
+    out = tmp_path / "scans"
+    got = minos.generate(out, houses=1, seed=2, rooms=(3, 4), levels=(1, 1),
+                         format="mp3d-scan", scan_triangles=30_000)
+    (house,) = got["written"]
+    plys = list(out.rglob("*.ply"))
+    assert plys and (out / house / "house_segmentations" / f"{house}.house").is_file()
+    faces = 0
+    with open(plys[0], "rb") as f:
+        for line in f:
+            if line.startswith(b"element face"):
+                faces = int(line.split()[-1])
+            if line.strip() == b"end_header":
+                break
+    assert 0.8 * 30_000 <= faces <= 30_000, faces
+    with pytest.raises(Exception, match="mp3d-scan"):
+        minos.generate(tmp_path / "x", houses=1, format="scan")
+
+
 def test_generate_is_deterministic(tmp_path):
     a, b = tmp_path / "a", tmp_path / "b"
     for d in (a, b):

@@ -113,14 +113,19 @@ def _parser() -> argparse.ArgumentParser:
     c.add_argument("--random-agent", default="minos-random", choices=["minos-random", "random"],
                    help="the random row's agent (minos-random: MINOS's baseline)")
     c.add_argument("--variant", help="scene variant (`empty` is made here)")
-    c.add_argument("--format", default="suncg", choices=["suncg", "mp3d"],
-                   help="generated houses' format (mp3d: Matterport3D-format houses)")
+    c.add_argument("--format", default="suncg", choices=["suncg", "mp3d", "mp3d-scan"],
+                   help="generated houses' format (mp3d: Matterport3D-format houses; "
+                        "mp3d-scan: scan-like ones, dense noisy meshes with clutter)")
+    c.add_argument("--scan-triangles", type=int, default=300_000,
+                   help="triangles per mp3d-scan house")
     c.add_argument("--preset", default="minos-paper", choices=sorted(PRESET_ACTIONS))
     c.add_argument("--per-scene", type=int, default=10, help="training episodes per house")
     c.add_argument("--test-per-scene", type=int, default=10)
     c.add_argument("--max-steps", type=int, default=500)
     c.add_argument("--num-envs", type=int, default=8)
     c.add_argument("--greedy", action="store_true")
+    c.add_argument("--random-only", action="store_true",
+                   help="stop after the random row (the task-difficulty check)")
     _common_train(c)
     return ap
 
@@ -157,12 +162,13 @@ def main(argv: list[str] | None = None) -> int:
             select=args.select, min_doors=args.min_doors, ratio_rule=not args.no_ratio_rule,
             states=args.states, episodes_on_base=args.episodes_on_base,
             random_agent=args.random_agent,
-            variant=args.variant, format=args.format, preset=args.preset, per_scene=args.per_scene,
+            variant=args.variant, format=args.format, scan_triangles=args.scan_triangles,
+            preset=args.preset, per_scene=args.per_scene,
             test_per_scene=args.test_per_scene, max_steps=args.max_steps, size=args.size,
             memory=args.memory, hidden=args.hidden, epochs=args.epochs,
             batch_frames=args.batch_frames, lr=args.lr, dagger=args.dagger, beta=args.beta,
             num_envs=args.num_envs, sample=not args.greedy, seed=args.seed, device=args.device)
-        run_cell(cfg, progress=progress)
+        run_cell(cfg, progress=progress, random_only=args.random_only)
         return 0
 
     from .evaluate import evaluate_policy, evaluate_random, make_env

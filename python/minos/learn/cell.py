@@ -56,7 +56,10 @@ class CellConfig:
     # configs filter on the states file's `pathNumDoors`, whose paths go to point goals, not
     # to the door that becomes the goal.
     states: bool = False
-    format: str = "suncg"  # generated houses' on-disk format: suncg or mp3d
+    # Generated houses' on-disk format: suncg, mp3d, or mp3d-scan (scan-like Matterport3D
+    # houses: dense noisy meshes with holes and clutter, `scan_triangles` each).
+    format: str = "suncg"
+    scan_triangles: int = 300_000
     preset: str = "minos-paper"
     per_scene: int = 10
     test_per_scene: int = 10
@@ -121,8 +124,8 @@ def _prepare_data(cfg: CellConfig, work: Path) -> tuple[Path, str]:
         return data, split
     t0 = time.perf_counter()
     minos.generate(gen, houses=cfg.houses, seed=cfg.seed, rooms=cfg.rooms, levels=cfg.levels,
-                   format=cfg.format, force=True)
-    minos.ingest(gen, data, dataset=cfg.format, force=True)
+                   format=cfg.format, force=True, scan_triangles=cfg.scan_triangles)
+    minos.ingest(gen, data, dataset="suncg" if cfg.format == "suncg" else "mp3d", force=True)
     minos.bake(data, preset=cfg.preset, previews=False)
     if cfg.variant:
         _make_variant(data, cfg.variant)
