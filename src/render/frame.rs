@@ -117,6 +117,25 @@ impl Frame {
         }
     }
 
+    /// A frame of only the images a renderer derived (`derived`), without triangle ids or
+    /// depth (`tri` and `depth` empty): what a batch that asked for exactly the images its
+    /// callers use reads back. Its methods answer for the derived images only; the others
+    /// come back empty.
+    pub fn derived_only(width: u32, height: u32, derived: Option<Box<Derived>>) -> Self {
+        Frame {
+            width,
+            height,
+            tri: Vec::new(),
+            depth: Vec::new(),
+            derived,
+        }
+    }
+
+    /// Whether the frame carries triangle ids and depth (not [`Frame::derived_only`]).
+    pub fn has_ids(&self) -> bool {
+        self.tri.len() == (self.width * self.height) as usize
+    }
+
     /// The renderer's image `pick` chooses, where it derived one.
     fn derived_image<'a, T>(
         &'a self,

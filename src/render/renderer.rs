@@ -1,7 +1,7 @@
 //! Choosing a renderer: the CPU renderer, wgpu, or `auto` (wgpu when a hardware adapter
 //! exists, else the CPU, saying why in the log). Both produce the same frames.
 
-use super::gpu::{GpuError, GpuRenderer};
+use super::gpu::{GpuError, GpuRenderer, SceneSlot, View};
 use super::{cpu, Camera, Channels, Frame, RenderScene};
 
 /// Which renderer to use.
@@ -81,6 +81,29 @@ impl Renderer {
         cameras: &[Camera],
         channels: Channels,
     ) -> Result<Vec<Frame>, GpuError> {
+        self.render_as(scene, cameras, channels, true)
+    }
+
+    /// [`Renderer::render_with`] for callers that will ask each frame for the images of
+    /// `channels` only: a GPU renderer that derives them reads back just those
+    /// ([`GpuRenderer::render_views_derived`]; frames without ids or depth), the others
+    /// render as [`Renderer::render_with`].
+    pub fn render_derived(
+        &self,
+        scene: &RenderScene,
+        cameras: &[Camera],
+        channels: Channels,
+    ) -> Result<Vec<Frame>, GpuError> {
+        self.render_as(scene, cameras, channels, false)
+    }
+
+    fn render_as(
+        &self,
+        scene: &RenderScene,
+        cameras: &[Camera],
+        channels: Channels,
+        ids: bool,
+    ) -> Result<Vec<Frame>, GpuError> {
         match self {
             Renderer::Cpu => Ok(cameras.iter().map(|c| cpu::render(scene, c)).collect()),
             Renderer::Gpu(g) => {
@@ -104,7 +127,18 @@ impl Renderer {
                     } else {
                         Channels::NONE
                     };
-                    for (j, f) in group.iter().zip(g.render_batch_with(&cams, channels)?) {
+                    let views: Vec<View> = cams
+                        .iter()
+                        .map(|&camera| View {
+                            scene: SceneSlot(0),
+                            camera,
+                        })
+                        .collect();
+                    let rendered = match ids {
+                        true => g.render_views_with(&views, channels)?,
+                        false => g.render_views_derived(&views, channels)?,
+                    };
+                    for (j, f) in group.iter().zip(rendered) {
                         frames[*j] = Some(f);
                         done[*j] = true;
                     }

@@ -92,9 +92,11 @@ pub fn observe_many_timed(
         let channels = members
             .iter()
             .fold(Channels::NONE, |c, &i| c.union(sims[i].image_channels()));
+        // Each simulator asks its frames for its sensors' images only, which are these
+        // channels: the GPU reads back just those.
         match first
             .renderer()
-            .render_with(&first.assets().render, &cameras, channels)
+            .render_derived(&first.assets().render, &cameras, channels)
         {
             Ok(rendered) => {
                 let mut rendered = rendered.into_iter();

@@ -21,7 +21,7 @@ use crate::render::Taxonomy;
 /// The shader.
 const SHADER: &str = include_str!("derive.wgsl");
 /// "Not asked for" in the channel offsets.
-const EMPTY: u32 = u32::MAX;
+pub(super) const EMPTY: u32 = u32::MAX;
 
 /// One dispatch's uniform block (`Derive` in `derive.wgsl`).
 #[repr(C)]

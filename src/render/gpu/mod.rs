@@ -285,6 +285,29 @@ impl GpuRenderer {
         views: &[View],
         channels: Channels,
     ) -> Result<Vec<Frame>, GpuError> {
+        self.render_views_as(views, channels, true)
+    }
+
+    /// [`GpuRenderer::render_views_with`] reading back only the images of `channels` where
+    /// the GPU derives them (less to copy back and unpack): each frame is then
+    /// [`Frame::derived_only`] — no ids or depth, so only its derived images may be asked
+    /// for —, except a view whose rays the host cast again, which comes back whole with no
+    /// derived images. Without images to derive (the rasteriser, `channels` empty, derivation
+    /// off) the frames are whole, as [`GpuRenderer::render_views_with`]'s.
+    pub fn render_views_derived(
+        &self,
+        views: &[View],
+        channels: Channels,
+    ) -> Result<Vec<Frame>, GpuError> {
+        self.render_views_as(views, channels, false)
+    }
+
+    fn render_views_as(
+        &self,
+        views: &[View],
+        channels: Channels,
+        ids: bool,
+    ) -> Result<Vec<Frame>, GpuError> {
         let Some(first) = views.first() else {
             return Ok(Vec::new());
         };
@@ -318,7 +341,7 @@ impl GpuRenderer {
                         Uploaded::Raster(_) => None,
                     })
                     .collect();
-                t.render(device, queue, &scenes, views, (w, h), channels)
+                t.render(device, queue, &scenes, views, (w, h), (channels, ids))
             }
             Pipeline::Raster(r) => {
                 let scenes: Vec<&raster::RasterScene> = self
@@ -415,6 +438,101 @@ mod tests {
         for (f, d) in frames.iter().zip(&derived) {
             assert_eq!((&f.tri, &f.depth), (&d.tri, &d.depth));
             assert!(d.derived.is_none());
+        }
+        // Reading back only the derived images: the views that overflowed still come back
+        // whole (their ids and depth fetched in a second copy, then cast again), while a
+        // view facing away from the triangles — no overflow — comes back as its derived
+        // images alone, equal to those of a whole read-back.
+        let mut mixed = cameras.clone();
+        mixed.insert(
+            1,
+            Camera {
+                yaw: std::f32::consts::PI,
+                ..cameras[0]
+            },
+        );
+        let views: Vec<View> = mixed
+            .iter()
+            .map(|&camera| View {
+                scene: SceneSlot(0),
+                camera,
+            })
+            .collect();
+        let whole = gpu.render_views_with(&views, Channels::all()).unwrap();
+        let only = gpu.render_views_derived(&views, Channels::all()).unwrap();
+        assert!(whole[1].derived.is_some() && !only[1].has_ids());
+        assert_eq!(only[1].derived, whole[1].derived);
+        for (k, f) in [0, 2, 3].into_iter().zip(&frames) {
+            assert!(only[k].has_ids() && only[k].derived.is_none(), "view {k}");
+            assert_eq!(
+                (&only[k].tri, &only[k].depth),
+                (&f.tri, &f.depth),
+                "view {k}"
+            );
+        }
+    }
+
+    /// Without overflows, frames read back as their derived images alone carry the same
+    /// images as whole frames, and no ids or depth; without channels they are whole.
+    #[test]
+    fn derived_only_read_back_gives_the_same_images() {
+        let mut gpu = match GpuRenderer::new() {
+            Ok(g) => g,
+            Err(e) => {
+                eprintln!("skipped: {e}");
+                return;
+            }
+        };
+        let mut scene = RenderScene::default();
+        for (i, c) in [Vec3::new(-1.0, 0.0, -4.0), Vec3::new(1.0, 0.5, -5.0)]
+            .iter()
+            .enumerate()
+        {
+            scene.positions.extend([*c, *c + Vec3::X, *c + Vec3::Y]);
+            scene.tris.push(crate::render::scene::TriInfo {
+                normal: [0.0, 0.0, 1.0],
+                color: [0.8, 0.2 * i as f32, 0.1],
+                texture: crate::render::scene::NO_TEXTURE,
+                object: i as u32 + 1,
+                room: 1,
+                room_class: 2,
+                nyu40: 5,
+                mpcat40: 3,
+                coarse: 4,
+            });
+        }
+        gpu.upload(&scene).unwrap();
+        let views: Vec<View> = (0..5)
+            .map(|k| View {
+                scene: SceneSlot(0),
+                camera: Camera {
+                    position: Vec3::new(0.1 * k as f32, 0.3, 0.0),
+                    yaw: 0.05 * k as f32,
+                    tilt: 0.0,
+                    vfov_deg: 90.0,
+                    width: 24,
+                    height: 16,
+                    near: 0.05,
+                    far: 30.0,
+                },
+            })
+            .collect();
+        let channels = Channels::all();
+        let whole = gpu.render_views_with(&views, channels).unwrap();
+        let only = gpu.render_views_derived(&views, channels).unwrap();
+        for (w, o) in whole.iter().zip(&only) {
+            assert!(w.has_ids() && !o.has_ids());
+            assert!(w.derived.is_some());
+            assert_eq!(o.derived, w.derived);
+            assert_eq!((o.width, o.height), (w.width, w.height));
+        }
+        assert!(whole
+            .iter()
+            .any(|f| f.tri.iter().any(|&t| t != crate::render::NO_HIT)));
+        let plain = gpu.render_views_derived(&views, Channels::NONE).unwrap();
+        for (w, p) in whole.iter().zip(&plain) {
+            assert!(p.has_ids() && p.derived.is_none());
+            assert_eq!((&p.tri, &p.depth), (&w.tri, &w.depth));
         }
     }
 

@@ -64,6 +64,9 @@ struct BatchRecord {
     total: u32,
     width: u32,
     height: u32,
+    /// Where the per-view overflow flags start in the output (words).
+    flags: u32,
+    pad: [u32; 3],
 }
 
 /// The compute pipeline and its bind group layouts.
@@ -219,7 +222,11 @@ impl Tracer {
         let views_buffer = buffer("trace views", view_bytes, U::STORAGE | U::COPY_DST);
         let uniform_bytes = room.groups as u64 * BATCH_STRIDE;
         let uniform = buffer("trace batches", uniform_bytes, U::UNIFORM | U::COPY_DST);
-        let out = buffer("trace output", room.bytes, U::STORAGE | U::COPY_SRC);
+        let out = buffer(
+            "trace output",
+            room.bytes,
+            U::STORAGE | U::COPY_SRC | U::COPY_DST,
+        );
         let readback = buffer("trace read-back", room.bytes, U::COPY_DST | U::MAP_READ);
         let derive_uniform = buffer("derive batches", uniform_bytes, U::UNIFORM | U::COPY_DST);
         let derive_bind = batch_bind_group(
@@ -317,7 +324,8 @@ impl Tracer {
 
     /// Renders views of one resolution `w` × `h` (both non-zero) on uploaded `scenes`, with
     /// the images of `channels` derived on the GPU (where every scene of the batch has its
-    /// attributes uploaded): as many views per submission as the output buffer's binding
+    /// attributes uploaded), read back with the ids and depth where `ids` (else alone,
+    /// [`Frame::derived_only`]): as many views per submission as the output buffer's binding
     /// limit allows.
     pub(super) fn render(
         &self,
@@ -326,15 +334,17 @@ impl Tracer {
         scenes: &[&TracedScene],
         views: &[View],
         (w, h): (u32, u32),
-        channels: Channels,
+        (channels, ids): (Channels, bool),
     ) -> Result<Vec<Frame>, GpuError> {
         let channels = if views.iter().all(|v| scenes[v.scene.0].derive.is_some()) {
             channels
         } else {
             Channels::NONE
         };
+        // Without images to derive, the frames are the ids and depth.
+        let ids = ids || channels.is_empty();
         let frame_bytes =
-            4 * derive::words_per_pixel(channels) as u64 * u64::from(w) * u64::from(h);
+            4 * derive::words_per_pixel(channels) as u64 * u64::from(w) * u64::from(h) + 4;
         let limits = device.limits();
         let per_submission = (limits.max_storage_buffer_binding_size / frame_bytes)
             .min(u64::from(limits.max_compute_workgroups_per_dimension))
@@ -342,13 +352,17 @@ impl Tracer {
         let mut frames = Vec::with_capacity(views.len());
         for chunk in views.chunks(per_submission) {
             let size = ((w, h), per_submission);
-            frames.extend(self.render_chunk(device, queue, scenes, chunk, size, channels)?);
+            let what = (channels, ids);
+            frames.extend(self.render_chunk(device, queue, scenes, chunk, size, what)?);
         }
         Ok(frames)
     }
 
     /// One submission (of at most `max_views` views): a trace dispatch per scene, a
-    /// derivation dispatch per scene where `channels` asks for images, one copy back.
+    /// derivation dispatch per scene where `channels` asks for images, one copy back — of the
+    /// ids and depth too where `ids` (else only of the derived images and the views' overflow
+    /// flags; a view whose rays overflowed then has its ids and depth copied back in a second
+    /// submission, to be cast again and derived on the host).
     fn render_chunk(
         &self,
         device: &wgpu::Device,
@@ -356,9 +370,13 @@ impl Tracer {
         scenes: &[&TracedScene],
         views: &[View],
         ((w, h), max_views): ((u32, u32), usize),
-        channels: Channels,
+        (channels, ids): (Channels, bool),
     ) -> Result<Vec<Frame>, GpuError> {
         let n = views.len();
+        let pixels = w as usize * h as usize;
+        let (at, derived_words) = derive::layout(channels, n, pixels);
+        // The overflow flags follow the derived images.
+        let (flags_at, out_words) = (derived_words, derived_words + n);
         // Views sorted by scene (stably), so each scene's views are one dispatch.
         let mut order: Vec<usize> = (0..n).collect();
         order.sort_by_key(|&i| views[i].scene.0);
@@ -380,13 +398,13 @@ impl Tracer {
                 total: n as u32,
                 width: w,
                 height: h,
+                flags: flags_at as u32,
+                pad: [0; 3],
             };
             let at = g * BATCH_STRIDE as usize;
             uniforms[at..at + std::mem::size_of::<BatchRecord>()]
                 .copy_from_slice(bytemuck::bytes_of(&record));
         }
-        let pixels = w as usize * h as usize;
-        let (at, out_words) = derive::layout(channels, n, pixels);
         let out_bytes = (out_words * 4) as u64;
         let need = Room {
             views: n,
@@ -409,6 +427,8 @@ impl Tracer {
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("trace"),
         });
+        let word = |k: usize| (k * 4) as u64;
+        encoder.clear_buffer(&set.out, word(flags_at), Some(word(n)));
         {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("trace"),
@@ -432,37 +452,62 @@ impl Tracer {
                 }
             }
         }
-        encoder.copy_buffer_to_buffer(&set.out, 0, &set.readback, 0, out_bytes);
+        // What comes back: everything, or from the derived images on (the ids and depth,
+        // the first two words a pixel, left on the GPU).
+        let base = if ids { 0 } else { 2 * n * pixels };
+        let back = word(out_words - base);
+        encoder.copy_buffer_to_buffer(&set.out, word(base), &set.readback, 0, back);
         let submitted = std::time::Instant::now();
         queue.submit([encoder.finish()]);
-        let slice = set.readback.slice(..out_bytes);
+        let slice = set.readback.slice(..back);
         let data = super::map_read(device, &slice)?;
         let mapped = std::time::Instant::now();
         let words: &[u32] = bytemuck::cast_slice(&data);
-        let (ids, rest) = words.split_at(n * pixels);
-        let depths = &rest[..n * pixels];
+        let flags = &words[flags_at - base..];
+        // The derived images' offsets in what came back.
+        let at_back = at.map(|a| {
+            if a == derive::EMPTY {
+                a
+            } else {
+                a - base as u32
+            }
+        });
         let frames: Vec<Frame> = (0..n)
             .into_par_iter()
             .map(|i| {
+                let derived = (!channels.is_empty())
+                    .then(|| Box::new(derive::unpack(words, channels, &at_back, i, pixels)));
+                if !ids {
+                    return Frame::derived_only(w, h, derived);
+                }
                 let mut frame = Frame::new(w, h);
                 frame
                     .tri
-                    .copy_from_slice(&ids[i * pixels..(i + 1) * pixels]);
-                for (d, b) in frame
-                    .depth
-                    .iter_mut()
-                    .zip(&depths[i * pixels..(i + 1) * pixels])
-                {
+                    .copy_from_slice(&words[i * pixels..(i + 1) * pixels]);
+                let depths = &words[(n + i) * pixels..(n + i + 1) * pixels];
+                for (d, b) in frame.depth.iter_mut().zip(depths) {
                     *d = f32::from_bits(*b);
                 }
-                if !channels.is_empty() {
-                    frame.derived = Some(Box::new(derive::unpack(words, channels, &at, i, pixels)));
-                }
+                frame.derived = derived;
                 frame
             })
             .collect();
+        let overflowed: Vec<usize> = (0..n).filter(|&i| flags[i] != 0).collect();
         drop(data);
         set.readback.unmap();
+        let mut frames = frames;
+        if !ids && !overflowed.is_empty() {
+            // Those views' ids and depth, from the output still on the GPU.
+            let (ids_of, depth_of) = self.read_ids(device, queue, &set, n, pixels, &overflowed)?;
+            for (k, &i) in overflowed.iter().enumerate() {
+                let frame = &mut frames[i];
+                frame.tri = ids_of[k * pixels..(k + 1) * pixels].to_vec();
+                frame.depth = depth_of[k * pixels..(k + 1) * pixels]
+                    .iter()
+                    .map(|b| f32::from_bits(*b))
+                    .collect();
+            }
+        }
         self.give_back(room, set);
         let nanos = |d: std::time::Duration| u64::try_from(d.as_nanos()).unwrap_or(u64::MAX);
         let relaxed = std::sync::atomic::Ordering::Relaxed;
@@ -473,8 +518,9 @@ impl Tracer {
         frames
             .into_par_iter()
             .zip(views)
-            .map(|(mut frame, view)| {
-                if frame.tri.contains(&OVERFLOW) {
+            .enumerate()
+            .map(|(i, (mut frame, view))| {
+                if overflowed.binary_search(&i).is_ok() {
                     // The host casts those rays and derives this view's images itself.
                     frame.derived = None;
                     let bvh = scenes[view.scene.0].fallback.as_ref().ok_or_else(|| {
@@ -487,6 +533,52 @@ impl Tracer {
                 Ok(frame)
             })
             .collect()
+    }
+
+    /// The ids and depth of the views `which` (ascending) of a batch of `n` views still in
+    /// `set`'s output, copied back in one more submission: `which.len()` views' ids, then
+    /// their depth words.
+    fn read_ids(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        set: &BufferSet,
+        n: usize,
+        pixels: usize,
+        which: &[usize],
+    ) -> Result<(Vec<u32>, Vec<u32>), GpuError> {
+        let word = |k: usize| (k * 4) as u64;
+        let bytes = word(2 * which.len() * pixels);
+        let readback = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("trace overflow read-back"),
+            size: bytes,
+            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+            mapped_at_creation: false,
+        });
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("trace overflow"),
+        });
+        let m = which.len();
+        for (k, &i) in which.iter().enumerate() {
+            let (ids, depth) = (i * pixels, (n + i) * pixels);
+            encoder.copy_buffer_to_buffer(
+                &set.out,
+                word(ids),
+                &readback,
+                word(k * pixels),
+                word(pixels),
+            );
+            let to = word((m + k) * pixels);
+            encoder.copy_buffer_to_buffer(&set.out, word(depth), &readback, to, word(pixels));
+        }
+        queue.submit([encoder.finish()]);
+        let slice = readback.slice(..);
+        let data = super::map_read(device, &slice)?;
+        let words: &[u32] = bytemuck::cast_slice(&data);
+        let out = (words[..m * pixels].to_vec(), words[m * pixels..].to_vec());
+        drop(data);
+        readback.unmap();
+        Ok(out)
     }
 }
 

@@ -39,6 +39,12 @@ struct Batch {
     total: u32,
     width: u32,
     height: u32,
+    // Where the per-view overflow flags start in `out` (a view's word is set to 1 when any
+    // of its rays overflowed; the host clears them before the pass).
+    flags: u32,
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
 };
 
 const EMPTY: u32 = 0xffffffffu;
@@ -247,6 +253,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let slot = view.slot.x;
     let p = slot * pixels + gid.y * w + gid.x;
     if overflow {
+        // Every overflowing invocation of the view stores the same 1.
+        out[batch.flags + slot] = 1u;
         out[p] = OVERFLOW;
         out[batch.total * pixels + p] = bitcast<u32>(1.0);
     } else if best_tri == NO_HIT {
