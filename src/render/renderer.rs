@@ -1,7 +1,7 @@
 //! Choosing a renderer: the CPU renderer, wgpu, or `auto` (wgpu when a hardware adapter
 //! exists, else the CPU, saying why in the log). Both produce the same frames.
 
-use super::gpu::{GpuError, GpuRenderer, SceneSlot, View};
+use super::gpu::{GpuError, GpuRenderer};
 use super::{cpu, Camera, Channels, Frame, RenderScene};
 
 /// Which renderer to use.
@@ -127,16 +127,9 @@ impl Renderer {
                     } else {
                         Channels::NONE
                     };
-                    let views: Vec<View> = cams
-                        .iter()
-                        .map(|&camera| View {
-                            scene: SceneSlot(0),
-                            camera,
-                        })
-                        .collect();
                     let rendered = match ids {
-                        true => g.render_views_with(&views, channels)?,
-                        false => g.render_views_derived(&views, channels)?,
+                        true => g.render_batch_with(&cams, channels)?,
+                        false => g.render_batch_derived(&cams, channels)?,
                     };
                     for (j, f) in group.iter().zip(rendered) {
                         frames[*j] = Some(f);

@@ -257,14 +257,17 @@ impl GpuRenderer {
         cameras: &[Camera],
         channels: Channels,
     ) -> Result<Vec<Frame>, GpuError> {
-        let views: Vec<View> = cameras
-            .iter()
-            .map(|&camera| View {
-                scene: SceneSlot(0),
-                camera,
-            })
-            .collect();
-        self.render_views_with(&views, channels)
+        self.render_views_with(&first_scene_views(cameras), channels)
+    }
+
+    /// [`GpuRenderer::render_batch_with`] reading back only the derived images
+    /// ([`GpuRenderer::render_views_derived`]).
+    pub fn render_batch_derived(
+        &self,
+        cameras: &[Camera],
+        channels: Channels,
+    ) -> Result<Vec<Frame>, GpuError> {
+        self.render_views_derived(&first_scene_views(cameras), channels)
     }
 
     /// Renders views (cameras on any uploaded scenes, one resolution) with one command
@@ -356,6 +359,17 @@ impl GpuRenderer {
             }
         }
     }
+}
+
+/// Views of `cameras` on the scene of [`GpuRenderer::upload`] (slot 0).
+fn first_scene_views(cameras: &[Camera]) -> Vec<View> {
+    cameras
+        .iter()
+        .map(|&camera| View {
+            scene: SceneSlot(0),
+            camera,
+        })
+        .collect()
 }
 
 /// Maps a read-back buffer's `slice` for reading, waiting for the GPU work before it.
@@ -451,15 +465,8 @@ mod tests {
                 ..cameras[0]
             },
         );
-        let views: Vec<View> = mixed
-            .iter()
-            .map(|&camera| View {
-                scene: SceneSlot(0),
-                camera,
-            })
-            .collect();
-        let whole = gpu.render_views_with(&views, Channels::all()).unwrap();
-        let only = gpu.render_views_derived(&views, Channels::all()).unwrap();
+        let whole = gpu.render_batch_with(&mixed, Channels::all()).unwrap();
+        let only = gpu.render_batch_derived(&mixed, Channels::all()).unwrap();
         assert!(whole[1].derived.is_some() && !only[1].has_ids());
         assert_eq!(only[1].derived, whole[1].derived);
         for (k, f) in [0, 2, 3].into_iter().zip(&frames) {
