@@ -2,6 +2,64 @@
 //! union of all shards is the whole list and each item's shard depends only on its position
 //! in sorted order, never on threads or machines.
 
+/// Why a shard could not be parsed or found in the scheduler's environment.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum ShardError {
+    /// Not `i/n`.
+    #[error("`{0}`: expected i/n, e.g. 0/4")]
+    Syntax(String),
+    /// A part of `i/n` is not a whole number.
+    #[error("`{given}`: `{part}` is not a whole number")]
+    NotANumber {
+        /// The shard as given.
+        given: String,
+        /// The part that is not a number.
+        part: String,
+    },
+    /// `i >= n` or `n == 0`.
+    #[error("`{0}`: need 0 <= i < n")]
+    OutOfRange(String),
+    /// A scheduler variable is not a whole number.
+    #[error("shard auto: {name}=`{value}` is not a whole number")]
+    Variable {
+        /// The variable.
+        name: String,
+        /// Its value.
+        value: String,
+    },
+    /// `MINOS_SHARD` is not a shard.
+    #[error("shard auto: MINOS_SHARD={0}")]
+    Explicit(Box<ShardError>),
+    /// The scheduler's numbers make no shard.
+    #[error("shard auto: {origin} gives shard {index} of {count}: need 0 <= i < n")]
+    Scheduler {
+        /// Which scheduler.
+        origin: &'static str,
+        /// The index it gives.
+        index: usize,
+        /// The count it gives.
+        count: usize,
+    },
+    /// A Slurm task id off the array's range or step.
+    #[error("shard auto: SLURM_ARRAY_TASK_ID {id} {what}")]
+    SlurmTask {
+        /// The task id.
+        id: usize,
+        /// What is wrong with it.
+        what: String,
+    },
+    /// A scheduler's variable is set without the one it needs beside it.
+    #[error("shard auto: {0}")]
+    Incomplete(&'static str),
+    /// No scheduler's environment.
+    #[error(
+        "shard auto: no scheduler environment found (MINOS_SHARD=i/n, Slurm's \
+         SLURM_ARRAY_TASK_ID/SLURM_ARRAY_TASK_COUNT, or Kubernetes' JOB_COMPLETION_INDEX with \
+         MINOS_SHARD_COUNT)"
+    )]
+    NoScheduler,
+}
+
 /// One shard of a scene list: `index` of `count` (`0/1` is everything).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Shard {
@@ -16,18 +74,21 @@ impl Shard {
     pub const ALL: Shard = Shard { index: 0, count: 1 };
 
     /// Parses `i/n` with `0 <= i < n`.
-    pub fn parse(s: &str) -> Result<Shard, String> {
+    pub fn parse(s: &str) -> Result<Shard, ShardError> {
         let (i, n) = s
             .split_once('/')
-            .ok_or_else(|| format!("`{s}`: expected i/n, e.g. 0/4"))?;
+            .ok_or_else(|| ShardError::Syntax(s.to_string()))?;
         let num = |t: &str| {
             t.trim()
                 .parse::<usize>()
-                .map_err(|_| format!("`{s}`: `{t}` is not a whole number"))
+                .map_err(|_| ShardError::NotANumber {
+                    given: s.to_string(),
+                    part: t.to_string(),
+                })
         };
         let (index, count) = (num(i)?, num(n)?);
         if count == 0 || index >= count {
-            return Err(format!("`{s}`: need 0 <= i < n"));
+            return Err(ShardError::OutOfRange(s.to_string()));
         }
         Ok(Shard { index, count })
     }
@@ -50,7 +111,7 @@ pub enum ShardSpec {
 
 impl ShardSpec {
     /// Parses `auto` or `i/n`.
-    pub fn parse(s: &str) -> Result<ShardSpec, String> {
+    pub fn parse(s: &str) -> Result<ShardSpec, ShardError> {
         if s.trim() == "auto" {
             Ok(ShardSpec::Auto)
         } else {
@@ -59,7 +120,7 @@ impl ShardSpec {
     }
 
     /// The shard, looking `auto` up with `var` (the process environment, or a map in tests).
-    pub fn resolve(self, var: impl Fn(&str) -> Option<String>) -> Result<Shard, String> {
+    pub fn resolve(self, var: impl Fn(&str) -> Option<String>) -> Result<Shard, ShardError> {
         match self {
             ShardSpec::Fixed(s) => Ok(s),
             ShardSpec::Auto => Shard::from_scheduler(var),
@@ -78,60 +139,60 @@ impl Shard {
     /// 3. a Kubernetes Indexed Job: `JOB_COMPLETION_INDEX`, with the count in
     ///    `MINOS_SHARD_COUNT` (set it to the Job's `completions`; Kubernetes does not export
     ///    it).
-    pub fn from_scheduler(var: impl Fn(&str) -> Option<String>) -> Result<Shard, String> {
-        let number = |name: &str| -> Result<Option<usize>, String> {
+    pub fn from_scheduler(var: impl Fn(&str) -> Option<String>) -> Result<Shard, ShardError> {
+        let number = |name: &str| -> Result<Option<usize>, ShardError> {
             match var(name) {
                 None => Ok(None),
                 Some(v) => v
                     .trim()
                     .parse::<usize>()
                     .map(Some)
-                    .map_err(|_| format!("--shard auto: {name}=`{v}` is not a whole number")),
+                    .map_err(|_| ShardError::Variable {
+                        name: name.to_string(),
+                        value: v,
+                    }),
             }
         };
         if let Some(s) = var("MINOS_SHARD") {
-            return Shard::parse(&s).map_err(|e| format!("--shard auto: MINOS_SHARD={e}"));
+            return Shard::parse(&s).map_err(|e| ShardError::Explicit(Box::new(e)));
         }
-        let checked = |index: usize, count: usize, source: &str| {
+        let checked = |index: usize, count: usize, origin: &'static str| {
             if count == 0 || index >= count {
-                Err(format!(
-                    "--shard auto: {source} gives shard {index} of {count}: need 0 <= i < n"
-                ))
+                Err(ShardError::Scheduler {
+                    origin,
+                    index,
+                    count,
+                })
             } else {
                 Ok(Shard { index, count })
             }
         };
         if let Some(id) = number("SLURM_ARRAY_TASK_ID")? {
-            let count = number("SLURM_ARRAY_TASK_COUNT")?.ok_or(
-                "--shard auto: SLURM_ARRAY_TASK_ID is set but SLURM_ARRAY_TASK_COUNT is not",
-            )?;
+            let count = number("SLURM_ARRAY_TASK_COUNT")?.ok_or(ShardError::Incomplete(
+                "SLURM_ARRAY_TASK_ID is set but SLURM_ARRAY_TASK_COUNT is not",
+            ))?;
             let min = number("SLURM_ARRAY_TASK_MIN")?.unwrap_or(0);
             let step = number("SLURM_ARRAY_TASK_STEP")?.unwrap_or(1).max(1);
-            let offset = id.checked_sub(min).ok_or_else(|| {
-                format!(
-                    "--shard auto: SLURM_ARRAY_TASK_ID {id} is below SLURM_ARRAY_TASK_MIN {min}"
-                )
+            let offset = id.checked_sub(min).ok_or_else(|| ShardError::SlurmTask {
+                id,
+                what: format!("is below SLURM_ARRAY_TASK_MIN {min}"),
             })?;
             if offset % step != 0 {
-                return Err(format!(
-                    "--shard auto: SLURM_ARRAY_TASK_ID {id} is not on the array's step {step} from {min}"
-                ));
+                return Err(ShardError::SlurmTask {
+                    id,
+                    what: format!("is not on the array's step {step} from {min}"),
+                });
             }
             return checked(offset / step, count, "the Slurm array");
         }
         if let Some(index) = number("JOB_COMPLETION_INDEX")? {
-            let count = number("MINOS_SHARD_COUNT")?.ok_or(
-                "--shard auto: JOB_COMPLETION_INDEX is set (a Kubernetes Indexed Job) but \
-                 MINOS_SHARD_COUNT is not: set it to the Job's completions",
-            )?;
+            let count = number("MINOS_SHARD_COUNT")?.ok_or(ShardError::Incomplete(
+                "JOB_COMPLETION_INDEX is set (a Kubernetes Indexed Job) but MINOS_SHARD_COUNT \
+                 is not: set it to the Job's completions",
+            ))?;
             return checked(index, count, "the Kubernetes Indexed Job");
         }
-        Err(
-            "--shard auto: no scheduler environment found (MINOS_SHARD=i/n, Slurm's \
-             SLURM_ARRAY_TASK_ID/SLURM_ARRAY_TASK_COUNT, or Kubernetes' JOB_COMPLETION_INDEX \
-             with MINOS_SHARD_COUNT)"
-                .into(),
-        )
+        Err(ShardError::NoScheduler)
     }
 }
 
@@ -142,7 +203,7 @@ impl std::fmt::Display for Shard {
 }
 
 impl std::str::FromStr for Shard {
-    type Err = String;
+    type Err = ShardError;
 
     fn from_str(s: &str) -> Result<Self, Self::Err> {
         Shard::parse(s)
@@ -237,8 +298,9 @@ mod tests {
             ),
             (vec![("MINOS_SHARD", "3/3")], "MINOS_SHARD"),
         ] {
-            let e = auto(&pairs).unwrap_err();
+            let e = auto(&pairs).unwrap_err().to_string();
             assert!(e.contains(needle), "{pairs:?}: {e}");
+            assert!(!e.contains("--"), "the library names no flag: {e}");
         }
         assert_eq!(ShardSpec::parse("auto"), Ok(ShardSpec::Auto));
         assert!(ShardSpec::parse("auto/2").is_err());
