@@ -416,12 +416,15 @@ pub fn sample_scene_from(
         .iter()
         .map(|i| i.radius >= cfg.min_island_radius)
         .collect();
+    // Where a start may stand: walkable floor inside a room, on an island large enough.
+    let usable = |s: u32| {
+        let span = &grid.spans[s as usize];
+        span.walkable && islands[span.island as usize] && span.room != NONE
+    };
     let floor: Vec<u32> = grid
         .walkable_spans(None)
         .into_iter()
-        .filter(|&s| {
-            islands[grid.spans[s as usize].island as usize] && grid.spans[s as usize].room != NONE
-        })
+        .filter(|&s| usable(s))
         .collect();
     if starts.is_some_and(|given| given.is_empty()) {
         out.unusable = Some("no starts given for this scene".into());
@@ -487,10 +490,6 @@ pub fn sample_scene_from(
             .saturating_mul(cfg.attempts_per_episode)
             .max(1),
     };
-    let on_floor: std::collections::BTreeSet<u32> = match starts {
-        Some(_) => floor.iter().copied().collect(),
-        None => Default::default(),
-    };
     let reject =
         |out: &mut SceneEpisodes, why: &'static str| *out.rejected.entry(why).or_insert(0) += 1;
     for attempt in 0..attempts {
@@ -500,7 +499,7 @@ pub fn sample_scene_from(
         let (start_span, start, yaw) = match starts.and_then(|given| given.get(attempt)) {
             Some(given) => {
                 let at = Vec3::from_array(given.position);
-                match grid.snap(at).filter(|s| on_floor.contains(s)) {
+                match grid.snap(at).filter(|&s| usable(s)) {
                     Some(span) => (span, at, given.yaw),
                     None => {
                         reject(&mut out, "given start off the usable floor");
