@@ -204,7 +204,7 @@ impl fmt::Display for AgentPreset {
 }
 
 impl FromStr for AgentPreset {
-    type Err = String;
+    type Err = crate::invalid::Invalid;
 
     /// A preset by name; `minos-continuous` is accepted for `minos`.
     fn from_str(s: &str) -> Result<Self, Self::Err> {
@@ -215,7 +215,7 @@ impl FromStr for AgentPreset {
                 .find(|p| p.name() == s)
                 .ok_or_else(|| {
                     let names: Vec<&str> = AgentPreset::ALL.iter().map(|p| p.name()).collect();
-                    format!("unknown agent preset `{s}` ({})", names.join(", "))
+                    format!("unknown agent preset `{s}` ({})", names.join(", ")).into()
                 }),
         }
     }

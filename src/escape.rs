@@ -39,7 +39,7 @@ thread_local! {
 /// process-wide panic hook is wrapped once so that panics inside `catch_quietly` stay silent
 /// (a user sees only the one-line error made of the message) while every other panic is
 /// reported by the hook that was installed before.
-pub fn catch_quietly<T>(f: impl FnOnce() -> T) -> Result<T, String> {
+pub fn catch_quietly<T>(f: impl FnOnce() -> T) -> Result<T, Panicked> {
     static WRAP_HOOK: std::sync::Once = std::sync::Once::new();
     WRAP_HOOK.call_once(|| {
         let previous = std::panic::take_hook();
@@ -52,8 +52,13 @@ pub fn catch_quietly<T>(f: impl FnOnce() -> T) -> Result<T, String> {
     QUIET.with(|q| q.set(q.get() + 1));
     let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(f));
     QUIET.with(|q| q.set(q.get().saturating_sub(1)));
-    result.map_err(|p| panic_message(p.as_ref()))
+    result.map_err(|p| Panicked(panic_message(p.as_ref())))
 }
+
+/// A dependency's panic caught by [`catch_quietly`]: its message, escaped (one line).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{0}")]
+pub struct Panicked(pub String);
 
 #[cfg(test)]
 mod tests {
@@ -83,10 +88,13 @@ mod tests {
     fn catch_quietly_turns_a_panic_into_its_message_and_passes_values_through() {
         assert_eq!(catch_quietly(|| 4), Ok(4));
         let e = catch_quietly(|| -> u8 { panic!("Type <UNKNOWN 252>\nnot supported") });
-        assert_eq!(e, Err("Type <UNKNOWN 252>\\nnot supported".to_string()));
+        assert_eq!(
+            e,
+            Err(Panicked("Type <UNKNOWN 252>\\nnot supported".to_string()))
+        );
         // Nested guards unwind their own counts: the thread is quiet again only inside one.
         let nested = catch_quietly(|| catch_quietly(|| -> () { panic!("inner") }));
-        assert_eq!(nested, Ok(Err("inner".to_string())));
+        assert_eq!(nested, Ok(Err(Panicked("inner".to_string()))));
         assert_eq!(QUIET.with(std::cell::Cell::get), 0);
     }
 }

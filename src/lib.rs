@@ -23,6 +23,7 @@ pub mod diff;
 pub mod episode;
 pub mod escape;
 pub mod generate;
+pub mod invalid;
 pub mod io;
 pub mod lock;
 pub mod navmesh;

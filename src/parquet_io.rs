@@ -2,6 +2,7 @@
 //! and a run's tables: writer properties, writing record batches atomically, reading every
 //! batch, and typed columns, with errors that name the file.
 
+use crate::invalid::Invalid;
 use std::fs::File;
 use std::path::Path;
 
@@ -281,10 +282,13 @@ fn castable(from: &DataType, to: &DataType) -> bool {
 }
 
 /// Column `name` of `batch` as the array type `T`; the error says which column and why.
-pub fn column<'a, T: Array + 'static>(batch: &'a RecordBatch, name: &str) -> Result<&'a T, String> {
+pub fn column<'a, T: Array + 'static>(
+    batch: &'a RecordBatch,
+    name: &str,
+) -> Result<&'a T, Invalid> {
     batch
         .column_by_name(name)
-        .ok_or_else(|| format!("column `{name}` is missing"))?
+        .ok_or_else(|| Invalid::new(format!("column `{name}` is missing")))?
         .as_any()
         .downcast_ref::<T>()
         .ok_or_else(|| {
@@ -292,7 +296,7 @@ pub fn column<'a, T: Array + 'static>(batch: &'a RecordBatch, name: &str) -> Res
                 .column_by_name(name)
                 .map(|c| c.data_type().to_string())
                 .unwrap_or_default();
-            format!("column `{name}` has an unexpected type ({found})")
+            Invalid::new(format!("column `{name}` has an unexpected type ({found})"))
         })
 }
 
@@ -346,11 +350,11 @@ mod tests {
         assert_eq!((ids.value(0), ids.value(1)), ("a", "b"));
         assert_eq!(
             column::<UInt32Array>(&back[0], "id").unwrap_err(),
-            "column `id` has an unexpected type (Utf8)"
+            "column `id` has an unexpected type (Utf8)".into()
         );
         assert_eq!(
             column::<UInt32Array>(&back[0], "m").unwrap_err(),
-            "column `m` is missing"
+            "column `m` is missing".into()
         );
     }
 

@@ -43,7 +43,8 @@ pub fn load_scene(
     choice: RendererChoice,
     allow_body_mismatch: bool,
 ) -> Result<LoadedScene, String> {
-    let (assets, renderer) = load_scene_assets(data, scene_id, agent, choice, allow_body_mismatch)?;
+    let (assets, renderer) = load_scene_assets(data, scene_id, agent, choice, allow_body_mismatch)
+        .map_err(|e| e.to_string())?;
     Ok(LoadedScene { assets, renderer })
 }
 

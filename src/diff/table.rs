@@ -10,15 +10,15 @@ use arrow::datatypes::DataType;
 use arrow::util::display::{ArrayFormatter, FormatOptions};
 
 use super::quote;
-use crate::parquet_io::read_batches;
+use crate::parquet_io::{read_batches, ParquetFileError};
 
-fn read(path: &Path) -> Result<RecordBatch, String> {
-    let batches = read_batches(path).map_err(|e| e.to_string())?;
+fn read(path: &Path) -> Result<RecordBatch, ParquetFileError> {
+    let batches = read_batches(path)?;
     let schema = arrow::array::RecordBatchReader::schema(&batches);
     let all: Vec<RecordBatch> = batches
         .collect::<Result<_, _>>()
-        .map_err(|e| format!("{}: {e}", path.display()))?;
-    arrow::compute::concat_batches(&schema, &all).map_err(|e| e.to_string())
+        .map_err(|e| ParquetFileError::format(path, e))?;
+    arrow::compute::concat_batches(&schema, &all).map_err(|e| ParquetFileError::format(path, e))
 }
 
 /// The first difference in user terms, `None` when the tables hold the same values (the

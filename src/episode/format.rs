@@ -49,6 +49,7 @@
 //! `goal_room_classes` hold nulls. The `goal_*` list columns have one entry per target, in the
 //! same order.
 
+use crate::invalid::Invalid;
 use std::path::Path;
 use std::sync::Arc;
 
@@ -94,7 +95,7 @@ impl<'a> TargetRooms<'a> {
     }
 
     /// The room of target `j` of row `i` (`None` when unknown or not recorded).
-    fn get(&self, i: usize, j: usize) -> Result<Option<TargetRoom>, String> {
+    fn get(&self, i: usize, j: usize) -> Result<Option<TargetRoom>, Invalid> {
         let Some(columns) = &self.columns else {
             return Ok(None);
         };
@@ -571,7 +572,7 @@ fn column<'a, T: arrow::array::Array + 'static>(
     batch: &'a RecordBatch,
     name: &str,
 ) -> Result<&'a T, BatchError> {
-    crate::parquet_io::column(batch, name).map_err(BatchError::Format)
+    crate::parquet_io::column(batch, name).map_err(|e| BatchError::Format(e.into()))
 }
 
 /// A `list<fixed_size_list<float32, 3>>`-shaped array's parts: the point list and its floats.

@@ -50,6 +50,7 @@
 //! are accepted (quoted fields may not span lines). A bad row stops the import with an error
 //! naming the file, the line (the header is line 1) and the column.
 
+use crate::invalid::Invalid;
 use std::borrow::Cow;
 use std::collections::HashMap;
 use std::io::BufRead;
@@ -107,7 +108,7 @@ pub enum MinosCsvError {
 
 /// Splits one CSV line into fields, trimming surrounding whitespace; double-quoted fields may
 /// contain commas and `""` escapes.
-fn split_fields(line: &str) -> Result<Vec<Cow<'_, str>>, String> {
+fn split_fields(line: &str) -> Result<Vec<Cow<'_, str>>, Invalid> {
     let mut fields = Vec::new();
     let mut rest = line;
     loop {
@@ -171,7 +172,7 @@ struct Columns {
 }
 
 impl Columns {
-    fn from_header(fields: &[Cow<'_, str>]) -> Result<(Self, Vec<String>), String> {
+    fn from_header(fields: &[Cow<'_, str>]) -> Result<(Self, Vec<String>), Invalid> {
         let names: Vec<String> = fields.iter().map(|f| f.to_string()).collect();
         let index: HashMap<&str, usize> = names
             .iter()
@@ -199,7 +200,8 @@ impl Columns {
                     .map(|m| format!("`{m}`"))
                     .collect::<Vec<_>>()
                     .join(", ")
-            ));
+            )
+            .into());
         }
         let opt = |name: &str| index.get(name).copied();
         let cols = Columns {
@@ -253,12 +255,12 @@ pub fn import_minos_csv(path: &Path) -> Result<Vec<Episode>, MinosCsvError> {
         if text.is_empty() {
             continue;
         }
-        let fields = split_fields(text).map_err(|m| row_err("(row)", m))?;
+        let fields = split_fields(text).map_err(|m| row_err("(row)", m.to_string()))?;
         let Some((cols, names)) = &header else {
             let parsed =
                 Columns::from_header(&fields).map_err(|message| MinosCsvError::Header {
                     path: p.clone(),
-                    message,
+                    message: message.to_string(),
                 })?;
             header = Some(parsed);
             continue;

@@ -16,6 +16,7 @@ pub mod scan;
 pub mod suncg_writer;
 pub mod textures;
 
+use crate::invalid::Invalid;
 use std::path::Path;
 
 use rayon::prelude::*;
@@ -100,7 +101,7 @@ impl Default for GenerateConfig {
 pub enum GenerateError {
     /// The configuration is not usable.
     #[error("invalid configuration: {0}")]
-    Config(String),
+    Config(crate::invalid::Invalid),
     /// Writing failed.
     #[error("{path}: {source}")]
     Io {
@@ -120,7 +121,7 @@ impl GenerateConfig {
     /// Checks ranges for `format`: 1 ≤ rooms ≤ 24, levels in 1..=2 (1..=3 for scans),
     /// probability in [0, 1], and a scan's triangles and noise.
     pub fn validate_for(&self, format: OutputFormat) -> Result<(), GenerateError> {
-        let bad = |m: String| Err(GenerateError::Config(m));
+        let bad = |m: String| Err(GenerateError::Config(Invalid::new(m)));
         let max_levels = format.max_levels();
         if self.rooms.0 < 1 || self.rooms.0 > self.rooms.1 || self.rooms.1 > 24 {
             return bad(format!(

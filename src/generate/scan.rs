@@ -10,6 +10,7 @@
 //! All randomness comes from one generator seeded from `(seed, house id, "scan")`, used in a
 //! fixed order, so a house's files are byte-identical whatever the thread count.
 
+use crate::invalid::Invalid;
 use crate::seed::Rng;
 
 use super::layout::keep_outs;
@@ -61,18 +62,16 @@ pub struct ScanParams {
 
 impl ScanParams {
     /// Checks the triangle count and the noise.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), Invalid> {
         if !(MIN_TRIANGLES..=MAX_TRIANGLES).contains(&self.triangles) {
             return Err(format!(
                 "scan triangles {}: need {MIN_TRIANGLES} <= N <= {MAX_TRIANGLES}",
                 self.triangles
-            ));
+            )
+            .into());
         }
         if !(0.0..=0.05).contains(&self.noise) {
-            return Err(format!(
-                "scan noise {} m: need 0 <= NOISE <= 0.05",
-                self.noise
-            ));
+            return Err(format!("scan noise {} m: need 0 <= NOISE <= 0.05", self.noise).into());
         }
         Ok(())
     }

@@ -20,7 +20,7 @@ use super::raster::{is_floor, RasterGrid, Solid};
 pub enum BuildError {
     /// The parameters are unusable.
     #[error("navigation parameters: {0}")]
-    Params(String),
+    Params(crate::invalid::Invalid),
     /// The scene has no geometry, or a grid of that size is unreasonable.
     #[error("scene {scene}: {message}")]
     Scene {

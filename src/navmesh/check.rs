@@ -2,6 +2,7 @@
 //! file, so a corrupt grid is a one-line error instead of an index out of bounds later.
 
 use super::grid::{NavGrid, DIRS, NONE};
+use crate::invalid::Invalid;
 
 impl NavGrid {
     /// Checks that the grid can be queried without indexing out of range: parameters usable,
@@ -10,12 +11,12 @@ impl NavGrid {
     /// column in that direction, its room and island `NONE` or in range; every span-object
     /// pair in range; room classes 0–8. Returns the first problem, naming the record
     /// (`span 12: link 3 to span 99 …`).
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), Invalid> {
         self.params
             .validate()
-            .map_err(|e| format!("parameters: {e}"))?;
+            .map_err(Invalid::inside("parameters"))?;
         if !self.x0.is_finite() || !self.z0.is_finite() {
-            return Err(format!("origin ({}, {}) not finite", self.x0, self.z0));
+            return Err(format!("origin ({}, {}) not finite", self.x0, self.z0).into());
         }
         let columns = u64::from(self.nx) * u64::from(self.nz);
         if self.column_start.len() as u64 != columns + 1 {
@@ -24,7 +25,8 @@ impl NavGrid {
                 self.column_start.len(),
                 self.nx,
                 self.nz
-            ));
+            )
+            .into());
         }
         let n = self.spans.len();
         if self.column_start.first() != Some(&0)
@@ -40,19 +42,21 @@ impl NavGrid {
             for s in self.column_spans(c) {
                 let span = &self.spans[s];
                 if span.y.is_nan() || span.headroom.is_nan() || span.clearance.is_nan() {
-                    return Err(format!("span {s}: NaN height, headroom or clearance"));
+                    return Err(format!("span {s}: NaN height, headroom or clearance").into());
                 }
                 if span.room != NONE && span.room as usize >= nrooms {
                     return Err(format!(
                         "span {s}: room {} out of range for {nrooms} rooms",
                         span.room
-                    ));
+                    )
+                    .into());
                 }
                 if span.island != NONE && span.island as usize >= nislands {
                     return Err(format!(
                         "span {s}: island {} out of range for {nislands} islands",
                         span.island
-                    ));
+                    )
+                    .into());
                 }
                 for (d, &l) in span.links.iter().enumerate() {
                     if l == NONE {
@@ -64,7 +68,8 @@ impl NavGrid {
                     if !inside || !self.column_spans(target).contains(&(l as usize)) {
                         return Err(format!(
                             "span {s}: link {d} to span {l}, not a span of the neighbouring column"
-                        ));
+                        )
+                        .into());
                     }
                 }
             }
@@ -77,10 +82,11 @@ impl NavGrid {
         {
             return Err(format!(
                 "span object ({s}, {o}) out of range for {n} spans and {nobjects} objects"
-            ));
+            )
+            .into());
         }
         if let Some(r) = self.rooms.iter().find(|r| r.class > 8) {
-            return Err(format!("room {}: class {} is not 0-8", r.id, r.class));
+            return Err(format!("room {}: class {} is not 0-8", r.id, r.class).into());
         }
         Ok(())
     }

@@ -610,7 +610,10 @@ fn read_from(file: impl Read, len: u64) -> Result<(NavGrid, Option<String>), Rea
     };
     // Room ids quoted from the file may hold newlines: keep the error one line.
     grid.validate().map_err(|e| {
-        ReadError::Format(format!("corrupt: {}", crate::escape::escape_controls(&e)))
+        ReadError::Format(format!(
+            "corrupt: {}",
+            crate::escape::escape_controls(&e.to_string())
+        ))
     })?;
     Ok((grid, warning))
 }

@@ -4,6 +4,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::body::{AgentBody, AgentPreset};
+use crate::invalid::Invalid;
 
 /// What the navigation grid is built for: the agent's body and the grid resolution.
 ///
@@ -101,7 +102,7 @@ impl NavParams {
     }
 
     /// Checks that every value is usable.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), Invalid> {
         let positive = [
             ("cell_size", self.cell_size),
             ("agent_radius", self.body.radius),
@@ -109,32 +110,40 @@ impl NavParams {
         ];
         for (name, v) in positive {
             if !(v.is_finite() && v > 0.0) {
-                return Err(format!("{name} = {v}: must be a positive number"));
+                return Err(Invalid::new(format!(
+                    "{name} = {v}: must be a positive number"
+                )));
             }
         }
         if !(self.body.max_climb.is_finite() && self.body.max_climb >= 0.0) {
-            return Err(format!("max_climb = {}: must be >= 0", self.body.max_climb));
+            return Err(Invalid::new(format!(
+                "max_climb = {}: must be >= 0",
+                self.body.max_climb
+            )));
         }
         if !(0.0..90.0).contains(&self.max_slope_deg) {
-            return Err(format!(
+            return Err(Invalid::new(format!(
                 "max_slope_deg = {}: must be in [0, 90)",
                 self.max_slope_deg
-            ));
+            )));
         }
         if !(self.clearance_weight.is_finite() && self.clearance_weight >= 1.0) {
-            return Err(format!(
+            return Err(Invalid::new(format!(
                 "clearance_weight = {}: must be >= 1",
                 self.clearance_weight
-            ));
+            )));
         }
         if !(self.clearance_margin.is_finite() && self.clearance_margin >= 0.0) {
-            return Err(format!(
+            return Err(Invalid::new(format!(
                 "clearance_margin = {}: must be >= 0",
                 self.clearance_margin
-            ));
+            )));
         }
         if self.cell_size > 1.0 {
-            return Err(format!("cell_size = {}: larger than 1 m", self.cell_size));
+            return Err(Invalid::new(format!(
+                "cell_size = {}: larger than 1 m",
+                self.cell_size
+            )));
         }
         Ok(())
     }
@@ -143,25 +152,25 @@ impl NavParams {
 /// Parameters from a TOML file: an optional `preset = "habitat" | "minos" | "minos-gridworld" |
 /// "minos-paper"` (the agent preset whose body the grid is for) and any stored field of [`NavParams`]
 /// overriding it, e.g. `cell_size = 0.1` or `agent_height = 1.3`.
-pub fn params_from_toml(text: &str, base: NavParams) -> Result<NavParams, String> {
+pub fn params_from_toml(text: &str, base: NavParams) -> Result<NavParams, Invalid> {
     let mut table: toml::Table = text
         .parse()
-        .map_err(|e: toml::de::Error| e.message().to_string())?;
+        .map_err(|e: toml::de::Error| Invalid::new(e.message()))?;
     let base = match table.remove("preset") {
         Some(toml::Value::String(name)) => NavParams {
             body: name.parse::<AgentPreset>()?.body(),
             ..base
         },
-        Some(other) => return Err(format!("preset = {other}: expected a string")),
+        Some(other) => return Err(Invalid::new(format!("preset = {other}: expected a string"))),
         None => base,
     };
-    let mut merged = toml::Table::try_from(base).map_err(|e| e.to_string())?;
+    let mut merged = toml::Table::try_from(base).map_err(|e| Invalid::new(e.to_string()))?;
     for (k, v) in table {
         merged.insert(k, v);
     }
     let params: NavParams = toml::Value::Table(merged)
         .try_into()
-        .map_err(|e: toml::de::Error| e.message().to_string())?;
+        .map_err(|e: toml::de::Error| Invalid::new(e.message()))?;
     params.validate()?;
     Ok(params)
 }
@@ -187,7 +196,7 @@ mod tests {
         assert_eq!(p.body.height, 1.3);
         assert_eq!(p.body.radius, AgentBody::MINOS.radius);
         let err = params_from_toml("cel_size = 0.1", NavParams::default()).unwrap_err();
-        assert!(err.contains("cel_size"), "{err}");
+        assert!(err.to_string().contains("cel_size"), "{err}");
         assert!(params_from_toml("cell_size = -1.0", NavParams::default()).is_err());
     }
 

@@ -16,7 +16,7 @@ use std::sync::Arc;
 
 use rayon::prelude::*;
 
-use super::rollout::load_scene_assets;
+use super::rollout::{load_scene_assets, SceneLoadError};
 use crate::episode::Episode;
 use crate::render::{Renderer, RendererChoice};
 use crate::run::agents::{Agent, AgentError, Decision};
@@ -71,14 +71,16 @@ pub enum VectorEnvError {
     #[error("{0}")]
     Threads(#[from] rayon::ThreadPoolBuildError),
     /// Scenes of the episodes cannot run (not ingested, not baked, baked for another body).
-    #[error("{count} of the {total} scenes of the episodes cannot run: {first}")]
+    #[error("{count} of the {total} scenes of the episodes cannot run: scene {scene}: {first}")]
     NotReady {
         /// Scenes that cannot run.
         count: usize,
         /// Scenes the episodes name.
         total: usize,
-        /// The first problem (in scene-id order), naming its scene.
-        first: String,
+        /// The first scene that cannot run (in scene-id order).
+        scene: String,
+        /// Why it cannot.
+        first: SceneLoadError,
     },
     /// An action index outside the action set.
     #[error("action {action}: out of range (0..{}: {})", names.len(), names.join(", "))]
@@ -184,7 +186,7 @@ impl VectorEnv {
             .map(|n| rayon::ThreadPoolBuilder::new().num_threads(n).build())
             .transpose()?;
         // Each scene is loaded and prepared by one task: nothing else touches it meanwhile.
-        let load = || -> Vec<Result<LoadedScene, String>> {
+        let load = || -> Vec<Result<LoadedScene, SceneLoadError>> {
             scene_ids
                 .par_iter()
                 .map(|id| {
@@ -194,23 +196,27 @@ impl VectorEnv {
                         &cfg.agent_config,
                         cfg.renderer,
                         cfg.allow_body_mismatch,
-                    )
-                    .map_err(|e| format!("scene {id}: {e}"))?;
+                    )?;
                     prepare_render(&assets, &renderer, &cfg.sensors);
                     Ok(LoadedScene { assets, renderer })
                 })
                 .collect()
         };
-        let loaded = match &pool {
+        let mut loaded = match &pool {
             Some(p) => p.install(load),
             None => load(),
         };
-        let problems: Vec<&String> = loaded.iter().filter_map(|r| r.as_ref().err()).collect();
-        if let Some(first) = problems.first() {
+        let count = loaded.iter().filter(|r| r.is_err()).count();
+        let first = loaded
+            .iter()
+            .position(Result::is_err)
+            .map(|i| (i, loaded.swap_remove(i)));
+        if let Some((i, Err(first))) = first {
             return Err(VectorEnvError::NotReady {
-                count: problems.len(),
+                count,
                 total: scene_ids.len(),
-                first: (*first).clone(),
+                scene: scene_ids[i].clone(),
+                first,
             });
         }
         let scenes: Vec<LoadedScene> = loaded.into_iter().filter_map(Result::ok).collect();

@@ -7,6 +7,7 @@
 //! triangle filter), which bounds memory to about 192 KiB per texture and acts as a fixed
 //! pre-filter: the sensors' images are small (84²–256²), so finer texels would only alias.
 
+use crate::invalid::Invalid;
 use std::path::{Path, PathBuf};
 
 /// Largest side of a texture after loading (pixels).
@@ -63,13 +64,13 @@ impl Texture {
         })?;
         Texture::decode(&bytes).map_err(|message| TextureError::Decode {
             path: path.to_path_buf(),
-            message,
+            message: message.to_string(),
         })
     }
 
     /// Decodes PNG or JPEG bytes (format from the content) and downscales them to at most
     /// [`MAX_TEXTURE_SIZE`] per side.
-    pub fn decode(bytes: &[u8]) -> Result<Texture, String> {
+    pub fn decode(bytes: &[u8]) -> Result<Texture, Invalid> {
         let img = image::load_from_memory(bytes).map_err(|e| e.to_string())?;
         let (w, h) = (img.width(), img.height());
         if w == 0 || h == 0 {

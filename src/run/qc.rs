@@ -8,6 +8,7 @@
 //! replay must give the same bytes), so the times come from whoever recorded the episode
 //! (`minos serve`) and are kept beside it in its QC record.
 
+use crate::invalid::Invalid;
 use serde::{Deserialize, Serialize};
 
 use super::metrics::EpisodeMetrics;
@@ -136,7 +137,7 @@ pub struct Verdict {
 impl QcThresholds {
     /// Checks that every bound is a finite number ≥ 0 and the rate bounds are ordered;
     /// otherwise one line naming the field.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), Invalid> {
         let bounds = [
             ("max_path_ratio", self.max_path_ratio),
             ("max_idle_seconds", self.max_idle_seconds),
@@ -147,7 +148,7 @@ impl QcThresholds {
         for (name, v) in bounds {
             if let Some(v) = v {
                 if !v.is_finite() || v < 0.0 {
-                    return Err(format!("qc.{name}: {v} is not a number ≥ 0"));
+                    return Err(format!("qc.{name}: {v} is not a number ≥ 0").into());
                 }
             }
         }
@@ -155,7 +156,8 @@ impl QcThresholds {
             if lo > hi {
                 return Err(format!(
                     "qc.min_actions_per_second {lo} is above qc.max_actions_per_second {hi}"
-                ));
+                )
+                .into());
             }
         }
         Ok(())
@@ -312,7 +314,11 @@ mod tests {
             max_idle_seconds: Some(-1.0),
             ..Default::default()
         };
-        assert!(t.validate().unwrap_err().contains("qc.max_idle_seconds"));
+        assert!(t
+            .validate()
+            .unwrap_err()
+            .to_string()
+            .contains("qc.max_idle_seconds"));
         let t = QcThresholds {
             min_actions_per_second: Some(3.0),
             max_actions_per_second: Some(1.0),

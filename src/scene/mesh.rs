@@ -1,5 +1,6 @@
 //! Indexed triangle meshes, materials, and placing a mesh in the world.
 
+use crate::invalid::Invalid;
 use glam::{Mat3, Mat4, Vec3};
 use serde::{Deserialize, Serialize};
 
@@ -92,29 +93,27 @@ impl Mesh {
     }
 
     /// Checks the invariants every stage relies on; returns what is wrong.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), Invalid> {
         let n = self.positions.len();
         if !self.indices.len().is_multiple_of(3) {
-            return Err(format!(
-                "{} indices is not a multiple of 3",
-                self.indices.len()
-            ));
+            return Err(format!("{} indices is not a multiple of 3", self.indices.len()).into());
         }
         if let Some(bad) = self.indices.iter().find(|&&i| i as usize >= n) {
-            return Err(format!("index {bad} out of range for {n} vertices"));
+            return Err(format!("index {bad} out of range for {n} vertices").into());
         }
         if self.normals.len() != n {
-            return Err(format!("{} normals for {n} vertices", self.normals.len()));
+            return Err(format!("{} normals for {n} vertices", self.normals.len()).into());
         }
         if !self.uvs.is_empty() && self.uvs.len() != n {
-            return Err(format!("{} uvs for {n} vertices", self.uvs.len()));
+            return Err(format!("{} uvs for {n} vertices", self.uvs.len()).into());
         }
         if self.face_materials.len() != self.triangle_count() {
             return Err(format!(
                 "{} face materials for {} triangles",
                 self.face_materials.len(),
                 self.triangle_count()
-            ));
+            )
+            .into());
         }
         if let Some(bad) = self
             .face_materials
@@ -124,14 +123,15 @@ impl Mesh {
             return Err(format!(
                 "material slot {bad} out of range for {} materials",
                 self.materials.len()
-            ));
+            )
+            .into());
         }
         if let Some(p) = self
             .positions
             .iter()
             .find(|p| !p.iter().all(|v| v.is_finite()))
         {
-            return Err(format!("non-finite vertex position {p:?}"));
+            return Err(format!("non-finite vertex position {p:?}").into());
         }
         Ok(())
     }
@@ -266,6 +266,6 @@ mod tests {
     fn validate_reports_bad_indices() {
         let mut m = one_triangle();
         m.indices[2] = 9;
-        assert!(m.validate().unwrap_err().contains("index 9"));
+        assert!(m.validate().unwrap_err().to_string().contains("index 9"));
     }
 }

@@ -4,6 +4,7 @@
 //! (loaders convert). Meshes live once in [`Scene::meshes`] and are referenced by index, so a
 //! model placed twice is stored once.
 
+use crate::invalid::Invalid;
 use glam::Mat4;
 use serde::{Deserialize, Serialize};
 
@@ -207,20 +208,21 @@ impl Scene {
     /// mesh id (room surfaces, ground, objects) and room index in range, level indices equal
     /// to their positions, and finite
     /// numbers (transforms, heights, areas, outlines; boxes free of NaN, as the empty box is
-    /// infinite). Returns the first problem, naming the record (`level 0 room 0_3: …`).
-    pub fn validate(&self) -> Result<(), String> {
+    /// infinite). Returns the first problem, naming the records (`level 0: room 0_3: …`).
+    pub fn validate(&self) -> Result<(), Invalid> {
         let nmesh = self.meshes.len();
         let mesh_ok = |m: MeshId| (m as usize) < nmesh;
         for (i, m) in self.meshes.iter().enumerate() {
             m.validate()
-                .map_err(|e| format!("mesh {i} ({}): {e}", m.name))?;
+                .map_err(Invalid::inside(format!("mesh {i} ({})", m.name)))?;
         }
         for (li, l) in self.levels.iter().enumerate() {
-            let at = |what: String| format!("level {li} {what}");
+            let level = format!("level {li}");
+            let at = |what: String| Invalid::new(what).at(&level);
             if l.index as usize != li {
                 return Err(at(format!("says it is level {}", l.index)));
             }
-            check_box(&l.bbox).map_err(|e| at(format!("box: {e}")))?;
+            check_box(&l.bbox).map_err(|e| e.at("box").at(&level))?;
             if !l.floor_heights.iter().all(|h| h.is_finite()) {
                 return Err(at("floor heights: not finite".into()));
             }
@@ -230,7 +232,8 @@ impl Scene {
                 )));
             }
             for r in &l.rooms {
-                let at = |what: String| at(format!("room {}: {what}", r.id));
+                let room = format!("room {}", r.id);
+                let at = |what: String| Invalid::new(what).at(&room).at(&level);
                 if let Some(s) = r.surfaces.iter().find(|s| !mesh_ok(s.mesh)) {
                     return Err(at(format!(
                         "mesh {} out of range for {nmesh} meshes",
@@ -247,10 +250,11 @@ impl Scene {
                 {
                     return Err(at("floor outline not finite".into()));
                 }
-                check_box(&r.bbox).map_err(|e| at(format!("box: {e}")))?;
+                check_box(&r.bbox).map_err(|e| e.at("box").at(&room).at(&level))?;
             }
             for o in &l.objects {
-                let at = |what: String| at(format!("object {}: {what}", o.id));
+                let object = format!("object {}", o.id);
+                let at = |what: String| Invalid::new(what).at(&object).at(&level);
                 if let Some(m) = o.mesh.filter(|&m| !mesh_ok(m)) {
                     return Err(at(format!("mesh {m} out of range for {nmesh} meshes")));
                 }
@@ -266,7 +270,7 @@ impl Scene {
                 if !o.transform.row(3).abs_diff_eq(glam::Vec4::W, 1e-6) {
                     return Err(at("transform not affine (last row is not 0 0 0 1)".into()));
                 }
-                check_box(&o.bbox).map_err(|e| at(format!("box: {e}")))?;
+                check_box(&o.bbox).map_err(|e| e.at("box").at(&object).at(&level))?;
                 if o.materials
                     .iter()
                     .flat_map(|m| m.diffuse.iter().flatten())
@@ -281,9 +285,9 @@ impl Scene {
 }
 
 /// A box is fine when it holds no NaN (the empty box is infinite).
-fn check_box(b: &Aabb) -> Result<(), String> {
+fn check_box(b: &Aabb) -> Result<(), Invalid> {
     if b.min.is_nan() || b.max.is_nan() {
-        return Err(format!("NaN in {:?}..{:?}", b.min, b.max));
+        return Err(format!("NaN in {:?}..{:?}", b.min, b.max).into());
     }
     Ok(())
 }

@@ -2,6 +2,7 @@
 //! category labels, object flags) and the tables that map dataset labels onto it, read from
 //! the data files in `data/taxonomy/` compiled into the binary.
 
+use crate::invalid::Invalid;
 use std::collections::HashMap;
 
 use serde::{Deserialize, Serialize};
@@ -177,7 +178,7 @@ pub struct ModelCategories {
 
 impl ModelCategories {
     /// Parses the CSV text; `source` names the file in errors.
-    pub fn parse(text: &str, source: &str) -> Result<Self, String> {
+    pub fn parse(text: &str, source: &str) -> Result<Self, Invalid> {
         let mut lines = text.lines().enumerate();
         let header = lines
             .next()
@@ -328,6 +329,6 @@ mod tests {
     #[test]
     fn model_categories_need_a_model_id_column() {
         let err = ModelCategories::parse("a,b\n1,2\n", "x.csv").unwrap_err();
-        assert!(err.contains("x.csv") && err.contains("model_id"));
+        assert!(err.to_string().contains("x.csv") && err.to_string().contains("model_id"));
     }
 }

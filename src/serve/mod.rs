@@ -32,6 +32,7 @@ pub mod session;
 pub mod token;
 mod ws;
 
+use crate::invalid::Invalid;
 use std::collections::HashMap;
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
@@ -173,7 +174,7 @@ impl App {
 
     /// Whether the files scene `id` is loaded from lie inside the DATA folder (a symbolic
     /// link out of it is refused).
-    fn contained(&self, id: &str) -> Result<(), String> {
+    fn contained(&self, id: &str) -> Result<(), Invalid> {
         let scene = SceneRef::parse(id);
         let data = &self.shared.data;
         for path in [data.scene_path(&scene.scene), data.grid_path(&scene)] {
@@ -184,7 +185,8 @@ impl App {
                 return Err(format!(
                     "scene {id}: {} leads outside the DATA folder",
                     path.display()
-                ));
+                )
+                .into());
             }
         }
         Ok(())
@@ -369,7 +371,8 @@ fn launch(
         scenes.sort();
         scenes.dedup();
         for scene in scenes {
-            app.contained(scene).map_err(ServeError::Campaign)?;
+            app.contained(scene)
+                .map_err(|e| ServeError::Campaign(e.to_string()))?;
         }
     }
     let runtime = tokio::runtime::Builder::new_multi_thread()

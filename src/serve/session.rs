@@ -6,6 +6,7 @@
 //! agent gives up, the unfinished episode is left out, and the thread ends, freeing the
 //! simulator.
 
+use crate::invalid::Invalid;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::mpsc::Receiver;
@@ -83,7 +84,7 @@ impl Shared {
     }
 
     /// The decision named `name` when it is one of [`Shared::actions`]; otherwise why not.
-    pub fn decision(&self, name: &str) -> Result<Decision, String> {
+    pub fn decision(&self, name: &str) -> Result<Decision, Invalid> {
         let offered = self.actions();
         match Decision::from_name(name) {
             Some(d) if offered.contains(&name) => Ok(d),
@@ -92,7 +93,8 @@ impl Shared {
                 if known.is_some() { "no" } else { "unknown" },
                 self.preset.name(),
                 offered.join(", ")
-            )),
+            )
+            .into()),
         }
     }
 
@@ -435,7 +437,7 @@ impl Source {
 
     /// A new free-exploration episode of `scene`: a PointGoal episode drawn with the
     /// session's seed, its id `<scene>:explore:<n>`.
-    fn explore(&mut self, scene: &str) -> Result<Episode, String> {
+    fn explore(&mut self, scene: &str) -> Result<Episode, Invalid> {
         let n = self.explored;
         self.explored += 1;
         let seed = crate::seed::derive_seed(self.session_seed, &[scene, &n.to_string(), "explore"]);
@@ -497,7 +499,7 @@ impl EpisodeSource for Source {
                     self.scene = Some(scene.clone());
                     match self.explore(&scene) {
                         Ok(e) => return Some(e),
-                        Err(m) => self.error(&m),
+                        Err(m) => self.error(&m.to_string()),
                     }
                 }
                 Start::Campaign(_) => return self.campaign_next(),
@@ -518,7 +520,7 @@ impl EpisodeSource for Source {
                     if let Some(scene) = self.scene.clone() {
                         match self.explore(&scene) {
                             Ok(e) => return Some(e),
-                            Err(m) => self.error(&m),
+                            Err(m) => self.error(&m.to_string()),
                         }
                     } else if self.cursor < self.shared.episodes.len() {
                         return Some(self.episode_at(self.cursor));

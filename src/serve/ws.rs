@@ -3,6 +3,7 @@
 //! actions, [`Shared::actions`], or `stop`; any other is refused), `{"next": null | EPISODE_ID}`, `{"views": [CAMERA, …]}`
 //! (the cameras to send besides colour), `{"end": true}`.
 
+use crate::invalid::Invalid;
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::{Arc, Mutex};
 
@@ -21,7 +22,7 @@ enum Parsed {
 }
 
 /// Parses a message of the page (see the module documentation).
-fn parse(text: &str, shared: &Shared) -> Result<Parsed, String> {
+fn parse(text: &str, shared: &Shared) -> Result<Parsed, Invalid> {
     let v: Value = serde_json::from_str(text).map_err(|e| format!("not JSON: {e}"))?;
     if let Some(a) = v.get("action") {
         let name = a.as_str().ok_or("action: not text")?;
@@ -106,7 +107,7 @@ pub async fn drive(
                         }
                     }
                     Err(message) => {
-                        let reply = json!({"type": "error", "message": message, "fatal": false});
+                        let reply = json!({"type": "error", "message": message.to_string(), "fatal": false});
                         let send = socket.send(Message::Text(reply.to_string().into()));
                         if !matches!(tokio::time::timeout(send_timeout, send).await, Ok(Ok(()))) {
                             break;
@@ -203,7 +204,9 @@ mod tests {
         ] {
             let e = parse(&format!(r#"{{"action":"{name}"}}"#), &s).unwrap_err();
             assert!(
-                e.contains(name) && e.contains("habitat") && e.contains("turn_right"),
+                e.to_string().contains(name)
+                    && e.to_string().contains("habitat")
+                    && e.to_string().contains("turn_right"),
                 "{e}"
             );
         }

@@ -70,7 +70,7 @@ pub fn observe_many_timed(
     let t = Instant::now();
     let views: Vec<Views> = sims.par_iter().map(|s| s.views()).collect();
     let t = PhaseTimes::lap(&mut times.views, t);
-    let mut frames: Vec<Option<Result<Vec<Frame>, String>>> = sims.iter().map(|_| None).collect();
+    let mut frames: Vec<Option<Result<Vec<Frame>, GpuError>>> = sims.iter().map(|_| None).collect();
     // Simulators sharing a GPU renderer (and so its scene), in order of first appearance.
     let mut groups: Vec<(*const Renderer, Vec<usize>)> = Vec::new();
     for (i, sim) in sims.iter().enumerate() {
@@ -107,7 +107,7 @@ pub fn observe_many_timed(
             }
             Err(e) => {
                 for &i in members {
-                    frames[i] = Some(Err(e.to_string()));
+                    frames[i] = Some(Err(e.clone()));
                 }
             }
         }
@@ -120,7 +120,7 @@ pub fn observe_many_timed(
         .map(|((sim, v), rendered)| {
             let frames = match rendered {
                 Some(Ok(f)) => f,
-                Some(Err(e)) => return Err(GpuError::Render(e)),
+                Some(Err(e)) => return Err(e),
                 None => sim.renderer().render_with(
                     &sim.assets().render,
                     &v.unique,

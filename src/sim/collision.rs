@@ -3,6 +3,7 @@
 //! climb limit pass under it while walls, furniture and closed doors stop it. Contact probes
 //! are small balls around the body.
 
+use crate::invalid::Invalid;
 use glam::Vec3;
 use parry3d::math::{Pose, Vector};
 use parry3d::query;
@@ -27,7 +28,7 @@ fn v(p: Vec3) -> Vector {
 impl CollisionWorld {
     /// Builds the collision mesh of every triangle of the scene (rooms, ground, objects) and the
     /// body cylinder from `max_climb` to `height` above the floor.
-    pub fn new(scene: &Scene, radius: f32, height: f32, max_climb: f32) -> Result<Self, String> {
+    pub fn new(scene: &Scene, radius: f32, height: f32, max_climb: f32) -> Result<Self, Invalid> {
         let mut vertices: Vec<Vector> = Vec::new();
         let mut indices: Vec<[u32; 3]> = Vec::new();
         let mut add = |m: &crate::scene::WorldMesh| {
@@ -60,7 +61,7 @@ impl CollisionWorld {
             (b - a).cross(c - a).length() > 1e-12
         });
         if indices.is_empty() {
-            return Err(format!("scene {}: no triangles to collide with", scene.id));
+            return Err(format!("scene {}: no triangles to collide with", scene.id).into());
         }
         let mesh = TriMesh::new(vertices, indices)
             .map_err(|e| format!("scene {}: collision mesh: {e:?}", scene.id))?;

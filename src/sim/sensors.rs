@@ -2,6 +2,7 @@
 //! produces from a rendered frame: colour or grey, depth (float metres or quantised, optional
 //! Gaussian or Kinect-like noise), normals, semantic class, instance, room.
 
+use crate::invalid::Invalid;
 use serde::{Deserialize, Serialize};
 
 use crate::body::AgentPreset;
@@ -189,25 +190,25 @@ impl SensorSuite {
     }
 
     /// Parses a TOML (or, when it starts with `{`, JSON) sensor file; `source` names it in errors.
-    pub fn parse(text: &str, source: &str) -> Result<Self, String> {
+    pub fn parse(text: &str, source: &str) -> Result<Self, Invalid> {
         let suite: SensorSuite = if text.trim_start().starts_with('{') {
             // A field name in the message may hold a newline: keep the error on one line.
             serde_json::from_str(text)
-                .map_err(|e| format!("{source}: {}", e.to_string().replace('\n', " ")))?
+                .map_err(|e| Invalid::new(e.to_string().replace('\n', " ")).at(source))?
         } else {
             toml::from_str(text)
-                .map_err(|e| format!("{source}: {}", e.to_string().replace('\n', " ")))?
+                .map_err(|e| Invalid::new(e.to_string().replace('\n', " ")).at(source))?
         };
-        suite.validate().map_err(|e| format!("{source}: {e}"))?;
+        suite.validate().map_err(Invalid::inside(source))?;
         Ok(suite)
     }
 
     /// Checks names are unique and numbers usable.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), Invalid> {
         let mut names = std::collections::BTreeSet::new();
         for c in &self.cameras {
             if !names.insert(c.name.as_str()) {
-                return Err(format!("camera `{}` is defined twice", c.name));
+                return Err(format!("camera `{}` is defined twice", c.name).into());
             }
             if c.resolution[0] == 0
                 || c.resolution[1] == 0
@@ -217,19 +218,19 @@ impl SensorSuite {
                 return Err(format!(
                     "camera `{}`: resolution {:?} must be 1..=8192",
                     c.name, c.resolution
-                ));
+                )
+                .into());
             }
             if !(c.vfov > 0.0 && c.vfov < 180.0) {
-                return Err(format!(
-                    "camera `{}`: vfov {} must be in (0, 180)",
-                    c.name, c.vfov
-                ));
+                return Err(
+                    format!("camera `{}`: vfov {} must be in (0, 180)", c.name, c.vfov).into(),
+                );
             }
             if !(c.near > 0.0 && c.far > c.near) {
-                return Err(format!("camera `{}`: need 0 < near < far", c.name));
+                return Err(format!("camera `{}`: need 0 < near < far", c.name).into());
             }
             if c.depth_range[1] <= c.depth_range[0] {
-                return Err(format!("camera `{}`: depth_range must increase", c.name));
+                return Err(format!("camera `{}`: depth_range must increase", c.name).into());
             }
         }
         Ok(())
@@ -352,7 +353,7 @@ mod tests {
         // into the message with its newline.
         let e = SensorSuite::parse("{\"[a\\\\\\n\"m", "s.json").unwrap_err();
         assert!(
-            e.starts_with("s.json: unknown field") && !e.contains('\n'),
+            e.to_string().starts_with("s.json: unknown field") && !e.to_string().contains('\n'),
             "{e}"
         );
     }
@@ -374,12 +375,14 @@ mod tests {
         let dup = "[[camera]]\nname = \"a\"\nmodality = \"color\"\nresolution = [8, 8]\n[[camera]]\nname = \"a\"\nmodality = \"depth\"\nresolution = [8, 8]\n";
         assert!(SensorSuite::parse(dup, "s.toml")
             .unwrap_err()
+            .to_string()
             .contains("defined twice"));
         assert!(SensorSuite::parse(
             "[[camera]]\nname = \"a\"\nmodality = \"smell\"\nresolution = [8, 8]\n",
             "s.toml"
         )
         .unwrap_err()
+        .to_string()
         .starts_with("s.toml"));
     }
 

@@ -27,7 +27,7 @@ use crate::render::Image;
 pub enum SimError {
     /// The scene has nothing to collide with, or a similar problem.
     #[error("{0}")]
-    Scene(String),
+    Scene(crate::invalid::Invalid),
     /// The renderer could not be created.
     #[error(transparent)]
     Render(#[from] GpuError),

@@ -6,6 +6,7 @@
 //! `room_types`, `categories`, `coarse_categories`, `ntriangles`, `error`. On error rows every
 //! statistic is null and `error` holds the one-line message.
 
+use crate::invalid::Invalid;
 use std::collections::BTreeSet;
 use std::path::Path;
 use std::sync::Arc;
@@ -220,12 +221,12 @@ pub fn read_manifest(path: &Path) -> Result<Vec<ManifestRow>, ManifestError> {
     let mut rows = Vec::new();
     for batch in reader {
         let batch = batch.map_err(|e| fmt(e.to_string()))?;
-        read_batch(&batch, &mut rows).map_err(fmt)?;
+        read_batch(&batch, &mut rows).map_err(|e| fmt(e.to_string()))?;
     }
     Ok(rows)
 }
 
-fn read_batch(batch: &RecordBatch, rows: &mut Vec<ManifestRow>) -> Result<(), String> {
+fn read_batch(batch: &RecordBatch, rows: &mut Vec<ManifestRow>) -> Result<(), Invalid> {
     let id = column::<StringArray>(batch, "id")?;
     let dataset = column::<StringArray>(batch, "dataset")?;
     let source = column::<StringArray>(batch, "source_path")?;

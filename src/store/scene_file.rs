@@ -339,7 +339,7 @@ mod tests {
             .to_string();
         assert_eq!(
             err,
-            "x.mscene: invalid scene: level 0 ground: mesh 7 out of range for 1 meshes"
+            "x.mscene: invalid scene: level 0: ground: mesh 7 out of range for 1 meshes"
         );
         let dir = tempfile::tempdir().unwrap();
         let err = write_scene(
@@ -354,7 +354,7 @@ mod tests {
         .unwrap_err()
         .to_string();
         assert!(
-            err.contains("y.mscene: invalid scene: level 0 ground"),
+            err.contains("y.mscene: invalid scene: level 0: ground"),
             "{err}"
         );
         assert!(!dir.path().join("y.mscene").exists());

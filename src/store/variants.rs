@@ -37,7 +37,7 @@ pub enum StoreError {
     },
     /// A variant name that cannot be used.
     #[error("{0}")]
-    Name(String),
+    Name(crate::invalid::Invalid),
     /// The compiled scene could not be read.
     #[error(transparent)]
     Scene(#[from] SceneFileError),
@@ -91,7 +91,10 @@ impl DataDir {
                 source: e,
             },
         })?;
-        VariantSpec::from_toml(&text).map_err(|message| StoreError::Format { path, message })
+        VariantSpec::from_toml(&text).map_err(|message| StoreError::Format {
+            path,
+            message: message.to_string(),
+        })
     }
 
     /// The names of every variant defined in `data`, sorted.
@@ -129,9 +132,10 @@ impl DataDir {
             path: path.clone(),
             message: e.to_string(),
         })?;
-        stats
-            .validate()
-            .map_err(|message| StoreError::Format { path, message })?;
+        stats.validate().map_err(|message| StoreError::Format {
+            path,
+            message: message.to_string(),
+        })?;
         Ok(stats)
     }
 

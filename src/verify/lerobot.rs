@@ -4,6 +4,7 @@
 //! the frames with the exporter's own functions (per episode bit for bit; `stats.json` as
 //! LeRobot aggregates them, to the precision of its JSON numbers).
 
+use crate::invalid::Invalid;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
@@ -420,7 +421,7 @@ fn accumulate(
     col: &dyn Array,
     r: usize,
     acc: &mut Option<Acc>,
-) -> Result<(), String> {
+) -> Result<(), Invalid> {
     if col.is_null(r) {
         return Err("null".into());
     }
@@ -437,7 +438,8 @@ fn accumulate(
             return Err(format!(
                 "a {}×{}×{c} image where info.json declares {:?}",
                 frame.height, frame.width, d.shape
-            ));
+            )
+            .into());
         }
         let a = acc.get_or_insert_with(|| {
             if frame.file.scaled() {
@@ -472,7 +474,8 @@ fn accumulate(
                 return Err(format!(
                     "a {} file where earlier frames are another format",
                     frame.file.name()
-                ))
+                )
+                .into())
             }
         }
         return Ok(());
@@ -488,7 +491,8 @@ fn accumulate(
                 "{} channels where info.json declares {:?}",
                 planes.len(),
                 d.shape
-            ));
+            )
+            .into());
         }
         let a = acc.get_or_insert_with(|| Acc::Channels(vec![Vec::new(); c]));
         let Acc::Channels(ch) = a else {
@@ -502,7 +506,8 @@ fn accumulate(
                     "channel {k} has {} values where info.json declares {:?}",
                     values.len(),
                     d.shape
-                ));
+                )
+                .into());
             }
             channel.extend(values);
         }
@@ -515,7 +520,8 @@ fn accumulate(
             "{} values where info.json declares {:?}",
             values.len(),
             d.shape
-        ));
+        )
+        .into());
     }
     let a = acc.get_or_insert_with(|| Acc::Channels(vec![Vec::new(); n]));
     if let Acc::Channels(ch) = a {

@@ -1,6 +1,7 @@
 //! A run folder: `manifest.json`'s checksums, the tables against each other, every image cell
 //! decoding with its declared shape, `metrics.json`, and the LeRobot copy.
 
+use crate::invalid::Invalid;
 use std::collections::HashMap;
 use std::path::Path;
 
@@ -68,7 +69,7 @@ struct Steps {
 
 fn trajectories(path: &Path, found: &mut Found) -> Option<Steps> {
     let table = tables::read(path, found)?;
-    let read = || -> Result<_, String> {
+    let read = || -> Result<_, Invalid> {
         Ok((
             tables::strings(&table, "episode_id")?,
             tables::numbers(&table, "step")?,
@@ -182,7 +183,7 @@ fn observations(path: &Path, steps: &Steps, found: &mut Found) {
 /// The episode table against the trajectories; its ids in order.
 fn episodes(path: &Path, steps: Option<&Steps>, found: &mut Found) -> Option<Vec<String>> {
     let table = tables::read(path, found)?;
-    let read = || -> Result<_, String> {
+    let read = || -> Result<_, Invalid> {
         Ok((
             tables::strings(&table, "episode_id")?,
             tables::numbers(&table, "steps")?,

@@ -1,6 +1,7 @@
 //! Reading the columns `verify` needs from Parquet tables (through the guarded reader), and
 //! the episode/step continuity check the run and LeRobot tables share.
 
+use crate::invalid::Invalid;
 use std::path::Path;
 
 use arrow::array::{
@@ -47,7 +48,7 @@ pub(super) fn strip_path(message: &str, path: &Path) -> String {
 }
 
 /// Column `name` as strings (any string type), or why not.
-pub(super) fn strings(batch: &RecordBatch, name: &str) -> Result<Vec<String>, String> {
+pub(super) fn strings(batch: &RecordBatch, name: &str) -> Result<Vec<String>, Invalid> {
     let c = column(batch, name)?;
     let c = arrow::compute::cast(c, &DataType::Utf8).map_err(|e| format!("`{name}`: {e}"))?;
     let s: &StringArray = c.as_string();
@@ -63,12 +64,12 @@ pub(super) fn strings(batch: &RecordBatch, name: &str) -> Result<Vec<String>, St
 }
 
 /// Column `name` as numbers (integers, floats and booleans as 0/1; null as NaN).
-pub(super) fn numbers(batch: &RecordBatch, name: &str) -> Result<Vec<f64>, String> {
+pub(super) fn numbers(batch: &RecordBatch, name: &str) -> Result<Vec<f64>, Invalid> {
     Ok(all_f64(column(batch, name)?))
 }
 
 /// Column `name` as booleans (null as false).
-pub(super) fn bools(batch: &RecordBatch, name: &str) -> Result<Vec<bool>, String> {
+pub(super) fn bools(batch: &RecordBatch, name: &str) -> Result<Vec<bool>, Invalid> {
     let c = column(batch, name)?;
     let b: &BooleanArray = c
         .as_any()
@@ -77,10 +78,10 @@ pub(super) fn bools(batch: &RecordBatch, name: &str) -> Result<Vec<bool>, String
     Ok((0..b.len()).map(|i| b.is_valid(i) && b.value(i)).collect())
 }
 
-fn column<'a>(batch: &'a RecordBatch, name: &str) -> Result<&'a ArrayRef, String> {
+fn column<'a>(batch: &'a RecordBatch, name: &str) -> Result<&'a ArrayRef, Invalid> {
     batch
         .column_by_name(name)
-        .ok_or_else(|| format!("column `{name}` is missing"))
+        .ok_or_else(|| Invalid::new(format!("column `{name}` is missing")))
 }
 
 /// Every number of `array`, lists flattened in order (nulls as NaN).

@@ -1,5 +1,6 @@
 //! Writing a split as Habitat-Lab lays it out ([`export_habitat`]; layout in the module docs).
 
+use crate::invalid::Invalid;
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -32,12 +33,13 @@ impl SceneIdStyle {
 
     /// Why the suffix cannot be used, if so: a suffix with a path separator would move the
     /// scene into another folder and change the goal keys' basename.
-    pub fn check(&self) -> Result<(), String> {
+    pub fn check(&self) -> Result<(), Invalid> {
         if self.suffix.contains(['/', '\\', '\0']) {
             Err(format!(
                 "scene suffix `{}` must not contain a path separator",
                 self.suffix
-            ))
+            )
+            .into())
         } else {
             Ok(())
         }
@@ -196,7 +198,7 @@ pub fn export_habitat(
             "split name `{split}` cannot be a directory name"
         )));
     }
-    names.check().map_err(shape)?;
+    names.check().map_err(|e| shape(e.to_string()))?;
     let mut by_scene: BTreeMap<&str, Vec<&Episode>> = BTreeMap::new();
     for e in episodes {
         by_scene.entry(e.scene_id.as_str()).or_default().push(e);

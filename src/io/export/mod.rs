@@ -69,14 +69,14 @@ impl fmt::Display for ExportFormat {
 }
 
 impl FromStr for ExportFormat {
-    type Err = String;
+    type Err = crate::invalid::Invalid;
 
     /// Parses `obj` or `glb` (any case).
     fn from_str(s: &str) -> Result<Self, Self::Err> {
         ExportFormat::ALL
             .into_iter()
             .find(|f| f.name().eq_ignore_ascii_case(s.trim()))
-            .ok_or_else(|| format!("unknown export format `{s}` (expected obj or glb)"))
+            .ok_or_else(|| format!("unknown export format `{s}` (expected obj or glb)").into())
     }
 }
 

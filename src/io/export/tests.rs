@@ -402,7 +402,11 @@ fn formats_parse_and_infer_from_extensions() {
     assert_eq!(ExportFormat::from_path(Path::new("b.gltf")), None);
     assert_eq!(ExportFormat::from_path(Path::new("b")), None);
     assert_eq!("GLB".parse::<ExportFormat>(), Ok(ExportFormat::Glb));
-    assert!("ply".parse::<ExportFormat>().unwrap_err().contains("ply"));
+    assert!("ply"
+        .parse::<ExportFormat>()
+        .unwrap_err()
+        .to_string()
+        .contains("ply"));
     assert_eq!(ExportFormat::Obj.to_string(), "obj");
 }
 

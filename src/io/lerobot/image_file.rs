@@ -15,6 +15,7 @@
 //! reads them with its `raw` decoder, which is what makes them fast to load. Every byte is a
 //! function of the pixels, so the same image gives the same file.
 
+use crate::invalid::Invalid;
 use crate::io::image_codec::PixelType;
 use crate::render::Image;
 
@@ -264,7 +265,7 @@ pub struct DecodedFrame {
 /// Reads a frame file back (the formats [`ImageFile`] writes: PPM, PGM with maxval 255 or
 /// 65535, PFM, minos's one-strip int32 TIFF). The error says what is wrong (`truncated: 7,040
 /// pixel bytes where 84×84×3 need 21,168`).
-pub fn decode(bytes: &[u8]) -> Result<DecodedFrame, String> {
+pub fn decode(bytes: &[u8]) -> Result<DecodedFrame, Invalid> {
     if bytes.starts_with(b"II*\0") {
         return decode_tiff(bytes);
     }
@@ -273,7 +274,7 @@ pub fn decode(bytes: &[u8]) -> Result<DecodedFrame, String> {
     let [width, height, maxval] = tokens;
     let pixels = width as usize * height as usize;
     let body = &bytes[at..];
-    let need = |n: usize, what: &str| -> Result<(), String> {
+    let need = |n: usize, what: &str| -> Result<(), Invalid> {
         if body.len() != n {
             let how = if body.len() < n {
                 "truncated"
@@ -283,7 +284,8 @@ pub fn decode(bytes: &[u8]) -> Result<DecodedFrame, String> {
             return Err(format!(
                 "{how}: {} pixel bytes where a {width}×{height} {what} needs {n}",
                 body.len()
-            ));
+            )
+            .into());
         }
         Ok(())
     };
@@ -322,7 +324,7 @@ pub fn decode(bytes: &[u8]) -> Result<DecodedFrame, String> {
             return Err(format!(
                 "not a PPM, PGM (maxval 255 or 65535), PFM or TIFF file (starts with {:?}, maxval {maxval})",
                 String::from_utf8_lossy(magic)
-            ))
+            ).into())
         }
     };
     Ok(DecodedFrame {
@@ -366,7 +368,7 @@ fn netpbm_header(bytes: &[u8]) -> Result<([u32; 3], usize), String> {
 }
 
 /// minos's TIFF (one strip of 32-bit signed samples): the size and strip from its tags.
-fn decode_tiff(bytes: &[u8]) -> Result<DecodedFrame, String> {
+fn decode_tiff(bytes: &[u8]) -> Result<DecodedFrame, Invalid> {
     let u16_at = |i: usize| {
         bytes
             .get(i..i + 2)
@@ -402,7 +404,8 @@ fn decode_tiff(bytes: &[u8]) -> Result<DecodedFrame, String> {
     if bits != 32 || width == 0 || height == 0 {
         return Err(format!(
             "TIFF of {width}×{height} with {bits}-bit samples, not minos's 32-bit ids"
-        ));
+        )
+        .into());
     }
     let need = width as usize * height as usize * 4;
     let strip = bytes.get(offset..).unwrap_or(&[]);
@@ -410,7 +413,8 @@ fn decode_tiff(bytes: &[u8]) -> Result<DecodedFrame, String> {
         return Err(format!(
             "truncated: {} strip bytes where a {width}×{height} int32 TIFF needs {need}",
             strip.len().min(length)
-        ));
+        )
+        .into());
     }
     let data = strip[..need]
         .chunks_exact(4)
@@ -598,9 +602,12 @@ mod tests {
             assert_eq!((back.file, back.width, back.height), (file, 3, 2));
             assert_eq!(back.image, image, "{file:?}");
             let cut = decode(&out[..out.len() - 1]).unwrap_err();
-            assert!(cut.starts_with("truncated"), "{file:?}: {cut}");
+            assert!(cut.to_string().starts_with("truncated"), "{file:?}: {cut}");
         }
         assert!(decode(b"").is_err());
-        assert!(decode(b"P6\n3 x\n255\n").unwrap_err().contains("`x`"));
+        assert!(decode(b"P6\n3 x\n255\n")
+            .unwrap_err()
+            .to_string()
+            .contains("`x`"));
     }
 }

@@ -2,6 +2,7 @@
 //! trajectory rows, and the observation rows streamed one at a time with each camera's
 //! image decoded, so a run of any size converts in bounded memory (one episode at a time).
 
+use crate::invalid::Invalid;
 use std::path::{Path, PathBuf};
 
 use arrow::array::{
@@ -142,7 +143,7 @@ pub fn read_steps(path: &Path) -> Result<Vec<StepRow>, LerobotError> {
     let mut out = Vec::new();
     for batch in batches(path)? {
         let batch = batch.map_err(|e| read_error(path, "row group".into(), e))?;
-        let schema_err = |e: String| read_error(path, "schema".into(), e);
+        let schema_err = |e: Invalid| read_error(path, "schema".into(), e);
         let ids = column::<StringArray>(&batch, "episode_id").map_err(schema_err)?;
         let steps = column::<UInt32Array>(&batch, "step").map_err(schema_err)?;
         let pose: Vec<&Float32Array> = ["x", "y", "z", "yaw", "tilt"]
@@ -333,7 +334,7 @@ impl ObservationRows {
         };
         let i = self.next;
         let record = format!("row {}", self.rows_read);
-        let schema_err = |e: String| read_error(&self.path, "schema".into(), e);
+        let schema_err = |e: Invalid| read_error(&self.path, "schema".into(), e);
         let ids = column::<StringArray>(batch, "episode_id").map_err(schema_err)?;
         let steps = column::<UInt32Array>(batch, "step").map_err(schema_err)?;
         if ids.is_null(i) || steps.is_null(i) {

@@ -2,6 +2,7 @@
 //! frame decoded with OpenH264's decoder (the crate family that encoded it), for
 //! `minos verify` and the tests.
 
+use crate::invalid::Invalid;
 use std::fs::File;
 use std::io::BufReader;
 use std::path::Path;
@@ -32,7 +33,7 @@ pub struct VideoContents {
 }
 
 /// Annex B byte stream of an MP4 sample (4-byte lengths → start codes).
-fn annex_b(sample: &[u8], out: &mut Vec<u8>) -> Result<(), String> {
+fn annex_b(sample: &[u8], out: &mut Vec<u8>) -> Result<(), Invalid> {
     let mut rest = sample;
     while !rest.is_empty() {
         if rest.len() < 4 {
@@ -40,10 +41,7 @@ fn annex_b(sample: &[u8], out: &mut Vec<u8>) -> Result<(), String> {
         }
         let n = u32::from_be_bytes([rest[0], rest[1], rest[2], rest[3]]) as usize;
         if n == 0 || rest.len() - 4 < n {
-            return Err(format!(
-                "a NAL unit of {n} bytes where {} remain",
-                rest.len() - 4
-            ));
+            return Err(format!("a NAL unit of {n} bytes where {} remain", rest.len() - 4).into());
         }
         out.extend_from_slice(&[0, 0, 0, 1]);
         out.extend_from_slice(&rest[4..4 + n]);
@@ -54,14 +52,14 @@ fn annex_b(sample: &[u8], out: &mut Vec<u8>) -> Result<(), String> {
 
 /// Reads the video file `path`: its one video track's index, and every frame decoded when
 /// `decode` is set. The error is one line (what is wrong, without the path).
-pub fn read_video(path: &Path, decode: bool) -> Result<VideoContents, String> {
+pub fn read_video(path: &Path, decode: bool) -> Result<VideoContents, Invalid> {
     let file = File::open(path).map_err(|e| e.to_string())?;
     let size = file.metadata().map_err(|e| e.to_string())?.len();
     catch_quietly(|| read_from(BufReader::new(file), size, decode))
         .map_err(|panic| format!("unreadable MP4: {panic}"))?
 }
 
-fn read_from(reader: BufReader<File>, size: u64, decode: bool) -> Result<VideoContents, String> {
+fn read_from(reader: BufReader<File>, size: u64, decode: bool) -> Result<VideoContents, Invalid> {
     let mut mp4 = mp4::Mp4Reader::read_header(reader, size).map_err(|e| format!("MP4: {e}"))?;
     let videos: Vec<&mp4::Mp4Track> = mp4
         .tracks()
@@ -69,10 +67,7 @@ fn read_from(reader: BufReader<File>, size: u64, decode: bool) -> Result<VideoCo
         .filter(|t| matches!(t.track_type(), Ok(mp4::TrackType::Video)))
         .collect();
     let [t] = videos[..] else {
-        return Err(format!(
-            "{} video tracks where one is expected",
-            videos.len()
-        ));
+        return Err(format!("{} video tracks where one is expected", videos.len()).into());
     };
     let track = t.track_id();
     let (width, height) = (u32::from(t.width()), u32::from(t.height()));
@@ -87,7 +82,7 @@ fn read_from(reader: BufReader<File>, size: u64, decode: bool) -> Result<VideoCo
         .map(<[u8]>::to_vec)
         .unwrap_or_default();
     if codec != "avc1" {
-        return Err(format!("codec `{codec}` where `avc1` (H.264) is expected"));
+        return Err(format!("codec `{codec}` where `avc1` (H.264) is expected").into());
     }
     if sps.is_empty() || pps.is_empty() {
         return Err("the H.264 track has no parameter sets".into());

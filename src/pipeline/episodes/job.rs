@@ -4,6 +4,7 @@
 //! exported to Habitat's or a VLN layout. The front doors only turn flags or keyword
 //! arguments into an [`EpisodesJob`] and report the [`EpisodesOutcome`].
 
+use crate::invalid::Invalid;
 use std::path::{Path, PathBuf};
 
 use crate::body::{AgentPreset, BodyRule};
@@ -207,13 +208,13 @@ pub fn expand_categories(given: &[String]) -> Option<(Vec<String>, bool)> {
 
 /// Room class names → the classes (`None` for `any`, MINOS's any room); `Err` names the
 /// first unknown class.
-pub fn parse_room_classes(names: &[String]) -> Result<Option<Vec<RoomClass>>, String> {
+pub fn parse_room_classes(names: &[String]) -> Result<Option<Vec<RoomClass>>, Invalid> {
     if names.iter().any(|t| t == "any") {
         return Ok(None);
     }
     names
         .iter()
-        .map(|t| RoomClass::from_name(t).ok_or_else(|| t.clone()))
+        .map(|t| RoomClass::from_name(t).ok_or_else(|| Invalid::new(t.clone())))
         .collect::<Result<Vec<_>, _>>()
         .map(Some)
 }

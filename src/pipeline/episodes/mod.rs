@@ -130,14 +130,14 @@ pub fn sample_scenes_from(
         .collect();
     progress.set_total(mine.len() as u64);
     type Sampled = (SceneEpisodes, Vec<String>);
-    let results: Vec<(String, Result<Sampled, String>)> = mine
+    let results: Vec<(String, Result<Sampled, SceneSkipped>)> = mine
         .par_iter()
         .map(|(id, split)| {
             let r = data
                 .read_grid(&SceneRef::parse(id))
-                .map_err(|e| e.to_string())
+                .map_err(SceneSkipped::Grid)
                 .and_then(|grid| {
-                    body.check(&grid.params.body).map_err(|e| e.to_string())?;
+                    body.check(&grid.params.body).map_err(SceneSkipped::Body)?;
                     let categories = grid
                         .objects
                         .iter()
@@ -177,13 +177,24 @@ pub fn sample_scenes_from(
                 });
                 batch.episodes.extend(s.episodes);
             }
-            Err(e) => stats.problem = Some(e),
+            Err(e) => stats.problem = Some(e.to_string()),
         }
         batch.scenes.insert(id, stats);
     }
     batch.shard = shard.to_string();
     batch.summarise();
     batch
+}
+
+/// Why a scene was left out of an episodes job (the rest go on).
+#[derive(Debug, thiserror::Error)]
+enum SceneSkipped {
+    /// Its grid is missing or unreadable.
+    #[error("{0}")]
+    Grid(crate::store::StoreError),
+    /// Its grid was baked for another body.
+    #[error("{0}")]
+    Body(crate::body::BodyMismatch),
 }
 
 /// Length and difficulty statistics of VLN routes and instructions.

@@ -209,7 +209,8 @@ impl EpisodeParts {
             r.finish()?;
         }
         let m = stepper.metrics()?;
-        write_done(&parts, index, &episode_id, &m).map_err(EpisodeError::Part)?;
+        write_done(&parts, index, &episode_id, &m)
+            .map_err(|e| EpisodeError::Part(e.to_string()))?;
         Ok(m)
     }
 }

@@ -81,14 +81,14 @@ pub fn run_live(
     let mut pending = source.next();
     while let Some(first) = pending.take() {
         if let Err(problem) = live.playable(&first) {
-            source.finished(&first, Err(problem));
+            source.finished(&first, Err(problem.to_string()));
             pending = source.next();
             continue;
         }
         let (sim, assets) = match scene::load(cfg, &first.scene_id) {
             Ok(loaded) => loaded,
             Err(e) => {
-                source.finished(&first, Err(e));
+                source.finished(&first, Err(e.to_string()));
                 pending = source.next();
                 continue;
             }
@@ -107,7 +107,7 @@ pub fn run_live(
                 Some(n) if n.scene_id == e.scene_id => match live.playable(&n) {
                     Ok(()) => ep = Some(n),
                     Err(problem) => {
-                        source.finished(&n, Err(problem));
+                        source.finished(&n, Err(problem.to_string()));
                         pending = source.next();
                         break;
                     }
@@ -189,10 +189,7 @@ fn finish_parts(cfg: &RunConfig, parts: &Path) -> Result<RunReport, RolloutError
         let metrics = match read_done(parts, i) {
             Ok(m) => m,
             Err(e) => {
-                tracing::warn!(
-                    "{}: {e}: episode left out",
-                    part(parts, i, "json").display()
-                );
+                tracing::warn!("{e}: episode left out");
                 continue;
             }
         };
@@ -212,17 +209,28 @@ struct Live<'c> {
     report: RunReport,
 }
 
+/// Why an episode of a live source cannot be played.
+#[derive(Debug, thiserror::Error)]
+enum Unplayable {
+    /// Its id was played already in this run.
+    #[error("episode {0} was played already")]
+    PlayedAlready(String),
+    /// Its scene cannot run.
+    #[error("{0}")]
+    NotReady(RolloutError),
+}
+
 impl Live<'_> {
     /// Whether `ep` can be played: not played yet, its scene ingested and baked for the body.
-    fn playable(&self, ep: &Episode) -> Result<(), String> {
+    fn playable(&self, ep: &Episode) -> Result<(), Unplayable> {
         if self
             .played
             .iter()
             .any(|(_, e, _)| e.episode_id == ep.episode_id)
         {
-            return Err(format!("episode {} was played already", ep.episode_id));
+            return Err(Unplayable::PlayedAlready(ep.episode_id.clone()));
         }
-        preflight::check(self.cfg, &[(0, ep.clone())]).map_err(|e| e.to_string())
+        preflight::check(self.cfg, &[(0, ep.clone())]).map_err(Unplayable::NotReady)
     }
 
     /// Plays `ep` into its part files: the episode record first, its metrics last.

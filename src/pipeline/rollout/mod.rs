@@ -42,8 +42,8 @@ pub use agent_kind::{AgentKind, AgentNameError, AGENT_NAMES};
 pub use episode::EpisodeError;
 pub use live::{finish_live, run_live, EpisodeSource, PLAYED};
 use parts::part;
-pub use scene::load_assets as load_scene_assets;
 use scene::SceneRun;
+pub use scene::{load_assets as load_scene_assets, SceneLoadError};
 
 /// `robot_type` of a run's LeRobot copy.
 pub const LEROBOT_ROBOT_TYPE: &str = "minos-agent";
@@ -405,7 +405,7 @@ fn run_scene(
     };
     let mut out: Vec<Outcome> = Vec::new();
     for (i, _) in eps.iter().filter(|(i, _)| done(*i)) {
-        let kept = parts::read_done(parts, *i).map_err(Failed::Episode);
+        let kept = parts::read_done(parts, *i).map_err(|e| Failed::Episode(e.to_string()));
         out.push((*i, kept.map(|m| (m, true))));
         progress.advance(1);
     }
@@ -413,10 +413,12 @@ fn run_scene(
     if pending.is_empty() {
         return out;
     }
-    let setup = scene::load(cfg, scene_id).and_then(|(sim, assets)| {
-        let agent = scene::make_agent(&cfg.agent, cfg.seed).map_err(|e| e.to_string())?;
-        Ok((sim, assets, agent))
-    });
+    let setup = scene::load(cfg, scene_id)
+        .map_err(|e| e.to_string())
+        .and_then(|(sim, assets)| {
+            let agent = scene::make_agent(&cfg.agent, cfg.seed).map_err(|e| e.to_string())?;
+            Ok((sim, assets, agent))
+        });
     match setup {
         Err(e) => {
             for (i, _) in pending {

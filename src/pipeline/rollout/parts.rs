@@ -7,6 +7,27 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use crate::atomic::write_bytes_atomic;
+
+/// A metrics part that could not be written or read back.
+#[derive(Debug, thiserror::Error)]
+pub enum PartError {
+    /// Reading or writing the file failed.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The part file.
+        path: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// The part is not the JSON record minos writes (or could not be encoded as one).
+    #[error("{}: {source}", path.display())]
+    Json {
+        /// The part file.
+        path: PathBuf,
+        /// The cause.
+        source: serde_json::Error,
+    },
+}
 use crate::run::metrics::EpisodeMetrics;
 
 /// The part file of episode `index` with extension `ext`.
@@ -66,7 +87,7 @@ pub fn write_done(
     index: usize,
     episode_id: &str,
     m: &EpisodeMetrics,
-) -> Result<(), String> {
+) -> Result<(), PartError> {
     let done = PartDone {
         episode_id: episode_id.to_string(),
         success: m.success,
@@ -80,14 +101,21 @@ pub fn write_done(
         ndtw: m.ndtw.is_finite().then_some(m.ndtw),
     };
     let path = part(dir, index, "json");
-    let json = serde_json::to_vec(&done).map_err(|e| format!("{}: {e}", path.display()))?;
-    write_bytes_atomic(&path, &json).map_err(|e| format!("{}: {e}", path.display()))
+    let json = serde_json::to_vec(&done).map_err(|source| PartError::Json {
+        path: path.clone(),
+        source,
+    })?;
+    write_bytes_atomic(&path, &json).map_err(|source| PartError::Io { path, source })
 }
 
 /// Reads the metrics part of an episode finished by an earlier run.
-pub fn read_done(dir: &Path, index: usize) -> Result<EpisodeMetrics, String> {
+pub fn read_done(dir: &Path, index: usize) -> Result<EpisodeMetrics, PartError> {
     let path = part(dir, index, "json");
-    let bytes = std::fs::read(&path).map_err(|e| e.to_string())?;
-    let done: PartDone = serde_json::from_slice(&bytes).map_err(|e| e.to_string())?;
+    let bytes = std::fs::read(&path).map_err(|source| PartError::Io {
+        path: path.clone(),
+        source,
+    })?;
+    let done: PartDone =
+        serde_json::from_slice(&bytes).map_err(|source| PartError::Json { path, source })?;
     Ok(EpisodeMetrics::from(&done))
 }

@@ -4,11 +4,14 @@
 //! each problem, so a wrong DATA folder or preset is one line, not one line per episode.
 
 use std::collections::{BTreeMap, BTreeSet};
+use std::path::PathBuf;
 
 use super::{RolloutError, RunConfig};
+use crate::body::BodyMismatch;
 use crate::episode::Episode;
 use crate::scene::SceneRef;
 use crate::store::scene_file::read_header;
+use crate::store::{SceneFileError, StoreError};
 
 /// Scenes named per problem in the error, at most.
 const LISTED: usize = 5;
@@ -19,7 +22,7 @@ pub fn check(cfg: &RunConfig, episodes: &[(usize, Episode)]) -> Result<(), Rollo
     let mut problems: BTreeMap<String, Vec<&str>> = BTreeMap::new();
     for id in &scenes {
         if let Err(problem) = scene_problem(cfg, &SceneRef::parse(id)) {
-            problems.entry(problem).or_default().push(id);
+            problems.entry(problem.to_string()).or_default().push(id);
         }
     }
     if problems.is_empty() {
@@ -43,37 +46,71 @@ pub fn check(cfg: &RunConfig, episodes: &[(usize, Episode)]) -> Result<(), Rollo
     })
 }
 
-/// Why `scene` cannot run, worded so that scenes with the same problem share the text.
-fn scene_problem(cfg: &RunConfig, scene: &SceneRef) -> Result<(), String> {
+/// Why a scene cannot run; scenes with the same problem share its text, by which the error
+/// groups them.
+#[derive(Debug, thiserror::Error)]
+enum SceneProblem {
+    /// No compiled scene.
+    #[error("not ingested: no compiled scene in {} (ingest it first)", .0.display())]
+    NotIngested(PathBuf),
+    /// The compiled scene cannot be read.
+    #[error("{0} (ingest it again)")]
+    Unreadable(SceneFileError),
+    /// The scene's variant is missing or unreadable.
+    #[error("variant {name}: {error}")]
+    Variant {
+        /// The variant's name.
+        name: String,
+        /// Why it cannot be read.
+        error: StoreError,
+    },
+    /// No grid for the scene (or its variant).
+    #[error(
+        "not baked: no navigation grid in {}{} (bake it first)",
+        dir.display(),
+        variant.as_deref().map(|v| format!(" for variant {v}")).unwrap_or_default()
+    )]
+    NotBaked {
+        /// The grids' folder.
+        dir: PathBuf,
+        /// The variant, when the scene is one.
+        variant: Option<String>,
+    },
+    /// The grid's parameters cannot be read.
+    #[error("{0}")]
+    Grid(StoreError),
+    /// The grid was baked for another body.
+    #[error("{0}")]
+    Body(BodyMismatch),
+}
+
+/// Why `scene` cannot run.
+fn scene_problem(cfg: &RunConfig, scene: &SceneRef) -> Result<(), SceneProblem> {
     let data = &cfg.data;
     let compiled = data.scene_path(&scene.scene);
     if !compiled.is_file() {
-        return Err(format!(
-            "not ingested: no compiled scene in {} (run `minos ingest`)",
-            data.scenes_dir().display()
-        ));
+        return Err(SceneProblem::NotIngested(data.scenes_dir()));
     }
-    read_header(&compiled).map_err(|e| format!("{e} (run `minos ingest --force`)"))?;
+    read_header(&compiled).map_err(SceneProblem::Unreadable)?;
     if let Some(name) = scene.variant.as_deref() {
         data.read_variant(name)
-            .map_err(|e| format!("variant {name}: {e}"))?;
+            .map_err(|error| SceneProblem::Variant {
+                name: name.to_string(),
+                error,
+            })?;
     }
     if !data.grid_path(scene).is_file() {
-        let bake = match scene.variant.as_deref() {
-            Some(name) => format!("minos bake --variant {name}"),
-            None => "minos bake".to_string(),
-        };
-        return Err(format!(
-            "not baked: no navigation grid in {} (run `{bake}`)",
-            data.nav_dir().display()
-        ));
+        return Err(SceneProblem::NotBaked {
+            dir: data.nav_dir(),
+            variant: scene.variant.clone(),
+        });
     }
-    let params = data.read_grid_params(scene).map_err(|e| e.to_string())?;
+    let params = data.read_grid_params(scene).map_err(SceneProblem::Grid)?;
     if !cfg.allow_body_mismatch {
         cfg.agent_config
             .body
             .check_grid(&params.body)
-            .map_err(|e| e.to_string())?;
+            .map_err(SceneProblem::Body)?;
     }
     Ok(())
 }

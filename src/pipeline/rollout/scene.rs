@@ -6,6 +6,7 @@ use std::sync::Arc;
 
 use super::{AgentKind, RunConfig};
 use crate::navmesh::geodesic::Geodesic;
+use crate::render::gpu::GpuError;
 use crate::render::{Renderer, RendererChoice};
 use crate::run::agents::{
     Agent, AgentError, ForwardAgent, MinosRandomAgent, RandomAgent, ReplayAgent,
@@ -14,8 +15,9 @@ use crate::run::external::ExternalAgent;
 use crate::run::oracle::OracleAgent;
 use crate::run::stepper::{EpisodeStepper, StepperConfig, DEFAULT_MAX_STEPS};
 use crate::scene::SceneRef;
+use crate::sim::simulator::SimError;
 use crate::sim::{AgentConfig, SceneAssets, Simulator};
-use crate::store::DataDir;
+use crate::store::{DataDir, StoreError};
 
 /// What the episodes of one scene share: the stepper (with its simulator), the agent, and
 /// one line-of-sight index and set of search records for every episode's goal field.
@@ -47,6 +49,25 @@ impl<'a> SceneRun<'a> {
     }
 }
 
+/// Why a scene of a run could not be set up; one line, recorded for every episode of the
+/// scene (a batch goes on with the other scenes).
+#[derive(Debug, thiserror::Error)]
+pub enum SceneLoadError {
+    /// The compiled scene is missing or unreadable (the scene is not ingested).
+    #[error("{0} (ingest the scene first)")]
+    Scene(StoreError),
+    /// The scene's navigation grid is missing or unreadable.
+    #[error("{0}")]
+    Grid(StoreError),
+    /// The simulator's assets could not be built (a body the grid was not baked for, a
+    /// scene without geometry).
+    #[error("{0}")]
+    Assets(SimError),
+    /// The renderer could not be created.
+    #[error("{0}")]
+    Renderer(GpuError),
+}
+
 /// Loads scene `scene_id` and the grid that serves it, checks the grid's body against
 /// `body` (unless `allow_body_mismatch`) and creates the renderer: the scene set-up of every
 /// driver (runs, vector environments, the bindings' simulator). The error is one line.
@@ -56,25 +77,27 @@ pub fn load_assets(
     body: &AgentConfig,
     renderer: RendererChoice,
     allow_body_mismatch: bool,
-) -> Result<(Arc<SceneAssets>, Arc<Renderer>), String> {
+) -> Result<(Arc<SceneAssets>, Arc<Renderer>), SceneLoadError> {
     let scene_ref = SceneRef::parse(scene_id);
-    let (scene, _) = data
-        .load_scene(&scene_ref)
-        .map_err(|e| format!("{e} (run `minos ingest`)"))?;
-    let grid = data.read_grid(&scene_ref).map_err(|e| e.to_string())?;
+    let (scene, _) = data.load_scene(&scene_ref).map_err(SceneLoadError::Scene)?;
+    let grid = data.read_grid(&scene_ref).map_err(SceneLoadError::Grid)?;
     let assets = if allow_body_mismatch {
         SceneAssets::new_allowing_body_mismatch(&scene, grid, body)
     } else {
         SceneAssets::new(&scene, grid, body)
     };
-    let assets = Arc::new(assets.map_err(|e| e.to_string())?);
-    let renderer = Arc::new(Renderer::new(renderer, &assets.render).map_err(|e| e.to_string())?);
+    let assets = Arc::new(assets.map_err(SceneLoadError::Assets)?);
+    let renderer =
+        Arc::new(Renderer::new(renderer, &assets.render).map_err(SceneLoadError::Renderer)?);
     Ok((assets, renderer))
 }
 
 /// Loads scene `scene_id` and builds its simulator; the error is one line for every episode
 /// of the scene.
-pub fn load(cfg: &RunConfig, scene_id: &str) -> Result<(Simulator, Arc<SceneAssets>), String> {
+pub fn load(
+    cfg: &RunConfig,
+    scene_id: &str,
+) -> Result<(Simulator, Arc<SceneAssets>), SceneLoadError> {
     let (assets, renderer) = load_assets(
         &cfg.data,
         scene_id,

@@ -21,7 +21,7 @@ use super::frame::Frame;
 use super::scene::RenderScene;
 
 /// Why the GPU renderer is unavailable or failed.
-#[derive(Debug, thiserror::Error)]
+#[derive(Debug, Clone, thiserror::Error)]
 pub enum GpuError {
     /// No adapter (install `mesa-vulkan-drivers` for lavapipe, or use the CPU renderer).
     #[error("no GPU adapter found ({0}); the CPU renderer works without one")]

@@ -8,6 +8,7 @@
 //! into train/val/test by a hash of `(partition seed, key)`, so no material is in two sets and
 //! adding scenes never moves a material to another set.
 
+use crate::invalid::Invalid;
 use std::collections::{BTreeMap, BTreeSet};
 
 use serde::{Deserialize, Serialize};
@@ -255,19 +256,19 @@ impl MaterialStats {
     }
 
     /// Checks internal consistency (after reading a file).
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), Invalid> {
         if self.version != STATS_VERSION {
             return Err(format!(
                 "version {} (this minos reads {STATS_VERSION}; rerun `minos variants --refresh-stats`)",
                 self.version
-            ));
+            ).into());
         }
         let n = self.materials.len() as u32;
         for (c, list) in &self.categories {
             if let Some((i, _)) = list.iter().find(|(i, _)| *i >= n) {
-                return Err(format!(
-                    "categories.{c}: material {i} out of range ({n} materials)"
-                ));
+                return Err(
+                    format!("categories.{c}: material {i} out of range ({n} materials)").into(),
+                );
             }
         }
         Ok(())

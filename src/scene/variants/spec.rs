@@ -18,6 +18,7 @@
 //! retexture = { seed = 7, texture_set = "train" }
 //! ```
 
+use crate::invalid::Invalid;
 use std::collections::BTreeMap;
 use std::fmt;
 
@@ -128,7 +129,7 @@ pub struct VariantSpec {
 
 impl VariantSpec {
     /// Parses one variant's table (the format of `DATA/variants/<name>.toml`).
-    pub fn from_toml(text: &str) -> Result<Self, String> {
+    pub fn from_toml(text: &str) -> Result<Self, Invalid> {
         let spec: VariantSpec = toml::from_str(text).map_err(|e| one_line(&e, text))?;
         spec.validate()?;
         Ok(spec)
@@ -141,14 +142,14 @@ impl VariantSpec {
     }
 
     /// Checks the fields that serde cannot.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), Invalid> {
         if self.empty && self.keep_only.is_some() {
             return Err("`empty` and `keep_only` exclude each other".into());
         }
         let lists = [("remove", &self.remove), ("hide", &self.hide)];
         for (field, list) in lists {
             if let Some(bad) = list.iter().find(|c| c.trim().is_empty()) {
-                return Err(format!("{field}: empty category name {bad:?}"));
+                return Err(format!("{field}: empty category name {bad:?}").into());
             }
         }
         if let Some(k) = &self.keep_only {
@@ -171,16 +172,14 @@ impl VariantSpec {
 }
 
 /// Parses a spec file of named variants: one top-level table per variant.
-pub fn parse_spec_file(text: &str) -> Result<Vec<(String, VariantSpec)>, String> {
+pub fn parse_spec_file(text: &str) -> Result<Vec<(String, VariantSpec)>, Invalid> {
     let table: toml::Table = text
         .parse()
         .map_err(|e: toml::de::Error| one_line(&e, text))?;
     for (name, value) in &table {
         validate_name(name)?;
         if !value.is_table() {
-            return Err(format!(
-                "{name}: expected a table `[{name}]` of variant fields"
-            ));
+            return Err(format!("{name}: expected a table `[{name}]` of variant fields").into());
         }
     }
     if table.is_empty() {
@@ -192,13 +191,13 @@ pub fn parse_spec_file(text: &str) -> Result<Vec<(String, VariantSpec)>, String>
         .into_iter()
         .map(|(name, spec)| match spec.validate() {
             Ok(()) => Ok((name, spec)),
-            Err(e) => Err(format!("[{name}]: {e}")),
+            Err(e) => Err(format!("[{name}]: {e}").into()),
         })
         .collect()
 }
 
 /// Checks a variant name: letters, digits, `-` and `_` (it becomes part of file names and ids).
-pub fn validate_name(name: &str) -> Result<(), String> {
+pub fn validate_name(name: &str) -> Result<(), Invalid> {
     let ok = !name.is_empty()
         && name.len() <= 64
         && name
@@ -207,9 +206,7 @@ pub fn validate_name(name: &str) -> Result<(), String> {
     if ok {
         Ok(())
     } else {
-        Err(format!(
-            "variant name {name:?}: use 1–64 letters, digits, `-` or `_`"
-        ))
+        Err(format!("variant name {name:?}: use 1–64 letters, digits, `-` or `_`").into())
     }
 }
 
@@ -267,19 +264,23 @@ mod tests {
     #[test]
     fn bad_specs_say_what_is_wrong() {
         let e = parse_spec_file("[a]\nremove = 3\n").unwrap_err();
-        assert!(e.starts_with("line 2:") && e.contains("remove = 3"), "{e}");
+        assert!(
+            e.to_string().starts_with("line 2:") && e.to_string().contains("remove = 3"),
+            "{e}"
+        );
         let e = parse_spec_file("[a]\nempty = true\nkeep_only = \"arch\"\n").unwrap_err();
-        assert!(e.contains("exclude"), "{e}");
+        assert!(e.to_string().contains("exclude"), "{e}");
         let e =
             parse_spec_file("[a]\nretexture = { seed = 1, texture_set = \"x\" }\n").unwrap_err();
         assert!(
-            e.contains("texture_set") || e.contains("unknown variant"),
+            e.to_string().contains("texture_set") || e.to_string().contains("unknown variant"),
             "{e}"
         );
         let e = parse_spec_file("[a]\nclutter = 1\n").unwrap_err();
-        assert!(e.contains("clutter"), "{e}");
+        assert!(e.to_string().contains("clutter"), "{e}");
         assert!(parse_spec_file("[\"a@b\"]\nempty = true\n")
             .unwrap_err()
+            .to_string()
             .contains("a@b"));
         assert!(parse_spec_file("").is_err());
     }

@@ -130,7 +130,7 @@ impl CampaignSpec {
                 return Err(bad(format!("size: {size} is not between 8 and 2048")));
             }
         }
-        raw.qc.validate().map_err(bad)?;
+        raw.qc.validate().map_err(|e| bad(e.to_string()))?;
         let stem = path
             .file_stem()
             .map(|s| s.to_string_lossy().into_owned())

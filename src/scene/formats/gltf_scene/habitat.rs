@@ -17,6 +17,7 @@
 //! Where this module's job ends: it reads JSON it is handed and resolves paths relative to the
 //! file that holds them; finding files and loading geometry belong to the loader.
 
+use crate::invalid::Invalid;
 use std::path::{Path, PathBuf};
 
 use glam::{Mat4, Quat, Vec3};
@@ -659,7 +660,7 @@ pub fn read_semantic_config(path: &Path) -> Result<Vec<Region>, LoadError> {
 /// The rotation that takes an asset whose axes say `up` and `front` into Habitat's frame
 /// (up = +Y, front = −Z). Missing `front` is −Z when that is orthogonal to `up`, else +Y;
 /// missing `up` is +Y when orthogonal to `front`, else +Z.
-pub fn frame_to_world(up: Option<Vec3>, front: Option<Vec3>) -> Result<Quat, String> {
+pub fn frame_to_world(up: Option<Vec3>, front: Option<Vec3>) -> Result<Quat, Invalid> {
     let unit = |v: Vec3, name: &str| {
         v.try_normalize()
             .ok_or_else(|| format!("`{name}` {v} is not a direction"))
@@ -688,7 +689,7 @@ pub fn frame_to_world(up: Option<Vec3>, front: Option<Vec3>) -> Result<Quat, Str
         (Some(u), Some(f)) => (unit(u, "up")?, unit(f, "front")?),
     };
     if !orthogonal(up, front) {
-        return Err(format!("`up` {up} and `front` {front} are not orthogonal"));
+        return Err(format!("`up` {up} and `front` {front} are not orthogonal").into());
     }
     // habitat-sim's CoordinateFrame: world-to-frame turns +Y onto `up`, then the turned −Z
     // onto `front`; the asset goes the other way.

@@ -5,6 +5,7 @@
 //! Text files may have a byte-order mark, CRLF line ends and trailing whitespace. Where this
 //! module's job ends: it parses and names; tying semantic ids to geometry is the loader's.
 
+use crate::invalid::Invalid;
 use std::collections::{BTreeSet, HashMap, HashSet};
 use std::path::Path;
 
@@ -111,7 +112,7 @@ fn clip(s: &str) -> String {
     }
 }
 
-fn parse_record(line: &str, number: usize) -> Result<SemanticEntry, String> {
+fn parse_record(line: &str, number: usize) -> Result<SemanticEntry, Invalid> {
     let (id, rest) = line.split_once(',').ok_or("no comma")?;
     let (hex, rest) = rest.split_once(',').ok_or("missing colour or category")?;
     let id: u32 = id
@@ -121,7 +122,7 @@ fn parse_record(line: &str, number: usize) -> Result<SemanticEntry, String> {
     let hex = hex.trim();
     let digits = hex.strip_prefix('#').unwrap_or(hex);
     if digits.len() != 6 || !digits.chars().all(|c| c.is_ascii_hexdigit()) {
-        return Err(format!("colour `{hex}` is not 6 hex digits"));
+        return Err(format!("colour `{hex}` is not 6 hex digits").into());
     }
     let v = u32::from_str_radix(digits, 16).map_err(|_| format!("colour `{hex}`"))?;
     let color = [(v >> 16) as u8, (v >> 8) as u8, v as u8];

@@ -13,6 +13,7 @@
 //! All of it works in y-up world coordinates; floor polygons are `(x, z)` pairs. Which objects
 //! are obstacles and how meshes are assigned to rooms is decided in [`super`].
 
+use crate::invalid::Invalid;
 use glam::{Mat4, Vec3};
 
 use crate::scene::geometry::Aabb;
@@ -329,7 +330,7 @@ impl Obb {
     /// A box from Matterport's description (already in y-up coordinates): the second axis is
     /// made orthogonal to the first, the third is their cross product, radii below 1 mm are
     /// raised to 1 mm (flat objects such as pictures). Fails on zero or parallel axes.
-    pub fn new(center: Vec3, axis0: Vec3, axis1: Vec3, radii: Vec3) -> Result<Obb, String> {
+    pub fn new(center: Vec3, axis0: Vec3, axis1: Vec3, radii: Vec3) -> Result<Obb, Invalid> {
         let a0 = axis0
             .try_normalize()
             .ok_or_else(|| format!("box axis 0 {axis0} has no direction"))?;

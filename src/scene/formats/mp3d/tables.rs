@@ -6,6 +6,7 @@
 //! `C` records of each `.house` file (which carry the raw and mpcat40 names). This file only
 //! reads tables; [`super`] decides what to do with them.
 
+use crate::invalid::Invalid;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
@@ -147,7 +148,7 @@ type Rows<'a> = Vec<(usize, Vec<&'a str>)>;
 pub type Mpcat40Table = HashMap<usize, (String, Option<[f32; 3]>)>;
 
 /// Splits a TSV into its header columns and `(line number, fields)` rows, tolerating `\r\n`.
-fn tsv(text: &str) -> Result<(Vec<&str>, Rows<'_>), String> {
+fn tsv(text: &str) -> Result<(Vec<&str>, Rows<'_>), Invalid> {
     let mut lines = text
         .lines()
         .enumerate()
@@ -164,10 +165,10 @@ fn tsv(text: &str) -> Result<(Vec<&str>, Rows<'_>), String> {
     Ok((cols, rows))
 }
 
-fn column(cols: &[&str], name: &str) -> Result<usize, String> {
+fn column(cols: &[&str], name: &str) -> Result<usize, Invalid> {
     cols.iter()
         .position(|c| *c == name)
-        .ok_or_else(|| format!("line 1: no `{name}` column"))
+        .ok_or_else(|| Invalid::new(format!("no `{name}` column")).at("line 1"))
 }
 
 fn optional(s: Option<&&str>) -> Option<String> {
@@ -176,7 +177,7 @@ fn optional(s: Option<&&str>) -> Option<String> {
 }
 
 /// Parses `category_mapping.tsv` text: rows by their `index` column.
-pub fn parse_category_mapping(text: &str) -> Result<HashMap<usize, CategoryRow>, String> {
+pub fn parse_category_mapping(text: &str) -> Result<HashMap<usize, CategoryRow>, Invalid> {
     let (cols, rows) = tsv(text)?;
     let index = column(&cols, "index")?;
     let raw = column(&cols, "raw_category")?;
@@ -217,7 +218,7 @@ pub fn parse_category_mapping(text: &str) -> Result<HashMap<usize, CategoryRow>,
 }
 
 /// Parses `mpcat40.tsv` text: name and `#rrggbb` colour by mpcat40 index.
-pub fn parse_mpcat40(text: &str) -> Result<Mpcat40Table, String> {
+pub fn parse_mpcat40(text: &str) -> Result<Mpcat40Table, Invalid> {
     let (cols, rows) = tsv(text)?;
     let index = column(&cols, "mpcat40index")?;
     let name = column(&cols, "mpcat40")?;
@@ -300,9 +301,9 @@ mod tests {
         assert_eq!(r.mpcat40_index, Some(4));
         assert_eq!(r.mpcat40.as_deref(), Some("door"));
         let e = parse_category_mapping("index\traw_category\nx\twall\n").unwrap_err();
-        assert!(e.contains("line 2"), "{e}");
+        assert!(e.to_string().contains("line 2"), "{e}");
         let e = parse_category_mapping("idx\traw\n").unwrap_err();
-        assert!(e.contains("no `index` column"), "{e}");
+        assert!(e.to_string().contains("no `index` column"), "{e}");
     }
 
     #[test]

@@ -7,6 +7,7 @@
 //! message that names the field; the caller adds the file and the record. Nothing here knows
 //! rooms or objects.
 
+use crate::invalid::Invalid;
 use glam::{Mat4, Quat, Vec3};
 
 use crate::scene::mesh::{Material, Mesh, WorldMesh};
@@ -17,12 +18,9 @@ use super::json::{ChildJson, FurnitureJson, MeshJson};
 const MAX_COORD: f64 = 1e7;
 
 /// Reads `values` as exactly `n` finite numbers; the error names `field`.
-fn fixed(field: &str, values: &[Option<f64>], n: usize) -> Result<Vec<f32>, String> {
+fn fixed(field: &str, values: &[Option<f64>], n: usize) -> Result<Vec<f32>, Invalid> {
     if values.len() != n {
-        return Err(format!(
-            "`{field}` has {} values, expected {n}",
-            values.len()
-        ));
+        return Err(format!("`{field}` has {} values, expected {n}", values.len()).into());
     }
     values
         .iter()
@@ -31,18 +29,18 @@ fn fixed(field: &str, values: &[Option<f64>], n: usize) -> Result<Vec<f32>, Stri
         .collect()
 }
 
-fn finite(field: &str, i: usize, v: Option<f64>) -> Result<f32, String> {
+fn finite(field: &str, i: usize, v: Option<f64>) -> Result<f32, Invalid> {
     match v {
         Some(v) if v.is_finite() && v.abs() < MAX_COORD => Ok(v as f32),
-        Some(v) => Err(format!("`{field}[{i}]` is {v}, not a finite coordinate")),
-        None => Err(format!("`{field}[{i}]` is NaN, infinite or null")),
+        Some(v) => Err(format!("`{field}[{i}]` is {v}, not a finite coordinate").into()),
+        None => Err(format!("`{field}[{i}]` is NaN, infinite or null").into()),
     }
 }
 
 /// The model-to-world transform of a child: translate(`pos`) · rotate(`rot`) · scale(`scale`),
 /// as the 3D-FRONT ToolBox applies it. `rot` is a quaternion `[x, y, z, w]`, normalised here;
 /// missing fields mean identity. Negative scales (mirrors) are kept.
-pub(super) fn child_transform(child: &ChildJson) -> Result<Mat4, String> {
+pub(super) fn child_transform(child: &ChildJson) -> Result<Mat4, Invalid> {
     let pos = match &child.pos {
         Some(p) => Vec3::from_slice(&fixed("pos", p, 3)?),
         None => Vec3::ZERO,
@@ -56,7 +54,8 @@ pub(super) fn child_transform(child: &ChildJson) -> Result<Mat4, String> {
                 return Err(format!(
                     "`rot` {:?} is not a rotation (quaternion of length {len})",
                     q.to_array()
-                ));
+                )
+                .into());
             }
             q / len
         }
@@ -66,7 +65,7 @@ pub(super) fn child_transform(child: &ChildJson) -> Result<Mat4, String> {
         Some(s) => {
             let s = Vec3::from_slice(&fixed("scale", s, 3)?);
             if let Some(i) = (0..3).find(|&i| s[i].abs() < 1e-9) {
-                return Err(format!("`scale[{i}]` is 0: the transform is singular"));
+                return Err(format!("`scale[{i}]` is 0: the transform is singular").into());
             }
             s
         }
@@ -78,13 +77,10 @@ pub(super) fn child_transform(child: &ChildJson) -> Result<Mat4, String> {
 /// An inline architecture mesh in its own space (for architecture, that is world space before
 /// the child's transform). Normals are used when the file's are unit vectors, recomputed from
 /// the faces otherwise; `uv` is kept when it has one pair per vertex.
-pub(super) fn inline_mesh(m: &MeshJson, name: &str, material: Material) -> Result<Mesh, String> {
+pub(super) fn inline_mesh(m: &MeshJson, name: &str, material: Material) -> Result<Mesh, Invalid> {
     let xyz = m.xyz.as_deref().ok_or("missing field `xyz`")?;
     if !xyz.len().is_multiple_of(3) {
-        return Err(format!(
-            "`xyz` has {} values, not a multiple of 3",
-            xyz.len()
-        ));
+        return Err(format!("`xyz` has {} values, not a multiple of 3", xyz.len()).into());
     }
     let positions: Vec<[f32; 3]> = xyz
         .chunks_exact(3)
@@ -96,14 +92,11 @@ pub(super) fn inline_mesh(m: &MeshJson, name: &str, material: Material) -> Resul
                 finite("xyz", 3 * k + 2, c[2])?,
             ])
         })
-        .collect::<Result<_, String>>()?;
+        .collect::<Result<_, Invalid>>()?;
     let n = positions.len();
     let faces = m.faces.as_deref().ok_or("missing field `faces`")?;
     if !faces.len().is_multiple_of(3) {
-        return Err(format!(
-            "`faces` has {} indices, not a multiple of 3",
-            faces.len()
-        ));
+        return Err(format!("`faces` has {} indices, not a multiple of 3", faces.len()).into());
     }
     let indices: Vec<u32> = faces
         .iter()
@@ -112,12 +105,10 @@ pub(super) fn inline_mesh(m: &MeshJson, name: &str, material: Material) -> Resul
             if i >= 0 && (i as u64) < n as u64 {
                 Ok(i as u32)
             } else {
-                Err(format!(
-                    "`faces[{k}]` is {i}, out of range for {n} vertices"
-                ))
+                Err(format!("`faces[{k}]` is {i}, out of range for {n} vertices").into())
             }
         })
-        .collect::<Result<_, String>>()?;
+        .collect::<Result<_, Invalid>>()?;
     let mut mesh = Mesh {
         name: name.to_string(),
         positions,
@@ -238,7 +229,7 @@ pub fn unit_box() -> Mesh {
 /// `size` is read as (length x, depth z, height y) — the order of the design tool; `bbox`, used
 /// when `size` is absent, as (x, y, z), either flat or as a list holding one triple. Errors
 /// name the field holding a non-finite or negative value.
-pub(super) fn furniture_extent(f: &FurnitureJson) -> Result<Option<Vec3>, String> {
+pub(super) fn furniture_extent(f: &FurnitureJson) -> Result<Option<Vec3>, Invalid> {
     if let Some(size) = f.size.as_deref().filter(|s| !s.is_empty()) {
         let s = fixed("size", size, 3)?;
         return positive("size", Vec3::new(s[0], s[2], s[1])).map(Some);
@@ -259,9 +250,9 @@ pub(super) fn furniture_extent(f: &FurnitureJson) -> Result<Option<Vec3>, String
     positive("bbox", Vec3::from_slice(&b)).map(Some)
 }
 
-fn positive(field: &str, v: Vec3) -> Result<Vec3, String> {
+fn positive(field: &str, v: Vec3) -> Result<Vec3, Invalid> {
     if v.min_element() < 0.0 {
-        return Err(format!("`{field}` {v} has a negative extent"));
+        return Err(format!("`{field}` {v} has a negative extent").into());
     }
     // A flat model (a rug) keeps a sliver of thickness so its transform stays invertible.
     Ok(v.max(Vec3::splat(1e-3)))
@@ -334,7 +325,7 @@ mod tests {
         assert!((child_transform(&c).unwrap().determinant() - 1.0).abs() < 1e-6);
         let err = child_transform(&child("[0, 0, 0]", "[0, 0, 0, 0]", "[1, 1, 1]")).unwrap_err();
         assert!(
-            err.contains("`rot`") && err.contains("not a rotation"),
+            err.to_string().contains("`rot`") && err.to_string().contains("not a rotation"),
             "{err}"
         );
     }
@@ -342,14 +333,14 @@ mod tests {
     #[test]
     fn bad_fields_are_named() {
         let err = child_transform(&child("[0, null, 0]", "[0, 0, 0, 1]", "[1, 1, 1]")).unwrap_err();
-        assert!(err.contains("`pos[1]`"), "{err}");
+        assert!(err.to_string().contains("`pos[1]`"), "{err}");
         let err = child_transform(&child("[0, 0]", "[0, 0, 0, 1]", "[1, 1, 1]")).unwrap_err();
-        assert!(err.contains("`pos` has 2 values"), "{err}");
+        assert!(err.to_string().contains("`pos` has 2 values"), "{err}");
         let err = child_transform(&child("[0, 0, 0]", "[0, 0, 0, 1]", "[1, 0, 1]")).unwrap_err();
-        assert!(err.contains("`scale[1]` is 0"), "{err}");
+        assert!(err.to_string().contains("`scale[1]` is 0"), "{err}");
         let err =
             child_transform(&child("[0, 1e300, 0]", "[0, 0, 0, 1]", "[1, 1, 1]")).unwrap_err();
-        assert!(err.contains("`pos[1]`"), "{err}");
+        assert!(err.to_string().contains("`pos[1]`"), "{err}");
     }
 
     #[test]
@@ -395,13 +386,14 @@ mod tests {
         assert_eq!(mesh.uvs.len(), 3);
         let bad = mesh_json(r#"{"xyz": [0,0,0, 1,0,0, 0,0,-1], "faces": [0,1,3]}"#);
         let err = inline_mesh(&bad, "m", Material::solid("x", [1.0; 3])).unwrap_err();
-        assert!(err.contains("`faces[2]` is 3"), "{err}");
+        assert!(err.to_string().contains("`faces[2]` is 3"), "{err}");
         let bad = mesh_json(r#"{"xyz": [0,0,0, 1,null,0, 0,0,-1], "faces": [0,1,2]}"#);
         let err = inline_mesh(&bad, "m", Material::solid("x", [1.0; 3])).unwrap_err();
-        assert!(err.contains("`xyz[4]`"), "{err}");
+        assert!(err.to_string().contains("`xyz[4]`"), "{err}");
         let bad = mesh_json(r#"{"xyz": [0,0,0, 1,0], "faces": []}"#);
         assert!(inline_mesh(&bad, "m", Material::solid("x", [1.0; 3]))
             .unwrap_err()
+            .to_string()
             .contains("multiple of 3"));
     }
 
@@ -423,9 +415,9 @@ mod tests {
         );
         assert_eq!(furniture_extent(&furniture("{}")).unwrap(), None);
         let err = furniture_extent(&furniture(r#"{"size": [1, -2, 1]}"#)).unwrap_err();
-        assert!(err.contains("negative"), "{err}");
+        assert!(err.to_string().contains("negative"), "{err}");
         let err = furniture_extent(&furniture(r#"{"bbox": [1, "x", 1]}"#)).unwrap_err();
-        assert!(err.contains("`bbox[1]`"), "{err}");
+        assert!(err.to_string().contains("`bbox[1]`"), "{err}");
     }
 
     #[test]

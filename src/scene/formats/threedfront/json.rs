@@ -5,6 +5,7 @@
 //! indices in range, a rotation that is a rotation) is checked by `geometry` and `assemble`,
 //! which know the record a value belongs to and can name it in the error.
 
+use crate::invalid::Invalid;
 use serde::Deserialize;
 
 /// A whole scene file (`<scene uid>.json`).
@@ -128,10 +129,10 @@ impl FurnitureJson {
 
 impl FrontJson {
     /// Parses the file's bytes; the error is `line L column C: what` (one line).
-    pub fn parse(bytes: &[u8]) -> Result<FrontJson, String> {
+    pub fn parse(bytes: &[u8]) -> Result<FrontJson, Invalid> {
         let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
         serde_json::from_slice(&crate::scene::formats::nan_tokens_to_null(bytes))
-            .map_err(|e| crate::scene::formats::json_error_text(&e))
+            .map_err(|e| Invalid::new(crate::scene::formats::json_error_text(&e)))
     }
 
     /// Every string listed in `extension.door[].ref` (the furniture and meshes of doors).
@@ -176,8 +177,8 @@ mod tests {
     #[test]
     fn syntax_errors_give_line_and_column_on_one_line() {
         let err = FrontJson::parse(b"{\r\n  \"scene\": {\r\n    \"room\": [}\r\n}").unwrap_err();
-        assert!(err.starts_with("line 3 column "), "{err}");
-        assert!(!err.contains('\n'));
+        assert!(err.to_string().starts_with("line 3 column "), "{err}");
+        assert!(!err.to_string().contains('\n'));
     }
 
     #[test]

@@ -248,21 +248,13 @@ fn read_categories(path: &Path) -> Result<FutureCategories, LoadError> {
         path: path.to_path_buf(),
         source,
     })?;
-    let source = path.display().to_string();
     let is_json = path
         .extension()
         .is_some_and(|x| x.eq_ignore_ascii_case("json"));
     let parsed = if is_json {
-        FutureCategories::parse_model_info(&text, &source)
+        FutureCategories::parse_model_info(&text)
     } else {
-        FutureCategories::parse_csv(&text, &source)
+        FutureCategories::parse_csv(&text)
     };
-    // The parsers' messages already start with the file name.
-    parsed.map_err(|m| {
-        let m = m
-            .strip_prefix(&format!("{source}: "))
-            .map(str::to_string)
-            .unwrap_or(m);
-        LoadError::parse(path, m)
-    })
+    parsed.map_err(|m| LoadError::parse(path, m))
 }

@@ -4,6 +4,7 @@
 //!
 //! Tables only answer questions; they never touch a scene.
 
+use crate::invalid::Invalid;
 use std::collections::HashMap;
 
 use serde::Deserialize;
@@ -86,23 +87,21 @@ fn label(v: Option<&str>) -> Option<String> {
 
 impl FutureCategories {
     /// Parses CSV text with a header naming `model_id`, `category` and `super-category`;
-    /// errors name `source` and the line.
-    pub fn parse_csv(text: &str, source: &str) -> Result<Self, String> {
+    /// errors name the line (the caller names the file).
+    pub fn parse_csv(text: &str) -> Result<Self, Invalid> {
         let mut lines = text.lines().enumerate();
         let header = lines
             .next()
             .map(|(_, h)| h.trim_start_matches('\u{feff}'))
-            .ok_or_else(|| format!("{source}: empty file"))?;
+            .ok_or_else(|| Invalid::new("empty file"))?;
         let cols: Vec<&str> = header.split(',').map(str::trim).collect();
         let find = |name: &str| cols.iter().position(|c| c.eq_ignore_ascii_case(name));
         let model =
-            find("model_id").ok_or_else(|| format!("{source}: line 1: no `model_id` column"))?;
+            find("model_id").ok_or_else(|| Invalid::new("no `model_id` column").at("line 1"))?;
         let category = find("category");
         let super_category = find("super-category").or_else(|| find("super_category"));
         if category.is_none() && super_category.is_none() {
-            return Err(format!(
-                "{source}: line 1: no `category` or `super-category` column"
-            ));
+            return Err(Invalid::new("no `category` or `super-category` column").at("line 1"));
         }
         let mut map = HashMap::new();
         for (i, line) in lines {
@@ -114,7 +113,7 @@ impl FutureCategories {
                 .get(model)
                 .map(|s| s.trim())
                 .filter(|s| !s.is_empty())
-                .ok_or_else(|| format!("{source}: line {}: missing model_id", i + 1))?;
+                .ok_or_else(|| Invalid::new("missing model_id").at(format!("line {}", i + 1)))?;
             let get = |c: Option<usize>| label(c.and_then(|c| f.get(c).copied()));
             map.insert(
                 id.to_string(),
@@ -128,16 +127,15 @@ impl FutureCategories {
     }
 
     /// Parses a 3D-FUTURE `model_info.json` (a list of `{model_id, category,
-    /// super-category, …}`); errors name `source`.
-    pub fn parse_model_info(text: &str, source: &str) -> Result<Self, String> {
+    /// super-category, …}`); the caller names the file in errors.
+    pub fn parse_model_info(text: &str) -> Result<Self, Invalid> {
         let text = text.trim_start_matches('\u{feff}');
         let models: Vec<ModelInfo> = serde_json::from_str(text).map_err(|e| {
-            format!(
-                "{source}: {}",
+            Invalid::new(
                 e.to_string()
                     .split_whitespace()
                     .collect::<Vec<_>>()
-                    .join(" ")
+                    .join(" "),
             )
         })?;
         let map = models
@@ -370,26 +368,27 @@ mod tests {
         let csv = "index,model_id,category,super-category\r\n\
                    0,a-1,Floor Lamp,Lighting\r\n\
                    1,b-2,,Chair\r\n\r\n";
-        let t = FutureCategories::parse_csv(csv, "m.csv").unwrap();
+        let t = FutureCategories::parse_csv(csv).unwrap();
         assert_eq!(t.len(), 2);
         let a = t.get("a-1").unwrap();
         assert_eq!(a.category.as_deref(), Some("Floor Lamp"));
         assert_eq!(a.super_category.as_deref(), Some("Lighting"));
         assert_eq!(t.get("b-2").unwrap().category, None);
-        let err = FutureCategories::parse_csv("a,b\n", "x.csv").unwrap_err();
-        assert!(err.contains("x.csv") && err.contains("model_id"), "{err}");
+        let err = FutureCategories::parse_csv("a,b\n").unwrap_err();
+        assert_eq!(err.at, ["line 1"]);
+        assert!(err.problem.contains("model_id"), "{err}");
     }
 
     #[test]
     fn model_info_json_reads_categories() {
         let json = r#"[{"model_id": "m1", "category": "Nightstand", "super-category": "Cabinet/Shelf/Desk", "style": "Modern"}]"#;
-        let t = FutureCategories::parse_model_info(json, "model_info.json").unwrap();
+        let t = FutureCategories::parse_model_info(json).unwrap();
         assert_eq!(
             t.get("m1").unwrap().super_category.as_deref(),
             Some("Cabinet/Shelf/Desk")
         );
-        let err = FutureCategories::parse_model_info("{\n", "model_info.json").unwrap_err();
-        assert!(err.starts_with("model_info.json: ") && !err.contains('\n'));
+        let err = FutureCategories::parse_model_info("{\n").unwrap_err();
+        assert!(!err.to_string().contains('\n'), "{err}");
     }
 
     #[test]
