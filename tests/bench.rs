@@ -1,7 +1,7 @@
 //! `minos bench` as a script meets it: the JSON's structure, and counts that agree with each
 //! other and with the flags (never timings).
 
-mod common;
+use crate::common;
 
 use common::{baked_houses, minos, RunOk};
 use minos::generate::GenerateConfig;

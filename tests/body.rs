@@ -2,7 +2,7 @@
 //! (with a one-line error naming both bodies and the rebake), unless the mismatch is allowed
 //! explicitly, which the run manifest records.
 
-mod common;
+use crate::common;
 
 use common::{cli_ingested, minos, RunOk};
 use std::path::Path;

@@ -1,6 +1,6 @@
 //! The command line as a user meets it: bad input, resuming, help, the demo.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 

@@ -1,7 +1,7 @@
 //! Corrupt inputs in a batch: one bad scene gives one error row (or one error line) naming the
 //! file, and the batch goes on with the others.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 

@@ -5,7 +5,7 @@
 //! naming the file and the next run completes.
 #![cfg(unix)]
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;

@@ -2,7 +2,7 @@
 //! fresh path query; filters act; output is identical across threads and shards; Habitat
 //! export round-trips.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 

@@ -2,7 +2,7 @@
 //! toolchain: each must give a one-line error, never a panic. The files are the fuzzers'
 //! crash inputs as found (`tests/data/fuzz/<target>-<what>.*`).
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 

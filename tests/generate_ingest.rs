@@ -1,7 +1,7 @@
 //! Generated houses round-trip through ingest, are plausible navigation environments, and
 //! are byte-identical for the same seed whatever the thread count.
 
-mod common;
+use crate::common;
 
 use std::collections::BTreeSet;
 

@@ -7,9 +7,9 @@
 //! `python3`) and skips, saying why, when it cannot import habitat-lab. habitat-lab 0.3.3
 //! imports on Python 3.9/3.10 only (3.11's dataclasses reject its config defaults), e.g.
 //! `python3.9 -m venv V && V/bin/pip install habitat-lab==0.3.320250127`, then
-//! `MINOS_HABITAT_PYTHON=V/bin/python cargo test --test habitat`.
+//! `MINOS_HABITAT_PYTHON=V/bin/python cargo test --release --test suite habitat::`.
 
-mod common;
+use crate::common;
 
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};

@@ -4,7 +4,7 @@
 //! PNG image encoding against the raw one; and, when Python can `import lerobot`, loaded by
 //! the real `LeRobotDataset` (tests/python/check_lerobot.py).
 
-mod common;
+use crate::common;
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};

@@ -5,7 +5,7 @@
 //! again from `export-dataset --video` at another thread count, `minos verify` passing the
 //! dataset and finding a damaged video, a shifted episode and a lying statistic.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 

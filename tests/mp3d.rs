@@ -2,7 +2,7 @@
 //! as `.house` + `.ply`, `ingest --dataset mp3d` reads them back, and the manifest, the scenes
 //! and their navigation agree with the plans — with the house mesh and with proxy geometry.
 
-mod common;
+use crate::common;
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;

@@ -3,7 +3,7 @@
 //! agree, the bytes do not depend on the thread count, and a bad row is a one-line error
 //! naming the file, the row and the column.
 
-mod common;
+use crate::common;
 
 use std::path::PathBuf;
 use std::sync::Arc;

@@ -1,7 +1,7 @@
 //! Navigation on hand-made scenes with answers computed independently in the test (exact
 //! shortest paths in the polygonal free space by a visibility graph), and on generated houses.
 
-mod common;
+use crate::common;
 
 use common::scenes::SceneBuilder;
 use glam::Vec3;

@@ -1,7 +1,7 @@
 //! Navigation on generated houses: open doors connect rooms, closed rooms are islands of their
 //! own, stairs join levels, geodesics are symmetric; and the real SUNCG sample bakes.
 
-mod common;
+use crate::common;
 
 use std::collections::BTreeSet;
 use std::path::PathBuf;

@@ -3,7 +3,7 @@
 //! agent (forward / turn left / turn right only, which its plans then use alone). Episodes
 //! that fail with an error count as failures in every summary. Doors on the way are counted.
 
-mod common;
+use crate::common;
 
 use std::collections::BTreeSet;
 use std::path::Path;

@@ -8,7 +8,7 @@
 //! compiled dependencies. Without python3, its venv module or a reachable package registry the
 //! test says that it skipped and why; once the tools are there, a failing build or test fails.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};

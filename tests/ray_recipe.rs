@@ -6,7 +6,7 @@
 //! Needs a Python with Ray: `$MINOS_RAY_PYTHON`, else `~/.cache/minos-ci-ray-venv` (which
 //! `.ci/run` fills when root), else `python3`; without one the test says it skipped and why.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};

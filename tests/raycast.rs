@@ -3,7 +3,7 @@
 //! within the parity rules the wgpu renderer is held to (`tests/sim.rs`), and pixels that
 //! show the same triangle agree exactly (colour, labels) or to depth-buffer precision.
 
-mod common;
+use crate::common;
 
 use std::f32::consts::FRAC_PI_2;
 

@@ -2,7 +2,7 @@
 //! (set by `.ci/run` to `../shared/datasets` when that folder exists); the expected counts are
 //! computed here from the scene JSON itself with serde_json, not copied from the dataset.
 
-mod common;
+use crate::common;
 
 use std::collections::{BTreeMap, HashMap, HashSet};
 use std::path::PathBuf;

@@ -4,7 +4,7 @@
 //! Gated on `MINOS_REAL_DATA` (the shared datasets folder); files are read in place or
 //! copied into a temporary folder, never into the repository.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 

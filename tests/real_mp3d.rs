@@ -2,7 +2,7 @@
 //! describes, and their proxy geometry is navigable between the panoramas R2R links. Gated on
 //! `MINOS_REAL_DATA` (the folder holding `matterport3d/`).
 
-mod common;
+use crate::common;
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::PathBuf;

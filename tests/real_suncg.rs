@@ -1,7 +1,7 @@
 //! The real public SUNCG sample loads as the issue describes. Gated on `MINOS_REAL_DATA`
 //! (set by `.ci/run` to `../shared/datasets` when that folder exists).
 
-mod common;
+use crate::common;
 
 use std::collections::BTreeSet;
 use std::path::PathBuf;

@@ -2,7 +2,7 @@
 //! measured alongside; Parquet outputs read back equal the simulator's observations; replays
 //! reproduce poses; an interrupted run resumed gives identical bytes.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 use std::sync::Arc;

@@ -2,7 +2,7 @@
 //! ingest with `--dataset mp3d`, have the triangle count asked for, keep their labels, and
 //! their three levels are joined by walkable stairs after the bake.
 
-mod common;
+use crate::common;
 
 use std::collections::BTreeSet;
 

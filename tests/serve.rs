@@ -5,7 +5,7 @@
 //! vanished or idle page frees its simulator, and a server killed mid-episode leaves the
 //! finished episodes complete.
 
-mod common;
+use crate::common;
 
 use std::collections::HashMap;
 use std::net::SocketAddr;

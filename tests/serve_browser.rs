@@ -6,7 +6,7 @@
 //! Without Chromium the test says it skipped and why. `MINOS_SCREENSHOT=FILE` saves a
 //! screenshot of the page at the goal.
 
-mod common;
+use crate::common;
 
 use std::net::SocketAddr;
 use std::path::PathBuf;

@@ -6,7 +6,7 @@
 //! episode byte for byte, discards the interrupted one without litter and lets the
 //! participant come back with the same link.
 
-mod common;
+use crate::common;
 
 use std::collections::BTreeSet;
 use std::net::SocketAddr;

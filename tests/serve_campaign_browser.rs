@@ -4,7 +4,7 @@
 //! nothing is left; then the operator page, opened with its token, lists both
 //! demonstrations with their verdicts. Without Chromium the test says it skipped and why.
 
-mod common;
+use crate::common;
 
 use std::path::PathBuf;
 use std::time::Duration;

@@ -3,7 +3,7 @@
 //! shards, one of them killed and resumed); inputs that are not the shards of one job are
 //! refused with a one-line error.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};

@@ -2,7 +2,7 @@
 //! tilt limits; depth, normals, labels, contacts and the geodesic measurement; and CPU/wgpu
 //! renderer parity on a generated house.
 
-mod common;
+use crate::common;
 
 use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI};
 use std::sync::Arc;

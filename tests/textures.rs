@@ -3,7 +3,7 @@
 //! oblique floor the texel boundary lies where the world midpoint projects (perspective-
 //! correct, not the screen midpoint); a missing texture file falls back to the flat colour.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 

@@ -3,7 +3,7 @@
 //! colours only, follows the category statistics and keeps texture sets disjoint; and the
 //! paper's empty-vs-furnished geodesic/Euclidean comparison.
 
-mod common;
+use crate::common;
 
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};

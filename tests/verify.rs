@@ -5,7 +5,7 @@
 //! missing or unlisted file) and asserting the exact problem line; `diff` by changing one
 //! value and asserting the line that names its episode, step, column and both values.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;

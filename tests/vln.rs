@@ -3,7 +3,7 @@
 //! byte-identical whatever the threads or shards, stored and read back exactly, and exported
 //! as VLN-CE and R2R files.
 
-mod common;
+use crate::common;
 
 use std::collections::BTreeSet;
 

@@ -1,7 +1,7 @@
 //! Nothing stored depends on the working directory: a dataset ingested with relative paths
 //! from one folder renders, textures included, to the same bytes from another folder.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 use std::process::Output;
