@@ -237,7 +237,7 @@ def test_tables_name_every_paper_cell_and_report_what_is_not_run(tmp_path):
         assert c.episodes_on_base == (c.variant == "empty"), name
         # The door cells' goals are drawn from the starts of MINOS's episode states.
         assert c.states == (c.task == "objectgoal"), name
-        # Two DAgger rounds for every row that sees; measurements alone are cloned only.
+        # Two DAgger rounds for every row that sees an image; blind rows are cloned only.
         assert c.dagger == 2 and not c.dagger_blind, name
     rep = tables.report(tmp_path)
     assert "point-suncg-furnished-small" in rep and "| — |" in rep
@@ -249,6 +249,9 @@ def test_dagger_rows_are_other_rows_than_their_cloned_ones(tmp_path):
     seeing, blind = ("M", "D"), ("M",)
     cfg = CellConfig(work=str(tmp_path), dagger=2, dagger_blind=False)
     assert (dagger_rounds(cfg, seeing), dagger_rounds(cfg, blind)) == (2, 0)
+    # Contact bits and the previous action are not images: still blind.
+    assert dagger_rounds(cfg, ("M", "F")) == dagger_rounds(cfg, ("M", "F", "A")) == 0
+    assert dagger_rounds(cfg, ("M", "V", "F")) == dagger_rounds(cfg, ("M", "S")) == 2
     assert row_file(tmp_path, cfg, seeing).name == "MD-gru-s0-dagger2.json"
     assert row_file(tmp_path, cfg, blind).name == "M-gru-s0.json"
     # As asked on the command line (`cell --dagger 1`): every row, measurements alone too.

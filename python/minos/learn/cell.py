@@ -72,9 +72,10 @@ class CellConfig:
     lr: float = 1e-3
     dagger: int = 0
     beta: float = 0.5
-    # Whether rows of measurements alone get the DAgger rounds too. The tables say no: near a
-    # wall the oracle's correction is not a function of what such a policy observes, and
-    # DAgger made it worse (docs/RESULTS.md).
+    # Whether blind rows (no image: measurements, contact bits, the previous action) get the
+    # DAgger rounds too. The tables say no: the oracle turns away from a wall before touching
+    # it, which such a policy cannot observe, and DAgger made M and M+F worse
+    # (docs/RESULTS.md).
     dagger_blind: bool = True
     num_envs: int = 8
     sample: bool = True
@@ -86,10 +87,14 @@ class CellConfig:
     device: str = "auto"
 
 
+#: The modalities that are images; a row with none of them is blind.
+IMAGE_MODALITIES = frozenset({"V", "D", "S"})
+
+
 def dagger_rounds(cfg: CellConfig, mods: tuple[str, ...]) -> int:
-    """The DAgger rounds of a row with modalities ``mods``: ``cfg.dagger``, except for rows of
-    measurements alone when ``cfg.dagger_blind`` is off."""
-    if not cfg.dagger_blind and set(mods) <= {"M"}:
+    """The DAgger rounds of a row with modalities ``mods``: ``cfg.dagger``, except for blind
+    rows (no image among ``mods``) when ``cfg.dagger_blind`` is off."""
+    if not cfg.dagger_blind and not set(mods) & IMAGE_MODALITIES:
         return 0
     return cfg.dagger
 

@@ -15,9 +15,9 @@ arch (ObjectGoal) or room (RoomGoal) as the goal (``select: random``), and the e
 episodes sampled in the furnished houses and run with the furniture removed (MINOS's empty and
 furnished configs shared one states file). The random
 rows are MINOS's random agent (``minos-random``: each button pressed with probability ½ per
-step), averaged over five seeds. Every row that sees more than the measurements is
+step), averaged over five seeds. Every row that sees an image (V or D) is
 behaviour-cloned from the oracle and then trained in two DAgger rounds (the oracle labelling
-the states the policy reaches in the training houses); rows of measurements alone are cloned
+the states the policy reaches in the training houses); blind rows (M, M+F) are cloned
 only. The data sizes are chosen so that a cell's training and
 evaluation fit about 10 minutes of a 2-core CPU (docs/RESULTS.md says what each cell chose and
 what it took). ``--random-only`` stops each cell after its random row: the task-difficulty
@@ -202,7 +202,8 @@ def report(root: str | Path) -> str:
             f"{secs} |")
     door = allc[f"door-{MOD_COLUMNS[0]}/M+D"]
     lines += ["", "## Modalities (ObjectGoal door, success / speed %; paper DFP in brackets; "
-              f"M {how(door, 'M')}, the other rows {how(door, 'M+D')})", "",
+              f"M and M+F {how(door, 'M+F')}, the rows with an image {how(door, 'M+D')})",
+              "",
               "| row | " + " | ".join(MOD_COLUMNS) + " |",
               "|---|" + "---|" * len(MOD_COLUMNS)]
     for row_name, paper in PAPER_MODALITIES.items():
