@@ -180,7 +180,7 @@ fn step_once(
         .zip(active.par_iter_mut())
         .map(|((stepper, agent), slot)| {
             let a = slot.as_mut().ok_or_else(|| {
-                EpisodeError::Part("an environment stepped without an episode".into())
+                EpisodeError::OutOfOrder("an environment stepped without an episode".into())
             })?;
             if stepper.awaits_first_observation() {
                 return Ok(None);

@@ -4,7 +4,7 @@
 
 use std::path::Path;
 
-use super::parts::{part, write_done};
+use super::parts::{part, write_done, PartError};
 use super::scene::SceneRun;
 use super::RunConfig;
 use crate::episode::Episode;
@@ -32,8 +32,11 @@ pub enum EpisodeError {
     #[error("{0}")]
     Table(TableError),
     /// The metrics part could not be written.
-    #[error("{0}")]
-    Part(String),
+    #[error(transparent)]
+    Part(#[from] PartError),
+    /// A driver broke the stepping order (a bug): what happened.
+    #[error("stepping out of order: {0}")]
+    OutOfOrder(String),
 }
 
 /// Runs one episode into its part files (and, when `record`, its recording) and returns its
@@ -164,7 +167,7 @@ impl EpisodeParts {
     /// gave.
     pub fn after(&mut self, out: &StepOutcome<'_>) -> Result<(), EpisodeError> {
         let Some(mut row) = self.pending.take() else {
-            return Err(EpisodeError::Part(format!(
+            return Err(EpisodeError::OutOfOrder(format!(
                 "episode {}: a step's outcome without its decision",
                 self.episode_id
             )));
@@ -209,8 +212,7 @@ impl EpisodeParts {
             r.finish()?;
         }
         let m = stepper.metrics()?;
-        write_done(&parts, index, &episode_id, &m)
-            .map_err(|e| EpisodeError::Part(e.to_string()))?;
+        write_done(&parts, index, &episode_id, &m)?;
         Ok(m)
     }
 }

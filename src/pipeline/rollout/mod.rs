@@ -240,7 +240,9 @@ impl Failed {
     fn of(e: episode::EpisodeError) -> Failed {
         use episode::EpisodeError as E;
         match e {
-            E::Table(_) | E::Part(_) | E::Recording(_) => Failed::Write(e.to_string()),
+            E::Table(_) | E::Part(_) | E::Recording(_) | E::OutOfOrder(_) => {
+                Failed::Write(e.to_string())
+            }
             E::Agent(_) | E::Step(_) => Failed::Episode(e.to_string()),
         }
     }
