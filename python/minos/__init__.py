@@ -13,8 +13,13 @@ docs/PYTHON.md.
 """
 
 from ._minos import (
+    BadInputError,
+    BodyMismatchError,
     Episode,
+    LockedError,
     MinosError,
+    NotFoundError,
+    NotReadyError,
     PathFinder,
     Simulator,
     __version__,
@@ -43,9 +48,14 @@ class GreedyFollower:
 
 
 __all__ = [
+    "BadInputError",
+    "BodyMismatchError",
     "Episode",
     "GreedyFollower",
+    "LockedError",
     "MinosError",
+    "NotFoundError",
+    "NotReadyError",
     "PathFinder",
     "Simulator",
     "__version__",

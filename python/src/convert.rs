@@ -18,7 +18,9 @@ use minos::render::RendererChoice;
 use minos::shard::{Shard, ShardSpec};
 use minos::sim::SensorSuite;
 
-use crate::MinosError;
+use crate::{
+    BadInputError, BodyMismatchError, LockedError, MinosError, NotFoundError, NotReadyError,
+};
 
 /// The error and its causes on one line, skipping causes whose text the line already holds:
 /// exactly what `minos` prints after `error: `.
@@ -34,14 +36,83 @@ pub fn one_line(e: &anyhow::Error) -> String {
     line.replace('\n', " ")
 }
 
-/// An anyhow error as a `MinosError`.
+/// An anyhow error as a `MinosError`, or the subclass its kind asks for (see [`kind`]).
 pub fn py_err(e: anyhow::Error) -> PyErr {
-    MinosError::new_err(one_line(&e))
+    let line = one_line(&e);
+    // The most specific kind anywhere in the chain: a missing file under a format error is
+    // a missing file.
+    match e.chain().filter_map(kind).min() {
+        Some(Kind::BadInput) => BadInputError::new_err(line),
+        Some(Kind::Body) => BodyMismatchError::new_err(line),
+        Some(Kind::Locked) => LockedError::new_err(line),
+        Some(Kind::NotFound) => NotFoundError::new_err(line),
+        Some(Kind::NotReady) => NotReadyError::new_err(line),
+        None => MinosError::new_err(line),
+    }
+}
+
+/// A library error as a `MinosError` or its subclass, with its one line.
+pub fn typed_err(e: impl std::error::Error + Send + Sync + 'static) -> PyErr {
+    py_err(anyhow::Error::new(e))
 }
 
 /// Any displayable error as a `MinosError`.
 pub fn msg_err(e: impl std::fmt::Display) -> PyErr {
     MinosError::new_err(e.to_string().replace('\n', " "))
+}
+
+/// The Python exception classes below `MinosError`, most specific first.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+enum Kind {
+    Body,
+    Locked,
+    NotReady,
+    NotFound,
+    BadInput,
+}
+
+/// The kind of one error of a chain, when it has one: a body mismatch, a lock held, scenes
+/// not ready, a file that does not exist, or input that is not valid.
+fn kind(e: &(dyn std::error::Error + 'static)) -> Option<Kind> {
+    use minos::pipeline::rollout::{RolloutError, SceneLoadError};
+    use minos::pipeline::vector_env::VectorEnvError;
+    use minos::sim::simulator::SimError;
+    if e.is::<minos::body::BodyMismatch>() {
+        return Some(Kind::Body);
+    }
+    if let Some(e) = e.downcast_ref::<SimError>() {
+        return matches!(e, SimError::Body(_)).then_some(Kind::Body);
+    }
+    if let Some(e) = e.downcast_ref::<SceneLoadError>() {
+        return Some(match e {
+            SceneLoadError::Assets(SimError::Body(_)) => Kind::Body,
+            SceneLoadError::Scene(_) | SceneLoadError::Grid(_) => Kind::NotReady,
+            _ => return None,
+        });
+    }
+    if e.is::<minos::lock::LockError>() {
+        return Some(Kind::Locked);
+    }
+    if matches!(
+        e.downcast_ref::<RolloutError>(),
+        Some(RolloutError::NotReady { .. })
+    ) || matches!(
+        e.downcast_ref::<VectorEnvError>(),
+        Some(VectorEnvError::NotReady { .. })
+    ) {
+        return Some(Kind::NotReady);
+    }
+    if e.downcast_ref::<std::io::Error>()
+        .is_some_and(|io| io.kind() == std::io::ErrorKind::NotFound)
+    {
+        return Some(Kind::NotFound);
+    }
+    let bad_input = e.is::<minos::invalid::Invalid>()
+        || e.is::<minos::scene::formats::LoadError>()
+        || e.is::<minos::parquet_io::ParquetFileError>()
+        || e.is::<minos::episode::format::EpisodeFileError>()
+        || e.is::<minos::store::SceneFileError>();
+    bad_input.then_some(Kind::BadInput)
 }
 
 /// A point `(x, y, z)` from any sequence of three numbers (tuple, list, NumPy array).
@@ -110,7 +181,7 @@ pub fn sensor_suite(
 /// Reads a sensor file as the CLI's `--sensors FILE` does.
 fn read_sensor_file(p: &Path) -> anyhow::Result<SensorSuite> {
     let text = std::fs::read_to_string(p).with_context(|| p.display().to_string())?;
-    SensorSuite::parse(&text, &p.display().to_string()).map_err(anyhow::Error::msg)
+    Ok(SensorSuite::parse(&text, &p.display().to_string())?)
 }
 
 /// A shard `i/n` or `auto` (from the scheduler's environment), as `--shard`.

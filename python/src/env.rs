@@ -18,7 +18,7 @@ use minos::sim::sensors::CameraSensor;
 use minos::sim::{AgentConfig, Observation};
 use minos::store::DataDir;
 
-use crate::convert::{msg_err, path_of, preset, py_err, sensor_suite};
+use crate::convert::{msg_err, path_of, preset, py_err, sensor_suite, typed_err};
 use crate::episodes::PyEpisode;
 use crate::sim::{image_shape, sensor_specs};
 
@@ -37,7 +37,7 @@ fn env_err(e: VectorEnvError) -> PyErr {
         VectorEnvError::NoEpisodes => msg_err("episodes: no episode to run"),
         VectorEnvError::Threads(e) => msg_err(format!("threads: {e}")),
         VectorEnvError::Actions { .. } => pyo3::exceptions::PyValueError::new_err(e.to_string()),
-        e => msg_err(e),
+        e => typed_err(e),
     }
 }
 

@@ -25,6 +25,36 @@ pyo3::create_exception!(
     pyo3::exceptions::PyException,
     "An error of minos: the same one-line message the command line prints."
 );
+pyo3::create_exception!(
+    _minos,
+    BadInputError,
+    MinosError,
+    "A file minos reads is not valid (a scene, a table, a grid, a setting), or a value given is not."
+);
+pyo3::create_exception!(
+    _minos,
+    BodyMismatchError,
+    MinosError,
+    "The navigation grid was baked for another agent body than the one asked for."
+);
+pyo3::create_exception!(
+    _minos,
+    LockedError,
+    MinosError,
+    "Another process writes the folder (its lock names the holder)."
+);
+pyo3::create_exception!(
+    _minos,
+    NotFoundError,
+    MinosError,
+    "A file or folder minos needs does not exist."
+);
+pyo3::create_exception!(
+    _minos,
+    NotReadyError,
+    MinosError,
+    "Scenes are not ingested or not baked yet for what was asked."
+);
 
 /// Logging to stderr as the CLI does: `RUST_LOG` wins, else warnings of minos; no ANSI
 /// colours unless stderr is a terminal. Only the first call installs it.
@@ -44,6 +74,11 @@ fn init_logging() {
 fn _minos(m: &Bound<'_, PyModule>) -> PyResult<()> {
     init_logging();
     m.add("MinosError", m.py().get_type::<MinosError>())?;
+    m.add("BadInputError", m.py().get_type::<BadInputError>())?;
+    m.add("BodyMismatchError", m.py().get_type::<BodyMismatchError>())?;
+    m.add("LockedError", m.py().get_type::<LockedError>())?;
+    m.add("NotFoundError", m.py().get_type::<NotFoundError>())?;
+    m.add("NotReadyError", m.py().get_type::<NotReadyError>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_class::<sim::Simulator>()?;
     m.add_class::<episodes::PyEpisode>()?;

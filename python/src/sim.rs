@@ -11,7 +11,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use minos::episode::{Difficulty, Episode, Goal, Task};
-use minos::pipeline::rollout::load_scene_assets;
+use minos::pipeline::rollout::{load_scene_assets, SceneLoadError};
 use minos::render::Image;
 use minos::render::{Renderer, RendererChoice};
 use minos::run::agents::{action_set, Agent, Decision, STOP};
@@ -21,7 +21,7 @@ use minos::sim::sensors::{dtype_of, CameraSensor};
 use minos::sim::{Actions, AgentConfig, GoalSpec, Observation, SceneAssets, SensorSuite};
 use minos::store::DataDir;
 
-use crate::convert::{msg_err, point, preset, sensor_suite};
+use crate::convert::{msg_err, point, preset, py_err, sensor_suite};
 use crate::episodes::PyEpisode;
 
 /// A scene ready for simulators: its assets and renderer, shared by every simulator on it.
@@ -42,9 +42,8 @@ pub fn load_scene(
     agent: &AgentConfig,
     choice: RendererChoice,
     allow_body_mismatch: bool,
-) -> Result<LoadedScene, String> {
-    let (assets, renderer) = load_scene_assets(data, scene_id, agent, choice, allow_body_mismatch)
-        .map_err(|e| e.to_string())?;
+) -> Result<LoadedScene, SceneLoadError> {
+    let (assets, renderer) = load_scene_assets(data, scene_id, agent, choice, allow_body_mismatch)?;
     Ok(LoadedScene { assets, renderer })
 }
 
@@ -240,7 +239,7 @@ impl Simulator {
         let choice = crate::convert::renderer(renderer)?;
         let loaded = py
             .detach(|| load_scene(&data, scene, &body, choice, allow_body_mismatch))
-            .map_err(|e| msg_err(format!("scene {scene}: {e}")))?;
+            .map_err(|e| py_err(anyhow::Error::new(e).context(format!("scene {scene}"))))?;
         let cameras = suite.cameras.clone();
         let sim = minos::sim::Simulator::new(
             loaded.assets,

@@ -218,3 +218,45 @@ def test_verify_and_diff_report_what_the_cli_prints(world, tmp_path, minos_bin):
     cli_lines = cli(minos_bin, "verify", tmp_path / "b", ok=False).stdout.splitlines()
     assert bad["problems"] == cli_lines
     assert bad["problems"][0].startswith(f"{tmp_path / 'b' / 'metrics.json'}: checksum: ")
+
+
+def test_errors_raise_the_subclass_of_their_kind(world, tmp_path):
+    import fcntl
+
+    def raised(f):
+        with pytest.raises(minos.MinosError) as e:
+            f()
+        assert "\n" not in str(e.value)
+        return type(e.value)
+
+    # A file or folder that does not exist.
+    assert raised(lambda: minos.read_episodes(tmp_path / "nope.parquet")) is minos.NotFoundError
+    assert raised(lambda: minos.ingest(tmp_path / "missing", tmp_path / "D")) \
+        is minos.NotFoundError
+    # Input that is not valid: a file that is not Parquet, a sensor file naming no modality.
+    garbage = tmp_path / "garbage.parquet"
+    garbage.write_bytes(b"not parquet" * 8)
+    assert raised(lambda: minos.read_episodes(garbage)) is minos.BadInputError
+    bad = tmp_path / "bad.toml"
+    bad.write_text('[[camera]]\nname = "a"\nmodality = "smell"\nresolution = [8, 8]\n')
+    scene = world.scenes[0]
+    assert raised(lambda: minos.Simulator(world.data, scene, sensors=bad)) \
+        is minos.BadInputError
+    # Grids baked for Habitat's body, an agent with MINOS's.
+    assert raised(lambda: minos.Simulator(world.data, scene, agent="minos")) \
+        is minos.BodyMismatchError
+    # A scene that is not ingested; scenes whose grids are gone.
+    assert raised(lambda: minos.Simulator(world.data, "no-such-scene")) is minos.NotReadyError
+    data = tmp_path / "DATA"
+    shutil.copytree(world.data, data)
+    shutil.rmtree(data / "nav")
+    assert raised(lambda: minos.run(data, world.point, "oracle", tmp_path / "r")) \
+        is minos.NotReadyError
+    # Another writer holds the DATA folder's lock.
+    with open(data / ".minos.lock", "a") as held:
+        fcntl.flock(held, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        assert raised(lambda: minos.bake(data, previews=False)) is minos.LockedError
+    # Every subclass is a MinosError, so `except minos.MinosError` still catches them all.
+    for cls in (minos.BadInputError, minos.BodyMismatchError, minos.LockedError,
+                minos.NotFoundError, minos.NotReadyError):
+        assert issubclass(cls, minos.MinosError)
