@@ -2,7 +2,6 @@
 //! and a run's tables: writer properties, writing record batches atomically, reading every
 //! batch, and typed columns, with errors that name the file.
 
-use crate::invalid::Invalid;
 use std::fs::File;
 use std::path::Path;
 
@@ -17,6 +16,7 @@ use parquet::file::properties::{EnabledStatistics, WriterProperties};
 use parquet::schema::types::ColumnPath;
 
 use crate::atomic::write_atomic;
+use crate::invalid::Invalid;
 
 /// A Parquet file that could not be read or written; the message names the file.
 #[derive(Debug, thiserror::Error)]

@@ -49,7 +49,6 @@
 //! `goal_room_classes` hold nulls. The `goal_*` list columns have one entry per target, in the
 //! same order.
 
-use crate::invalid::Invalid;
 use std::path::Path;
 use std::sync::Arc;
 
@@ -61,6 +60,7 @@ use arrow::datatypes::{Field, Schema};
 
 use super::vln::Route;
 use super::{Difficulty, Episode, Goal, GoalTarget, TargetRoom, Task};
+use crate::invalid::Invalid;
 use crate::parquet_io::{read_batches, write_batches, writer_properties, ParquetFileError};
 
 /// The optional `goal_room_ids` / `goal_room_classes` columns of a batch.

@@ -50,7 +50,6 @@
 //! are accepted (quoted fields may not span lines). A bad row stops the import with an error
 //! naming the file, the line (the header is line 1) and the column.
 
-use crate::invalid::Invalid;
 use std::borrow::Cow;
 use std::collections::HashMap;
 use std::io::BufRead;
@@ -59,6 +58,7 @@ use std::path::Path;
 use super::interchange::{difficulty_for_geodesic, distance, open_text, DEFAULT_MAX_STEPS};
 use super::{Episode, Goal, GoalTarget, TargetRoom, Task};
 use crate::escape::escape_controls;
+use crate::invalid::Invalid;
 use crate::scene::RoomClass;
 
 /// Height (m) of MINOS's agent origin above the floor (half of its 1.09 m eye height), taken

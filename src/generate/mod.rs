@@ -16,11 +16,11 @@ pub mod scan;
 pub mod suncg_writer;
 pub mod textures;
 
-use crate::invalid::Invalid;
 use std::path::Path;
 
 use rayon::prelude::*;
 
+use crate::invalid::Invalid;
 use crate::progress::Progress;
 use crate::seed::{derive_seed, Rng};
 

@@ -1,8 +1,9 @@
 //! [`NavGrid::validate`]: the invariants every query indexes by, checked on a grid read from a
 //! file, so a corrupt grid is a one-line error instead of an index out of bounds later.
 
-use super::grid::{NavGrid, DIRS, NONE};
 use crate::invalid::Invalid;
+
+use super::grid::{NavGrid, DIRS, NONE};
 
 impl NavGrid {
     /// Checks that the grid can be queried without indexing out of range: parameters usable,

@@ -7,8 +7,9 @@
 //! triangle filter), which bounds memory to about 192 KiB per texture and acts as a fixed
 //! pre-filter: the sensors' images are small (84²–256²), so finer texels would only alias.
 
-use crate::invalid::Invalid;
 use std::path::{Path, PathBuf};
+
+use crate::invalid::Invalid;
 
 /// Largest side of a texture after loading (pixels).
 pub const MAX_TEXTURE_SIZE: u32 = 256;

@@ -8,8 +8,9 @@
 //! replay must give the same bytes), so the times come from whoever recorded the episode
 //! (`minos serve`) and are kept beside it in its QC record.
 
-use crate::invalid::Invalid;
 use serde::{Deserialize, Serialize};
+
+use crate::invalid::Invalid;
 
 use super::metrics::EpisodeMetrics;
 

@@ -1,8 +1,9 @@
 //! Indexed triangle meshes, materials, and placing a mesh in the world.
 
-use crate::invalid::Invalid;
 use glam::{Mat3, Mat4, Vec3};
 use serde::{Deserialize, Serialize};
+
+use crate::invalid::Invalid;
 
 use super::geometry::Aabb;
 

@@ -4,14 +4,15 @@
 //! (loaders convert). Meshes live once in [`Scene::meshes`] and are referenced by index, so a
 //! model placed twice is stored once.
 
-use crate::invalid::Invalid;
 use glam::Mat4;
 use serde::{Deserialize, Serialize};
 
 use super::geometry::Aabb;
 use super::mesh::{Mesh, WorldMesh};
 use super::taxonomy::RoomClass;
+
 pub use super::taxonomy::{Categories, ObjectFlags};
+use crate::invalid::Invalid;
 
 /// Index of a mesh in [`Scene::meshes`].
 pub type MeshId = u32;

@@ -2,10 +2,11 @@
 //! category labels, object flags) and the tables that map dataset labels onto it, read from
 //! the data files in `data/taxonomy/` compiled into the binary.
 
-use crate::invalid::Invalid;
 use std::collections::HashMap;
 
 use serde::{Deserialize, Serialize};
+
+use crate::invalid::Invalid;
 
 /// The nine MINOS room classes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]

@@ -32,7 +32,6 @@ pub mod session;
 pub mod token;
 mod ws;
 
-use crate::invalid::Invalid;
 use std::collections::HashMap;
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
@@ -40,6 +39,7 @@ use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, Instant};
 
 use crate::episode::Episode;
+use crate::invalid::Invalid;
 use crate::scene::SceneRef;
 pub use frames::FrameFormat;
 pub use rate::RateLimits;

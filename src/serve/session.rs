@@ -6,7 +6,6 @@
 //! agent gives up, the unfinished episode is left out, and the thread ends, freeing the
 //! simulator.
 
-use crate::invalid::Invalid;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::mpsc::Receiver;
@@ -21,6 +20,7 @@ use crate::episode::goal::{goal_positions, shortest_path};
 use crate::episode::instruction::instruction;
 use crate::episode::sample::SampleConfig;
 use crate::episode::{Episode, Task};
+use crate::invalid::Invalid;
 use crate::io::tables::ImageEncoding;
 use crate::lock::LockMode;
 use crate::pipeline::episodes::sample_scenes;

@@ -3,12 +3,13 @@
 //! actions, [`Shared::actions`], or `stop`; any other is refused), `{"next": null | EPISODE_ID}`, `{"views": [CAMERA, …]}`
 //! (the cameras to send besides colour), `{"end": true}`.
 
-use crate::invalid::Invalid;
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::{Arc, Mutex};
 
 use axum::extract::ws::{Message, WebSocket};
 use serde_json::{json, Value};
+
+use crate::invalid::Invalid;
 
 use super::rate::Bucket;
 use super::session::{self, Command, Link, Shared, Start, Update};

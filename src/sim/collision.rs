@@ -3,12 +3,12 @@
 //! climb limit pass under it while walls, furniture and closed doors stop it. Contact probes
 //! are small balls around the body.
 
-use crate::invalid::Invalid;
 use glam::Vec3;
 use parry3d::math::{Pose, Vector};
 use parry3d::query;
 use parry3d::shape::{Ball, Cylinder, TriMesh};
 
+use crate::invalid::Invalid;
 use crate::scene::Scene;
 
 /// Gap left between the climb height and the bottom of the collision cylinder (m).

@@ -2,10 +2,10 @@
 //! produces from a rendered frame: colour or grey, depth (float metres or quantised, optional
 //! Gaussian or Kinect-like noise), normals, semantic class, instance, room.
 
-use crate::invalid::Invalid;
 use serde::{Deserialize, Serialize};
 
 use crate::body::AgentPreset;
+use crate::invalid::Invalid;
 use crate::render::{Frame, RenderScene, Taxonomy};
 use crate::render::{Image, Modality};
 use crate::seed::Rng;

@@ -6,11 +6,11 @@
 //! `room_types`, `categories`, `coarse_categories`, `ntriangles`, `error`. On error rows every
 //! statistic is null and `error` holds the one-line message.
 
-use crate::invalid::Invalid;
 use std::collections::BTreeSet;
 use std::path::Path;
 use std::sync::Arc;
 
+use crate::invalid::Invalid;
 use crate::parquet_io::{column, read_batches, write_batches, writer_properties, ParquetFileError};
 use crate::scene::Scene;
 use arrow::array::{

@@ -4,7 +4,6 @@
 //! the frames with the exporter's own functions (per episode bit for bit; `stats.json` as
 //! LeRobot aggregates them, to the precision of its JSON numbers).
 
-use crate::invalid::Invalid;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
@@ -13,6 +12,7 @@ use arrow::datatypes::{DataType, Schema};
 use serde_json::Value;
 
 use super::{checksums, quote, read_json, tables, Found};
+use crate::invalid::Invalid;
 use crate::io::lerobot::card::PROVENANCE;
 use crate::io::lerobot::image_file::{decode, ImageFile};
 use crate::io::lerobot::stats::{FeatureStats, StatLayout};

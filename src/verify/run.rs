@@ -1,7 +1,6 @@
 //! A run folder: `manifest.json`'s checksums, the tables against each other, every image cell
 //! decoding with its declared shape, `metrics.json`, and the LeRobot copy.
 
-use crate::invalid::Invalid;
 use std::collections::HashMap;
 use std::path::Path;
 
@@ -9,6 +8,7 @@ use arrow::array::{Array, AsArray};
 use arrow::datatypes::DataType;
 
 use super::{checksums, lerobot, quote, read_json, tables, Found};
+use crate::invalid::Invalid;
 use crate::io::image_codec::{decode_cell, CellFormat};
 use crate::parquet_io::read_batches;
 use crate::progress::Progress;

@@ -1,7 +1,6 @@
 //! Reading the columns `verify` needs from Parquet tables (through the guarded reader), and
 //! the episode/step continuity check the run and LeRobot tables share.
 
-use crate::invalid::Invalid;
 use std::path::Path;
 
 use arrow::array::{
@@ -10,6 +9,7 @@ use arrow::array::{
 use arrow::datatypes::{DataType, Float64Type};
 
 use super::Found;
+use crate::invalid::Invalid;
 use crate::parquet_io::read_batches;
 
 /// A whole table, its batches concatenated.

@@ -1,6 +1,5 @@
 //! Writing a split as Habitat-Lab lays it out ([`export_habitat`]; layout in the module docs).
 
-use crate::invalid::Invalid;
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -12,6 +11,7 @@ use super::*;
 use crate::atomic::write_atomic;
 use crate::episode::interchange::yaw_to_quaternion;
 use crate::episode::{Episode, Goal};
+use crate::invalid::Invalid;
 
 /// How a minos scene id becomes Habitat's `scene_id`: `prefix + scene + suffix`.
 ///

@@ -2,7 +2,6 @@
 //! trajectory rows, and the observation rows streamed one at a time with each camera's
 //! image decoded, so a run of any size converts in bounded memory (one episode at a time).
 
-use crate::invalid::Invalid;
 use std::path::{Path, PathBuf};
 
 use arrow::array::{
@@ -12,6 +11,7 @@ use arrow::array::{
 
 use super::features::Camera;
 use super::LerobotError;
+use crate::invalid::Invalid;
 use crate::io::image_codec::{decode_cell, modality_from_name, CellFormat};
 use crate::parquet_io::{column, read_batches};
 use crate::render::{Image, Modality};

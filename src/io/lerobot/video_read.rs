@@ -2,7 +2,6 @@
 //! frame decoded with OpenH264's decoder (the crate family that encoded it), for
 //! `minos verify` and the tests.
 
-use crate::invalid::Invalid;
 use std::fs::File;
 use std::io::BufReader;
 use std::path::Path;
@@ -12,6 +11,7 @@ use openh264::formats::YUVSource;
 use openh264::OpenH264API;
 
 use crate::escape::catch_quietly;
+use crate::invalid::Invalid;
 
 /// A video file's index and, when asked for, its frames.
 #[derive(Debug, Clone, PartialEq)]

@@ -4,7 +4,6 @@
 //! exported to Habitat's or a VLN layout. The front doors only turn flags or keyword
 //! arguments into an [`EpisodesJob`] and report the [`EpisodesOutcome`].
 
-use crate::invalid::Invalid;
 use std::path::{Path, PathBuf};
 
 use crate::body::{AgentPreset, BodyRule};
@@ -21,6 +20,7 @@ use crate::store::{DataDir, StoreError};
 
 use super::{read_starts, sample_scenes_from, BatchWriteError, EpisodeBatch};
 use crate::episode::format::EpisodeFileError;
+use crate::invalid::Invalid;
 
 /// What a job samples and where it writes.
 #[derive(Debug, Clone)]

@@ -8,11 +8,11 @@
 //! into train/val/test by a hash of `(partition seed, key)`, so no material is in two sets and
 //! adding scenes never moves a material to another set.
 
-use crate::invalid::Invalid;
 use std::collections::{BTreeMap, BTreeSet};
 
 use serde::{Deserialize, Serialize};
 
+use crate::invalid::Invalid;
 use crate::scene::{Mesh, Object, Scene, SurfaceKind};
 use crate::seed::{derive_seed, splitmix64};
 

@@ -18,11 +18,12 @@
 //! retexture = { seed = 7, texture_set = "train" }
 //! ```
 
-use crate::invalid::Invalid;
 use std::collections::BTreeMap;
 use std::fmt;
 
 use serde::{Deserialize, Serialize};
+
+use crate::invalid::Invalid;
 
 /// `keep_only = "arch"`: the MINOS `archOnly` keyword.
 pub const ARCH_ONLY: &str = "arch";

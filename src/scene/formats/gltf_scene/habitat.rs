@@ -17,11 +17,12 @@
 //! Where this module's job ends: it reads JSON it is handed and resolves paths relative to the
 //! file that holds them; finding files and loading geometry belong to the loader.
 
-use crate::invalid::Invalid;
 use std::path::{Path, PathBuf};
 
 use glam::{Mat4, Quat, Vec3};
 use serde::Deserialize;
+
+use crate::invalid::Invalid;
 
 use super::super::LoadError;
 

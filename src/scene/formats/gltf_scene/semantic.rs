@@ -5,10 +5,10 @@
 //! Text files may have a byte-order mark, CRLF line ends and trailing whitespace. Where this
 //! module's job ends: it parses and names; tying semantic ids to geometry is the loader's.
 
-use crate::invalid::Invalid;
 use std::collections::{BTreeSet, HashMap, HashSet};
 use std::path::Path;
 
+use crate::invalid::Invalid;
 use crate::scene::model::{Categories, SurfaceKind};
 
 use super::super::LoadError;

@@ -13,9 +13,9 @@
 //! All of it works in y-up world coordinates; floor polygons are `(x, z)` pairs. Which objects
 //! are obstacles and how meshes are assigned to rooms is decided in [`super`].
 
-use crate::invalid::Invalid;
 use glam::{Mat4, Vec3};
 
+use crate::invalid::Invalid;
 use crate::scene::geometry::Aabb;
 use crate::scene::mesh::{Material, Mesh};
 

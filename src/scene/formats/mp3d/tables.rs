@@ -6,10 +6,10 @@
 //! `C` records of each `.house` file (which carry the raw and mpcat40 names). This file only
 //! reads tables; [`super`] decides what to do with them.
 
-use crate::invalid::Invalid;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
+use crate::invalid::Invalid;
 use crate::scene::taxonomy::RoomClass;
 
 use super::super::LoadError;

@@ -7,9 +7,9 @@
 //! message that names the field; the caller adds the file and the record. Nothing here knows
 //! rooms or objects.
 
-use crate::invalid::Invalid;
 use glam::{Mat4, Quat, Vec3};
 
+use crate::invalid::Invalid;
 use crate::scene::mesh::{Material, Mesh, WorldMesh};
 
 use super::json::{ChildJson, FurnitureJson, MeshJson};

@@ -5,8 +5,9 @@
 //! indices in range, a rotation that is a rotation) is checked by `geometry` and `assemble`,
 //! which know the record a value belongs to and can name it in the error.
 
-use crate::invalid::Invalid;
 use serde::Deserialize;
+
+use crate::invalid::Invalid;
 
 /// A whole scene file (`<scene uid>.json`).
 #[derive(Debug, Deserialize)]

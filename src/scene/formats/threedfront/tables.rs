@@ -4,11 +4,11 @@
 //!
 //! Tables only answer questions; they never touch a scene.
 
-use crate::invalid::Invalid;
 use std::collections::HashMap;
 
 use serde::Deserialize;
 
+use crate::invalid::Invalid;
 use crate::scene::model::{ObjectFlags, SurfaceKind};
 use crate::scene::taxonomy::RoomClass;
 
