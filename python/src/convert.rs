@@ -38,7 +38,10 @@ pub fn one_line(e: &anyhow::Error) -> String {
 
 /// An anyhow error as a `MinosError`, or the subclass its kind asks for (see [`kind`]).
 pub fn py_err(e: anyhow::Error) -> PyErr {
-    let line = one_line(&e);
+    let hint = minos::pipeline::rollout::body_mismatch_of(e.as_ref())
+        .map(rebake_hint)
+        .unwrap_or_default();
+    let line = one_line(&e) + &hint;
     // The most specific kind anywhere in the chain: a missing file under a format error is
     // a missing file.
     match e.chain().filter_map(kind).min() {
@@ -49,6 +52,20 @@ pub fn py_err(e: anyhow::Error) -> PyErr {
         Some(Kind::NotReady) => NotReadyError::new_err(line),
         None => MinosError::new_err(line),
     }
+}
+
+/// How to rebake for the agent's body, as the bindings spell it.
+fn rebake_hint(b: minos::body::BodyMismatch) -> String {
+    let agent = b.agent;
+    let bake = match agent.preset() {
+        Some(p) => format!("minos.bake(data, preset=\"{}\", force=True)", p.name()),
+        None => format!(
+            "minos.bake(data, config=FILE, force=True) where FILE sets agent_radius = {}, \
+             agent_height = {}, max_climb = {}",
+            agent.radius, agent.height, agent.max_climb
+        ),
+    };
+    format!(" (rebake with {bake}, or pass allow_body_mismatch=True)")
 }
 
 /// A library error as a `MinosError` or its subclass, with its one line.

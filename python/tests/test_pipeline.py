@@ -242,9 +242,11 @@ def test_errors_raise_the_subclass_of_their_kind(world, tmp_path):
     scene = world.scenes[0]
     assert raised(lambda: minos.Simulator(world.data, scene, sensors=bad)) \
         is minos.BadInputError
-    # Grids baked for Habitat's body, an agent with MINOS's.
-    assert raised(lambda: minos.Simulator(world.data, scene, agent="minos")) \
-        is minos.BodyMismatchError
+    # Grids baked for Habitat's body, an agent with MINOS's: the fix in Python's words.
+    with pytest.raises(minos.BodyMismatchError) as e:
+        minos.Simulator(world.data, scene, agent="minos")
+    assert 'minos.bake(data, preset="minos", force=True)' in str(e.value), e.value
+    assert "allow_body_mismatch=True" in str(e.value) and " --" not in str(e.value), e.value
     # A scene that is not ingested; scenes whose grids are gone.
     assert raised(lambda: minos.Simulator(world.data, "no-such-scene")) is minos.NotReadyError
     data = tmp_path / "DATA"

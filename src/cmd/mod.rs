@@ -145,10 +145,27 @@ pub fn main() -> ExitCode {
     match result {
         Ok(code) => code,
         Err(e) => {
-            eprintln!("error: {}", one_line(&e));
+            let hint = minos::pipeline::rollout::body_mismatch_of(e.as_ref())
+                .map(rebake_hint)
+                .unwrap_or_default();
+            eprintln!("error: {}{hint}", one_line(&e));
             ExitCode::FAILURE
         }
     }
+}
+
+/// How to rebake for the agent's body, as the command line spells it.
+fn rebake_hint(b: minos::body::BodyMismatch) -> String {
+    let agent = b.agent;
+    let bake = match agent.preset() {
+        Some(p) => format!("`minos bake --preset {} --force`", p.name()),
+        None => format!(
+            "`minos bake --config FILE --force` where FILE sets agent_radius = {}, \
+             agent_height = {}, max_climb = {}",
+            agent.radius, agent.height, agent.max_climb
+        ),
+    };
+    format!(" (rebake with {bake}, or pass --allow-body-mismatch)")
 }
 
 /// The error and its causes on one line, skipping causes whose text the line already holds

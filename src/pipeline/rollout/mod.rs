@@ -25,6 +25,7 @@ use rayon::prelude::*;
 
 use crate::atomic::{sweep_stale, write_bytes_atomic};
 use crate::body::AgentPreset;
+use crate::body::BodyMismatch;
 use crate::episode::Episode;
 use crate::io::rrd::RecordingError;
 use crate::io::tables::{merge, observation_schema, trajectory_schema, ImageEncoding};
@@ -34,6 +35,7 @@ use crate::progress::Progress;
 use crate::render::Renderer;
 use crate::run::metrics::{aggregate, Aggregate, EpisodeMetrics, MetricRow, Reward};
 use crate::shard::Shard;
+use crate::sim::simulator::SimError;
 use crate::sim::{AgentConfig, SensorSuite};
 use crate::store::DataDir;
 
@@ -177,7 +179,38 @@ pub enum RolloutError {
         total: usize,
         /// Each problem with the scenes that have it.
         problems: String,
+        /// The first grid baked for another body, when that is one of the problems (the
+        /// front doors say how to rebake).
+        body: Option<BodyMismatch>,
     },
+}
+
+/// The grid-body mismatch behind `e` (itself or one of its causes: a simulator's or a
+/// scene's set-up, or the scenes a run found not ready), so that a front door can say how to
+/// rebake in its own words.
+pub fn body_mismatch_of(e: &(dyn std::error::Error + 'static)) -> Option<BodyMismatch> {
+    std::iter::successors(Some(e), |e| e.source()).find_map(|c| {
+        if let Some(b) = c.downcast_ref::<BodyMismatch>() {
+            return Some(*b);
+        }
+        use crate::pipeline::vector_env::VectorEnvError;
+        let loading = c.downcast_ref::<SceneLoadError>().or_else(|| {
+            match c.downcast_ref::<VectorEnvError>() {
+                Some(VectorEnvError::NotReady { first, .. }) => Some(first),
+                _ => None,
+            }
+        });
+        match (
+            c.downcast_ref::<SimError>(),
+            loading,
+            c.downcast_ref::<RolloutError>(),
+        ) {
+            (Some(SimError::Body(b)), _, _)
+            | (_, Some(SceneLoadError::Assets(SimError::Body(b))), _)
+            | (_, _, Some(RolloutError::NotReady { body: Some(b), .. })) => Some(*b),
+            _ => None,
+        }
+    })
 }
 
 fn io_error(path: &Path) -> impl FnOnce(std::io::Error) -> RolloutError + '_ {

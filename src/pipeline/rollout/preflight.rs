@@ -20,8 +20,12 @@ const LISTED: usize = 5;
 pub fn check(cfg: &RunConfig, episodes: &[(usize, Episode)]) -> Result<(), RolloutError> {
     let scenes: BTreeSet<&str> = episodes.iter().map(|(_, e)| e.scene_id.as_str()).collect();
     let mut problems: BTreeMap<String, Vec<&str>> = BTreeMap::new();
+    let mut body = None;
     for id in &scenes {
         if let Err(problem) = scene_problem(cfg, &SceneRef::parse(id)) {
+            if let SceneProblem::Body(b) = &problem {
+                body.get_or_insert(*b);
+            }
             problems.entry(problem.to_string()).or_default().push(id);
         }
     }
@@ -43,6 +47,7 @@ pub fn check(cfg: &RunConfig, episodes: &[(usize, Episode)]) -> Result<(), Rollo
         scenes: problems.values().map(Vec::len).sum(),
         total: scenes.len(),
         problems: listed.join("; "),
+        body,
     })
 }
 
