@@ -28,7 +28,7 @@ fn data() -> &'static (tempfile::TempDir, Vec<(String, String)>) {
     static DATA: std::sync::OnceLock<(tempfile::TempDir, Vec<(String, String)>)> =
         std::sync::OnceLock::new();
     DATA.get_or_init(|| {
-        let dir = tempfile::tempdir().unwrap();
+        let dir = common::shared_tempdir();
         let (root, data) = (dir.path().join("suncg"), dir.path().join("DATA"));
         let cfg = GenerateConfig {
             houses: 10,

@@ -40,7 +40,7 @@ struct Fixture {
 fn fixture() -> &'static Fixture {
     static F: std::sync::OnceLock<Fixture> = std::sync::OnceLock::new();
     F.get_or_init(|| {
-        let dir = tempfile::tempdir().expect("tempdir");
+        let dir = common::shared_tempdir();
         let (data_dir, ids) = baked_houses(
             dir.path(),
             &GenerateConfig {

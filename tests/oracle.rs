@@ -34,7 +34,7 @@ fn data() -> &'static (tempfile::TempDir, Vec<HouseSet>) {
     static DATA: std::sync::OnceLock<(tempfile::TempDir, Vec<HouseSet>)> =
         std::sync::OnceLock::new();
     DATA.get_or_init(|| {
-        let dir = tempfile::tempdir().unwrap();
+        let dir = common::shared_tempdir();
         let mut sets = Vec::new();
         for (sub, cfg) in [
             (

@@ -25,7 +25,7 @@ fn data() -> &'static (tempfile::TempDir, Vec<Episode>) {
     static DATA: std::sync::OnceLock<(tempfile::TempDir, Vec<Episode>)> =
         std::sync::OnceLock::new();
     DATA.get_or_init(|| {
-        let dir = tempfile::tempdir().unwrap();
+        let dir = common::shared_tempdir();
         let (data, ids) = baked_houses(
             dir.path(),
             &GenerateConfig {

@@ -53,7 +53,7 @@ fn sensors() -> SensorSuite {
 fn fixture() -> &'static Fixture {
     static F: OnceLock<Fixture> = OnceLock::new();
     F.get_or_init(|| {
-        let dir = tempfile::tempdir().expect("temp dir");
+        let dir = common::shared_tempdir();
         let (data, ids) = baked_houses(
             dir.path(),
             &GenerateConfig {

@@ -16,6 +16,34 @@ use minos::generate::{generate, plan_house, GenerateConfig, HousePlan, OutputFor
 use minos::pipeline::ingest::{ingest, IngestConfig, IngestReport};
 use minos::progress::NoProgress;
 
+/// A temporary folder for a fixture kept in a `static` for the whole run. Statics are never
+/// dropped, so a plain `tempfile::tempdir()` there outlives the process (about 50 MB a
+/// fixture, every run); these folders live under one root per process,
+/// `<tmp>/minos-test-fixtures/<pid>`, and each run first removes the roots of processes that
+/// are gone (Linux: no `/proc/<pid>`), so at most the last runs' fixtures stay on disk.
+pub fn shared_tempdir() -> tempfile::TempDir {
+    static ROOT: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
+    let root = ROOT.get_or_init(|| {
+        let base = std::env::temp_dir().join("minos-test-fixtures");
+        if Path::new("/proc/self").exists() {
+            for entry in std::fs::read_dir(&base).into_iter().flatten().flatten() {
+                let name = entry.file_name();
+                let gone = name
+                    .to_str()
+                    .and_then(|n| n.parse::<u32>().ok())
+                    .is_some_and(|pid| !Path::new("/proc").join(pid.to_string()).exists());
+                if gone {
+                    let _ = std::fs::remove_dir_all(entry.path());
+                }
+            }
+        }
+        let root = base.join(std::process::id().to_string());
+        std::fs::create_dir_all(&root).expect("fixture root");
+        root
+    });
+    tempfile::tempdir_in(root).expect("fixture folder")
+}
+
 /// Generates `cfg` into `root` and returns the plans.
 pub fn generate_into(cfg: &GenerateConfig, root: &Path) -> Vec<HousePlan> {
     generate(cfg, OutputFormat::Suncg, root, false, &NoProgress).expect("generate");
