@@ -202,24 +202,25 @@ impl VectorEnv {
                 })
                 .collect()
         };
-        let mut loaded = match &pool {
+        let loaded = match &pool {
             Some(p) => p.install(load),
             None => load(),
         };
         let count = loaded.iter().filter(|r| r.is_err()).count();
-        let first = loaded
-            .iter()
-            .position(Result::is_err)
-            .map(|i| (i, loaded.swap_remove(i)));
-        if let Some((i, Err(first))) = first {
-            return Err(VectorEnvError::NotReady {
-                count,
-                total: scene_ids.len(),
-                scene: scene_ids[i].clone(),
-                first,
-            });
+        let mut scenes: Vec<LoadedScene> = Vec::with_capacity(loaded.len());
+        for (id, r) in scene_ids.iter().zip(loaded) {
+            match r {
+                Ok(s) => scenes.push(s),
+                Err(first) => {
+                    return Err(VectorEnvError::NotReady {
+                        count,
+                        total: scene_ids.len(),
+                        scene: id.clone(),
+                        first,
+                    })
+                }
+            }
         }
-        let scenes: Vec<LoadedScene> = loaded.into_iter().filter_map(Result::ok).collect();
         let scene_of: Vec<usize> = episodes
             .iter()
             .map(|e| scene_ids.binary_search(&e.scene_id).unwrap_or(0))

@@ -24,13 +24,13 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use rayon::prelude::*;
 
 use crate::atomic::{sweep_stale, write_bytes_atomic};
-use crate::body::AgentPreset;
-use crate::body::BodyMismatch;
+use crate::body::{AgentPreset, BodyMismatch};
 use crate::episode::Episode;
 use crate::io::rrd::RecordingError;
 use crate::io::tables::{merge, observation_schema, trajectory_schema, ImageEncoding};
 use crate::lock::{DirLock, LockError, LockMode};
 use crate::navmesh::geodesic::Geodesic;
+use crate::pipeline::vector_env::VectorEnvError;
 use crate::progress::Progress;
 use crate::render::Renderer;
 use crate::run::metrics::{aggregate, Aggregate, EpisodeMetrics, MetricRow, Reward};
@@ -189,27 +189,27 @@ pub enum RolloutError {
 /// scene's set-up, or the scenes a run found not ready), so that a front door can say how to
 /// rebake in its own words.
 pub fn body_mismatch_of(e: &(dyn std::error::Error + 'static)) -> Option<BodyMismatch> {
+    let of_sim = |s: &SimError| match s {
+        SimError::Body(b) => Some(*b),
+        _ => None,
+    };
+    let of_load = |l: &SceneLoadError| match l {
+        SceneLoadError::Assets(s) => of_sim(s),
+        _ => None,
+    };
     std::iter::successors(Some(e), |e| e.source()).find_map(|c| {
-        if let Some(b) = c.downcast_ref::<BodyMismatch>() {
-            return Some(*b);
-        }
-        use crate::pipeline::vector_env::VectorEnvError;
-        let loading = c.downcast_ref::<SceneLoadError>().or_else(|| {
-            match c.downcast_ref::<VectorEnvError>() {
-                Some(VectorEnvError::NotReady { first, .. }) => Some(first),
+        c.downcast_ref::<BodyMismatch>()
+            .copied()
+            .or_else(|| c.downcast_ref::<SimError>().and_then(of_sim))
+            .or_else(|| c.downcast_ref::<SceneLoadError>().and_then(of_load))
+            .or_else(|| match c.downcast_ref::<RolloutError>() {
+                Some(RolloutError::NotReady { body, .. }) => *body,
                 _ => None,
-            }
-        });
-        match (
-            c.downcast_ref::<SimError>(),
-            loading,
-            c.downcast_ref::<RolloutError>(),
-        ) {
-            (Some(SimError::Body(b)), _, _)
-            | (_, Some(SceneLoadError::Assets(SimError::Body(b))), _)
-            | (_, _, Some(RolloutError::NotReady { body: Some(b), .. })) => Some(*b),
-            _ => None,
-        }
+            })
+            .or_else(|| match c.downcast_ref::<VectorEnvError>() {
+                Some(VectorEnvError::NotReady { first, .. }) => of_load(first),
+                _ => None,
+            })
     })
 }
 

@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use crate::atomic::write_bytes_atomic;
+use crate::run::metrics::EpisodeMetrics;
 
 /// A metrics part that could not be written or read back.
 #[derive(Debug, thiserror::Error)]
@@ -28,7 +29,6 @@ pub enum PartError {
         source: serde_json::Error,
     },
 }
-use crate::run::metrics::EpisodeMetrics;
 
 /// The part file of episode `index` with extension `ext`.
 pub fn part(dir: &Path, index: usize, ext: &str) -> PathBuf {
