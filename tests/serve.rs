@@ -487,6 +487,38 @@ fn a_vanished_or_idle_page_frees_its_simulator() {
 }
 
 #[test]
+fn a_page_that_says_end_frees_its_session_at_once_even_with_its_socket_open() {
+    let f = fixture();
+    let out = f.dir.path().join("demos-end");
+    // An idle time far beyond the test's wait: only `end` can end the session in time.
+    let running = server(f, &out, None, Duration::from_secs(120));
+    let a = running.addr;
+    let (token, name) = create(a, "{}", &[]);
+    let t = runtime().block_on(async {
+        let mut ws = connect(a, &token, "").await;
+        while !matches!(recv(&mut ws).await, Some(Msg::Binary(1, ..))) {}
+        let t = Instant::now();
+        send(&mut ws, r#"{"end":true}"#).await;
+        // The socket stays open on this side; the server says the session ended and closes.
+        let mut ended = false;
+        while let Some(m) = recv(&mut ws).await {
+            if let Msg::Json(v) = m {
+                ended |= v["type"] == "end" && v["session"] == name.as_str();
+            }
+        }
+        assert!(ended, "the page hears that the session ended");
+        t
+    });
+    sessions_become(&running, 0);
+    assert!(
+        t.elapsed() < Duration::from_secs(10),
+        "the session ended {:?} after `end` (idle time 120 s)",
+        t.elapsed()
+    );
+    running.stop();
+}
+
+#[test]
 fn a_server_killed_mid_episode_leaves_the_finished_episodes_whole() {
     use std::io::BufRead;
     let f = fixture();
@@ -543,6 +575,8 @@ fn a_server_killed_mid_episode_leaves_the_finished_episodes_whole() {
         .arg("--out")
         .arg(&out)
         .args(["--reward", "geodesic", "--seed", "7"])
+        // A setting that changes no table: the command line differs from the first start's.
+        .args(["--max-sessions", "3"])
         .stdout(std::process::Stdio::piped())
         .spawn()
         .expect("minos serve starts again");
@@ -577,6 +611,19 @@ fn a_server_killed_mid_episode_leaves_the_finished_episodes_whole() {
         .filter(|n| n.contains(".tmp-"))
         .collect();
     assert!(stray.is_empty(), "{stray:?}");
+    // The manifest names the command that played the episode, not the restart's.
+    let manifest: serde_json::Value =
+        serde_json::from_slice(&bytes(&session.join("manifest.json"))).expect("manifest");
+    let command: Vec<&str> = manifest["command"]
+        .as_array()
+        .expect("command list")
+        .iter()
+        .filter_map(|a| a.as_str())
+        .collect();
+    assert!(
+        command.contains(&"--seed") && !command.contains(&"--max-sessions"),
+        "{command:?}"
+    );
     // Its replay, with the server's --reward and --seed, gives the same tables.
     let replay_dir = f.dir.path().join("replay-killed");
     run(

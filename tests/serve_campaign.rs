@@ -473,3 +473,264 @@ fn a_server_killed_at_any_moment_loses_no_finished_episode_and_leaves_no_litter(
         std::fs::remove_dir_all(&dir).ok();
     }
 }
+
+/// `text` percent-encoded for a query string.
+fn query_value(text: &str) -> String {
+    text.bytes()
+        .map(|b| match b {
+            b'A'..=b'Z' | b'a'..=b'z' | b'0'..=b'9' | b'-' | b'_' | b'.' | b'~' => {
+                (b as char).to_string()
+            }
+            _ => format!("%{b:02X}"),
+        })
+        .collect()
+}
+
+/// What an operator's replay sent: the `replay` message, each frame's message, how many
+/// camera images came, and the `replay_end` message (or the error).
+struct Replayed {
+    intro: Value,
+    frames: Vec<Value>,
+    images: usize,
+    end: Result<Value, String>,
+}
+
+async fn replay(addr: SocketAddr, operator: &str, session: &str, episode: &str) -> Replayed {
+    let url = format!(
+        "ws://{addr}/api/operator/replay?session={}&episode={}&operator={}",
+        query_value(session),
+        query_value(episode),
+        query_value(operator)
+    );
+    let mut ws = tokio_tungstenite::connect_async(url)
+        .await
+        .expect("replay socket")
+        .0;
+    let mut r = Replayed {
+        intro: Value::Null,
+        frames: Vec::new(),
+        images: 0,
+        end: Err("closed".into()),
+    };
+    while let Some(m) = recv(&mut ws).await {
+        match m {
+            Msg::Json(v) if v["type"] == "replay" => r.intro = v,
+            Msg::Json(v) if v["type"] == "frame" => r.frames.push(v),
+            Msg::Json(v) if v["type"] == "replay_end" => {
+                r.end = Ok(v);
+                break;
+            }
+            Msg::Json(v) if v["type"] == "error" => {
+                r.end = Err(v["message"].as_str().unwrap_or("").to_string());
+                break;
+            }
+            Msg::Binary(1, ..) => r.images += 1,
+            _ => {}
+        }
+    }
+    r
+}
+
+fn post(addr: SocketAddr, path: &str, headers: &[(&str, &str)], body: &Value) -> (u16, Value) {
+    let (code, text) = http(addr, "POST", path, headers, Some(&body.to_string()));
+    (code, serde_json::from_str(&text).unwrap_or(Value::Null))
+}
+
+#[test]
+fn the_operator_replays_demonstrations_overrides_verdicts_and_reads_feedback() {
+    let f = fixture();
+    let dir = f.dir.path().join("campaign-review");
+    let file = campaign_file(f, &dir, "");
+    let spec = CampaignSpec::read(&file).expect("campaign file");
+    let people = mint(&spec.state, 1).expect("links");
+    let a = &people[0];
+    let operator = std::fs::read_to_string(spec.state.join("operator.token"))
+        .expect("operator token")
+        .trim()
+        .to_string();
+    let op = [("x-minos-operator", operator.as_str())];
+    let running = start(f, Campaign::open(spec.clone(), &f.episodes).expect("opens"));
+    let addr = running.addr;
+    let (tutorial, e1, e2) = (&f.episodes[0], &f.episodes[1], &f.episodes[2]);
+    let oracle_e2 = &f.oracle[&e2.episode_id];
+    runtime().block_on(async {
+        let (mut ws, name) = open(addr, a).await;
+        play(&mut ws, &f.oracle[&tutorial.episode_id]).await;
+        // e1: two turns and a stop short of the goal, flagged.
+        send(&mut ws, r#"{"next":null}"#).await;
+        let done = play(
+            &mut ws,
+            &[
+                Decision::from_name("turn_left").unwrap(),
+                Decision::from_name("turn_left").unwrap(),
+                Decision::Stop,
+            ],
+        )
+        .await;
+        assert_eq!(done["episode_id"], e1.episode_id.as_str());
+        assert_eq!(done["qc"]["accepted"], false);
+
+        // The session is live (its episodes are only parts): the replay reads the parts.
+        let r = replay(addr, &operator, &name, &e1.episode_id).await;
+        let end = r.end.expect("replay ends");
+        assert_eq!(r.intro["episode_id"], e1.episode_id.as_str());
+        assert_eq!(r.intro["decisions"], 3);
+        // The start and one frame per decision, each with its colour image.
+        let actions: Vec<Value> = r.frames.iter().map(|v| v["action"].clone()).collect();
+        assert_eq!(
+            actions,
+            vec![
+                Value::Null,
+                "turn_left".into(),
+                "turn_left".into(),
+                "stop".into()
+            ]
+        );
+        assert_eq!(r.images, 4);
+        assert_eq!(end["frames"], 4);
+        assert_eq!(end["metrics"]["success"], false);
+        assert_eq!(end["agrees"], true, "{end}");
+        // Turning in place: every frame stands at the start.
+        for fr in &r.frames {
+            let p: Vec<f64> = serde_json::from_value(fr["position"].clone()).unwrap();
+            for (got, want) in p.iter().zip(e1.start_position) {
+                assert!((got - f64::from(want)).abs() < 1e-4, "{fr}");
+            }
+        }
+
+        // The operator accepts it anyway: e1 is covered, and the verdict is on disk.
+        let (code, entry) = post(
+            addr,
+            "/api/operator/review",
+            &op,
+            &serde_json::json!({"session": name, "episode_id": e1.episode_id,
+                                "accepted": true, "note": "stopped on purpose"}),
+        );
+        assert_eq!(code, 200, "{entry}");
+        assert_eq!(entry["verdict"]["accepted"], true);
+        assert_eq!(entry["review"]["note"], "stopped on purpose");
+        assert_eq!(entry["review"]["automatic"]["accepted"], false);
+        let s = status(addr, &operator);
+        assert_eq!(s["demos_accepted"], 1, "{s}");
+        assert_eq!(s["episodes"][0]["accepted"], 1, "{s}");
+        assert_eq!(s["episodes"][0]["flagged"], 0, "{s}");
+        let qc = SessionQc::load(&spec.state.join("demos").join(&name)).expect("qc.json");
+        assert_eq!(qc.accepted(), vec![e1.episode_id.clone()]);
+
+        // Refused: the tutorial, a demonstration that does not exist, a long note, no token.
+        for (body, code_wanted) in [
+            (
+                serde_json::json!({"session": name, "episode_id": tutorial.episode_id, "accepted": true}),
+                409,
+            ),
+            (
+                serde_json::json!({"session": "../p0001-s01", "episode_id": e1.episode_id, "accepted": true}),
+                404,
+            ),
+            (
+                serde_json::json!({"session": name, "episode_id": e1.episode_id, "accepted": false,
+                                    "note": "x".repeat(501)}),
+                400,
+            ),
+        ] {
+            let (code, v) = post(addr, "/api/operator/review", &op, &body);
+            assert_eq!(code, code_wanted, "{body} → {v}");
+        }
+        let body = serde_json::json!({"session": name, "episode_id": e1.episode_id, "accepted": false});
+        assert_eq!(post(addr, "/api/operator/review", &[], &body).0, 401);
+        let (code, _) = post(
+            addr,
+            "/api/operator/review",
+            &[("x-minos-operator", &a.token)],
+            &body,
+        );
+        assert_eq!(code, 401, "a participant's token is not the operator's");
+
+        // e2, played by the oracle, then the session ends: the replay reads its tables.
+        send(&mut ws, r#"{"next":null}"#).await;
+        let done = play(&mut ws, oracle_e2).await;
+        assert_eq!(done["episode_id"], e2.episode_id.as_str());
+        send(&mut ws, r#"{"end":true}"#).await;
+        while recv(&mut ws).await.is_some() {}
+        let session = spec.state.join("demos").join(&name);
+        let t = Instant::now();
+        while !session.join("trajectories.parquet").exists() {
+            assert!(t.elapsed() < Duration::from_secs(20), "session tables");
+            tokio::time::sleep(Duration::from_millis(50)).await;
+        }
+        let r = replay(addr, &operator, &name, &e2.episode_id).await;
+        let end = r.end.expect("replay ends");
+        assert_eq!(r.frames.len(), oracle_e2.len() + 1);
+        let names: Vec<String> = r.frames[1..]
+            .iter()
+            .map(|v| v["action"].as_str().unwrap().to_string())
+            .collect();
+        let want: Vec<String> = oracle_e2.iter().map(|d| d.name()).collect();
+        assert_eq!(names, want);
+        assert_eq!(end["metrics"]["success"], true);
+        assert_eq!(end["agrees"], true, "{end}");
+        // The last frame is the stop at the goal that ended the episode.
+        let last = r.frames.last().unwrap();
+        assert_eq!(last["done"], true);
+        assert_eq!(last["success"], true);
+
+        // Replays need the operator's token, and a demonstration the books hold.
+        let url = format!(
+            "ws://{addr}/api/operator/replay?session={name}&episode={}",
+            query_value(&e2.episode_id)
+        );
+        assert!(tokio_tungstenite::connect_async(url).await.is_err());
+        let url = format!(
+            "ws://{addr}/api/operator/replay?session=p0009-s01&episode={}&operator={operator}",
+            query_value(&e2.episode_id)
+        );
+        assert!(tokio_tungstenite::connect_async(url).await.is_err());
+    });
+
+    // Feedback with the participant's link; checked; shown to the operator.
+    let fb = |body: Value| post(addr, "/api/campaign/feedback", &[], &body);
+    let (code, v) = fb(
+        serde_json::json!({"participant": a.token, "rating": 2, "comment": "the turns felt big"}),
+    );
+    assert_eq!(code, 201, "{v}");
+    assert_eq!(
+        fb(serde_json::json!({"participant": a.token, "rating": 9})).0,
+        400
+    );
+    assert_eq!(fb(serde_json::json!({"participant": a.token})).0, 400);
+    assert_eq!(
+        fb(serde_json::json!({"participant": "0".repeat(64), "rating": 1})).0,
+        403
+    );
+    let s = status(addr, &operator);
+    assert_eq!(
+        s["feedback"],
+        serde_json::json!([{"participant": "p0001", "rating": 2, "comment": "the turns felt big"}])
+    );
+    running.stop();
+
+    // A restart keeps the review and the feedback: the ledger is rebuilt from qc.json.
+    let reopened = Campaign::open(spec.clone(), &f.episodes).expect("reopens");
+    let s = reopened.status();
+    assert_eq!(s["demos_accepted"], 2, "{s}");
+    assert_eq!(s["episodes_covered"], 2, "{s}");
+    assert_eq!(s["feedback"][0]["rating"], 2, "{s}");
+    drop(reopened);
+    // The reviewed demonstration reaches the dataset with the accepted ones.
+    let lr = dir.join("lerobot");
+    minos()
+        .args([
+            "export-dataset",
+            "--fps",
+            "10",
+            "--accepted",
+            "--campaign-state",
+        ])
+        .arg(&spec.state)
+        .arg("--out")
+        .arg(&lr)
+        .ok_output();
+    let i = info(&lr);
+    assert_eq!(i["total_episodes"], 2, "{i}");
+    assert_eq!(i["total_frames"], 3 + oracle_e2.len(), "{i}");
+}

@@ -1,8 +1,10 @@
 //! A campaign in a real browser: headless Chromium opens a participant's link, the page
 //! shows the campaign's instructions, the test presses the oracle's keys through the tutorial
 //! and the campaign episode the server hands out, and the page thanks the participant when
-//! nothing is left; then the operator page, opened with its token, lists both
-//! demonstrations with their verdicts. Without Chromium the test says it skipped and why.
+//! nothing is left and asks for feedback (typed and sent); then the operator page, opened
+//! with its token, lists both demonstrations with their verdicts and the feedback, replays
+//! the accepted one in the page and flags it with a note. Without Chromium the test says it
+//! skipped and why.
 
 use crate::common;
 
@@ -155,6 +157,27 @@ fn a_participant_goes_from_tutorial_to_done_and_the_operator_sees_it() {
             .eval("document.getElementById('instruction').textContent")
             .await;
         assert!(text.as_str().unwrap().starts_with("Thank you"), "{text}");
+        // The last stage: the feedback form, typed into (the page does not take W as
+        // "forward" there) and sent.
+        cdp.until("!document.getElementById('feedback').hidden").await;
+        cdp.eval("document.querySelector('input[name=rating][value=\"4\"]').click(); document.getElementById('comment').focus()")
+            .await;
+        for (key, code, key_code) in [("w", "KeyW", 87), ("o", "KeyO", 79), ("w", "KeyW", 87)] {
+            cdp.call(
+                "Input.dispatchKeyEvent",
+                serde_json::json!({"type": "keyDown", "key": key, "code": code,
+                                   "windowsVirtualKeyCode": key_code, "text": key}),
+            )
+            .await;
+            cdp.call(
+                "Input.dispatchKeyEvent",
+                serde_json::json!({"type": "keyUp", "key": key, "code": code,
+                                   "windowsVirtualKeyCode": key_code}),
+            )
+            .await;
+        }
+        cdp.eval("document.getElementById('send-feedback').click()").await;
+        cdp.until("window.minos.feedback === 'sent'").await;
 
         // The operator page with its token: both demonstrations, the episode covered.
         cdp.call(
@@ -174,6 +197,47 @@ fn a_participant_goes_from_tutorial_to_done_and_the_operator_sees_it() {
         assert!(
             summary.as_str().unwrap().starts_with("1 of 1 episodes"),
             "{summary}"
+        );
+        // The operator's page shows the feedback.
+        cdp.until("window.operator.status.feedback.length === 1").await;
+        let fb = cdp.eval("window.operator.status.feedback[0]").await;
+        assert_eq!(
+            fb,
+            serde_json::json!({"participant": "p0001", "rating": 4, "comment": "wow"})
+        );
+        // Replay the accepted demonstration in the page: every frame arrives and the replay
+        // agrees with the quality record; the slider goes back to the start.
+        cdp.eval("[...document.querySelectorAll('#demos tbody tr')][1].querySelector('button').click()")
+            .await;
+        cdp.until("window.operator.replay && window.operator.replay.ended").await;
+        let end = cdp.eval("window.operator.replay.end").await;
+        let steps = oracle[&episodes[1].episode_id].len();
+        assert_eq!(end["frames"], steps + 1, "{end}");
+        assert_eq!(end["agrees"], true, "{end}");
+        cdp.until(&format!("window.operator.replay.images.length === {}", steps + 1))
+            .await;
+        let status = cdp
+            .eval("document.getElementById('replay-status').className")
+            .await;
+        assert_eq!(status, "agrees");
+        cdp.eval("const s = document.getElementById('replay-slider'); s.value = '0'; s.dispatchEvent(new Event('input'))")
+            .await;
+        let at = cdp.eval("document.getElementById('replay-at').textContent").await;
+        assert!(at.as_str().unwrap().starts_with("frame 0 · step 0 · start"), "{at}");
+        // Flag it with a note: the table says so and the episode is no longer covered.
+        cdp.eval("document.getElementById('note').value = 'too fast to be a person'").await;
+        cdp.eval("[...document.querySelectorAll('#demos tbody tr')][1].querySelectorAll('button')[2].click()")
+            .await;
+        cdp.until("window.operator.reviewed !== null && window.operator.status.demos_accepted === 0")
+            .await;
+        cdp.until("document.querySelectorAll('#demos tbody tr')[1].cells[2].textContent.includes('operator')")
+            .await;
+        let verdict = cdp
+            .eval("document.querySelectorAll('#demos tbody tr')[1].cells[2].textContent")
+            .await;
+        assert_eq!(
+            verdict,
+            "flagged by the operator: too fast to be a person (thresholds: accepted)"
         );
         // Without the token the page is refused.
         let (code, _) = common::serve::http(addr, "GET", "/operator", &[], None);

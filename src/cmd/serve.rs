@@ -10,7 +10,7 @@ use std::time::Duration;
 use anyhow::{bail, Context as _};
 use minos::body::AgentPreset;
 use minos::episode::format::read_episodes;
-use minos::serve::campaign::{Campaign, CampaignSpec};
+use minos::serve::campaign::CampaignSpec;
 use minos::serve::frames::DEFAULT_JPEG_QUALITY;
 use minos::serve::{FrameFormat, RateLimits, ServeConfig, Shared};
 use minos::sim::{AgentConfig, SensorSuite};
@@ -265,10 +265,7 @@ fn run_campaign(
 ) -> anyhow::Result<ExitCode> {
     let spec = CampaignSpec::read(file)?;
     let state = spec.state.clone();
-    // A killed server's sessions hold finished episodes in their parts: finish them before
-    // the ledger is rebuilt from the session folders.
-    minos::serve::finish_interrupted_sessions(&cfg.shared);
-    let campaign = Campaign::open(spec, &cfg.shared.episodes)?;
+    let campaign = minos::serve::open_campaign(spec, &cfg.shared)?;
     let status = campaign.status();
     let (_, operator_from) = minos::serve::campaign::links::operator_token(&state)?;
     let running = minos::serve::start_campaign(cfg, campaign, bind)?;

@@ -27,6 +27,7 @@ pub mod frames;
 mod http;
 pub mod rate;
 mod recover;
+pub mod replay;
 mod security;
 pub mod session;
 pub mod token;
@@ -141,6 +142,8 @@ struct App {
     /// Session threads still running (a stopped server waits for them to write their
     /// tables).
     session_threads: std::sync::atomic::AtomicUsize,
+    /// Operator replays running.
+    replays: std::sync::atomic::AtomicUsize,
 }
 
 impl App {
@@ -283,11 +286,16 @@ pub fn start(cfg: ServeConfig, bind: SocketAddr) -> Result<Running, ServeError> 
     launch(cfg, None, bind)
 }
 
-/// Finishes the sessions a killed server left in `shared.out` (their finished episodes'
-/// tables written, the interrupted episode dropped, no litter): [`start`] does it before it
-/// listens; a campaign does it before it rebuilds its ledger from the sessions on disk.
-pub fn finish_interrupted_sessions(shared: &Shared) {
+/// Opens the campaign `spec` for a server whose sessions share `shared` (its `out` the
+/// campaign's sessions folder): first finishes the sessions a killed server left there (their
+/// finished episodes hold only parts), then rebuilds the ledger from the session folders
+/// ([`campaign::Campaign::open`]) — in that order, so no finished episode is missed.
+pub fn open_campaign(
+    spec: campaign::CampaignSpec,
+    shared: &Shared,
+) -> Result<campaign::Campaign, campaign::CampaignError> {
     recover::finish_sessions(shared);
+    campaign::Campaign::open(spec, &shared.episodes)
 }
 
 /// Serves `campaign` (opened over `cfg.shared.episodes`, its sessions recorded in
@@ -357,6 +365,7 @@ fn launch(
         data_root,
         campaign,
         session_threads: std::sync::atomic::AtomicUsize::new(0),
+        replays: std::sync::atomic::AtomicUsize::new(0),
     });
     if let Some(c) = &app.campaign {
         // Every scene a participant may be handed lies inside DATA.

@@ -16,6 +16,8 @@ use crate::pipeline::rollout::finish_live;
 pub fn finish_sessions(shared: &Shared) {
     let entries = match std::fs::read_dir(&shared.out) {
         Ok(e) => e,
+        // A first start: nothing was left.
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return,
         Err(e) => {
             tracing::warn!("{}: {e}", shared.out.display());
             return;

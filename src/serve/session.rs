@@ -162,6 +162,8 @@ pub struct Link {
     pub views: Arc<AtomicU32>,
     /// How long to wait for the page.
     pub idle: Duration,
+    /// The page said `end`, closed or went idle: every later wait answers at once.
+    pub ended: std::sync::atomic::AtomicBool,
 }
 
 impl Link {
@@ -175,11 +177,20 @@ impl Link {
         self.send(Update::Text(value.to_string()))
     }
 
-    /// The next message, or `None` when the page closed or said nothing for the idle time.
+    /// The next message, or `None` when the page closed or said nothing for the idle time;
+    /// after `end` (or once the page is gone) `None` at once, so a session whose
+    /// page said `end` but keeps its socket open ends now, not after the idle time.
     fn wait(&self) -> Option<Command> {
+        if self.ended.load(Ordering::Acquire) {
+            return None;
+        }
         let rx = self.commands.lock().unwrap_or_else(PoisonError::into_inner);
         // Timeout or disconnected: the page is gone either way.
-        rx.recv_timeout(self.idle).ok()
+        let got = rx.recv_timeout(self.idle).ok();
+        if matches!(got, None | Some(Command::End)) {
+            self.ended.store(true, Ordering::Release);
+        }
+        got
     }
 }
 
@@ -268,6 +279,71 @@ struct Clock {
     actions: Vec<f32>,
 }
 
+/// What the page is told of `episode` as it starts on `sim` (the `episode` message: task,
+/// instruction, start, goals, shortest path, the map's placement) and the map of the start's
+/// level.
+pub fn episode_intro(
+    episode: &Episode,
+    sim: &Simulator,
+) -> Result<(serde_json::Value, frames::Map), image::ImageError> {
+    let grid = &sim.assets().grid;
+    let start = glam::Vec3::from_array(episode.start_position);
+    let level = grid
+        .snap(start)
+        .map(|s| grid.spans[s as usize].level)
+        .unwrap_or(0);
+    let map = frames::map(grid, level)?;
+    let path: Vec<[f32; 3]> = shortest_path(grid, episode)
+        .unwrap_or_default()
+        .iter()
+        .map(|p| p.to_array())
+        .collect();
+    let agent = sim.agent();
+    let intro = json!({
+        "type": "episode",
+        "episode_id": episode.episode_id,
+        "scene_id": episode.scene_id,
+        "task": episode.task.name(),
+        "instruction": instruction(episode),
+        "max_steps": episode.max_steps,
+        "success_radius": episode.success_radius,
+        "geodesic_distance": episode.geodesic_distance,
+        "start": episode.start_position,
+        "start_yaw": episode.start_yaw,
+        "goals": goal_positions(episode),
+        "path": path,
+        "dt": agent.dt,
+        "radius": agent.body.radius,
+        "map": {"size": map.size, "origin": map.origin, "pixels_per_metre": map.pixels_per_metre, "level": map.level},
+    });
+    Ok((intro, map))
+}
+
+/// The camera messages of `obs` (taken on `sim`) for the cameras in the bit mask `views`,
+/// compressed as `format` says for each camera's modality; the error names the camera.
+pub fn camera_messages(
+    obs: &Observation,
+    sim: &Simulator,
+    views: u32,
+    format: FrameFormat,
+) -> Result<Vec<Vec<u8>>, String> {
+    let cameras = &sim.sensor_suite().cameras;
+    let mut out = Vec::new();
+    for (i, ((_, image), cam)) in obs.images.iter().zip(cameras).enumerate() {
+        if i >= 32 || views & (1 << i) == 0 {
+            continue;
+        }
+        let Some(rgb) = display_rgb(cam.modality, image, cam.depth_range) else {
+            continue;
+        };
+        let [w, h] = cam.resolution;
+        let msg = frames::camera_message(format.for_modality(cam.modality), i as u8, w, h, &rgb)
+            .map_err(|e| format!("camera {}: {e}", cam.name))?;
+        out.push(msg);
+    }
+    Ok(out)
+}
+
 /// The person at the page, as the run's agent.
 struct HumanAgent {
     link: Arc<Link>,
@@ -289,39 +365,12 @@ fn gone() -> AgentError {
 
 impl Agent for HumanAgent {
     fn reset(&mut self, episode: &Episode, sim: &Simulator) -> Result<(), AgentError> {
-        let grid = &sim.assets().grid;
-        let start = glam::Vec3::from_array(episode.start_position);
-        let level = grid
-            .snap(start)
-            .map(|s| grid.spans[s as usize].level)
-            .unwrap_or(0);
-        let map = frames::map(grid, level).map_err(|e| AgentError::External {
+        let (intro, map) = episode_intro(episode, sim).map_err(|e| AgentError::External {
             command: "human".into(),
             message: format!("map of {}: {e}", episode.scene_id),
         })?;
-        let path: Vec<[f32; 3]> = shortest_path(grid, episode)
-            .unwrap_or_default()
-            .iter()
-            .map(|p| p.to_array())
-            .collect();
-        let agent = sim.agent();
-        let ok = self.link.text(json!({
-            "type": "episode",
-            "episode_id": episode.episode_id,
-            "scene_id": episode.scene_id,
-            "task": episode.task.name(),
-            "instruction": instruction(episode),
-            "max_steps": episode.max_steps,
-            "success_radius": episode.success_radius,
-            "geodesic_distance": episode.geodesic_distance,
-            "start": episode.start_position,
-            "start_yaw": episode.start_yaw,
-            "goals": goal_positions(episode),
-            "path": path,
-            "dt": agent.dt,
-            "radius": agent.body.radius,
-            "map": {"size": map.size, "origin": map.origin, "pixels_per_metre": map.pixels_per_metre, "level": map.level},
-        }));
+        let level = map.level;
+        let ok = self.link.text(intro);
         let key = (episode.scene_id.clone(), level);
         let sent = if self.map.as_ref() == Some(&key) {
             true
@@ -366,22 +415,12 @@ impl Agent for HumanAgent {
             return Err(gone());
         }
         let views = self.link.views.load(Ordering::Relaxed);
-        let cameras = &sim.sensor_suite().cameras;
-        for (i, ((_, image), cam)) in obs.images.iter().zip(cameras).enumerate() {
-            if i >= 32 || views & (1 << i) == 0 {
-                continue;
-            }
-            let Some(rgb) = display_rgb(cam.modality, image, cam.depth_range) else {
-                continue;
-            };
-            let [w, h] = cam.resolution;
-            let format = self.frames.for_modality(cam.modality);
-            let msg = frames::camera_message(format, i as u8, w, h, &rgb).map_err(|e| {
-                AgentError::External {
-                    command: "human".into(),
-                    message: format!("camera {}: {e}", cam.name),
-                }
+        let messages =
+            camera_messages(obs, sim, views, self.frames).map_err(|e| AgentError::External {
+                command: "human".into(),
+                message: e,
             })?;
+        for msg in messages {
             if !self.link.send(Update::Binary(msg)) {
                 return Err(gone());
             }

@@ -66,6 +66,7 @@ pub async fn drive(
         updates: up_tx,
         views: views.clone(),
         idle: app.shared.idle,
+        ended: Default::default(),
     });
     let shared = app.shared.clone();
     let ending = app.clone();

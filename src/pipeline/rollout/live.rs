@@ -71,6 +71,7 @@ pub fn run_live(
         finish_parts(cfg, &parts)?;
     }
     std::fs::create_dir_all(&parts).map_err(io_error(&parts))?;
+    write_command(&parts, &cfg.provenance.command)?;
     let mut live = Live {
         cfg,
         parts: &parts,
@@ -163,6 +164,12 @@ fn finish_parts(cfg: &RunConfig, parts: &Path) -> Result<RunReport, RolloutError
         }
     }
     indices.sort_unstable();
+    // The manifest names the command that played the episodes, not the one finishing them.
+    let mut original = cfg.clone();
+    if let Some(command) = read_command(parts) {
+        original.provenance.command = command;
+    }
+    let cfg = &original;
     let mut live = Live {
         cfg,
         parts,
@@ -198,6 +205,32 @@ fn finish_parts(cfg: &RunConfig, parts: &Path) -> Result<RunReport, RolloutError
     live.write_outputs()?;
     std::fs::remove_dir_all(parts).map_err(io_error(parts))?;
     Ok(live.report)
+}
+
+/// The file in a live run's parts folder that keeps the run's command line, for the manifest
+/// a later [`finish_live`] writes (whoever finishes the run, the command is the one that
+/// played its episodes).
+const COMMAND_PART: &str = "command.json";
+
+/// Keeps `command` in the parts folder `parts` (atomically).
+fn write_command(parts: &Path, command: &[String]) -> Result<(), RolloutError> {
+    let path = parts.join(COMMAND_PART);
+    let text = serde_json::to_vec(command).map_err(|e| RolloutError::Write(e.to_string()))?;
+    crate::atomic::write_bytes_atomic(&path, &text).map_err(io_error(&path))
+}
+
+/// The command line kept in `parts`; `None` when there is none or it is unreadable (the
+/// finishing command is recorded then).
+fn read_command(parts: &Path) -> Option<Vec<String>> {
+    let path = parts.join(COMMAND_PART);
+    let bytes = std::fs::read(&path).ok()?;
+    match serde_json::from_slice(&bytes) {
+        Ok(c) => Some(c),
+        Err(e) => {
+            tracing::warn!("{}: {e}: the finishing command is recorded", path.display());
+            None
+        }
+    }
 }
 
 /// The state of a live run: the finished episodes (with the index of their part files).

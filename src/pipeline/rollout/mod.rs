@@ -45,7 +45,7 @@ pub use episode::EpisodeError;
 pub use live::{finish_live, run_live, EpisodeSource, PLAYED};
 use parts::part;
 use scene::SceneRun;
-pub use scene::{load_assets as load_scene_assets, SceneLoadError};
+pub use scene::{load as load_simulator, load_assets as load_scene_assets, SceneLoadError};
 
 /// `robot_type` of a run's LeRobot copy.
 pub const LEROBOT_ROBOT_TYPE: &str = "minos-agent";

@@ -134,6 +134,25 @@ impl Ledger {
         }
     }
 
+    /// A finished demonstration of campaign episode `id` changed verdict (an operator's
+    /// review): it moves between the accepted and the flagged count.
+    pub fn reviewed(&mut self, id: &str, was_accepted: bool, accepted: bool) {
+        let Some(t) = self.tallies.get_mut(id) else {
+            return;
+        };
+        match (was_accepted, accepted) {
+            (false, true) => {
+                t.flagged = t.flagged.saturating_sub(1);
+                t.accepted += 1;
+            }
+            (true, false) => {
+                t.accepted = t.accepted.saturating_sub(1);
+                t.flagged += 1;
+            }
+            _ => {}
+        }
+    }
+
     /// `participant`'s episode in flight was not finished (the page left, the episode
     /// failed): it goes back to the pool.
     pub fn release(&mut self, participant: &str) {
@@ -216,6 +235,29 @@ mod tests {
                 ),
             ]
         );
+    }
+
+    #[test]
+    fn a_review_moves_a_demonstration_between_accepted_and_flagged() {
+        let mut l = Ledger::new(vec!["a".into()], 1, false);
+        assert_eq!(l.assign("p1"), ep("a"));
+        l.finished("p1", "a", false);
+        // Flagged: "a" still wants its demonstration.
+        assert_eq!(l.peek("p2"), ep("a"));
+        // The operator accepts p1's: "a" is covered, nothing left for p2.
+        l.reviewed("a", false, true);
+        assert_eq!(l.peek("p2"), Assignment::Done);
+        let tally = |l: &Ledger| l.tallies()[0].1;
+        assert_eq!((tally(&l).accepted, tally(&l).flagged), (1, 0));
+        // Accepting again changes nothing; flagging it gives "a" back to the pool.
+        l.reviewed("a", true, true);
+        assert_eq!((tally(&l).accepted, tally(&l).flagged), (1, 0));
+        l.reviewed("a", true, false);
+        assert_eq!((tally(&l).accepted, tally(&l).flagged), (0, 1));
+        assert_eq!(l.peek("p2"), ep("a"));
+        // An id outside the campaign is ignored.
+        l.reviewed("zzz", false, true);
+        assert_eq!(l.tallies().len(), 1);
     }
 
     #[test]

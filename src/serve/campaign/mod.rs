@@ -4,15 +4,17 @@
 //! operator watches progress behind a token of their own.
 //!
 //! The state folder (`state` in the campaign file) holds `participants.json` and
-//! `operator.token` ([`links`]) and `demos/`, one folder per session named
+//! `operator.token` ([`links`]), `demos/`, one folder per session named
 //! `<participant>-s<NN>` — each a complete run of its finished episodes plus `qc.json`
-//! ([`record`]). Nothing else is kept: at start-up the ledger is rebuilt from the session
+//! ([`record`], with the operator's reviews) — and `feedback/`, what each participant said
+//! at the end ([`feedback`]). Nothing else is kept: at start-up the ledger is rebuilt from the session
 //! folders (their `played.parquet` and `qc.json`), after sweeping what a killed server left
 //! (the unfinished episode's parts, temporaries, session locks), so a restart after
 //! `kill -9` goes on where the finished episodes left off.
 
 pub mod assign;
 pub mod config;
+pub mod feedback;
 pub(super) mod http;
 pub mod links;
 pub mod record;
@@ -23,6 +25,7 @@ use std::sync::{Mutex, MutexGuard, PoisonError};
 
 pub use assign::{Assignment, Ledger, Tally};
 pub use config::{CampaignSpec, Selection};
+use feedback::{Feedback, FeedbackError};
 use record::{DemoEntry, SessionQc};
 
 use crate::episode::Episode;
@@ -54,6 +57,31 @@ pub enum CampaignError {
     },
 }
 
+/// Why an operator's review was refused.
+#[derive(Debug, thiserror::Error)]
+pub enum ReviewError {
+    /// No such demonstration.
+    #[error("no demonstration of episode `{episode_id}` in session `{session}`")]
+    NoDemo {
+        /// The session asked for.
+        session: String,
+        /// The episode asked for.
+        episode_id: String,
+    },
+    /// The tutorial is practice, never a demonstration.
+    #[error("the tutorial episode is practice: it is never accepted")]
+    Tutorial,
+    /// The note is too long.
+    #[error("the note has {0} characters: at most {MAX_NOTE}")]
+    NoteTooLong(usize),
+    /// The session's quality file could not be read or written.
+    #[error(transparent)]
+    Record(#[from] CampaignError),
+}
+
+/// Characters of an operator's note, at most.
+pub const MAX_NOTE: usize = 500;
+
 /// A demonstration found or recorded, for the operator.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Demo {
@@ -73,6 +101,8 @@ struct Books {
     live: BTreeMap<String, String>,
     /// Sessions started per participant (names the next folder).
     sessions: BTreeMap<String, u32>,
+    /// What participants said, per participant in the order said.
+    feedback: BTreeMap<String, Vec<Feedback>>,
 }
 
 /// A running campaign.
@@ -151,6 +181,7 @@ impl Campaign {
             demos: Vec::new(),
             live: BTreeMap::new(),
             sessions: BTreeMap::new(),
+            feedback: feedback::load_all(&spec.state)?,
         };
         let mut names: Vec<String> = std::fs::read_dir(&demos_dir)
             .map_err(io(&demos_dir))?
@@ -193,6 +224,7 @@ impl Campaign {
                                 "quality record lost (the server stopped before writing it)".into(),
                             ],
                         },
+                        review: None,
                     });
                     changed = true;
                 }
@@ -328,12 +360,15 @@ impl Campaign {
             tutorial,
             qc: Some(qc),
             verdict,
+            review: None,
         };
         let dir = self.demos_dir.join(name);
+        // The books' lock is held across the file's rewrite: a review of the same session
+        // rewrites it too.
+        let mut b = self.books();
         let mut file = SessionQc::load(&dir)?;
         file.demos.push(entry.clone());
         file.save(&dir)?;
-        let mut b = self.books();
         if tutorial {
             b.ledger.tutorial_done(participant);
         } else {
@@ -345,6 +380,84 @@ impl Campaign {
             entry: entry.clone(),
         });
         Ok(entry)
+    }
+
+    /// The operator's review of the demonstration of `episode_id` in session `session`:
+    /// accepted or flagged (with `note`), replacing the thresholds' verdict in the session's
+    /// `qc.json` and in the ledger (a demonstration accepted by review covers its episode;
+    /// one flagged by review gives the episode back to the pool).
+    pub fn review(
+        &self,
+        session: &str,
+        episode_id: &str,
+        accepted: bool,
+        note: &str,
+    ) -> Result<DemoEntry, ReviewError> {
+        let chars = note.chars().count();
+        if chars > MAX_NOTE {
+            return Err(ReviewError::NoteTooLong(chars));
+        }
+        let note: String = note.chars().filter(|c| !c.is_control()).collect();
+        let mut b = self.books();
+        let no_demo = || ReviewError::NoDemo {
+            session: session.to_string(),
+            episode_id: episode_id.to_string(),
+        };
+        // Only a session the books know names a folder: nothing from a request is a path.
+        let at = b
+            .demos
+            .iter()
+            .position(|d| d.session == session && d.entry.episode_id == episode_id)
+            .ok_or_else(no_demo)?;
+        let before = b.demos[at].entry.clone();
+        if before.tutorial {
+            return Err(ReviewError::Tutorial);
+        }
+        let after = before.reviewed(accepted, &note);
+        let dir = self.demos_dir.join(&b.demos[at].session);
+        let mut file = SessionQc::load(&dir)?;
+        let slot = file
+            .demos
+            .iter_mut()
+            .find(|d| d.episode_id == episode_id)
+            .ok_or_else(no_demo)?;
+        *slot = after.clone();
+        file.save(&dir)?;
+        b.ledger
+            .reviewed(episode_id, before.verdict.accepted, after.verdict.accepted);
+        b.demos[at].entry = after.clone();
+        tracing::info!(
+            "operator review: {session} {episode_id} {}",
+            if accepted { "accepted" } else { "flagged" }
+        );
+        Ok(after)
+    }
+
+    /// The demonstration of `episode_id` in session `session` and the episode's index in
+    /// the episode file; `None` when the books hold no such demonstration.
+    pub fn demo(&self, session: &str, episode_id: &str) -> Option<(Demo, usize)> {
+        let index = *self.index.get(episode_id)?;
+        let b = self.books();
+        let demo = b
+            .demos
+            .iter()
+            .find(|d| d.session == session && d.entry.episode_id == episode_id)?;
+        Some((demo.clone(), index))
+    }
+
+    /// Keeps what `participant` said about the campaign (see [`feedback`]).
+    pub fn feedback(&self, participant: &str, said: Feedback) -> Result<(), FeedbackError> {
+        said.validate()?;
+        let mut b = self.books();
+        let list = b.feedback.entry(participant.to_string()).or_default();
+        if list.len() >= feedback::MAX_PER_PARTICIPANT {
+            return Err(FeedbackError::TooMany);
+        }
+        let mut all = list.clone();
+        all.push(said);
+        feedback::save(&self.spec.state, participant, &all)?;
+        *list = all;
+        Ok(())
     }
 
     /// The campaign's progress for the operator: episodes covered, demonstrations per
@@ -363,8 +476,18 @@ impl Campaign {
             .iter()
             .map(|(p, s)| serde_json::json!({"participant": p, "session": s}))
             .collect();
+        let feedback: Vec<_> = b
+            .feedback
+            .iter()
+            .flat_map(|(p, list)| {
+                list.iter().map(move |f| {
+                    serde_json::json!({"participant": p, "rating": f.rating, "comment": f.comment})
+                })
+            })
+            .collect();
         serde_json::json!({
             "campaign": self.spec.file.file_name().map(|n| n.to_string_lossy().into_owned()),
+            "feedback": feedback,
             "demos_per_episode": k,
             "episodes_total": tallies.len(),
             "episodes_covered": covered,

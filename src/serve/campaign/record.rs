@@ -1,6 +1,7 @@
 //! A session's quality records: `<session>/qc.json`, one entry per finished episode in the
-//! order played (figures, verdict, whether it was the tutorial), rewritten atomically after
-//! each episode. `minos export-dataset --accepted` reads it.
+//! order played (figures, verdict, whether it was the tutorial, the operator's review),
+//! rewritten atomically after each episode and each review. `minos export-dataset
+//! --accepted` reads it.
 
 use std::path::Path;
 
@@ -24,8 +25,58 @@ pub struct DemoEntry {
     /// The figures (null when they were lost: the server stopped between writing the
     /// episode and its record).
     pub qc: Option<DemoQc>,
-    /// Accepted or flagged.
+    /// Accepted or flagged: the thresholds' verdict, or the operator's when reviewed.
     pub verdict: Verdict,
+    /// The operator's review, when they overrode the thresholds' verdict (absent otherwise).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub review: Option<Review>,
+}
+
+/// An operator's decision on a demonstration, which replaces the thresholds' verdict.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Review {
+    /// Why, in the operator's words (may be empty).
+    pub note: String,
+    /// The thresholds' verdict it replaced (kept, so a review can be undone).
+    pub automatic: Verdict,
+}
+
+impl DemoEntry {
+    /// The entry after the operator's review: `accepted` (or flagged) with `note`; the
+    /// thresholds' verdict is kept in [`Review::automatic`]. Reviewing back to the
+    /// thresholds' verdict with an empty note removes the review.
+    pub fn reviewed(&self, accepted: bool, note: &str) -> DemoEntry {
+        let automatic = self
+            .review
+            .as_ref()
+            .map_or_else(|| self.verdict.clone(), |r| r.automatic.clone());
+        let note = note.trim();
+        if accepted == automatic.accepted && note.is_empty() {
+            return DemoEntry {
+                verdict: automatic,
+                review: None,
+                ..self.clone()
+            };
+        }
+        let said = if note.is_empty() {
+            String::new()
+        } else {
+            format!(": {note}")
+        };
+        let reasons = if accepted {
+            Vec::new()
+        } else {
+            vec![format!("flagged by the operator{said}")]
+        };
+        DemoEntry {
+            verdict: Verdict { accepted, reasons },
+            review: Some(Review {
+                note: note.to_string(),
+                automatic,
+            }),
+            ..self.clone()
+        }
+    }
 }
 
 /// Every record of a session.
@@ -67,5 +118,63 @@ impl SessionQc {
             .filter(|d| d.verdict.accepted && !d.tutorial)
             .map(|d| d.episode_id.clone())
             .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn flagged() -> DemoEntry {
+        DemoEntry {
+            episode_id: "e".into(),
+            participant: "p0001".into(),
+            tutorial: false,
+            qc: None,
+            verdict: Verdict {
+                accepted: false,
+                reasons: vec!["idle 9.0 s (at most 5 s)".into()],
+            },
+            review: None,
+        }
+    }
+
+    #[test]
+    fn a_review_replaces_the_verdict_keeps_the_thresholds_and_can_be_undone() {
+        let auto = flagged();
+        let accepted = auto.reviewed(true, "  the pause was the page loading ");
+        assert_eq!(
+            accepted.verdict,
+            Verdict {
+                accepted: true,
+                reasons: vec![]
+            }
+        );
+        let review = accepted.review.clone().expect("reviewed");
+        assert_eq!(review.note, "the pause was the page loading");
+        assert_eq!(review.automatic, auto.verdict);
+        // A second review keeps the thresholds' verdict, not the first review's.
+        let flagged_again = accepted.reviewed(false, "walked into walls");
+        assert_eq!(
+            flagged_again.verdict.reasons,
+            vec!["flagged by the operator: walked into walls".to_string()]
+        );
+        assert_eq!(
+            flagged_again.review.expect("reviewed").automatic,
+            auto.verdict
+        );
+        // Back to the thresholds' verdict without a note: no review left.
+        assert_eq!(accepted.reviewed(false, ""), auto);
+        // The record round-trips through qc.json; a record without a review reads as before.
+        let file = SessionQc {
+            demos: vec![auto.clone(), accepted.clone()],
+        };
+        let text = serde_json::to_string(&file).expect("json");
+        assert_eq!(text.matches("\"review\"").count(), 1, "{text}");
+        assert_eq!(
+            serde_json::from_str::<SessionQc>(&text).expect("read"),
+            file
+        );
+        assert_eq!(file.accepted(), vec!["e".to_string()]);
     }
 }

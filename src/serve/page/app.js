@@ -107,10 +107,26 @@
       state.busy = false; showError(m.message);
     } else if (m.type === "campaign_done") {
       state.campaignDone = true;
-      $("instruction").textContent = "Thank you! There is nothing left for you to play; you may close this page.";
+      $("instruction").textContent = "Thank you! There is nothing left for you to play.";
+      $("feedback").hidden = false;
     } else if (m.type === "end") {
       $("result").textContent += ` · session over: ${m.episodes} episode(s) recorded in ${m.session}`;
     }
+  }
+
+  // The last stage of a participant's visit: how hard it was, and anything else to say.
+  async function sendFeedback(ev) {
+    ev.preventDefault();
+    const picked = document.querySelector("input[name=rating]:checked");
+    const body = { participant, comment: $("comment").value };
+    if (picked) body.rating = Number(picked.value);
+    const r = await fetch("/api/campaign/feedback", {
+      method: "POST", headers: { ...headers, "content-type": "application/json" }, body: JSON.stringify(body),
+    });
+    const reply = await r.json();
+    state.feedback = r.ok ? "sent" : reply.error;
+    $("feedback-result").textContent = r.ok ? "Thank you — you may close this page." : reply.error;
+    if (r.ok) $("send-feedback").disabled = true;
   }
 
   function onBinary(buf) {
@@ -194,7 +210,8 @@
   }
 
   document.addEventListener("keydown", (ev) => {
-    if (ev.target instanceof HTMLSelectElement || ev.ctrlKey || ev.metaKey || ev.altKey) return;
+    if (ev.target instanceof HTMLSelectElement || ev.target instanceof HTMLTextAreaElement ||
+      ev.ctrlKey || ev.metaKey || ev.altKey) return;
     const key = ev.key.length === 1 ? ev.key.toLowerCase() : ev.key;
     const toggles = { "1": "show-depth", "2": "show-semantic", m: "show-map", p: "show-path" };
     if (KEYS[key]) { ev.preventDefault(); act(KEYS[key]); }
@@ -205,5 +222,6 @@
   $("next").addEventListener("click", next);
   for (const id of ["show-depth", "show-semantic", "show-map", "show-path"]) $(id).addEventListener("change", () => { sendViews(); drawMap(); });
   $("chooser").addEventListener("submit", start);
+  $("feedback").addEventListener("submit", sendFeedback);
   init().catch((e) => showError(String(e)));
 })();
