@@ -6,7 +6,8 @@
 //!
 //! Every session asks for all three views (colour, depth, semantic), sent as the server's
 //! frame format (`MINOS_BENCH_FRAMES`: `jpeg`, the default of `minos serve`; `png`, its
-//! `--lossless-frames`; or `raw`); a key press's frame is its last view's message.
+//! `--lossless-frames`; `webp`, its `--lossless-frames webp`; or `raw`); a key press's frame
+//! is its last view's message.
 //!
 //! 1. Latency: one session; the time from sending a key press (an action) to receiving the
 //!    new frames, over many steps (median, 90th and 99th percentile).
@@ -14,7 +15,7 @@
 //!    100 ms (a person holding a key at 10 presses/s; as on the page, one action in flight,
 //!    so a late frame delays the next press and later ones catch up); the frames per second
 //!    each session gets and the latencies of all (p50, p90, p99).
-//! 3. Frame encodings: a 256² view's message as raw RGB, JPEG and PNG (time and bytes).
+//! 3. Frame encodings: a 256² view's message as raw RGB, JPEG, PNG and WebP (time and bytes).
 //!
 //! `MINOS_BENCH_STEPS` (default 200) sets the steps of the latency run, `MINOS_BENCH_SECONDS`
 //! (default 20) the length of the load run.
@@ -201,6 +202,7 @@ fn main() {
     let frames = match std::env::var("MINOS_BENCH_FRAMES").as_deref() {
         Ok("raw") => FrameFormat::Raw,
         Ok("png") => FrameFormat::Png,
+        Ok("webp") => FrameFormat::WebP,
         _ => FrameFormat::default(),
     };
     let running = start(
@@ -308,7 +310,12 @@ fn main() {
         ("gradient test image", &colour),
     ] {
         let mut line = format!("a {size}² {what}:");
-        for format in [FrameFormat::Raw, FrameFormat::default(), FrameFormat::Png] {
+        for format in [
+            FrameFormat::Raw,
+            FrameFormat::default(),
+            FrameFormat::Png,
+            FrameFormat::WebP,
+        ] {
             let n = 200;
             let t = Instant::now();
             let mut bytes = 0;

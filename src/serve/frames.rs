@@ -1,6 +1,7 @@
 //! What the page draws, as bytes: each camera image turned into RGB pixels (colour as is,
 //! depth grey — near is bright —, labels in their fixed colours) and compressed as the
-//! server's [`FrameFormat`] says (JPEG by default, PNG when lossless frames are asked for),
+//! server's [`FrameFormat`] says (JPEG by default; PNG or WebP when lossless frames are asked
+//! for),
 //! the top-down map of the navigation grid as a PNG, and the binary WebSocket messages that
 //! carry them.
 
@@ -27,6 +28,8 @@ pub enum FrameFormat {
     Jpeg(u8),
     /// PNG (fast compression): lossless.
     Png,
+    /// WebP, lossless: ≈ 2× smaller than PNG for ≈ 2× its time (for a page on a slow link).
+    WebP,
     /// The RGB pixels as they are: lossless, no compression (for a client on this machine).
     Raw,
 }
@@ -41,12 +44,13 @@ impl Default for FrameFormat {
 pub const DEFAULT_JPEG_QUALITY: u8 = 85;
 
 impl FrameFormat {
-    /// The format's byte in a message header: 0 raw RGB, 1 JPEG, 2 PNG.
+    /// The format's byte in a message header: 0 raw RGB, 1 JPEG, 2 PNG, 3 WebP.
     pub fn code(self) -> u8 {
         match self {
             FrameFormat::Raw => 0,
             FrameFormat::Jpeg(_) => 1,
             FrameFormat::Png => 2,
+            FrameFormat::WebP => 3,
         }
     }
 
@@ -56,6 +60,7 @@ impl FrameFormat {
             FrameFormat::Raw => "raw",
             FrameFormat::Jpeg(_) => "jpeg",
             FrameFormat::Png => "png",
+            FrameFormat::WebP => "webp",
         }
     }
 
@@ -91,15 +96,51 @@ pub fn camera_message(
         FrameFormat::Raw => out.extend_from_slice(rgb),
         FrameFormat::Jpeg(quality) => {
             out.reserve(rgb.len() / 8);
-            image::codecs::jpeg::JpegEncoder::new_with_quality(&mut out, quality.clamp(1, 100))
-                .write_image(rgb, width, height, image::ExtendedColorType::Rgb8)?;
+            jpeg(&mut out, rgb, width, height, quality)?;
         }
         FrameFormat::Png => {
             out.reserve(rgb.len() / 4);
             png_fast(&mut out, rgb, width, height)?;
         }
+        FrameFormat::WebP => {
+            out.reserve(rgb.len() / 4);
+            image::codecs::webp::WebPEncoder::new_lossless(&mut out).write_image(
+                rgb,
+                width,
+                height,
+                image::ExtendedColorType::Rgb8,
+            )?;
+        }
     }
     Ok(out)
+}
+
+/// `rgb` as a JPEG of `quality` (4:2:0 chroma, as cameras and browsers use) appended to
+/// `out`.
+fn jpeg(
+    out: &mut Vec<u8>,
+    rgb: &[u8],
+    width: u32,
+    height: u32,
+    quality: u8,
+) -> Result<(), image::ImageError> {
+    let too_big = || {
+        image::ImageError::Limits(image::error::LimitError::from_kind(
+            image::error::LimitErrorKind::DimensionError,
+        ))
+    };
+    let w = u16::try_from(width).map_err(|_| too_big())?;
+    let h = u16::try_from(height).map_err(|_| too_big())?;
+    let mut encoder = jpeg_encoder::Encoder::new(out, quality.clamp(1, 100));
+    encoder.set_sampling_factor(jpeg_encoder::SamplingFactor::R_4_2_0);
+    encoder
+        .encode(rgb, w, h, jpeg_encoder::ColorType::Rgb)
+        .map_err(|e| {
+            image::ImageError::Encoding(image::error::EncodingError::new(
+                image::error::ImageFormatHint::Exact(image::ImageFormat::Jpeg),
+                e,
+            ))
+        })
 }
 
 /// `rgb` as a PNG (fast compression, the Sub filter) appended to `out`.
@@ -279,6 +320,9 @@ mod tests {
         let png = camera_message(FrameFormat::Png, 1, 64, 64, &rgb).expect("png");
         assert_eq!(&png[..HEADER], &[1, 1, 64, 0, 64, 0, 2, 0]);
         assert_eq!(decode(&png), rgb, "PNG frames are lossless");
+        let webp = camera_message(FrameFormat::WebP, 1, 64, 64, &rgb).expect("webp");
+        assert_eq!(webp[6], 3);
+        assert_eq!(decode(&webp), rgb, "WebP frames are lossless");
         let raw = camera_message(FrameFormat::Raw, 0, 64, 64, &rgb).expect("raw");
         assert_eq!(raw[6], 0);
         assert_eq!(&raw[HEADER..], &rgb[..]);
@@ -296,6 +340,11 @@ mod tests {
             / rgb.len() as f64;
         assert!(mae < 4.0, "mean error {mae}");
         assert!(FrameFormat::Png.lossless() && !FrameFormat::default().lossless());
+        assert!(FrameFormat::WebP.lossless());
+        assert_eq!(
+            FrameFormat::WebP.for_modality(Modality::Semantic),
+            FrameFormat::WebP
+        );
         let jpeg = FrameFormat::default();
         assert_eq!(jpeg.for_modality(Modality::Color), jpeg);
         assert_eq!(jpeg.for_modality(Modality::Semantic), FrameFormat::Png);

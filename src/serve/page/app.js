@@ -155,7 +155,7 @@
       shown();
       return;
     }
-    const type = format === 1 ? "image/jpeg" : "image/png";
+    const type = format === 1 ? "image/jpeg" : format === 3 ? "image/webp" : "image/png";
     createImageBitmap(new Blob([new Uint8Array(buf, 8)], { type }))
       .then((bitmap) => { ctx.drawImage(bitmap, 0, 0); bitmap.close(); shown(); })
       .catch((e) => showError("a frame could not be decoded: " + e));
