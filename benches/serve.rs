@@ -13,8 +13,10 @@
 //!    new frames, over many steps (median, 90th and 99th percentile).
 //! 2. Load: N sessions (`MINOS_BENCH_SESSIONS`, default 12), each pressing a key every
 //!    100 ms (a person holding a key at 10 presses/s; as on the page, one action in flight,
-//!    so a late frame delays the next press and later ones catch up); the frames per second
-//!    each session gets and the latencies of all (p50, p90, p99).
+//!    so a late frame delays the next press and later ones catch up), the sessions' schedules
+//!    spread over the period (`MINOS_BENCH_LOCKSTEP=1`: all at once); the frames per second
+//!    each session gets and the latencies of all (p50, p90, p99), also without the frames
+//!    that wait for an episode's end.
 //! 3. Frame encodings: a 256² view's message as raw RGB, JPEG, PNG and WebP (time and bytes).
 //!
 //! `MINOS_BENCH_STEPS` (default 200) sets the steps of the latency run, `MINOS_BENCH_SECONDS`
@@ -81,15 +83,18 @@ const WALK: [&str; 8] = [
 ];
 
 /// Waits for the frames of step `want` of the session (counting every step message since it
-/// began; answering an episode's end with "next"); that step's last view's message.
-async fn frame(ws: &mut Ws, steps: &mut u64, want: u64) -> Option<Vec<u8>> {
+/// began; answering an episode's end with "next"); that step's last view's message, and
+/// whether an episode ended on the way (the frame is then the next episode's first).
+async fn frame(ws: &mut Ws, steps: &mut u64, want: u64) -> Option<(Vec<u8>, bool)> {
+    let mut ended = false;
     while let Some(Ok(m)) = ws.next().await {
         match m {
             Message::Binary(b) if b[0] == 1 && b[1] == 2 && *steps >= want => {
-                return Some(b.to_vec())
+                return Some((b.to_vec(), ended))
             }
             Message::Text(t) if t.as_str().contains("\"type\":\"step\"") => *steps += 1,
             Message::Text(t) if t.as_str().contains("\"type\":\"done\"") => {
+                ended = true;
                 ws.send(Message::Text(r#"{"next":null}"#.into()))
                     .await
                     .unwrap();
@@ -100,14 +105,18 @@ async fn frame(ws: &mut Ws, steps: &mut u64, want: u64) -> Option<Vec<u8>> {
     None
 }
 
+/// A key press's latency (ms) and whether an episode ended before its frame.
+type Latency = (f64, bool);
+
 /// One session: actions at most every `period`, for `duration` or `steps`; the latencies
 /// and the last frame.
 async fn session(
     addr: SocketAddr,
     period: Duration,
+    phase: Duration,
     duration: Duration,
     steps: usize,
-) -> (Vec<f64>, Vec<u8>) {
+) -> (Vec<Latency>, Vec<u8>) {
     let token = tokio::task::spawn_blocking(move || create(addr))
         .await
         .unwrap();
@@ -123,12 +132,15 @@ async fn session(
         .unwrap();
     let mut seen = 0;
     let mut want = 2;
-    let mut last = frame(&mut ws, &mut seen, want).await.expect("first frames");
+    let mut last = frame(&mut ws, &mut seen, want)
+        .await
+        .expect("first frames")
+        .0;
     let mut latencies = Vec::new();
     let begin = Instant::now();
     // Key presses on a fixed schedule, every `period` (like a key held down), one in flight
     // as the page does: a late frame delays the next press, later presses catch up.
-    let mut due = tokio::time::Instant::now();
+    let mut due = tokio::time::Instant::now() + phase;
     let mut i = 0;
     while begin.elapsed() < duration && latencies.len() < steps {
         tokio::time::sleep_until(due).await;
@@ -139,10 +151,12 @@ async fn session(
         ws.send(Message::Text(action.into())).await.unwrap();
         want += 1;
         match frame(&mut ws, &mut seen, want).await {
-            Some(f) => last = f,
+            Some((f, ended)) => {
+                last = f;
+                latencies.push((sent.elapsed().as_secs_f64() * 1e3, ended));
+            }
             None => break,
         }
-        latencies.push(sent.elapsed().as_secs_f64() * 1e3);
     }
     let _ = ws.send(Message::Text(r#"{"end":true}"#.into())).await;
     (latencies, last)
@@ -166,7 +180,7 @@ fn percentile(sorted: &[f64], p: f64) -> f64 {
     sorted[((sorted.len() - 1) as f64 * p).round() as usize]
 }
 
-fn summary(mut v: Vec<f64>) -> String {
+fn percentiles(mut v: Vec<f64>) -> String {
     v.sort_by(f64::total_cmp);
     format!(
         "median {:.1} ms, p90 {:.1} ms, p99 {:.1} ms, max {:.1} ms ({} frames)",
@@ -175,6 +189,17 @@ fn summary(mut v: Vec<f64>) -> String {
         percentile(&v, 0.99),
         v.last().copied().unwrap_or(f64::NAN),
         v.len()
+    )
+}
+
+/// The latencies' percentiles, all of them and those within episodes (the others wait for
+/// an episode's end and the next one's start: its parts written, its goal field computed).
+fn summary(v: Vec<Latency>) -> String {
+    let within: Vec<f64> = v.iter().filter(|l| !l.1).map(|l| l.0).collect();
+    format!(
+        "{}; within episodes {}",
+        percentiles(v.into_iter().map(|l| l.0).collect()),
+        percentiles(within)
     )
 }
 
@@ -230,7 +255,12 @@ fn main() {
             connect_timeout: Duration::from_secs(30),
             send_timeout: Duration::from_secs(10),
             allowed_hosts: Vec::new(),
-            rate: RateLimits::default(),
+            // A scripted client back to back sends more than a person's 50 messages a
+            // second: one ignored action would stall the run until the idle timeout.
+            rate: RateLimits {
+                messages_per_second: 100_000,
+                ..RateLimits::default()
+            },
         },
         "127.0.0.1:0".parse().unwrap(),
     )
@@ -252,6 +282,7 @@ fn main() {
     let (one, pixels) = rt.block_on(session(
         addr,
         Duration::ZERO,
+        Duration::ZERO,
         Duration::from_secs(600),
         steps,
     ));
@@ -262,12 +293,22 @@ fn main() {
     let seconds = env("MINOS_BENCH_SECONDS", 20);
     let period = Duration::from_millis(100);
     let t = Instant::now();
-    let all: Vec<Vec<f64>> = rt.block_on(async {
+    // People do not press their keys in step: each session's schedule starts at its own
+    // phase of the period (spread evenly), unless MINOS_BENCH_LOCKSTEP=1 (every session at
+    // once, the worst case: 12 steps arrive together on the cores).
+    let lockstep = env("MINOS_BENCH_LOCKSTEP", 0) == 1;
+    let all: Vec<Vec<Latency>> = rt.block_on(async {
         let tasks: Vec<_> = (0..sessions)
-            .map(|_| {
+            .map(|k| {
+                let phase = if lockstep {
+                    Duration::ZERO
+                } else {
+                    period * k as u32 / sessions as u32
+                };
                 tokio::spawn(session(
                     addr,
                     period,
+                    phase,
                     Duration::from_secs(seconds),
                     usize::MAX,
                 ))
@@ -286,9 +327,14 @@ fn main() {
         .collect();
     let min_fps = fps.iter().copied().fold(f64::INFINITY, f64::min);
     println!(
-        "{sessions} sessions pressing 10 keys/s for {seconds} s ({wall:.1} s with set-up): \
+        "{sessions} sessions pressing 10 keys/s ({}) for {seconds} s ({wall:.1} s with set-up): \
          {:.1} frames/s per session (min {min_fps:.1}), {:.0} frames/s in all; key press -> \
          frames {}",
+        if lockstep {
+            "in lockstep"
+        } else {
+            "phases spread"
+        },
         fps.iter().sum::<f64>() / fps.len() as f64,
         fps.iter().sum::<f64>(),
         summary(all.into_iter().flatten().collect())

@@ -114,6 +114,12 @@ impl Decision {
 pub trait Agent: Send {
     /// Prepares for an episode (the simulator has been reset to it).
     fn reset(&mut self, episode: &Episode, sim: &Simulator) -> Result<(), AgentError>;
+    /// Shown each observation before the run writes it and asks [`Agent::decide`]: an agent
+    /// that shows it somewhere (a person's page) does so here, so the run's writes happen
+    /// while it decides. Nothing by default.
+    fn present(&mut self, _obs: &Observation, _sim: &Simulator) -> Result<(), AgentError> {
+        Ok(())
+    }
     /// The next decision given the latest observation.
     fn decide(&mut self, obs: &Observation, sim: &Simulator) -> Result<Decision, AgentError>;
     /// Whether success needs an explicit `stop` from this agent.

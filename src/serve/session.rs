@@ -395,7 +395,9 @@ impl Agent for HumanAgent {
         Ok(())
     }
 
-    fn decide(&mut self, obs: &Observation, sim: &Simulator) -> Result<Decision, AgentError> {
+    /// The step's state and images go to the page (the run then writes the observation
+    /// while the person decides).
+    fn present(&mut self, obs: &Observation, sim: &Simulator) -> Result<(), AgentError> {
         let episode = self.episode.as_ref().ok_or(AgentError::NotReset("human"))?;
         let state = sim.state();
         let m = &obs.measurements;
@@ -425,6 +427,11 @@ impl Agent for HumanAgent {
                 return Err(gone());
             }
         }
+        Ok(())
+    }
+
+    /// Waits for the person's action.
+    fn decide(&mut self, _obs: &Observation, _sim: &Simulator) -> Result<Decision, AgentError> {
         loop {
             match self.link.wait() {
                 Some(Command::Act(d)) => {

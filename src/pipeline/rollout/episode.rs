@@ -62,8 +62,12 @@ pub fn run_episode(
     agent.reset(ep, stepper.sim())?;
     let mut written = EpisodeParts::open(stepper, ep, cfg, parts, index, record)?;
     while !stepper.ended() {
+        // Shown first, written while the agent decides: a person's page gets the frame
+        // without waiting for the observation part's writes (a row group's compression).
+        agent.present(stepper.observation(), stepper.sim())?;
+        written.observed(stepper)?;
         let decision = agent.decide(stepper.observation(), stepper.sim())?;
-        written.before(stepper, &decision)?;
+        written.decided(stepper, &decision);
         let out = stepper.step(decision)?;
         written.after(&out)?;
     }
@@ -128,21 +132,37 @@ impl EpisodeParts {
     }
 
     /// Writes the observation the agent decided `decision` on (the stepper's latest) and
-    /// what it was given with it.
+    /// what it was given with it: [`EpisodeParts::observed`] then
+    /// [`EpisodeParts::decided`].
     pub fn before(
         &mut self,
         stepper: &EpisodeStepper,
         decision: &Decision,
     ) -> Result<(), EpisodeError> {
+        self.observed(stepper)?;
+        self.decided(stepper, decision);
+        Ok(())
+    }
+
+    /// Writes the stepper's latest observation (the one the next decision is taken on) to the
+    /// observation part and the recording.
+    pub fn observed(&mut self, stepper: &EpisodeStepper) -> Result<(), EpisodeError> {
         let t = stepper.decisions();
         let obs = stepper.observation();
         self.writer
             .push(t, &obs.images)
             .map_err(EpisodeError::Table)?;
-        let state = stepper.sim().state();
         if let Some(r) = self.recorder.as_mut() {
-            r.observe(t, &state, &stepper.sim().cameras(), obs)?;
+            r.observe(t, &stepper.sim().state(), &stepper.sim().cameras(), obs)?;
         }
+        Ok(())
+    }
+
+    /// Starts the trajectory row of `decision`, taken on the observation
+    /// [`EpisodeParts::observed`] wrote (its outcome completes it: [`EpisodeParts::after`]).
+    pub fn decided(&mut self, stepper: &EpisodeStepper, decision: &Decision) {
+        let t = stepper.decisions();
+        let state = stepper.sim().state();
         self.pending = Some(StepRow {
             step: t,
             pose: [
@@ -160,7 +180,6 @@ impl EpisodeParts {
             done: false,
             success: false,
         });
-        Ok(())
     }
 
     /// Completes the row of the decision [`EpisodeParts::before`] wrote with what the step
