@@ -14,7 +14,7 @@ use std::sync::OnceLock;
 use std::time::{Duration, Instant};
 
 use common::serve::{connect, create, http, play, recv, run_config, send, Msg, SCRIPTED_RATE};
-use common::{baked_houses, every_task_episodes, minos};
+use common::{baked_houses, every_task_episodes, minos, RunOk};
 use minos::body::AgentPreset;
 use minos::episode::format::read_episodes;
 use minos::episode::Episode;
@@ -914,4 +914,139 @@ fn new_sessions_and_messages_are_rate_limited_per_token() {
         send(&mut ws, r#"{"end":true}"#).await;
     });
     running.stop();
+}
+
+/// Plays `episode` on `running` with `decisions`, asking for the semantic view too; returns
+/// the label colours the semantic frames showed, the `done` message and the session's name.
+fn semantic_colours(
+    running: &Running,
+    decisions: &[Decision],
+) -> (
+    std::collections::BTreeSet<[u8; 3]>,
+    serde_json::Value,
+    String,
+) {
+    use futures_util::{SinkExt, StreamExt};
+    use tokio_tungstenite::tungstenite::Message;
+    let (token, name) = create(running.addr, "{}", &[]);
+    let mut colours = std::collections::BTreeSet::new();
+    let done = runtime().block_on(async {
+        let mut ws = connect(running.addr, &token, "").await;
+        send(&mut ws, r#"{"views":["semantic"]}"#).await;
+        let mut next = 0;
+        let mut stepped = false;
+        loop {
+            let m = tokio::time::timeout(Duration::from_secs(60), ws.next())
+                .await
+                .expect("a message within 60 s")
+                .expect("the session goes on")
+                .expect("a message");
+            match m {
+                Message::Text(t) => {
+                    let v: serde_json::Value = serde_json::from_str(t.as_str()).unwrap();
+                    match v["type"].as_str() {
+                        Some("step") => stepped = true,
+                        Some("done") => {
+                            ws.send(Message::Text(r#"{"end":true}"#.into()))
+                                .await
+                                .unwrap();
+                            while ws.next().await.is_some() {}
+                            return v;
+                        }
+                        Some("error") => panic!("{v}"),
+                        _ => {}
+                    }
+                }
+                // The semantic camera (index 2): its pixels' colours.
+                Message::Binary(b) if b[0] == 1 && b[1] == 2 => {
+                    let img = image::load_from_memory(&b[8..]).expect("a PNG").to_rgb8();
+                    colours.extend(img.pixels().map(|p| p.0));
+                }
+                Message::Binary(b) if b[0] == 1 && b[1] == 0 && stepped => {
+                    stepped = false;
+                    let d = decisions.get(next).copied().unwrap_or(Decision::Stop);
+                    next += 1;
+                    send(&mut ws, &format!(r#"{{"action":"{}"}}"#, d.name())).await;
+                }
+                _ => {}
+            }
+        }
+    });
+    (colours, done, name)
+}
+
+#[test]
+fn a_variant_is_what_sessions_play_record_and_replay() {
+    let f = fixture();
+    // A copy of the DATA folder with an `empty` variant (furniture removed), baked.
+    let root = f.dir.path().join("data-variant");
+    copy_tree(f.data.root(), &root);
+    let spec = f.dir.path().join("variants.toml");
+    std::fs::write(&spec, "[empty]\nempty = true\n").unwrap();
+    minos()
+        .args(["-q", "variants", "--data"])
+        .arg(&root)
+        .arg("--spec")
+        .arg(&spec)
+        .ok_output();
+    minos()
+        .args(["-q", "bake", "--no-preview", "--variant", "empty", "--data"])
+        .arg(&root)
+        .ok_output();
+    let data = DataDir::new(&root);
+    let base = f.episodes[0].clone();
+    let on_empty = base.clone().on_variant("empty");
+    // A full turn where the episode starts, then stop.
+    let turn = Decision::from_name("turn_left").unwrap();
+    let turns: Vec<Decision> = std::iter::repeat_n(turn, 36)
+        .chain([Decision::Stop])
+        .collect();
+    let serve = |variant: Option<&str>, episode: &Episode, out: &Path| {
+        let mut cfg = serve_config(f, out, None, Duration::from_secs(60));
+        cfg.shared.data = data.clone();
+        cfg.shared.episodes = vec![episode.clone()];
+        cfg.shared.variant = variant.map(str::to_string);
+        start(cfg, "127.0.0.1:0".parse().unwrap()).expect("server starts")
+    };
+    let out_base = f.dir.path().join("demos-variant-base");
+    let running = serve(None, &base, &out_base);
+    let (furnished, _, _) = semantic_colours(&running, &turns);
+    running.stop();
+    let out = f.dir.path().join("demos-variant");
+    let running = serve(Some("empty"), &on_empty, &out);
+    let (empty, done, name) = semantic_colours(&running, &turns);
+    running.stop();
+    assert_eq!(done["episode_id"], on_empty.episode_id.as_str());
+    // The variant's views show fewer label colours: the furniture's are gone, nothing new.
+    assert!(
+        empty.is_subset(&furnished) && empty.len() < furnished.len(),
+        "empty {empty:?} furnished {furnished:?}"
+    );
+    // Recorded on the variant: its scene id, the manifest's variant, and a replay on the
+    // variant gives the same tables byte for byte.
+    let session = out.join(&name);
+    let played = read_episodes(&session.join(PLAYED)).unwrap();
+    assert_eq!(played, vec![on_empty.clone()]);
+    assert!(
+        played[0].scene_id.ends_with("@empty"),
+        "{}",
+        played[0].scene_id
+    );
+    let manifest: serde_json::Value =
+        serde_json::from_slice(&bytes(&session.join("manifest.json"))).unwrap();
+    assert_eq!(manifest["variant"], "empty", "{manifest}");
+    let steps = read_replay(&session.join("trajectories.parquet")).unwrap();
+    let replay_dir = f.dir.path().join("replay-variant");
+    run(
+        &run_config(&data, &replay_dir, AgentKind::Replay(steps), sensors()),
+        &played,
+        &NoProgress,
+    )
+    .unwrap();
+    for file in TABLES {
+        assert!(
+            bytes(&session.join(file)) == bytes(&replay_dir.join(file)),
+            "{file}"
+        );
+    }
 }
