@@ -20,7 +20,8 @@
 //! 3. Frame encodings: a 256² view's message as raw RGB, JPEG, PNG and WebP (time and bytes).
 //!
 //! `MINOS_BENCH_STEPS` (default 200) sets the steps of the latency run, `MINOS_BENCH_SECONDS`
-//! (default 20) the length of the load run.
+//! (default 20) the length of the load run, `MINOS_BENCH_RATE` (default 10) its key presses
+//! per second and session.
 
 mod support;
 
@@ -291,7 +292,9 @@ fn main() {
         summary(one)
     );
     let seconds = env("MINOS_BENCH_SECONDS", 20);
-    let period = Duration::from_millis(100);
+    // Key presses per second and session (a person holding a key: 10).
+    let rate = env("MINOS_BENCH_RATE", 10).max(1);
+    let period = Duration::from_millis(1000 / rate);
     let t = Instant::now();
     // People do not press their keys in step: each session's schedule starts at its own
     // phase of the period (spread evenly), unless MINOS_BENCH_LOCKSTEP=1 (every session at
@@ -327,7 +330,7 @@ fn main() {
         .collect();
     let min_fps = fps.iter().copied().fold(f64::INFINITY, f64::min);
     println!(
-        "{sessions} sessions pressing 10 keys/s ({}) for {seconds} s ({wall:.1} s with set-up): \
+        "{sessions} sessions pressing {rate} keys/s ({}) for {seconds} s ({wall:.1} s with set-up): \
          {:.1} frames/s per session (min {min_fps:.1}), {:.0} frames/s in all; key press -> \
          frames {}",
         if lockstep {
