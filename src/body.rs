@@ -149,12 +149,7 @@ impl AgentPreset {
 
     /// The preset's name on the command line and in files.
     pub fn name(self) -> &'static str {
-        match self {
-            AgentPreset::Habitat => "habitat",
-            AgentPreset::Minos => "minos",
-            AgentPreset::MinosGridworld => "minos-gridworld",
-            AgentPreset::MinosPaper => "minos-paper",
-        }
+        crate::vocab::Vocabulary::term_name(self)
     }
 
     /// The success radius (m) of PointGoal episodes sampled for the preset: MINOS's 0.4 m
@@ -191,21 +186,42 @@ impl fmt::Display for AgentPreset {
     }
 }
 
+impl crate::vocab::Vocabulary for AgentPreset {
+    const WHAT: &'static str = "agent preset";
+    const TERMS: &'static [crate::vocab::Term<Self>] = &[
+        crate::vocab::Term {
+            value: AgentPreset::Habitat,
+            name: "habitat",
+            aliases: &[],
+            help: "Habitat's agent: 1.5 m body, 0.25 m steps, 10° turns",
+        },
+        crate::vocab::Term {
+            value: AgentPreset::Minos,
+            name: "minos",
+            aliases: &["minos-continuous"],
+            help: "MINOS's continuous agent: 1.19 m body, forces and friction",
+        },
+        crate::vocab::Term {
+            value: AgentPreset::MinosGridworld,
+            name: "minos-gridworld",
+            aliases: &[],
+            help: "MINOS's gridworld agent: 1.19 m body, 0.4 m steps, 90° turns",
+        },
+        crate::vocab::Term {
+            value: AgentPreset::MinosPaper,
+            name: "minos-paper",
+            aliases: &[],
+            help: "the MINOS paper's agent: continuous, forward and turns only, grey 90° camera",
+        },
+    ];
+}
+
 impl FromStr for AgentPreset {
-    type Err = crate::invalid::Invalid;
+    type Err = crate::vocab::UnknownName;
 
     /// A preset by name; `minos-continuous` is accepted for `minos`.
     fn from_str(s: &str) -> Result<Self, Self::Err> {
-        match s {
-            "minos-continuous" => Ok(AgentPreset::Minos),
-            _ => AgentPreset::ALL
-                .into_iter()
-                .find(|p| p.name() == s)
-                .ok_or_else(|| {
-                    let names: Vec<&str> = AgentPreset::ALL.iter().map(|p| p.name()).collect();
-                    format!("unknown agent preset `{s}` ({})", names.join(", ")).into()
-                }),
-        }
+        crate::vocab::Vocabulary::parse_name(s)
     }
 }
 

@@ -42,3 +42,4 @@ pub mod split;
 pub mod stats;
 pub mod store;
 pub mod verify;
+pub mod vocab;

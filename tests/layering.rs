@@ -16,6 +16,7 @@ const GROUND: &[&str] = &[
     "provenance",
     "progress",
     "seed",
+    "vocab",
     "shard",
 ];
 
@@ -31,6 +32,7 @@ const FLOORS: &[(&str, &[&str])] = &[
     ("provenance", &[]),
     ("progress", &[]),
     ("seed", &[]),
+    ("vocab", &[]),
     ("shard", &[]),
     // The canonical model.
     ("scene", &[]),

@@ -83,5 +83,6 @@ mod variants;
 mod verify;
 #[path = "vln.rs"]
 mod vln;
+mod vocab;
 #[path = "workdir.rs"]
 mod workdir;

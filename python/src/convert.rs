@@ -17,6 +17,7 @@ use minos::progress::Progress;
 use minos::render::RendererChoice;
 use minos::shard::{Shard, ShardSpec};
 use minos::sim::SensorSuite;
+use minos::vocab::Vocabulary;
 
 use crate::{
     BadInputError, BodyMismatchError, LockedError, MinosError, NotFoundError, NotReadyError,
@@ -147,22 +148,21 @@ pub fn point(obj: &Bound<'_, PyAny>) -> PyResult<Vec3> {
     }
 }
 
+/// The value of the library vocabulary `T` that keyword argument `kwarg` names (`text`): the
+/// names the command line's flags take, declared once on the library's enum.
+pub fn term<T: Vocabulary>(kwarg: &str, text: &str) -> PyResult<T> {
+    T::parse_name(text).map_err(|e| msg_err(format!("{kwarg}: {e}")))
+}
+
 /// An agent preset by name (`habitat`, `minos`/`minos-continuous`, `minos-gridworld`,
 /// `minos-paper`).
 pub fn preset(name: &str) -> PyResult<AgentPreset> {
-    name.parse::<AgentPreset>().map_err(msg_err)
+    term("agent", name)
 }
 
 /// A renderer by name (`cpu`, `wgpu`, `auto`).
 pub fn renderer(name: &str) -> PyResult<RendererChoice> {
-    match name {
-        "cpu" => Ok(RendererChoice::Cpu),
-        "wgpu" => Ok(RendererChoice::Wgpu),
-        "auto" => Ok(RendererChoice::Auto),
-        other => Err(msg_err(format!(
-            "renderer: unknown renderer `{other}` (cpu, wgpu, auto)"
-        ))),
-    }
+    term("renderer", name)
 }
 
 /// A path argument (`str` or `os.PathLike`).

@@ -265,11 +265,7 @@ impl VecCore {
         let body = AgentConfig::preset(preset(agent)?);
         let suite = sensor_suite(sensors, size, preset(agent)?)?;
         let renderer = crate::convert::renderer(renderer)?;
-        let reward = Reward::from_name(reward).ok_or_else(|| {
-            msg_err(format!(
-                "reward: unknown reward `{reward}` (dist_time, path_delta, geodesic)"
-            ))
-        })?;
+        let reward: Reward = crate::convert::term("reward", reward)?;
         let contacts = suite.contact.map_or(0, |c| c.count as usize);
         let cameras = suite.cameras.clone();
         let cfg = VectorEnvConfig {

@@ -11,7 +11,7 @@ use anyhow::{anyhow, bail, Context as _};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use minos::body::BodyRule;
+use minos::body::{AgentPreset, BodyRule};
 use minos::episode::format::read_episodes;
 use minos::episode::habitat::SceneIdStyle;
 use minos::episode::sample::{SampleConfig, Select};
@@ -25,7 +25,7 @@ use minos::navmesh::NavParams;
 use minos::pipeline::bake::{self as bake_driver, BakeConfig, BakeOutcome};
 use minos::pipeline::episodes::{
     default_min_geodesic, default_min_rooms, default_success_radius, expand_categories,
-    parse_room_classes, run_job, select_scenes, EpisodesJob,
+    parse_room_classes, run_job, select_scenes, EpisodesJob, Stratify,
 };
 use minos::pipeline::ingest::{ingest_with, read_id_list, DatasetFormat, IngestConfig, Outcome};
 use minos::pipeline::rollout::{AgentKind, Provenance, RerunOutput, RunConfig};
@@ -35,7 +35,7 @@ use minos::sim::AgentConfig;
 use minos::split::{read_split, Subset};
 use minos::store::DataDir;
 
-use crate::convert::{msg_err, path_of, py_err, sensor_suite, with_threads, PyProgress};
+use crate::convert::{msg_err, path_of, py_err, sensor_suite, term, with_threads, PyProgress};
 
 fn lock_mode(wait: bool) -> LockMode {
     if wait {
@@ -220,7 +220,7 @@ fn bake_params(
     cell_size: Option<f32>,
     config: Option<&Path>,
 ) -> anyhow::Result<NavParams> {
-    let p = preset_name.parse().map_err(anyhow::Error::msg)?;
+    let p: AgentPreset = preset_name.parse().map_err(anyhow::Error::msg)?;
     let mut params = NavParams::preset(p);
     if let Some(cell) = cell_size {
         params.cell_size = cell;
@@ -352,47 +352,15 @@ pub fn sample_episodes<'py>(
     let data = DataDir::new(path_of(data)?);
     let out = path_of(out)?;
     let starts = starts.map(path_of).transpose()?;
-    let task = Task::from_name(task).ok_or_else(|| {
-        msg_err(format!(
-            "task: unknown task `{task}` (pointgoal, objectgoal, roomgoal, vln)"
-        ))
-    })?;
-    let subset = match subset {
-        None => None,
-        Some("train") => Some(Subset::Train),
-        Some("val") => Some(Subset::Val),
-        Some("test") => Some(Subset::Test),
-        Some(other) => {
-            return Err(msg_err(format!(
-                "subset: unknown subset `{other}` (train, val, test)"
-            )))
-        }
-    };
+    let task: Task = term("task", task)?;
+    let subset: Option<Subset> = subset.map(|s| term("subset", s)).transpose()?;
     if bins.0 > bins.1 {
         return Err(msg_err(
             "bins: expected two increasing distances, e.g. (3, 6)",
         ));
     }
-    let select = match select {
-        "any" => Select::Any,
-        "random" => Select::Random,
-        "closest" => Select::Closest,
-        other => {
-            return Err(msg_err(format!(
-                "select: unknown selection `{other}` (any, random, closest)"
-            )))
-        }
-    };
-    let stratified = match stratify {
-        "on" => true,
-        "off" => false,
-        "auto" => matches!(subset, Some(Subset::Val | Subset::Test)),
-        other => {
-            return Err(msg_err(format!(
-                "stratify: unknown value `{other}` (auto, on, off)"
-            )))
-        }
-    };
+    let select: Select = term("select", select)?;
+    let stratified = term::<Stratify>("stratify", stratify)?.applies(subset);
     let (categories, all_categories) = expand_categories(&categories)
         .ok_or_else(|| msg_err("categories: give [\"all\"] alone"))?;
     let room_classes = parse_room_classes(&room_types)
@@ -526,20 +494,8 @@ pub fn run<'py>(
     let preset_value = crate::convert::preset(preset)?;
     let sensors = sensor_suite(sensors, size, preset_value)?;
     let shard = crate::convert::shard(shard)?;
-    let reward = Reward::from_name(reward).ok_or_else(|| {
-        msg_err(format!(
-            "reward: unknown reward `{reward}` (dist_time, path_delta, geodesic)"
-        ))
-    })?;
-    let encoding = match image_encoding {
-        "raw" => ImageEncoding::Raw,
-        "png" => ImageEncoding::Png,
-        other => {
-            return Err(msg_err(format!(
-                "image_encoding: unknown encoding `{other}` (raw, png)"
-            )))
-        }
-    };
+    let reward: Reward = term("reward", reward)?;
+    let encoding: ImageEncoding = term("image_encoding", image_encoding)?;
     let lerobot = match format {
         "parquet" => false,
         "lerobot" => true,

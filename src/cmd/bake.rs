@@ -13,7 +13,7 @@ use minos::pipeline::bake::{bake, BakeConfig, BakeOutcome};
 use minos::shard::{Shard, ShardSpec};
 use minos::store::DataDir;
 
-use super::common::{split_or_all, PresetArg};
+use super::common::{split_or_all, vocab};
 use super::Context;
 
 /// Bake navigation grids: walkable floor spans for a cylinder agent, islands, rooms and
@@ -43,8 +43,8 @@ pub struct Args {
     split: Option<String>,
     /// Agent preset whose body the grids are for: habitat (1.5 m), minos, minos-gridworld or
     /// minos-paper (MINOS's 1.19 m body).
-    #[arg(long, value_enum, default_value_t)]
-    preset: PresetArg,
+    #[arg(long, value_parser = vocab::<AgentPreset>(), default_value = "habitat")]
+    preset: AgentPreset,
     /// Cell edge in metres (MINOS used 0.1).
     #[arg(long, value_name = "M")]
     cell_size: Option<f32>,
@@ -70,7 +70,7 @@ pub struct Args {
 
 /// The grid parameters the flags ask for (reads the `--config` file, if any).
 fn params(args: &Args) -> anyhow::Result<NavParams> {
-    let mut params = NavParams::preset(AgentPreset::from(args.preset));
+    let mut params = NavParams::preset(args.preset);
     if let Some(cell) = args.cell_size {
         params.cell_size = cell;
     }

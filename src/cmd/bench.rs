@@ -5,11 +5,12 @@ use std::process::ExitCode;
 
 use minos::body::AgentPreset;
 use minos::pipeline::bench::{bench, BenchConfig, BenchKind};
+use minos::render::RendererChoice;
 use minos::scene::SceneRef;
 use minos::sim::{AgentConfig, SensorSuite};
 use minos::store::DataDir;
 
-use super::common::{sensor_suite, PresetArg, RendererArg};
+use super::common::{sensor_suite, vocab};
 use super::Context;
 
 /// Benchmarks `bench` can run.
@@ -58,14 +59,14 @@ pub struct Args {
     #[arg(long)]
     json: bool,
     /// Agent preset (the grid must be baked for its body).
-    #[arg(long, value_enum, default_value_t)]
-    preset: PresetArg,
+    #[arg(long, value_parser = vocab::<AgentPreset>(), default_value = "habitat")]
+    preset: AgentPreset,
     /// Use a grid baked for another body than --preset's.
     #[arg(long)]
     allow_body_mismatch: bool,
     /// Renderer of `render` and `run`.
-    #[arg(long, value_enum, default_value = "cpu")]
-    renderer: RendererArg,
+    #[arg(long, value_parser = vocab::<RendererChoice>(), default_value = "cpu")]
+    renderer: RendererChoice,
     /// Sensor file (TOML or JSON); default: RGB, depth and semantic cameras at --size (grey,
     /// depth and semantic at 90° for --preset minos-paper).
     #[arg(long)]
@@ -112,22 +113,24 @@ pub fn config(args: &Args) -> anyhow::Result<BenchConfig> {
             Which::Render => BenchKind::Render,
             Which::Run => BenchKind::Run,
         },
-        agent: AgentConfig::preset(AgentPreset::from(args.preset)),
+        agent: AgentConfig::preset(args.preset),
         sensors: sensor_suite(args.sensors.as_deref(), || {
-            SensorSuite::for_preset(AgentPreset::from(args.preset), args.size)
+            SensorSuite::for_preset(args.preset, args.size)
         })?,
-        renderer: args.renderer.into(),
+        renderer: args.renderer,
         frames: args.frames,
         episodes: args.episodes,
         seed: args.seed,
         allow_body_mismatch: args.allow_body_mismatch,
         threads: rayon::current_num_threads(),
         batch: args.batch,
-        envs: args.envs.unwrap_or(if args.renderer == RendererArg::Cpu {
-            0
-        } else {
-            256
-        }),
+        envs: args
+            .envs
+            .unwrap_or(if args.renderer == RendererChoice::Cpu {
+                0
+            } else {
+                256
+            }),
         per_core: !args.throughput_only,
     })
 }

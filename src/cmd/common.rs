@@ -8,15 +8,12 @@ use std::time::{Duration, Instant};
 
 use anyhow::Context as _;
 use indicatif::{ProgressBar, ProgressStyle};
-use minos::body::AgentPreset;
 use minos::episode::Episode;
-use minos::io::tables::ImageEncoding;
 use minos::lock::LockMode;
-use minos::render::RendererChoice;
-use minos::run::metrics::Reward;
 use minos::sim::SensorSuite;
 use minos::split::read_split;
 use minos::store::DataDir;
+use minos::vocab::Vocabulary;
 use tracing_subscriber::EnvFilter;
 
 /// Global settings every subcommand receives.
@@ -211,96 +208,19 @@ impl LogLines {
     }
 }
 
-/// Agent presets of `--preset` (one vocabulary for every command; see
-/// [`minos::body::AgentPreset`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
-pub enum PresetArg {
-    /// Habitat's agent: 1.5 m body, 0.25 m steps, 10° turns.
-    #[default]
-    Habitat,
-    /// MINOS's continuous agent: 1.19 m body, forces and friction.
-    #[value(alias = "minos-continuous")]
-    Minos,
-    /// MINOS's gridworld agent: 1.19 m body, 0.4 m steps, 90° turns.
-    MinosGridworld,
-    /// The MINOS paper's agent: MINOS's continuous agent with forward / turn left / turn
-    /// right only, 0.4 m PointGoal radius, grey 90° camera (with depth and semantic).
-    MinosPaper,
-}
-
-impl From<PresetArg> for AgentPreset {
-    fn from(p: PresetArg) -> Self {
-        match p {
-            PresetArg::Habitat => AgentPreset::Habitat,
-            PresetArg::Minos => AgentPreset::Minos,
-            PresetArg::MinosGridworld => AgentPreset::MinosGridworld,
-            PresetArg::MinosPaper => AgentPreset::MinosPaper,
-        }
-    }
-}
-
-/// Renderers of `--renderer`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum RendererArg {
-    /// wgpu when a hardware GPU adapter exists, else the CPU renderer (the log says why).
-    Auto,
-    /// The built-in CPU rasteriser.
-    Cpu,
-    /// wgpu (fails without an adapter).
-    Wgpu,
-}
-
-impl From<RendererArg> for RendererChoice {
-    fn from(r: RendererArg) -> Self {
-        match r {
-            RendererArg::Auto => RendererChoice::Auto,
-            RendererArg::Cpu => RendererChoice::Cpu,
-            RendererArg::Wgpu => RendererChoice::Wgpu,
-        }
-    }
-}
-
-/// Rewards of `--reward` (`run` and `serve`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum RewardArg {
-    /// MINOS: decrease of the Euclidean distance minus the normalised time of a step.
-    #[value(name = "dist_time")]
-    DistTime,
-    /// MINOS: decrease of the shortest-path distance.
-    #[value(name = "path_delta")]
-    PathDelta,
-    /// Habitat: decrease of the geodesic distance − 0.01 per step + 2.5 on success.
-    Geodesic,
-}
-
-impl From<RewardArg> for Reward {
-    fn from(r: RewardArg) -> Self {
-        match r {
-            RewardArg::DistTime => Reward::DistTime,
-            RewardArg::PathDelta => Reward::PathDelta,
-            RewardArg::Geodesic => Reward::Geodesic,
-        }
-    }
-}
-
-/// Image storage of `--image-encoding` (`run` and `serve`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum EncodingArg {
-    /// Raw little-endian pixels (shape and dtype in the column metadata).
-    Raw,
-    /// PNG: lossless for colour and ids (16-bit labels; u32 ids as RGBA bytes), depth as
-    /// 16-bit millimetres and normals as 16-bit values (the quantisation is in the column
-    /// metadata).
-    Png,
-}
-
-impl From<EncodingArg> for ImageEncoding {
-    fn from(e: EncodingArg) -> Self {
-        match e {
-            EncodingArg::Raw => ImageEncoding::Raw,
-            EncodingArg::Png => ImageEncoding::Png,
-        }
-    }
+/// The value parser of a flag whose values are the library vocabulary `T`'s names (and
+/// aliases), each with its help line: the one place the command line learns them.
+pub fn vocab<T>() -> impl clap::builder::TypedValueParser<Value = T>
+where
+    T: Vocabulary + Clone + Send + Sync,
+{
+    use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser as _};
+    let values = T::TERMS.iter().map(|t| {
+        PossibleValue::new(t.name)
+            .help(t.help)
+            .aliases(t.aliases.iter().copied())
+    });
+    PossibleValuesParser::new(values).try_map(|name: String| T::parse_name(&name))
 }
 
 /// Moves `episodes` onto variant `name` of their scenes (`--variant` of `run` and `serve`)

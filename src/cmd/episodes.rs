@@ -16,13 +16,13 @@ use minos::episode::vln::export::VlnFormat;
 use minos::episode::Task;
 use minos::pipeline::episodes::{
     default_min_geodesic, default_min_rooms, default_success_radius, expand_categories,
-    parse_room_classes, run_job, select_scenes, EpisodesJob, EpisodesJobError,
+    parse_room_classes, run_job, select_scenes, EpisodesJob, EpisodesJobError, Stratify,
 };
 use minos::shard::ShardSpec;
 use minos::split::Subset;
 use minos::store::DataDir;
 
-use super::common::PresetArg;
+use super::common::vocab;
 use super::Context;
 
 /// Sample navigable PointGoal, ObjectGoal, RoomGoal or VLN episodes, or import episode files.
@@ -41,14 +41,6 @@ enum Sub {
     Import(ImportArgs),
 }
 
-/// Subsets of `--subset`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-enum SubsetArg {
-    Train,
-    Val,
-    Test,
-}
-
 /// Formats of `episodes import --from`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 enum ImportFormat {
@@ -56,47 +48,6 @@ enum ImportFormat {
     Habitat,
     /// MINOS's episode CSV (csv / csv.bz2).
     MinosCsv,
-}
-
-/// Task of `--task`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-enum TaskArg {
-    Pointgoal,
-    Objectgoal,
-    Roomgoal,
-    /// Vision-and-language navigation: routes with instructions in words.
-    Vln,
-}
-
-impl From<TaskArg> for Task {
-    fn from(t: TaskArg) -> Task {
-        match t {
-            TaskArg::Pointgoal => Task::PointGoal,
-            TaskArg::Objectgoal => Task::ObjectGoal,
-            TaskArg::Roomgoal => Task::RoomGoal,
-            TaskArg::Vln => Task::Vln,
-        }
-    }
-}
-
-/// Instance selection of `--select`.
-#[derive(Debug, Clone, Copy, clap::ValueEnum)]
-enum SelectArg {
-    /// Every instance counts.
-    Any,
-    /// One random instance.
-    Random,
-    /// The geodesically closest instance.
-    Closest,
-}
-
-/// When to stratify by distance bin.
-#[derive(Debug, Clone, Copy, clap::ValueEnum)]
-enum Stratify {
-    /// For val and test subsets only (MINOS picked their states across the distance range).
-    Auto,
-    On,
-    Off,
 }
 
 /// Each start is a uniformly random walkable point (by area) with a uniform yaw, on an island
@@ -119,22 +70,22 @@ pub struct SampleArgs {
     #[arg(long, required = false)]
     data: Option<PathBuf>,
     /// Task.
-    #[arg(long, value_enum)]
-    task: Option<TaskArg>,
+    #[arg(long, value_parser = vocab::<Task>())]
+    task: Option<Task>,
     /// Split whose scenes are used (DATA/splits/NAME); default: every scene `minos ingest`
     /// compiled, with an empty `split` in the episodes (exported to Habitat as `all`).
     #[arg(long, value_name = "NAME")]
     split: Option<String>,
     /// Only this subset of the split (needs --split); default: all three.
-    #[arg(long, value_enum)]
-    subset: Option<SubsetArg>,
+    #[arg(long, value_parser = vocab::<Subset>())]
+    subset: Option<Subset>,
     /// Sample on this variant of every scene (needs `minos bake --variant NAME`); scene ids in
     /// the output read `<scene>@NAME`.
     #[arg(long, value_name = "NAME")]
     variant: Option<String>,
     /// Agent preset whose body the episodes are for (the grids must be baked for it).
-    #[arg(long, value_enum, default_value_t)]
-    preset: PresetArg,
+    #[arg(long, value_parser = vocab::<AgentPreset>(), default_value = "habitat")]
+    preset: AgentPreset,
     /// Sample on grids baked for another body than --preset's.
     #[arg(long)]
     allow_body_mismatch: bool,
@@ -174,8 +125,8 @@ pub struct SampleArgs {
     #[arg(long, value_delimiter = ',', default_value = "any")]
     room_types: Vec<String>,
     /// Which goal instances count.
-    #[arg(long, value_enum, default_value = "any")]
-    select: SelectArg,
+    #[arg(long, value_parser = vocab::<Select>(), default_value = "any")]
+    select: Select,
     /// Shortest geodesic distance (m). Default: 4 for VLN (routes worth describing), else 1.
     #[arg(long)]
     min_geodesic: Option<f32>,
@@ -210,7 +161,7 @@ pub struct SampleArgs {
     #[arg(long, value_delimiter = ',', default_value = "3,6", num_args = 1)]
     bins: Vec<f32>,
     /// Stratified sampling across distance bins.
-    #[arg(long, value_enum, default_value = "auto")]
+    #[arg(long, value_parser = vocab::<Stratify>(), default_value = "auto")]
     stratify: Stratify,
     /// Step limit stored in each episode.
     #[arg(long, default_value_t = minos::episode::interchange::DEFAULT_MAX_STEPS)]
@@ -271,7 +222,7 @@ pub fn config(a: &SampleArgs) -> anyhow::Result<EpisodesJob> {
     };
     let vln_export = match a.export.as_deref() {
         Some([format, dir]) if format == "vlnce" || format == "r2r" => {
-            if task != TaskArg::Vln {
+            if task != Task::Vln {
                 bail!("--export {format}: VLN exports need --task vln");
             }
             Some((
@@ -285,17 +236,17 @@ pub fn config(a: &SampleArgs) -> anyhow::Result<EpisodesJob> {
         }
         _ => None,
     };
-    if task == TaskArg::Vln && habitat_export.is_some() {
+    if task == Task::Vln && habitat_export.is_some() {
         bail!(
             "--export habitat: VLN episodes export as `vlnce` (habitat-lab's R2RVLN-v1) or `r2r`"
         );
     }
-    if a.multi_level && task != TaskArg::Objectgoal {
+    if a.multi_level && task != Task::ObjectGoal {
         bail!("--multi-level: only ObjectGoal keeps to one level by default; other tasks already span levels");
     }
     let (categories, all_categories) =
         expand_categories(&a.categories).context("--categories all: give it alone")?;
-    if task != TaskArg::Objectgoal && a.min_instances > 1 {
+    if task != Task::ObjectGoal && a.min_instances > 1 {
         bail!("--min-instances: only for --task objectgoal");
     }
     let scene_names = SceneIdStyle {
@@ -307,42 +258,30 @@ pub fn config(a: &SampleArgs) -> anyhow::Result<EpisodesJob> {
         .map_err(|e| anyhow::anyhow!("--scene-suffix: {e}"))?;
     let room_classes = parse_room_classes(&a.room_types)
         .map_err(|t| anyhow::anyhow!("--room-types: unknown class `{t}`"))?;
-    let subset = a.subset.map(|s| match s {
-        SubsetArg::Train => Subset::Train,
-        SubsetArg::Val => Subset::Val,
-        SubsetArg::Test => Subset::Test,
-    });
+    let subset = a.subset;
     // The library's errors name the split or the variant (as Python reports them).
     let scenes = select_scenes(&data, a.split.as_deref(), subset, a.variant.as_deref())?;
-    let stratified = match a.stratify {
-        Stratify::On => true,
-        Stratify::Off => false,
-        Stratify::Auto => matches!(subset, Some(Subset::Val | Subset::Test)),
-    };
+    let stratified = a.stratify.applies(subset);
     let sample = SampleConfig {
-        task: task.into(),
+        task: task,
         per_scene: a.per_scene as usize,
         seed: a.seed,
         min_island_radius: a.min_island_radius,
         success_radius: a
             .success_radius
-            .unwrap_or_else(|| default_success_radius(task.into(), AgentPreset::from(a.preset))),
+            .unwrap_or_else(|| default_success_radius(task, a.preset)),
         categories,
         all_categories,
         min_instances: a.min_instances,
         instructions: a.instructions as usize,
         room_classes,
-        select: match a.select {
-            SelectArg::Any => Select::Any,
-            SelectArg::Random => Select::Random,
-            SelectArg::Closest => Select::Closest,
-        },
-        min_geodesic: a.min_geodesic.unwrap_or(default_min_geodesic(task.into())),
+        select: a.select,
+        min_geodesic: a.min_geodesic.unwrap_or(default_min_geodesic(task)),
         max_geodesic: a.max_geodesic,
         ratio_rule: !a.no_ratio_rule,
         min_doors: a.min_doors,
-        min_rooms: a.min_rooms.unwrap_or(default_min_rooms(task.into())),
-        same_level: a.same_level || (task == TaskArg::Objectgoal && !a.multi_level),
+        min_rooms: a.min_rooms.unwrap_or(default_min_rooms(task)),
+        same_level: a.same_level || (task == Task::ObjectGoal && !a.multi_level),
         bins: [a.bins[0], a.bins[1]],
         stratified,
         max_steps: a.max_steps,
@@ -353,7 +292,7 @@ pub fn config(a: &SampleArgs) -> anyhow::Result<EpisodesJob> {
         scenes,
         sample,
         body_rule: BodyRule {
-            body: AgentPreset::from(a.preset).body(),
+            body: a.preset.body(),
             allow_mismatch: a.allow_body_mismatch,
         },
         shard: a

@@ -6,11 +6,12 @@ use std::process::ExitCode;
 
 use minos::body::AgentPreset;
 use minos::pipeline::render_views::{render_views, RenderError, RenderJob};
+use minos::render::RendererChoice;
 use minos::scene::SceneRef;
 use minos::sim::{AgentConfig, SensorSuite};
 use minos::store::DataDir;
 
-use super::common::{sensor_suite, PresetArg, RendererArg};
+use super::common::{sensor_suite, vocab};
 use super::Context;
 
 /// Render what an agent's sensors see at a pose, one PNG per sensor (colour; depth as 16-bit
@@ -46,11 +47,11 @@ pub struct Args {
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
     tilt: f32,
     /// Renderer.
-    #[arg(long, value_enum, default_value = "auto")]
-    renderer: RendererArg,
+    #[arg(long, value_parser = vocab::<RendererChoice>(), default_value = "auto")]
+    renderer: RendererChoice,
     /// Agent preset (body and eye height; the grid must be baked for its body).
-    #[arg(long, value_enum, default_value_t)]
-    preset: PresetArg,
+    #[arg(long, value_parser = vocab::<AgentPreset>(), default_value = "habitat")]
+    preset: AgentPreset,
     /// Render on a grid baked for another body than --preset's.
     #[arg(long)]
     allow_body_mismatch: bool,
@@ -89,11 +90,11 @@ pub fn config(args: &Args) -> anyhow::Result<RenderJob> {
     Ok(RenderJob {
         data: DataDir::new(&args.data),
         scene,
-        agent: AgentConfig::preset(AgentPreset::from(args.preset)),
+        agent: AgentConfig::preset(args.preset),
         allow_body_mismatch: args.allow_body_mismatch,
         pose: args.pose,
         tilt: args.tilt,
-        renderer: args.renderer.into(),
+        renderer: args.renderer,
         sensors: {
             let suite = sensor_suite(args.sensors.as_deref(), || SensorSuite::all(args.size))?;
             if suite.cameras.is_empty() {

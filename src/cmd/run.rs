@@ -9,15 +9,18 @@ use anyhow::Context as _;
 use minos::body::AgentPreset;
 use minos::episode::format::read_episodes;
 use minos::episode::Episode;
+use minos::io::tables::ImageEncoding;
 use minos::pipeline::rollout::{
     run_with as run_episodes, AgentKind, Provenance, RerunOutput, RolloutError, RunConfig,
 };
+use minos::render::RendererChoice;
 use minos::run::metrics::render_table;
+use minos::run::metrics::Reward;
 use minos::shard::ShardSpec;
 use minos::sim::{AgentConfig, SensorSuite};
 use minos::store::DataDir;
 
-use super::common::{on_variant, sensor_suite, EncodingArg, PresetArg, RendererArg, RewardArg};
+use super::common::{on_variant, sensor_suite, vocab};
 use super::Context;
 
 /// Layouts of `--format`.
@@ -67,8 +70,8 @@ pub struct Args {
     #[arg(long)]
     agent: String,
     /// Agent preset (body and motion); the grids must be baked for its body.
-    #[arg(long, value_enum, default_value_t)]
-    preset: PresetArg,
+    #[arg(long, value_parser = vocab::<AgentPreset>(), default_value = "habitat")]
+    preset: AgentPreset,
     /// Run on grids baked for another body than --preset's (recorded in manifest.json).
     #[arg(long)]
     allow_body_mismatch: bool,
@@ -98,12 +101,12 @@ pub struct Args {
     #[arg(long)]
     resume: bool,
     /// Reward: dist_time (MINOS), path_delta (MINOS) or geodesic (Habitat).
-    #[arg(long, value_enum, default_value = "dist_time")]
-    reward: RewardArg,
+    #[arg(long, value_parser = vocab::<Reward>(), default_value = "dist_time")]
+    reward: Reward,
     /// Image storage in observations.parquet: raw little-endian pixels, or png (lossless but
     /// for float depth, 1 mm steps, and normals; the column metadata says which).
-    #[arg(long, value_enum, default_value = "raw")]
-    image_encoding: EncodingArg,
+    #[arg(long, value_parser = vocab::<ImageEncoding>(), default_value = "raw")]
+    image_encoding: ImageEncoding,
     /// `lerobot`: also write a LeRobot v3.0 dataset into DIR/lerobot, loadable with
     /// `LeRobotDataset(repo_id, root="DIR/lerobot")` (see also `minos export-dataset`).
     #[arg(long, value_enum, default_value = "parquet")]
@@ -115,8 +118,8 @@ pub struct Args {
     #[arg(long)]
     video: bool,
     /// Renderer.
-    #[arg(long, value_enum, default_value = "cpu")]
-    renderer: RendererArg,
+    #[arg(long, value_parser = vocab::<RendererChoice>(), default_value = "cpu")]
+    renderer: RendererChoice,
     /// Environments per scene stepped in lockstep, each step's observations rendered in one
     /// call (one GPU submission); 1 = one simulator per thread, each stepping alone. Default:
     /// 256 on a GPU renderer, 1 on the CPU. The outputs are the same bytes either way.
@@ -139,7 +142,7 @@ pub struct Args {
 pub fn config(args: &Args) -> anyhow::Result<(RunConfig, Vec<Episode>)> {
     let data = DataDir::new(&args.data);
     let agent = AgentKind::from_name(&args.agent).context("--agent")?;
-    let preset = AgentPreset::from(args.preset);
+    let preset = args.preset;
     let sensors = sensor_suite(args.sensors.as_deref(), || {
         SensorSuite::for_preset(preset, args.size)
     })?;
@@ -162,13 +165,13 @@ pub fn config(args: &Args) -> anyhow::Result<(RunConfig, Vec<Episode>)> {
         agent,
         agent_config: AgentConfig::preset(preset),
         sensors,
-        renderer: args.renderer.into(),
+        renderer: args.renderer,
         max_steps: args.max_steps,
         seed: args.seed,
         shard,
         resume: args.resume,
-        reward: args.reward.into(),
-        encoding: args.image_encoding.into(),
+        reward: args.reward,
+        encoding: args.image_encoding,
         lerobot: args.format == FormatArg::Lerobot,
         lerobot_video: args.video,
         rerun: args.rerun.as_ref().map(|path| RerunOutput {
@@ -252,14 +255,11 @@ mod tests {
             assert!(parse_flags::<Args>(&line).is_err(), "{bad}");
         }
         let a = args("--data D --episodes E --agent oracle --out O --preset minos-gridworld");
-        assert_eq!(AgentPreset::from(a.preset), AgentPreset::MinosGridworld);
-        assert_eq!(
-            AgentConfig::preset(AgentPreset::from(a.preset)).body,
-            AgentBody::MINOS
-        );
+        assert_eq!(a.preset, AgentPreset::MinosGridworld);
+        assert_eq!(AgentConfig::preset(a.preset).body, AgentBody::MINOS);
         assert_eq!(
             args("--data D --episodes E --agent oracle --out O").reward,
-            RewardArg::DistTime
+            Reward::DistTime
         );
     }
 }

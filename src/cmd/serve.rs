@@ -10,13 +10,16 @@ use std::time::Duration;
 use anyhow::{bail, Context as _};
 use minos::body::AgentPreset;
 use minos::episode::format::read_episodes;
+use minos::io::tables::ImageEncoding;
+use minos::render::RendererChoice;
+use minos::run::metrics::Reward;
 use minos::serve::campaign::CampaignSpec;
 use minos::serve::frames::DEFAULT_JPEG_QUALITY;
 use minos::serve::{FrameFormat, RateLimits, ServeConfig, Shared};
 use minos::sim::{AgentConfig, SensorSuite};
 use minos::store::DataDir;
 
-use super::common::{on_variant, sensor_suite, EncodingArg, PresetArg, RendererArg, RewardArg};
+use super::common::{on_variant, sensor_suite, vocab};
 
 /// The environment variable an access token may come from (out of sight of `ps`).
 pub const ACCESS_TOKEN_ENV: &str = "MINOS_ACCESS_TOKEN";
@@ -76,8 +79,8 @@ pub struct Args {
     #[arg(long = "allowed-host", value_name = "NAME")]
     allowed_hosts: Vec<String>,
     /// Agent preset (body and motion); the grids must be baked for its body.
-    #[arg(long, value_enum, default_value_t)]
-    preset: PresetArg,
+    #[arg(long, value_parser = vocab::<AgentPreset>(), default_value = "habitat")]
+    preset: AgentPreset,
     /// Sensor file (TOML/JSON); default: MINOS's RGB, depth, semantic at --size (grey,
     /// depth and semantic at 90° for --preset minos-paper).
     #[arg(long)]
@@ -86,15 +89,15 @@ pub struct Args {
     #[arg(long, default_value_t = 256)]
     size: u32,
     /// Renderer.
-    #[arg(long, value_enum, default_value = "cpu")]
-    renderer: RendererArg,
+    #[arg(long, value_parser = vocab::<RendererChoice>(), default_value = "cpu")]
+    renderer: RendererChoice,
     /// Image storage in observations.parquet.
-    #[arg(long, value_enum, default_value = "raw")]
-    image_encoding: EncodingArg,
+    #[arg(long, value_parser = vocab::<ImageEncoding>(), default_value = "raw")]
+    image_encoding: ImageEncoding,
     /// Reward recorded with each step: dist_time (MINOS), path_delta (MINOS) or geodesic
     /// (Habitat), as `minos run --reward`.
-    #[arg(long, value_enum, default_value = "dist_time")]
-    reward: RewardArg,
+    #[arg(long, value_parser = vocab::<Reward>(), default_value = "dist_time")]
+    reward: Reward,
     /// Seed of sensor noise (as `minos run --seed`) and of free-exploration episodes.
     #[arg(long, default_value_t = 0)]
     seed: u64,
@@ -197,10 +200,7 @@ pub fn config(args: &Args, env: Option<String>) -> anyhow::Result<(ServeConfig, 
     };
     let episodes = on_variant(&data, args.variant.as_deref(), episodes)?;
     // A campaign's agent and sensors win over the flags.
-    let preset = spec
-        .as_ref()
-        .and_then(|c| c.preset)
-        .unwrap_or(AgentPreset::from(args.preset));
+    let preset = spec.as_ref().and_then(|c| c.preset).unwrap_or(args.preset);
     let size = spec.as_ref().and_then(|c| c.size).unwrap_or(args.size);
     let sensor_file = spec
         .as_ref()
@@ -222,9 +222,9 @@ pub fn config(args: &Args, env: Option<String>) -> anyhow::Result<(ServeConfig, 
         preset,
         agent_config: AgentConfig::preset(preset),
         sensors,
-        renderer: args.renderer.into(),
-        reward: args.reward.into(),
-        encoding: args.image_encoding.into(),
+        renderer: args.renderer,
+        reward: args.reward,
+        encoding: args.image_encoding,
         seed: args.seed,
         idle: Duration::from_secs(args.idle_timeout),
         command: std::env::args().collect(),
@@ -265,7 +265,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     ctx.say(format!(
         "serving {episodes} episodes and {scenes} scenes (preset {}) -> sessions recorded in {}\n\
          open http://{}/{query}   (Ctrl-C stops; finished episodes are already on disk)",
-        AgentPreset::from(args.preset).name(),
+        args.preset.name(),
         args.out.display(),
         running.addr,
     ));

@@ -28,27 +28,46 @@ pub enum Task {
     Vln,
 }
 
+impl crate::vocab::Vocabulary for Task {
+    const WHAT: &'static str = "task";
+    const TERMS: &'static [crate::vocab::Term<Self>] = &[
+        crate::vocab::Term {
+            value: Task::PointGoal,
+            name: "pointgoal",
+            aliases: &[],
+            help: "reach a point given as distance and direction",
+        },
+        crate::vocab::Term {
+            value: Task::ObjectGoal,
+            name: "objectgoal",
+            aliases: &[],
+            help: "reach an object of a category",
+        },
+        crate::vocab::Term {
+            value: Task::RoomGoal,
+            name: "roomgoal",
+            aliases: &[],
+            help: "reach a room of a class",
+        },
+        crate::vocab::Term {
+            value: Task::Vln,
+            name: "vln",
+            aliases: &[],
+            help: "vision-and-language navigation: routes with instructions in words",
+        },
+    ];
+}
+
 impl Task {
     /// Name used on the command line and in files (`pointgoal`, `objectgoal`, `roomgoal`,
     /// `vln`).
     pub fn name(self) -> &'static str {
-        match self {
-            Task::PointGoal => "pointgoal",
-            Task::ObjectGoal => "objectgoal",
-            Task::RoomGoal => "roomgoal",
-            Task::Vln => "vln",
-        }
+        crate::vocab::Vocabulary::term_name(self)
     }
 
     /// Parses a task name.
     pub fn from_name(s: &str) -> Option<Task> {
-        match s {
-            "pointgoal" => Some(Task::PointGoal),
-            "objectgoal" => Some(Task::ObjectGoal),
-            "roomgoal" => Some(Task::RoomGoal),
-            "vln" => Some(Task::Vln),
-            _ => None,
-        }
+        <Task as crate::vocab::Vocabulary>::parse_name(s).ok()
     }
 }
 

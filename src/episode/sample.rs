@@ -44,6 +44,30 @@ pub enum Select {
     Closest,
 }
 
+impl crate::vocab::Vocabulary for Select {
+    const WHAT: &'static str = "selection";
+    const TERMS: &'static [crate::vocab::Term<Self>] = &[
+        crate::vocab::Term {
+            value: Select::Any,
+            name: "any",
+            aliases: &[],
+            help: "every instance counts",
+        },
+        crate::vocab::Term {
+            value: Select::Random,
+            name: "random",
+            aliases: &[],
+            help: "one random instance",
+        },
+        crate::vocab::Term {
+            value: Select::Closest,
+            name: "closest",
+            aliases: &[],
+            help: "the geodesically closest instance",
+        },
+    ];
+}
+
 /// How episodes are sampled.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SampleConfig {

@@ -40,11 +40,27 @@ pub enum ImageEncoding {
 impl ImageEncoding {
     /// `raw` or `png`.
     pub fn name(self) -> &'static str {
-        match self {
-            ImageEncoding::Raw => "raw",
-            ImageEncoding::Png => "png",
-        }
+        crate::vocab::Vocabulary::term_name(self)
     }
+}
+
+impl crate::vocab::Vocabulary for ImageEncoding {
+    const WHAT: &'static str = "image encoding";
+    const TERMS: &'static [crate::vocab::Term<Self>] = &[
+        crate::vocab::Term {
+            value: ImageEncoding::Raw,
+            name: "raw",
+            aliases: &[],
+            help: "raw little-endian pixels (shape and dtype in the column metadata)",
+        },
+        crate::vocab::Term {
+            value: ImageEncoding::Png,
+            name: "png",
+            aliases: &[],
+            help: "PNG: lossless for colour and ids; depth as 16-bit millimetres and normals as \
+                   16-bit values (the quantisation is in the column metadata)",
+        },
+    ];
 }
 
 /// The stored form of one image column (one row of the module table).

@@ -17,6 +17,31 @@ pub enum RendererChoice {
     Auto,
 }
 
+impl crate::vocab::Vocabulary for RendererChoice {
+    const WHAT: &'static str = "renderer";
+    const TERMS: &'static [crate::vocab::Term<Self>] = &[
+        crate::vocab::Term {
+            value: RendererChoice::Auto,
+            name: "auto",
+            aliases: &[],
+            help:
+                "wgpu when a hardware GPU adapter exists, else the CPU renderer (the log says why)",
+        },
+        crate::vocab::Term {
+            value: RendererChoice::Cpu,
+            name: "cpu",
+            aliases: &[],
+            help: "the built-in CPU renderer",
+        },
+        crate::vocab::Term {
+            value: RendererChoice::Wgpu,
+            name: "wgpu",
+            aliases: &[],
+            help: "wgpu (fails without an adapter)",
+        },
+    ];
+}
+
 /// A renderer instance.
 pub enum Renderer {
     /// The CPU rasteriser.

@@ -36,24 +36,40 @@ pub enum Reward {
     Geodesic,
 }
 
+impl crate::vocab::Vocabulary for Reward {
+    const WHAT: &'static str = "reward";
+    const TERMS: &'static [crate::vocab::Term<Self>] = &[
+        crate::vocab::Term {
+            value: Reward::DistTime,
+            name: "dist_time",
+            aliases: &[],
+            help: "MINOS: decrease of the Euclidean distance minus the normalised time of a step",
+        },
+        crate::vocab::Term {
+            value: Reward::PathDelta,
+            name: "path_delta",
+            aliases: &[],
+            help: "MINOS: decrease of the shortest-path distance",
+        },
+        crate::vocab::Term {
+            value: Reward::Geodesic,
+            name: "geodesic",
+            aliases: &[],
+            help: "Habitat: decrease of the geodesic distance - 0.01 per step + 2.5 on success",
+        },
+    ];
+}
+
 impl Reward {
-    /// `dist_time`, `path_delta` or `geodesic`.
+    /// `dist_time`, `path_delta` or `geodesic` (its [`Vocabulary`](crate::vocab::Vocabulary)
+    /// name).
     pub fn name(self) -> &'static str {
-        match self {
-            Reward::DistTime => "dist_time",
-            Reward::PathDelta => "path_delta",
-            Reward::Geodesic => "geodesic",
-        }
+        crate::vocab::Vocabulary::term_name(self)
     }
 
     /// A reward function by its [`Reward::name`].
     pub fn from_name(s: &str) -> Option<Reward> {
-        match s {
-            "dist_time" => Some(Reward::DistTime),
-            "path_delta" => Some(Reward::PathDelta),
-            "geodesic" => Some(Reward::Geodesic),
-            _ => None,
-        }
+        <Reward as crate::vocab::Vocabulary>::parse_name(s).ok()
     }
 
     /// The reward of a step from `before` to `after` (Euclidean, geodesic distances).

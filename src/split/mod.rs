@@ -84,12 +84,32 @@ impl Subset {
 
     /// The name used for files and reports (`train`, `val`, `test`).
     pub fn name(self) -> &'static str {
-        match self {
-            Subset::Train => "train",
-            Subset::Val => "val",
-            Subset::Test => "test",
-        }
+        crate::vocab::Vocabulary::term_name(self)
     }
+}
+
+impl crate::vocab::Vocabulary for Subset {
+    const WHAT: &'static str = "subset";
+    const TERMS: &'static [crate::vocab::Term<Self>] = &[
+        crate::vocab::Term {
+            value: Subset::Train,
+            name: "train",
+            aliases: &[],
+            help: "training scenes",
+        },
+        crate::vocab::Term {
+            value: Subset::Val,
+            name: "val",
+            aliases: &[],
+            help: "validation scenes",
+        },
+        crate::vocab::Term {
+            value: Subset::Test,
+            name: "test",
+            aliases: &[],
+            help: "test scenes",
+        },
+    ];
 }
 
 impl fmt::Display for Subset {

@@ -114,6 +114,54 @@ pub enum EpisodesJobError {
     Vln(#[from] VlnExportError),
 }
 
+/// Whether episodes are stratified by distance bin (`--stratify`, `stratify=`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Stratify {
+    /// For the val and test subsets only (MINOS picked their states across the distance
+    /// range).
+    #[default]
+    Auto,
+    /// Always.
+    On,
+    /// Never.
+    Off,
+}
+
+impl Stratify {
+    /// Whether episodes of `subset` (`None`: all three) are stratified.
+    pub fn applies(self, subset: Option<Subset>) -> bool {
+        match self {
+            Stratify::On => true,
+            Stratify::Off => false,
+            Stratify::Auto => matches!(subset, Some(Subset::Val | Subset::Test)),
+        }
+    }
+}
+
+impl crate::vocab::Vocabulary for Stratify {
+    const WHAT: &'static str = "stratification";
+    const TERMS: &'static [crate::vocab::Term<Self>] = &[
+        crate::vocab::Term {
+            value: Stratify::Auto,
+            name: "auto",
+            aliases: &[],
+            help: "for val and test subsets only (MINOS picked their states across the distance range)",
+        },
+        crate::vocab::Term {
+            value: Stratify::On,
+            name: "on",
+            aliases: &[],
+            help: "always",
+        },
+        crate::vocab::Term {
+            value: Stratify::Off,
+            name: "off",
+            aliases: &[],
+            help: "never",
+        },
+    ];
+}
+
 /// The scenes a job samples: those of `split` (its `subset`, or all three), or every ingested
 /// scene without a split — each as `(scene reference, subset name)`, on `variant` if given.
 pub fn select_scenes(

@@ -22,6 +22,7 @@ mod job;
 pub use job::{
     default_min_geodesic, default_min_rooms, default_success_radius, expand_categories,
     parse_room_classes, run_job, select_scenes, EpisodesJob, EpisodesJobError, EpisodesOutcome,
+    Stratify,
 };
 
 /// Per-scene outcome in the statistics.
