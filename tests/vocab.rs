@@ -1,5 +1,5 @@
 //! Every vocabulary a user picks names from (presets, renderers, rewards, image encodings,
-//! tasks, subsets, selections, stratification) is declared once on the library's enum: each
+//! tasks, subsets, selections, stratification, dataset formats) is declared once on the library's enum: each
 //! name and alias parses back to its value, names do not repeat, an unknown name is refused
 //! with the known ones listed, and the command line refuses it in the same words.
 
@@ -10,6 +10,7 @@ use minos::episode::sample::Select;
 use minos::episode::Task;
 use minos::io::tables::ImageEncoding;
 use minos::pipeline::episodes::Stratify;
+use minos::pipeline::ingest::DatasetFormat;
 use minos::render::RendererChoice;
 use minos::run::metrics::Reward;
 use minos::split::Subset;
@@ -67,6 +68,10 @@ fn every_vocabulary_parses_its_names_and_refuses_others_with_the_list() {
     assert_eq!(check::<Subset>(), ["train", "val", "test"]);
     assert_eq!(check::<Select>(), ["any", "random", "closest"]);
     assert_eq!(check::<Stratify>(), ["auto", "on", "off"]);
+    assert_eq!(
+        check::<DatasetFormat>(),
+        ["suncg", "3dfront", "gltf", "mp3d"]
+    );
     // The old spelling of MINOS's continuous agent.
     assert_eq!(
         AgentPreset::parse_name("minos-continuous"),

@@ -142,17 +142,7 @@ pub fn ingest<'py>(
     progress: Option<Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let root = path_of(root)?;
-    let format = match dataset {
-        "suncg" => DatasetFormat::Suncg,
-        "3dfront" => DatasetFormat::ThreeDFront,
-        "gltf" => DatasetFormat::Gltf,
-        "mp3d" => DatasetFormat::Mp3d,
-        other => {
-            return Err(msg_err(format!(
-                "dataset: unknown dataset `{other}` (suncg, 3dfront, gltf, mp3d)"
-            )))
-        }
-    };
+    let format: DatasetFormat = term("dataset", dataset)?;
     let ids = match ids.filter(|i| !i.is_none()) {
         None => None,
         Some(obj) => match obj.extract::<Vec<String>>() {

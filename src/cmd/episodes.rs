@@ -263,7 +263,7 @@ pub fn config(a: &SampleArgs) -> anyhow::Result<EpisodesJob> {
     let scenes = select_scenes(&data, a.split.as_deref(), subset, a.variant.as_deref())?;
     let stratified = a.stratify.applies(subset);
     let sample = SampleConfig {
-        task: task,
+        task,
         per_scene: a.per_scene as usize,
         seed: a.seed,
         min_island_radius: a.min_island_radius,

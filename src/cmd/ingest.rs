@@ -10,27 +10,8 @@ use minos::pipeline::ingest::{ingest_shard, read_id_list, DatasetFormat, IngestC
 use minos::shard::ShardSpec;
 use minos::store::DataDir;
 
+use super::common::vocab;
 use super::Context;
-
-/// Dataset formats `ingest` reads.
-#[derive(Debug, Clone, Copy, clap::ValueEnum)]
-pub enum Dataset {
-    /// SUNCG: <root>/house/<id>/house.json (or <root>/<id>/house.json) with room/, object/,
-    /// metadata/ModelCategoryMapping.csv; meshes as .obj or .gltf/.glb.
-    Suncg,
-    /// 3D-FRONT: <root>/<scene uid>.json; furniture meshes from --models (3D-FUTURE
-    /// <jid>/raw_model.obj) or boxes; categories from --categories, else a model_info.json or
-    /// *ModelCategoryMapping.csv in --models, <root>, <root>/metadata or <root>/../metadata.
-    #[value(name = "3dfront")]
-    ThreeDFront,
-    /// glTF: every .glb/.gltf (id = file stem) and *.scene_instance.json under <root>, with
-    /// Habitat stage/object/dataset configs and HM3D .semantic.txt beside them; --categories
-    /// takes a Habitat category-mapping TSV (raw_category, category, mpcat40).
-    Gltf,
-    /// Matterport3D: <root>/<scan>/house_segmentations/<scan>.house (+ .ply, matterport_mesh/)
-    /// or bare <root>/<scan>.house files; category_mapping.tsv and mpcat40.tsv from the root.
-    Mp3d,
-}
 
 /// Load scenes into compiled scenes (DATA/scenes/) and a Parquet manifest (DATA/houses.parquet).
 ///
@@ -46,8 +27,8 @@ pub enum Dataset {
 )]
 pub struct Args {
     /// Dataset format.
-    #[arg(long, value_enum, default_value = "suncg")]
-    dataset: Dataset,
+    #[arg(long, value_parser = vocab::<DatasetFormat>(), default_value = "suncg")]
+    dataset: DatasetFormat,
     /// Dataset root folder.
     #[arg(long)]
     root: PathBuf,
@@ -84,12 +65,7 @@ pub fn config(args: &Args) -> anyhow::Result<IngestConfig> {
         None => None,
     };
     Ok(IngestConfig {
-        format: match args.dataset {
-            Dataset::Suncg => DatasetFormat::Suncg,
-            Dataset::ThreeDFront => DatasetFormat::ThreeDFront,
-            Dataset::Gltf => DatasetFormat::Gltf,
-            Dataset::Mp3d => DatasetFormat::Mp3d,
-        },
+        format: args.dataset,
         root: args.root.clone(),
         data: DataDir::new(&args.out),
         ids,

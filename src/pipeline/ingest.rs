@@ -47,6 +47,44 @@ pub enum DatasetFormat {
     Mp3d,
 }
 
+impl crate::vocab::Vocabulary for DatasetFormat {
+    const WHAT: &'static str = "dataset";
+    const TERMS: &'static [crate::vocab::Term<Self>] = &[
+        crate::vocab::Term {
+            value: DatasetFormat::Suncg,
+            name: "suncg",
+            aliases: &[],
+            help: "SUNCG: <root>/house/<id>/house.json (or <root>/<id>/house.json) with room/, \
+                   object/, metadata/ModelCategoryMapping.csv; meshes as .obj or .gltf/.glb",
+        },
+        crate::vocab::Term {
+            value: DatasetFormat::ThreeDFront,
+            name: "3dfront",
+            aliases: &[],
+            help: "3D-FRONT: <root>/<scene uid>.json; furniture meshes from --models (3D-FUTURE \
+                   <jid>/raw_model.obj) or boxes; categories from --categories, else a \
+                   model_info.json or *ModelCategoryMapping.csv in --models, <root>, \
+                   <root>/metadata or <root>/../metadata",
+        },
+        crate::vocab::Term {
+            value: DatasetFormat::Gltf,
+            name: "gltf",
+            aliases: &[],
+            help: "glTF: every .glb/.gltf (id = file stem) and *.scene_instance.json under \
+                   <root>, with Habitat stage/object/dataset configs and HM3D .semantic.txt \
+                   beside them; --categories takes a Habitat category-mapping TSV",
+        },
+        crate::vocab::Term {
+            value: DatasetFormat::Mp3d,
+            name: "mp3d",
+            aliases: &[],
+            help: "Matterport3D: <root>/<scan>/house_segmentations/<scan>.house (+ .ply, \
+                   matterport_mesh/) or bare <root>/<scan>.house files; category_mapping.tsv \
+                   and mpcat40.tsv from the root",
+        },
+    ];
+}
+
 impl DatasetFormat {
     /// The loader of this format for `cfg.root`.
     pub fn loader(self, cfg: &IngestConfig) -> Result<Box<dyn DatasetLoader>, LoadError> {
