@@ -57,6 +57,8 @@ mod real_gltf;
 mod real_mp3d;
 #[path = "real_suncg.rs"]
 mod real_suncg;
+#[path = "remedy.rs"]
+mod remedy;
 #[path = "run.rs"]
 mod run;
 #[path = "scan.rs"]

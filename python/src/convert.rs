@@ -41,6 +41,7 @@ pub fn one_line(e: &anyhow::Error) -> String {
 pub fn py_err(e: anyhow::Error) -> PyErr {
     let hint = minos::pipeline::rollout::body_mismatch_of(e.as_ref())
         .map(rebake_hint)
+        .or_else(|| minos::store::remedy::remedy_of(e.as_ref()).map(remedy_hint))
         .unwrap_or_default();
     let line = one_line(&e) + &hint;
     // The most specific kind anywhere in the chain: a missing file under a format error is
@@ -53,6 +54,23 @@ pub fn py_err(e: anyhow::Error) -> PyErr {
         Some(Kind::NotReady) => NotReadyError::new_err(line),
         None => MinosError::new_err(line),
     }
+}
+
+/// The step that fixes an error, as the bindings spell it (variants are defined with the
+/// command line: the bindings have no call for it).
+fn remedy_hint(r: minos::store::remedy::Remedy) -> String {
+    use minos::store::remedy::Remedy;
+    let what = match r {
+        Remedy::Ingest => "call minos.ingest(...) first",
+        Remedy::Reingest => "ingest it again: minos.ingest(..., force=True)",
+        Remedy::Bake => "call minos.bake(data) first (variant=NAME for a variant's grids)",
+        Remedy::Rebake => {
+            "rebake it: minos.bake(data, force=True) (variant=NAME for a variant's grid)"
+        }
+        Remedy::DefineVariant => "define it with `minos variants --spec FILE`",
+        Remedy::MaterialStats => "compute them with `minos variants --refresh-stats`",
+    };
+    format!(" ({what})")
 }
 
 /// How to rebake for the agent's body, as the bindings spell it.

@@ -258,8 +258,9 @@ impl VecCore {
             }
         };
         if let Some(name) = variant {
-            data.read_variant(name)
-                .map_err(|e| msg_err(format!("--variant {name}: {e}")))?;
+            data.read_variant(name).map_err(|e| {
+                crate::convert::py_err(anyhow::Error::new(e).context(format!("variant={name:?}")))
+            })?;
             eps = eps.into_iter().map(|e| e.on_variant(name)).collect();
         }
         let body = AgentConfig::preset(preset(agent)?);

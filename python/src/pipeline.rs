@@ -517,7 +517,7 @@ pub fn run<'py>(
             let mut eps = read_episodes(&episodes_file)?;
             if let Some(name) = variant {
                 data.read_variant(name)
-                    .map_err(|e| anyhow!("--variant {name}: {e}"))?;
+                    .with_context(|| format!("variant={name:?}"))?;
                 eps = eps.into_iter().map(|e| e.on_variant(name)).collect();
             }
             kind.check_covers(agent, &eps, shard).context("agent")?;

@@ -249,6 +249,11 @@ def test_errors_raise_the_subclass_of_their_kind(world, tmp_path):
     assert "allow_body_mismatch=True" in str(e.value) and " --" not in str(e.value), e.value
     # A scene that is not ingested; scenes whose grids are gone.
     assert raised(lambda: minos.Simulator(world.data, "no-such-scene")) is minos.NotReadyError
+    # A scene that is not ingested: the remedy in Python's words, no command line.
+    with pytest.raises(minos.NotReadyError) as e:
+        minos.Simulator(world.data, "no-such-scene")
+    assert "call minos.ingest(...) first" in str(e.value) and "`minos" not in str(e.value), \
+        e.value
     data = tmp_path / "DATA"
     shutil.copytree(world.data, data)
     shutil.rmtree(data / "nav")

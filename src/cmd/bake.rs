@@ -90,12 +90,9 @@ fn params(args: &Args) -> anyhow::Result<NavParams> {
 pub fn config(args: &Args) -> anyhow::Result<BakeConfig> {
     let data = DataDir::new(&args.data);
     let ids = split_or_all(&data, args.split.as_deref())?;
-    let scenes = data.refs(&ids, args.variant.as_deref()).map_err(|e| {
-        anyhow::anyhow!(
-            "--variant {}: {e}",
-            args.variant.as_deref().unwrap_or_default()
-        )
-    })?;
+    let scenes = data
+        .refs(&ids, args.variant.as_deref())
+        .with_context(|| format!("--variant {}", args.variant.as_deref().unwrap_or_default()))?;
     Ok(BakeConfig {
         params: params(args)?,
         scenes,

@@ -234,7 +234,7 @@ pub fn on_variant(
         return Ok(episodes);
     };
     data.read_variant(name)
-        .map_err(|e| anyhow::anyhow!("--variant {name}: {e}"))?;
+        .with_context(|| format!("--variant {name}"))?;
     Ok(episodes.into_iter().map(|e| e.on_variant(name)).collect())
 }
 

@@ -147,11 +147,26 @@ pub fn main() -> ExitCode {
         Err(e) => {
             let hint = minos::pipeline::rollout::body_mismatch_of(e.as_ref())
                 .map(rebake_hint)
+                .or_else(|| minos::store::remedy::remedy_of(e.as_ref()).map(remedy_hint))
                 .unwrap_or_default();
             eprintln!("error: {}{hint}", one_line(&e));
             ExitCode::FAILURE
         }
     }
+}
+
+/// The step that fixes an error, as the command line spells it.
+fn remedy_hint(r: minos::store::remedy::Remedy) -> String {
+    use minos::store::remedy::Remedy;
+    let what = match r {
+        Remedy::Ingest => "run `minos ingest` first",
+        Remedy::Reingest => "ingest it again: `minos ingest --force`",
+        Remedy::Bake => "run `minos bake` first (`--variant NAME` for a variant's grids)",
+        Remedy::Rebake => "rebake it: `minos bake --force` (`--variant NAME` for a variant's grid)",
+        Remedy::DefineVariant => "define it with `minos variants --spec FILE`",
+        Remedy::MaterialStats => "compute them with `minos variants --refresh-stats`",
+    };
+    format!(" ({what})")
 }
 
 /// How to rebake for the agent's body, as the command line spells it.

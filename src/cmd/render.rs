@@ -4,6 +4,7 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+use anyhow::Context as _;
 use minos::body::AgentPreset;
 use minos::pipeline::render_views::{render_views, RenderError, RenderJob};
 use minos::render::RendererChoice;
@@ -118,7 +119,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     if let Some(v) = &job.scene.variant {
         job.data
             .read_variant(v)
-            .map_err(|e| anyhow::anyhow!("--variant {v}: {e}"))?;
+            .with_context(|| format!("--variant {v}"))?;
     }
     let report = render_views(&job).map_err(|e| match e {
         RenderError::NowhereToStand(_) => anyhow::anyhow!("{e} (--pose)"),

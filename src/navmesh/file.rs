@@ -491,8 +491,7 @@ fn read_header(r: &mut impl Read, len: u64) -> Result<(HeaderIn, Vec<u8>, u64), 
     let version = u32::from_le_bytes([head[8], head[9], head[10], head[11]]);
     if version != FORMAT_VERSION {
         return Err(ReadError::Format(format!(
-            "navigation grid format version {version}, this minos reads version \
-             {FORMAT_VERSION}: rebake it (`minos bake`; `--variant NAME` for a variant's grid)"
+            "navigation grid format version {version}, this minos reads version {FORMAT_VERSION}"
         )));
     }
     r.read_exact(&mut head[12..PREFIX])?;
@@ -566,7 +565,7 @@ fn read_from(file: impl Read, len: u64) -> Result<(NavGrid, Option<String>), Rea
     // Fuzzing skips the checksum so that the decoder and the validation behind it are reached.
     if !cfg!(fuzzing) && sum.finish() != stored_sum {
         return Err(ReadError::Format(
-            "corrupt: the grid fails its checksum (rebake it with `minos bake --force`)".into(),
+            "corrupt: the grid fails its checksum".into(),
         ));
     }
     let (sight_squares, rest, mut warning) = if rest == 0 {

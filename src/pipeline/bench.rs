@@ -380,7 +380,7 @@ fn bench_on_this_thread(cfg: &BenchConfig) -> Result<BenchReport, BenchError> {
             let ids = cfg.data.ingested_ids().map_err(|e| err(&e))?;
             let first = ids.first().ok_or_else(|| {
                 BenchError(format!(
-                    "{}: no scene ingested without error (run `minos ingest`)",
+                    "{}: no scene ingested without error (ingest the scenes first)",
                     cfg.data.manifest_path().display()
                 ))
             })?;
@@ -394,7 +394,7 @@ fn bench_on_this_thread(cfg: &BenchConfig) -> Result<BenchReport, BenchError> {
         let (scene, _) = timer.stage("load scene", "scenes", one, || {
             cfg.data
                 .load_scene(&scene_ref)
-                .map_err(|e| BenchError(format!("{e} (run `minos ingest`)")))
+                .map_err(|e| BenchError(format!("{e} (ingest the scene first)")))
         })?;
         Some(scene)
     } else {
@@ -404,7 +404,7 @@ fn bench_on_this_thread(cfg: &BenchConfig) -> Result<BenchReport, BenchError> {
         Some(timer.stage("load grid", "grids", one, || {
             cfg.data
                 .read_grid(&scene_ref)
-                .map_err(|e| BenchError(format!("{e} (run `minos bake`)")))
+                .map_err(|e| BenchError(format!("{e} (bake the scene first)")))
         })?)
     } else {
         None

@@ -25,7 +25,7 @@ pub struct ViewConfig {
 pub enum ViewError {
     /// The scene or its grid could not be read.
     #[error("{0}")]
-    Input(String),
+    Input(#[from] crate::store::StoreError),
     /// The recording failed.
     #[error(transparent)]
     Recording(#[from] RecordingError),
@@ -33,14 +33,8 @@ pub enum ViewError {
 
 /// Writes the recording of `cfg.scene` with those of `episodes` that belong to it.
 pub fn write_view(cfg: &ViewConfig, episodes: &[Episode]) -> Result<ViewReport, ViewError> {
-    let (scene, _) = cfg
-        .data
-        .load_scene(&cfg.scene)
-        .map_err(|e| ViewError::Input(format!("{e} (run `minos ingest`)")))?;
-    let grid = cfg
-        .data
-        .read_grid(&cfg.scene)
-        .map_err(|e| ViewError::Input(e.to_string()))?;
+    let (scene, _) = cfg.data.load_scene(&cfg.scene).map_err(ViewError::Input)?;
+    let grid = cfg.data.read_grid(&cfg.scene).map_err(ViewError::Input)?;
     let name = cfg.scene.to_string();
     Ok(crate::io::rrd::view::write_view(
         &cfg.out, &name, &scene, &grid, episodes,

@@ -122,7 +122,7 @@ pub fn grids(shared: &Shared) -> Result<Vec<String>, ServeError> {
     }
     if unbaked > 0 {
         tracing::warn!(
-            "{unbaked} ingested scenes have no grid and cannot be explored (run `minos bake`)"
+            "{unbaked} ingested scenes have no grid and cannot be explored (bake them first)"
         );
     }
     if !problems.is_empty() {
@@ -137,14 +137,15 @@ pub fn grids(shared: &Shared) -> Result<Vec<String>, ServeError> {
             })
             .collect();
         return Err(ServeError::NotReady(format!(
-            "--preset {}: scenes cannot be served: {}",
+            "agent preset {}: scenes cannot be served: {}",
             shared.preset.name(),
             listed.join("; ")
         )));
     }
     if shared.episodes.is_empty() && explorable.is_empty() {
         return Err(ServeError::NotReady(
-            "nothing to serve: no episode and no baked scene (run `minos bake`, or give --episodes)"
+            "nothing to serve: no episode and no baked scene (bake the scenes, or give an episode \
+             file)"
                 .into(),
         ));
     }

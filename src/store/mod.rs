@@ -16,6 +16,7 @@
 mod grids;
 pub mod manifest;
 pub mod provenance;
+pub mod remedy;
 pub mod scene_file;
 pub mod variants;
 
@@ -133,10 +134,12 @@ impl DataDir {
 
     /// Ids of the scenes `minos ingest` compiled without error, in manifest order.
     pub fn ingested_ids(&self) -> Result<Vec<String>, StoreError> {
-        let rows = self.read_manifest().map_err(|e| StoreError::Format {
-            path: self.manifest_path(),
-            message: format!("cannot read the manifest (run `minos ingest` first): {e}"),
-        })?;
+        let rows = self
+            .read_manifest()
+            .map_err(|source| StoreError::NoManifest {
+                path: self.manifest_path(),
+                source,
+            })?;
         Ok(rows
             .into_iter()
             .filter(|r| r.error.is_none())

@@ -39,7 +39,7 @@ pub enum StoreError {
     #[error("{0}")]
     Name(crate::invalid::Invalid),
     /// The compiled scene could not be read.
-    #[error(transparent)]
+    #[error("{0}")]
     Scene(#[from] SceneFileError),
     /// The variant could not be applied.
     #[error(transparent)]
@@ -48,8 +48,34 @@ pub enum StoreError {
     #[error(transparent)]
     Manifest(#[from] ManifestError),
     /// A navigation grid could not be read.
-    #[error("{0} (run `minos bake`)")]
+    #[error("{0}")]
     Grid(#[from] NavFileError),
+    /// The DATA folder has no readable manifest: nothing was ingested into it.
+    #[error("{}: cannot read the manifest: {source}", path.display())]
+    NoManifest {
+        /// The manifest.
+        path: PathBuf,
+        /// Why.
+        source: ManifestError,
+    },
+    /// The DATA folder does not define the variant.
+    #[error("{}: no variant `{name}`", path.display())]
+    NoVariant {
+        /// The variant's name.
+        name: String,
+        /// Where its definition would be.
+        path: PathBuf,
+    },
+    /// The material statistics are of another format version.
+    #[error("{}: version {version} (this minos reads {expected})", path.display())]
+    StaleStats {
+        /// The statistics file.
+        path: PathBuf,
+        /// Its version.
+        version: u32,
+        /// The version this minos reads.
+        expected: u32,
+    },
 }
 
 fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> StoreError + '_ {
@@ -82,9 +108,9 @@ impl DataDir {
         validate_name(name).map_err(StoreError::Name)?;
         let path = self.variant_path(name);
         let text = std::fs::read_to_string(&path).map_err(|e| match e.kind() {
-            std::io::ErrorKind::NotFound => StoreError::Format {
+            std::io::ErrorKind::NotFound => StoreError::NoVariant {
+                name: name.to_string(),
                 path: path.clone(),
-                message: format!("no variant `{name}` (define it with `minos variants`)"),
             },
             _ => StoreError::Io {
                 path: path.clone(),
@@ -132,6 +158,13 @@ impl DataDir {
             path: path.clone(),
             message: e.to_string(),
         })?;
+        if stats.version != crate::scene::variants::materials::STATS_VERSION {
+            return Err(StoreError::StaleStats {
+                path,
+                version: stats.version,
+                expected: crate::scene::variants::materials::STATS_VERSION,
+            });
+        }
         stats.validate().map_err(|message| StoreError::Format {
             path,
             message: message.to_string(),

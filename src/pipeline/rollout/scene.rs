@@ -54,11 +54,11 @@ impl<'a> SceneRun<'a> {
 #[derive(Debug, thiserror::Error)]
 pub enum SceneLoadError {
     /// The compiled scene is missing or unreadable (the scene is not ingested).
-    #[error("{0} (ingest the scene first)")]
-    Scene(StoreError),
+    #[error("{0}")]
+    Scene(#[source] StoreError),
     /// The scene's navigation grid is missing or unreadable.
     #[error("{0}")]
-    Grid(StoreError),
+    Grid(#[source] StoreError),
     /// The simulator's assets could not be built (a body the grid was not baked for, a
     /// scene without geometry).
     #[error("{0}")]

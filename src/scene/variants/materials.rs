@@ -259,9 +259,10 @@ impl MaterialStats {
     pub fn validate(&self) -> Result<(), Invalid> {
         if self.version != STATS_VERSION {
             return Err(format!(
-                "version {} (this minos reads {STATS_VERSION}; rerun `minos variants --refresh-stats`)",
+                "version {} (this minos reads {STATS_VERSION})",
                 self.version
-            ).into());
+            )
+            .into());
         }
         let n = self.materials.len() as u32;
         for (c, list) in &self.categories {

@@ -38,7 +38,7 @@ pub struct VariantReport {
 #[derive(Debug, thiserror::Error)]
 pub enum VariantError {
     /// Retexturing needs material statistics.
-    #[error("variant {0}: retexture needs material statistics (run `minos variants`)")]
+    #[error("variant {0}: retexture needs material statistics")]
     NoStats(String),
 }
 
