@@ -49,6 +49,22 @@ fn parse(text: &str, shared: &Shared) -> Result<Parsed, Invalid> {
     Err("unknown message".into())
 }
 
+/// Sends `update` to the page; false when it did not take it within `timeout` (or left).
+pub(super) async fn send_update(
+    socket: &mut WebSocket,
+    update: Update,
+    timeout: std::time::Duration,
+) -> bool {
+    let msg = match update {
+        Update::Text(t) => Message::Text(t.into()),
+        Update::Binary(b) => Message::Binary(b.into()),
+    };
+    matches!(
+        tokio::time::timeout(timeout, socket.send(msg)).await,
+        Ok(Ok(()))
+    )
+}
+
 /// Runs the session behind `socket` until either side ends.
 pub async fn drive(
     app: Arc<App>,
@@ -121,11 +137,7 @@ pub async fn drive(
             },
             update = up_rx.recv() => {
                 let Some(update) = update else { break };
-                let msg = match update {
-                    Update::Text(t) => Message::Text(t.into()),
-                    Update::Binary(b) => Message::Binary(b.into()),
-                };
-                if !matches!(tokio::time::timeout(send_timeout, socket.send(msg)).await, Ok(Ok(()))) {
+                if !send_update(&mut socket, update, send_timeout).await {
                     break;
                 }
             }

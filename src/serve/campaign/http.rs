@@ -59,6 +59,25 @@ struct JoinRequest {
     participant: String,
 }
 
+/// The participant whose link carries `token`; otherwise the status and message to answer
+/// (403 for an unknown link).
+fn participant_of(
+    campaign: &super::Campaign,
+    token: &str,
+) -> Result<String, (StatusCode, &'static str)> {
+    match campaign.participant(token) {
+        Ok(Some(p)) => Ok(p),
+        Ok(None) => Err((StatusCode::FORBIDDEN, "unknown participant link")),
+        Err(e) => {
+            tracing::error!("{e}");
+            Err((
+                StatusCode::INTERNAL_SERVER_ERROR,
+                "participants file unreadable",
+            ))
+        }
+    }
+}
+
 /// A participant's link opens a session (one live session per participant).
 async fn join(State(app): State<Arc<App>>, body: axum::body::Bytes) -> Response {
     let Some(campaign) = app.campaign.clone() else {
@@ -68,16 +87,9 @@ async fn join(State(app): State<Arc<App>>, body: axum::body::Bytes) -> Response 
         Ok(r) => r,
         Err(e) => return error(StatusCode::BAD_REQUEST, format!("request body: {e}")),
     };
-    let participant = match campaign.participant(&req.participant) {
-        Ok(Some(p)) => p,
-        Ok(None) => return error(StatusCode::FORBIDDEN, "unknown participant link"),
-        Err(e) => {
-            tracing::error!("{e}");
-            return error(
-                StatusCode::INTERNAL_SERVER_ERROR,
-                "participants file unreadable",
-            );
-        }
+    let participant = match participant_of(&campaign, &req.participant) {
+        Ok(p) => p,
+        Err((status, message)) => return error(status, message),
     };
     let (token, seed) = match (session_token(), random_hex(8)) {
         (Ok(t), Ok(seed)) => (t, u64::from_str_radix(&seed, 16).unwrap_or(0)),
@@ -217,16 +229,9 @@ async fn feedback(State(app): State<Arc<App>>, body: axum::body::Bytes) -> Respo
         Ok(r) => r,
         Err(e) => return error(StatusCode::BAD_REQUEST, format!("request body: {e}")),
     };
-    let participant = match campaign.participant(&req.participant) {
-        Ok(Some(p)) => p,
-        Ok(None) => return error(StatusCode::FORBIDDEN, "unknown participant link"),
-        Err(e) => {
-            tracing::error!("{e}");
-            return error(
-                StatusCode::INTERNAL_SERVER_ERROR,
-                "participants file unreadable",
-            );
-        }
+    let participant = match participant_of(&campaign, &req.participant) {
+        Ok(p) => p,
+        Err((status, message)) => return error(status, message),
     };
     let said = Feedback {
         rating: req.rating,
@@ -361,11 +366,7 @@ async fn drive_replay(app: Arc<App>, demo: Demo, index: usize, mut socket: WebSo
             },
             update = rx.recv() => {
                 let Some(update) = update else { break };
-                let msg = match update {
-                    Update::Text(t) => Message::Text(t.into()),
-                    Update::Binary(b) => Message::Binary(b.into()),
-                };
-                if !matches!(tokio::time::timeout(send_timeout, socket.send(msg)).await, Ok(Ok(()))) {
+                if !crate::serve::ws::send_update(&mut socket, update, send_timeout).await {
                     break;
                 }
             }
