@@ -599,6 +599,11 @@ mod tests {
             empty.path().display()
         ))
         .unwrap_err();
-        assert!(err.to_string().contains("minos ingest"), "{err}");
+        // Nothing ingested: the error says so as data; `main` adds "run `minos ingest`".
+        assert_eq!(
+            minos::store::remedy::remedy_of(err.as_ref()),
+            Some(minos::store::remedy::Remedy::Ingest),
+            "{err}"
+        );
     }
 }
