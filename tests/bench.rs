@@ -267,7 +267,7 @@ fn bench_prints_a_table_and_one_line_errors() {
         "{text}"
     );
     for (args, needle) in [
-        (vec!["render"], "minos bake"),
+        (vec!["render"], "bake the scene first"),
         (vec!["bake", "--scene", "nope"], "nope"),
     ] {
         let out = minos()

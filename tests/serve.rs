@@ -713,7 +713,9 @@ fn grids_baked_for_another_body_are_refused_at_start_up() {
     assert!(matches!(e, ServeError::NotReady(_)), "{e}");
     let text = e.to_string();
     assert!(
-        text.contains("--preset minos") && text.contains("baked for body") && !text.contains('\n'),
+        text.contains("agent preset minos")
+            && text.contains("baked for body")
+            && !text.contains('\n'),
         "{text}"
     );
     // Only for exploration (no episode file): refused all the same.
