@@ -195,6 +195,24 @@ fn start(f: &Fixture, campaign: Campaign) -> Running {
     .expect("campaign server starts")
 }
 
+/// `minos export-dataset --accepted` of campaign state folder `state` into `out`; the
+/// dataset's `meta/info.json`.
+fn export_accepted(state: &Path, out: &Path) -> Value {
+    minos()
+        .args([
+            "export-dataset",
+            "--fps",
+            "10",
+            "--accepted",
+            "--campaign-state",
+        ])
+        .arg(state)
+        .arg("--out")
+        .arg(out)
+        .ok_output();
+    info(out)
+}
+
 /// LeRobot `meta/info.json` of a dataset.
 fn info(dataset: &Path) -> Value {
     serde_json::from_slice(&bytes(&dataset.join("meta/info.json"))).expect("info.json")
@@ -302,19 +320,7 @@ fn a_campaign_assigns_k_demos_checks_quality_and_exports_only_the_accepted() {
     // Only the accepted demonstrations reach the dataset: e1 by A and e2 by B, as many
     // frames as the oracle's steps of the two.
     let lr = dir.join("accepted-lerobot");
-    minos()
-        .args([
-            "export-dataset",
-            "--fps",
-            "10",
-            "--accepted",
-            "--campaign-state",
-        ])
-        .arg(&spec.state)
-        .arg("--out")
-        .arg(&lr)
-        .ok_output();
-    let i = info(&lr);
+    let i = export_accepted(&spec.state, &lr);
     assert_eq!(i["total_episodes"], 2, "{i}");
     let frames = f.oracle[&e1.episode_id].len() + f.oracle[&e2.episode_id].len();
     assert_eq!(i["total_frames"], frames, "{i}");
@@ -718,19 +724,7 @@ fn the_operator_replays_demonstrations_overrides_verdicts_and_reads_feedback() {
     drop(reopened);
     // The reviewed demonstration reaches the dataset with the accepted ones.
     let lr = dir.join("lerobot");
-    minos()
-        .args([
-            "export-dataset",
-            "--fps",
-            "10",
-            "--accepted",
-            "--campaign-state",
-        ])
-        .arg(&spec.state)
-        .arg("--out")
-        .arg(&lr)
-        .ok_output();
-    let i = info(&lr);
+    let i = export_accepted(&spec.state, &lr);
     assert_eq!(i["total_episodes"], 2, "{i}");
     assert_eq!(i["total_frames"], 3 + oracle_e2.len(), "{i}");
 }

@@ -1,5 +1,5 @@
 //! Every vocabulary a user picks names from (presets, renderers, rewards, image encodings,
-//! tasks, subsets, selections, stratification, dataset formats) is declared once on the library's enum: each
+//! tasks, subsets, selections, stratification, dataset formats, run formats) is declared once on the library's enum: each
 //! name and alias parses back to its value, names do not repeat, an unknown name is refused
 //! with the known ones listed, and the command line refuses it in the same words.
 
@@ -11,6 +11,7 @@ use minos::episode::Task;
 use minos::io::tables::ImageEncoding;
 use minos::pipeline::episodes::Stratify;
 use minos::pipeline::ingest::DatasetFormat;
+use minos::pipeline::rollout::RunFormat;
 use minos::render::RendererChoice;
 use minos::run::metrics::Reward;
 use minos::split::Subset;
@@ -72,6 +73,8 @@ fn every_vocabulary_parses_its_names_and_refuses_others_with_the_list() {
         check::<DatasetFormat>(),
         ["suncg", "3dfront", "gltf", "mp3d"]
     );
+    assert_eq!(check::<RunFormat>(), ["parquet", "lerobot"]);
+    assert!(RunFormat::Lerobot.writes_lerobot() && !RunFormat::Parquet.writes_lerobot());
     // The old spelling of MINOS's continuous agent.
     assert_eq!(
         AgentPreset::parse_name("minos-continuous"),

@@ -28,7 +28,7 @@ use minos::pipeline::episodes::{
     parse_room_classes, run_job, select_scenes, EpisodesJob, Stratify,
 };
 use minos::pipeline::ingest::{ingest_with, read_id_list, DatasetFormat, IngestConfig, Outcome};
-use minos::pipeline::rollout::{AgentKind, Provenance, RerunOutput, RunConfig};
+use minos::pipeline::rollout::{AgentKind, Provenance, RerunOutput, RunConfig, RunFormat};
 use minos::run::metrics::Reward;
 use minos::shard::Shard;
 use minos::sim::AgentConfig;
@@ -486,15 +486,7 @@ pub fn run<'py>(
     let shard = crate::convert::shard(shard)?;
     let reward: Reward = term("reward", reward)?;
     let encoding: ImageEncoding = term("image_encoding", image_encoding)?;
-    let lerobot = match format {
-        "parquet" => false,
-        "lerobot" => true,
-        other => {
-            return Err(msg_err(format!(
-                "format: unknown format `{other}` (parquet, lerobot)"
-            )))
-        }
-    };
+    let lerobot = term::<RunFormat>("format", format)?.writes_lerobot();
     let renderer = crate::convert::renderer(renderer)?;
     let rerun = rerun
         .filter(|r| !r.is_none())

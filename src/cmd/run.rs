@@ -12,6 +12,7 @@ use minos::episode::Episode;
 use minos::io::tables::ImageEncoding;
 use minos::pipeline::rollout::{
     run_with as run_episodes, AgentKind, Provenance, RerunOutput, RolloutError, RunConfig,
+    RunFormat,
 };
 use minos::render::RendererChoice;
 use minos::run::metrics::render_table;
@@ -22,15 +23,6 @@ use minos::store::DataDir;
 
 use super::common::{on_variant, sensor_suite, vocab};
 use super::Context;
-
-/// Layouts of `--format`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-enum FormatArg {
-    /// minos's Parquet tables.
-    Parquet,
-    /// The Parquet tables and a LeRobot v3.0 dataset in DIR/lerobot.
-    Lerobot,
-}
 
 /// Roll out episodes with an agent, writing Parquet datasets (trajectories, observations,
 /// episodes with metrics) and metrics.json into DIR.
@@ -109,8 +101,8 @@ pub struct Args {
     image_encoding: ImageEncoding,
     /// `lerobot`: also write a LeRobot v3.0 dataset into DIR/lerobot, loadable with
     /// `LeRobotDataset(repo_id, root="DIR/lerobot")` (see also `minos export-dataset`).
-    #[arg(long, value_enum, default_value = "parquet")]
-    format: FormatArg,
+    #[arg(long, value_parser = vocab::<RunFormat>(), default_value = "parquet")]
+    format: RunFormat,
     /// With `--format lerobot`: colour cameras as H.264 video features in MP4 files
     /// (`videos/<key>/chunk-000/file-000.mp4`, LeRobot's layout; lossy, many times smaller)
     /// rather than lossless image files in the data files (the default, which every LeRobot
@@ -172,7 +164,7 @@ pub fn config(args: &Args) -> anyhow::Result<(RunConfig, Vec<Episode>)> {
         resume: args.resume,
         reward: args.reward,
         encoding: args.image_encoding,
-        lerobot: args.format == FormatArg::Lerobot,
+        lerobot: args.format.writes_lerobot(),
         lerobot_video: args.video,
         rerun: args.rerun.as_ref().map(|path| RerunOutput {
             path: path.clone(),

@@ -96,6 +96,41 @@ pub struct RunConfig {
     pub batch: Option<usize>,
 }
 
+/// What a run writes besides its Parquet tables (`--format`, `format=`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum RunFormat {
+    /// minos's Parquet tables only.
+    #[default]
+    Parquet,
+    /// The Parquet tables and a LeRobot v3.0 dataset in `OUT/lerobot`.
+    Lerobot,
+}
+
+impl RunFormat {
+    /// Whether the run also writes a LeRobot dataset ([`RunConfig::lerobot`]).
+    pub fn writes_lerobot(self) -> bool {
+        self == RunFormat::Lerobot
+    }
+}
+
+impl crate::vocab::Vocabulary for RunFormat {
+    const WHAT: &'static str = "format";
+    const TERMS: &'static [crate::vocab::Term<Self>] = &[
+        crate::vocab::Term {
+            value: RunFormat::Parquet,
+            name: "parquet",
+            aliases: &[],
+            help: "minos's Parquet tables",
+        },
+        crate::vocab::Term {
+            value: RunFormat::Lerobot,
+            name: "lerobot",
+            aliases: &[],
+            help: "the Parquet tables and a LeRobot v3.0 dataset in DIR/lerobot",
+        },
+    ];
+}
+
 /// Environments per scene stepped together on a GPU renderer when the run does not say.
 pub const GPU_BATCH: usize = 256;
 
