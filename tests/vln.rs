@@ -34,7 +34,8 @@ type Fixture = (tempfile::TempDir, DataDir, Vec<(String, String)>);
 fn data() -> &'static Fixture {
     static DATA: std::sync::OnceLock<Fixture> = std::sync::OnceLock::new();
     DATA.get_or_init(|| {
-        let dir = tempfile::tempdir().unwrap();
+        // Kept in a static, never dropped: under the fixture root each run clears.
+        let dir = common::shared_tempdir();
         let cfg = GenerateConfig {
             houses: 6,
             seed: 31,
