@@ -450,6 +450,19 @@ fn copy_tree(from: &Path, to: &Path) {
     }
 }
 
+/// The session's `end` message, read until the server closes the socket (`None` without one).
+async fn end_message(ws: &mut common::serve::Ws) -> Option<serde_json::Value> {
+    let mut end = None;
+    while let Some(m) = recv(ws).await {
+        if let Msg::Json(v) = m {
+            if v["type"] == "end" {
+                end = Some(v);
+            }
+        }
+    }
+    end
+}
+
 #[test]
 fn a_vanished_or_idle_page_frees_its_simulator() {
     let f = fixture();
@@ -469,13 +482,13 @@ fn a_vanished_or_idle_page_frees_its_simulator() {
     let t = Instant::now();
     runtime().block_on(async {
         let mut ws = connect(a, &token, "").await;
-        let mut ended = false;
-        while let Some(m) = recv(&mut ws).await {
-            if let Msg::Json(v) = m {
-                ended |= v["type"] == "end" && v["episodes"] == 0 && v["session"] == name.as_str();
-            }
-        }
-        assert!(ended, "the page hears that the session ended");
+        let end = end_message(&mut ws)
+            .await
+            .expect("the page hears that the session ended");
+        assert!(
+            end["episodes"] == 0 && end["session"] == name.as_str(),
+            "{end}"
+        );
     });
     assert!(t.elapsed() < Duration::from_secs(15));
     sessions_become(&running, 0);
@@ -500,13 +513,10 @@ fn a_page_that_says_end_frees_its_session_at_once_even_with_its_socket_open() {
         let t = Instant::now();
         send(&mut ws, r#"{"end":true}"#).await;
         // The socket stays open on this side; the server says the session ended and closes.
-        let mut ended = false;
-        while let Some(m) = recv(&mut ws).await {
-            if let Msg::Json(v) = m {
-                ended |= v["type"] == "end" && v["session"] == name.as_str();
-            }
-        }
-        assert!(ended, "the page hears that the session ended");
+        let end = end_message(&mut ws)
+            .await
+            .expect("the page hears that the session ended");
+        assert_eq!(end["session"], name.as_str(), "{end}");
         t
     });
     sessions_become(&running, 0);

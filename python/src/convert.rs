@@ -173,9 +173,9 @@ pub fn term<T: Vocabulary>(kwarg: &str, text: &str) -> PyResult<T> {
 }
 
 /// An agent preset by name (`habitat`, `minos`/`minos-continuous`, `minos-gridworld`,
-/// `minos-paper`).
-pub fn preset(name: &str) -> PyResult<AgentPreset> {
-    term("agent", name)
+/// `minos-paper`), given as keyword argument `kwarg` (`agent=` or `preset=`).
+pub fn preset(kwarg: &str, name: &str) -> PyResult<AgentPreset> {
+    term(kwarg, name)
 }
 
 /// A renderer by name (`cpu`, `wgpu`, `auto`).

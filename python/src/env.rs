@@ -263,8 +263,9 @@ impl VecCore {
             })?;
             eps = eps.into_iter().map(|e| e.on_variant(name)).collect();
         }
-        let body = AgentConfig::preset(preset(agent)?);
-        let suite = sensor_suite(sensors, size, preset(agent)?)?;
+        let agent_preset = preset("agent", agent)?;
+        let body = AgentConfig::preset(agent_preset);
+        let suite = sensor_suite(sensors, size, agent_preset)?;
         let renderer = crate::convert::renderer(renderer)?;
         let reward: Reward = crate::convert::term("reward", reward)?;
         let contacts = suite.contact.map_or(0, |c| c.count as usize);

@@ -355,7 +355,7 @@ pub fn sample_episodes<'py>(
         .ok_or_else(|| msg_err("categories: give [\"all\"] alone"))?;
     let room_classes = parse_room_classes(&room_types)
         .map_err(|t| msg_err(format!("room_types: unknown class `{t}`")))?;
-    let agent_preset = crate::convert::preset(preset)?;
+    let agent_preset = crate::convert::preset("preset", preset)?;
     let dir_of =
         |e: Option<&Bound<'py, PyAny>>| e.filter(|e| !e.is_none()).map(path_of).transpose();
     let habitat_export = dir_of(export_habitat)?;
@@ -481,7 +481,7 @@ pub fn run<'py>(
     let data = DataDir::new(path_of(data)?);
     let episodes_file = path_of(episodes)?;
     let out = path_of(out)?;
-    let preset_value = crate::convert::preset(preset)?;
+    let preset_value = crate::convert::preset("preset", preset)?;
     let sensors = sensor_suite(sensors, size, preset_value)?;
     let shard = crate::convert::shard(shard)?;
     let reward: Reward = term("reward", reward)?;

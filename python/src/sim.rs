@@ -234,8 +234,9 @@ impl Simulator {
         allow_body_mismatch: bool,
     ) -> PyResult<Self> {
         let data = DataDir::new(crate::convert::path_of(data)?);
-        let body = AgentConfig::preset(preset(agent)?);
-        let suite: SensorSuite = sensor_suite(sensors, size, preset(agent)?)?;
+        let agent_preset = preset("agent", agent)?;
+        let body = AgentConfig::preset(agent_preset);
+        let suite: SensorSuite = sensor_suite(sensors, size, agent_preset)?;
         let choice = crate::convert::renderer(renderer)?;
         let loaded = py
             .detach(|| load_scene(&data, scene, &body, choice, allow_body_mismatch))

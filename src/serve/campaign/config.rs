@@ -106,11 +106,10 @@ impl CampaignSpec {
         }
         let task = match &raw.task {
             None => None,
-            Some(t) => Some(Task::from_name(t).ok_or_else(|| {
-                bad(format!(
-                    "task: `{t}` is not pointgoal, objectgoal, roomgoal or vln"
-                ))
-            })?),
+            Some(t) => Some(
+                <Task as crate::vocab::Vocabulary>::parse_name(t)
+                    .map_err(|e| bad(format!("task: {e}")))?,
+            ),
         };
         let preset = match &raw.preset {
             None => None,
@@ -119,8 +118,10 @@ impl CampaignSpec {
                     .into_iter()
                     .find(|k| k.name() == p.as_str())
                     .ok_or_else(|| {
+                        // Exact names only (not the CLI's old spelling `minos-continuous`).
                         bad(format!(
-                            "preset: `{p}` is not habitat, minos, minos-gridworld or minos-paper"
+                            "preset: `{p}` is not one of {}",
+                            <AgentPreset as crate::vocab::Vocabulary>::names().join(", ")
                         ))
                     })?,
             ),

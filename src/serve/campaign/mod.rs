@@ -105,6 +105,15 @@ struct Books {
     feedback: BTreeMap<String, Vec<Feedback>>,
 }
 
+impl Books {
+    /// Where the demonstration of `episode_id` in session `session` stands in `demos`.
+    fn demo_at(&self, session: &str, episode_id: &str) -> Option<usize> {
+        self.demos
+            .iter()
+            .position(|d| d.session == session && d.entry.episode_id == episode_id)
+    }
+}
+
 /// A running campaign.
 #[derive(Debug)]
 pub struct Campaign {
@@ -404,11 +413,7 @@ impl Campaign {
             episode_id: episode_id.to_string(),
         };
         // Only a session the books know names a folder: nothing from a request is a path.
-        let at = b
-            .demos
-            .iter()
-            .position(|d| d.session == session && d.entry.episode_id == episode_id)
-            .ok_or_else(no_demo)?;
+        let at = b.demo_at(session, episode_id).ok_or_else(no_demo)?;
         let before = b.demos[at].entry.clone();
         if before.tutorial {
             return Err(ReviewError::Tutorial);
@@ -438,11 +443,8 @@ impl Campaign {
     pub fn demo(&self, session: &str, episode_id: &str) -> Option<(Demo, usize)> {
         let index = *self.index.get(episode_id)?;
         let b = self.books();
-        let demo = b
-            .demos
-            .iter()
-            .find(|d| d.session == session && d.entry.episode_id == episode_id)?;
-        Some((demo.clone(), index))
+        let at = b.demo_at(session, episode_id)?;
+        Some((b.demos[at].clone(), index))
     }
 
     /// Keeps what `participant` said about the campaign (see [`feedback`]).
