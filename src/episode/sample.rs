@@ -21,9 +21,10 @@ use std::collections::BTreeMap;
 
 use glam::Vec3;
 
-use crate::navmesh::geodesic::{DistanceField, Geodesic};
+use crate::navmesh::geodesic::{DistanceField, Geodesic, GoalRegions};
 use crate::navmesh::path::{
-    add_rooms_and_doors, path_from_field, shortest_polyline_in, Path, PathResult,
+    add_rooms_and_doors, nearest_polyline_in, path_from_field, shortest_polyline_in, Path,
+    PathResult,
 };
 use crate::navmesh::{NavGrid, NONE};
 use crate::scene::RoomClass;
@@ -411,6 +412,48 @@ impl<'g> FieldCache<'g> {
     }
 }
 
+/// Draws of one goal set (and target) answered by sparse queries before its distance field
+/// is built: a field costs about as much as this many queries.
+const SPARSE_DRAWS: usize = 32;
+
+/// Goal regions for the sparse nearest-goal query, keyed by (goal set, target or all, island):
+/// the targets' spans on that island.
+struct RegionCache<'g> {
+    geo: &'g Geodesic<'g>,
+    regions: BTreeMap<(usize, Option<usize>, u32), GoalRegions>,
+}
+
+impl<'g> RegionCache<'g> {
+    fn get(
+        &mut self,
+        sets: &[GoalSet],
+        set: usize,
+        target: Option<usize>,
+        island: u32,
+    ) -> &GoalRegions {
+        let geo = self.geo;
+        self.regions
+            .entry((set, target, island))
+            .or_insert_with(|| {
+                let spans = &geo.grid().spans;
+                let on_island: Vec<Vec<u32>> = match target {
+                    Some(t) => vec![&sets[set].spans[t]],
+                    None => sets[set].spans.iter().collect(),
+                }
+                .into_iter()
+                .map(|s| {
+                    s.iter()
+                        .copied()
+                        .filter(|&s| spans[s as usize].island == island)
+                        .collect()
+                })
+                .collect();
+                let refs: Vec<&[u32]> = on_island.iter().map(Vec::as_slice).collect();
+                geo.goal_regions(&refs)
+            })
+    }
+}
+
 /// Samples the episodes of one scene (`scene_id` names it in ids; `split` is written as is).
 pub fn sample_scene(
     grid: &NavGrid,
@@ -504,6 +547,18 @@ pub fn sample_scene_from(
         geo: &geo,
         fields: BTreeMap::new(),
     };
+    // Sparse queries where goal sets are drawn a few times each (many categories); fields
+    // at once where each set will be drawn more often than a field costs in queries.
+    let sparse_draws = if cfg.per_scene >= SPARSE_DRAWS.saturating_mul(sets.len()) {
+        0
+    } else {
+        SPARSE_DRAWS
+    };
+    let mut draws: BTreeMap<(usize, Option<usize>), usize> = BTreeMap::new();
+    let mut regions = RegionCache {
+        geo: &geo,
+        regions: BTreeMap::new(),
+    };
     let per_bin = cfg.per_scene.div_ceil(3);
     let door_filters = cfg.min_doors > 0 || cfg.min_rooms > 0;
     let mut bin_counts = [0usize; 3];
@@ -540,6 +595,8 @@ pub fn sample_scene_from(
         };
         let island = grid.spans[start_span as usize].island;
         let mut goal_object = None;
+        // The path's rooms and doors are still to be listed (once it passes the filters).
+        let mut unlisted = false;
         let (goal, mut path, goal_point) = match cfg.task {
             Task::Vln => {
                 // An object that is the only one of its category in its room, and the centre
@@ -622,14 +679,34 @@ pub fn sample_scene_from(
                     Select::Random => rng.pick(&sets[set].targets_on(grid, island)).copied(),
                     Select::Any | Select::Closest => None,
                 };
-                let field = fields.get(&sets, set, target);
-                if !field.reachable(start_span) {
-                    reject(&mut out, "goal not reachable from start");
-                    continue;
-                }
-                let PathResult::Found(p) = path_from_field(grid, field, start_span) else {
-                    reject(&mut out, "goal not reachable from start");
-                    continue;
+                // One sparse query to the nearest goal region where it can answer (a field
+                // per category costs a whole island for a few draws each); the category's
+                // field otherwise.
+                let drawn = draws.entry((set, target)).or_insert(0usize);
+                *drawn += 1;
+                let nearest = if *drawn <= sparse_draws {
+                    let goals = regions.get(&sets, set, target, island);
+                    nearest_polyline_in(&geo, start_span, goals)
+                } else {
+                    None
+                };
+                let p = match nearest {
+                    Some(mut p) => {
+                        if door_filters {
+                            add_rooms_and_doors(grid, &mut p);
+                        } else {
+                            unlisted = true;
+                        }
+                        p
+                    }
+                    None => {
+                        let field = fields.get(&sets, set, target);
+                        let PathResult::Found(p) = path_from_field(grid, field, start_span) else {
+                            reject(&mut out, "goal not reachable from start");
+                            continue;
+                        };
+                        p
+                    }
                 };
                 let end = *p.spans.last().unwrap_or(&start_span);
                 let targets: Vec<GoalTarget> = match target {
@@ -667,7 +744,7 @@ pub fn sample_scene_from(
             reject(&mut out, "distance bin full");
             continue;
         }
-        if cfg.task == Task::PointGoal && !door_filters {
+        if unlisted || (cfg.task == Task::PointGoal && !door_filters) {
             add_rooms_and_doors(grid, &mut path);
         }
         let index = out.episodes.len();

@@ -17,7 +17,7 @@
 
 use glam::Vec3;
 
-use super::geodesic::{DistanceField, Geodesic};
+use super::geodesic::{DistanceField, Geodesic, GoalRegions};
 use super::grid::{NavGrid, NONE};
 use super::los;
 
@@ -110,6 +110,15 @@ pub fn shortest_polyline_in(geo: &Geodesic<'_>, from: u32, to: u32) -> PathResul
         Some(chain) => PathResult::Found(polyline(grid, Some(geo), chain)),
         None => PathResult::Unreachable,
     }
+}
+
+/// The shortest path from `from` to the nearest span of `goals` as one sparse query
+/// ([`Geodesic::nearest_chain`]), with `rooms` and `doors` left empty as in
+/// [`shortest_polyline_in`]; `None` when that query cannot answer, where a field from the
+/// goals ([`path_from_field`]) can.
+pub fn nearest_polyline_in(geo: &Geodesic<'_>, from: u32, goals: &GoalRegions) -> Option<Path> {
+    geo.nearest_chain(from, goals)
+        .map(|chain| polyline(geo.grid(), Some(geo), chain))
 }
 
 /// Fills a path's `rooms` and `doors` by walking its segments span by span (what

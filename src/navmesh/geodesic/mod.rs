@@ -127,10 +127,12 @@ use super::grid::{
 use super::los::SightIndex;
 
 mod field;
+mod nearest;
 mod records;
 mod sparse;
 
 pub use field::distance_field;
+pub use nearest::GoalRegions;
 use records::*;
 use sparse::*;
 
@@ -426,7 +428,7 @@ mod tests {
         (got, want)
     }
 
-    fn l_corridor() -> MapSpec {
+    pub(super) fn l_corridor() -> MapSpec {
         let rows = rows_from(200, 200, |x, z| {
             let vertical = (2..40).contains(&x) && (2..198).contains(&z);
             let horizontal = (2..198).contains(&x) && (160..198).contains(&z);
