@@ -53,18 +53,9 @@ fn to_py<'py>(py: Python<'py>, v: &serde_json::Value) -> PyResult<Bound<'py, PyA
 /// The scenes of split `name` (all subsets, sorted, distinct), or every ingested scene.
 fn split_or_all(data: &DataDir, split: Option<&str>) -> anyhow::Result<Vec<String>> {
     Ok(match split {
-        Some(name) => {
-            let lists = read_split(data, name).with_context(|| format!("--split {name}"))?;
-            let mut ids: Vec<String> = lists
-                .train
-                .into_iter()
-                .chain(lists.val)
-                .chain(lists.test)
-                .collect();
-            ids.sort();
-            ids.dedup();
-            ids
-        }
+        Some(name) => read_split(data, name)
+            .with_context(|| format!("--split {name}"))?
+            .ids(),
         None => data.ingested_ids()?,
     })
 }

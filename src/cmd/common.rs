@@ -297,18 +297,9 @@ pub fn write_data_provenance(data: &DataDir) -> anyhow::Result<()> {
 /// The scenes of split `name` (all subsets, sorted, distinct), or every ingested scene.
 pub fn split_or_all(data: &DataDir, split: Option<&str>) -> anyhow::Result<Vec<String>> {
     Ok(match split {
-        Some(name) => {
-            let lists = read_split(data, name).with_context(|| format!("--split {name}"))?;
-            let mut ids: Vec<String> = lists
-                .train
-                .into_iter()
-                .chain(lists.val)
-                .chain(lists.test)
-                .collect();
-            ids.sort();
-            ids.dedup();
-            ids
-        }
+        Some(name) => read_split(data, name)
+            .with_context(|| format!("--split {name}"))?
+            .ids(),
         None => data.ingested_ids()?,
     })
 }

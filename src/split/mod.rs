@@ -147,6 +147,18 @@ impl SplitLists {
         }
     }
 
+    /// Every id of the three subsets, sorted, each once (the scenes a command given this
+    /// split works on).
+    pub fn ids(&self) -> Vec<String> {
+        let mut ids: Vec<String> = Subset::ALL
+            .iter()
+            .flat_map(|&s| self.get(s).iter().cloned())
+            .collect();
+        ids.sort_unstable();
+        ids.dedup();
+        ids
+    }
+
     /// Number of ids over all three subsets.
     pub fn total(&self) -> usize {
         Subset::ALL.iter().map(|&s| self.get(s).len()).sum()
@@ -353,6 +365,17 @@ mod tests {
 
     fn ratios(r: [f64; 3]) -> Ratios {
         Ratios::new(r).unwrap()
+    }
+
+    #[test]
+    fn a_splits_ids_are_its_subsets_sorted_and_distinct() {
+        let lists = SplitLists {
+            train: strings(&["c", "a"]),
+            val: strings(&["b", "a"]),
+            test: strings(&["d"]),
+        };
+        assert_eq!(lists.ids(), strings(&["a", "b", "c", "d"]));
+        assert!(SplitLists::default().ids().is_empty());
     }
 
     #[test]

@@ -376,13 +376,8 @@ impl<'g> Geodesic<'g> {
                                      m: u32,
                                      g: f32| {
                             let node = &mut nodes[m as usize];
-                            if node.mark == closed {
+                            if !node.relaxable(open) {
                                 return;
-                            }
-                            if node.mark != open {
-                                node.mark = open;
-                                node.g = f32::INFINITY;
-                                node.anchor = NONE;
                             }
                             if theta && node.anchor != parent {
                                 let lazy = ga + dist(pa, pos(m));

@@ -20,6 +20,24 @@ pub(super) struct State {
     pub(super) mark: u32,
 }
 
+impl State {
+    /// Readies the record for a relaxation in the search whose open mark is `open`: `false`
+    /// when it is closed, else `true`, with a record not yet reached in this search made
+    /// open, at an infinite distance and without an anchor.
+    #[inline]
+    pub(super) fn relaxable(&mut self, open: u32) -> bool {
+        if self.mark == open + 1 {
+            return false;
+        }
+        if self.mark != open {
+            self.mark = open;
+            self.g = f32::INFINITY;
+            self.anchor = NONE;
+        }
+        true
+    }
+}
+
 /// Where a settled span is and how to find its linked spans (from the [`SightIndex`]'s packed
 /// record).
 #[derive(Debug, Clone, Copy)]

@@ -863,13 +863,8 @@ impl<'g> Geodesic<'g> {
                 let theta = parent != n && vertex(n).is_none_or(|v| v.gate);
                 let mut relax = |entries: &mut BinaryHeap<Entry>, m: u32, g: f32| {
                     let node = &mut nodes[m as usize];
-                    if node.mark == closed {
+                    if !node.relaxable(open) {
                         return;
-                    }
-                    if node.mark != open {
-                        node.mark = open;
-                        node.g = f32::INFINITY;
-                        node.anchor = NONE;
                     }
                     // While a node is open, `g` is its best checked distance and `anchor`
                     // the parent of its last lazy entry: the same lazy entry again, or one
