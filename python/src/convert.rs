@@ -44,9 +44,16 @@ pub fn py_err(e: anyhow::Error) -> PyErr {
         .or_else(|| minos::store::remedy::remedy_of(e.as_ref()).map(remedy_hint))
         .unwrap_or_default();
     let line = one_line(&e) + &hint;
+    // A step of the pipeline not taken yet (no manifest, no grid) is not ready, whatever
+    // file turned out to be missing.
+    let not_ready = matches!(
+        minos::store::remedy::remedy_of(e.as_ref()),
+        Some(minos::store::remedy::Remedy::Ingest | minos::store::remedy::Remedy::Bake)
+    )
+    .then_some(Kind::NotReady);
     // The most specific kind anywhere in the chain: a missing file under a format error is
     // a missing file.
-    match e.chain().filter_map(kind).min() {
+    match e.chain().filter_map(kind).chain(not_ready).min() {
         Some(Kind::BadInput) => BadInputError::new_err(line),
         Some(Kind::Body) => BodyMismatchError::new_err(line),
         Some(Kind::Locked) => LockedError::new_err(line),
