@@ -133,7 +133,12 @@ fn kind(e: &(dyn std::error::Error + 'static)) -> Option<Kind> {
             _ => return None,
         });
     }
-    if e.is::<minos::lock::LockError>() {
+    if e.is::<minos::lock::LockError>()
+        || matches!(
+            e.downcast_ref::<minos::pipeline::bake::BakeError>(),
+            Some(minos::pipeline::bake::BakeError::Lock(_))
+        )
+    {
         return Some(Kind::Locked);
     }
     if matches!(

@@ -281,3 +281,17 @@ def test_errors_raise_the_subclass_of_their_kind(world, tmp_path):
     for cls in (minos.BadInputError, minos.BodyMismatchError, minos.LockedError,
                 minos.NotFoundError, minos.NotReadyError):
         assert issubclass(cls, minos.MinosError)
+
+
+def test_ingest_and_bake_write_the_data_folders_provenance(world):
+    # The library's drivers write DATA/provenance.json, so Python's ingest and bake leave the
+    # record the CLI's do: every file with its sha256, the record itself left out.
+    data = Path(world.data)
+    record = json.loads((data / "provenance.json").read_text())
+    assert record["kind"] == "data"
+    files = record["files"]
+    wanted = ["houses.parquet"] + [f"nav/{s}.nav" for s in world.scenes] \
+        + [f"scenes/{s}.mscene" for s in world.scenes]
+    for f in wanted:
+        assert files[f]["sha256"] == hashlib.sha256((data / f).read_bytes()).hexdigest(), f
+    assert "provenance.json" not in files

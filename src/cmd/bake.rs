@@ -10,7 +10,7 @@ use minos::body::AgentPreset;
 use minos::navmesh::params::params_from_toml;
 use minos::navmesh::NavParams;
 use minos::pipeline::bake::{bake, BakeConfig, BakeOutcome};
-use minos::shard::{Shard, ShardSpec};
+use minos::shard::ShardSpec;
 use minos::store::DataDir;
 
 use super::common::{split_or_all, vocab};
@@ -147,10 +147,6 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
             cfg.params.body,
             ids.join(", ")
         );
-    }
-    if shard == Shard::ALL {
-        // (Shards bake side by side: the unsharded bake or a later command writes the record.)
-        super::common::write_data_provenance(&cfg.data)?;
     }
     Ok(if failed == 0 {
         ExitCode::SUCCESS

@@ -277,23 +277,6 @@ pub fn sensor_suite(
     }
 }
 
-/// Writes `DATA/provenance.json`, the DATA folder's provenance record: the minos that last
-/// wrote it and the sha256 of every file the folder holds (no command line, time or host: the
-/// same DATA gives the same record). `ingest`, `bake`, `split` and `variants` rewrite it when
-/// they finish.
-pub fn write_data_provenance(data: &DataDir) -> anyhow::Result<()> {
-    use minos::provenance;
-    let files = provenance::checksums(data.root(), &["provenance.json"])?;
-    let record = serde_json::json!({
-        "format": provenance::FORMAT,
-        "kind": "data",
-        "minos": provenance::MINOS,
-        "files": files,
-    });
-    provenance::write_record(&data.root().join("provenance.json"), &record)?;
-    Ok(())
-}
-
 /// The scenes of split `name` (all subsets, sorted, distinct), or every ingested scene.
 pub fn split_or_all(data: &DataDir, split: Option<&str>) -> anyhow::Result<Vec<String>> {
     Ok(match split {

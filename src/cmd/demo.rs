@@ -13,7 +13,7 @@ use minos::episode::Task;
 use minos::generate::{generate, GenerateConfig, OutputFormat};
 use minos::io::tables::ImageEncoding;
 use minos::navmesh::NavParams;
-use minos::pipeline::bake::{bake_scenes, BakeConfig};
+use minos::pipeline::bake::{bake, BakeConfig};
 use minos::pipeline::episodes::sample_scenes;
 use minos::pipeline::ingest::{ingest, IngestConfig, Outcome};
 use minos::pipeline::rollout::{run as rollout, AgentKind, Provenance, RerunOutput, RunConfig};
@@ -120,7 +120,8 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
             force: false,
             previews: true,
         };
-        bake_scenes(&cfg, &bar)
+        // The driver holds DATA's lock and rewrites its provenance record.
+        bake(&cfg, minos::shard::Shard::ALL, ctx.lock_mode, &bar)?
     };
     let bake_failed = bake.failures().count();
     for (id, e) in bake.failures() {

@@ -138,9 +138,6 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
             )
         }
     ));
-    if report.manifest_written {
-        super::common::write_data_provenance(&cfg.data)?;
-    }
     Ok(if failed.is_empty() {
         ExitCode::SUCCESS
     } else {

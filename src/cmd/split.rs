@@ -137,7 +137,6 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         tracing::warn!("split {} is empty", args.name);
     }
     split::write_split(&job.data, &args.name, &result.lists)?;
-    super::common::write_data_provenance(&job.data)?;
     ctx.say(summary(&args, &result, dir));
     Ok(ExitCode::SUCCESS)
 }

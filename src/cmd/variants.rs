@@ -232,7 +232,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
             path.display()
         ));
     }
-    super::common::write_data_provenance(&data)?;
+    minos::store::provenance::write_data_record(&data)?;
     Ok(if failed == 0 {
         ExitCode::SUCCESS
     } else {

@@ -164,19 +164,38 @@ pub fn bake_scenes(cfg: &BakeConfig, progress: &dyn Progress) -> BakeReport {
     bake_list(cfg, &cfg.scenes, progress)
 }
 
+/// Why [`bake`] could not run, or could not finish the DATA folder's record.
+#[derive(Debug, thiserror::Error)]
+pub enum BakeError {
+    /// The DATA folder's lock could not be taken.
+    #[error(transparent)]
+    Lock(#[from] LockError),
+    /// The grids are written, but the DATA folder's provenance record could not be.
+    #[error("the DATA folder's provenance record")]
+    Provenance(#[source] crate::provenance::ProvenanceError),
+}
+
 /// Bakes `shard` of `cfg.scenes` holding the DATA folder's lock as the bake needs it: the
 /// writer lock for the whole list ([`bake_scenes`]); for one shard of several, the shared lock
 /// the shards hold side by side ([`bake_shard`]), so a split or an ingest cannot write the
-/// folder meanwhile. `mode` says whether to wait for another writer.
+/// folder meanwhile. `mode` says whether to wait for another writer. The whole list's bake
+/// rewrites the DATA folder's provenance record (`DATA/provenance.json`) when no write
+/// failed.
 pub fn bake(
     cfg: &BakeConfig,
     shard: Shard,
     mode: LockMode,
     progress: &dyn Progress,
-) -> Result<BakeReport, LockError> {
+) -> Result<BakeReport, BakeError> {
     if shard == Shard::ALL {
         let _lock = cfg.data.lock("bake", mode)?;
-        Ok(bake_scenes(cfg, progress))
+        let report = bake_scenes(cfg, progress);
+        // (Shards bake side by side: the unsharded bake or a later command writes the record.)
+        if report.write_failure().is_none() {
+            crate::store::provenance::write_data_record(&cfg.data)
+                .map_err(BakeError::Provenance)?;
+        }
+        Ok(report)
     } else {
         let _lock = cfg.data.lock_shared(mode)?;
         Ok(bake_shard(cfg, shard, progress))

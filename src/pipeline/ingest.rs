@@ -190,6 +190,9 @@ pub enum IngestError {
     /// Another process writes the DATA folder, or its lock cannot be taken.
     #[error(transparent)]
     Lock(#[from] LockError),
+    /// The DATA folder's provenance record could not be written.
+    #[error("the DATA folder's provenance record")]
+    Provenance(#[source] crate::provenance::ProvenanceError),
     /// A compiled scene cannot be written (the message names it); nothing after it is.
     #[error(transparent)]
     Write(SceneFileError),
@@ -454,5 +457,6 @@ fn ingest_impl(
     let rows: Vec<ManifestRow> = rows.into_values().collect();
     write_manifest(&report.manifest, &rows)?;
     report.manifest_written = true;
+    crate::store::provenance::write_data_record(&cfg.data).map_err(IngestError::Provenance)?;
     Ok(report)
 }

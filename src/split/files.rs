@@ -44,7 +44,8 @@ pub fn split_dir(data: &DataDir, name: &str) -> Result<PathBuf, SplitError> {
 }
 
 /// Writes split `name` into `data/splits/name/{train,val,test}.txt`, each file sorted,
-/// distinct and atomically replaced; returns the folder.
+/// distinct and atomically replaced, then the DATA folder's provenance record; returns the
+/// folder.
 pub fn write_split(data: &DataDir, name: &str, lists: &SplitLists) -> Result<PathBuf, SplitError> {
     let dir = split_dir(data, name)?;
     // What a killed `split` left in the folder.
@@ -66,6 +67,7 @@ pub fn write_split(data: &DataDir, name: &str, lists: &SplitLists) -> Result<Pat
             source,
         })?;
     }
+    crate::store::provenance::write_data_record(data).map_err(SplitError::Provenance)?;
     Ok(dir)
 }
 

@@ -62,6 +62,9 @@ pub enum SplitError {
         /// The built-in names.
         official: String,
     },
+    /// The split is written, but the DATA folder's provenance record could not be.
+    #[error("the DATA folder's provenance record")]
+    Provenance(#[source] crate::provenance::ProvenanceError),
     /// A split name that is not a plain folder name.
     #[error("split name `{0}` must be a plain folder name (not empty, no `/`, `\\`, `.` or `..`)")]
     BadName(String),

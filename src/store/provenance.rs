@@ -4,7 +4,25 @@
 use std::path::Path;
 
 use super::DataDir;
-use crate::provenance::sha256_file;
+use crate::provenance::{sha256_file, ProvenanceError};
+
+/// The DATA folder's provenance record, at its root.
+pub const DATA_RECORD: &str = "provenance.json";
+
+/// Writes `DATA/provenance.json`, the DATA folder's provenance record: the minos that last
+/// wrote it and the sha256 of every file the folder holds (no command line, time or host: the
+/// same DATA gives the same record). The drivers that write DATA rewrite it when they finish:
+/// an unsharded ingest, an unsharded bake, a split and `variants`.
+pub fn write_data_record(data: &DataDir) -> Result<(), ProvenanceError> {
+    let files = crate::provenance::checksums(data.root(), &[DATA_RECORD])?;
+    let record = serde_json::json!({
+        "format": crate::provenance::FORMAT,
+        "kind": "data",
+        "minos": crate::provenance::MINOS,
+        "files": files,
+    });
+    crate::provenance::write_record(&data.root().join(DATA_RECORD), &record)
+}
 
 /// The scenes `ids` (`<scene>` or `<scene>@<variant>`; sorted, each once) as provenance
 /// records them: the id, the sha256 of its compiled scene in `data`, of each source file the
