@@ -54,7 +54,7 @@ fn to_py<'py>(py: Python<'py>, v: &serde_json::Value) -> PyResult<Bound<'py, PyA
 fn split_or_all(data: &DataDir, split: Option<&str>) -> anyhow::Result<Vec<String>> {
     Ok(match split {
         Some(name) => read_split(data, name)
-            .with_context(|| format!("--split {name}"))?
+            .with_context(|| format!("split={name:?}"))?
             .ids(),
         None => data.ingested_ids()?,
     })
