@@ -87,17 +87,6 @@ def test_ingest_and_bake_report_like_the_cli(world):
 def test_a_bake_for_another_body_reports_the_grids_it_replaced(world, tmp_path):
     # A copy of the DATA folder (its grids are Habitat's), baked for MINOS's body: every
     # scene's grid is replaced, and the report names the body it was baked for.
-    # A split that does not exist: named as the keyword, not as the CLI's flag.
-    with pytest.raises(minos.MinosError) as e:
-        minos.bake(world.data, split="nosplit", previews=False)
-    assert str(e.value).startswith('split="nosplit": ') and "--split" not in str(e.value), \
-        e.value
-    # A DATA folder nothing was ingested into: not ready (not a missing file), with the step.
-    empty = tmp_path / "EMPTY"
-    empty.mkdir()
-    with pytest.raises(minos.NotReadyError) as e:
-        minos.bake(empty, previews=False)
-    assert "call minos.ingest(...) first" in str(e.value), e.value
     data = tmp_path / "DATA"
     shutil.copytree(world.data, data)
     rep = minos.bake(data, preset="minos", previews=False)
