@@ -110,8 +110,14 @@ pub fn checksums(dir: &Path, skip: &[&str]) -> Result<BTreeMap<String, FileSum>,
 }
 
 /// Writes `record` as pretty JSON (keys in the order the value holds them) to `path`,
-/// atomically.
+/// atomically, after removing what a killed writer of `path` left beside it (every record
+/// is written last, so a kill between its output and it would otherwise leave litter that no
+/// rerun sweeps).
 pub fn write_record(path: &Path, record: &serde_json::Value) -> Result<(), ProvenanceError> {
+    crate::atomic::sweep_stale_of(path).map_err(|source| ProvenanceError {
+        path: path.to_path_buf(),
+        source,
+    })?;
     let mut bytes = serde_json::to_vec_pretty(record).map_err(|e| ProvenanceError {
         path: path.to_path_buf(),
         source: std::io::Error::other(e),
@@ -126,6 +132,30 @@ pub fn write_record(path: &Path, record: &serde_json::Value) -> Result<(), Prove
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_record_sweeps_what_a_killed_writer_of_it_left() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("out.parquet.provenance.json");
+        // Above the largest process id Linux hands out: a writer that is gone.
+        let dead = 4_194_305 + 17;
+        let left = dir
+            .path()
+            .join(format!(".out.parquet.provenance.json.tmp-{dead}"));
+        let other = dir.path().join(format!(".out.parquet.tmp-{dead}"));
+        std::fs::write(&left, b"{").unwrap();
+        std::fs::write(&other, b"x").unwrap();
+        write_record(&path, &serde_json::json!({"kind": "test"})).unwrap();
+        assert!(!left.exists(), "the record's own temporary is swept");
+        assert!(
+            other.exists(),
+            "another file's temporary is its writer's to sweep"
+        );
+        assert_eq!(
+            std::fs::read(&path).unwrap(),
+            b"{\n  \"kind\": \"test\"\n}\n"
+        );
+    }
 
     #[test]
     fn checksums_are_sha256_of_every_visible_file_but_the_skipped_ones() {
