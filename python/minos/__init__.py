@@ -4,6 +4,7 @@ pipeline of minos, in-process (bindings of the Rust library, built with PyO3 + m
     import minos
     minos.generate("gen", houses=2, seed=1)
     minos.ingest("gen", "DATA")
+    minos.split("DATA", "all", ratios=(0.6, 0.2, 0.2))
     minos.bake("DATA")
     minos.sample_episodes("DATA", "pointgoal", "eps.parquet", per_scene=5)
     sim = minos.Simulator("DATA", minos.read_episodes("eps.parquet")[0].scene_id)
@@ -30,6 +31,8 @@ from ._minos import (
     read_episodes,
     run,
     sample_episodes,
+    split,
+    variants,
     verify,
 )
 
@@ -66,5 +69,7 @@ __all__ = [
     "read_episodes",
     "run",
     "sample_episodes",
+    "split",
+    "variants",
     "verify",
 ]

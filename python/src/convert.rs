@@ -63,8 +63,7 @@ pub fn py_err(e: anyhow::Error) -> PyErr {
     }
 }
 
-/// The step that fixes an error, as the bindings spell it (variants are defined with the
-/// command line: the bindings have no call for it).
+/// The step that fixes an error, as the bindings spell it.
 fn remedy_hint(r: minos::store::remedy::Remedy) -> String {
     use minos::store::remedy::Remedy;
     let what = match r {
@@ -74,8 +73,8 @@ fn remedy_hint(r: minos::store::remedy::Remedy) -> String {
         Remedy::Rebake => {
             "rebake it: minos.bake(data, force=True) (variant=NAME for a variant's grid)"
         }
-        Remedy::DefineVariant => "define it with `minos variants --spec FILE`",
-        Remedy::MaterialStats => "compute them with `minos variants --refresh-stats`",
+        Remedy::DefineVariant => "define it with minos.variants(data, name=NAME, ...)",
+        Remedy::MaterialStats => "compute them with minos.variants(data, ..., refresh_stats=True)",
     };
     format!(" ({what})")
 }
@@ -155,7 +154,22 @@ fn kind(e: &(dyn std::error::Error + 'static)) -> Option<Kind> {
     {
         return Some(Kind::NotFound);
     }
+    if let Some(minos::pipeline::split::SplitJobError::Name(_)) = e.downcast_ref() {
+        return Some(Kind::BadInput);
+    }
+    if let Some(e) = e.downcast_ref::<minos::split::SplitError>() {
+        use minos::split::SplitError;
+        return matches!(
+            e,
+            SplitError::BadRatios(_)
+                | SplitError::ListedTwice { .. }
+                | SplitError::NoLists { .. }
+                | SplitError::BadName(_)
+        )
+        .then_some(Kind::BadInput);
+    }
     let bad_input = e.is::<minos::invalid::Invalid>()
+        || e.is::<minos::split::ExprError>()
         || e.is::<minos::scene::formats::LoadError>()
         || e.is::<minos::parquet_io::ParquetFileError>()
         || e.is::<minos::episode::format::EpisodeFileError>()

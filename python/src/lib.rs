@@ -7,6 +7,7 @@
 //! - [`env`]: `_VecCore`, the Rust side of `minos.gym.NavEnv` and `minos.gym.VectorNavEnv`;
 //! - [`pathfinder`]: `PathFinder` (geodesics, paths, snapping, sampling, islands);
 //! - [`pipeline`]: `generate`, `ingest`, `bake`, `sample_episodes`, `run`;
+//! - [`split`] and [`variants`]: `split` and `variants` of a DATA folder;
 //! - [`convert`]: the shared translations (errors, points, presets, sensors, progress).
 
 use pyo3::prelude::*;
@@ -17,6 +18,8 @@ mod episodes;
 mod pathfinder;
 mod pipeline;
 mod sim;
+mod split;
+mod variants;
 mod verify;
 
 pyo3::create_exception!(
@@ -87,6 +90,8 @@ fn _minos(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(episodes::read_episodes, m)?)?;
     m.add_function(wrap_pyfunction!(pipeline::generate, m)?)?;
     m.add_function(wrap_pyfunction!(pipeline::ingest, m)?)?;
+    m.add_function(wrap_pyfunction!(split::split, m)?)?;
+    m.add_function(wrap_pyfunction!(variants::variants, m)?)?;
     m.add_function(wrap_pyfunction!(pipeline::bake, m)?)?;
     m.add_function(wrap_pyfunction!(pipeline::sample_episodes, m)?)?;
     m.add_function(wrap_pyfunction!(pipeline::run, m)?)?;

@@ -20,19 +20,21 @@ use minos::episode::Task;
 use minos::generate::{GenerateConfig, OutputFormat};
 use minos::io::tables::ImageEncoding;
 use minos::lock::LockMode;
-use minos::navmesh::params::params_from_toml;
 use minos::navmesh::NavParams;
-use minos::pipeline::bake::{self as bake_driver, BakeConfig, BakeOutcome};
+use minos::pipeline::bake::{
+    self as bake_driver, grid_params, BakeConfig, BakeOutcome, GridParamsError,
+};
 use minos::pipeline::episodes::{
     default_min_geodesic, default_min_rooms, default_success_radius, expand_categories,
     parse_room_classes, run_job, select_scenes, EpisodesJob, Stratify,
 };
 use minos::pipeline::ingest::{ingest_with, read_id_list, DatasetFormat, IngestConfig, Outcome};
 use minos::pipeline::rollout::{AgentKind, Provenance, RerunOutput, RunConfig, RunFormat};
+use minos::pipeline::split::{scenes_of, ScenesError};
 use minos::run::metrics::Reward;
 use minos::shard::Shard;
 use minos::sim::AgentConfig;
-use minos::split::{read_split, Subset};
+use minos::split::Subset;
 use minos::store::DataDir;
 
 use crate::convert::{msg_err, path_of, py_err, sensor_suite, term, with_threads, PyProgress};
@@ -50,13 +52,15 @@ fn to_py<'py>(py: Python<'py>, v: &serde_json::Value) -> PyResult<Bound<'py, PyA
     json.call_method1("loads", (v.to_string(),))
 }
 
-/// The scenes of split `name` (all subsets, sorted, distinct), or every ingested scene.
+/// The scenes of split `name` (all subsets, sorted, distinct), or every ingested scene; a
+/// split that cannot be read is blamed on the `split=` keyword.
 fn split_or_all(data: &DataDir, split: Option<&str>) -> anyhow::Result<Vec<String>> {
-    Ok(match split {
-        Some(name) => read_split(data, name)
-            .with_context(|| format!("split={name:?}"))?
-            .ids(),
-        None => data.ingested_ids()?,
+    scenes_of(data, split).map_err(|e| match e {
+        // The flag (or keyword) in place of the library's "split `NAME`".
+        ScenesError::Split { name, source } => {
+            anyhow::Error::new(source).context(format!("split={name:?}"))
+        }
+        other => other.into(),
     })
 }
 
@@ -160,7 +164,7 @@ pub fn ingest<'py>(
                 ingest_with(&cfg, lock_mode(wait), &bar)
                     .with_context(|| format!("ingesting {}", root.display()))
             })
-            .map_err(|e| anyhow!("--jobs: {e}"))?
+            .map_err(|e| anyhow!("jobs=: {e}"))?
         })
         .map_err(py_err)?;
     for w in &report.warnings {
@@ -201,17 +205,11 @@ fn bake_params(
     cell_size: Option<f32>,
     config: Option<&Path>,
 ) -> anyhow::Result<NavParams> {
-    let p: AgentPreset = preset_name.parse().map_err(anyhow::Error::msg)?;
-    let mut params = NavParams::preset(p);
-    if let Some(cell) = cell_size {
-        params.cell_size = cell;
-    }
-    if let Some(path) = config {
-        let text = std::fs::read_to_string(path).with_context(|| format!("{}", path.display()))?;
-        params = params_from_toml(&text, params).map_err(|e| anyhow!("{}: {e}", path.display()))?;
-    }
-    params.validate().map_err(|e| anyhow!("--cell-size: {e}"))?;
-    Ok(params)
+    let preset: AgentPreset = preset_name.parse().map_err(anyhow::Error::msg)?;
+    grid_params(preset, cell_size, config).map_err(|e| match e {
+        GridParamsError::CellSize(source) => anyhow::Error::new(source).context("cell_size="),
+        other => anyhow::Error::new(other).context("config="),
+    })
 }
 
 /// `minos bake`: navigation grids for the ingested scenes (of `split`, on `variant`).
@@ -243,7 +241,7 @@ pub fn bake<'py>(
             let ids = split_or_all(&data, split)?;
             let scenes = data
                 .refs(&ids, variant)
-                .map_err(|e| anyhow!("--variant {}: {e}", variant.unwrap_or_default()))?;
+                .with_context(|| format!("variant={:?}", variant.unwrap_or_default()))?;
             let cfg = BakeConfig {
                 params: bake_params(preset, cell_size, config.as_deref())?,
                 scenes,

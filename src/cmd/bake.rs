@@ -7,9 +7,8 @@ use std::time::Instant;
 
 use anyhow::Context as _;
 use minos::body::AgentPreset;
-use minos::navmesh::params::params_from_toml;
 use minos::navmesh::NavParams;
-use minos::pipeline::bake::{bake, BakeConfig, BakeOutcome};
+use minos::pipeline::bake::{bake, grid_params, BakeConfig, BakeOutcome, GridParamsError};
 use minos::shard::ShardSpec;
 use minos::store::DataDir;
 
@@ -70,19 +69,10 @@ pub struct Args {
 
 /// The grid parameters the flags ask for (reads the `--config` file, if any).
 fn params(args: &Args) -> anyhow::Result<NavParams> {
-    let mut params = NavParams::preset(args.preset);
-    if let Some(cell) = args.cell_size {
-        params.cell_size = cell;
-    }
-    if let Some(path) = &args.config {
-        let text = std::fs::read_to_string(path).with_context(|| format!("{}", path.display()))?;
-        params = params_from_toml(&text, params)
-            .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
-    }
-    params
-        .validate()
-        .map_err(|e| anyhow::anyhow!("--cell-size: {e}"))?;
-    Ok(params)
+    grid_params(args.preset, args.cell_size, args.config.as_deref()).map_err(|e| match e {
+        GridParamsError::CellSize(source) => anyhow::Error::new(source).context("--cell-size"),
+        other => other.into(),
+    })
 }
 
 /// Flags → the library's configuration: parameters, and the scenes of the split (or every

@@ -10,8 +10,8 @@ use anyhow::Context as _;
 use indicatif::{ProgressBar, ProgressStyle};
 use minos::episode::Episode;
 use minos::lock::LockMode;
+use minos::pipeline::split::{scenes_of, ScenesError};
 use minos::sim::SensorSuite;
-use minos::split::read_split;
 use minos::store::DataDir;
 use minos::vocab::Vocabulary;
 use tracing_subscriber::EnvFilter;
@@ -277,13 +277,15 @@ pub fn sensor_suite(
     }
 }
 
-/// The scenes of split `name` (all subsets, sorted, distinct), or every ingested scene.
+/// The scenes of split `name` (all subsets, sorted, distinct), or every ingested scene; a
+/// split that cannot be read is blamed on `--split`.
 pub fn split_or_all(data: &DataDir, split: Option<&str>) -> anyhow::Result<Vec<String>> {
-    Ok(match split {
-        Some(name) => read_split(data, name)
-            .with_context(|| format!("--split {name}"))?
-            .ids(),
-        None => data.ingested_ids()?,
+    scenes_of(data, split).map_err(|e| match e {
+        // The flag (or keyword) in place of the library's "split `NAME`".
+        ScenesError::Split { name, source } => {
+            anyhow::Error::new(source).context(format!("--split {name}"))
+        }
+        other => other.into(),
     })
 }
 

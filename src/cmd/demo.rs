@@ -17,11 +17,12 @@ use minos::pipeline::bake::{bake, BakeConfig};
 use minos::pipeline::episodes::sample_scenes;
 use minos::pipeline::ingest::{ingest, IngestConfig, Outcome};
 use minos::pipeline::rollout::{run as rollout, AgentKind, Provenance, RerunOutput, RunConfig};
+use minos::pipeline::split::{make_split, Method, SplitJob, SplitReport};
 use minos::render::RendererChoice;
 use minos::run::metrics::{render_table, Reward};
 use minos::shard::Shard;
 use minos::sim::{AgentConfig, SensorSuite};
-use minos::split::{self, Expr, Ratios};
+use minos::split::{Expr, Ratios};
 use minos::stats;
 use minos::store::DataDir;
 
@@ -84,13 +85,26 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     let store = DataDir::new(&data);
     // One agent for every stage: the grids are baked for the body the oracle moves.
     let preset = AgentPreset::default();
-    let rows = store.read_manifest()?;
     let ratios = Ratios::new([0.6, 0.2, 0.2])?;
-    let all = split::split_by_ratios(&rows, None, ratios, args.seed);
-    let all_dir = split::write_split(&store, "all", &all.lists)?;
     let multiroom = Expr::parse("nrooms > 2 && nrooms < 6").context("demo filter")?;
-    let mr = split::split_by_ratios(&rows, Some(&multiroom), ratios, args.seed);
-    let mr_dir = split::write_split(&store, "multiroom", &mr.lists)?;
+    let split = |name: &str, filter: Option<Expr>| {
+        let job = SplitJob {
+            data: store.clone(),
+            name: name.to_string(),
+            filter,
+            method: Method::Ratios(ratios, args.seed),
+        };
+        make_split(&job, ctx.lock_mode).with_context(|| format!("split {name}"))
+    };
+    let SplitReport {
+        result: all,
+        dir: all_dir,
+    } = split("all", None)?;
+    let SplitReport {
+        result: mr,
+        dir: mr_dir,
+    } = split("multiroom", Some(multiroom))?;
+    let rows = store.read_manifest()?;
     ctx.say(format!(
         "3/7 splits: all {}/{}/{} -> {}, multiroom (3-5 rooms) {}/{}/{} -> {}",
         all.lists.train.len(),

@@ -6,8 +6,9 @@ use std::process::ExitCode;
 
 use anyhow::Context as _;
 use clap::ArgGroup;
+use minos::pipeline::split::{make_split, Method, SplitJob, SplitJobError};
 use minos::split::expr::SYNTAX_HELP;
-use minos::split::{self, Expr, Ratios, SplitResult};
+use minos::split::{Expr, Ratios, SplitResult};
 use minos::store::DataDir;
 
 use super::Context;
@@ -69,29 +70,7 @@ pub struct Args {
     seed: u64,
 }
 
-/// How the scenes are divided.
-#[derive(Debug, Clone, PartialEq)]
-pub enum Method {
-    /// Official lists read from a folder.
-    Lists(PathBuf),
-    /// Seeded fractions.
-    Ratios(Ratios, u64),
-}
-
-/// What `minos split` writes.
-#[derive(Debug, Clone)]
-pub struct SplitJob {
-    /// The DATA folder.
-    pub data: DataDir,
-    /// The split's folder, `DATA/splits/<name>/`.
-    pub dir: PathBuf,
-    /// The `--where` filter.
-    pub filter: Option<Expr>,
-    /// Lists or ratios.
-    pub method: Method,
-}
-
-/// Flags → the job (the name and the `--where` expression checked before any work).
+/// Flags → the job (the `--where` expression checked before any work).
 pub fn config(args: &Args) -> anyhow::Result<SplitJob> {
     let filter = args
         .filter
@@ -99,16 +78,14 @@ pub fn config(args: &Args) -> anyhow::Result<SplitJob> {
         .map(Expr::parse)
         .transpose()
         .context("--where")?;
-    let data = DataDir::new(&args.data);
-    let dir = split::split_dir(&data, &args.name).context("--name")?;
     let method = match (&args.lists, args.ratios) {
-        (Some(lists_dir), _) => Method::Lists(lists_dir.clone()),
+        (Some(lists_dir), _) => Method::ListsFrom(lists_dir.clone()),
         (None, Some(ratios)) => Method::Ratios(ratios, args.seed),
         (None, None) => anyhow::bail!("one of --lists and --ratios is required"),
     };
     Ok(SplitJob {
-        data,
-        dir,
+        data: DataDir::new(&args.data),
+        name: args.name.clone(),
         filter,
         method,
     })
@@ -117,27 +94,18 @@ pub fn config(args: &Args) -> anyhow::Result<SplitJob> {
 /// Runs the subcommand.
 pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     let job = config(&args)?;
-    let (filter, dir) = (job.filter.as_ref(), &job.dir);
-    let rows = job
-        .data
-        .read_manifest()
-        .context("cannot read the manifest (run `minos ingest` first)")?;
-    // Taken once DATA is known to hold a manifest, so a wrong --data creates nothing.
-    let _lock = job.data.lock("split", ctx.lock_mode)?;
-    let result = match &job.method {
-        Method::Lists(lists_dir) => {
-            let lists = split::resolve_lists(lists_dir).context("--lists")?;
-            split::split_by_lists(&rows, filter, &lists)
-                .with_context(|| format!("--lists {}", lists_dir.display()))?
+    let report = make_split(&job, ctx.lock_mode).map_err(|e| match e {
+        SplitJobError::Name(_) => anyhow::Error::new(e).context("--name"),
+        SplitJobError::Lists { .. } | SplitJobError::GivenLists(_) => {
+            anyhow::Error::new(e).context("--lists")
         }
-        Method::Ratios(ratios, seed) => split::split_by_ratios(&rows, filter, *ratios, *seed),
-    };
-    warn_missing(&result.missing, "listed ids are not in DATA");
-    if result.lists.total() == 0 {
+        other => other.into(),
+    })?;
+    warn_missing(&report.result.missing, "listed ids are not in DATA");
+    if report.result.lists.total() == 0 {
         tracing::warn!("split {} is empty", args.name);
     }
-    split::write_split(&job.data, &args.name, &result.lists)?;
-    ctx.say(summary(&args, &result, dir));
+    ctx.say(summary(&args, &report.result, &report.dir));
     Ok(ExitCode::SUCCESS)
 }
 

@@ -5,14 +5,11 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::{bail, Context as _};
-use minos::atomic::sweep_stale;
-use minos::pipeline::variants::{collect_stats, dry_run};
-use minos::scene::variants::materials::DEFAULT_FRACTIONS;
-use minos::scene::variants::{
-    parse_spec_file, validate_name, KeepOnly, Retexture, TextureSet, VariantSpec,
-};
+use minos::pipeline::variants::{define_variants, read_spec_file, VariantsJob};
+use minos::scene::variants::{KeepOnly, Retexture, TextureSet, VariantSpec};
 use minos::store::DataDir;
 
+use super::common::vocab;
 use super::Context;
 
 /// Define scene variants: clutter removal (remove, keep_only, empty, hide), open doors and
@@ -61,8 +58,8 @@ pub struct Args {
     #[arg(long, value_name = "SEED", requires = "name")]
     retexture_seed: Option<u64>,
     /// Texture set retexturing draws from.
-    #[arg(long, value_enum, default_value = "train")]
-    texture_set: SetArg,
+    #[arg(long, value_parser = vocab::<TextureSet>(), default_value = "train")]
+    texture_set: TextureSet,
     /// Recompute the material statistics even when they exist.
     #[arg(long)]
     refresh_stats: bool,
@@ -74,37 +71,20 @@ pub struct Args {
     list: bool,
 }
 
-#[derive(Debug, Clone, Copy, clap::ValueEnum)]
-enum SetArg {
-    Train,
-    Val,
-    Test,
-}
-
+/// The variant the flags describe (its name and rules are checked by the driver).
 fn from_flags(args: &Args, name: &str) -> anyhow::Result<VariantSpec> {
-    validate_name(name).map_err(anyhow::Error::msg)?;
     let spec = VariantSpec {
         remove: args.remove.clone(),
-        keep_only: match args.keep_only.len() {
-            0 => None,
-            1 => Some(KeepOnly::One(args.keep_only[0].clone())),
-            _ => Some(KeepOnly::Many(args.keep_only.clone())),
-        },
+        keep_only: KeepOnly::from_names(args.keep_only.clone()),
         empty: args.empty,
         hide: args.hide.clone(),
         open_doors: args.open_doors,
         doors: Default::default(),
         retexture: args.retexture_seed.map(|seed| Retexture {
             seed,
-            texture_set: match args.texture_set {
-                SetArg::Train => TextureSet::Train,
-                SetArg::Val => TextureSet::Val,
-                SetArg::Test => TextureSet::Test,
-            },
+            texture_set: args.texture_set,
         }),
     };
-    spec.validate()
-        .map_err(|e| anyhow::anyhow!("variant {name}: {e}"))?;
     if spec == VariantSpec::default() {
         bail!("variant {name}: no change given (use --remove, --keep-only, --empty, --hide, --open-doors or --retexture-seed)");
     }
@@ -114,10 +94,7 @@ fn from_flags(args: &Args, name: &str) -> anyhow::Result<VariantSpec> {
 /// Flags → the variants to define: read from `--spec FILE`, or one built from the flags.
 pub fn config(args: &Args) -> anyhow::Result<Vec<(String, VariantSpec)>> {
     Ok(match (&args.spec, &args.name) {
-        (Some(path), _) => {
-            let text = std::fs::read_to_string(path).with_context(|| path.display().to_string())?;
-            parse_spec_file(&text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?
-        }
+        (Some(path), _) => read_spec_file(path).context("--spec")?,
         (None, Some(name)) => vec![(name.clone(), from_flags(args, name)?)],
         (None, None) => bail!("give --spec FILE or --name NAME with changes (see --help)"),
     })
@@ -134,108 +111,65 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         }
         return Ok(ExitCode::SUCCESS);
     }
-    let variants = config(&args)?;
-    let ids = data.ingested_ids()?;
-    // Taken once DATA is known to hold a manifest, so a wrong --data creates nothing.
-    let _lock = data.lock("variants", ctx.lock_mode)?;
-    for dir in [data.variants_dir(), data.stats_dir()] {
-        sweep_stale(&dir)
-            .with_context(|| format!("{}: removing stale temporary files", dir.display()))?;
-    }
-
-    let needs_stats = variants.iter().any(|(_, s)| s.retexture.is_some());
-    let stats = if needs_stats || args.refresh_stats {
-        let existing = if args.refresh_stats {
-            None
-        } else {
-            data.read_material_stats().ok()
-        };
-        Some(match existing {
-            Some(s) => s,
-            None => {
-                let (stats, failures) = {
-                    let bar = ctx.progress(ids.len() as u64, "material stats");
-                    collect_stats(&data, &ids, args.partition_seed, DEFAULT_FRACTIONS, &bar)
-                };
-                for (id, e) in &failures {
-                    eprintln!("warning: scene {id}: left out of the material statistics: {e}");
-                }
-                let path = data.write_material_stats(&stats)?;
-                let per_set = |set| stats.materials.iter().filter(|m| m.set == set).count();
-                ctx.say(format!(
-                    "material statistics of {} scenes: {} materials in {} categories \
-                     (train {}, val {}, test {}) -> {}",
-                    stats.scenes.len(),
-                    stats.materials.len(),
-                    stats.categories.len(),
-                    per_set(TextureSet::Train),
-                    per_set(TextureSet::Val),
-                    per_set(TextureSet::Test),
-                    path.display()
-                ));
-                stats
-            }
-        })
-    } else {
-        None
+    let job = VariantsJob {
+        data,
+        variants: config(&args)?,
+        refresh_stats: args.refresh_stats,
+        partition_seed: args.partition_seed,
     };
-    if needs_stats && stats.is_none() {
-        bail!("{}: missing", data.material_stats_path().display());
+    let report = {
+        let bar = ctx.progress(0, "variants");
+        define_variants(&job, ctx.lock_mode, &bar)?
+    };
+    if let Some(stats) = &report.stats {
+        for (id, e) in &stats.left_out {
+            eprintln!("warning: scene {id}: left out of the material statistics: {e}");
+        }
+        let [train, val, test] = stats.per_set;
+        ctx.say(format!(
+            "material statistics of {} scenes: {} materials in {} categories \
+             (train {train}, val {val}, test {test}) -> {}",
+            stats.scenes,
+            stats.materials,
+            stats.categories,
+            stats.path.display()
+        ));
     }
-
-    let mut failed = 0;
-    for (name, spec) in &variants {
-        let reports = {
-            let bar = ctx.progress(ids.len() as u64, name);
-            dry_run(&data, &ids, name, spec, stats.as_ref(), &bar)
-        };
-        let (mut removed, mut swapped, mut cleared, mut redrawn, mut kept) = (0, 0, 0, 0, 0);
-        for (id, r) in &reports {
-            match r {
-                Ok(r) => {
-                    removed += r.removed;
-                    swapped += r.doors.swapped;
-                    cleared += r.doors.cleared;
-                    if let Some(t) = r.retexture {
-                        redrawn += t.redrawn;
-                        kept += t.kept;
-                    }
-                    for w in &r.doors.unmatched {
-                        tracing::warn!("variant {name}, scene {id}: {w}");
-                    }
-                }
-                Err(e) => {
-                    eprintln!("error: variant {name}, scene {id}: {e}");
-                    failed += 1;
-                }
-            }
+    for v in &report.variants {
+        let name = &v.name;
+        for (id, w) in &v.unmatched {
+            tracing::warn!("variant {name}, scene {id}: {w}");
         }
-        let path = data.write_variant(name, spec)?;
-        let mut what = format!("{removed} objects removed");
-        if spec.open_doors || !spec.doors.is_empty() {
-            what += &format!(", {swapped} doors swapped, {cleared} doors cleared");
+        for (id, e) in &v.failures {
+            eprintln!("error: variant {name}, scene {id}: {e}");
         }
-        if spec.retexture.is_some() {
-            what += &format!(", {redrawn} material slots redrawn, {kept} kept (no material of their category in the set)");
+        let mut what = format!("{} objects removed", v.removed);
+        if v.changes_doors {
+            what += &format!(", {} doors swapped, {} doors cleared", v.swapped, v.cleared);
         }
-        let bake = if spec.changes_geometry() {
+        if v.retextures {
+            what += &format!(
+                ", {} material slots redrawn, {} kept (no material of their category in the set)",
+                v.redrawn, v.kept
+            );
+        }
+        let bake = if v.changes_geometry {
             format!(
                 "; bake it with `minos bake --data {} --variant {name}`",
-                data.root().display()
+                job.data.root().display()
             )
         } else {
             "; it keeps the geometry and shares its scenes' grids".to_string()
         };
         ctx.say(format!(
             "variant {name} over {} scenes: {what} -> {}{bake}",
-            reports.len(),
-            path.display()
+            v.scenes,
+            v.path.display()
         ));
     }
-    minos::store::provenance::write_data_record(&data)?;
-    Ok(if failed == 0 {
-        ExitCode::SUCCESS
-    } else {
+    Ok(if report.any_failed() {
         ExitCode::FAILURE
+    } else {
+        ExitCode::SUCCESS
     })
 }

@@ -6,17 +6,19 @@
 //! disk, a read-only folder) stops the batch: it is the folder's problem, not the scene's.
 //! Temporary files a killed bake left in `DATA/nav/` are removed first.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use rayon::prelude::*;
 
 use crate::atomic::{sweep_stale, sweep_stale_where};
-use crate::body::AgentBody;
+use crate::body::{AgentBody, AgentPreset};
+use crate::invalid::Invalid;
 use crate::lock::{LockError, LockMode};
 use crate::navmesh::build::build;
 use crate::navmesh::file::NavFileError;
 use crate::navmesh::file::{read_nav, read_nav_params, write_nav};
+use crate::navmesh::params::params_from_toml;
 use crate::navmesh::preview::{previews_present, write_previews};
 use crate::navmesh::NavParams;
 use crate::progress::Progress;
@@ -99,6 +101,58 @@ pub struct BakeConfig {
     pub force: bool,
     /// Write PNG previews.
     pub previews: bool,
+}
+
+/// Why grid parameters could not be resolved.
+#[derive(Debug, thiserror::Error)]
+pub enum GridParamsError {
+    /// The parameter file could not be read.
+    #[error("{}", path.display())]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The parameter file is not valid.
+    #[error("{}", path.display())]
+    File {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        #[source]
+        source: Invalid,
+    },
+    /// The cell size given is not usable.
+    #[error("cell size")]
+    CellSize(#[source] Invalid),
+}
+
+/// The grid parameters a bake is asked for: those of agent preset `preset`, with
+/// `cell_size` when given, then the keys of the TOML file `config` over them (see
+/// [`params_from_toml`]), checked.
+pub fn grid_params(
+    preset: AgentPreset,
+    cell_size: Option<f32>,
+    config: Option<&Path>,
+) -> Result<NavParams, GridParamsError> {
+    let mut params = NavParams::preset(preset);
+    if let Some(cell) = cell_size {
+        params.cell_size = cell;
+    }
+    if let Some(path) = config {
+        let text = std::fs::read_to_string(path).map_err(|source| GridParamsError::Read {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        params = params_from_toml(&text, params).map_err(|source| GridParamsError::File {
+            path: path.to_path_buf(),
+            source,
+        })?;
+    }
+    params.validate().map_err(GridParamsError::CellSize)?;
+    Ok(params)
 }
 
 /// True when `out` exists and is at least as new as every input of `scene_ref`.

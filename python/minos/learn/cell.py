@@ -142,11 +142,7 @@ def _prepare_data(cfg: CellConfig, work: Path) -> tuple[Path, str]:
     order = np.random.default_rng(cfg.seed).permutation(len(ids))
     test = sorted(ids[i] for i in order[:cfg.test_houses])
     train = sorted(ids[i] for i in order[cfg.test_houses:])
-    lists.mkdir(parents=True, exist_ok=True)
-    # The lists `minos split --lists DIR` reads (one scene id a line).
-    (lists / "train.txt").write_text("".join(i + "\n" for i in train))
-    (lists / "val.txt").write_text("")
-    (lists / "test.txt").write_text("".join(i + "\n" for i in test))
+    minos.split(data, split, lists={"train": train, "val": [], "test": test})
     _log(f"{len(ids)} houses ({len(train)} train, {len(test)} test) in "
          f"{time.perf_counter() - t0:.1f} s -> {data}")
     return data, split
@@ -154,18 +150,13 @@ def _prepare_data(cfg: CellConfig, work: Path) -> tuple[Path, str]:
 
 def _make_variant(data: Path, name: str) -> None:
     """Defines the variant ``name`` in ``data`` (only ``empty``, MINOS's emptyRoom: doors,
-    arches and windows kept, through ``minos variants --empty``)."""
-    import shutil
-    import subprocess
+    arches and windows kept)."""
+    import minos
 
     if name != "empty":
         raise ValueError(f"variant `{name}`: only `empty` is made here; define others with "
-                         "`minos variants` and pass --data/--split")
-    exe = shutil.which("minos")
-    if exe is None:
-        raise FileNotFoundError("the `minos` binary (for `minos variants`) is not on PATH")
-    subprocess.run([exe, "variants", "-q", "--data", str(data), "--name", name, "--empty"],
-                   check=True)
+                         "minos.variants(...) and pass --data/--split")
+    minos.variants(data, name=name, empty=True)
 
 
 def _episodes(cfg: CellConfig, data: Path, split: str, subset: str, out: Path,

@@ -46,12 +46,32 @@ impl TextureSet {
 
     /// The set's name.
     pub fn name(self) -> &'static str {
-        match self {
-            TextureSet::Train => "train",
-            TextureSet::Val => "val",
-            TextureSet::Test => "test",
-        }
+        crate::vocab::Vocabulary::term_name(self)
     }
+}
+
+impl crate::vocab::Vocabulary for TextureSet {
+    const WHAT: &'static str = "texture set";
+    const TERMS: &'static [crate::vocab::Term<Self>] = &[
+        crate::vocab::Term {
+            value: TextureSet::Train,
+            name: "train",
+            aliases: &[],
+            help: "materials for training scenes",
+        },
+        crate::vocab::Term {
+            value: TextureSet::Val,
+            name: "val",
+            aliases: &[],
+            help: "materials for validation scenes",
+        },
+        crate::vocab::Term {
+            value: TextureSet::Test,
+            name: "test",
+            aliases: &[],
+            help: "materials for test scenes",
+        },
+    ];
 }
 
 impl fmt::Display for TextureSet {
@@ -81,6 +101,16 @@ pub enum KeepOnly {
 }
 
 impl KeepOnly {
+    /// The rule a list of names gives: none for an empty list, one name (`arch` or a
+    /// category) as [`KeepOnly::One`], several as [`KeepOnly::Many`].
+    pub fn from_names(names: Vec<String>) -> Option<KeepOnly> {
+        match names.len() {
+            0 => None,
+            1 => names.into_iter().next().map(KeepOnly::One),
+            _ => Some(KeepOnly::Many(names)),
+        }
+    }
+
     /// The categories named, lower-cased.
     pub fn names(&self) -> Vec<String> {
         match self {
@@ -226,6 +256,31 @@ fn one_line(e: &toml::de::Error, text: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn texture_sets_are_named_alike_in_files_and_on_the_command_line() {
+        use crate::vocab::Vocabulary;
+        for set in TextureSet::ALL {
+            let in_files = toml::Value::try_from(set).unwrap();
+            assert_eq!(in_files.as_str(), Some(set.name()));
+            assert_eq!(TextureSet::parse_name(set.name()), Ok(set));
+        }
+        assert_eq!(TextureSet::names(), vec!["train", "val", "test"]);
+    }
+
+    #[test]
+    fn keep_only_lists_become_one_name_or_many() {
+        let names = |v: &[&str]| v.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+        assert_eq!(KeepOnly::from_names(vec![]), None);
+        assert_eq!(
+            KeepOnly::from_names(names(&["arch"])),
+            Some(KeepOnly::One("arch".into()))
+        );
+        assert_eq!(
+            KeepOnly::from_names(names(&["chair", "bed"])),
+            Some(KeepOnly::Many(names(&["chair", "bed"])))
+        );
+    }
 
     #[test]
     fn spec_file_parses_every_field() {
