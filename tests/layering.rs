@@ -340,8 +340,8 @@ fn the_floor_plan_has_no_cycle() {
 }
 
 /// The Python bindings (python/src/, crate `minos-python`) are a front door like the CLI:
-/// they stand above every floor. The library never refers to them or to PyO3, and the
-/// bindings reach the library only through its public modules (`minos::<module>`).
+/// they stand above every floor: the library never refers to them or to PyO3. (How the
+/// front doors reach the library is checked below, for the CLI and the bindings alike.)
 #[test]
 fn the_python_bindings_stand_above_the_library() {
     let here = Path::new(env!("CARGO_MANIFEST_DIR"));
@@ -361,38 +361,35 @@ fn the_python_bindings_stand_above_the_library() {
     let mut bindings = Vec::new();
     rust_files(&here.join("python/src"), &mut bindings);
     assert!(!bindings.is_empty(), "python/src holds the bindings");
-    let modules: BTreeSet<&str> = FLOORS.iter().map(|(m, _)| *m).collect();
-    for file in &bindings {
-        let text = std::fs::read_to_string(file).expect("readable source");
-        let code: String = text.lines().map(code_of).collect::<Vec<_>>().join("\n");
-        for (at, _) in code.match_indices("minos::") {
-            if code[..at]
-                .chars()
-                .last()
-                .is_some_and(|c| c.is_ascii_alphanumeric() || c == '_')
-            {
-                continue;
-            }
-            let rest = &code[at + "minos::".len()..];
-            let names: Vec<String> = match rest.strip_prefix('{') {
-                Some(group) => group
+    // How the bindings reach the library: the_front_doors_take_no_lock_and_write_no_file_themselves.
+}
+
+/// The top-level names after each `minos::` of `code` (`minos::{a, b::c}` names `a` and `b`).
+fn library_names(code: &str) -> Vec<String> {
+    let mut names = Vec::new();
+    for (at, _) in code.match_indices("minos::") {
+        if code[..at]
+            .chars()
+            .last()
+            .is_some_and(|c| c.is_ascii_alphanumeric() || c == '_')
+        {
+            continue;
+        }
+        let rest = &code[at + "minos::".len()..];
+        match rest.strip_prefix('{') {
+            Some(group) => names.extend(
+                group
                     .split('}')
                     .next()
                     .unwrap_or("")
                     .split(',')
-                    .map(|s| ident_at(s.trim()))
-                    .collect(),
-                None => vec![ident_at(rest)],
-            };
-            for m in names.iter().filter(|m| !m.is_empty()) {
-                assert!(
-                    modules.contains(m.as_str()),
-                    "{}: `minos::{m}` is not a module of the library",
-                    file.display()
-                );
-            }
+                    .map(|s| ident_at(s.trim())),
+            ),
+            None => names.push(ident_at(rest)),
         }
     }
+    names.retain(|n| !n.is_empty());
+    names
 }
 
 /// The repository's files and folders, relative, `/`-separated, folders ending in `/`
@@ -503,5 +500,108 @@ fn the_architecture_doc_names_what_exists_and_everything_is_named() {
     assert!(
         unnamed.is_empty(),
         "docs/ARCHITECTURE.md does not name: {unnamed:?}"
+    );
+}
+
+/// The front doors' source files: the binary's command line (`src/main.rs`, `src/cmd/`) and
+/// the Python bindings (`python/src/`).
+fn front_door_files(root: &Path) -> Vec<PathBuf> {
+    let mut files = vec![root.join("src/main.rs")];
+    rust_files(&root.join("src/cmd"), &mut files);
+    rust_files(&root.join("python/src"), &mut files);
+    files.sort();
+    files
+}
+
+/// A source file's code outside its unit tests (`#[cfg(test)] mod tests` and what follows),
+/// comments and string contents removed.
+fn non_test_code(file: &Path) -> String {
+    let text = std::fs::read_to_string(file).expect("readable source");
+    let mut lines = Vec::new();
+    let mut prev = "";
+    for line in text.lines() {
+        if prev.trim() == "#[cfg(test)]" && line.trim_start().starts_with("mod tests") {
+            lines.pop();
+            break;
+        }
+        lines.push(code_of(line));
+        prev = line;
+    }
+    lines.join("\n")
+}
+
+/// What only the library does: take a folder's lock, and create, replace or remove files
+/// (through the atomic writers that sweep what a killed writer left). Each as it appears in
+/// code once comments and string contents are gone.
+const LIBRARY_ONLY: &[(&str, &str)] = &[
+    (".lock(\"", "takes a folder's lock"),
+    ("lock_shared(", "takes a folder's lock"),
+    ("DirLock", "takes a folder's lock"),
+    ("fs::write", "writes a file"),
+    ("File::create", "writes a file"),
+    ("OpenOptions", "writes a file"),
+    ("create_dir", "creates a folder"),
+    ("fs::rename", "replaces a file"),
+    ("fs::copy", "writes a file"),
+    ("fs::remove", "removes files"),
+    ("sweep_stale", "removes a killed writer's files"),
+    ("write_bytes_atomic", "writes a file"),
+    ("minos::atomic", "writes files"),
+];
+
+/// The front doors only translate (docs/ARCHITECTURE.md, "Front doors"): they reach the
+/// library through its public modules, and every lock and every file of the DATA folder and
+/// of the outputs is taken or written by a library call. So a lock cannot be skipped by a
+/// library caller, and the durability rules (temporary name, rename, sweep) live in one place.
+#[test]
+fn the_front_doors_take_no_lock_and_write_no_file_themselves() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let files = front_door_files(root);
+    assert!(files.len() > 20, "front-door files found: {files:?}");
+    let modules: BTreeSet<&str> = FLOORS.iter().map(|(m, _)| *m).collect();
+    let mut found = Vec::new();
+    for file in &files {
+        let rel = file
+            .strip_prefix(root)
+            .unwrap_or(file)
+            .display()
+            .to_string();
+        let code = non_test_code(file);
+        for (word, what) in LIBRARY_ONLY {
+            if code.contains(word) {
+                found.push(format!(
+                    "{rel}: `{word}` {what}: call a library driver instead"
+                ));
+            }
+        }
+        for m in library_names(&code) {
+            if !modules.contains(m.as_str()) {
+                found.push(format!(
+                    "{rel}: `minos::{m}` is not a module of the library"
+                ));
+            }
+        }
+    }
+    assert!(found.is_empty(), "{}", found.join("\n"));
+}
+
+#[test]
+fn the_front_door_check_sees_what_it_forbids() {
+    let dir = tempfile::tempdir().expect("temporary folder");
+    let file = dir.path().join("x.rs");
+    std::fs::write(
+        &file,
+        "fn f(d: &DataDir) {\n    let _l = d.lock(\"split\", mode); // fs::write in a comment\n    \
+         let s = \"fs::write in a string\";\n}\n#[cfg(test)]\nmod tests {\n    fn t() { std::fs::write(p, b) }\n}\n",
+    )
+    .expect("write");
+    let code = non_test_code(&file);
+    assert!(code.contains(".lock(\""), "{code}");
+    assert!(!code.contains("fs::write"), "{code}");
+    assert_eq!(
+        library_names(
+            "use minos::{store::DataDir, pipeline};\nlet x = minos::split::read(); notminos::x"
+        ),
+        vec!["store", "pipeline", "split"]
     );
 }
