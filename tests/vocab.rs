@@ -1,19 +1,28 @@
 //! Every vocabulary a user picks names from (presets, renderers, rewards, image encodings,
-//! tasks, subsets, selections, stratification, dataset formats, run formats) is declared once on the library's enum: each
+//! tasks, subsets, selections, stratification, dataset formats, run formats, house formats,
+//! export formats, benchmarks, foreign episode formats, frame formats, texture sets) is
+//! declared once on the library's enum: each
 //! name and alias parses back to its value, names do not repeat, an unknown name is refused
 //! with the known ones listed, and the command line refuses it in the same words.
 
 use crate::common;
 
 use minos::body::AgentPreset;
+use minos::episode::import::ForeignFormat;
 use minos::episode::sample::Select;
 use minos::episode::Task;
+use minos::generate::HouseFormat;
+use minos::io::export::ExportFormat;
+use minos::io::lerobot::DatasetLayout;
 use minos::io::tables::ImageEncoding;
+use minos::pipeline::bench::BenchKind;
 use minos::pipeline::episodes::Stratify;
 use minos::pipeline::ingest::DatasetFormat;
 use minos::pipeline::rollout::RunFormat;
 use minos::render::RendererChoice;
 use minos::run::metrics::Reward;
+use minos::scene::variants::TextureSet;
+use minos::serve::frames::LosslessFormat;
 use minos::split::Subset;
 use minos::vocab::Vocabulary;
 
@@ -74,6 +83,17 @@ fn every_vocabulary_parses_its_names_and_refuses_others_with_the_list() {
         ["suncg", "3dfront", "gltf", "mp3d"]
     );
     assert_eq!(check::<RunFormat>(), ["parquet", "lerobot"]);
+    assert_eq!(check::<HouseFormat>(), ["suncg", "mp3d", "mp3d-scan"]);
+    assert_eq!(check::<ExportFormat>(), ["obj", "glb"]);
+    assert_eq!(check::<BenchKind>(), ["bake", "episodes", "render", "run"]);
+    assert_eq!(check::<ForeignFormat>(), ["habitat", "minos-csv"]);
+    assert_eq!(check::<LosslessFormat>(), ["png", "webp"]);
+    assert_eq!(check::<TextureSet>(), ["train", "val", "test"]);
+    assert_eq!(check::<DatasetLayout>(), ["lerobot"]);
+    // Each export format is also the extension of its files.
+    for f in ExportFormat::ALL {
+        assert_eq!(f.extension(), f.term_name());
+    }
     assert!(RunFormat::Lerobot.writes_lerobot() && !RunFormat::Parquet.writes_lerobot());
     // The old spelling of MINOS's continuous agent.
     assert_eq!(
@@ -118,5 +138,32 @@ fn the_command_line_takes_its_values_from_the_vocabularies() {
     let err = String::from_utf8_lossy(&out.stderr);
     for name in Task::names() {
         assert!(err.contains(name), "{err}");
+    }
+    // The vocabularies that were the command line's own value enums refuse alike.
+    for (args, names) in [
+        (
+            vec!["generate", "--out", "o", "--format", "ply"],
+            HouseFormat::names(),
+        ),
+        (vec!["bench", "fly", "--data", "D"], BenchKind::names()),
+        (
+            vec!["episodes", "import", "--from", "csv", "f.csv"],
+            ForeignFormat::names(),
+        ),
+        (
+            vec!["serve", "--data", "D", "--lossless-frames", "gif"],
+            LosslessFormat::names(),
+        ),
+        (
+            vec!["variants", "--data", "D", "--texture-set", "green"],
+            TextureSet::names(),
+        ),
+    ] {
+        let out = common::minos().args(&args).output().expect("minos runs");
+        assert_eq!(out.status.code(), Some(2), "{args:?}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        for name in names {
+            assert!(err.contains(name), "{args:?}: {err}");
+        }
     }
 }

@@ -17,7 +17,7 @@ use minos::episode::habitat::SceneIdStyle;
 use minos::episode::sample::{SampleConfig, Select};
 use minos::episode::vln::export::VlnFormat;
 use minos::episode::Task;
-use minos::generate::{GenerateConfig, OutputFormat};
+use minos::generate::{GenerateConfig, HouseFormat};
 use minos::io::tables::ImageEncoding;
 use minos::lock::LockMode;
 use minos::navmesh::NavParams;
@@ -84,19 +84,10 @@ pub fn generate<'py>(
     progress: Option<Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let out = path_of(out)?;
-    let format = match format {
-        "suncg" => OutputFormat::Suncg,
-        "mp3d" => OutputFormat::Mp3d,
-        "mp3d-scan" => OutputFormat::Mp3dScan(minos::generate::ScanOptions {
-            triangles: scan_triangles,
-            noise: minos::generate::scan::DEFAULT_NOISE,
-        }),
-        other => {
-            return Err(msg_err(format!(
-                "format: unknown format `{other}` (suncg, mp3d, mp3d-scan)"
-            )))
-        }
-    };
+    let format = term::<HouseFormat>("format", format)?.output(minos::generate::ScanOptions {
+        triangles: scan_triangles,
+        ..Default::default()
+    });
     let cfg = GenerateConfig {
         houses,
         seed,

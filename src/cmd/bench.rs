@@ -14,19 +14,6 @@ use super::common::{sensor_suite, vocab};
 use super::Context;
 
 /// Benchmarks `bench` can run.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum Which {
-    /// Load the compiled scene and bake its grid (nothing written).
-    Bake,
-    /// Sample PointGoal episodes on the scene's grid.
-    Episodes,
-    /// Render the sensors from random walkable poses.
-    Render,
-    /// The oracle's rollout loop: reset, plan, decide, step (nothing written); then again on
-    /// all --threads at once, timed by the wall clock.
-    Run,
-}
-
 /// Measure minos on one ingested scene (yours): a table of stages with items per second on
 /// one core, or JSON for scripts.
 ///
@@ -47,8 +34,8 @@ pub enum Which {
 )]
 pub struct Args {
     /// What to measure.
-    #[arg(value_enum)]
-    which: Which,
+    #[arg(value_parser = vocab::<BenchKind>())]
+    which: BenchKind,
     /// The DATA folder.
     #[arg(long)]
     data: PathBuf,
@@ -107,12 +94,7 @@ pub fn config(args: &Args) -> anyhow::Result<BenchConfig> {
     Ok(BenchConfig {
         data: DataDir::new(&args.data),
         scene: args.scene.clone(),
-        kind: match args.which {
-            Which::Bake => BenchKind::Bake,
-            Which::Episodes => BenchKind::Episodes,
-            Which::Render => BenchKind::Render,
-            Which::Run => BenchKind::Run,
-        },
+        kind: args.which,
         agent: AgentConfig::preset(args.preset),
         sensors: sensor_suite(args.sensors.as_deref(), || {
             SensorSuite::for_preset(args.preset, args.size)

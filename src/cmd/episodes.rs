@@ -9,8 +9,8 @@ use std::process::ExitCode;
 use anyhow::{bail, Context as _};
 use minos::body::{AgentPreset, BodyRule};
 use minos::episode::format::{read_episodes, write_episodes};
-use minos::episode::habitat::{import_habitat, SceneIdStyle};
-use minos::episode::minos_csv::import_minos_csv;
+use minos::episode::habitat::SceneIdStyle;
+use minos::episode::import::{import_episodes, ForeignFormat};
 use minos::episode::sample::{SampleConfig, Select};
 use minos::episode::vln::export::VlnFormat;
 use minos::episode::Task;
@@ -42,14 +42,6 @@ enum Sub {
 }
 
 /// Formats of `episodes import --from`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-enum ImportFormat {
-    /// Habitat-Lab's json / json.gz.
-    Habitat,
-    /// MINOS's episode CSV (csv / csv.bz2).
-    MinosCsv,
-}
-
 /// Each start is a uniformly random walkable point (by area) with a uniform yaw, on an island
 /// of radius >= --min-island-radius; the goal lies on the same island. Per-scene randomness
 /// derives from (seed, scene id, task), so thread count, scene order and sharding never change
@@ -190,8 +182,8 @@ pub struct SampleArgs {
 )]
 struct ImportArgs {
     /// Format of FILE.
-    #[arg(long, value_enum)]
-    from: ImportFormat,
+    #[arg(long, value_parser = vocab::<ForeignFormat>())]
+    from: ForeignFormat,
     /// The file (.json, .json.gz, .csv, .csv.bz2).
     file: PathBuf,
     /// Write the episodes to this Parquet file.
@@ -368,10 +360,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
 }
 
 fn import(a: ImportArgs, ctx: &Context) -> anyhow::Result<ExitCode> {
-    let episodes = match a.from {
-        ImportFormat::Habitat => import_habitat(&a.file)?,
-        ImportFormat::MinosCsv => import_minos_csv(&a.file)?,
-    };
+    let episodes = import_episodes(a.from, &a.file)?;
     let scenes: std::collections::BTreeSet<&str> =
         episodes.iter().map(|e| e.scene_id.as_str()).collect();
     ctx.say(format!(

@@ -8,6 +8,7 @@ use minos::io::export::{export_scene, ExportFormat};
 use minos::scene::SceneRef;
 use minos::store::DataDir;
 
+use super::common::vocab;
 use super::Context;
 
 const AFTER_HELP: &str = "\
@@ -37,36 +38,18 @@ pub struct Args {
     #[arg(long, value_name = "ID")]
     scene: SceneRef,
     /// Output format. When omitted it is taken from the --out extension (.obj or .glb).
-    #[arg(long, value_enum, value_name = "FORMAT")]
-    format: Option<Format>,
+    #[arg(long, value_parser = vocab::<ExportFormat>(), value_name = "FORMAT")]
+    format: Option<ExportFormat>,
     /// File to write (replaced atomically; parent folders are created). OBJ also writes the
     /// .mtl with the same stem beside it.
     #[arg(long, value_name = "FILE")]
     out: PathBuf,
 }
 
-/// `--format` values.
-#[derive(Debug, Clone, Copy, clap::ValueEnum)]
-enum Format {
-    /// Wavefront OBJ with an MTL material library.
-    Obj,
-    /// Binary glTF 2.0, one self-contained file.
-    Glb,
-}
-
-impl From<Format> for ExportFormat {
-    fn from(f: Format) -> Self {
-        match f {
-            Format::Obj => ExportFormat::Obj,
-            Format::Glb => ExportFormat::Glb,
-        }
-    }
-}
-
 /// The format to write: `--format`, else the extension of `--out`.
 pub fn config(args: &Args) -> anyhow::Result<ExportFormat> {
     let format = match args.format {
-        Some(f) => ExportFormat::from(f),
+        Some(f) => f,
         None => match ExportFormat::from_path(&args.out) {
             Some(f) => f,
             None => bail!(

@@ -5,10 +5,13 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::Context as _;
-use minos::io::lerobot::{fps_of_step, write_dataset_of, DatasetOptions, DemoSource, RunTables};
+use minos::io::lerobot::{
+    fps_of_step, write_dataset_of, DatasetLayout, DatasetOptions, DemoSource, RunTables,
+};
 use minos::pipeline::rollout::LEROBOT_ROBOT_TYPE;
 use minos::serve::campaign::record::{SessionQc, QC_FILE};
 
+use super::common::vocab;
 use super::Context;
 
 const AFTER_HELP: &str = "\
@@ -32,13 +35,6 @@ Examples:
   minos export-dataset --run minos-demo/run --out /tmp/demo-lerobot --fps 10
   minos export-dataset --run runs/oracle --out datasets/oracle-video --video";
 
-/// Dataset formats of `--format`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-enum DatasetFormat {
-    /// LeRobot v3.0.
-    Lerobot,
-}
-
 /// Flags of `minos export-dataset`.
 #[derive(Debug, clap::Args)]
 #[command(after_help = AFTER_HELP)]
@@ -57,8 +53,8 @@ pub struct Args {
     #[arg(long, value_name = "DIR")]
     out: PathBuf,
     /// The dataset format.
-    #[arg(long, value_enum, default_value = "lerobot")]
-    format: DatasetFormat,
+    #[arg(long, value_parser = vocab::<DatasetLayout>(), default_value = "lerobot")]
+    format: DatasetLayout,
     /// Frames per second (default: the agent's steps per second from DIR/manifest.json).
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=10_000))]
     fps: Option<u32>,
@@ -103,7 +99,7 @@ fn manifest_step(run: &Path) -> anyhow::Result<f32> {
 
 /// Flags → what to export (reads the run's manifest.json for the frame rate).
 pub fn config(args: &Args) -> anyhow::Result<ExportConfig> {
-    let DatasetFormat::Lerobot = args.format;
+    let DatasetLayout::Lerobot = args.format;
     let mut runs = args.run.clone();
     if let Some(state) = &args.campaign_state {
         // Sessions that finished no episode have no tables.

@@ -5,21 +5,13 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use anyhow::Context as _;
-use minos::generate::{generate, GenerateConfig, OutputFormat, ScanOptions};
+use minos::generate::{generate, GenerateConfig, HouseFormat, OutputFormat, ScanOptions};
 
+use super::common::vocab;
 use super::range::parse_range;
 use super::Context;
 
 /// Dataset layouts `generate` can write.
-#[derive(Debug, Clone, Copy, clap::ValueEnum)]
-pub enum Format {
-    /// SUNCG: house/<id>/house.json, room/, object/, metadata/ModelCategoryMapping.csv.
-    Suncg,
-    /// Matterport3D: <id>/house_segmentations/<id>.house and <id>.ply (read with
-    /// `ingest --dataset mp3d`).
-    Mp3d,
-}
-
 /// Generate procedural houses in a real dataset's on-disk format.
 ///
 /// Houses have 1–2 levels (stairs between them), rooms of varied types connected by doors
@@ -33,9 +25,9 @@ pub enum Format {
     minos generate --scan --houses 2 --scan-triangles 3000000 --out gen/scans"
 )]
 pub struct Args {
-    /// Output format [default: suncg; with --scan mp3d].
-    #[arg(long, value_enum)]
-    format: Option<Format>,
+    /// Output format [default: suncg; with --scan mp3d-scan].
+    #[arg(long, value_parser = vocab::<HouseFormat>())]
+    format: Option<HouseFormat>,
     /// Number of houses.
     #[arg(long, default_value_t = 10)]
     houses: usize,
@@ -59,40 +51,41 @@ pub struct Args {
     /// Rewrite houses that already exist.
     #[arg(long)]
     force: bool,
-    /// Write scan-like Matterport3D houses (implies --format mp3d): every surface a dense
+    /// Write scan-like Matterport3D houses (= --format mp3d-scan): every surface a dense
     /// grid of small triangles with vertex noise, small holes and clutter, faces split into
     /// ~1 m segments; up to three levels joined by stairs.
     #[arg(long)]
     scan: bool,
     /// Triangles per scan house to aim for (each house gets at most this many, within a few
-    /// per cent); 2,000,000 makes cells of about 2 cm.
-    #[arg(long, default_value_t = minos::generate::scan::DEFAULT_TRIANGLES, requires = "scan")]
-    scan_triangles: u64,
-    /// Standard deviation of a scan's vertex noise along surface normals, in metres.
-    #[arg(long, default_value_t = minos::generate::scan::DEFAULT_NOISE, requires = "scan")]
-    scan_noise: f64,
+    /// per cent); 2,000,000 makes cells of about 2 cm [default: 2000000].
+    #[arg(long)]
+    scan_triangles: Option<u64>,
+    /// Standard deviation of a scan's vertex noise along surface normals, in metres
+    /// [default: 0.003].
+    #[arg(long)]
+    scan_noise: Option<f64>,
 }
 
 /// Flags → what to generate and in which format (`--scan` with `--format suncg` is an
 /// error; ranges are checked by the library).
 pub fn config(args: &Args) -> anyhow::Result<(GenerateConfig, OutputFormat)> {
-    let chosen = args.format.unwrap_or(if args.scan {
-        Format::Mp3d
-    } else {
-        Format::Suncg
-    });
-    let format = match (chosen, args.scan) {
-        (Format::Suncg, false) => OutputFormat::Suncg,
-        (Format::Mp3d, false) => OutputFormat::Mp3d,
-        (Format::Mp3d, true) => OutputFormat::Mp3dScan(ScanOptions {
-            triangles: args.scan_triangles,
-            noise: args.scan_noise,
-        }),
-        (Format::Suncg, true) => {
+    let chosen = match (args.format, args.scan) {
+        (None | Some(HouseFormat::Mp3d | HouseFormat::Mp3dScan), true) => HouseFormat::Mp3dScan,
+        (Some(HouseFormat::Suncg), true) => {
             anyhow::bail!("--scan writes Matterport3D houses: use it with --format mp3d")
         }
+        (format, false) => format.unwrap_or(HouseFormat::Suncg),
     };
-    let (rooms, levels) = if args.scan {
+    let scan = chosen == HouseFormat::Mp3dScan;
+    if !scan && (args.scan_triangles.is_some() || args.scan_noise.is_some()) {
+        anyhow::bail!("--scan-triangles and --scan-noise need --scan (or --format mp3d-scan)");
+    }
+    let defaults = ScanOptions::default();
+    let format = chosen.output(ScanOptions {
+        triangles: args.scan_triangles.unwrap_or(defaults.triangles),
+        noise: args.scan_noise.unwrap_or(defaults.noise),
+    });
+    let (rooms, levels) = if scan {
         ((9, 12), (3, 3))
     } else {
         ((3, 8), (1, 2))
@@ -168,6 +161,11 @@ mod tests {
         assert!(
             parse("--out o --scan-triangles 5000").is_err(),
             "requires --scan"
+        );
+        // --format mp3d-scan is --scan.
+        assert_eq!(
+            parse("--out o --format mp3d-scan --scan-triangles 50000").unwrap(),
+            parse("--out o --scan --scan-triangles 50000").unwrap()
         );
     }
 }

@@ -14,7 +14,7 @@ use minos::io::tables::ImageEncoding;
 use minos::render::RendererChoice;
 use minos::run::metrics::Reward;
 use minos::serve::campaign::CampaignSpec;
-use minos::serve::frames::DEFAULT_JPEG_QUALITY;
+use minos::serve::frames::{LosslessFormat, DEFAULT_JPEG_QUALITY};
 use minos::serve::{FrameFormat, RateLimits, ServeConfig, Shared};
 use minos::sim::{AgentConfig, SensorSuite};
 use minos::store::DataDir;
@@ -105,13 +105,13 @@ pub struct Args {
     /// alone) or as WebP (about half PNG's bytes for twice its time: for pages on slow links).
     #[arg(
         long,
-        value_enum,
+        value_parser = vocab::<LosslessFormat>(),
         num_args = 0..=1,
         default_missing_value = "png",
         conflicts_with = "jpeg_quality",
         value_name = "FORMAT"
     )]
-    lossless_frames: Option<LosslessFrames>,
+    lossless_frames: Option<LosslessFormat>,
     /// JPEG quality of the camera images sent to the page (1-100).
     #[arg(long, default_value_t = DEFAULT_JPEG_QUALITY)]
     jpeg_quality: u8,
@@ -149,15 +149,6 @@ fn access_token(args: &Args, env: Option<String>) -> anyhow::Result<Option<Strin
         Some(t) => Ok(Some(t.trim().to_string())),
         None => Ok(None),
     }
-}
-
-/// The lossless format of `--lossless-frames`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-enum LosslessFrames {
-    /// PNG: fast to write.
-    Png,
-    /// WebP (lossless): about half PNG's bytes.
-    Webp,
 }
 
 /// Flags → the server's configuration (reads the episode, sensor and token files, the
@@ -229,11 +220,9 @@ pub fn config(args: &Args, env: Option<String>) -> anyhow::Result<(ServeConfig, 
         idle: Duration::from_secs(args.idle_timeout),
         command: std::env::args().collect(),
         variant: args.variant.clone(),
-        frames: match args.lossless_frames {
-            Some(LosslessFrames::Png) => FrameFormat::Png,
-            Some(LosslessFrames::Webp) => FrameFormat::WebP,
-            None => FrameFormat::Jpeg(args.jpeg_quality),
-        },
+        frames: args
+            .lossless_frames
+            .map_or(FrameFormat::Jpeg(args.jpeg_quality), FrameFormat::from),
     };
     Ok((
         ServeConfig {
@@ -394,11 +383,11 @@ mod tests {
         assert_eq!(lossless("--data D"), None);
         assert_eq!(
             lossless("--data D --lossless-frames"),
-            Some(LosslessFrames::Png)
+            Some(LosslessFormat::Png)
         );
         assert_eq!(
             lossless("--lossless-frames webp --data D"),
-            Some(LosslessFrames::Webp)
+            Some(LosslessFormat::WebP)
         );
         assert!(parse_flags::<Args>("--data D --lossless-frames gif").is_err());
     }

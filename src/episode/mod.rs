@@ -5,6 +5,7 @@
 pub mod format;
 pub mod goal;
 pub mod habitat;
+pub mod import;
 pub mod instruction;
 pub mod interchange;
 pub mod minos_csv;

@@ -41,6 +41,52 @@ pub enum OutputFormat {
     Mp3dScan(ScanOptions),
 }
 
+/// The formats houses are written in, by name: [`OutputFormat`] without a scan's options.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum HouseFormat {
+    /// [`OutputFormat::Suncg`].
+    Suncg,
+    /// [`OutputFormat::Mp3d`].
+    Mp3d,
+    /// [`OutputFormat::Mp3dScan`].
+    Mp3dScan,
+}
+
+impl HouseFormat {
+    /// The output format, with `scan`'s options for [`HouseFormat::Mp3dScan`].
+    pub fn output(self, scan: ScanOptions) -> OutputFormat {
+        match self {
+            HouseFormat::Suncg => OutputFormat::Suncg,
+            HouseFormat::Mp3d => OutputFormat::Mp3d,
+            HouseFormat::Mp3dScan => OutputFormat::Mp3dScan(scan),
+        }
+    }
+}
+
+impl crate::vocab::Vocabulary for HouseFormat {
+    const WHAT: &'static str = "house format";
+    const TERMS: &'static [crate::vocab::Term<Self>] = &[
+        crate::vocab::Term {
+            value: HouseFormat::Suncg,
+            name: "suncg",
+            aliases: &[],
+            help: "SUNCG: house/<id>/house.json, room/, object/, metadata/",
+        },
+        crate::vocab::Term {
+            value: HouseFormat::Mp3d,
+            name: "mp3d",
+            aliases: &[],
+            help: "Matterport3D: <id>/house_segmentations/<id>.house and <id>.ply",
+        },
+        crate::vocab::Term {
+            value: HouseFormat::Mp3dScan,
+            name: "mp3d-scan",
+            aliases: &[],
+            help: "Matterport3D whose mesh is a dense, noisy scan with holes and clutter",
+        },
+    ];
+}
+
 /// What a scan house looks like (see [`scan`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ScanOptions {

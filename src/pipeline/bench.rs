@@ -67,13 +67,39 @@ pub enum BenchKind {
 impl BenchKind {
     /// The name used on the command line and in reports.
     pub fn name(self) -> &'static str {
-        match self {
-            BenchKind::Bake => "bake",
-            BenchKind::Episodes => "episodes",
-            BenchKind::Render => "render",
-            BenchKind::Run => "run",
-        }
+        crate::vocab::Vocabulary::term_name(self)
     }
+}
+
+impl crate::vocab::Vocabulary for BenchKind {
+    const WHAT: &'static str = "benchmark";
+    const TERMS: &'static [crate::vocab::Term<Self>] = &[
+        crate::vocab::Term {
+            value: BenchKind::Bake,
+            name: "bake",
+            aliases: &[],
+            help: "load the compiled scene and bake its grid (nothing written)",
+        },
+        crate::vocab::Term {
+            value: BenchKind::Episodes,
+            name: "episodes",
+            aliases: &[],
+            help: "sample PointGoal episodes on the scene's grid",
+        },
+        crate::vocab::Term {
+            value: BenchKind::Render,
+            name: "render",
+            aliases: &[],
+            help: "render the sensors from random walkable poses",
+        },
+        crate::vocab::Term {
+            value: BenchKind::Run,
+            name: "run",
+            aliases: &[],
+            help: "the oracle's rollout loop (reset, plan, decide, step; nothing written), \
+                   then on all threads at once by the wall clock",
+        },
+    ];
 }
 
 /// What to measure.

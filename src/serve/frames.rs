@@ -40,6 +40,42 @@ impl Default for FrameFormat {
     }
 }
 
+/// The lossless formats a server may send camera images in instead of JPEG, by name.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LosslessFormat {
+    /// [`FrameFormat::Png`].
+    Png,
+    /// [`FrameFormat::WebP`].
+    WebP,
+}
+
+impl From<LosslessFormat> for FrameFormat {
+    fn from(f: LosslessFormat) -> FrameFormat {
+        match f {
+            LosslessFormat::Png => FrameFormat::Png,
+            LosslessFormat::WebP => FrameFormat::WebP,
+        }
+    }
+}
+
+impl crate::vocab::Vocabulary for LosslessFormat {
+    const WHAT: &'static str = "lossless frame format";
+    const TERMS: &'static [crate::vocab::Term<Self>] = &[
+        crate::vocab::Term {
+            value: LosslessFormat::Png,
+            name: "png",
+            aliases: &[],
+            help: "PNG: fast to write",
+        },
+        crate::vocab::Term {
+            value: LosslessFormat::WebP,
+            name: "webp",
+            aliases: &[],
+            help: "WebP (lossless): about half PNG's bytes",
+        },
+    ];
+}
+
 /// JPEG quality of [`FrameFormat::default`].
 pub const DEFAULT_JPEG_QUALITY: u8 = 85;
 

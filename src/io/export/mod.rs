@@ -36,16 +36,31 @@ pub enum ExportFormat {
     Glb,
 }
 
+impl crate::vocab::Vocabulary for ExportFormat {
+    const WHAT: &'static str = "export format";
+    const TERMS: &'static [crate::vocab::Term<Self>] = &[
+        crate::vocab::Term {
+            value: ExportFormat::Obj,
+            name: "obj",
+            aliases: &[],
+            help: "Wavefront OBJ with an MTL material library",
+        },
+        crate::vocab::Term {
+            value: ExportFormat::Glb,
+            name: "glb",
+            aliases: &[],
+            help: "binary glTF 2.0, one self-contained file",
+        },
+    ];
+}
+
 impl ExportFormat {
     /// Every format, in the order the command line lists them.
     pub const ALL: [ExportFormat; 2] = [ExportFormat::Obj, ExportFormat::Glb];
 
     /// The name used on the command line (`obj`, `glb`).
     pub fn name(self) -> &'static str {
-        match self {
-            ExportFormat::Obj => "obj",
-            ExportFormat::Glb => "glb",
-        }
+        crate::vocab::Vocabulary::term_name(self)
     }
 
     /// The usual file extension, without the dot (same as [`ExportFormat::name`]).

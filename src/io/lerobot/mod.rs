@@ -54,6 +54,23 @@ pub use meta::FileIndex;
 pub use meta::CODEBASE_VERSION;
 use meta::{EpisodeMeta, VideoPlace};
 pub use source::RunTables;
+
+/// The dataset layouts `minos export-dataset` writes, by name (one so far).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DatasetLayout {
+    /// LeRobot v3.0 (this module).
+    Lerobot,
+}
+
+impl crate::vocab::Vocabulary for DatasetLayout {
+    const WHAT: &'static str = "dataset format";
+    const TERMS: &'static [crate::vocab::Term<Self>] = &[crate::vocab::Term {
+        value: DatasetLayout::Lerobot,
+        name: "lerobot",
+        aliases: &[],
+        help: "LeRobot v3.0",
+    }];
+}
 use source::{read_episodes, read_steps, EpisodeRow, ObservationRows, StepRow};
 use video::{video_file_path, VideoFile};
 
