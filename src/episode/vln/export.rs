@@ -55,6 +55,7 @@ use crate::atomic::write_atomic;
 use crate::episode::habitat::SceneIdStyle;
 use crate::episode::interchange::yaw_to_quaternion;
 use crate::episode::{Episode, Goal};
+use crate::invalid::Invalid;
 
 /// Which VLN format to write.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -77,14 +78,15 @@ pub enum VlnExportError {
         source: std::io::Error,
     },
     /// An episode that cannot be exported.
-    #[error("{path}: episode {episode_id}: {message}")]
+    #[error("{path}: episode {episode_id}")]
     Episode {
         /// The file being written.
         path: String,
         /// The episode.
         episode_id: String,
         /// What is wrong.
-        message: String,
+        #[source]
+        problem: Invalid,
     },
 }
 
@@ -164,11 +166,11 @@ fn f64s(p: [f32; 3]) -> [f64; 3] {
 }
 
 /// The route and goal point of a VLN episode, or why it cannot be exported.
-fn parts(e: &Episode) -> Result<(&super::Route, [f32; 3]), String> {
+fn parts(e: &Episode) -> Result<(&super::Route, [f32; 3]), Invalid> {
     let route = e
         .route
         .as_deref()
-        .ok_or_else(|| "not a VLN episode with a route".to_string())?;
+        .ok_or_else(|| Invalid::new("not a VLN episode with a route"))?;
     let Goal::Point { position } = &e.goal else {
         return Err("a VLN episode's goal must be a point".into());
     };
@@ -222,10 +224,10 @@ pub fn export_vlnce(
 ) -> Result<PathBuf, VlnExportError> {
     let path = dir.join(split).join(format!("{split}.json.gz"));
     check_split(split, &path)?;
-    let fail = |e: &Episode, message: String| VlnExportError::Episode {
+    let fail = |e: &Episode, problem: Invalid| VlnExportError::Episode {
         path: path.display().to_string(),
         episode_id: e.episode_id.clone(),
-        message,
+        problem,
     };
     let mut routes = Vec::with_capacity(episodes.len());
     for e in episodes {
@@ -312,10 +314,10 @@ pub fn export_r2r(
     check_split(split, &path)?;
     let mut out = Vec::with_capacity(episodes.len());
     for (i, e) in episodes.iter().enumerate() {
-        let (route, _) = parts(e).map_err(|message| VlnExportError::Episode {
+        let (route, _) = parts(e).map_err(|problem| VlnExportError::Episode {
             path: path.display().to_string(),
             episode_id: e.episode_id.clone(),
-            message,
+            problem,
         })?;
         let path_id = i as u64 + 1;
         out.push(R2rEntry {
@@ -343,6 +345,31 @@ pub fn export_r2r(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_episode_without_a_route_is_refused_naming_it_and_nothing_is_written() {
+        let dir = tempfile::tempdir().unwrap();
+        let point = crate::episode::format::tests::sample_episodes().remove(0);
+        assert!(point.route.is_none());
+        for result in [
+            export_r2r(dir.path(), "val", std::slice::from_ref(&point)),
+            export_vlnce(
+                dir.path(),
+                "val",
+                &SceneIdStyle::default(),
+                std::slice::from_ref(&point),
+            ),
+        ] {
+            let e = result.unwrap_err();
+            assert!(
+                matches!(&e, VlnExportError::Episode { episode_id, .. } if *episode_id == point.episode_id),
+                "{e:?}"
+            );
+            let cause = std::error::Error::source(&e).map(ToString::to_string);
+            assert_eq!(cause.as_deref(), Some("not a VLN episode with a route"));
+        }
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+    }
 
     #[test]
     fn headings_turn_the_other_way_from_yaw() {

@@ -337,7 +337,7 @@ pub fn decode(bytes: &[u8]) -> Result<DecodedFrame, Invalid> {
 
 /// The three numbers after a Netpbm/PFM magic (width, height, maxval or scale — a PFM's
 /// scale is read as 0) and where the pixels start (after one whitespace byte).
-fn netpbm_header(bytes: &[u8]) -> Result<([u32; 3], usize), String> {
+fn netpbm_header(bytes: &[u8]) -> Result<([u32; 3], usize), Invalid> {
     let mut at = 2;
     let mut tokens = [0u32; 3];
     for (k, token) in tokens.iter_mut().enumerate() {
@@ -352,10 +352,11 @@ fn netpbm_header(bytes: &[u8]) -> Result<([u32; 3], usize), String> {
         *token = if k == 2 && bytes.starts_with(b"Pf") {
             text.parse::<f32>()
                 .map(|_| 0)
-                .map_err(|_| format!("header: scale `{text}` is not a number"))?
+                .map_err(|_| Invalid::new(format!("header: scale `{text}` is not a number")))?
         } else {
-            text.parse::<u32>()
-                .map_err(|_| format!("header: `{}` is not a size", text.escape_debug()))?
+            text.parse::<u32>().map_err(|_| {
+                Invalid::new(format!("header: `{}` is not a size", text.escape_debug()))
+            })?
         };
         if k < 2 && *token == 0 {
             return Err("header: zero width or height".into());
