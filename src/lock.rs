@@ -32,7 +32,7 @@ pub enum LockMode {
 pub enum LockError {
     /// Another process writes the folder.
     #[error(
-        "{}: in use by pid {holder} (minos {command}); wait for it to finish, or pass --wait",
+        "{}: in use by pid {holder} (minos {command}); wait for it to finish",
         folder.display()
     )]
     Held {

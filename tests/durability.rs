@@ -283,6 +283,11 @@ fn a_second_writer_fails_naming_the_holder_or_waits_and_readers_are_never_blocke
             "{err}"
         );
         assert!(err.contains(&data.display().to_string()), "{err}");
+        // The library says what is wrong; the command line adds its flag.
+        assert!(
+            err.trim_end().ends_with("(or pass --wait to wait for it)"),
+            "{err}"
+        );
     }
     assert!(
         !data.join("nav").exists() && !data.join("splits").exists(),

@@ -43,6 +43,17 @@ fn missing_and_stale_steps_are_named_as_data_and_the_cli_says_the_command() {
     neutral(&e.to_string());
     let err = fails(&["bake"], &empty);
     assert!(err.ends_with("(run `minos ingest` first)"), "{err}");
+    // Another writer holds the folder: wait for it.
+    {
+        let _held = DataDir::new(&empty)
+            .lock("test", minos::lock::LockMode::Fail)
+            .unwrap();
+        let e = DataDir::new(&empty)
+            .lock("split", minos::lock::LockMode::Fail)
+            .unwrap_err();
+        assert_eq!(remedy_of(&e), Some(Remedy::Wait), "{e}");
+        neutral(&e.to_string());
+    }
 
     let (data, ids) = baked_houses(
         dir.path(),

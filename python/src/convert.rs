@@ -75,6 +75,7 @@ fn remedy_hint(r: minos::store::remedy::Remedy) -> String {
         }
         Remedy::DefineVariant => "define it with minos.variants(data, name=NAME, ...)",
         Remedy::MaterialStats => "compute them with minos.variants(data, ..., refresh_stats=True)",
+        Remedy::Wait => "or pass wait=True to wait for it",
     };
     format!(" ({what})")
 }
@@ -132,12 +133,7 @@ fn kind(e: &(dyn std::error::Error + 'static)) -> Option<Kind> {
             _ => return None,
         });
     }
-    if e.is::<minos::lock::LockError>()
-        || matches!(
-            e.downcast_ref::<minos::pipeline::bake::BakeError>(),
-            Some(minos::pipeline::bake::BakeError::Lock(_))
-        )
-    {
+    if e.is::<minos::lock::LockError>() {
         return Some(Kind::Locked);
     }
     if matches!(

@@ -276,6 +276,13 @@ def test_errors_raise_the_subclass_of_their_kind(world, tmp_path):
     with open(data / ".minos.lock", "a") as held:
         fcntl.flock(held, fcntl.LOCK_EX | fcntl.LOCK_NB)
         assert raised(lambda: minos.bake(data, previews=False)) is minos.LockedError
+        for call in (lambda: minos.bake(data, previews=False),
+                     lambda: minos.split(data, "s", ratios=(1, 0, 0)),
+                     lambda: minos.variants(data, name="e", empty=True)):
+            with pytest.raises(minos.LockedError) as e:
+                call()
+            assert str(e.value).endswith("(or pass wait=True to wait for it)"), e.value
+            assert "--wait" not in str(e.value), e.value
     # Every subclass is a MinosError, so `except minos.MinosError` still catches them all.
     for cls in (minos.BadInputError, minos.BodyMismatchError, minos.LockedError,
                 minos.NotFoundError, minos.NotReadyError):

@@ -165,6 +165,7 @@ fn remedy_hint(r: minos::store::remedy::Remedy) -> String {
         Remedy::Rebake => "rebake it: `minos bake --force` (`--variant NAME` for a variant's grid)",
         Remedy::DefineVariant => "define it with `minos variants --spec FILE`",
         Remedy::MaterialStats => "compute them with `minos variants --refresh-stats`",
+        Remedy::Wait => "or pass --wait to wait for it",
     };
     format!(" ({what})")
 }

@@ -222,8 +222,8 @@ pub fn bake_scenes(cfg: &BakeConfig, progress: &dyn Progress) -> BakeReport {
 #[derive(Debug, thiserror::Error)]
 pub enum BakeError {
     /// The DATA folder's lock could not be taken.
-    #[error(transparent)]
-    Lock(#[from] LockError),
+    #[error("the DATA folder's lock")]
+    Lock(#[source] LockError),
     /// The grids are written, but the DATA folder's provenance record could not be.
     #[error("the DATA folder's provenance record")]
     Provenance(#[source] crate::provenance::ProvenanceError),
@@ -242,7 +242,7 @@ pub fn bake(
     progress: &dyn Progress,
 ) -> Result<BakeReport, BakeError> {
     if shard == Shard::ALL {
-        let _lock = cfg.data.lock("bake", mode)?;
+        let _lock = cfg.data.lock("bake", mode).map_err(BakeError::Lock)?;
         let report = bake_scenes(cfg, progress);
         // (Shards bake side by side: the unsharded bake or a later command writes the record.)
         if report.write_failure().is_none() {
@@ -251,7 +251,7 @@ pub fn bake(
         }
         Ok(report)
     } else {
-        let _lock = cfg.data.lock_shared(mode)?;
+        let _lock = cfg.data.lock_shared(mode).map_err(BakeError::Lock)?;
         Ok(bake_shard(cfg, shard, progress))
     }
 }

@@ -188,7 +188,7 @@ pub enum IngestError {
     #[error("{0}")]
     Ids(String),
     /// Another process writes the DATA folder, or its lock cannot be taken.
-    #[error(transparent)]
+    #[error("the DATA folder's lock")]
     Lock(#[from] LockError),
     /// The DATA folder's provenance record could not be written.
     #[error("the DATA folder's provenance record")]

@@ -1,5 +1,6 @@
 //! What a user does about an error whose fix is another step of the pipeline — ingest the
-//! scenes, ingest one again, bake the grids, bake one again, define a variant — read from the
+//! scenes, ingest one again, bake the grids, bake one again, define a variant, wait for
+//! another writer — read from the
 //! error's typed chain ([`remedy_of`]). The library's messages name no command or flag; each
 //! front door says the remedy in its own words (the command line as a command and its flags,
 //! Python as a function call).
@@ -25,6 +26,8 @@ pub enum Remedy {
     DefineVariant,
     /// Compute the DATA folder's material statistics (again).
     MaterialStats,
+    /// Another process writes the folder: wait for it (or ask to wait for its lock).
+    Wait,
 }
 
 /// The remedy of the first error in `err`'s chain (`err` itself first) that has one.
@@ -66,6 +69,9 @@ fn remedy_here(e: &(dyn Error + 'static)) -> Option<Remedy> {
             StoreError::StaleStats { .. } => Some(Remedy::MaterialStats),
             _ => None,
         };
+    }
+    if let Some(crate::lock::LockError::Held { .. }) = e.downcast_ref::<crate::lock::LockError>() {
+        return Some(Remedy::Wait);
     }
     if let Some(VariantError::NoStats(_)) = e.downcast_ref::<VariantError>() {
         return Some(Remedy::MaterialStats);

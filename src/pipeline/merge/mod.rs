@@ -28,7 +28,7 @@ pub enum MergeError {
     #[error("{0}")]
     Write(String),
     /// Another process writes the output folder.
-    #[error(transparent)]
+    #[error("the output folder's lock")]
     Lock(#[from] LockError),
 }
 

@@ -154,7 +154,7 @@ pub struct Provenance {
 #[derive(Debug, thiserror::Error)]
 pub enum RolloutError {
     /// Another process writes the output folder, or its lock cannot be taken.
-    #[error(transparent)]
+    #[error("the run folder's lock")]
     Lock(#[from] LockError),
     /// A file or folder of the output could not be written.
     #[error("{}: {source}", path.display())]
