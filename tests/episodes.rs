@@ -234,7 +234,7 @@ fn the_ratio_door_and_room_filters_act() {
         Shard::ALL,
     );
     assert!(rooms.total > 0 && rooms.episodes.iter().all(|e| e.path_num_rooms >= 3));
-    assert!(rooms.rejected["fewer rooms than --min-rooms"] > 0);
+    assert!(rooms.rejected["fewer rooms than min_rooms"] > 0);
 }
 
 #[test]

@@ -7,6 +7,7 @@ use std::process::ExitCode;
 use anyhow::bail;
 use minos::pipeline::merge::episodes::merge_episodes;
 use minos::pipeline::merge::run::{merge_runs, RunMerge};
+use minos::pipeline::merge::MergeError;
 
 use super::Context;
 
@@ -99,7 +100,14 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     let report = match config(&args, ctx)? {
         MergeJob::Runs { shards, merge } => {
             let bar = ctx.progress(6, "merge");
-            let report = merge_runs(&shards, &merge, &bar)?;
+            // The library names no flag; the command line adds its own.
+            let report = merge_runs(&shards, &merge, &bar).map_err(|e| match e {
+                MergeError::RecordingUnnamed { .. } => anyhow::anyhow!("{e} (--rerun FILE.rrd)"),
+                MergeError::NothingRecorded { .. } => anyhow::anyhow!("--rerun {e}"),
+                MergeError::Unfinished { .. } => anyhow::Error::new(e)
+                    .context("finish the shard first (run it again with --resume)"),
+                other => other.into(),
+            })?;
             drop(bar);
             ctx.say(format!(
                 "merged {} shards: {} episodes ({} failed in their shard){} -> {}",

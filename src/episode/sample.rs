@@ -614,7 +614,7 @@ pub fn sample_scene_from(
                     continue;
                 };
                 if start.distance(goal) > cfg.max_geodesic {
-                    reject(&mut out, "geodesic above --max-geodesic");
+                    reject(&mut out, "geodesic above max_geodesic");
                     continue;
                 }
                 match shortest_polyline_in(&geo, start_span, goal_span) {
@@ -641,7 +641,7 @@ pub fn sample_scene_from(
                 };
                 // A polyline is never shorter than the straight line between its ends.
                 if start.distance(goal) > cfg.max_geodesic {
-                    reject(&mut out, "geodesic above --max-geodesic");
+                    reject(&mut out, "geodesic above max_geodesic");
                     continue;
                 }
                 // Rooms and doors are listed once the pair passes the distance filters,
@@ -824,11 +824,11 @@ fn check(
         return None;
     }
     if geodesic < cfg.min_geodesic {
-        reject("geodesic below --min-geodesic");
+        reject("geodesic below min_geodesic");
         return None;
     }
     if geodesic > cfg.max_geodesic {
-        reject("geodesic above --max-geodesic");
+        reject("geodesic above max_geodesic");
         return None;
     }
     if cfg.ratio_rule && cfg.task == Task::PointGoal && euclidean > 0.0 {
@@ -839,11 +839,11 @@ fn check(
         }
     }
     if (path.doors.len() as u32) < cfg.min_doors {
-        reject("fewer doors than --min-doors");
+        reject("fewer doors than min_doors");
         return None;
     }
     if (path.rooms.len() as u32) < cfg.min_rooms {
-        reject("fewer rooms than --min-rooms");
+        reject("fewer rooms than min_rooms");
         return None;
     }
     if cfg.same_level {

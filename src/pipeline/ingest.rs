@@ -207,7 +207,7 @@ pub enum IngestError {
     /// The root holds no scene of the format (nothing is written).
     #[error(
         "{}: no {dataset} scenes found (looked for {layout}; is this the dataset root, and \
-         the right --dataset?)",
+         the right dataset format?)",
         root.display()
     )]
     NoScenes {

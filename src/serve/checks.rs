@@ -40,7 +40,7 @@ pub fn settings(cfg: &ServeConfig) -> Result<(), ServeError> {
         let [w, h] = c.resolution;
         if w == 0 || h == 0 || w > MAX_SIDE || h > MAX_SIDE {
             return bad(format!(
-                "camera {}: {w}×{h} pixels (--size): each side must be 1 to {MAX_SIDE}",
+                "camera {}: {w}×{h} pixels: each side must be 1 to {MAX_SIDE}",
                 c.name
             ));
         }

@@ -75,7 +75,7 @@ async fn checked(app: &App, req: Request, next: Next) -> Response {
         .and_then(|h| h.to_str().ok());
     if !host_allowed(host, app.addr, &app.allowed_hosts) {
         tracing::warn!(
-            "refused a request for host {:?} (not this server's; --allowed-host NAME lets a name in)",
+            "refused a request for host {:?} (not one of this server's allowed host names)",
             host.unwrap_or("")
         );
         return error(

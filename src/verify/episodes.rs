@@ -69,7 +69,7 @@ pub(super) fn check(
             ));
         }
         None => found.checked.push(format!(
-            "{} episodes read (give --data DATA to check them on the baked grids)",
+            "{} episodes read (give their DATA folder to check them on the baked grids)",
             episodes.len()
         )),
     }

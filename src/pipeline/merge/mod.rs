@@ -30,6 +30,28 @@ pub enum MergeError {
     /// Another process writes the output folder.
     #[error("the output folder's lock")]
     Lock(#[from] LockError),
+    /// A shard has no manifest: it did not finish (a run writes its manifest last).
+    #[error("{}: unfinished shard (a run writes its manifest last)", manifest.display())]
+    Unfinished {
+        /// The manifest that could not be read.
+        manifest: PathBuf,
+        /// Why.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The shards recorded episodes for rerun, but no file was named for the merged
+    /// recording.
+    #[error("{}: the shards recorded episodes for rerun: name a file for the merged recording", manifest.display())]
+    RecordingUnnamed {
+        /// The first shard's manifest, which says so.
+        manifest: PathBuf,
+    },
+    /// A file was named for the merged recording, but the shards recorded nothing.
+    #[error("{}: the shards recorded nothing for rerun", file.display())]
+    NothingRecorded {
+        /// The file named.
+        file: PathBuf,
+    },
 }
 
 /// What a merge joined.

@@ -70,11 +70,9 @@ fn write_error(e: impl std::fmt::Display) -> MergeError {
 /// Reads a shard's manifest, episode table and failures.
 fn read_shard(dir: &Path) -> Result<(ShardRun, Shard), MergeError> {
     let path = dir.join("manifest.json");
-    let bytes = std::fs::read(&path).map_err(|e| {
-        shard_error(
-            &path,
-            format!("{e} (a run writes it last: finish the shard, e.g. rerun it with --resume)"),
-        )
+    let bytes = std::fs::read(&path).map_err(|source| MergeError::Unfinished {
+        manifest: path.clone(),
+        source,
     })?;
     let manifest: Value = serde_json::from_slice(&bytes).map_err(|e| shard_error(&path, e))?;
     let shard = recorded_shard(&path, manifest.get("shard").and_then(Value::as_str))?;
@@ -319,17 +317,11 @@ pub fn merge_runs(
         .unwrap_or(0) as usize;
     match (&opts.rerun, recorded_shards.iter().all(Option::is_some)) {
         (None, true) => {
-            return Err(MergeError::Shards(format!(
-                "{}: the shards recorded episodes for rerun: give --rerun FILE.rrd for the merged recording",
-                first.dir.join("manifest.json").display()
-            )))
+            return Err(MergeError::RecordingUnnamed {
+                manifest: first.dir.join("manifest.json"),
+            })
         }
-        (Some(p), false) => {
-            return Err(MergeError::Shards(format!(
-                "--rerun {}: the shards recorded nothing for rerun",
-                p.display()
-            )))
-        }
+        (Some(p), false) => return Err(MergeError::NothingRecorded { file: p.clone() }),
         _ => {}
     }
     progress.set_total(6);

@@ -229,7 +229,7 @@ impl DatasetLoader for SuncgLoader {
     fn root_warning(&self) -> Option<String> {
         self.mapping_path.is_none().then(|| {
             format!(
-                "{}: no metadata/ModelCategoryMapping.csv: objects will have no categories (pass --categories FILE)",
+                "{}: no metadata/ModelCategoryMapping.csv: objects will have no categories (give a category mapping file)",
                 self.root.display()
             )
         })

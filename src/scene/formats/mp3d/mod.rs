@@ -380,7 +380,7 @@ impl DatasetLoader for Mp3dLoader {
     fn root_warning(&self) -> Option<String> {
         self.mapping_path.is_none().then(|| {
             format!(
-                "{}: no category_mapping.tsv: object categories come from the .house C records (no coarse or NYU-40 names; pass --categories FILE)",
+                "{}: no category_mapping.tsv: object categories come from the .house C records (no coarse or NYU-40 names; give a category mapping file)",
                 self.root.display()
             )
         })

@@ -491,7 +491,7 @@ impl<'a> Build<'a> {
             None => {
                 if self.input.models.is_some() {
                     self.note(
-                        "model not under --models (<jid>/raw_model.obj), box used",
+                        "model not in the 3D-FUTURE model folder (<jid>/raw_model.obj), box used",
                         || format!("{record} jid `{}`", show(jid.unwrap_or(""))),
                     );
                 }

@@ -72,7 +72,7 @@ impl ThreeDFrontLoader {
                 path: m.to_path_buf(),
                 source: std::io::Error::new(
                     std::io::ErrorKind::NotFound,
-                    "3D-FUTURE model folder (--models) not found",
+                    "3D-FUTURE model folder not found",
                 ),
             });
         }
@@ -200,11 +200,11 @@ impl DatasetLoader for ThreeDFrontLoader {
         if self.mapping_path.is_none() {
             remarks.push(
                 "no 3D-FUTURE category table (model_info.json or *ModelCategoryMapping.csv): \
-                 objects get no super-category (pass --categories FILE)",
+                 objects get no super-category (give a category mapping file)",
             );
         }
         if self.models.is_none() {
-            remarks.push("no --models DIR: furniture are oriented boxes");
+            remarks.push("no 3D-FUTURE model folder: furniture are oriented boxes");
         }
         (!remarks.is_empty()).then(|| format!("{}: {}", self.root.display(), remarks.join("; ")))
     }
