@@ -4,6 +4,7 @@
 //! callers wrap with the file they read.
 
 use std::fmt;
+use std::path::{Path, PathBuf};
 
 /// A value or record that breaks a rule: where (the records leading to it, outermost first:
 /// `level 0`, `room 0_3`) and what is wrong. Displays as one line, `level 0: room 0_3: mesh 9
@@ -71,9 +72,63 @@ impl From<Invalid> for String {
     }
 }
 
+/// A settings file a user writes (a variant spec, grid parameters: TOML or JSON) that could
+/// not be read, or that breaks a rule: the file, and the cause as the error's source.
+#[derive(Debug, thiserror::Error)]
+pub enum SettingsFileError {
+    /// The file could not be read.
+    #[error("{}", path.display())]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The file breaks a rule.
+    #[error("{}", path.display())]
+    Invalid {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        #[source]
+        source: Invalid,
+    },
+}
+
+/// Reads the settings file `path` and parses its text with `parse`.
+pub fn read_settings<T>(
+    path: &Path,
+    parse: impl FnOnce(&str) -> Result<T, Invalid>,
+) -> Result<T, SettingsFileError> {
+    let text = std::fs::read_to_string(path).map_err(|source| SettingsFileError::Read {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    parse(&text).map_err(|source| SettingsFileError::Invalid {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn settings_files_name_the_file_and_keep_the_cause() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("s.toml");
+        let e = read_settings(&file, |_| Ok(())).unwrap_err();
+        assert!(matches!(&e, SettingsFileError::Read { path, .. } if *path == file));
+        std::fs::write(&file, "x = 1").unwrap();
+        assert_eq!(read_settings(&file, |t| Ok(t.len())).unwrap(), 5);
+        let e =
+            read_settings(&file, |_| Err::<(), _>(Invalid::new("x = 1: no such key"))).unwrap_err();
+        assert_eq!(e.to_string(), file.display().to_string());
+        let cause = std::error::Error::source(&e).map(ToString::to_string);
+        assert_eq!(cause.as_deref(), Some("x = 1: no such key"));
+    }
 
     #[test]
     fn records_read_outermost_first() {

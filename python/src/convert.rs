@@ -2,11 +2,10 @@
 //! message, points, agent presets, renderers, sensor suites, thread pools, and the progress
 //! sink that forwards to a Python callback or a tqdm bar.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Mutex, PoisonError};
 
-use anyhow::Context as _;
 use glam::Vec3;
 use numpy::PyReadonlyArray1;
 use pyo3::prelude::*;
@@ -231,14 +230,7 @@ pub fn sensor_suite(
             _ => {}
         }
     }
-    let p = path_of(obj)?;
-    read_sensor_file(&p).map_err(py_err)
-}
-
-/// Reads a sensor file as the CLI's `--sensors FILE` does.
-fn read_sensor_file(p: &Path) -> anyhow::Result<SensorSuite> {
-    let text = std::fs::read_to_string(p).with_context(|| p.display().to_string())?;
-    Ok(SensorSuite::parse(&text, &p.display().to_string())?)
+    SensorSuite::read(&path_of(obj)?).map_err(typed_err)
 }
 
 /// A shard `i/n` or `auto` (from the scheduler's environment), as `--shard`.

@@ -165,3 +165,12 @@ def test_variants_like_the_cli(world, minos_bin):
     env = NavEnv(data=world.data, episodes=world.point, variant="empty", size=8)
     env.reset()
     assert env.episode.scene_id.endswith("@empty")
+
+
+def test_an_empty_sensor_file_is_refused_as_the_cli_refuses_it(world, tmp_path):
+    empty = tmp_path / "s.toml"
+    empty.write_text("  \n")
+    with pytest.raises(minos.BadInputError, match=f"^{empty}: the sensor file is empty"):
+        minos.Simulator(world.data, world.scenes[0], sensors=empty)
+    with pytest.raises(minos.NotFoundError, match=f"^{tmp_path / 'none.toml'}: "):
+        minos.Simulator(world.data, world.scenes[0], sensors=tmp_path / "none.toml")

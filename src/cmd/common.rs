@@ -263,16 +263,7 @@ pub fn sensor_suite(
     default: impl FnOnce() -> SensorSuite,
 ) -> anyhow::Result<SensorSuite> {
     match file {
-        Some(p) => {
-            let text = std::fs::read_to_string(p).with_context(|| p.display().to_string())?;
-            if text.trim().is_empty() {
-                anyhow::bail!(
-                    "{}: the sensor file is empty (it needs at least one [[cameras]] table)",
-                    p.display()
-                );
-            }
-            SensorSuite::parse(&text, &p.display().to_string()).map_err(anyhow::Error::msg)
-        }
+        Some(p) => Ok(SensorSuite::read(p)?),
         None => Ok(default()),
     }
 }

@@ -6,14 +6,14 @@
 //! disk, a read-only folder) stops the batch: it is the folder's problem, not the scene's.
 //! Temporary files a killed bake left in `DATA/nav/` are removed first.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use rayon::prelude::*;
 
 use crate::atomic::{sweep_stale, sweep_stale_where};
 use crate::body::{AgentBody, AgentPreset};
-use crate::invalid::Invalid;
+use crate::invalid::{read_settings, Invalid, SettingsFileError};
 use crate::lock::{LockError, LockMode};
 use crate::navmesh::build::build;
 use crate::navmesh::file::NavFileError;
@@ -106,24 +106,9 @@ pub struct BakeConfig {
 /// Why grid parameters could not be resolved.
 #[derive(Debug, thiserror::Error)]
 pub enum GridParamsError {
-    /// The parameter file could not be read.
-    #[error("{}", path.display())]
-    Read {
-        /// The file.
-        path: PathBuf,
-        /// Why.
-        #[source]
-        source: std::io::Error,
-    },
-    /// The parameter file is not valid.
-    #[error("{}", path.display())]
-    File {
-        /// The file.
-        path: PathBuf,
-        /// What is wrong.
-        #[source]
-        source: Invalid,
-    },
+    /// The parameter file could not be read or is not valid.
+    #[error(transparent)]
+    File(#[from] SettingsFileError),
     /// The cell size given is not usable.
     #[error("cell size")]
     CellSize(#[source] Invalid),
@@ -142,14 +127,7 @@ pub fn grid_params(
         params.cell_size = cell;
     }
     if let Some(path) = config {
-        let text = std::fs::read_to_string(path).map_err(|source| GridParamsError::Read {
-            path: path.to_path_buf(),
-            source,
-        })?;
-        params = params_from_toml(&text, params).map_err(|source| GridParamsError::File {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        params = read_settings(path, |text| params_from_toml(text, params))?;
     }
     params.validate().map_err(GridParamsError::CellSize)?;
     Ok(params)

@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use rayon::prelude::*;
 
 use crate::atomic::sweep_stale;
-use crate::invalid::Invalid;
+use crate::invalid::{read_settings, Invalid, SettingsFileError};
 use crate::lock::{LockError, LockMode};
 use crate::progress::Progress;
 use crate::scene::variants::materials::DEFAULT_FRACTIONS;
@@ -88,39 +88,9 @@ pub fn dry_run(
         .collect()
 }
 
-/// A spec file could not be read.
-#[derive(Debug, thiserror::Error)]
-pub enum SpecFileError {
-    /// The file could not be read.
-    #[error("{}", path.display())]
-    Read {
-        /// The file.
-        path: PathBuf,
-        /// Why.
-        #[source]
-        source: std::io::Error,
-    },
-    /// The file is not a valid spec file.
-    #[error("{}", path.display())]
-    Invalid {
-        /// The file.
-        path: PathBuf,
-        /// What is wrong.
-        #[source]
-        source: Invalid,
-    },
-}
-
-/// Reads a spec file of named variants (one TOML table per variant, in file order).
-pub fn read_spec_file(path: &Path) -> Result<Vec<(String, VariantSpec)>, SpecFileError> {
-    let text = std::fs::read_to_string(path).map_err(|source| SpecFileError::Read {
-        path: path.to_path_buf(),
-        source,
-    })?;
-    parse_spec_file(&text).map_err(|source| SpecFileError::Invalid {
-        path: path.to_path_buf(),
-        source,
-    })
+/// Reads a spec file of named variants (one TOML table per variant, by name).
+pub fn read_spec_file(path: &Path) -> Result<Vec<(String, VariantSpec)>, SettingsFileError> {
+    read_settings(path, parse_spec_file)
 }
 
 /// Variants to define in a DATA folder.

@@ -191,15 +191,31 @@ impl SensorSuite {
 
     /// Parses a TOML (or, when it starts with `{`, JSON) sensor file; `source` names it in errors.
     pub fn parse(text: &str, source: &str) -> Result<Self, Invalid> {
+        Self::parse_text(text).map_err(Invalid::inside(source))
+    }
+
+    /// Reads the sensor file `path` (TOML, or JSON when it starts with `{`): the one reader
+    /// of `--sensors FILE` and Python's `sensors=FILE`.
+    pub fn read(path: &std::path::Path) -> Result<Self, crate::invalid::SettingsFileError> {
+        crate::invalid::read_settings(path, |text| {
+            if text.trim().is_empty() {
+                return Err(Invalid::new(
+                    "the sensor file is empty (it needs at least one [[cameras]] table)",
+                ));
+            }
+            Self::parse_text(text)
+        })
+    }
+
+    fn parse_text(text: &str) -> Result<Self, Invalid> {
         let suite: SensorSuite = if text.trim_start().starts_with('{') {
             // A field name in the message may hold a newline: keep the error on one line.
             serde_json::from_str(text)
-                .map_err(|e| Invalid::new(e.to_string().replace('\n', " ")).at(source))?
+                .map_err(|e| Invalid::new(e.to_string().replace('\n', " ")))?
         } else {
-            toml::from_str(text)
-                .map_err(|e| Invalid::new(e.to_string().replace('\n', " ")).at(source))?
+            toml::from_str(text).map_err(|e| Invalid::new(e.to_string().replace('\n', " ")))?
         };
-        suite.validate().map_err(Invalid::inside(source))?;
+        suite.validate()?;
         Ok(suite)
     }
 
