@@ -80,9 +80,11 @@ pub fn split<'py>(
     let mode = if wait { LockMode::Wait } else { LockMode::Fail };
     let report = py.detach(|| make_split(&job, mode)).map_err(|e| match e {
         SplitJobError::Name(_) => py_err(anyhow::Error::new(e).context("name")),
-        SplitJobError::Lists { .. } | SplitJobError::GivenLists(_) => {
-            py_err(anyhow::Error::new(e).context("lists"))
-        }
+        // The keyword in place of the library's "lists DIR".
+        SplitJobError::Lists { given, source } => py_err(
+            anyhow::Error::new(source).context(format!("lists={:?}", given.display().to_string())),
+        ),
+        SplitJobError::GivenLists(source) => py_err(anyhow::Error::new(source).context("lists")),
         other => typed_err(other),
     })?;
     let d = PyDict::new(py);

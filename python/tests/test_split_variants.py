@@ -64,6 +64,8 @@ def test_bad_splits_raise_the_kind_of_their_error_and_write_nothing(world, tmp_p
         minos.split(data, "x", lists={"tset": [a]})
     with pytest.raises(minos.MinosError, match="a list of scene ids, not a string"):
         minos.split(data, "x", lists={"train": a})
+    with pytest.raises(minos.BadInputError, match='^lists="nolists": `nolists` is neither'):
+        minos.split(data, "x", lists="nolists")
     with pytest.raises(minos.BadInputError, match="^name: split name `../x`"):
         minos.split(data, "../x", ratios=(1, 0, 0))
     with pytest.raises(minos.BadInputError, match="^where: "):

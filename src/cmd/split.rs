@@ -96,8 +96,9 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     let job = config(&args)?;
     let report = make_split(&job, ctx.lock_mode).map_err(|e| match e {
         SplitJobError::Name(_) => anyhow::Error::new(e).context("--name"),
-        SplitJobError::Lists { .. } | SplitJobError::GivenLists(_) => {
-            anyhow::Error::new(e).context("--lists")
+        // The flag in place of the library's "lists DIR".
+        SplitJobError::Lists { given, source } => {
+            anyhow::Error::new(source).context(format!("--lists {}", given.display()))
         }
         other => other.into(),
     })?;
