@@ -27,6 +27,18 @@ pub enum LockMode {
     Wait,
 }
 
+impl LockMode {
+    /// [`LockMode::Wait`] when `wait` (the front doors' `--wait` and `wait=True`), else
+    /// [`LockMode::Fail`].
+    pub fn waiting_if(wait: bool) -> LockMode {
+        if wait {
+            LockMode::Wait
+        } else {
+            LockMode::Fail
+        }
+    }
+}
+
 /// Why a folder could not be locked.
 #[derive(Debug, thiserror::Error)]
 pub enum LockError {

@@ -39,14 +39,6 @@ use minos::store::DataDir;
 
 use crate::convert::{msg_err, path_of, py_err, sensor_suite, term, with_threads, PyProgress};
 
-fn lock_mode(wait: bool) -> LockMode {
-    if wait {
-        LockMode::Wait
-    } else {
-        LockMode::Fail
-    }
-}
-
 fn to_py<'py>(py: Python<'py>, v: &serde_json::Value) -> PyResult<Bound<'py, PyAny>> {
     let json = py.import("json")?;
     json.call_method1("loads", (v.to_string(),))
@@ -152,7 +144,7 @@ pub fn ingest<'py>(
     let report = py
         .detach(|| {
             with_threads(jobs, || {
-                ingest_with(&cfg, lock_mode(wait), &bar)
+                ingest_with(&cfg, LockMode::waiting_if(wait), &bar)
                     .with_context(|| format!("ingesting {}", root.display()))
             })
             .map_err(|e| anyhow!("jobs=: {e}"))?
@@ -242,7 +234,7 @@ pub fn bake<'py>(
             };
             minos::progress::Progress::set_total(&bar, cfg.scenes.len() as u64);
             let report = with_threads(threads, || {
-                bake_driver::bake(&cfg, Shard::ALL, lock_mode(wait), &bar)
+                bake_driver::bake(&cfg, Shard::ALL, LockMode::waiting_if(wait), &bar)
             })
             .map_err(anyhow::Error::msg)??;
             if let Some(e) = report.write_failure() {
@@ -521,7 +513,7 @@ pub fn run<'py>(
             };
             minos::progress::Progress::set_total(&bar, eps.len() as u64);
             let r = with_threads(threads, || {
-                minos::pipeline::rollout::run_with(&cfg, &eps, lock_mode(wait), &bar)
+                minos::pipeline::rollout::run_with(&cfg, &eps, LockMode::waiting_if(wait), &bar)
             })
             .map_err(anyhow::Error::msg)??;
             Ok(r)

@@ -77,7 +77,7 @@ pub fn split<'py>(
         filter,
         method,
     };
-    let mode = if wait { LockMode::Wait } else { LockMode::Fail };
+    let mode = LockMode::waiting_if(wait);
     let report = py.detach(|| make_split(&job, mode)).map_err(|e| match e {
         SplitJobError::Name(_) => py_err(anyhow::Error::new(e).context("name")),
         // The keyword in place of the library's "lists DIR".

@@ -72,7 +72,7 @@ pub fn variants<'py>(
         refresh_stats,
         partition_seed,
     };
-    let mode = if wait { LockMode::Wait } else { LockMode::Fail };
+    let mode = LockMode::waiting_if(wait);
     let bar = PyProgress::new(progress, 0);
     let report = py
         .detach(|| define_variants(&job, mode, &bar))

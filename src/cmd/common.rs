@@ -43,7 +43,7 @@ impl Context {
             .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
             .with_target(false)
             .try_init();
-        let lock_mode = if wait { LockMode::Wait } else { LockMode::Fail };
+        let lock_mode = LockMode::waiting_if(wait);
         Context { quiet, lock_mode }
     }
 

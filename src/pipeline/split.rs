@@ -84,12 +84,10 @@ pub enum SplitJobError {
 /// manifest, so a wrong folder is left as it was.
 pub fn make_split(job: &SplitJob, mode: LockMode) -> Result<SplitReport, SplitJobError> {
     let dir = split_dir(&job.data, &job.name).map_err(SplitJobError::Name)?;
-    let rows = job.data.read_manifest().map_err(|source| {
-        SplitJobError::NoManifest(StoreError::NoManifest {
-            path: job.data.manifest_path(),
-            source,
-        })
-    })?;
+    let rows = job
+        .data
+        .ingested_rows()
+        .map_err(SplitJobError::NoManifest)?;
     let _lock = job.data.lock("split", mode).map_err(SplitJobError::Lock)?;
     let filter = job.filter.as_ref();
     let result = match &job.method {

@@ -132,15 +132,20 @@ impl DataDir {
         manifest::read_manifest(&self.manifest_path())
     }
 
-    /// Ids of the scenes `minos ingest` compiled without error, in manifest order.
-    pub fn ingested_ids(&self) -> Result<Vec<String>, StoreError> {
-        let rows = self
-            .read_manifest()
+    /// Every row of the manifest of a folder scenes were ingested into: a folder without a
+    /// readable manifest is [`StoreError::NoManifest`] (nothing ingested yet).
+    pub fn ingested_rows(&self) -> Result<Vec<ManifestRow>, StoreError> {
+        self.read_manifest()
             .map_err(|source| StoreError::NoManifest {
                 path: self.manifest_path(),
                 source,
-            })?;
-        Ok(rows
+            })
+    }
+
+    /// Ids of the scenes `minos ingest` compiled without error, in manifest order.
+    pub fn ingested_ids(&self) -> Result<Vec<String>, StoreError> {
+        Ok(self
+            .ingested_rows()?
             .into_iter()
             .filter(|r| r.error.is_none())
             .map(|r| r.id)
