@@ -105,6 +105,7 @@ fn main() {
             rooms: (6, 9),
             levels: (1, 1),
             closed_door_prob: 0.25,
+            ..Default::default()
         },
         &dir.path().join("a"),
     );
@@ -131,6 +132,7 @@ fn main() {
             rooms: (24, 24),
             levels: (2, 2),
             closed_door_prob: 0.25,
+            ..Default::default()
         },
         &dir.path().join("b"),
     );

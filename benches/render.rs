@@ -43,6 +43,7 @@ fn main() {
         rooms: (7, 8),
         levels: (1, 1),
         closed_door_prob: 0.25,
+        ..Default::default()
     };
     generate(&cfg, OutputFormat::Suncg, &root, false, &NoProgress).expect("generate");
     let report = ingest(&IngestConfig::suncg(&root, &data), &NoProgress).expect("ingest");

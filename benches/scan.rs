@@ -36,6 +36,7 @@ fn main() {
         rooms: (9, 12),
         levels: (3, 3),
         closed_door_prob: 0.0,
+        ..Default::default()
     };
     let format = OutputFormat::Mp3dScan(ScanOptions {
         triangles,

@@ -52,6 +52,7 @@ fn bench_json_has_consistent_counts_for_every_benchmark() {
         rooms: (3, 4),
         levels: (1, 1),
         closed_door_prob: 0.0,
+        ..Default::default()
     };
     let (data, ids) = baked_houses(dir.path(), &cfg);
     let root = data.root().to_path_buf();
@@ -212,6 +213,7 @@ fn bench_render_on_wgpu_times_batches_by_the_wall_clock() {
         rooms: (2, 3),
         levels: (1, 1),
         closed_door_prob: 0.0,
+        ..Default::default()
     };
     let (data, _) = baked_houses(dir.path(), &cfg);
     let root = data.root().to_path_buf();

@@ -17,6 +17,7 @@ fn config(houses: usize) -> GenerateConfig {
         rooms: (1, 4),
         levels: (1, 1),
         closed_door_prob: 0.0,
+        ..Default::default()
     }
 }
 

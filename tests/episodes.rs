@@ -36,6 +36,7 @@ fn data() -> &'static (tempfile::TempDir, Vec<(String, String)>) {
             rooms: (3, 8),
             levels: (1, 2),
             closed_door_prob: 0.25,
+            ..Default::default()
         };
         generate_into(&cfg, &root);
         ingest_into(&root, &data);

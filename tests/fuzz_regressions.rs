@@ -120,6 +120,7 @@ fn suncg_house_with_a_non_affine_transform() {
             rooms: (1, 4),
             levels: (1, 2),
             closed_door_prob: 0.25,
+            ..Default::default()
         },
         &root,
     );

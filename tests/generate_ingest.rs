@@ -7,7 +7,9 @@ use std::collections::BTreeSet;
 
 use common::{generate_into, ingest_into, tree_bytes};
 use minos::generate::plan::{OpeningKind, Rect};
-use minos::generate::{generate, GenerateConfig, OutputFormat};
+use minos::generate::{
+    generate, house_id, Furnishing, GenerateConfig, OutputFormat, GENERATOR_VERSION,
+};
 use minos::pipeline::ingest::Outcome;
 use minos::progress::NoProgress;
 use minos::scene::RoomClass;
@@ -19,6 +21,7 @@ fn config(houses: usize, seed: u64) -> GenerateConfig {
         rooms: (1, 12),
         levels: (1, 2),
         closed_door_prob: 0.5,
+        ..Default::default()
     }
 }
 
@@ -238,4 +241,116 @@ fn generate_resumes_an_interrupted_run() {
     assert_eq!(report.written, vec![victim]);
     assert_eq!(report.skipped.len(), 4);
     assert!(tree_bytes(&root) == before);
+}
+
+/// The fraction of the rooms' floor that an agent can stand on, and whether every room's
+/// walkable floor is one island (every room reachable from every other), for each house.
+fn walkable_share(dir: &std::path::Path, plans: &[minos::generate::HousePlan]) -> Vec<(f32, bool)> {
+    let store = minos::store::DataDir::new(dir);
+    plans
+        .iter()
+        .map(|plan| {
+            let (_, scene) = store.read_scene(&plan.id).unwrap();
+            let grid = minos::navmesh::build::build(&scene, &minos::navmesh::NavParams::default())
+                .unwrap();
+            let in_rooms: Vec<_> = grid
+                .spans
+                .iter()
+                .filter(|s| s.walkable && (s.room as usize) < grid.rooms.len())
+                .collect();
+            let walkable = in_rooms.len() as f32 * grid.cell() * grid.cell();
+            let floor: f32 = scene
+                .levels
+                .iter()
+                .flat_map(|l| &l.rooms)
+                .map(|r| r.area)
+                .sum();
+            // The main island (most of the walkable floor) reaches into every room; pockets
+            // boxed in by furniture may be islands of their own.
+            let mut per_island = std::collections::BTreeMap::<u32, usize>::new();
+            for s in &in_rooms {
+                *per_island.entry(s.island).or_default() += 1;
+            }
+            let main = per_island.iter().max_by_key(|(_, n)| **n).map(|(i, _)| *i);
+            let reached: BTreeSet<u32> = in_rooms
+                .iter()
+                .filter(|s| Some(s.island) == main)
+                .map(|s| s.room)
+                .collect();
+            (walkable / floor, reached.len() == grid.rooms.len())
+        })
+        .collect()
+}
+
+/// Dense furnishing takes a larger share of the floor than the room recipes alone (measured on
+/// the grids an agent walks on, as docs/RESULTS.md does), and every room stays reachable.
+#[test]
+fn dense_furnishing_takes_more_floor_and_leaves_every_room_reachable() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut shares = Vec::new();
+    for (name, furnishing) in [
+        ("standard", Furnishing::Standard),
+        ("dense", Furnishing::Dense),
+    ] {
+        let cfg = GenerateConfig {
+            houses: 8,
+            seed: 3,
+            rooms: (2, 3),
+            levels: (1, 1),
+            closed_door_prob: 0.0,
+            furnishing,
+        };
+        let (root, data) = (
+            dir.path().join(name),
+            dir.path().join(format!("{name}-DATA")),
+        );
+        let plans = generate_into(&cfg, &root);
+        ingest_into(&root, &data);
+        let objects: usize = plans
+            .iter()
+            .flat_map(|p| &p.levels)
+            .map(|l| l.objects.len())
+            .sum();
+        let houses = walkable_share(&data, &plans);
+        assert!(
+            houses.iter().all(|(_, connected)| *connected),
+            "{name}: a room cut off: {houses:?}"
+        );
+        let mean = houses.iter().map(|(w, _)| w).sum::<f32>() / houses.len() as f32;
+        shares.push((name, mean, objects));
+    }
+    let [(_, standard, n_standard), (_, dense, n_dense)] = shares[..] else {
+        unreachable!()
+    };
+    assert!(n_dense > n_standard + 8 * 4, "{shares:?}");
+    assert!(dense < standard - 0.08, "{shares:?}");
+    assert!(dense > 0.3, "dense houses keep free floor: {shares:?}");
+}
+
+/// Standard furnishing adds nothing to the configuration's fingerprint, so houses generated
+/// before the choice existed keep their ids (and bytes); dense houses are other houses.
+#[test]
+fn standard_furnishing_keeps_the_house_ids_it_had_before_dense_existed() {
+    use minos::seed::derive_seed;
+    let cfg = GenerateConfig {
+        houses: 2,
+        seed: 7,
+        rooms: (2, 2),
+        levels: (1, 1),
+        closed_door_prob: 0.25,
+        ..Default::default()
+    };
+    // The id as generator version 2 computed it, from its fingerprint's text.
+    let fingerprint = format!("v{GENERATOR_VERSION}:r2-2:l1-1:c0.25");
+    for i in 0..2 {
+        let n = i.to_string();
+        let hi = derive_seed(7, &["house-id-hi", &n, &fingerprint]);
+        let lo = derive_seed(7, &["house-id-lo", &n, &fingerprint]);
+        assert_eq!(house_id(&cfg, i), format!("{hi:016x}{lo:016x}"));
+    }
+    let dense = GenerateConfig {
+        furnishing: Furnishing::Dense,
+        ..cfg.clone()
+    };
+    assert_ne!(house_id(&dense, 0), house_id(&cfg, 0));
 }

@@ -53,6 +53,7 @@ fn fixture() -> &'static Fixture {
             rooms: (4, 7),
             levels: (1, 1),
             closed_door_prob: 0.0,
+            ..Default::default()
         };
         let (data, ids) = baked_houses(dir.path(), &cfg);
         let scenes: Vec<(String, String)> =

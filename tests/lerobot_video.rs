@@ -49,6 +49,7 @@ fn fixture() -> &'static Fixture {
                 rooms: (3, 5),
                 levels: (1, 1),
                 closed_door_prob: 0.0,
+                ..Default::default()
             },
         );
         let scenes: Vec<(String, String)> =

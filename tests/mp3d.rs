@@ -29,6 +29,7 @@ fn config(houses: usize, seed: u64, closed_door_prob: f64) -> GenerateConfig {
         rooms: (1, 10),
         levels: (1, 2),
         closed_door_prob,
+        ..Default::default()
     }
 }
 

@@ -37,6 +37,7 @@ fn fixture() -> &'static Fixture {
             rooms: (5, 8),
             levels: (2, 2),
             closed_door_prob: 0.3,
+            ..Default::default()
         };
         let (data, ids) = baked_houses(dir.path(), &cfg);
         let scene = ids[0].clone();

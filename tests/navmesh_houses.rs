@@ -31,6 +31,7 @@ fn doors_rooms_and_levels_of_generated_houses_connect_as_planned() {
         rooms: (2, 9),
         levels: (1, 2),
         closed_door_prob: 0.6,
+        ..Default::default()
     };
     let plans = generate_into(&cfg, &root);
     ingest_into(&root, &data);
@@ -218,6 +219,7 @@ fn stored_query_structures_give_the_answers_of_fresh_ones() {
         rooms: (3, 7),
         levels: (1, 2),
         closed_door_prob: 0.2,
+        ..Default::default()
     };
     let plans = generate_into(&cfg, &root);
     ingest_into(&root, &data);

@@ -45,6 +45,7 @@ fn data() -> &'static (tempfile::TempDir, Vec<HouseSet>) {
                     rooms: (2, 2),
                     levels: (1, 1),
                     closed_door_prob: 0.0,
+                    ..Default::default()
                 },
             ),
             (
@@ -55,6 +56,7 @@ fn data() -> &'static (tempfile::TempDir, Vec<HouseSet>) {
                     rooms: (3, 5),
                     levels: (1, 2),
                     closed_door_prob: 0.25,
+                    ..Default::default()
                 },
             ),
         ] {

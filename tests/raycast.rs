@@ -21,6 +21,7 @@ fn ray_caster_matches_the_rasteriser_on_every_channel() {
         rooms: (4, 6),
         levels: (1, 1),
         closed_door_prob: 0.25,
+        ..Default::default()
     };
     let plans = common::generate_into(&cfg, &root);
     common::ingest_into(&root, &data);

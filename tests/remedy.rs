@@ -63,6 +63,7 @@ fn missing_and_stale_steps_are_named_as_data_and_the_cli_says_the_command() {
             rooms: (2, 3),
             levels: (1, 1),
             closed_door_prob: 0.0,
+            ..Default::default()
         },
     );
     let scene = SceneRef::parse(&ids[0]);

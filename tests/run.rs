@@ -34,6 +34,7 @@ fn data() -> &'static (tempfile::TempDir, Vec<Episode>) {
                 rooms: (3, 6),
                 levels: (1, 2),
                 closed_door_prob: 0.25,
+                ..Default::default()
             },
         );
         let scenes: Vec<(String, String)> =
@@ -1205,6 +1206,7 @@ fn vector_envs_of_1_to_32_environments_on_1_to_32_threads_reset_and_step() {
         rooms: (4, 6),
         levels: (1, 1),
         closed_door_prob: 0.0,
+        ..Default::default()
     };
     let format = OutputFormat::Mp3dScan(ScanOptions {
         triangles: 40_000,

@@ -25,6 +25,7 @@ fn scan_config(houses: usize, seed: u64) -> (GenerateConfig, OutputFormat) {
             rooms: (9, 12),
             levels: (3, 3),
             closed_door_prob: 0.0,
+            ..Default::default()
         },
         OutputFormat::Mp3dScan(ScanOptions {
             triangles: TRIANGLES,

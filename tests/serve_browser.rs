@@ -47,6 +47,7 @@ fn a_person_in_chromium_reaches_the_goal_and_the_demo_replays() {
             rooms: (3, 4),
             levels: (1, 1),
             closed_door_prob: 0.0,
+            ..Default::default()
         },
     );
     let body = AgentConfig::habitat();

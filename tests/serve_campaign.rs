@@ -63,6 +63,7 @@ fn fixture() -> &'static Fixture {
                 rooms: (3, 4),
                 levels: (1, 1),
                 closed_door_prob: 0.0,
+                ..Default::default()
             },
         );
         let scenes: Vec<(String, String)> = ids.into_iter().map(|id| (id, "val".into())).collect();

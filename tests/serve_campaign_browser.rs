@@ -45,6 +45,7 @@ fn a_participant_goes_from_tutorial_to_done_and_the_operator_sees_it() {
             rooms: (3, 4),
             levels: (1, 1),
             closed_door_prob: 0.0,
+            ..Default::default()
         },
     );
     let scenes: Vec<(String, String)> = ids.iter().map(|id| (id.clone(), "val".into())).collect();

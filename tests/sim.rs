@@ -400,6 +400,7 @@ fn cpu_and_wgpu_agree(method: minos::render::gpu::GpuMethod) {
         rooms: (4, 6),
         levels: (1, 1),
         closed_door_prob: 0.25,
+        ..Default::default()
     };
     let plans = common::generate_into(&cfg, &root);
     common::ingest_into(&root, &data);
@@ -495,6 +496,7 @@ fn wgpu_renders_views_of_several_scenes_in_one_batch() {
         rooms: (3, 5),
         levels: (1, 1),
         closed_door_prob: 0.25,
+        ..Default::default()
     };
     let plans = common::generate_into(&cfg, &root);
     common::ingest_into(&root, &data);
@@ -589,6 +591,7 @@ fn wgpu_derives_the_images_the_cpu_derives_from_its_frames() {
         rooms: (4, 6),
         levels: (1, 1),
         closed_door_prob: 0.25,
+        ..Default::default()
     };
     let plans = common::generate_into(&cfg, &root);
     common::ingest_into(&root, &data);

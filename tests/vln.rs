@@ -42,6 +42,7 @@ fn data() -> &'static Fixture {
             rooms: (4, 8),
             levels: (1, 2),
             closed_door_prob: 0.0,
+            ..Default::default()
         };
         let (data, ids) = common::baked_houses(dir.path(), &cfg);
         let scenes = ids

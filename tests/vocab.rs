@@ -11,7 +11,7 @@ use minos::body::AgentPreset;
 use minos::episode::import::ForeignFormat;
 use minos::episode::sample::Select;
 use minos::episode::Task;
-use minos::generate::HouseFormat;
+use minos::generate::{Furnishing, HouseFormat};
 use minos::io::export::ExportFormat;
 use minos::io::lerobot::DatasetLayout;
 use minos::io::tables::ImageEncoding;
@@ -84,6 +84,7 @@ fn every_vocabulary_parses_its_names_and_refuses_others_with_the_list() {
     );
     assert_eq!(check::<RunFormat>(), ["parquet", "lerobot"]);
     assert_eq!(check::<HouseFormat>(), ["suncg", "mp3d", "mp3d-scan"]);
+    assert_eq!(check::<Furnishing>(), ["standard", "dense"]);
     assert_eq!(check::<ExportFormat>(), ["obj", "glb"]);
     assert_eq!(check::<BenchKind>(), ["bake", "episodes", "render", "run"]);
     assert_eq!(check::<ForeignFormat>(), ["habitat", "minos-csv"]);
@@ -144,6 +145,10 @@ fn the_command_line_takes_its_values_from_the_vocabularies() {
         (
             vec!["generate", "--out", "o", "--format", "ply"],
             HouseFormat::names(),
+        ),
+        (
+            vec!["generate", "--out", "o", "--furnishing", "sparse"],
+            Furnishing::names(),
         ),
         (vec!["bench", "fly", "--data", "D"], BenchKind::names()),
         (

@@ -103,6 +103,12 @@ pub fn msg_err(e: impl std::fmt::Display) -> PyErr {
     MinosError::new_err(e.to_string().replace('\n', " "))
 }
 
+/// A keyword argument's value that cannot be used, as a `BadInputError` (the CLI's one-line
+/// error for a bad flag).
+pub fn bad_input(e: impl std::fmt::Display) -> PyErr {
+    BadInputError::new_err(e.to_string().replace('\n', " "))
+}
+
 /// The Python exception classes below `MinosError`, most specific first.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
 enum Kind {
@@ -190,7 +196,7 @@ pub fn point(obj: &Bound<'_, PyAny>) -> PyResult<Vec3> {
 /// The value of the library vocabulary `T` that keyword argument `kwarg` names (`text`): the
 /// names the command line's flags take, declared once on the library's enum.
 pub fn term<T: Vocabulary>(kwarg: &str, text: &str) -> PyResult<T> {
-    T::parse_name(text).map_err(|e| msg_err(format!("{kwarg}: {e}")))
+    T::parse_name(text).map_err(|e| bad_input(format!("{kwarg}: {e}")))
 }
 
 /// An agent preset by name (`habitat`, `minos`/`minos-continuous`, `minos-gridworld`,
@@ -237,7 +243,7 @@ pub fn sensor_suite(
 pub fn shard(spec: &str) -> PyResult<Shard> {
     ShardSpec::parse(spec)
         .and_then(|s| s.resolve(|k| std::env::var(k).ok()))
-        .map_err(|e| msg_err(format!("shard: {e}")))
+        .map_err(|e| bad_input(format!("shard: {e}")))
 }
 
 /// Runs `f` on a pool of `threads` workers (0: all cores), or on rayon's global pool.

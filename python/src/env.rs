@@ -18,7 +18,7 @@ use minos::sim::sensors::CameraSensor;
 use minos::sim::{AgentConfig, Observation};
 use minos::store::DataDir;
 
-use crate::convert::{msg_err, path_of, preset, py_err, sensor_suite, typed_err};
+use crate::convert::{bad_input, msg_err, path_of, preset, py_err, sensor_suite, typed_err};
 use crate::episodes::PyEpisode;
 use crate::sim::{image_shape, sensor_specs};
 
@@ -33,9 +33,9 @@ pub struct VecCore {
 /// A library error as Python's: the keyword it concerns named as the bindings name it.
 fn env_err(e: VectorEnvError) -> PyErr {
     match e {
-        VectorEnvError::NoEnvironments => msg_err("num_envs: at least one environment"),
-        VectorEnvError::NoEpisodes => msg_err("episodes: no episode to run"),
-        VectorEnvError::Threads(e) => msg_err(format!("threads: {e}")),
+        VectorEnvError::NoEnvironments => bad_input("num_envs: at least one environment"),
+        VectorEnvError::NoEpisodes => bad_input("episodes: no episode to run"),
+        VectorEnvError::Threads(e) => bad_input(format!("threads: {e}")),
         VectorEnvError::Actions { .. } => pyo3::exceptions::PyValueError::new_err(e.to_string()),
         e => typed_err(e),
     }

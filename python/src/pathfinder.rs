@@ -14,7 +14,7 @@ use minos::scene::{RoomClass, SceneRef};
 use minos::seed::{derive_seed, Rng};
 use minos::store::DataDir;
 
-use crate::convert::{msg_err, path_of, point};
+use crate::convert::{bad_input, msg_err, path_of, point};
 
 /// Path queries on the navigation grid of one scene: `PathFinder(data, scene, seed=0)`.
 ///
@@ -291,13 +291,13 @@ impl PathFinder {
             Err(_) => self
                 .grid
                 .island_of(point(island)?)
-                .ok_or_else(|| msg_err("island_radius: the point is not near walkable floor"))?,
+                .ok_or_else(|| bad_input("island_radius: the point is not near walkable floor"))?,
         };
         self.grid
             .islands
             .get(id as usize)
             .map(|i| i.radius)
-            .ok_or_else(|| msg_err(format!("island {id}: no such island")))
+            .ok_or_else(|| bad_input(format!("island {id}: no such island")))
     }
 
     /// Number of islands.

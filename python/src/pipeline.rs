@@ -37,7 +37,9 @@ use minos::sim::AgentConfig;
 use minos::split::Subset;
 use minos::store::DataDir;
 
-use crate::convert::{msg_err, path_of, py_err, sensor_suite, term, with_threads, PyProgress};
+use crate::convert::{
+    bad_input, msg_err, path_of, py_err, sensor_suite, term, with_threads, PyProgress,
+};
 
 fn to_py<'py>(py: Python<'py>, v: &serde_json::Value) -> PyResult<Bound<'py, PyAny>> {
     let json = py.import("json")?;
@@ -58,9 +60,10 @@ fn split_or_all(data: &DataDir, split: Option<&str>) -> anyhow::Result<Vec<Strin
 
 /// `minos generate`: procedural houses in SUNCG's (or Matterport3D's) layout into `out`;
 /// `format="mp3d-scan"` writes scan-like Matterport3D houses (`--scan`, about
-/// `scan_triangles` triangles each). Returns `{"written": [ids], "skipped": [ids]}`.
+/// `scan_triangles` triangles each); `furnishing="dense"` furnishes rooms as densely as real
+/// SUNCG and 3D-FRONT rooms. Returns `{"written": [ids], "skipped": [ids]}`.
 #[pyfunction]
-#[pyo3(signature = (out, houses = 10, seed = 0, rooms = (3, 8), levels = (1, 2), closed_doors = 0.25, format = "suncg", force = false, scan_triangles = minos::generate::scan::DEFAULT_TRIANGLES, progress = None))]
+#[pyo3(signature = (out, houses = 10, seed = 0, rooms = (3, 8), levels = (1, 2), closed_doors = 0.25, furnishing = "standard", format = "suncg", force = false, scan_triangles = minos::generate::scan::DEFAULT_TRIANGLES, progress = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn generate<'py>(
     py: Python<'py>,
@@ -70,6 +73,7 @@ pub fn generate<'py>(
     rooms: (usize, usize),
     levels: (usize, usize),
     closed_doors: f64,
+    furnishing: &str,
     format: &str,
     force: bool,
     scan_triangles: u64,
@@ -86,6 +90,7 @@ pub fn generate<'py>(
         rooms,
         levels,
         closed_door_prob: closed_doors,
+        furnishing: term::<minos::generate::Furnishing>("furnishing", furnishing)?,
     };
     let bar = PyProgress::new(progress, houses as u64);
     let report = py
@@ -317,33 +322,33 @@ pub fn sample_episodes<'py>(
     let task: Task = term("task", task)?;
     let subset: Option<Subset> = subset.map(|s| term("subset", s)).transpose()?;
     if bins.0 > bins.1 {
-        return Err(msg_err(
+        return Err(bad_input(
             "bins: expected two increasing distances, e.g. (3, 6)",
         ));
     }
     let select: Select = term("select", select)?;
     let stratified = term::<Stratify>("stratify", stratify)?.applies(subset);
     let (categories, all_categories) = expand_categories(&categories)
-        .ok_or_else(|| msg_err("categories: give [\"all\"] alone"))?;
+        .ok_or_else(|| bad_input("categories: give [\"all\"] alone"))?;
     let room_classes = parse_room_classes(&room_types)
-        .map_err(|t| msg_err(format!("room_types: unknown class `{t}`")))?;
+        .map_err(|t| bad_input(format!("room_types: unknown class `{t}`")))?;
     let agent_preset = crate::convert::preset("preset", preset)?;
     let dir_of =
         |e: Option<&Bound<'py, PyAny>>| e.filter(|e| !e.is_none()).map(path_of).transpose();
     let habitat_export = dir_of(export_habitat)?;
     let vln_export = match (dir_of(export_vlnce)?, dir_of(export_r2r)?) {
-        (Some(_), Some(_)) => return Err(msg_err("give export_vlnce or export_r2r, not both")),
+        (Some(_), Some(_)) => return Err(bad_input("give export_vlnce or export_r2r, not both")),
         (Some(d), None) => Some((VlnFormat::VlnCe, d)),
         (None, Some(d)) => Some((VlnFormat::R2r, d)),
         (None, None) => None,
     };
     if vln_export.is_some() && task != Task::Vln {
-        return Err(msg_err(
+        return Err(bad_input(
             "export_vlnce / export_r2r: VLN exports need task=\"vln\"",
         ));
     }
     if task == Task::Vln && habitat_export.is_some() {
-        return Err(msg_err(
+        return Err(bad_input(
             "export_habitat: VLN episodes export as export_vlnce (habitat-lab's R2RVLN-v1) or export_r2r",
         ));
     }
@@ -353,7 +358,7 @@ pub fn sample_episodes<'py>(
     };
     scene_names
         .check()
-        .map_err(|e| msg_err(format!("scene_suffix: {e}")))?;
+        .map_err(|e| bad_input(format!("scene_suffix: {e}")))?;
     let sample = SampleConfig {
         task,
         per_scene,

@@ -9,7 +9,7 @@ use minos::split::{Expr, Ratios, SplitLists, Subset};
 use minos::store::DataDir;
 use minos::vocab::Vocabulary;
 
-use crate::convert::{msg_err, path_of, py_err, typed_err};
+use crate::convert::{bad_input, path_of, py_err, typed_err};
 
 /// The lists `lists=` gives: a dict of id lists by subset (`train`, `val`, `test`; a subset
 /// left out is empty), or a folder of `train.txt`, `val.txt` and `test.txt` (or built-in
@@ -23,7 +23,7 @@ fn method_of(lists: &Bound<'_, PyAny>) -> PyResult<Method> {
         let key: String = key.extract()?;
         let subset: Subset = crate::convert::term("lists", &key)?;
         if ids.is_instance_of::<PyString>() {
-            return Err(msg_err(format!(
+            return Err(bad_input(format!(
                 "lists[{key:?}]: a list of scene ids, not a string"
             )));
         }
@@ -65,7 +65,7 @@ pub fn split<'py>(
             let ratios = Ratios::new([a, b, c]).map_err(typed_err)?;
             Method::Ratios(ratios, seed)
         }
-        _ => return Err(msg_err("give exactly one of lists= and ratios=")),
+        _ => return Err(bad_input("give exactly one of lists= and ratios=")),
     };
     let filter = r#where
         .map(Expr::parse)

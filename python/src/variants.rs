@@ -8,7 +8,7 @@ use minos::pipeline::variants::{define_variants, read_spec_file, VariantsJob};
 use minos::scene::variants::{KeepOnly, Retexture, TextureSet, VariantSpec};
 use minos::store::DataDir;
 
-use crate::convert::{msg_err, path_of, py_err, term, typed_err, PyProgress};
+use crate::convert::{bad_input, path_of, py_err, term, typed_err, PyProgress};
 
 /// `minos variants`: defines scene variants in the DATA folder `data`, from `spec` (a TOML
 /// file of named tables, the CLI's `--spec`) or as the one variant `name` with these changes:
@@ -57,14 +57,14 @@ pub fn variants<'py>(
                 retexture: retexture_seed.map(|seed| Retexture { seed, texture_set }),
             };
             if rules == VariantSpec::default() {
-                return Err(msg_err(format!(
+                return Err(bad_input(format!(
                     "variant {name}: no change given (pass remove=, keep_only=, empty=True, \
                      hide=, open_doors=True or retexture_seed=)"
                 )));
             }
             vec![(name, rules)]
         }
-        _ => return Err(msg_err("give exactly one of spec=FILE and name=NAME")),
+        _ => return Err(bad_input("give exactly one of spec=FILE and name=NAME")),
     };
     let job = VariantsJob {
         data: DataDir::new(path_of(data)?),

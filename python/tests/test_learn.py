@@ -262,6 +262,34 @@ def test_dagger_rows_are_other_rows_than_their_cloned_ones(tmp_path):
     assert row_file(tmp_path, none, seeing).name == "MD-gru-s0.json"
 
 
+def test_a_cell_folder_made_with_other_data_settings_is_not_resumed(tmp_path):
+    # Its stages are skipped when their outputs exist, so a folder made with other houses or
+    # episodes would give the new settings' rows the old data: refused, naming what changed.
+    from dataclasses import asdict
+
+    from minos.learn.cell import CellConfig, check_same_data
+
+    work = tmp_path / "cell"
+    work.mkdir()
+    made = CellConfig(work=str(work), rooms=(2, 2), houses=40)
+    (work / "cell.json").write_text(json.dumps(asdict(made)))
+    # Rows and devices may differ; a folder without cell.json is new.
+    check_same_data(CellConfig(work=str(work), rooms=(2, 2), houses=40, modalities=["M", "D"],
+                               epochs=3, dagger=2, device="cpu"), work)
+    check_same_data(made, tmp_path / "new")
+    with pytest.raises(ValueError, match=r"houses 40 -> 30; furnishing 'standard' -> 'dense'"):
+        check_same_data(CellConfig(work=str(work), rooms=(2, 2), houses=30, furnishing="dense"),
+                        work)
+    # A cell.json from before a setting existed counts as that setting's default.
+    old = asdict(made)
+    del old["furnishing"]
+    (work / "cell.json").write_text(json.dumps(old))
+    check_same_data(made, work)
+    with pytest.raises(ValueError, match="furnishing 'standard' -> 'dense'"):
+        check_same_data(CellConfig(work=str(work), rooms=(2, 2), houses=40, furnishing="dense"),
+                        work)
+
+
 def _split(data, name, scenes):
     """Writes split ``name`` into ``data``: the first scene to train on, every scene to test."""
     lists = data / "splits" / name

@@ -60,6 +60,22 @@ def test_generate_writes_scan_like_matterport3d_houses_of_the_asked_size(tmp_pat
         minos.generate(tmp_path / "x", houses=1, format="scan")
 
 
+def test_generate_furnishes_densely_on_request(tmp_path):
+    # furnishing="dense" is `minos generate --furnishing dense`: the same rooms' kinds of
+    # furniture, more of them (house.json's Object nodes, doors and windows included).
+    def objects(out):
+        return sum(1 for h in out.glob("house/*/house.json")
+                   for level in json.loads(h.read_text())["levels"]
+                   for node in level["nodes"] if node["type"] == "Object")
+
+    for name in ("standard", "dense"):
+        minos.generate(tmp_path / name, houses=3, seed=5, rooms=(2, 2), levels=(1, 1),
+                       furnishing=name)
+    assert objects(tmp_path / "dense") > objects(tmp_path / "standard") + 3 * 4
+    with pytest.raises(minos.BadInputError, match="standard, dense"):
+        minos.generate(tmp_path / "x", houses=1, furnishing="sparse")
+
+
 def test_generate_is_deterministic(tmp_path):
     a, b = tmp_path / "a", tmp_path / "b"
     for d in (a, b):

@@ -9,13 +9,18 @@ use crate::seed::Rng;
 use super::catalog::catalog;
 use super::layout::keep_outs;
 use super::plan::{LevelPlan, PlacedObject, Rect, Side, WALL_T};
+use super::Furnishing;
 
 const GRID: f64 = 0.1;
 const AGENT_CLEARANCE: f64 = 0.2;
 const MIN_FREE_FRACTION: f64 = 0.4;
+/// [`Furnishing::Dense`] adds pieces until at most this fraction of a room's floor is free.
+const DENSE_FREE_FRACTION: f64 = 0.42;
+/// [`Furnishing::Dense`] stops after this many extra pieces in a row found no place.
+const DENSE_MISSES: usize = 8;
 
 /// Places furniture in every room of a level.
-pub fn furnish_level(rng: &mut Rng, level: &mut LevelPlan) {
+pub fn furnish_level(rng: &mut Rng, level: &mut LevelPlan, furnishing: Furnishing) {
     for room in 0..level.rooms.len() {
         let zones = keep_outs(level, room);
         let r = &level.rooms[room];
@@ -35,6 +40,9 @@ pub fn furnish_level(rng: &mut Rng, level: &mut LevelPlan) {
             r.raw_type,
             !r.floor_holes.is_empty() || !r.ceiling_holes.is_empty(),
         );
+        if furnishing == Furnishing::Dense {
+            clutter(rng, &mut p, r.class);
+        }
         level.objects.extend(p.objects);
     }
 }
@@ -167,6 +175,71 @@ fn recipe(rng: &mut Rng, p: &mut Placer, class: RoomClass, raw: &str, stair_hall
                 p.against_wall(rng, "wardrobe_cabinet");
             }
         }
+    }
+}
+
+/// Extra pieces of a room class's kinds of furniture (`true`: in the middle of the room, else
+/// against a wall) until the room's free floor is down to [`DENSE_FREE_FRACTION`].
+fn clutter(rng: &mut Rng, p: &mut Placer, class: RoomClass) {
+    let extras: &[(&str, bool)] = match class {
+        RoomClass::Bedroom => &[
+            ("dresser", false),
+            ("wardrobe_cabinet", false),
+            ("bookshelf", false),
+            ("armchair", false),
+            ("stand", false),
+            ("plant", false),
+            ("desk", false),
+        ],
+        RoomClass::LivingRoom => &[
+            ("armchair", false),
+            ("armchair", true),
+            ("bookshelf", false),
+            ("stand", false),
+            ("plant", false),
+            ("coffee_table", true),
+            ("sofa", true),
+        ],
+        RoomClass::Kitchen => &[
+            ("kitchen_cabinet", false),
+            ("kitchen_cabinet", false),
+            ("dining_table", true),
+            ("chair", true),
+            ("plant", false),
+        ],
+        RoomClass::DiningRoom => &[
+            ("bookshelf", false),
+            ("kitchen_cabinet", false),
+            ("chair", false),
+            ("plant", false),
+        ],
+        RoomClass::Bathroom => &[("sink", false), ("shoes_cabinet", false), ("plant", false)],
+        RoomClass::Office => &[
+            ("bookshelf", false),
+            ("desk", false),
+            ("office_chair", true),
+            ("armchair", false),
+            ("plant", false),
+        ],
+        RoomClass::Hallway => &[("shoes_cabinet", false), ("plant", false), ("stand", false)],
+        RoomClass::Outdoor => &[("outdoor_seating", true), ("plant", false)],
+        RoomClass::Other => &[
+            ("bookshelf", false),
+            ("wardrobe_cabinet", false),
+            ("dresser", false),
+        ],
+    };
+    let mut misses = 0;
+    while misses < DENSE_MISSES && p.free_fraction() > DENSE_FREE_FRACTION {
+        let Some(&(fine, middle)) = rng.pick(extras) else {
+            return;
+        };
+        let placed = if middle {
+            p.in_middle(rng, fine)
+        } else {
+            p.against_wall(rng, fine)
+        };
+        misses = if placed.is_some() { 0 } else { misses + 1 };
     }
 }
 
@@ -445,26 +518,42 @@ impl Placer {
         self.try_add(obj, false)
     }
 
-    /// Every door zone is reachable from the others over free floor, and enough floor is free.
-    fn walkable(&self) -> bool {
+    /// The room's floor as a grid of [`GRID`] cells: its size and, per cell, whether it is at
+    /// least [`AGENT_CLEARANCE`] from every floor-standing piece.
+    fn free_cells(&self) -> (usize, usize, Vec<bool>) {
         let i = self.interior;
         let nx = ((i.w() / GRID).floor() as usize).max(1);
         let nz = ((i.d() / GRID).floor() as usize).max(1);
-        let center = |ix: usize, iz: usize| {
-            (
-                i.x0 + (ix as f64 + 0.5) * GRID,
-                i.z0 + (iz as f64 + 0.5) * GRID,
-            )
-        };
-        let free: Vec<bool> = (0..nx * nz)
+        let free = (0..nx * nz)
             .map(|k| {
-                let (x, z) = center(k % nx, k / nx);
+                let (x, z) = self.cell_center(nx, k);
                 !self
                     .placed
                     .iter()
                     .any(|(r, _)| r.inflate(AGENT_CLEARANCE).contains_point(x, z))
             })
             .collect();
+        (nx, nz, free)
+    }
+
+    /// The centre of cell `k` of a [`Placer::free_cells`] grid `nx` cells wide.
+    fn cell_center(&self, nx: usize, k: usize) -> (f64, f64) {
+        let i = self.interior;
+        (
+            i.x0 + ((k % nx) as f64 + 0.5) * GRID,
+            i.z0 + ((k / nx) as f64 + 0.5) * GRID,
+        )
+    }
+
+    /// The fraction of the room's floor cells that are free ([`Placer::free_cells`]).
+    fn free_fraction(&self) -> f64 {
+        let (nx, nz, free) = self.free_cells();
+        free.iter().filter(|f| **f).count() as f64 / (nx * nz) as f64
+    }
+
+    /// Every door zone is reachable from the others over free floor, and enough floor is free.
+    fn walkable(&self) -> bool {
+        let (nx, nz, free) = self.free_cells();
         let total_free = free.iter().filter(|f| **f).count();
         if (total_free as f64) < MIN_FREE_FRACTION * (nx * nz) as f64 {
             return false;
@@ -476,7 +565,7 @@ impl Placer {
                 (0..nx * nz)
                     .filter(|&k| {
                         free[k] && {
-                            let (x, zz) = center(k % nx, k / nx);
+                            let (x, zz) = self.cell_center(nx, k);
                             z.contains_point(x, zz)
                         }
                     })

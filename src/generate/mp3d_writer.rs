@@ -737,6 +737,7 @@ mod tests {
             rooms: (4, 6),
             levels: (2, 2),
             closed_door_prob: 0.5,
+            ..Default::default()
         };
         let plan = crate::generate::plan_house(&cfg, 0);
         let dir = tempfile::tempdir().unwrap();

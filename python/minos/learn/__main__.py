@@ -118,6 +118,9 @@ def _parser() -> argparse.ArgumentParser:
                         "mp3d-scan: scan-like ones, dense noisy meshes with clutter)")
     c.add_argument("--scan-triangles", type=int, default=300_000,
                    help="triangles per mp3d-scan house")
+    c.add_argument("--furnishing", default="standard", choices=["standard", "dense"],
+                   help="generated houses' furniture (dense: about half the floor taken, as "
+                        "in real SUNCG and 3D-FRONT rooms)")
     c.add_argument("--preset", default="minos-paper", choices=sorted(PRESET_ACTIONS))
     c.add_argument("--per-scene", type=int, default=10, help="training episodes per house")
     c.add_argument("--test-per-scene", type=int, default=10)
@@ -142,7 +145,7 @@ def main(argv: list[str] | None = None) -> int:
             for name, cfg in tables.cells().items():
                 done = "done" if tables.is_done(root, name, cfg) else "not run"
                 print(f"{name:34s} {done:8s} {cfg.task} rooms {cfg.rooms[0]}..{cfg.rooms[1]} "
-                      f"{cfg.format} variant={cfg.variant or '-'} houses {cfg.houses} "
+                      f"{cfg.format} {cfg.furnishing} variant={cfg.variant or '-'} houses {cfg.houses} "
                       f"(test {cfg.test_houses}) rows {','.join(cfg.modalities)} "
                       f"epochs {cfg.epochs}")
             return 0
@@ -163,7 +166,7 @@ def main(argv: list[str] | None = None) -> int:
             states=args.states, episodes_on_base=args.episodes_on_base,
             random_agent=args.random_agent,
             variant=args.variant, format=args.format, scan_triangles=args.scan_triangles,
-            preset=args.preset, per_scene=args.per_scene,
+            furnishing=args.furnishing, preset=args.preset, per_scene=args.per_scene,
             test_per_scene=args.test_per_scene, max_steps=args.max_steps, size=args.size,
             memory=args.memory, hidden=args.hidden, epochs=args.epochs,
             batch_frames=args.batch_frames, lr=args.lr, dagger=args.dagger, beta=args.beta,

@@ -60,6 +60,9 @@ class CellConfig:
     # houses: dense noisy meshes with holes and clutter, `scan_triangles` each).
     format: str = "suncg"
     scan_triangles: int = 300_000
+    # Generated houses' furniture: `standard` (each room's recipe) or `dense` (about half the
+    # floor taken, as measured in real SUNCG and 3D-FRONT rooms; docs/RESULTS.md).
+    furnishing: str = "standard"
     preset: str = "minos-paper"
     per_scene: int = 10
     test_per_scene: int = 10
@@ -129,7 +132,8 @@ def _prepare_data(cfg: CellConfig, work: Path) -> tuple[Path, str]:
         return data, split
     t0 = time.perf_counter()
     minos.generate(gen, houses=cfg.houses, seed=cfg.seed, rooms=cfg.rooms, levels=cfg.levels,
-                   format=cfg.format, force=True, scan_triangles=cfg.scan_triangles)
+                   furnishing=cfg.furnishing, format=cfg.format, force=True,
+                   scan_triangles=cfg.scan_triangles)
     minos.ingest(gen, data, dataset="suncg" if cfg.format == "suncg" else "mp3d", force=True)
     minos.bake(data, preset=cfg.preset, previews=False)
     if cfg.variant:
@@ -186,6 +190,33 @@ def _episodes(cfg: CellConfig, data: Path, split: str, subset: str, out: Path,
     return out
 
 
+#: The settings that make a cell's houses, episodes and random row: a work folder made with
+#: other values of these cannot be resumed (its stages would be skipped as done).
+DATA_FIELDS = ("data", "split", "houses", "test_houses", "rooms", "levels", "task",
+               "categories", "select", "min_doors", "ratio_rule", "variant",
+               "episodes_on_base", "states", "format", "scan_triangles", "furnishing", "preset",
+               "per_scene", "test_per_scene", "max_steps", "seed", "random_agent",
+               "random_seeds")
+
+
+def check_same_data(cfg: CellConfig, work: Path) -> None:
+    """Raises ValueError when ``work`` holds a cell made with other data settings
+    (:data:`DATA_FIELDS`; a setting its ``cell.json`` lacks counts as the default), naming
+    each one that differs."""
+    previous = work / "cell.json"
+    if not previous.is_file():
+        return
+    before = json.loads(previous.read_text())
+    now = json.loads(json.dumps(asdict(cfg)))
+    defaults = json.loads(json.dumps(asdict(CellConfig(work=""))))
+    changed = [f"{k} {before.get(k, defaults[k])!r} -> {now[k]!r}" for k in DATA_FIELDS
+               if before.get(k, defaults[k]) != now[k]]
+    if changed:
+        raise ValueError(f"{work}: made with other settings ({'; '.join(changed)}); its "
+                         "houses and episodes would be reused: use another folder or "
+                         "delete this one")
+
+
 def random_file(work: Path, cfg: CellConfig) -> Path:
     """Where the cell's random row is written."""
     return Path(work) / "results" / f"{cfg.random_agent}-s{cfg.seed}.json"
@@ -230,6 +261,7 @@ def run_cell(cfg: CellConfig, progress: bool = True, random_only: bool = False) 
 
     work = Path(cfg.work)
     work.mkdir(parents=True, exist_ok=True)
+    check_same_data(cfg, work)
     (work / "cell.json").write_text(json.dumps(asdict(cfg), indent=1))
     times: dict[str, float] = {}
     t0 = time.perf_counter()
