@@ -127,7 +127,7 @@ pub enum Furnishing {
     #[default]
     Standard,
     /// The recipe, then extra pieces of the room's kinds of furniture against the walls and in
-    /// the middle until the floor 0.2 m clear of any piece is down to 45 % of the room, every
+    /// the middle until the floor 0.2 m clear of any piece is down to 42 % of the room, every
     /// doorway still reachable.
     Dense,
 }
