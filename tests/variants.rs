@@ -595,4 +595,31 @@ fn the_cli_defines_bakes_and_reports_variants() {
         "{err}"
     );
     assert_eq!(err.trim().lines().count(), 1, "{err}");
+    // A variant that changes nothing is refused before anything is written, from a spec
+    // file (the library's line) and from flags (with the flags that would change something).
+    std::fs::write(&spec, "[open]\nopen_doors = true\n[same]\n").unwrap();
+    let out = minos()
+        .args(["variants", "--data"])
+        .arg(&data)
+        .arg("--spec")
+        .arg(&spec)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert_eq!(err.trim(), "error: variant same: no change given", "{err}");
+    assert!(!data.join("variants/open.toml").exists());
+    let out = minos()
+        .args(["variants", "--name", "same", "--data"])
+        .arg(&data)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        err.starts_with("error: variant same: no change given (use --remove, ")
+            && err.trim().lines().count() == 1,
+        "{err}"
+    );
+    assert!(!data.join("variants/same.toml").exists());
 }

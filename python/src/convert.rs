@@ -169,6 +169,14 @@ fn kind(e: &(dyn std::error::Error + 'static)) -> Option<Kind> {
         )
         .then_some(Kind::BadInput);
     }
+    if let Some(e) = e.downcast_ref::<minos::pipeline::variants::VariantsError>() {
+        use minos::pipeline::variants::VariantsError;
+        return matches!(
+            e,
+            VariantsError::NoChange { .. } | VariantsError::Spec { .. }
+        )
+        .then_some(Kind::BadInput);
+    }
     let bad_input = e.is::<minos::invalid::Invalid>()
         || e.is::<minos::split::ExprError>()
         || e.is::<minos::scene::formats::LoadError>()

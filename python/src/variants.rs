@@ -4,7 +4,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use minos::lock::LockMode;
-use minos::pipeline::variants::{define_variants, read_spec_file, VariantsJob};
+use minos::pipeline::variants::{define_variants, read_spec_file, VariantsError, VariantsJob};
 use minos::scene::variants::{KeepOnly, Retexture, TextureSet, VariantSpec};
 use minos::store::DataDir;
 
@@ -43,7 +43,9 @@ pub fn variants<'py>(
     progress: Option<Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let texture_set: TextureSet = term("texture_set", texture_set)?;
-    let variants = match (spec.filter(|s| !s.is_none()), name) {
+    let spec = spec.filter(|s| !s.is_none());
+    let from_kwargs = spec.is_none();
+    let variants = match (spec, name) {
         (Some(file), None) => read_spec_file(&path_of(file)?)
             .map_err(|e| py_err(anyhow::Error::new(e).context("spec")))?,
         (None, Some(name)) => {
@@ -56,12 +58,6 @@ pub fn variants<'py>(
                 doors: Default::default(),
                 retexture: retexture_seed.map(|seed| Retexture { seed, texture_set }),
             };
-            if rules == VariantSpec::default() {
-                return Err(bad_input(format!(
-                    "variant {name}: no change given (pass remove=, keep_only=, empty=True, \
-                     hide=, open_doors=True or retexture_seed=)"
-                )));
-            }
             vec![(name, rules)]
         }
         _ => return Err(bad_input("give exactly one of spec=FILE and name=NAME")),
@@ -76,7 +72,13 @@ pub fn variants<'py>(
     let bar = PyProgress::new(progress, 0);
     let report = py
         .detach(|| define_variants(&job, mode, &bar))
-        .map_err(typed_err)?;
+        .map_err(|e| match e {
+            VariantsError::NoChange { .. } if from_kwargs => bad_input(format!(
+                "{e} (pass remove=, keep_only=, empty=True, hide=, open_doors=True or \
+                 retexture_seed=)"
+            )),
+            e => typed_err(e),
+        })?;
     let out = PyDict::new(py);
     let by_name = PyDict::new(py);
     for v in &report.variants {

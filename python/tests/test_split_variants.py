@@ -123,8 +123,13 @@ def test_variants_are_defined_as_the_cli_defines_them(world, tmp_path, minos_bin
 def test_bad_variants_raise_before_writing(world, tmp_path):
     data = copy_data(world, tmp_path)
     defined = sorted((data / "variants").glob("*")) if (data / "variants").exists() else []
-    with pytest.raises(minos.MinosError, match="no change given"):
+    with pytest.raises(minos.BadInputError,
+                       match=r"^variant same: no change given \(pass remove=, "):
         minos.variants(data, name="same")
+    same = tmp_path / "same.toml"
+    same.write_text("[open]\nopen_doors = true\n[same]\n")
+    with pytest.raises(minos.BadInputError, match="^variant same: no change given$"):
+        minos.variants(data, spec=same)
     with pytest.raises(minos.MinosError, match="exactly one of spec=FILE and name=NAME"):
         minos.variants(data)
     with pytest.raises(minos.BadInputError, match="^variant both: "):

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::{bail, Context as _};
-use minos::pipeline::variants::{define_variants, read_spec_file, VariantsJob};
+use minos::pipeline::variants::{define_variants, read_spec_file, VariantsError, VariantsJob};
 use minos::scene::variants::{KeepOnly, Retexture, TextureSet, VariantSpec};
 use minos::store::DataDir;
 
@@ -72,8 +72,8 @@ pub struct Args {
 }
 
 /// The variant the flags describe (its name and rules are checked by the driver).
-fn from_flags(args: &Args, name: &str) -> anyhow::Result<VariantSpec> {
-    let spec = VariantSpec {
+fn from_flags(args: &Args) -> VariantSpec {
+    VariantSpec {
         remove: args.remove.clone(),
         keep_only: KeepOnly::from_names(args.keep_only.clone()),
         empty: args.empty,
@@ -84,18 +84,14 @@ fn from_flags(args: &Args, name: &str) -> anyhow::Result<VariantSpec> {
             seed,
             texture_set: args.texture_set,
         }),
-    };
-    if spec == VariantSpec::default() {
-        bail!("variant {name}: no change given (use --remove, --keep-only, --empty, --hide, --open-doors or --retexture-seed)");
     }
-    Ok(spec)
 }
 
 /// Flags → the variants to define: read from `--spec FILE`, or one built from the flags.
 pub fn config(args: &Args) -> anyhow::Result<Vec<(String, VariantSpec)>> {
     Ok(match (&args.spec, &args.name) {
         (Some(path), _) => read_spec_file(path).context("--spec")?,
-        (None, Some(name)) => vec![(name.clone(), from_flags(args, name)?)],
+        (None, Some(name)) => vec![(name.clone(), from_flags(args))],
         (None, None) => bail!("give --spec FILE or --name NAME with changes (see --help)"),
     })
 }
@@ -119,7 +115,12 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     };
     let report = {
         let bar = ctx.progress(0, "variants");
-        define_variants(&job, ctx.lock_mode, &bar)?
+        define_variants(&job, ctx.lock_mode, &bar).map_err(|e| match e {
+            VariantsError::NoChange { .. } if args.spec.is_none() => anyhow::anyhow!(
+                "{e} (use --remove, --keep-only, --empty, --hide, --open-doors or --retexture-seed)"
+            ),
+            e => e.into(),
+        })?
     };
     if let Some(stats) = &report.stats {
         for (id, e) in &stats.left_out {

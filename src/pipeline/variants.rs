@@ -182,6 +182,13 @@ pub enum VariantsError {
         #[source]
         source: Invalid,
     },
+    /// A variant changes nothing (every field at its default): it would be a copy of its
+    /// scenes under another name.
+    #[error("variant {name}: no change given")]
+    NoChange {
+        /// The variant.
+        name: String,
+    },
     /// The DATA folder has no readable manifest.
     #[error("nothing ingested")]
     NoManifest(#[source] StoreError),
@@ -233,6 +240,9 @@ pub fn define_variants(
                 name: name.clone(),
                 source,
             })?;
+        if *spec == VariantSpec::default() {
+            return Err(VariantsError::NoChange { name: name.clone() });
+        }
     }
     let data = &job.data;
     let ids = data.ingested_ids().map_err(VariantsError::NoManifest)?;
