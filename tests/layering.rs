@@ -605,3 +605,65 @@ fn the_front_door_check_sees_what_it_forbids() {
         vec!["store", "pipeline", "split"]
     );
 }
+
+/// The error types of the `Result`s in `code` whose error is a bare `String` (the last
+/// top-level argument of `Result<…>`, generics nested inside it skipped).
+fn string_errors(code: &str) -> usize {
+    let mut found = 0;
+    let mut rest = code;
+    while let Some(at) = rest.find("Result<") {
+        let args = &rest[at + "Result<".len()..];
+        let (mut depth, mut last_comma, mut end) = (0usize, None, None);
+        for (i, c) in args.char_indices() {
+            match c {
+                '<' | '(' | '[' => depth += 1,
+                ')' | ']' => depth = depth.saturating_sub(1),
+                '>' if depth == 0 => {
+                    end = Some(i);
+                    break;
+                }
+                '>' => depth -= 1,
+                ',' if depth == 0 => last_comma = Some(i),
+                _ => {}
+            }
+        }
+        if let (Some(comma), Some(end)) = (last_comma, end) {
+            if args[comma + 1..end].trim() == "String" {
+                found += 1;
+            }
+        }
+        rest = args;
+    }
+    found
+}
+
+/// Library errors are typed (`thiserror` enums with their causes as sources): no library
+/// code returns `Result<_, String>`, which would lose the cause and force callers to match
+/// on text. Unit tests and the front doors (`anyhow` at the edge) are not checked.
+#[test]
+fn library_errors_are_typed_not_strings() {
+    assert_eq!(string_errors("fn f() -> Result<u32, String> {}"), 1);
+    assert_eq!(
+        string_errors("fn f() -> Result<BTreeMap<String, String>, E> {}"),
+        0
+    );
+    assert_eq!(
+        string_errors("fn f(x: Result<&Vec<(u8, String)>, String>) -> Result<(), Error>"),
+        1
+    );
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut files = Vec::new();
+    rust_files(&root.join("src"), &mut files);
+    let front: BTreeSet<PathBuf> = front_door_files(root).into_iter().collect();
+    let offenders: Vec<String> = files
+        .iter()
+        .filter(|f| !front.contains(*f))
+        .filter(|f| string_errors(&non_test_code(f)) > 0)
+        .map(|f| f.strip_prefix(root).unwrap_or(f).display().to_string())
+        .collect();
+    assert!(files.len() > 100, "library files found: {}", files.len());
+    assert!(
+        offenders.is_empty(),
+        "library code returning Result<_, String>: {offenders:?}"
+    );
+}

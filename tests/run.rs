@@ -12,7 +12,7 @@ use common::{baked_houses, every_task_episodes};
 use minos::episode::{Episode, Task};
 use minos::generate::GenerateConfig;
 use minos::io::tables::ImageEncoding;
-use minos::pipeline::rollout::{run, AgentKind, RunConfig};
+use minos::pipeline::rollout::{run, AgentKind, EpisodeError, EpisodeFailure, RunConfig};
 use minos::progress::NoProgress;
 use minos::render::RendererChoice;
 use minos::run::agents::Decision;
@@ -399,10 +399,12 @@ fn an_external_process_drives_the_agent_over_json_lines() {
     )
     .unwrap();
     assert_eq!(bad.failures.len(), 2);
+    let failure = &bad.failures[0].1;
+    assert!(failure.to_string().contains("not JSON"), "{failure}");
+    // The cause is kept typed: the agent's own error, not a flattened line.
     assert!(
-        bad.failures[0].1.contains("not JSON"),
-        "{}",
-        bad.failures[0].1
+        matches!(failure, EpisodeFailure::Run(e) if matches!(**e, EpisodeError::Agent(_))),
+        "{failure:?}"
     );
 }
 

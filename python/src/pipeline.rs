@@ -535,7 +535,12 @@ pub fn run<'py>(
     d.set_item("resumed", report.resumed)?;
     d.set_item("steps", steps)?;
     d.set_item("seconds", seconds)?;
-    d.set_item("failures", report.failures.clone())?;
+    let failures: Vec<(&str, String)> = report
+        .failures
+        .iter()
+        .map(|(id, e)| (id.as_str(), e.to_string()))
+        .collect();
+    d.set_item("failures", failures)?;
     d.set_item("recorded", report.recorded)?;
     let groups = serde_json::to_value(&report.groups).map_err(msg_err)?;
     d.set_item("groups", to_py(py, &groups)?)?;

@@ -24,7 +24,9 @@ use crate::invalid::Invalid;
 use crate::io::tables::ImageEncoding;
 use crate::lock::LockMode;
 use crate::pipeline::episodes::sample_scenes;
-use crate::pipeline::rollout::{run_live, AgentKind, EpisodeSource, Provenance, RunConfig};
+use crate::pipeline::rollout::{
+    run_live, AgentKind, EpisodeFailure, EpisodeSource, Provenance, RunConfig,
+};
 use crate::progress::NoProgress;
 use crate::render::RendererChoice;
 use crate::run::agents::{Agent, AgentError, Decision, STOP};
@@ -319,14 +321,25 @@ pub fn episode_intro(
     Ok((intro, map))
 }
 
+/// A camera's image could not be encoded for the page.
+#[derive(Debug, thiserror::Error)]
+#[error("camera {camera}")]
+pub struct CameraMessageError {
+    /// The camera.
+    pub camera: String,
+    /// Why.
+    #[source]
+    pub source: image::ImageError,
+}
+
 /// The camera messages of `obs` (taken on `sim`) for the cameras in the bit mask `views`,
-/// compressed as `format` says for each camera's modality; the error names the camera.
+/// compressed as `format` says for each camera's modality.
 pub fn camera_messages(
     obs: &Observation,
     sim: &Simulator,
     views: u32,
     format: FrameFormat,
-) -> Result<Vec<Vec<u8>>, String> {
+) -> Result<Vec<Vec<u8>>, CameraMessageError> {
     let cameras = &sim.sensor_suite().cameras;
     let mut out = Vec::new();
     for (i, ((_, image), cam)) in obs.images.iter().zip(cameras).enumerate() {
@@ -338,7 +351,10 @@ pub fn camera_messages(
         };
         let [w, h] = cam.resolution;
         let msg = frames::camera_message(format.for_modality(cam.modality), i as u8, w, h, &rgb)
-            .map_err(|e| format!("camera {}: {e}", cam.name))?;
+            .map_err(|source| CameraMessageError {
+                camera: cam.name.clone(),
+                source,
+            })?;
         out.push(msg);
     }
     Ok(out)
@@ -420,7 +436,7 @@ impl Agent for HumanAgent {
         let messages =
             camera_messages(obs, sim, views, self.frames).map_err(|e| AgentError::External {
                 command: "human".into(),
-                message: e,
+                message: format!("{e}: {}", e.source),
             })?;
         for msg in messages {
             if !self.link.send(Update::Binary(msg)) {
@@ -578,7 +594,7 @@ impl EpisodeSource for Source {
         }
     }
 
-    fn finished(&mut self, episode: &Episode, outcome: Result<&EpisodeMetrics, String>) {
+    fn finished(&mut self, episode: &Episode, outcome: Result<&EpisodeMetrics, &EpisodeFailure>) {
         let msg = match outcome {
             Ok(m) => {
                 self.played += 1;
@@ -608,7 +624,7 @@ impl EpisodeSource for Source {
                 if let Some(seat) = &self.seat {
                     seat.campaign.release(&seat.participant);
                 }
-                json!({"type": "error", "episode_id": episode.episode_id, "message": problem, "fatal": false})
+                json!({"type": "error", "episode_id": episode.episode_id, "message": problem.to_string(), "fatal": false})
             }
         };
         self.link.text(msg);

@@ -17,11 +17,14 @@
 
 use std::collections::BTreeSet;
 use std::path::Path;
+use std::sync::Arc;
 
 use super::episode::run_episode;
 use super::parts::{part, read_done};
 use super::scene::{self, SceneRun};
-use super::{finish, io_error, preflight, Failed, RolloutError, RunConfig, RunReport};
+use super::{
+    finish, io_error, preflight, EpisodeFailure, Failed, RolloutError, RunConfig, RunReport,
+};
 use crate::atomic::sweep_stale;
 use crate::episode::format::{read_episodes, write_episodes};
 use crate::episode::Episode;
@@ -44,7 +47,7 @@ pub trait EpisodeSource {
     /// An episode ended: its metrics once its part files are complete (the run's outputs
     /// will include it, even if the process dies now: see [`finish_live`]), or why it did not
     /// finish (its scene cannot run, it was played already, the agent gave up).
-    fn finished(&mut self, episode: &Episode, outcome: Result<&EpisodeMetrics, String>);
+    fn finished(&mut self, episode: &Episode, outcome: Result<&EpisodeMetrics, &EpisodeFailure>);
 }
 
 /// Plays the episodes `source` hands out with `agent` into `cfg.out` (holding its writer
@@ -82,14 +85,14 @@ pub fn run_live(
     let mut pending = source.next();
     while let Some(first) = pending.take() {
         if let Err(problem) = live.playable(&first) {
-            source.finished(&first, Err(problem.to_string()));
+            source.finished(&first, Err(&problem));
             pending = source.next();
             continue;
         }
         let (sim, assets) = match scene::load(cfg, &first.scene_id) {
             Ok(loaded) => loaded,
             Err(e) => {
-                source.finished(&first, Err(e.to_string()));
+                source.finished(&first, Err(&e.into()));
                 pending = source.next();
                 continue;
             }
@@ -102,13 +105,13 @@ pub fn run_live(
             match live.play(&mut run, &e) {
                 Ok(m) => source.finished(&e, Ok(&m)),
                 Err(Failed::Write(w)) => return Err(RolloutError::Write(w)),
-                Err(Failed::Episode(problem)) => source.finished(&e, Err(problem)),
+                Err(Failed::Episode(problem)) => source.finished(&e, Err(&problem)),
             }
             match source.next() {
                 Some(n) if n.scene_id == e.scene_id => match live.playable(&n) {
                     Ok(()) => ep = Some(n),
                     Err(problem) => {
-                        source.finished(&n, Err(problem.to_string()));
+                        source.finished(&n, Err(&problem));
                         pending = source.next();
                         break;
                     }
@@ -215,7 +218,8 @@ const COMMAND_PART: &str = "command.json";
 /// Keeps `command` in the parts folder `parts` (atomically).
 fn write_command(parts: &Path, command: &[String]) -> Result<(), RolloutError> {
     let path = parts.join(COMMAND_PART);
-    let text = serde_json::to_vec(command).map_err(|e| RolloutError::Write(e.to_string()))?;
+    // A list of strings always serialises.
+    let text = serde_json::to_vec(command).unwrap_or_default();
     crate::atomic::write_bytes_atomic(&path, &text).map_err(io_error(&path))
 }
 
@@ -242,28 +246,18 @@ struct Live<'c> {
     report: RunReport,
 }
 
-/// Why an episode of a live source cannot be played.
-#[derive(Debug, thiserror::Error)]
-enum Unplayable {
-    /// Its id was played already in this run.
-    #[error("episode {0} was played already")]
-    PlayedAlready(String),
-    /// Its scene cannot run.
-    #[error("{0}")]
-    NotReady(RolloutError),
-}
-
 impl Live<'_> {
     /// Whether `ep` can be played: not played yet, its scene ingested and baked for the body.
-    fn playable(&self, ep: &Episode) -> Result<(), Unplayable> {
+    fn playable(&self, ep: &Episode) -> Result<(), EpisodeFailure> {
         if self
             .played
             .iter()
             .any(|(_, e, _)| e.episode_id == ep.episode_id)
         {
-            return Err(Unplayable::PlayedAlready(ep.episode_id.clone()));
+            return Err(EpisodeFailure::PlayedAlready(ep.episode_id.clone()));
         }
-        preflight::check(self.cfg, &[(0, ep.clone())]).map_err(Unplayable::NotReady)
+        preflight::check(self.cfg, &[(0, ep.clone())])
+            .map_err(|e| EpisodeFailure::NotReady(Arc::new(e)))
     }
 
     /// Plays `ep` into its part files: the episode record first, its metrics last.
@@ -273,7 +267,7 @@ impl Live<'_> {
             &part(self.parts, index, EPISODE_PART),
             std::slice::from_ref(ep),
         )
-        .map_err(|e| Failed::Write(e.to_string()))?;
+        .map_err(|e| Failed::Write(EpisodeFailure::Record(Arc::new(e))))?;
         let m = run_episode(run, ep, self.cfg, self.parts, index, false).map_err(Failed::of)?;
         self.played.push((index, ep.clone(), m));
         Ok(m)
@@ -297,7 +291,6 @@ impl Live<'_> {
             &mut self.report,
         )?;
         let played: Vec<Episode> = self.played.iter().map(|(_, e, _)| e.clone()).collect();
-        write_episodes(&self.cfg.out.join(PLAYED), &played)
-            .map_err(|e| RolloutError::Write(e.to_string()))
+        write_episodes(&self.cfg.out.join(PLAYED), &played).map_err(RolloutError::Played)
     }
 }

@@ -11,6 +11,7 @@
 mod agent_kind;
 mod batched;
 mod episode;
+mod failure;
 mod live;
 pub mod manifest;
 mod parts;
@@ -20,6 +21,7 @@ mod scene;
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::Arc;
 
 use rayon::prelude::*;
 
@@ -42,6 +44,7 @@ use crate::store::DataDir;
 use crate::render::RendererChoice;
 pub use agent_kind::{AgentKind, AgentNameError, AGENT_NAMES};
 pub use episode::EpisodeError;
+pub use failure::EpisodeFailure;
 pub use live::{finish_live, run_live, EpisodeSource, PLAYED};
 use parts::part;
 use scene::SceneRun;
@@ -169,8 +172,11 @@ pub enum RolloutError {
     Table(String),
     /// An episode's part file could not be written (the message names it); the run stopped
     /// before merging, so no final table was written.
-    #[error("{0}")]
-    Write(String),
+    #[error(transparent)]
+    Write(EpisodeFailure),
+    /// A live run's file of played episodes could not be written.
+    #[error("the played episodes")]
+    Played(#[source] crate::episode::format::EpisodeFileError),
     /// The joined recording could not be written.
     #[error(transparent)]
     Recording(#[from] RecordingError),
@@ -273,8 +279,8 @@ pub struct RunReport {
     pub groups: BTreeMap<String, Aggregate>,
     /// Episodes kept from an interrupted run.
     pub resumed: usize,
-    /// Episodes that failed, with the reason.
-    pub failures: Vec<(String, String)>,
+    /// Episodes that failed (their ids), with the reason.
+    pub failures: Vec<(String, EpisodeFailure)>,
     /// Episodes in the rerun recording.
     pub recorded: usize,
 }
@@ -298,20 +304,23 @@ type Outcome = (usize, Result<(EpisodeMetrics, bool), Failed>);
 #[derive(Debug, Clone)]
 enum Failed {
     /// The episode's own problem (its scene, its agent): the run goes on without it.
-    Episode(String),
-    /// One of its part files could not be written (the message names it): the output
+    Episode(EpisodeFailure),
+    /// One of its part files could not be written (the error names it): the output
     /// folder's problem, which stops the run before anything is merged.
-    Write(String),
+    Write(EpisodeFailure),
 }
 
 impl Failed {
     fn of(e: episode::EpisodeError) -> Failed {
         use episode::EpisodeError as E;
-        match e {
-            E::Table(_) | E::Part(_) | E::Recording(_) | E::OutOfOrder(_) => {
-                Failed::Write(e.to_string())
-            }
-            E::Agent(_) | E::Step(_) => Failed::Episode(e.to_string()),
+        let write = matches!(
+            e,
+            E::Table(_) | E::Part(_) | E::Recording(_) | E::OutOfOrder(_)
+        );
+        if write {
+            Failed::Write(e.into())
+        } else {
+            Failed::Episode(e.into())
         }
     }
 }
@@ -404,7 +413,7 @@ pub fn run_with(
             }
             None => report
                 .failures
-                .push((ep.episode_id.clone(), "not run".into())),
+                .push((ep.episode_id.clone(), EpisodeFailure::NotRun)),
         }
     }
     finish(cfg, &mine, &parts, &recorded, &mut report)?;
@@ -475,7 +484,8 @@ fn run_scene(
     };
     let mut out: Vec<Outcome> = Vec::new();
     for (i, _) in eps.iter().filter(|(i, _)| done(*i)) {
-        let kept = parts::read_done(parts, *i).map_err(|e| Failed::Episode(e.to_string()));
+        let kept = parts::read_done(parts, *i)
+            .map_err(|e| Failed::Episode(EpisodeFailure::Kept(Arc::new(e))));
         out.push((*i, kept.map(|m| (m, true))));
         progress.advance(1);
     }
@@ -484,9 +494,9 @@ fn run_scene(
         return out;
     }
     let setup = scene::load(cfg, scene_id)
-        .map_err(|e| e.to_string())
+        .map_err(EpisodeFailure::from)
         .and_then(|(sim, assets)| {
-            let agent = scene::make_agent(&cfg.agent, cfg.seed).map_err(|e| e.to_string())?;
+            let agent = scene::make_agent(&cfg.agent, cfg.seed)?;
             Ok((sim, assets, agent))
         });
     match setup {
@@ -595,7 +605,7 @@ impl<'a> Workers<'a> {
             }
             out.push((
                 claimed.0,
-                Err(Failed::Episode("not run: a write failed".into())),
+                Err(Failed::Episode(EpisodeFailure::StoppedByWrite)),
             ));
             self.progress.advance(1);
         }
@@ -686,7 +696,9 @@ fn finish(
     let failures: Vec<FailedEpisode> = report
         .failures
         .iter()
-        .map(|(id, error)| FailedEpisode::new(id, error, by_id.get(id.as_str()).copied()))
+        .map(|(id, error)| {
+            FailedEpisode::new(id, &error.to_string(), by_id.get(id.as_str()).copied())
+        })
         .collect();
     crate::io::tables::write_episode_table(&cfg.out.join("episodes.parquet"), &report.episodes)
         .map_err(RolloutError::Table)?;

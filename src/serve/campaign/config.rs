@@ -202,8 +202,8 @@ impl CampaignSpec {
 mod tests {
     use super::*;
 
-    fn parse(text: &str) -> Result<CampaignSpec, String> {
-        CampaignSpec::parse(text, Path::new("/c/study.toml")).map_err(|e| e.to_string())
+    fn parse(text: &str) -> Result<CampaignSpec, CampaignError> {
+        CampaignSpec::parse(text, Path::new("/c/study.toml"))
     }
 
     #[test]
@@ -260,7 +260,7 @@ mod tests {
                 "max_collisions",
             ),
         ] {
-            let e = parse(text).expect_err(text);
+            let e = parse(text).expect_err(text).to_string();
             assert!(e.starts_with("/c/study.toml: "), "{e}");
             assert!(e.contains(what), "{what}: {e}");
             assert!(!e.contains('\n'), "{e}");
