@@ -18,6 +18,24 @@ pub fn escape_controls(text: &str) -> String {
         .collect()
 }
 
+/// An error and its causes (its `source()` chain) on one line, `: ` between them, skipping
+/// a cause whose text the line already holds (errors that print their cause in their own
+/// message as well as exposing it), with line breaks made spaces: the text of `error: …`
+/// in both front doors, and of an error kept in a report (a run's failed episodes).
+pub fn error_line(e: &(dyn std::error::Error + 'static)) -> String {
+    let mut line = e.to_string();
+    let mut cause = e.source();
+    while let Some(c) = cause {
+        let text = c.to_string();
+        if !line.contains(&text) {
+            line.push_str(": ");
+            line.push_str(&text);
+        }
+        cause = c.source();
+    }
+    line.replace('\n', " ")
+}
+
 /// The message of a panic caught with `catch_unwind` (its `&str` or `String` payload, else
 /// "unknown cause"), escaped like [`escape_controls`].
 pub fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
@@ -63,6 +81,29 @@ pub struct Panicked(pub String);
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[derive(Debug, thiserror::Error)]
+    #[error("reading {0}")]
+    struct Outer(&'static str, #[source] Inner);
+
+    #[derive(Debug, thiserror::Error)]
+    #[error("bad\nvalue")]
+    struct Inner;
+
+    #[derive(Debug, thiserror::Error)]
+    #[error("file.toml: {0}")]
+    struct Says(#[source] Inner);
+
+    #[test]
+    fn an_error_line_holds_each_cause_once() {
+        assert_eq!(
+            error_line(&Outer("file.toml", Inner)),
+            "reading file.toml: bad value"
+        );
+        // A cause the message prints already is not repeated.
+        assert_eq!(error_line(&Says(Inner)), "file.toml: bad value");
+        assert_eq!(error_line(&Inner), "bad value");
+    }
 
     #[test]
     fn control_characters_are_escaped_and_other_text_kept() {

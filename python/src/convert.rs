@@ -22,18 +22,10 @@ use crate::{
     BadInputError, BodyMismatchError, LockedError, MinosError, NotFoundError, NotReadyError,
 };
 
-/// The error and its causes on one line, skipping causes whose text the line already holds:
-/// exactly what `minos` prints after `error: `.
+/// The error and its causes on one line ([`minos::escape::error_line`]): exactly what
+/// `minos` prints after `error: `.
 pub fn one_line(e: &anyhow::Error) -> String {
-    let mut line = e.to_string();
-    for cause in e.chain().skip(1) {
-        let text = cause.to_string();
-        if !line.contains(&text) {
-            line.push_str(": ");
-            line.push_str(&text);
-        }
-    }
-    line.replace('\n', " ")
+    minos::escape::error_line(e.as_ref())
 }
 
 /// An anyhow error as a `MinosError`, or the subclass its kind asks for (see [`kind`]).

@@ -538,7 +538,7 @@ pub fn run<'py>(
     let failures: Vec<(&str, String)> = report
         .failures
         .iter()
-        .map(|(id, e)| (id.as_str(), e.to_string()))
+        .map(|(id, e)| (id.as_str(), minos::escape::error_line(e)))
         .collect();
     d.set_item("failures", failures)?;
     d.set_item("recorded", report.recorded)?;

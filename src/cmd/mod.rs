@@ -184,16 +184,7 @@ fn rebake_hint(b: minos::body::BodyMismatch) -> String {
     format!(" (rebake with {bake}, or pass --allow-body-mismatch)")
 }
 
-/// The error and its causes on one line, skipping causes whose text the line already holds
-/// (library errors embed their cause in their own message).
+/// The error and its causes on one line ([`minos::escape::error_line`]).
 fn one_line(e: &anyhow::Error) -> String {
-    let mut line = e.to_string();
-    for cause in e.chain().skip(1) {
-        let text = cause.to_string();
-        if !line.contains(&text) {
-            line.push_str(": ");
-            line.push_str(&text);
-        }
-    }
-    line.replace('\n', " ")
+    minos::escape::error_line(e.as_ref())
 }

@@ -194,7 +194,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         })?
     };
     for (id, e) in &report.failures {
-        eprintln!("error: episode {id}: {e}");
+        eprintln!("error: episode {id}: {}", minos::escape::error_line(e));
     }
     let steps: u32 = report.episodes.iter().map(|(_, m)| m.steps).sum();
     ctx.say(render_table(&report.groups));

@@ -5,7 +5,7 @@
 
 use std::collections::HashMap;
 use std::fs::File;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use arrow::array::{
@@ -20,9 +20,10 @@ use parquet::file::reader::{FileReader, SerializedFileReader};
 use parquet::file::writer::SerializedFileWriter;
 
 use crate::atomic::temp_path;
+use crate::escape::Panicked;
 pub use crate::io::image_codec::ImageEncoding;
-use crate::io::image_codec::{encode_cell, CellFormat};
-use crate::parquet_io::{self, writer_properties};
+use crate::io::image_codec::{encode_cell, CellFormat, CodecError};
+use crate::parquet_io::{self, writer_properties, ParquetFileError};
 use crate::render::Image;
 use crate::run::agents::Decision;
 use crate::run::step_features::StepFeatures;
@@ -32,8 +33,66 @@ use crate::sim::sensors::CameraSensor;
 /// Observation rows per row group.
 pub const ROW_GROUP: usize = 32;
 
-/// A table failure (the message names the file).
-pub type TableError = String;
+/// A run table that could not be written or read (the message names the file).
+#[derive(Debug, thiserror::Error)]
+pub enum TableError {
+    /// A file of the table failed.
+    #[error("{}: {source}", path.display())]
+    File {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        #[source]
+        source: TableCause,
+    },
+    /// A Parquet file could not be opened, read or written.
+    #[error(transparent)]
+    Parquet(#[from] ParquetFileError),
+}
+
+/// Why a table file failed.
+#[derive(Debug, thiserror::Error)]
+pub enum TableCause {
+    /// File system error.
+    #[error(transparent)]
+    Io(#[from] std::io::Error),
+    /// Arrow error (building, reading or joining batches).
+    #[error(transparent)]
+    Arrow(#[from] arrow::error::ArrowError),
+    /// Parquet error (writing, or copying row groups).
+    #[error(transparent)]
+    Parquet(#[from] parquet::errors::ParquetError),
+    /// The Parquet reader panicked on the file (a corrupt file; the panic was caught).
+    #[error("the Parquet reader failed: {0}")]
+    Reader(#[from] Panicked),
+    /// A camera image could not be encoded into its column.
+    #[error("step {step}: sensor `{sensor}`: {source}")]
+    Encode {
+        /// The step.
+        step: u32,
+        /// The camera.
+        sensor: String,
+        /// Why.
+        #[source]
+        source: CodecError,
+    },
+    /// The file holds something other than the table needs: what.
+    #[error("{0}")]
+    Content(String),
+}
+
+/// `cause` as the error of table file `path`.
+fn file_error(path: &Path, cause: impl Into<TableCause>) -> TableError {
+    TableError::File {
+        path: path.to_path_buf(),
+        source: cause.into(),
+    }
+}
+
+/// What is wrong with the content of table file `path`.
+fn content_error(path: &Path, what: impl ToString) -> TableError {
+    file_error(path, TableCause::Content(what.to_string()))
+}
 
 /// Writer settings for a table: zstd level 1, row groups of at most `ROW_GROUP * 8` rows;
 /// binary (image) columns without dictionary encoding or statistics.
@@ -193,8 +252,8 @@ pub fn write_trajectory(path: &Path, episode: &str, rows: &[StepRow]) -> Result<
                 .collect::<UInt32Array>(),
         ),
     ];
-    let batch = RecordBatch::try_new(trajectory_schema(), columns)
-        .map_err(|e| format!("{}: {e}", path.display()))?;
+    let batch =
+        RecordBatch::try_new(trajectory_schema(), columns).map_err(|e| file_error(path, e))?;
     write_batches(path, trajectory_schema(), std::iter::once(batch))
 }
 
@@ -204,7 +263,12 @@ fn write_batches(
     batches: impl Iterator<Item = RecordBatch>,
 ) -> Result<(), TableError> {
     let props = props(&schema);
-    parquet_io::write_batches(path, schema, props, batches.map(Ok)).map_err(|e| e.to_string())
+    Ok(parquet_io::write_batches(
+        path,
+        schema,
+        props,
+        batches.map(Ok),
+    )?)
 }
 
 /// Schema of the observation table for a sensor suite: each camera's column metadata is its
@@ -266,18 +330,17 @@ impl ObservationWriter {
         cameras: &[CameraSensor],
         encoding: ImageEncoding,
     ) -> Result<Self, TableError> {
-        let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
         if let Some(dir) = path.parent() {
-            std::fs::create_dir_all(dir).map_err(|e| err(&e))?;
+            std::fs::create_dir_all(dir).map_err(|e| file_error(path, e))?;
         }
         let tmp = temp_path(path);
         let schema = observation_schema(cameras, encoding);
         let writer = ArrowWriter::try_new(
-            File::create(&tmp).map_err(|e| err(&e))?,
+            File::create(&tmp).map_err(|e| file_error(path, e))?,
             schema.clone(),
             Some(props(&schema)),
         )
-        .map_err(|e| err(&e))?;
+        .map_err(|e| file_error(path, e))?;
         Ok(ObservationWriter {
             path: path.to_path_buf(),
             tmp,
@@ -304,11 +367,14 @@ impl ObservationWriter {
             .zip(&mut self.pending)
         {
             self.buf.clear();
-            encode_cell(img, format, &mut self.buf).map_err(|e| {
-                format!(
-                    "{}: step {step}: sensor `{}`: {e}",
-                    self.path.display(),
-                    cam.name
+            encode_cell(img, format, &mut self.buf).map_err(|source| {
+                file_error(
+                    &self.path,
+                    TableCause::Encode {
+                        step,
+                        sensor: cam.name.clone(),
+                        source,
+                    },
                 )
             })?;
             b.append_value(&self.buf);
@@ -336,13 +402,11 @@ impl ObservationWriter {
             columns.push(Arc::new(b.finish()));
         }
         let batch = RecordBatch::try_new(self.schema.clone(), columns)
-            .map_err(|e| format!("{}: {e}", self.path.display()))?;
+            .map_err(|e| file_error(&self.path, e))?;
         self.writer
             .write(&batch)
-            .map_err(|e| format!("{}: {e}", self.path.display()))?;
-        self.writer
-            .flush()
-            .map_err(|e| format!("{}: {e}", self.path.display()))?;
+            .map_err(|e| file_error(&self.path, e))?;
+        self.writer.flush().map_err(|e| file_error(&self.path, e))?;
         Ok(())
     }
 
@@ -350,11 +414,8 @@ impl ObservationWriter {
     pub fn finish(mut self) -> Result<(), TableError> {
         self.flush()?;
         let path = self.path.clone();
-        self.writer
-            .close()
-            .map_err(|e| format!("{}: {e}", path.display()))?;
-        crate::atomic::rename_durably(&self.tmp, &path)
-            .map_err(|e| format!("{}: {e}", path.display()))
+        self.writer.close().map_err(|e| file_error(&path, e))?;
+        crate::atomic::rename_durably(&self.tmp, &path).map_err(|e| file_error(&path, e))
     }
 }
 
@@ -382,8 +443,7 @@ pub fn merge(
 fn rebatch(parts: &[std::path::PathBuf], schema: SchemaRef, out: &Path) -> Result<(), TableError> {
     let mut readers = Vec::new();
     for p in parts {
-        let r = parquet_io::read_batches_with(p, |b| Ok(b.with_batch_size(ROW_GROUP)))
-            .map_err(|e| e.to_string())?
+        let r = parquet_io::read_batches_with(p, |b| Ok(b.with_batch_size(ROW_GROUP)))?
             .conform_to(&schema);
         readers.push(r);
     }
@@ -391,13 +451,13 @@ fn rebatch(parts: &[std::path::PathBuf], schema: SchemaRef, out: &Path) -> Resul
     let batches = readers.into_iter().flatten().map_while(|b| match b {
         Ok(b) => Some(b),
         Err(e) => {
-            failure = Some(e.to_string());
+            failure = Some(e);
             None
         }
     });
     let result = write_batches(out, schema, batches);
     match failure {
-        Some(e) => Err(format!("{}: {e}", out.display())),
+        Some(e) => Err(file_error(out, e)),
         None => result,
     }
 }
@@ -418,11 +478,10 @@ fn copy_row_groups(
 
 /// How many row groups the Parquet file `path` has.
 pub fn row_group_count(path: &Path) -> Result<usize, TableError> {
-    let perr = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
-    let f = File::open(path).map_err(|e| perr(&e))?;
+    let f = File::open(path).map_err(|e| file_error(path, e))?;
     let reader = crate::escape::catch_quietly(|| SerializedFileReader::new(f))
-        .map_err(|e| perr(&format!("the Parquet reader failed: {e}")))?
-        .map_err(|e| perr(&e))?;
+        .map_err(|e| file_error(path, e))?
+        .map_err(|e| file_error(path, e))?;
     Ok(reader.metadata().num_row_groups())
 }
 
@@ -435,28 +494,27 @@ pub fn copy_row_groups_from(
     out: &Path,
 ) -> Result<(), TableError> {
     let tmp = temp_path(out);
-    let err = |e: &dyn std::fmt::Display| format!("{}: {e}", out.display());
+    let err = |e: TableCause| file_error(out, e);
     if let Some(dir) = out.parent() {
-        std::fs::create_dir_all(dir).map_err(|e| err(&e))?;
+        std::fs::create_dir_all(dir).map_err(|e| err(e.into()))?;
     }
     let mut props = props(&schema);
     add_encoded_arrow_schema_to_metadata(&schema, &mut props);
     let descr = ArrowSchemaConverter::new()
         .convert(&schema)
-        .map_err(|e| err(&e))?;
-    let file = File::create(&tmp).map_err(|e| err(&e))?;
+        .map_err(|e| err(e.into()))?;
+    let file = File::create(&tmp).map_err(|e| err(e.into()))?;
     let result = (|| {
         let mut w = SerializedFileWriter::new(file, descr.root_schema_ptr(), Arc::new(props))
-            .map_err(|e| err(&e))?;
+            .map_err(|e| err(e.into()))?;
         let mut open: HashMap<&Path, (File, SerializedFileReader<File>)> = HashMap::new();
         for &(p, g) in groups {
-            let perr = |e: &dyn std::fmt::Display| format!("{}: {e}", p.display());
             if !open.contains_key(p) {
-                let f = File::open(p).map_err(|e| perr(&e))?;
-                let copy = f.try_clone().map_err(|e| perr(&e))?;
+                let f = File::open(p).map_err(|e| file_error(p, e))?;
+                let copy = f.try_clone().map_err(|e| file_error(p, e))?;
                 let reader = crate::escape::catch_quietly(|| SerializedFileReader::new(copy))
-                    .map_err(|e| perr(&format!("the Parquet reader failed: {e}")))?
-                    .map_err(|e| perr(&e))?;
+                    .map_err(|e| file_error(p, e))?
+                    .map_err(|e| file_error(p, e))?;
                 if reader
                     .metadata()
                     .file_metadata()
@@ -464,7 +522,7 @@ pub fn copy_row_groups_from(
                     .root_schema()
                     != descr.root_schema()
                 {
-                    return Err(perr(&"schema differs from the table's"));
+                    return Err(content_error(p, "schema differs from the table's"));
                 }
                 open.insert(p, (f, reader));
             }
@@ -473,8 +531,8 @@ pub fn copy_row_groups_from(
             let rg = meta
                 .row_groups()
                 .get(g)
-                .ok_or_else(|| perr(&format!("no row group {g}")))?;
-            let mut group = w.next_row_group().map_err(|e| err(&e))?;
+                .ok_or_else(|| content_error(p, format!("no row group {g}")))?;
+            let mut group = w.next_row_group().map_err(|e| err(e.into()))?;
             for col in rg.columns() {
                 let chunk = ColumnCloseResult {
                     bytes_written: col.compressed_size().max(0) as u64,
@@ -484,12 +542,14 @@ pub fn copy_row_groups_from(
                     column_index: None,
                     offset_index: None,
                 };
-                group.append_column(f, chunk).map_err(|e| perr(&e))?;
+                group
+                    .append_column(f, chunk)
+                    .map_err(|e| file_error(p, e))?;
             }
-            group.close().map_err(|e| err(&e))?;
+            group.close().map_err(|e| err(e.into()))?;
         }
-        w.close().map_err(|e| err(&e))?;
-        crate::atomic::rename_durably(&tmp, out).map_err(|e| err(&e))
+        w.close().map_err(|e| err(e.into()))?;
+        crate::atomic::rename_durably(&tmp, out).map_err(|e| err(e.into()))
     })();
     if result.is_err() {
         let _ = std::fs::remove_file(&tmp);
@@ -501,7 +561,6 @@ pub fn copy_row_groups_from(
 /// `trajectories.parquet`), in file order; a row group holding rows of two episodes is an
 /// error (a run writes every episode's rows into row groups of their own).
 pub fn row_group_episodes(path: &Path) -> Result<Vec<String>, TableError> {
-    let perr = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
     let mut shape = None;
     parquet_io::read_batches_with(path, |b| {
         let column = b
@@ -511,48 +570,50 @@ pub fn row_group_episodes(path: &Path) -> Result<Vec<String>, TableError> {
         let mask = parquet::arrow::ProjectionMask::roots(b.parquet_schema(), [column]);
         shape = Some((b.metadata().num_row_groups(), mask));
         Ok(b.with_row_groups(vec![]))
-    })
-    .map_err(|e| e.to_string())?;
-    let (groups, mask) = shape.ok_or_else(|| perr(&"no row groups"))?;
+    })?;
+    let (groups, mask) = shape.ok_or_else(|| content_error(path, "no row groups"))?;
     let mut ids = Vec::with_capacity(groups);
     for g in 0..groups {
         let batches = parquet_io::read_batches_with(path, |b| {
             Ok(b.with_projection(mask.clone()).with_row_groups(vec![g]))
-        })
-        .map_err(|e| e.to_string())?;
+        })?;
         let mut id: Option<String> = None;
         for batch in batches {
-            let batch = batch.map_err(|e| perr(&e))?;
+            let batch = batch.map_err(|e| file_error(path, e))?;
             let col = batch
                 .column(0)
                 .as_any()
                 .downcast_ref::<StringArray>()
-                .ok_or_else(|| perr(&"episode_id is not a string column"))?;
+                .ok_or_else(|| content_error(path, "episode_id is not a string column"))?;
             for v in col.iter() {
-                let v = v.ok_or_else(|| perr(&format!("row group {g}: episode_id is null")))?;
+                let v = v.ok_or_else(|| {
+                    content_error(path, format!("row group {g}: episode_id is null"))
+                })?;
                 match &id {
                     None => id = Some(v.to_string()),
                     Some(known) if known != v => {
-                        return Err(perr(&format!(
-                            "row group {g} holds rows of episodes `{known}` and `{v}`"
-                        )))
+                        return Err(content_error(
+                            path,
+                            format!("row group {g} holds rows of episodes `{known}` and `{v}`"),
+                        ))
                     }
                     Some(_) => {}
                 }
             }
         }
-        ids.push(id.ok_or_else(|| perr(&format!("row group {g} is empty")))?);
+        ids.push(id.ok_or_else(|| content_error(path, format!("row group {g} is empty")))?);
     }
     Ok(ids)
 }
 
 /// Reads a whole run table into one batch (the small tables: trajectories, episodes).
 pub fn read_table(path: &Path) -> Result<RecordBatch, TableError> {
-    let perr = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
-    let reader = parquet_io::read_batches(path).map_err(|e| e.to_string())?;
+    let reader = parquet_io::read_batches(path)?;
     let schema = arrow::array::RecordBatchReader::schema(&reader);
-    let batches: Vec<RecordBatch> = reader.collect::<Result<_, _>>().map_err(|e| perr(&e))?;
-    arrow::compute::concat_batches(&schema, &batches).map_err(|e| perr(&e))
+    let batches: Vec<RecordBatch> = reader
+        .collect::<Result<_, _>>()
+        .map_err(|e| file_error(path, e))?;
+    arrow::compute::concat_batches(&schema, &batches).map_err(|e| file_error(path, e))
 }
 
 /// Writes a trajectory table from episodes' rows, each piece one episode's rows in step
@@ -642,8 +703,7 @@ pub fn write_episode_table(
         ),
         s(&crate::episode::instruction::instruction),
     ];
-    let batch =
-        RecordBatch::try_new(schema, columns).map_err(|e| format!("{}: {e}", path.display()))?;
+    let batch = RecordBatch::try_new(schema, columns).map_err(|e| file_error(path, e))?;
     write_episode_batch(path, batch)
 }
 
@@ -656,11 +716,11 @@ pub fn write_episode_batch(path: &Path, batch: RecordBatch) -> Result<(), TableE
 /// Reads the decisions of every episode of a trajectory table (`trajectories.parquet` of a
 /// run), in step order: what `--agent replay:FILE` replays.
 pub fn read_replay(path: &Path) -> Result<HashMap<String, Vec<Decision>>, TableError> {
-    let fail = |m: String| format!("{}: {m}", path.display());
-    let reader = parquet_io::read_batches(path).map_err(|e| e.to_string())?;
+    let fail = |m: String| content_error(path, m);
+    let reader = parquet_io::read_batches(path)?;
     let mut rows: HashMap<String, Vec<(u32, Decision)>> = HashMap::new();
     for batch in reader {
-        let batch = batch.map_err(|e| fail(e.to_string()))?;
+        let batch = batch.map_err(|e| file_error(path, e))?;
         let column = |name: &str| {
             batch
                 .column_by_name(name)

@@ -29,7 +29,7 @@ pub enum ReplayError {
         episode_id: String,
     },
     /// A trajectory table could not be read.
-    #[error("{0}")]
+    #[error(transparent)]
     Table(TableError),
     /// The scene could not be set up.
     #[error(transparent)]

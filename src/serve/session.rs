@@ -260,7 +260,7 @@ pub fn run(shared: Arc<Shared>, name: &str, start: Start, link: Arc<Link>, sessi
         Ok(report) => json!({"type": "end", "episodes": report.episodes.len(), "session": name}),
         Err(e) => {
             tracing::error!("session {name}: {e}");
-            json!({"type": "error", "message": e.to_string(), "fatal": true})
+            json!({"type": "error", "message": crate::escape::error_line(&e), "fatal": true})
         }
     };
     link.text(end);
@@ -624,7 +624,7 @@ impl EpisodeSource for Source {
                 if let Some(seat) = &self.seat {
                     seat.campaign.release(&seat.participant);
                 }
-                json!({"type": "error", "episode_id": episode.episode_id, "message": problem.to_string(), "fatal": false})
+                json!({"type": "error", "episode_id": episode.episode_id, "message": crate::escape::error_line(problem), "fatal": false})
             }
         };
         self.link.text(msg);

@@ -15,7 +15,7 @@ use arrow::datatypes::{
 use serde_json::json;
 
 use super::features::{Camera, Feature, FeatureKind, FrameValue, Scalar, VectorValue};
-use super::image_file::ImageFile;
+use super::image_file::{ImageFile, ImageFileError};
 use super::source::StepRow;
 use super::stats::FeatureStats;
 use crate::io::image_codec::CellFormat;
@@ -54,8 +54,26 @@ pub fn data_schema(features: &[Feature], cameras: &[Camera]) -> SchemaRef {
     Arc::new(Schema::new(fields).with_metadata([("huggingface".to_string(), meta)].into()))
 }
 
-/// An image that could not be laid out (the caller names the file and episode).
-pub type FrameError = String;
+/// An episode's frames that could not be laid out as rows (the caller names the file and
+/// episode).
+#[derive(Debug, thiserror::Error)]
+pub enum FrameError {
+    /// Arrow could not build a column or the rows.
+    #[error(transparent)]
+    Arrow(#[from] arrow::error::ArrowError),
+    /// A frame's image could not be encoded into its column.
+    #[error("frame {frame}")]
+    Image {
+        /// The frame.
+        frame: usize,
+        /// Why.
+        #[source]
+        source: ImageFileError,
+    },
+    /// The frames do not fit the dataset's features: how.
+    #[error("{0}")]
+    Mismatch(String),
+}
 
 /// Builds the episode's batch (video features are not columns) and its statistics (one per
 /// feature, in feature order; a video's from the camera's own frames).
@@ -88,12 +106,12 @@ pub fn episode_batch(
                     })
                     .collect();
                 if let Some(r) = rows.iter().find(|r| r.len() != v.len()) {
-                    return Err(format!(
+                    return Err(FrameError::Mismatch(format!(
                         "{}: a frame has {} values, the dataset {}",
                         v.key(),
                         r.len(),
                         v.len()
-                    ));
+                    )));
                 }
                 vector_column(&rows, v.len(), frames)
             }
@@ -111,7 +129,7 @@ pub fn episode_batch(
         columns.push(column);
         stats.push(s);
     }
-    let batch = RecordBatch::try_new(schema.clone(), columns).map_err(|e| e.to_string())?;
+    let batch = RecordBatch::try_new(schema.clone(), columns)?;
     Ok((batch, stats))
 }
 
@@ -186,7 +204,9 @@ fn goal_object_column(
             Some(name) => vocabulary
                 .binary_search(name)
                 .map(|k| k as i64)
-                .map_err(|_| format!("goal_object `{name}` is not in the vocabulary")),
+                .map_err(|_| {
+                    FrameError::Mismatch(format!("goal_object `{name}` is not in the vocabulary"))
+                }),
         })
         .collect::<Result<_, _>>()?;
     let mut channels = [values.iter().map(|v| *v as f64).collect::<Vec<f64>>()];
@@ -215,7 +235,7 @@ fn image_column(
     for (i, frame) in ep.images.iter().enumerate() {
         let img = &frame[camera];
         file.encode(img, format.width, format.height, &mut buf)
-            .map_err(|e| format!("frame {i}: {e}"))?;
+            .map_err(|source| FrameError::Image { frame: i, source })?;
         bytes.append_value(&buf);
         if file.scaled() {
             if let Image::U8 { data, .. } = img {
@@ -331,18 +351,17 @@ fn array_column(
     let (h, w) = (format.height as usize, format.width as usize);
     let n = ep.images.len();
     if values.len() != n * h * w * c {
-        return Err(format!(
+        return Err(FrameError::Mismatch(format!(
             "{} values for {n} frames of {h}×{w}×{c}",
             values.len()
-        ));
+        )));
     }
     let item = |t: DataType| Arc::new(Field::new("item", t, true));
     let nest = |values: ArrayRef, size: usize, count: usize| -> Result<ArrayRef, FrameError> {
         let offsets = OffsetBuffer::new(ScalarBuffer::from(
             (0..=count).map(|i| (i * size) as i32).collect::<Vec<i32>>(),
         ));
-        let list = ListArray::try_new(item(values.data_type().clone()), offsets, values, None)
-            .map_err(|e| e.to_string())?;
+        let list = ListArray::try_new(item(values.data_type().clone()), offsets, values, None)?;
         Ok(Arc::new(list))
     };
     let rows = nest(values, w, n * c * h)?;
@@ -366,8 +385,8 @@ where
     let c = channels.len();
     let mut all: Vec<T::Native> = Vec::new();
     for (i, frame) in ep.images.iter().enumerate() {
-        let data =
-            pixels(&frame[camera]).ok_or_else(|| format!("frame {i}: image type changed"))?;
+        let data = pixels(&frame[camera])
+            .ok_or_else(|| FrameError::Mismatch(format!("frame {i}: image type changed")))?;
         for (k, v) in data.iter().enumerate() {
             channels[k % c].push((*v).into());
         }

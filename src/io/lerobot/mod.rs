@@ -111,6 +111,28 @@ pub enum LerobotError {
         /// How.
         message: String,
     },
+    /// A video feature's file could not be written.
+    #[error("{}{}", path.display(), episode.as_ref().map(|e| format!(": episode `{e}`")).unwrap_or_default())]
+    Video {
+        /// The video file.
+        path: PathBuf,
+        /// The episode being written, when one was.
+        episode: Option<String>,
+        /// Why.
+        #[source]
+        source: Box<video::VideoError>,
+    },
+    /// An episode's frames do not make rows of the dataset's features.
+    #[error("{}: episode `{episode}`", path.display())]
+    Frames {
+        /// The observation table they came from.
+        path: PathBuf,
+        /// The episode.
+        episode: String,
+        /// Why.
+        #[source]
+        source: data::FrameError,
+    },
     /// A sensor that cannot become a LeRobot feature.
     #[error("{}: {source}", path.display())]
     Feature {
@@ -513,10 +535,11 @@ fn write_into(
                 fps: options.fps,
             };
             let (batch, stats) =
-                episode_batch(&features, &cameras, &schema, &frames).map_err(|message| {
-                    LerobotError::Mismatch {
+                episode_batch(&features, &cameras, &schema, &frames).map_err(|source| {
+                    LerobotError::Frames {
                         path: tables.observations.clone(),
-                        message: format!("episode `{}`: {message}", ep.episode_id),
+                        episode: ep.episode_id.clone(),
+                        source,
                     }
                 })?;
             let mut places = Vec::with_capacity(videos.len());
@@ -596,8 +619,11 @@ fn write_into(
     for v in videos {
         if let Some(f) = v.file {
             let path = f.path.clone();
-            f.close()
-                .map_err(|message| LerobotError::Write { path, message })?;
+            f.close().map_err(|source| LerobotError::Video {
+                path,
+                episode: None,
+                source: Box::new(source),
+            })?;
         }
     }
 
@@ -662,8 +688,11 @@ impl VideoStream {
         let limit = video::VIDEO_FILE_MB * 1024 * 1024;
         if let Some(f) = self.file.take_if(|f| f.bytes >= limit) {
             let path = f.path.clone();
-            f.close()
-                .map_err(|message| LerobotError::Write { path, message })?;
+            f.close().map_err(|source| LerobotError::Video {
+                path,
+                episode: None,
+                source: Box::new(source),
+            })?;
         }
         let format = &cameras[self.camera].format;
         let file = match &mut self.file {
@@ -673,7 +702,11 @@ impl VideoStream {
                 self.next = index.next();
                 let path = video_file_path(root, &self.key, index);
                 let f = VideoFile::create(path.clone(), index, format.width, format.height, fps)
-                    .map_err(|message| LerobotError::Write { path, message })?;
+                    .map_err(|source| LerobotError::Video {
+                        path,
+                        episode: None,
+                        source: Box::new(source),
+                    })?;
                 self.file.insert(f)
             }
         };
@@ -692,9 +725,10 @@ impl VideoStream {
                 }
             };
             file.push(rgb, i == 0)
-                .map_err(|message| LerobotError::Write {
+                .map_err(|source| LerobotError::Video {
                     path: file.path.clone(),
-                    message: format!("episode `{episode_id}`: {message}"),
+                    episode: Some(episode_id.to_string()),
+                    source: Box::new(source),
                 })?;
         }
         Ok(VideoPlace {

@@ -50,7 +50,54 @@ pub const PIX_FMT: &str = "yuv420p";
 pub const TICKS_PER_FRAME: u32 = 1000;
 
 /// Why a video could not be written (the caller names the file).
-pub type VideoError = String;
+#[derive(Debug, thiserror::Error)]
+pub enum VideoError {
+    /// File system error.
+    #[error(transparent)]
+    Io(#[from] std::io::Error),
+    /// The H.264 encoder failed (`frame`: at which frame; none when it could not start).
+    #[error("{}H.264 encoder", frame.map(|f| format!("frame {f}: ")).unwrap_or_default())]
+    Encoder {
+        /// The frame being encoded.
+        frame: Option<u64>,
+        /// Why.
+        #[source]
+        source: openh264::Error,
+    },
+    /// The MP4 container could not be written (`frame`: at which frame's sample).
+    #[error("{}MP4 container", frame.map(|f| format!("frame {f}: ")).unwrap_or_default())]
+    Container {
+        /// The frame being written.
+        frame: Option<u64>,
+        /// Why.
+        #[source]
+        source: mp4::Error,
+    },
+    /// A frame whose size is not the video's.
+    #[error("frame {frame}: {bytes} bytes where {width}×{height} RGB has {}", width * height * 3)]
+    FrameSize {
+        /// The frame.
+        frame: u64,
+        /// Its bytes.
+        bytes: usize,
+        /// The video's width.
+        width: usize,
+        /// The video's height.
+        height: usize,
+    },
+    /// The encoder gave no picture for a frame.
+    #[error("frame {0}: the H.264 encoder gave no picture")]
+    NoPicture(u64),
+    /// The encoder's first frame came without the parameter sets the container needs.
+    #[error("the H.264 encoder's first frame has no parameter sets")]
+    NoParameterSets,
+    /// The file was used after it was closed.
+    #[error("the video file is closed")]
+    Closed,
+    /// The file was closed without a frame.
+    #[error("a video file without frames")]
+    NoFrames,
+}
 
 /// Whether a camera of this shape can be a video feature: three 8-bit channels and even
 /// sides (4:2:0 chroma covers 2×2 blocks) within H.264's level 5.2.
@@ -155,11 +202,14 @@ impl VideoFile {
         fps: u32,
     ) -> Result<VideoFile, VideoError> {
         if let Some(dir) = path.parent() {
-            std::fs::create_dir_all(dir).map_err(|e| e.to_string())?;
+            std::fs::create_dir_all(dir)?;
         }
-        let file = File::create(&path).map_err(|e| e.to_string())?;
+        let file = File::create(&path)?;
         let encoder = Encoder::with_api_config(OpenH264API::from_source(), encoder_config())
-            .map_err(|e| format!("H.264 encoder: {e}"))?;
+            .map_err(|source| VideoError::Encoder {
+                frame: None,
+                source,
+            })?;
         Ok(VideoFile {
             index,
             path,
@@ -184,12 +234,12 @@ impl VideoFile {
     pub fn push(&mut self, rgb: &[u8], episode_start: bool) -> Result<(), VideoError> {
         let (w, h) = (self.width as usize, self.height as usize);
         if rgb.len() != w * h * 3 {
-            return Err(format!(
-                "frame {}: {} bytes where {w}×{h} RGB has {}",
-                self.frames,
-                rgb.len(),
-                w * h * 3
-            ));
+            return Err(VideoError::FrameSize {
+                frame: self.frames,
+                bytes: rgb.len(),
+                width: w,
+                height: h,
+            });
         }
         let yuv = YUVBuffer::from_vec(rgb_to_i420(rgb, w, h), w, h);
         if episode_start && self.frames > 0 {
@@ -198,7 +248,10 @@ impl VideoFile {
         let stream = self
             .encoder
             .encode(&yuv)
-            .map_err(|e| format!("frame {}: H.264 encoder: {e}", self.frames))?;
+            .map_err(|source| VideoError::Encoder {
+                frame: Some(self.frames),
+                source,
+            })?;
         let is_sync = stream.frame_type() == FrameType::IDR;
         let (mut sps, mut pps, mut sample) = (None, None, Vec::new());
         for l in 0..stream.num_layers() {
@@ -221,17 +274,14 @@ impl VideoFile {
             }
         }
         if sample.is_empty() {
-            return Err(format!(
-                "frame {}: the H.264 encoder gave no picture",
-                self.frames
-            ));
+            return Err(VideoError::NoPicture(self.frames));
         }
         if self.writer.is_none() {
             let (Some(sps), Some(pps)) = (sps, pps) else {
-                return Err("the H.264 encoder's first frame has no parameter sets".into());
+                return Err(VideoError::NoParameterSets);
             };
             let Some(out) = self.pending.take() else {
-                return Err("the video file is closed".into());
+                return Err(VideoError::Closed);
             };
             let mut writer = Mp4Writer::write_start(
                 out,
@@ -245,7 +295,10 @@ impl VideoFile {
                     timescale: 1000,
                 },
             )
-            .map_err(|e| e.to_string())?;
+            .map_err(|source| VideoError::Container {
+                frame: None,
+                source,
+            })?;
             writer
                 .add_track(&TrackConfig {
                     track_type: TrackType::Video,
@@ -258,11 +311,14 @@ impl VideoFile {
                         pic_param_set: pps,
                     }),
                 })
-                .map_err(|e| e.to_string())?;
+                .map_err(|source| VideoError::Container {
+                    frame: None,
+                    source,
+                })?;
             self.writer = Some(writer);
         }
         let Some(writer) = self.writer.as_mut() else {
-            return Err("the video file is closed".into());
+            return Err(VideoError::Closed);
         };
         self.bytes += sample.len() as u64;
         writer
@@ -276,7 +332,10 @@ impl VideoFile {
                     bytes: sample.into(),
                 },
             )
-            .map_err(|e| format!("frame {}: {e}", self.frames))?;
+            .map_err(|source| VideoError::Container {
+                frame: Some(self.frames),
+                source,
+            })?;
         self.frames += 1;
         Ok(())
     }
@@ -286,10 +345,13 @@ impl VideoFile {
         use std::io::Write;
         match self.writer.take() {
             Some(mut w) => {
-                w.write_end().map_err(|e| e.to_string())?;
-                w.into_writer().flush().map_err(|e| e.to_string())
+                w.write_end().map_err(|source| VideoError::Container {
+                    frame: None,
+                    source,
+                })?;
+                Ok(w.into_writer().flush()?)
             }
-            None => Err("a video file without frames".into()),
+            None => Err(VideoError::NoFrames),
         }
     }
 }

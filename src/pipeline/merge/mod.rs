@@ -27,6 +27,12 @@ pub enum MergeError {
     /// Writing the merged output failed.
     #[error("{0}")]
     Write(String),
+    /// A shard's table could not be read (the message names it).
+    #[error(transparent)]
+    ShardTable(crate::io::tables::TableError),
+    /// A merged table could not be written (the message names it).
+    #[error(transparent)]
+    WriteTable(crate::io::tables::TableError),
     /// Another process writes the output folder.
     #[error("the output folder's lock")]
     Lock(#[from] LockError),

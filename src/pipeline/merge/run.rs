@@ -76,7 +76,7 @@ fn read_shard(dir: &Path) -> Result<(ShardRun, Shard), MergeError> {
     })?;
     let manifest: Value = serde_json::from_slice(&bytes).map_err(|e| shard_error(&path, e))?;
     let shard = recorded_shard(&path, manifest.get("shard").and_then(Value::as_str))?;
-    let episodes = read_table(&dir.join("episodes.parquet")).map_err(MergeError::Shards)?;
+    let episodes = read_table(&dir.join("episodes.parquet")).map_err(MergeError::ShardTable)?;
     let metrics_path = dir.join("metrics.json");
     let metrics: Value = std::fs::read(&metrics_path)
         .map_err(|e| shard_error(&metrics_path, e))
@@ -364,7 +364,7 @@ pub fn merge_runs(
         .collect();
     let merged = arrow::compute::take_record_batch(&joined, &take).map_err(write_error)?;
     let episodes_path = out.join("episodes.parquet");
-    write_episode_batch(&episodes_path, merged.clone()).map_err(MergeError::Write)?;
+    write_episode_batch(&episodes_path, merged.clone()).map_err(MergeError::WriteTable)?;
     progress.advance(1);
 
     // Metrics: aggregates over the merged rows, failures in episode order.
@@ -390,7 +390,7 @@ pub fn merge_runs(
     let mut trajectories = Vec::new();
     for run in &runs {
         let path = run.dir.join("trajectories.parquet");
-        let table = read_table(&path).map_err(MergeError::Shards)?;
+        let table = read_table(&path).map_err(MergeError::ShardTable)?;
         let ranges = episode_ranges(&table, &path)?;
         trajectories.push((path, table, ranges));
     }
@@ -403,7 +403,7 @@ pub fn merge_runs(
         pieces.push(table.slice(start, len));
     }
     write_trajectory_pieces(&out.join("trajectories.parquet"), pieces)
-        .map_err(MergeError::Write)?;
+        .map_err(MergeError::WriteTable)?;
     progress.advance(1);
 
     // Observations: each episode's row groups, copied.
@@ -414,7 +414,7 @@ pub fn merge_runs(
     let mut groups_of: BTreeMap<String, Vec<(usize, usize)>> = BTreeMap::new();
     for (s, path) in obs_paths.iter().enumerate() {
         for (g, id) in row_group_episodes(path)
-            .map_err(MergeError::Shards)?
+            .map_err(MergeError::ShardTable)?
             .into_iter()
             .enumerate()
         {
@@ -431,9 +431,9 @@ pub fn merge_runs(
     let obs_schema =
         crate::parquet_io::read_batches_with(&obs_paths[0], |b| Ok(b.with_row_groups(vec![])))
             .map(|r| arrow::array::RecordBatchReader::schema(&r))
-            .map_err(|e| shard_error(&obs_paths[0], e))?;
+            .map_err(|e| MergeError::ShardTable(e.into()))?;
     copy_row_groups_from(&groups, obs_schema, &out.join("observations.parquet"))
-        .map_err(MergeError::Write)?;
+        .map_err(MergeError::WriteTable)?;
     progress.advance(1);
 
     // The rerun recording: the first episodes of the whole run that finished.

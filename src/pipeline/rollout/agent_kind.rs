@@ -40,12 +40,13 @@ pub enum AgentNameError {
     #[error("unknown agent `{0}` ({AGENT_NAMES})")]
     Unknown(String),
     /// `replay:FILE` whose file cannot be read as a trajectory table.
-    #[error("replay:{}: {reason}", file.display())]
+    #[error("replay:{}", file.display())]
     Replay {
         /// The trajectory file.
         file: PathBuf,
-        /// What went wrong reading it.
-        reason: TableError,
+        /// What went wrong reading it (the message names the file again).
+        #[source]
+        reason: Box<TableError>,
     },
     /// `replay:FILE` whose file has no steps for some episode to run.
     #[error(
@@ -82,7 +83,12 @@ impl AgentKind {
                     let file = PathBuf::from(file);
                     match read_replay(&file) {
                         Ok(m) => AgentKind::Replay(m),
-                        Err(reason) => return Err(AgentNameError::Replay { file, reason }),
+                        Err(reason) => {
+                            return Err(AgentNameError::Replay {
+                                file,
+                                reason: Box::new(reason),
+                            })
+                        }
                     }
                 }
                 (_, Some(cmd)) if !cmd.trim().is_empty() => AgentKind::External(cmd.to_string()),

@@ -29,7 +29,7 @@ pub enum EpisodeError {
     #[error(transparent)]
     Recording(#[from] RecordingError),
     /// A table part could not be written.
-    #[error("{0}")]
+    #[error(transparent)]
     Table(TableError),
     /// The metrics part could not be written.
     #[error(transparent)]

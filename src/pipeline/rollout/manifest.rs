@@ -77,15 +77,15 @@ pub fn first_difference(a: &serde_json::Value, b: &serde_json::Value) -> Option<
 pub fn write(cfg: &RunConfig, mut manifest: serde_json::Value) -> Result<(), RolloutError> {
     manifest["files"] = files_of(&cfg.out)?;
     let path = cfg.out.join("manifest.json");
-    let bytes = serde_json::to_vec_pretty(&manifest)
-        .map_err(|e| RolloutError::Table(format!("{}: {e}", path.display())))?;
+    // A JSON value always serialises.
+    let bytes = serde_json::to_vec_pretty(&manifest).unwrap_or_default();
     write_bytes_atomic(&path, &bytes).map_err(io_error(&path))
 }
 
 /// The checksums of the files of the run folder `out` but `manifest.json` itself (and hidden
 /// ones: `.parts/`, the lock, temporary files), as `manifest.json`'s `files`.
 pub fn files_of(out: &std::path::Path) -> Result<serde_json::Value, RolloutError> {
-    let files = crate::provenance::checksums(out, &["manifest.json"])
-        .map_err(|e| RolloutError::Table(e.to_string()))?;
+    let files =
+        crate::provenance::checksums(out, &["manifest.json"]).map_err(RolloutError::Checksums)?;
     Ok(serde_json::json!(files))
 }

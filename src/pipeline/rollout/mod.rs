@@ -168,12 +168,15 @@ pub enum RolloutError {
         source: std::io::Error,
     },
     /// A merged table could not be written (the message names the file).
-    #[error("{0}")]
-    Table(String),
+    #[error(transparent)]
+    Table(crate::io::tables::TableError),
     /// An episode's part file could not be written (the message names it); the run stopped
     /// before merging, so no final table was written.
     #[error(transparent)]
     Write(EpisodeFailure),
+    /// The checksums of the run folder's files could not be computed.
+    #[error("checksums of the run's files")]
+    Checksums(#[source] crate::provenance::ProvenanceError),
     /// A live run's file of played episodes could not be written.
     #[error("the played episodes")]
     Played(#[source] crate::episode::format::EpisodeFileError),
@@ -368,8 +371,8 @@ pub fn run_with(
     keep_or_clear_parts(cfg, &parts, &record)?;
     std::fs::create_dir_all(&parts).map_err(io_error(&parts))?;
     let record_path = parts.join(UNFINISHED_RECORD);
-    let record_bytes = serde_json::to_vec_pretty(&record)
-        .map_err(|e| RolloutError::Table(format!("{}: {e}", record_path.display())))?;
+    // A JSON value always serialises.
+    let record_bytes = serde_json::to_vec_pretty(&record).unwrap_or_default();
     write_bytes_atomic(&record_path, &record_bytes).map_err(io_error(&record_path))?;
     progress.set_total(mine.len() as u64);
     // The episodes recorded for rerun: the first of the shard, in episode-id order.
@@ -697,7 +700,11 @@ fn finish(
         .failures
         .iter()
         .map(|(id, error)| {
-            FailedEpisode::new(id, &error.to_string(), by_id.get(id.as_str()).copied())
+            FailedEpisode::new(
+                id,
+                &crate::escape::error_line(error),
+                by_id.get(id.as_str()).copied(),
+            )
         })
         .collect();
     crate::io::tables::write_episode_table(&cfg.out.join("episodes.parquet"), &report.episodes)
@@ -783,8 +790,8 @@ pub fn write_metrics(
         "failures": failures,
     });
     let path = out.join("metrics.json");
-    let bytes =
-        serde_json::to_vec_pretty(&metrics).map_err(|e| RolloutError::Table(e.to_string()))?;
+    // A JSON value always serialises.
+    let bytes = serde_json::to_vec_pretty(&metrics).unwrap_or_default();
     write_bytes_atomic(&path, &bytes).map_err(io_error(&path))
 }
 
