@@ -148,12 +148,17 @@ mod tests {
             unknown.contains("`greedy`") && unknown.contains("minos-random"),
             "{unknown}"
         );
-        let missing = AgentKind::from_name("replay:/nonexistent/t.parquet")
-            .unwrap_err()
-            .to_string();
+        let missing = AgentKind::from_name("replay:/nonexistent/t.parquet").unwrap_err();
         assert!(
-            missing.starts_with("replay:/nonexistent/t.parquet: "),
-            "{missing}"
+            matches!(&missing, AgentNameError::Replay { reason, .. }
+                if matches!(**reason, TableError::Parquet(_))),
+            "{missing:?}"
+        );
+        // The line a user reads names the file and why it cannot be read.
+        let line = crate::escape::error_line(&missing);
+        assert!(
+            line.starts_with("replay:/nonexistent/t.parquet: /nonexistent/t.parquet: "),
+            "{line}"
         );
     }
 }
