@@ -34,6 +34,12 @@ RUN_FLAGS=${THROUGHPUT_ONLY:+--throughput-only}
 PYTHON=${PYTHON:-python3}
 mkdir -p "$WORK/json"
 echo "work folder: $WORK; $(nproc) cores; batches of $BATCH views"
+# wgpu loads the Vulkan loader at run time: a GPU machine with the NVIDIA driver but no
+# libvulkan.so.1 (the lent H100 of 2026-11-27) gives "no GPU adapter found" and every GPU row
+# missing. Say so first (the remedy: Debian's or Ubuntu's libvulkan1 and libglvnd0 packages).
+if command -v ldconfig >/dev/null && ! ldconfig -p | grep -q 'libvulkan\.so\.1'; then
+    echo "warning: no libvulkan.so.1 on this machine: wgpu will find no GPU (install libvulkan1 and libglvnd0)" >&2
+fi
 
 for tris in $SCANS; do
     d="$WORK/scan-$tris"
