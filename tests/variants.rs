@@ -568,28 +568,26 @@ fn the_cli_defines_bakes_and_reports_variants() {
         assert!(data.join(format!("nav/{id}@empty.nav")).is_file());
     }
     // Unknown variants and bad spec files give one-line errors naming what is wrong.
-    let out = minos()
+    let err = minos()
         .args(["bake", "--variant", "nope", "--data"])
         .arg(&data)
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success());
+        .failed_stderr();
     assert!(
         err.contains("--variant nope") && err.contains("nope.toml"),
         "{err}"
     );
     assert_eq!(err.trim().lines().count(), 1, "{err}");
-    std::fs::write(&spec, "[bad]\nempty = \"yes\"\n").unwrap();
-    let out = minos()
-        .args(["variants", "--data"])
-        .arg(&data)
-        .arg("--spec")
-        .arg(&spec)
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success());
+    // `minos variants --spec` over a spec file holding `text`, which must fail: its stderr.
+    let refused_spec = |text: &str| {
+        std::fs::write(&spec, text).unwrap();
+        minos()
+            .args(["variants", "--data"])
+            .arg(&data)
+            .arg("--spec")
+            .arg(&spec)
+            .failed_stderr()
+    };
+    let err = refused_spec("[bad]\nempty = \"yes\"\n");
     assert!(
         err.contains("variants.toml") && err.contains("line 2") && err.contains("empty = \"yes\""),
         "{err}"
@@ -597,25 +595,13 @@ fn the_cli_defines_bakes_and_reports_variants() {
     assert_eq!(err.trim().lines().count(), 1, "{err}");
     // A variant that changes nothing is refused before anything is written, from a spec
     // file (the library's line) and from flags (with the flags that would change something).
-    std::fs::write(&spec, "[open]\nopen_doors = true\n[same]\n").unwrap();
-    let out = minos()
-        .args(["variants", "--data"])
-        .arg(&data)
-        .arg("--spec")
-        .arg(&spec)
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success());
+    let err = refused_spec("[open]\nopen_doors = true\n[same]\n");
     assert_eq!(err.trim(), "error: variant same: no change given", "{err}");
     assert!(!data.join("variants/open.toml").exists());
-    let out = minos()
+    let err = minos()
         .args(["variants", "--name", "same", "--data"])
         .arg(&data)
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success());
+        .failed_stderr();
     assert!(
         err.starts_with("error: variant same: no change given (use --remove, ")
             && err.trim().lines().count() == 1,

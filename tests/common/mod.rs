@@ -163,11 +163,13 @@ pub fn minos() -> std::process::Command {
     std::process::Command::new(env!("CARGO_BIN_EXE_minos"))
 }
 
-/// Running a command that must succeed.
+/// Running a command that must succeed (or must fail).
 pub trait RunOk {
     /// Runs the command to completion and returns its output; fails the test with the
     /// command's stderr when it exits unsuccessfully.
     fn ok_output(&mut self) -> std::process::Output;
+    /// Runs the command, asserts that it failed, and returns its stderr.
+    fn failed_stderr(&mut self) -> String;
 }
 
 impl RunOk for std::process::Command {
@@ -179,6 +181,13 @@ impl RunOk for std::process::Command {
             String::from_utf8_lossy(&out.stderr)
         );
         out
+    }
+
+    fn failed_stderr(&mut self) -> String {
+        let out = self.output().expect("the command starts");
+        let err = String::from_utf8_lossy(&out.stderr).into_owned();
+        assert!(!out.status.success(), "succeeded: {err}");
+        err
     }
 }
 
