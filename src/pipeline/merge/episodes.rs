@@ -17,14 +17,15 @@ pub fn merge_episodes(parts: &[PathBuf], out: &Path) -> Result<MergeReport, Merg
     let mut batches: Vec<EpisodeBatch> = Vec::new();
     for part in parts {
         let stats_path = PathBuf::from(format!("{}.stats.json", part.display()));
-        let bytes = std::fs::read(&stats_path).map_err(|e| {
-            MergeError::Shards(format!(
-                "{}: {e} (each episode file needs the statistics `minos episodes` writes beside it)",
-                stats_path.display()
-            ))
+        let bytes = std::fs::read(&stats_path).map_err(|source| MergeError::NoStats {
+            path: stats_path.clone(),
+            source,
         })?;
-        let mut batch: EpisodeBatch = serde_json::from_slice(&bytes)
-            .map_err(|e| MergeError::Shards(format!("{}: {e}", stats_path.display())))?;
+        let mut batch: EpisodeBatch =
+            serde_json::from_slice(&bytes).map_err(|source| MergeError::ShardJson {
+                path: stats_path.clone(),
+                source,
+            })?;
         found.push((
             part.clone(),
             recorded_shard(
@@ -32,7 +33,7 @@ pub fn merge_episodes(parts: &[PathBuf], out: &Path) -> Result<MergeReport, Merg
                 Some(batch.shard.as_str()).filter(|s| !s.is_empty()),
             )?,
         ));
-        batch.episodes = read_episodes(part).map_err(|e| MergeError::Shards(e.to_string()))?;
+        batch.episodes = read_episodes(part).map_err(MergeError::ShardEpisodes)?;
         if batch.episodes.len() != batch.total {
             return Err(MergeError::Shards(format!(
                 "{}: {} episodes, but its statistics count {}",
@@ -71,9 +72,7 @@ pub fn merge_episodes(parts: &[PathBuf], out: &Path) -> Result<MergeReport, Merg
         .episodes
         .sort_by(|a, b| (&a.scene_id, &a.split).cmp(&(&b.scene_id, &b.split)));
     merged.summarise();
-    let stats = merged
-        .write(out)
-        .map_err(|e| MergeError::Write(e.to_string()))?;
+    let stats = merged.write(out).map_err(MergeError::WriteEpisodes)?;
     Ok(MergeReport {
         shards: parts.len(),
         episodes: merged.total,

@@ -21,12 +21,65 @@ use crate::shard::Shard;
 /// Why shards could not be merged (each message names the file and what is wrong).
 #[derive(Debug, thiserror::Error)]
 pub enum MergeError {
-    /// The inputs are not the shards of one job, or one of them is unreadable or incomplete.
+    /// The inputs are not the shards of one job, or one of them is incomplete: what is
+    /// wrong, naming the file.
     #[error("{0}")]
     Shards(String),
-    /// Writing the merged output failed.
-    #[error("{0}")]
-    Write(String),
+    /// A shard's file could not be read.
+    #[error("{}: {source}", path.display())]
+    ShardIo {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        #[source]
+        source: std::io::Error,
+    },
+    /// An episode file's statistics (`<file>.stats.json`) could not be read.
+    #[error(
+        "{}: {source} (each episode file needs the statistics `minos episodes` writes beside it)",
+        path.display()
+    )]
+    NoStats {
+        /// The statistics file.
+        path: PathBuf,
+        /// Why.
+        #[source]
+        source: std::io::Error,
+    },
+    /// A shard's JSON file (manifest, metrics, statistics) is not valid JSON.
+    #[error("{}: {source}", path.display())]
+    ShardJson {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        #[source]
+        source: serde_json::Error,
+    },
+    /// A shard's episode file could not be read (the message names it).
+    #[error(transparent)]
+    ShardEpisodes(crate::episode::format::EpisodeFileError),
+    /// A file or folder of the merged output could not be written.
+    #[error("{}: {source}", path.display())]
+    WriteIo {
+        /// The file or folder.
+        path: PathBuf,
+        /// Why.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The shards' rows could not be joined.
+    #[error("joining the shards' rows: {0}")]
+    Join(#[source] arrow::error::ArrowError),
+    /// The merged run's metrics, checksums or LeRobot copy could not be written (the message
+    /// names the file).
+    #[error(transparent)]
+    WriteRun(Box<crate::pipeline::rollout::RolloutError>),
+    /// The merged recording could not be written.
+    #[error(transparent)]
+    WriteRecording(#[from] crate::io::rrd::RecordingError),
+    /// The merged episode file could not be written.
+    #[error(transparent)]
+    WriteEpisodes(crate::pipeline::episodes::BatchWriteError),
     /// A shard's table could not be read (the message names it).
     #[error(transparent)]
     ShardTable(crate::io::tables::TableError),

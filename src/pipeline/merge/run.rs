@@ -59,12 +59,17 @@ struct ShardRun {
     lerobot_video: bool,
 }
 
-fn shard_error(path: &Path, e: impl std::fmt::Display) -> MergeError {
-    MergeError::Shards(format!("{}: {e}", path.display()))
+/// What is wrong with a shard's file `path`.
+fn shard_error(path: &Path, what: impl std::fmt::Display) -> MergeError {
+    MergeError::Shards(format!("{}: {what}", path.display()))
 }
 
-fn write_error(e: impl std::fmt::Display) -> MergeError {
-    MergeError::Write(e.to_string())
+/// `path` of the merged output could not be written.
+fn write_io(path: &Path) -> impl FnOnce(std::io::Error) -> MergeError + '_ {
+    move |source| MergeError::WriteIo {
+        path: path.to_path_buf(),
+        source,
+    }
 }
 
 /// Reads a shard's manifest, episode table and failures.
@@ -74,13 +79,25 @@ fn read_shard(dir: &Path) -> Result<(ShardRun, Shard), MergeError> {
         manifest: path.clone(),
         source,
     })?;
-    let manifest: Value = serde_json::from_slice(&bytes).map_err(|e| shard_error(&path, e))?;
+    let manifest: Value =
+        serde_json::from_slice(&bytes).map_err(|source| MergeError::ShardJson {
+            path: path.clone(),
+            source,
+        })?;
     let shard = recorded_shard(&path, manifest.get("shard").and_then(Value::as_str))?;
     let episodes = read_table(&dir.join("episodes.parquet")).map_err(MergeError::ShardTable)?;
     let metrics_path = dir.join("metrics.json");
     let metrics: Value = std::fs::read(&metrics_path)
-        .map_err(|e| shard_error(&metrics_path, e))
-        .and_then(|b| serde_json::from_slice(&b).map_err(|e| shard_error(&metrics_path, e)))?;
+        .map_err(|source| MergeError::ShardIo {
+            path: metrics_path.clone(),
+            source,
+        })
+        .and_then(|b| {
+            serde_json::from_slice(&b).map_err(|source| MergeError::ShardJson {
+                path: metrics_path.clone(),
+                source,
+            })
+        })?;
     let failures = metrics
         .get("failures")
         .and_then(Value::as_array)
@@ -287,9 +304,12 @@ pub fn merge_runs(
     };
     check_same_job(&runs)?;
     let out = &opts.out;
-    let out_abs = std::path::absolute(out).map_err(|e| shard_error(out, e))?;
+    let out_abs = std::path::absolute(out).map_err(write_io(out))?;
     for run in &runs {
-        let dir = std::path::absolute(&run.dir).map_err(|e| shard_error(&run.dir, e))?;
+        let dir = std::path::absolute(&run.dir).map_err(|source| MergeError::ShardIo {
+            path: run.dir.clone(),
+            source,
+        })?;
         if out_abs.starts_with(&dir) || dir.starts_with(&out_abs) {
             return Err(shard_error(
                 out,
@@ -325,9 +345,9 @@ pub fn merge_runs(
         _ => {}
     }
     progress.set_total(6);
-    std::fs::create_dir_all(out).map_err(|e| write_error(format!("{}: {e}", out.display())))?;
+    std::fs::create_dir_all(out).map_err(write_io(out))?;
     let _lock = DirLock::acquire(out, "merge", opts.lock)?;
-    sweep_stale(out).map_err(|e| write_error(format!("{}: {e}", out.display())))?;
+    sweep_stale(out).map_err(write_io(out))?;
 
     // Episodes: every shard's rows, in episode-id order.
     let schema = first.episodes.schema();
@@ -357,12 +377,12 @@ pub fn merge_runs(
         })
         .collect();
     let joined =
-        arrow::compute::concat_batches(&schema, all.iter().copied()).map_err(write_error)?;
+        arrow::compute::concat_batches(&schema, all.iter().copied()).map_err(MergeError::Join)?;
     let take: UInt32Array = owner
         .values()
         .map(|&(s, r)| (offsets[s] + r) as u32)
         .collect();
-    let merged = arrow::compute::take_record_batch(&joined, &take).map_err(write_error)?;
+    let merged = arrow::compute::take_record_batch(&joined, &take).map_err(MergeError::Join)?;
     let episodes_path = out.join("episodes.parquet");
     write_episode_batch(&episodes_path, merged.clone()).map_err(MergeError::WriteTable)?;
     progress.advance(1);
@@ -383,7 +403,8 @@ pub fn merge_runs(
     // where they sit among the rows changes no byte).
     let mut all_rows = rows.clone();
     all_rows.extend(failures.iter().map(FailedEpisode::metric_row));
-    write_metrics(out, &aggregate(&all_rows), &metrics, &failures).map_err(write_error)?;
+    write_metrics(out, &aggregate(&all_rows), &metrics, &failures)
+        .map_err(|e| MergeError::WriteRun(Box::new(e)))?;
     progress.advance(1);
 
     // Trajectories: each episode's rows from its shard, re-batched as a run joins its parts.
@@ -467,7 +488,7 @@ pub fn merge_runs(
             })?;
             chosen.push(msgs.as_slice());
         }
-        write_recordings(rerun, chosen).map_err(write_error)?;
+        write_recordings(rerun, chosen)?;
         recorded = wanted.len();
     }
     progress.advance(1);
@@ -513,18 +534,19 @@ pub fn merge_runs(
             .pointer("/body/dt")
             .and_then(Value::as_f64)
             .ok_or_else(|| shard_error(&first.dir.join("manifest.json"), "no body.dt"))?;
-        write_lerobot(out, dt as f32, Some(&manifest), first.lerobot_video).map_err(write_error)?;
+        write_lerobot(out, dt as f32, Some(&manifest), first.lerobot_video)
+            .map_err(|e| MergeError::WriteRun(Box::new(e)))?;
     }
     progress.advance(1);
 
     if lists_files {
-        manifest["files"] =
-            crate::pipeline::rollout::manifest::files_of(out).map_err(write_error)?;
+        manifest["files"] = crate::pipeline::rollout::manifest::files_of(out)
+            .map_err(|e| MergeError::WriteRun(Box::new(e)))?;
     }
     let path = out.join("manifest.json");
-    let bytes = serde_json::to_vec_pretty(&manifest).map_err(write_error)?;
-    write_bytes_atomic(&path, &bytes)
-        .map_err(|e| write_error(format!("{}: {e}", path.display())))?;
+    // A JSON value always serialises.
+    let bytes = serde_json::to_vec_pretty(&manifest).unwrap_or_default();
+    write_bytes_atomic(&path, &bytes).map_err(write_io(&path))?;
     Ok(MergeReport {
         shards: shards.len(),
         episodes: owner.len(),
