@@ -385,6 +385,27 @@ fn demo_leaves_a_manifest_splits_and_statistics() {
         let len = std::fs::metadata(dir.path().join(file)).map_or(0, |m| m.len());
         assert!(len > 0, "{file} missing or empty");
     }
+    // Its episode files carry what `minos episodes` writes beside one: the statistics (the
+    // same count as the file) and the provenance record naming the command that made them.
+    for task in ["pointgoal", "objectgoal", "roomgoal"] {
+        let file = dir.path().join(format!("episodes/{task}.parquet"));
+        let stats: serde_json::Value = serde_json::from_slice(
+            &std::fs::read(format!("{}.stats.json", file.display())).unwrap(),
+        )
+        .unwrap();
+        let count = minos::episode::format::read_episodes(&file).unwrap().len();
+        assert_eq!(
+            stats["total"].as_u64(),
+            Some(count as u64),
+            "{task}: {stats}"
+        );
+        let provenance: serde_json::Value = serde_json::from_slice(
+            &std::fs::read(format!("{}.provenance.json", file.display())).unwrap(),
+        )
+        .unwrap();
+        let command = provenance["command"].to_string();
+        assert!(command.contains("\"demo\""), "{task}: {command}");
+    }
 }
 
 #[test]
@@ -599,6 +620,31 @@ fn bake_nav_query_and_episodes_from_the_command_line() {
         content.to_str().unwrap(),
     ]);
     assert!(said.starts_with("read "), "{said}");
+    // Written out, the imported file carries a provenance record (its source and checksums),
+    // so `minos verify` checks it like a sampled one.
+    let imported = dir.path().join("eps/imported.parquet");
+    ok(&[
+        "episodes",
+        "import",
+        "--from",
+        "habitat",
+        content.to_str().unwrap(),
+        "--out",
+        imported.to_str().unwrap(),
+    ]);
+    let record: serde_json::Value = serde_json::from_slice(
+        &std::fs::read(dir.path().join("eps/imported.parquet.provenance.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(record["imported"]["from"], "habitat", "{record}");
+    assert_eq!(
+        record["imported"]["checksum"]["sha256"],
+        minos::provenance::sha256_file(&content).unwrap().sha256.as_str()
+    );
+    let count = minos::episode::format::read_episodes(&imported).unwrap().len();
+    assert_eq!(record["imported"]["episodes"].as_u64(), Some(count as u64));
+    let verified = ok(&["verify", imported.to_str().unwrap()]);
+    assert!(!verified.contains("missing"), "{verified}");
     // Without --split, every ingested scene is used and the episodes have no split.
     let all = dir.path().join("eps/all.parquet");
     ok(&[

@@ -14,7 +14,7 @@ use minos::generate::{generate, GenerateConfig, OutputFormat};
 use minos::io::tables::ImageEncoding;
 use minos::navmesh::NavParams;
 use minos::pipeline::bake::{bake, BakeConfig};
-use minos::pipeline::episodes::sample_scenes;
+use minos::pipeline::episodes::{run_job, EpisodesJob};
 use minos::pipeline::ingest::{ingest, IngestConfig, Outcome};
 use minos::pipeline::rollout::{run as rollout, AgentKind, Provenance, RerunOutput, RunConfig};
 use minos::pipeline::split::{make_split, Method, SplitJob, SplitReport};
@@ -164,19 +164,24 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
             seed: args.seed,
             ..SampleConfig::default()
         };
+        // As `minos episodes` samples and writes them: statistics and provenance beside.
+        let job = EpisodesJob {
+            data: store.clone(),
+            scenes: scenes.clone(),
+            sample: cfg,
+            body_rule: BodyRule::strict(preset.body()),
+            shard: Shard::ALL,
+            out: episodes_dir.join(format!("{}.parquet", task.name())),
+            habitat_export: None,
+            vln_export: None,
+            scene_names: Default::default(),
+            command: std::env::args().collect(),
+            starts: None,
+        };
         let batch = {
             let bar = ctx.progress(scenes.len() as u64, task.name());
-            sample_scenes(
-                &store,
-                &scenes,
-                &cfg,
-                BodyRule::strict(preset.body()),
-                Shard::ALL,
-                &bar,
-            )
+            run_job(&job, &bar)?.batch
         };
-        let file = episodes_dir.join(format!("{}.parquet", task.name()));
-        write_episodes(&file, &batch.episodes).with_context(|| file.display().to_string())?;
         written.push(format!("{} {}", batch.total, task.name()));
         // The oracle demonstrates the validation episodes (3 per scene and task).
         validation.extend(

@@ -8,15 +8,14 @@ use std::process::ExitCode;
 
 use anyhow::{bail, Context as _};
 use minos::body::{AgentPreset, BodyRule};
-use minos::episode::format::{read_episodes, write_episodes};
 use minos::episode::habitat::SceneIdStyle;
-use minos::episode::import::{import_episodes, ForeignFormat};
+use minos::episode::import::ForeignFormat;
 use minos::episode::sample::{SampleConfig, Select};
 use minos::episode::vln::export::VlnFormat;
 use minos::episode::Task;
 use minos::pipeline::episodes::{
-    default_min_geodesic, default_min_rooms, default_success_radius, expand_categories,
-    parse_room_classes, run_job, select_scenes, EpisodesJob, EpisodesJobError, Stratify,
+    default_min_geodesic, default_min_rooms, default_success_radius, expand_categories, import_job,
+    parse_room_classes, run_job, select_scenes, EpisodesJob, EpisodesJobError, ImportJob, Stratify,
 };
 use minos::shard::ShardSpec;
 use minos::split::Subset;
@@ -360,22 +359,24 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
 }
 
 fn import(a: ImportArgs, ctx: &Context) -> anyhow::Result<ExitCode> {
-    let episodes = import_episodes(a.from, &a.file)?;
-    let scenes: std::collections::BTreeSet<&str> =
-        episodes.iter().map(|e| e.scene_id.as_str()).collect();
+    let report = import_job(&ImportJob {
+        from: a.from,
+        file: a.file.clone(),
+        out: a.out.clone(),
+        command: std::env::args().collect(),
+    })?;
     ctx.say(format!(
         "read {} episodes of {} scenes from {}",
-        episodes.len(),
-        scenes.len(),
+        report.episodes,
+        report.scenes,
         a.file.display()
     ));
-    if let Some(out) = &a.out {
-        write_episodes(out, &episodes)?;
-        let back = read_episodes(out)?;
+    if let Some((out, record)) = &report.written {
         ctx.say(format!(
-            "wrote {} episodes -> {}",
-            back.len(),
-            out.display()
+            "wrote {} episodes -> {} (provenance: {})",
+            report.episodes,
+            out.display(),
+            record.display()
         ));
     }
     Ok(ExitCode::SUCCESS)

@@ -18,7 +18,9 @@ use crate::scene::SceneRef;
 use crate::shard::Shard;
 use crate::store::DataDir;
 
+mod import;
 mod job;
+pub use import::{import_job, ImportJob, ImportJobError, ImportReport};
 pub use job::{
     default_min_geodesic, default_min_rooms, default_success_radius, expand_categories,
     parse_room_classes, run_job, select_scenes, EpisodesJob, EpisodesJobError, EpisodesOutcome,
