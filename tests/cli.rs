@@ -639,9 +639,14 @@ fn bake_nav_query_and_episodes_from_the_command_line() {
     assert_eq!(record["imported"]["from"], "habitat", "{record}");
     assert_eq!(
         record["imported"]["checksum"]["sha256"],
-        minos::provenance::sha256_file(&content).unwrap().sha256.as_str()
+        minos::provenance::sha256_file(&content)
+            .unwrap()
+            .sha256
+            .as_str()
     );
-    let count = minos::episode::format::read_episodes(&imported).unwrap().len();
+    let count = minos::episode::format::read_episodes(&imported)
+        .unwrap()
+        .len();
     assert_eq!(record["imported"]["episodes"].as_u64(), Some(count as u64));
     let verified = ok(&["verify", imported.to_str().unwrap()]);
     assert!(!verified.contains("missing"), "{verified}");

@@ -384,8 +384,12 @@ fn launch(
                 .map_err(|e| ServeError::Campaign(e.to_string()))?;
         }
     }
+    // The sockets of every session (each step's frames and JSON, every key press) go through
+    // these workers while the sessions' own threads render and write: two were enough on two
+    // cores, but 100 sessions on 16 cores send ≈ 4,000 messages a second.
+    let workers = std::thread::available_parallelism().map_or(2, |n| n.get().clamp(2, 8));
     let runtime = tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(2)
+        .worker_threads(workers)
         .thread_name("minos-serve")
         .enable_all()
         .build()
