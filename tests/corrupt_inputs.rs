@@ -102,7 +102,7 @@ fn a_corrupt_compiled_scene_fails_its_bake_only_and_an_old_version_is_reingested
         },
         &NoProgress,
     );
-    let failures: Vec<(&str, &str)> = report.failures().collect();
+    let failures: Vec<(&str, String)> = report.failures().collect();
     assert_eq!(failures.len(), 1, "{failures:?}");
     assert_eq!(failures[0].0, ids[1]);
     assert!(

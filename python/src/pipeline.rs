@@ -7,7 +7,7 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use anyhow::{anyhow, bail, Context as _};
+use anyhow::{anyhow, Context as _};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
@@ -243,12 +243,12 @@ pub fn bake<'py>(
             })
             .map_err(anyhow::Error::msg)??;
             if let Some(e) = report.write_failure() {
-                bail!("{e}");
+                return Err(anyhow::Error::new(e.clone()));
             }
             Ok(report)
         })
         .map_err(py_err)?;
-    let failed: BTreeMap<&str, &str> = report.failures().collect();
+    let failed: BTreeMap<&str, String> = report.failures().collect();
     let baked = report
         .scenes
         .iter()

@@ -105,7 +105,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         bake(&cfg, shard, ctx.lock_mode, &bar)?
     };
     if let Some(e) = report.write_failure() {
-        anyhow::bail!("{e}");
+        return Err(e.clone().into());
     }
     let mut failed = 0;
     for (id, e) in report.failures() {

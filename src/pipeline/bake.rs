@@ -8,6 +8,7 @@
 
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 
 use rayon::prelude::*;
 
@@ -27,7 +28,7 @@ use crate::shard::Shard;
 use crate::store::DataDir;
 
 /// How one scene's bake went.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone)]
 pub enum BakeOutcome {
     /// Baked now: spans, walkable spans, islands.
     Baked {
@@ -41,13 +42,30 @@ pub enum BakeOutcome {
     },
     /// Its grid was up to date.
     UpToDate,
-    /// It failed, with a one-line reason.
-    Failed(String),
-    /// Its grid or a preview could not be written (the reason names the file); the batch
+    /// It failed: why.
+    Failed(BakeFailure),
+    /// Its grid or a preview could not be written (the error names the file); the batch
     /// stops baking further scenes.
-    WriteFailed(String),
+    WriteFailed(BakeFailure),
     /// Not baked because a write failed for another scene first.
     Stopped,
+}
+
+/// Why a scene was not baked. Cheap to clone: the causes are shared.
+#[derive(Debug, Clone, thiserror::Error)]
+pub enum BakeFailure {
+    /// The compiled scene (or its variant) could not be loaded.
+    #[error(transparent)]
+    Scene(Arc<crate::store::StoreError>),
+    /// The grid could not be built.
+    #[error(transparent)]
+    Build(Arc<crate::navmesh::build::BuildError>),
+    /// The grid file could not be written.
+    #[error(transparent)]
+    Grid(Arc<NavFileError>),
+    /// A preview image could not be written (the error names it).
+    #[error(transparent)]
+    Preview(Arc<std::io::Error>),
 }
 
 /// Result of a batch bake: one outcome per scene id, in input order.
@@ -58,11 +76,13 @@ pub struct BakeReport {
 }
 
 impl BakeReport {
-    /// The failures.
-    pub fn failures(&self) -> impl Iterator<Item = (&str, &str)> {
+    /// The failures: each scene's id and why, on one line ([`crate::escape::error_line`]).
+    pub fn failures(&self) -> impl Iterator<Item = (&str, String)> {
         self.scenes.iter().filter_map(|(id, o)| match o {
-            BakeOutcome::Failed(e) | BakeOutcome::WriteFailed(e) => Some((id.as_str(), e.as_str())),
-            BakeOutcome::Stopped => Some((id.as_str(), "not baked: a write failed")),
+            BakeOutcome::Failed(e) | BakeOutcome::WriteFailed(e) => {
+                Some((id.as_str(), crate::escape::error_line(e)))
+            }
+            BakeOutcome::Stopped => Some((id.as_str(), "not baked: a write failed".to_string())),
             _ => None,
         })
     }
@@ -80,9 +100,9 @@ impl BakeReport {
 
     /// The first write failure in input order, naming the file: a problem of the whole batch
     /// (a full disk, a read-only folder), reported as the one error of the command.
-    pub fn write_failure(&self) -> Option<&str> {
+    pub fn write_failure(&self) -> Option<&BakeFailure> {
         self.scenes.iter().find_map(|(_, o)| match o {
-            BakeOutcome::WriteFailed(e) => Some(e.as_str()),
+            BakeOutcome::WriteFailed(e) => Some(e),
             _ => None,
         })
     }
@@ -147,7 +167,7 @@ fn bake_one(cfg: &BakeConfig, id: &SceneRef) -> BakeOutcome {
                 // A bake killed between the grid and its previews left them missing.
                 if cfg.previews && !previews_present(&g, &out) {
                     if let Err(e) = write_previews(&g, &out) {
-                        return BakeOutcome::WriteFailed(e.to_string());
+                        return BakeOutcome::WriteFailed(BakeFailure::Preview(Arc::new(e)));
                     }
                 }
                 return BakeOutcome::UpToDate;
@@ -160,20 +180,22 @@ fn bake_one(cfg: &BakeConfig, id: &SceneRef) -> BakeOutcome {
         .filter(|b| *b != cfg.params.body);
     let (scene, _) = match cfg.data.load_scene(id) {
         Ok(s) => s,
-        Err(e) => return BakeOutcome::Failed(e.to_string()),
+        Err(e) => return BakeOutcome::Failed(BakeFailure::Scene(Arc::new(e))),
     };
     let grid = match build(&scene, &cfg.params) {
         Ok(g) => g,
-        Err(e) => return BakeOutcome::Failed(e.to_string()),
+        Err(e) => return BakeOutcome::Failed(BakeFailure::Build(Arc::new(e))),
     };
     match write_nav(&out, &grid) {
         Ok(()) => {}
-        Err(e @ NavFileError::Io { .. }) => return BakeOutcome::WriteFailed(e.to_string()),
-        Err(e) => return BakeOutcome::Failed(e.to_string()),
+        Err(e @ NavFileError::Io { .. }) => {
+            return BakeOutcome::WriteFailed(BakeFailure::Grid(Arc::new(e)))
+        }
+        Err(e) => return BakeOutcome::Failed(BakeFailure::Grid(Arc::new(e))),
     }
     if cfg.previews {
         if let Err(e) = write_previews(&grid, &out) {
-            return BakeOutcome::WriteFailed(e.to_string());
+            return BakeOutcome::WriteFailed(BakeFailure::Preview(Arc::new(e)));
         }
     }
     BakeOutcome::Baked {

@@ -393,7 +393,7 @@ fn run_replay(app: &App, demo: &Demo, index: usize, tx: &tokio::sync::mpsc::Send
     let decisions = match recorded_decisions(&dir, &episode.episode_id) {
         Ok(d) => d,
         Err(e) => {
-            text(json!({"type": "error", "message": e.to_string()}));
+            text(json!({"type": "error", "message": crate::escape::error_line(&e)}));
             return;
         }
     };
@@ -462,7 +462,7 @@ fn run_replay(app: &App, demo: &Demo, index: usize, tx: &tokio::sync::mpsc::Send
             }));
         }
         Err(e) => {
-            text(json!({"type": "error", "message": e.to_string()}));
+            text(json!({"type": "error", "message": crate::escape::error_line(&e)}));
         }
     }
 }
