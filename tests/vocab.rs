@@ -23,6 +23,7 @@ use minos::render::RendererChoice;
 use minos::run::metrics::Reward;
 use minos::scene::variants::TextureSet;
 use minos::serve::frames::LosslessFormat;
+use minos::sim::SuiteName;
 use minos::split::Subset;
 use minos::vocab::Vocabulary;
 
@@ -88,6 +89,7 @@ fn every_vocabulary_parses_its_names_and_refuses_others_with_the_list() {
     assert_eq!(check::<ExportFormat>(), ["obj", "glb"]);
     assert_eq!(check::<BenchKind>(), ["bake", "episodes", "render", "run"]);
     assert_eq!(check::<ForeignFormat>(), ["habitat", "minos-csv"]);
+    assert_eq!(check::<SuiteName>(), ["minos", "minos-paper", "all"]);
     assert_eq!(check::<LosslessFormat>(), ["png", "webp"]);
     assert_eq!(check::<TextureSet>(), ["train", "val", "test"]);
     assert_eq!(check::<DatasetLayout>(), ["lerobot"]);

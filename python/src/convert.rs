@@ -9,7 +9,6 @@ use std::sync::{Mutex, PoisonError};
 use glam::Vec3;
 use numpy::PyReadonlyArray1;
 use pyo3::prelude::*;
-use pyo3::types::PyString;
 
 use minos::body::AgentPreset;
 use minos::progress::Progress;
@@ -228,15 +227,7 @@ pub fn sensor_suite(
     let Some(obj) = sensors.filter(|o| !o.is_none()) else {
         return Ok(SensorSuite::for_preset(preset, size));
     };
-    if let Ok(s) = obj.cast::<PyString>() {
-        match s.to_str()? {
-            "minos" => return Ok(SensorSuite::minos(size)),
-            "minos-paper" => return Ok(SensorSuite::minos_paper(size)),
-            "all" => return Ok(SensorSuite::all(size)),
-            _ => {}
-        }
-    }
-    SensorSuite::read(&path_of(obj)?).map_err(typed_err)
+    SensorSuite::from_spec(&path_of(obj)?, size).map_err(typed_err)
 }
 
 /// A shard `i/n` or `auto` (from the scheduler's environment), as `--shard`.

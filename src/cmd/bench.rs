@@ -54,7 +54,7 @@ pub struct Args {
     /// Renderer of `render` and `run`.
     #[arg(long, value_parser = vocab::<RendererChoice>(), default_value = "cpu")]
     renderer: RendererChoice,
-    /// Sensor file (TOML or JSON); default: RGB, depth and semantic cameras at --size (grey,
+    /// Sensor file (TOML or JSON) or suite (minos, minos-paper, all); default: RGB, depth and semantic cameras at --size (grey,
     /// depth and semantic at 90° for --preset minos-paper).
     #[arg(long)]
     sensors: Option<PathBuf>,
@@ -96,7 +96,7 @@ pub fn config(args: &Args) -> anyhow::Result<BenchConfig> {
         scene: args.scene.clone(),
         kind: args.which,
         agent: AgentConfig::preset(args.preset),
-        sensors: sensor_suite(args.sensors.as_deref(), || {
+        sensors: sensor_suite(args.sensors.as_deref(), args.size, || {
             SensorSuite::for_preset(args.preset, args.size)
         })?,
         renderer: args.renderer,

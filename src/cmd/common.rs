@@ -257,13 +257,14 @@ pub fn parse_threads(s: &str) -> Result<usize, String> {
     Ok(n)
 }
 
-/// Reads a sensor file (TOML or JSON), or MINOS's default suite when none is named.
+/// `--sensors NAME|FILE` ([`SensorSuite::from_spec`] at `size`²), or `default` when not given.
 pub fn sensor_suite(
-    file: Option<&Path>,
+    spec: Option<&Path>,
+    size: u32,
     default: impl FnOnce() -> SensorSuite,
 ) -> anyhow::Result<SensorSuite> {
-    match file {
-        Some(p) => Ok(SensorSuite::read(p)?),
+    match spec {
+        Some(p) => Ok(SensorSuite::from_spec(p, size)?),
         None => Ok(default()),
     }
 }

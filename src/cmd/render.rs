@@ -56,7 +56,7 @@ pub struct Args {
     /// Render on a grid baked for another body than --preset's.
     #[arg(long)]
     allow_body_mismatch: bool,
-    /// Sensor file (TOML or JSON); default: every modality at --size.
+    /// Sensor file (TOML or JSON) or suite (minos, minos-paper, all); default: every modality at --size.
     #[arg(long)]
     sensors: Option<PathBuf>,
     /// Image size of the default sensors.
@@ -97,7 +97,9 @@ pub fn config(args: &Args) -> anyhow::Result<RenderJob> {
         tilt: args.tilt,
         renderer: args.renderer,
         sensors: {
-            let suite = sensor_suite(args.sensors.as_deref(), || SensorSuite::all(args.size))?;
+            let suite = sensor_suite(args.sensors.as_deref(), args.size, || {
+                SensorSuite::all(args.size)
+            })?;
             if suite.cameras.is_empty() {
                 anyhow::bail!(
                     "--sensors {}: no cameras, nothing to render",

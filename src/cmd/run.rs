@@ -67,7 +67,7 @@ pub struct Args {
     /// Run on grids baked for another body than --preset's (recorded in manifest.json).
     #[arg(long)]
     allow_body_mismatch: bool,
-    /// Sensor file (TOML/JSON); default: MINOS's RGB, depth, semantic at --size and 4 contacts
+    /// Sensor file (TOML or JSON) or suite (minos, minos-paper, all); default: MINOS's RGB, depth, semantic at --size and 4 contacts
     /// (grey, depth and semantic at 90° for --preset minos-paper).
     #[arg(long)]
     sensors: Option<PathBuf>,
@@ -135,7 +135,7 @@ pub fn config(args: &Args) -> anyhow::Result<(RunConfig, Vec<Episode>)> {
     let data = DataDir::new(&args.data);
     let agent = AgentKind::from_name(&args.agent).context("--agent")?;
     let preset = args.preset;
-    let sensors = sensor_suite(args.sensors.as_deref(), || {
+    let sensors = sensor_suite(args.sensors.as_deref(), args.size, || {
         SensorSuite::for_preset(preset, args.size)
     })?;
     let episodes = on_variant(

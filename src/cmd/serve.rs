@@ -81,7 +81,7 @@ pub struct Args {
     /// Agent preset (body and motion); the grids must be baked for its body.
     #[arg(long, value_parser = vocab::<AgentPreset>(), default_value = "habitat")]
     preset: AgentPreset,
-    /// Sensor file (TOML/JSON); default: MINOS's RGB, depth, semantic at --size (grey,
+    /// Sensor file (TOML or JSON) or suite (minos, minos-paper, all); default: MINOS's RGB, depth, semantic at --size (grey,
     /// depth and semantic at 90° for --preset minos-paper).
     #[arg(long)]
     sensors: Option<PathBuf>,
@@ -197,7 +197,7 @@ pub fn config(args: &Args, env: Option<String>) -> anyhow::Result<(ServeConfig, 
         .as_ref()
         .and_then(|c| c.sensors.clone())
         .or_else(|| args.sensors.clone());
-    let sensors = sensor_suite(sensor_file.as_deref(), || {
+    let sensors = sensor_suite(sensor_file.as_deref(), size, || {
         SensorSuite::for_preset(preset, size)
     })?;
     let out = match &spec {

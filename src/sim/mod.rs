@@ -10,5 +10,5 @@ pub mod sensors;
 pub mod simulator;
 
 pub use agent::{Actions, AgentConfig, AgentState};
-pub use sensors::SensorSuite;
+pub use sensors::{SensorSuite, SuiteName};
 pub use simulator::{GoalSpec, Observation, SceneAssets, Simulator};

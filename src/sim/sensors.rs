@@ -9,6 +9,43 @@ use crate::invalid::Invalid;
 use crate::render::{Frame, RenderScene, Taxonomy};
 use crate::render::{Image, Modality};
 use crate::seed::Rng;
+use crate::vocab::{Term, Vocabulary};
+
+/// The sensor suites minos defines, by name: what `--sensors NAME` and Python's
+/// `sensors="NAME"` take besides a sensor file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SuiteName {
+    /// [`SensorSuite::minos`].
+    Minos,
+    /// [`SensorSuite::minos_paper`].
+    MinosPaper,
+    /// [`SensorSuite::all`].
+    All,
+}
+
+impl Vocabulary for SuiteName {
+    const WHAT: &'static str = "sensor suite";
+    const TERMS: &'static [Term<Self>] = &[
+        Term {
+            value: SuiteName::Minos,
+            name: "minos",
+            aliases: &[],
+            help: "MINOS's RGB, depth and semantic cameras and 4 contact sensors",
+        },
+        Term {
+            value: SuiteName::MinosPaper,
+            name: "minos-paper",
+            aliases: &[],
+            help: "the MINOS paper's grey, depth and semantic cameras at 90° and 4 contacts",
+        },
+        Term {
+            value: SuiteName::All,
+            name: "all",
+            aliases: &[],
+            help: "every image modality",
+        },
+    ];
+}
 
 /// How depth is stored.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -189,6 +226,27 @@ impl SensorSuite {
         s
     }
 
+    /// The suite called `name` at `size`².
+    pub fn named(name: SuiteName, size: u32) -> Self {
+        match name {
+            SuiteName::Minos => Self::minos(size),
+            SuiteName::MinosPaper => Self::minos_paper(size),
+            SuiteName::All => Self::all(size),
+        }
+    }
+
+    /// `spec` as `--sensors` and Python's `sensors=` take it: the name of a suite minos
+    /// defines ([`SuiteName`], at `size`²), else a sensor file to read ([`SensorSuite::read`]).
+    pub fn from_spec(
+        spec: &std::path::Path,
+        size: u32,
+    ) -> Result<Self, crate::invalid::SettingsFileError> {
+        match spec.to_str().map(<SuiteName as Vocabulary>::parse_name) {
+            Some(Ok(name)) => Ok(Self::named(name, size)),
+            _ => Self::read(spec),
+        }
+    }
+
     /// Parses a TOML (or, when it starts with `{`, JSON) sensor file; `source` names it in errors.
     pub fn parse(text: &str, source: &str) -> Result<Self, Invalid> {
         Self::parse_text(text).map_err(Invalid::inside(source))
@@ -362,6 +420,34 @@ fn apply_noise(depth: &mut [f32], noise: DepthNoise, rng: &mut Rng) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_suite_is_named_or_read_from_its_file() {
+        let spec = |s: &str| SensorSuite::from_spec(std::path::Path::new(s), 32);
+        let paper = spec("minos-paper").unwrap();
+        assert_eq!(
+            paper.cameras.len(),
+            SensorSuite::minos_paper(32).cameras.len()
+        );
+        assert!(paper
+            .cameras
+            .iter()
+            .all(|c| c.vfov == 90.0 && c.resolution == [32, 32]));
+        assert!(paper.cameras.iter().any(|c| c.modality == Modality::Gray));
+        assert_eq!(
+            spec("all").unwrap().cameras.len(),
+            SensorSuite::all(32).cameras.len()
+        );
+        assert_eq!(
+            spec("minos").unwrap().cameras.len(),
+            SensorSuite::minos(32).cameras.len()
+        );
+        // Anything else is a sensor file: a missing one is an error naming it.
+        let e = spec("/nonexistent/minos-papr.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("/nonexistent/minos-papr.toml"), "{e}");
+    }
 
     #[test]
     fn a_json_field_name_holding_a_newline_gives_a_one_line_error() {
