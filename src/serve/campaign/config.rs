@@ -52,7 +52,8 @@ pub struct CampaignSpec {
     pub state: PathBuf,
     /// The agent preset (else the command line's).
     pub preset: Option<AgentPreset>,
-    /// A sensor file (else the command line's).
+    /// A sensor suite's name or a sensor file (else the command line's): what `--sensors`
+    /// takes ([`crate::sim::SensorSuite::from_spec`]).
     pub sensors: Option<PathBuf>,
     /// Image size of the default sensors (else the command line's).
     pub size: Option<u32>,
@@ -150,7 +151,17 @@ impl CampaignSpec {
                 .map(rel)
                 .unwrap_or_else(|| dir.join(format!("{stem}.state"))),
             preset,
-            sensors: raw.sensors.as_deref().map(rel),
+            // A suite's name stays a name; a file is beside the campaign file.
+            sensors: raw.sensors.as_deref().map(|s| {
+                let named = s.to_str().is_some_and(|n| {
+                    <crate::sim::SuiteName as crate::vocab::Vocabulary>::parse_name(n).is_ok()
+                });
+                if named {
+                    s.to_path_buf()
+                } else {
+                    rel(s)
+                }
+            }),
             size: raw.size,
             qc: raw.qc,
         })
@@ -232,6 +243,17 @@ mod tests {
         assert!(c.qc.require_success);
         assert_eq!(c.qc.max_path_ratio, Some(3.0));
         assert_eq!(c.qc.max_idle_seconds, Some(30.0));
+        assert_eq!(c.sensors, None);
+        // Sensors: a suite's name as given, a file beside the campaign file.
+        let sensors = |value: &str| {
+            parse(&format!(
+                "episodes = \"e.parquet\"\ndemos_per_episode = 1\nsensors = \"{value}\"\n"
+            ))
+            .expect("valid")
+            .sensors
+        };
+        assert_eq!(sensors("minos-paper"), Some(PathBuf::from("minos-paper")));
+        assert_eq!(sensors("s.toml"), Some(PathBuf::from("/c/s.toml")));
     }
 
     #[test]
