@@ -263,12 +263,7 @@ fn write_batches(
     batches: impl Iterator<Item = RecordBatch>,
 ) -> Result<(), TableError> {
     let props = props(&schema);
-    Ok(parquet_io::write_batches(
-        path,
-        schema,
-        props,
-        batches.map(Ok),
-    )?)
+    parquet_io::write_batches(path, schema, props, batches.map(Ok)).map_err(TableError::from)
 }
 
 /// Schema of the observation table for a sensor suite: each camera's column metadata is its
@@ -494,19 +489,18 @@ pub fn copy_row_groups_from(
     out: &Path,
 ) -> Result<(), TableError> {
     let tmp = temp_path(out);
-    let err = |e: TableCause| file_error(out, e);
     if let Some(dir) = out.parent() {
-        std::fs::create_dir_all(dir).map_err(|e| err(e.into()))?;
+        std::fs::create_dir_all(dir).map_err(|e| file_error(out, e))?;
     }
     let mut props = props(&schema);
     add_encoded_arrow_schema_to_metadata(&schema, &mut props);
     let descr = ArrowSchemaConverter::new()
         .convert(&schema)
-        .map_err(|e| err(e.into()))?;
-    let file = File::create(&tmp).map_err(|e| err(e.into()))?;
+        .map_err(|e| file_error(out, e))?;
+    let file = File::create(&tmp).map_err(|e| file_error(out, e))?;
     let result = (|| {
         let mut w = SerializedFileWriter::new(file, descr.root_schema_ptr(), Arc::new(props))
-            .map_err(|e| err(e.into()))?;
+            .map_err(|e| file_error(out, e))?;
         let mut open: HashMap<&Path, (File, SerializedFileReader<File>)> = HashMap::new();
         for &(p, g) in groups {
             if !open.contains_key(p) {
@@ -532,7 +526,7 @@ pub fn copy_row_groups_from(
                 .row_groups()
                 .get(g)
                 .ok_or_else(|| content_error(p, format!("no row group {g}")))?;
-            let mut group = w.next_row_group().map_err(|e| err(e.into()))?;
+            let mut group = w.next_row_group().map_err(|e| file_error(out, e))?;
             for col in rg.columns() {
                 let chunk = ColumnCloseResult {
                     bytes_written: col.compressed_size().max(0) as u64,
@@ -546,10 +540,10 @@ pub fn copy_row_groups_from(
                     .append_column(f, chunk)
                     .map_err(|e| file_error(p, e))?;
             }
-            group.close().map_err(|e| err(e.into()))?;
+            group.close().map_err(|e| file_error(out, e))?;
         }
-        w.close().map_err(|e| err(e.into()))?;
-        crate::atomic::rename_durably(&tmp, out).map_err(|e| err(e.into()))
+        w.close().map_err(|e| file_error(out, e))?;
+        crate::atomic::rename_durably(&tmp, out).map_err(|e| file_error(out, e))
     })();
     if result.is_err() {
         let _ = std::fs::remove_file(&tmp);
