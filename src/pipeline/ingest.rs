@@ -184,9 +184,15 @@ pub enum IngestError {
     /// The manifest cannot be read or written.
     #[error(transparent)]
     Manifest(#[from] ManifestError),
-    /// An `--ids` file problem.
-    #[error("{0}")]
-    Ids(String),
+    /// The id list could not be read.
+    #[error("{}: {source}", path.display())]
+    Ids {
+        /// The id list.
+        path: PathBuf,
+        /// Why.
+        #[source]
+        source: std::io::Error,
+    },
     /// Another process writes the DATA folder, or its lock cannot be taken.
     #[error("the DATA folder's lock")]
     Lock(#[from] LockError),
@@ -222,8 +228,10 @@ pub enum IngestError {
 
 /// Reads an id list: one id per line, `#` comments and blank lines ignored.
 pub fn read_id_list(path: &Path) -> Result<Vec<String>, IngestError> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| IngestError::Ids(format!("{}: {e}", path.display())))?;
+    let text = std::fs::read_to_string(path).map_err(|source| IngestError::Ids {
+        path: path.to_path_buf(),
+        source,
+    })?;
     Ok(text
         .lines()
         .map(str::trim)
@@ -459,4 +467,25 @@ fn ingest_impl(
     report.manifest_written = true;
     crate::store::provenance::write_data_record(&cfg.data).map_err(IngestError::Provenance)?;
     Ok(report)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_id_list_is_read_and_a_missing_one_names_the_file() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let list = dir.path().join("ids.txt");
+        std::fs::write(&list, "# houses\na\n\n  b  \n#c\n").expect("written");
+        assert_eq!(read_id_list(&list).expect("read"), ["a", "b"]);
+        let missing = dir.path().join("none.txt");
+        let e = read_id_list(&missing).unwrap_err();
+        assert!(
+            matches!(&e, IngestError::Ids { path, source }
+                if path == &missing && source.kind() == std::io::ErrorKind::NotFound),
+            "{e:?}"
+        );
+        assert!(e.to_string().starts_with(&missing.display().to_string()));
+    }
 }
