@@ -436,7 +436,7 @@ impl Agent for HumanAgent {
         let messages =
             camera_messages(obs, sim, views, self.frames).map_err(|e| AgentError::External {
                 command: "human".into(),
-                message: format!("{e}: {}", e.source),
+                message: crate::escape::error_line(&e),
             })?;
         for msg in messages {
             if !self.link.send(Update::Binary(msg)) {

@@ -23,6 +23,14 @@ pub enum SuiteName {
     All,
 }
 
+impl SuiteName {
+    /// The suite `spec` names, when it is a suite's name rather than a sensor file
+    /// (`--sensors`, `sensors=`, a campaign file's `sensors`).
+    pub fn of_spec(spec: &std::path::Path) -> Option<SuiteName> {
+        spec.to_str().and_then(|s| Self::parse_name(s).ok())
+    }
+}
+
 impl Vocabulary for SuiteName {
     const WHAT: &'static str = "sensor suite";
     const TERMS: &'static [Term<Self>] = &[
@@ -241,9 +249,9 @@ impl SensorSuite {
         spec: &std::path::Path,
         size: u32,
     ) -> Result<Self, crate::invalid::SettingsFileError> {
-        match spec.to_str().map(<SuiteName as Vocabulary>::parse_name) {
-            Some(Ok(name)) => Ok(Self::named(name, size)),
-            _ => Self::read(spec),
+        match SuiteName::of_spec(spec) {
+            Some(name) => Ok(Self::named(name, size)),
+            None => Self::read(spec),
         }
     }
 

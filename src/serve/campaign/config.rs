@@ -153,10 +153,7 @@ impl CampaignSpec {
             preset,
             // A suite's name stays a name; a file is beside the campaign file.
             sensors: raw.sensors.as_deref().map(|s| {
-                let named = s.to_str().is_some_and(|n| {
-                    <crate::sim::SuiteName as crate::vocab::Vocabulary>::parse_name(n).is_ok()
-                });
-                if named {
+                if crate::sim::SuiteName::of_spec(s).is_some() {
                     s.to_path_buf()
                 } else {
                     rel(s)

@@ -439,7 +439,7 @@ fn run_replay(app: &App, demo: &Demo, index: usize, tx: &tokio::sync::mpsc::Send
         match camera_messages(f.obs, f.sim, views, shared.frames) {
             Ok(messages) => messages.into_iter().all(|m| send(Update::Binary(m))),
             Err(e) => {
-                text(json!({"type": "error", "message": format!("{e}: {}", e.source)}));
+                text(json!({"type": "error", "message": crate::escape::error_line(&e)}));
                 false
             }
         }
