@@ -648,6 +648,50 @@ fn bake_nav_query_and_episodes_from_the_command_line() {
         .unwrap()
         .len();
     assert_eq!(record["imported"]["episodes"].as_u64(), Some(count as u64));
+    assert!(record["imported"].get("task").is_none(), "{record}");
+    // A MINOS table read as RoomGoal records it; a Habitat file holds its own task.
+    let table = dir.path().join("eps/states.csv");
+    std::fs::write(
+        &table,
+        "split,sceneId,roomId,roomType,startX,startY,startZ,startAngle,goalObjectId,goalX,goalY,goalZ\n\
+         test,h,0_2,Kitchen,1,0.545,1,0,,3,0,3\n",
+    )
+    .unwrap();
+    let rooms = dir.path().join("eps/rooms.parquet");
+    let table_arg = table.to_str().unwrap();
+    ok(&[
+        "episodes",
+        "import",
+        "--from",
+        "minos-csv",
+        table_arg,
+        "--task",
+        "roomgoal",
+        "--out",
+        rooms.to_str().unwrap(),
+    ]);
+    let read = minos::episode::format::read_episodes(&rooms).unwrap();
+    assert_eq!(read[0].task, minos::episode::Task::RoomGoal);
+    let record: serde_json::Value = serde_json::from_slice(
+        &std::fs::read(dir.path().join("eps/rooms.parquet.provenance.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(record["imported"]["task"], "roomgoal", "{record}");
+    let line = minos()
+        .args([
+            "episodes",
+            "import",
+            "--from",
+            "habitat",
+            content.to_str().unwrap(),
+            "--task",
+            "roomgoal",
+        ])
+        .failed_stderr();
+    assert!(
+        line.contains("cannot be read as roomgoal episodes"),
+        "{line}"
+    );
     let verified = ok(&["verify", imported.to_str().unwrap()]);
     assert!(!verified.contains("missing"), "{verified}");
     // Without --split, every ingested scene is used and the episodes have no split.

@@ -281,3 +281,81 @@ fn linked_panoramas_stand_on_mutually_reachable_floor() {
     eprintln!("walkable {area:.1} m² of {floor:.1} m² of region floor");
     assert!(area > 0.35 * floor && area < floor, "{area} of {floor}");
 }
+
+/// MINOS's own Matterport3D episode states for the house, read by `minos episodes import`:
+/// in minos's frame they start on the baked floor with their goal in reach, at about MINOS's
+/// path length, and read as RoomGoal their goal room is the region holding the goal point.
+/// Read in MINOS's frame as written (no quarter turn), most would not be.
+#[test]
+fn minos_episode_states_land_on_the_floor_in_minos_frame() {
+    use minos::episode::goal::shortest_path;
+    use minos::episode::minos_csv::import_minos_csv;
+    use minos::episode::{Goal, Task};
+    let Some(mp3d) = real_data() else { return };
+    let states = mp3d.join("../minos/episode_states.mp3d.csv.bz2");
+    if !states.exists() {
+        common::skip("MINOS_REAL_DATA has no minos/episode_states.mp3d.csv.bz2");
+        return;
+    }
+    let loader = loader(&mp3d);
+    let scene = loader.load(&entry(&mp3d, HOUSE)).unwrap().scene;
+    let grid = build(&scene, &NavParams::default()).expect("bake");
+    let of_house = |task| {
+        import_minos_csv(&states, task)
+            .unwrap()
+            .into_iter()
+            .filter(|e| e.scene_id == HOUSE)
+            .collect::<Vec<_>>()
+    };
+    let length = |p: &[Vec3]| p.windows(2).map(|w| w[0].distance(w[1])).sum::<f32>();
+
+    let points = of_house(None);
+    assert_eq!(points.len(), 100);
+    let mut ratios = Vec::new();
+    for e in points.iter().filter(|e| e.geodesic_distance.is_finite()) {
+        if let Some(path) = shortest_path(&grid, e) {
+            ratios.push(length(&path) / e.geodesic_distance);
+        }
+    }
+    ratios.sort_by(f32::total_cmp);
+    let median = ratios[ratios.len() / 2];
+    println!(
+        "{HOUSE}: {} of 100 MINOS states reachable, geodesic / MINOS pathDist median {median:.3}",
+        ratios.len()
+    );
+    assert!(ratios.len() >= 90, "{} reachable", ratios.len());
+    assert!((0.85..=1.15).contains(&median), "{median}");
+
+    // The same rows without the quarter turn (MINOS's frame as written): (x, z) = (−z', x').
+    let unturned = points
+        .iter()
+        .filter(|e| {
+            let mut e = (*e).clone();
+            let back = |[x, y, z]: [f32; 3]| [-z, y, x];
+            e.start_position = back(e.start_position);
+            if let Goal::Point { position } = &mut e.goal {
+                *position = back(*position);
+            }
+            shortest_path(&grid, &e).is_some()
+        })
+        .count();
+    println!("{HOUSE}: {unturned} of 100 reachable in MINOS's frame as written");
+    assert!(unturned < 50, "{unturned} reachable unturned");
+
+    let rooms = of_house(Some(Task::RoomGoal));
+    let mut inside = 0;
+    for e in &rooms {
+        let Goal::Room { targets, .. } = &e.goal else {
+            panic!("{}: not a room goal", e.episode_id)
+        };
+        let id = &targets[0].id;
+        let index = grid.rooms.iter().position(|r| &r.id == id);
+        assert!(index.is_some(), "{}: no room {id}", e.episode_id);
+        let on = grid
+            .snap(Vec3::from_array(targets[0].position))
+            .map(|s| grid.spans[s as usize].room as usize);
+        inside += usize::from(on == index);
+    }
+    println!("{HOUSE}: {inside} of 100 room goals hold their goal point");
+    assert!(inside >= 85, "{inside}");
+}

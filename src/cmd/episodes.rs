@@ -177,7 +177,8 @@ pub struct SampleArgs {
 #[derive(Debug, clap::Args)]
 #[command(
     after_help = "Examples:\n  minos episodes import --from habitat data/objectnav/val/content/X.json.gz --out x.parquet\n  \
-    minos episodes import --from minos-csv episode_states.suncg.csv.bz2 --out minos_suncg.parquet"
+    minos episodes import --from minos-csv episode_states.suncg.csv.bz2 --out minos_suncg.parquet\n  \
+    minos episodes import --from minos-csv episode_states.mp3d.csv.bz2 --task roomgoal --out minos_mp3d_rooms.parquet"
 )]
 struct ImportArgs {
     /// Format of FILE.
@@ -188,6 +189,11 @@ struct ImportArgs {
     /// Write the episodes to this Parquet file.
     #[arg(long)]
     out: Option<PathBuf>,
+    /// Read every row as this task: `roomgoal` reads MINOS's PointGoal tables as its RoomGoal
+    /// configurations did (the goal is the room of each row's goal point). Default: as the
+    /// file says.
+    #[arg(long, value_parser = vocab::<Task>())]
+    task: Option<Task>,
 }
 
 /// Flags → the job (reads the split lists and checks the variant).
@@ -362,6 +368,7 @@ fn import(a: ImportArgs, ctx: &Context) -> anyhow::Result<ExitCode> {
     let report = import_job(&ImportJob {
         from: a.from,
         file: a.file.clone(),
+        task: a.task,
         out: a.out.clone(),
         command: std::env::args().collect(),
     })?;

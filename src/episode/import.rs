@@ -5,7 +5,8 @@ use std::path::Path;
 
 use super::habitat::{import_habitat, HabitatError};
 use super::minos_csv::{import_minos_csv, MinosCsvError};
-use super::Episode;
+use super::{Episode, Task};
+use crate::vocab::Vocabulary;
 
 /// A foreign episode format minos reads.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -43,12 +44,41 @@ pub enum ImportError {
     /// A MINOS CSV file.
     #[error(transparent)]
     MinosCsv(#[from] MinosCsvError),
+    /// The rows were asked to be read as a task the format does not hold.
+    #[error(
+        "{path}: a {} file cannot be read as {} episodes (MINOS tables: as pointgoal, objectgoal or roomgoal; Habitat files: only as they are)",
+        .format.term_name(),
+        .task.term_name()
+    )]
+    Task {
+        /// The file.
+        path: String,
+        /// Its format's name.
+        format: ForeignFormat,
+        /// The task asked for.
+        task: Task,
+    },
 }
 
-/// Reads the episodes of `path`, a file in `format`.
-pub fn import_episodes(format: ForeignFormat, path: &Path) -> Result<Vec<Episode>, ImportError> {
-    Ok(match format {
-        ForeignFormat::Habitat => import_habitat(path)?,
-        ForeignFormat::MinosCsv => import_minos_csv(path)?,
+/// Reads the episodes of `path`, a file in `format`, each as its file says or, with `task`,
+/// every one as that task: MINOS's tables can be read as RoomGoal (see
+/// [`import_minos_csv`]); Habitat files hold their task.
+pub fn import_episodes(
+    format: ForeignFormat,
+    path: &Path,
+    task: Option<Task>,
+) -> Result<Vec<Episode>, ImportError> {
+    let refuse = |task| ImportError::Task {
+        path: path.display().to_string(),
+        format,
+        task,
+    };
+    Ok(match (format, task) {
+        (ForeignFormat::Habitat, None) => import_habitat(path)?,
+        (
+            ForeignFormat::MinosCsv,
+            None | Some(Task::PointGoal | Task::ObjectGoal | Task::RoomGoal),
+        ) => import_minos_csv(path, task)?,
+        (_, Some(task)) => return Err(refuse(task)),
     })
 }

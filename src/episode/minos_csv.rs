@@ -15,17 +15,35 @@
 //! |---|---|
 //! | row | `episode_id` = `<sceneId>:minos:<row>` (zero-based data row in the file, 5 digits) |
 //! | `sceneId`, `split` | `scene_id`, `split` |
-//! | `startX`, `startY`, `startZ` | `start_position`, with `startY` lowered by [`MINOS_AGENT_ORIGIN_HEIGHT`] |
-//! | `startAngle` | `start_yaw`, unchanged |
+//! | `startX`, `startY`, `startZ` | `start_position`, with `startY` lowered by [`MINOS_AGENT_ORIGIN_HEIGHT`] (and turned into minos's frame for Matterport3D, below) |
+//! | `startAngle` | `start_yaw` (turned likewise) |
 //! | `goalX`, `goalY`, `goalZ` | the goal point, or the target's position |
 //! | `goalObjectId` (empty) | PointGoal |
 //! | `goalObjectId` (set) | ObjectGoal `{category: goalObjectType or "object", targets: [{id: goalObjectId, position: goal}]}` |
 //! | `task` = `r` / `room_goal` | RoomGoal `{class: goalRoomType, targets: [{id: goalRoomId, position: goal}]}` |
+//! | `roomId`, `roomType` | read as RoomGoal ([`import_minos_csv`] with `Some(Task::RoomGoal)`): the goal room, when the row has no `goalRoomId` |
 //! | `dist` | `euclidean_distance` (empty or absent: computed from start and goal as given in the file) |
-//! | `pathDist` | `geodesic_distance` (empty or absent: NaN) |
+//! | `pathDist` | `geodesic_distance` (empty, absent or negative — MINOS's −1 for "no path found": NaN) |
 //! | `pathNumDoors`, `pathNumRooms` | `path_num_doors`, `path_num_rooms` (empty or absent: 0) |
 //!
-//! Not kept: `level`, `roomId`/`roomType` (the start room), `pathDoorIds`, `pathRoomIndices`.
+//! Not kept: `level`, `pathDoorIds`, `pathRoomIndices`; `roomId`/`roomType` unless the rows
+//! are read as RoomGoal.
+//!
+//! **Room goals.** The published tables are PointGoal states, and MINOS's RoomGoal
+//! configurations (`roomgoal_suncg_sf.py` and the others) read the same tables: the goal room
+//! is the row's `roomId` (`RoomSimulator.new_episode`), the room holding the state's goal point
+//! (every one of the 100 rows of the Matterport3D house GdvgFV5R1Z5 has its goal, and none its
+//! start, inside that region's box). Reading a table as RoomGoal does the same: target id
+//! `roomId` (Matterport3D's `R<n>` becomes minos's region id `region<n>`), class `roomType`
+//! (a minos room-class name when it is one, spaces read as `_`), position the goal point.
+//!
+//! **Frames.** MINOS's SUNCG coordinates are the house's own, which minos keeps. Its
+//! Matterport3D coordinates are SSTK's: (x, y, z) = (y, z, x) of the scan, where minos, as
+//! Habitat, uses (x, z, −y) (docs/FORMATS.md). So rows of a Matterport3D scan (an 11-letter
+//! alphanumeric scene id, like `17DRP5sb8fy`; SUNCG ids are 32 hex digits) are turned a
+//! quarter turn about +Y: minos (x, y, z) = MINOS (z, y, −x), and yaw + π/2 (wrapped to
+//! [0, 2π)). Distances are unchanged. On GdvgFV5R1Z5's baked grid, 98 of its 100 rows then
+//! have a path from start to goal, of 0.96 × MINOS's `pathDist` (median); as written, 20.
 //! `seed` is 0, `difficulty` follows the geodesic distance (below 3 m easy, below 6 m medium,
 //! else hard; medium when unknown), `success_radius` is [`MINOS_SUCCESS_RADIUS`] and
 //! `max_steps` 500.
@@ -60,6 +78,7 @@ use super::{Episode, Goal, GoalTarget, TargetRoom, Task};
 use crate::escape::escape_controls;
 use crate::invalid::Invalid;
 use crate::scene::RoomClass;
+use std::f32::consts::{FRAC_PI_2, TAU};
 
 /// Height (m) of MINOS's agent origin above the floor (half of its 1.09 m eye height), taken
 /// off `startY`.
@@ -165,6 +184,8 @@ struct Columns {
     object_type: Option<usize>,
     room_id: Option<usize>,
     room_type: Option<usize>,
+    state_room_id: Option<usize>,
+    state_room_type: Option<usize>,
     dist: Option<usize>,
     path_dist: Option<usize>,
     doors: Option<usize>,
@@ -216,6 +237,8 @@ impl Columns {
             object_type: opt("goalObjectType"),
             room_id: opt("goalRoomId"),
             room_type: opt("goalRoomType"),
+            state_room_id: opt("roomId"),
+            state_room_type: opt("roomType"),
             dist: opt("dist"),
             path_dist: opt("pathDist"),
             doors: opt("pathNumDoors"),
@@ -225,8 +248,10 @@ impl Columns {
     }
 }
 
-/// Reads every episode of a MINOS episode table (see the module documentation).
-pub fn import_minos_csv(path: &Path) -> Result<Vec<Episode>, MinosCsvError> {
+/// Reads every episode of a MINOS episode table (see the module documentation): as the rows
+/// say (`task` column, else PointGoal or ObjectGoal by `goalObjectId`), or every row as
+/// `task` when given — RoomGoal as MINOS's RoomGoal configurations read the PointGoal tables.
+pub fn import_minos_csv(path: &Path, task: Option<Task>) -> Result<Vec<Episode>, MinosCsvError> {
     let p = path.display().to_string();
     let io = |source| MinosCsvError::Io {
         path: p.clone(),
@@ -280,7 +305,7 @@ pub fn import_minos_csv(path: &Path) -> Result<Vec<Episode>, MinosCsvError> {
             names,
             err: &row_err,
         };
-        episodes.push(row.episode(cols, episodes.len())?);
+        episodes.push(row.episode(cols, episodes.len(), task)?);
     }
     if header.is_none() {
         return Err(MinosCsvError::Header {
@@ -289,6 +314,54 @@ pub fn import_minos_csv(path: &Path) -> Result<Vec<Episode>, MinosCsvError> {
         });
     }
     Ok(episodes)
+}
+
+/// The frame a row's coordinates are in (see the module documentation).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Frame {
+    /// minos's own (SUNCG houses and anything else).
+    Same,
+    /// SSTK's Matterport3D frame: a quarter turn about +Y from minos's.
+    Matterport3d,
+}
+
+impl Frame {
+    /// Matterport3D for a scan id (11 ASCII letters and digits), else the same frame.
+    fn of_scene(scene: &str) -> Frame {
+        if scene.len() == 11 && scene.bytes().all(|b| b.is_ascii_alphanumeric()) {
+            Frame::Matterport3d
+        } else {
+            Frame::Same
+        }
+    }
+
+    /// A position in minos's frame: MINOS (x, y, z) → (z, y, −x) for Matterport3D.
+    fn point(self, [x, y, z]: [f32; 3]) -> [f32; 3] {
+        match self {
+            Frame::Same => [x, y, z],
+            Frame::Matterport3d => [z, y, -x],
+        }
+    }
+
+    /// A yaw in minos's frame: a quarter turn more for Matterport3D, kept in [0, 2π).
+    fn yaw(self, yaw: f32) -> f32 {
+        match self {
+            Frame::Same => yaw,
+            Frame::Matterport3d => (yaw + FRAC_PI_2).rem_euclid(TAU),
+        }
+    }
+
+    /// A room id in minos's terms: Matterport3D's `R<n>` is minos's region `region<n>`.
+    fn room_id(self, id: &str) -> String {
+        match (self, id.strip_prefix('R')) {
+            (Frame::Matterport3d, Some(n))
+                if !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit()) =>
+            {
+                format!("region{n}")
+            }
+            _ => id.to_string(),
+        }
+    }
 }
 
 /// Typed access to the fields of one data row.
@@ -349,29 +422,37 @@ impl RowReader<'_, '_> {
         ])
     }
 
-    fn episode(&self, c: &Columns, row: usize) -> Result<Episode, MinosCsvError> {
+    fn episode(
+        &self,
+        c: &Columns,
+        row: usize,
+        read_as: Option<Task>,
+    ) -> Result<Episode, MinosCsvError> {
         let scene = self.text(c.scene);
         if scene.is_empty() {
             return Err(self.fail(c.scene, "empty scene id".into()));
         }
+        let frame = Frame::of_scene(scene);
         let raw_start = self.point(c.start)?;
-        let start_position = [
+        let start_position = frame.point([
             raw_start[0],
             raw_start[1] - MINOS_AGENT_ORIGIN_HEIGHT,
             raw_start[2],
-        ];
-        let start_yaw = self.number(c.angle)?;
-        let goal_pos = self.point(c.goal)?;
+        ]);
+        let start_yaw = frame.yaw(self.number(c.angle)?);
+        let raw_goal = self.point(c.goal)?;
+        let goal_pos = frame.point(raw_goal);
         let object_id = self.opt_text(c.object_id);
-        let task = match c.task.map(|i| (i, self.text(i))) {
-            None | Some((_, "")) => {
+        let task = match (read_as, c.task.map(|i| (i, self.text(i)))) {
+            (Some(task), _) => task,
+            (None, None | Some((_, ""))) => {
                 if object_id.is_empty() {
                     Task::PointGoal
                 } else {
                     Task::ObjectGoal
                 }
             }
-            Some((i, t)) => match t {
+            (None, Some((i, t))) => match t {
                 "p" | "point_goal" | "pointgoal" => Task::PointGoal,
                 "o" | "object_goal" | "objectgoal" => Task::ObjectGoal,
                 "r" | "room_goal" | "roomgoal" => Task::RoomGoal,
@@ -408,9 +489,22 @@ impl RowReader<'_, '_> {
                 }
             }
             Task::RoomGoal => {
-                let id = required(c.room_id, "goalRoomId")?;
-                let raw = required(c.room_type, "goalRoomType")?;
-                let class = RoomClass::from_name(&raw).map_or(raw, |k| k.name().to_string());
+                // The table's own room goal, else the state's room (as MINOS's RoomGoal
+                // configurations read the PointGoal tables).
+                let (id, raw) = if self.opt_text(c.room_id).is_empty() && c.state_room_id.is_some()
+                {
+                    (
+                        frame.room_id(&required(c.state_room_id, "roomId")?),
+                        required(c.state_room_type, "roomType")?,
+                    )
+                } else {
+                    (
+                        required(c.room_id, "goalRoomId")?,
+                        required(c.room_type, "goalRoomType")?,
+                    )
+                };
+                let class = RoomClass::from_name(&raw.replace(' ', "_"))
+                    .map_or(raw, |k| k.name().to_string());
                 Goal::Room {
                     targets: vec![GoalTarget {
                         room: Some(TargetRoom {
@@ -427,8 +521,12 @@ impl RowReader<'_, '_> {
         };
         let euclidean_distance = self
             .opt_number(c.dist)?
-            .unwrap_or_else(|| distance(raw_start, goal_pos));
-        let geodesic_distance = self.opt_number(c.path_dist)?.unwrap_or(f32::NAN);
+            .unwrap_or_else(|| distance(raw_start, raw_goal));
+        // MINOS writes -1 when its planner found no path: unknown here, as an empty field.
+        let geodesic_distance = self
+            .opt_number(c.path_dist)?
+            .filter(|d| *d >= 0.0)
+            .unwrap_or(f32::NAN);
         Ok(Episode {
             episode_id: format!("{scene}:minos:{row:05}"),
             scene_id: scene.to_string(),
@@ -470,6 +568,53 @@ mod tests {
     }
 
     #[test]
+    fn matterport_rows_turn_into_minos_frame_and_read_as_room_goals() {
+        let dir = tempfile::tempdir().unwrap();
+        let text = "split,sceneId,level,roomId,roomType,startX,startY,startZ,startAngle,\
+                    goalObjectId,goalX,goalY,goalZ,dist,pathDist,pathNumDoors\n\
+                    train,GdvgFV5R1Z5,0,R5,dining room,1,0.545,2,5.5,,3,0,4,3.1,-1,0\n\
+                    train,0049e2ed9d7b7c49930d92c30fd59ff7,0,0_3,Living_Room,1,0.545,2,5.5,,3,0,4,3.1,4.5,1\n";
+        let p = write(dir.path(), "m.csv", text);
+        let points = import_minos_csv(&p, None).unwrap();
+        let (scan, house) = (&points[0], &points[1]);
+        // A scan's row is turned a quarter turn about +Y: (x, y, z) -> (z, y, -x).
+        assert_eq!(scan.start_position, [2.0, 0.0, -1.0]);
+        assert_eq!(
+            scan.goal,
+            Goal::Point {
+                position: [4.0, 0.0, -3.0]
+            }
+        );
+        // The turned facing is the facing turned: yaw psi faces (-sin psi, -cos psi) in (x, z).
+        let face = |yaw: f32| [-yaw.sin(), -yaw.cos()];
+        let [fx, fz] = face(5.5);
+        let turned = face(scan.start_yaw);
+        assert!((turned[0] - fz).abs() < 1e-5 && (turned[1] + fx).abs() < 1e-5);
+        assert!((0.0..TAU).contains(&scan.start_yaw));
+        // MINOS's -1 ("no path") is an unknown geodesic; a SUNCG house keeps its frame.
+        assert!(scan.geodesic_distance.is_nan());
+        assert_eq!(house.start_position, [1.0, 0.0, 2.0]);
+        assert_eq!((house.start_yaw, house.geodesic_distance), (5.5, 4.5));
+
+        let rooms = import_minos_csv(&p, Some(Task::RoomGoal)).unwrap();
+        let target = |e: &Episode| match &e.goal {
+            Goal::Room { class, targets } => {
+                (class.clone(), targets[0].id.clone(), targets[0].position)
+            }
+            other => panic!("{other:?}"),
+        };
+        assert_eq!(rooms[0].task, Task::RoomGoal);
+        assert_eq!(
+            target(&rooms[0]),
+            ("dining_room".into(), "region5".into(), [4.0, 0.0, -3.0])
+        );
+        assert_eq!(
+            target(&rooms[1]),
+            ("living_room".into(), "0_3".into(), [3.0, 0.0, 4.0])
+        );
+    }
+
+    #[test]
     fn suncg_rows_map_to_point_goals() {
         let dir = tempfile::tempdir().unwrap();
         let second = SUNCG_ROW
@@ -482,7 +627,7 @@ mod tests {
         bz.write_all(text.as_bytes()).unwrap();
         let p = dir.path().join("t.csv");
         std::fs::write(&p, bz.finish().unwrap()).unwrap();
-        let eps = import_minos_csv(&p).unwrap();
+        let eps = import_minos_csv(&p, None).unwrap();
         assert_eq!(eps.len(), 2);
         let e = &eps[0];
         assert_eq!(e.episode_id, "0049e2ed9d7b7c49930d92c30fd59ff7:minos:00000");
@@ -525,7 +670,7 @@ mod tests {
                     3,0.05,4,1.5,0,0.545,0,s1,test,r,,,0_2,Kitchen,,\n\
                     \"3\",0.05,4,1.5,0,0.545,0,\"s,2\",test,,,,,,,\n";
         let p = write(dir.path(), "x.csv", text);
-        let eps = import_minos_csv(&p).unwrap();
+        let eps = import_minos_csv(&p, None).unwrap();
         assert_eq!(eps.len(), 3);
         assert_eq!(
             eps[0].goal,
@@ -605,18 +750,18 @@ mod tests {
             text.push_str(bad);
             text.push('\n');
             let p = write(dir.path(), &format!("episode_states.{k}.csv"), &text);
-            let err = import_minos_csv(&p).unwrap_err().to_string();
+            let err = import_minos_csv(&p, None).unwrap_err().to_string();
             let want = format!("{}: {expected}", p.display());
             assert_eq!(err, want);
         }
         let p = write(dir.path(), "nohead.csv", "split,sceneId,startX\n");
-        let err = import_minos_csv(&p).unwrap_err().to_string();
+        let err = import_minos_csv(&p, None).unwrap_err().to_string();
         assert!(
             err.contains("line 1: missing required column(s) `startY`"),
             "{err}"
         );
         let p = write(dir.path(), "empty.csv", "\n");
-        assert!(import_minos_csv(&p).is_err());
+        assert!(import_minos_csv(&p, None).is_err());
     }
 
     #[test]
@@ -643,7 +788,7 @@ mod tests {
         };
         let dir = PathBuf::from(root).join("minos");
         let suncg_path = dir.join("episode_states.suncg.csv.bz2");
-        let suncg = import_minos_csv(&suncg_path).unwrap();
+        let suncg = import_minos_csv(&suncg_path, None).unwrap();
         assert_eq!(suncg.len(), count_rows(&suncg_path));
         assert_eq!(suncg.len(), 36_400);
         let e = &suncg[0];
@@ -662,12 +807,22 @@ mod tests {
             .all(|e| (0.0..=std::f32::consts::TAU + 1e-3).contains(&e.start_yaw)));
 
         let mp3d_path = dir.join("episode_states.mp3d.csv.bz2");
-        let mp3d = import_minos_csv(&mp3d_path).unwrap();
+        let mp3d = import_minos_csv(&mp3d_path, None).unwrap();
         assert_eq!(mp3d.len(), count_rows(&mp3d_path));
         assert_eq!(mp3d.len(), 16_744);
         let m = &mp3d[0];
         assert_eq!(m.scene_id, "17DRP5sb8fy");
-        assert_eq!(m.start_yaw, 4.7);
+        // 17DRP5sb8fy is a scan: a quarter turn into minos's frame.
+        assert_eq!(m.start_yaw, 4.7 + std::f32::consts::FRAC_PI_2);
+        assert_eq!(
+            m.start_position,
+            [2.664, 0.539 - MINOS_AGENT_ORIGIN_HEIGHT, 0.19]
+        );
+        // MINOS's -1 ("no path found") rows are unknown geodesics, so the table writes.
+        let unknown = mp3d.iter().filter(|e| e.geodesic_distance.is_nan()).count();
+        assert_eq!(unknown, 1142);
+        let dir = tempfile::tempdir().unwrap();
+        crate::episode::format::write_episodes(&dir.path().join("m.parquet"), &mp3d).unwrap();
         assert_eq!((m.euclidean_distance, m.geodesic_distance), (3.451, 3.68));
         assert_eq!((m.path_num_doors, m.path_num_rooms), (0, 3));
         assert_eq!(mp3d[1].path_num_rooms, 5);

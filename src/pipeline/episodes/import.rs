@@ -8,6 +8,7 @@ use std::path::{Path, PathBuf};
 
 use crate::episode::format::{read_episodes, write_episodes, EpisodeFileError};
 use crate::episode::import::{import_episodes, ForeignFormat, ImportError};
+use crate::episode::Task;
 use crate::provenance::{self, ProvenanceError};
 use crate::vocab::Vocabulary;
 
@@ -18,6 +19,9 @@ pub struct ImportJob {
     pub from: ForeignFormat,
     /// The foreign file.
     pub file: PathBuf,
+    /// Read every row as this task (MINOS's tables as RoomGoal, as MINOS's RoomGoal
+    /// configurations read them); `None`: as the file says.
+    pub task: Option<Task>,
     /// The episode file to write; `None` only reads and counts.
     pub out: Option<PathBuf>,
     /// The command line (or call) recorded in the provenance file.
@@ -52,7 +56,7 @@ pub enum ImportJobError {
 /// Runs `job`: reads the foreign file, and when `job.out` is set writes the episodes (read
 /// back to check them) and the provenance record beside them (`<out>.provenance.json`).
 pub fn import_job(job: &ImportJob) -> Result<ImportReport, ImportJobError> {
-    let episodes = import_episodes(job.from, &job.file)?;
+    let episodes = import_episodes(job.from, &job.file, job.task)?;
     let scenes = episodes
         .iter()
         .map(|e| e.scene_id.as_str())
@@ -82,7 +86,7 @@ fn write_provenance(job: &ImportJob, out: &Path, count: usize) -> Result<PathBuf
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
-    let record = serde_json::json!({
+    let mut record = serde_json::json!({
         "format": provenance::FORMAT,
         "kind": "episodes",
         "minos": provenance::MINOS,
@@ -95,6 +99,9 @@ fn write_provenance(job: &ImportJob, out: &Path, count: usize) -> Result<PathBuf
         },
         "files": { name: provenance::sha256_file(out)? },
     });
+    if let (Some(task), Some(imported)) = (job.task, record.get_mut("imported")) {
+        imported["task"] = task.term_name().into();
+    }
     let path = PathBuf::from(format!("{}.provenance.json", out.display()));
     provenance::write_record(&path, &record)?;
     Ok(path)
