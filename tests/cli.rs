@@ -677,6 +677,57 @@ fn bake_nav_query_and_episodes_from_the_command_line() {
     )
     .unwrap();
     assert_eq!(record["imported"]["task"], "roomgoal", "{record}");
+    // An episode the oracle cannot plan (its goal far off the house) fails alone, named once.
+    let e = &episodes[0];
+    let [x, y, z] = e.start_position;
+    std::fs::write(
+        &table,
+        format!(
+            "split,sceneId,startX,startY,startZ,startAngle,goalX,goalY,goalZ\n\
+             test,{},{x},{},{z},0,500,{y},500\n",
+            e.scene_id,
+            y + minos::episode::minos_csv::MINOS_AGENT_ORIGIN_HEIGHT
+        ),
+    )
+    .unwrap();
+    let lost = dir.path().join("eps/lost.parquet");
+    ok(&[
+        "episodes",
+        "import",
+        "--from",
+        "minos-csv",
+        table_arg,
+        "--out",
+        lost.to_str().unwrap(),
+    ]);
+    let said = minos()
+        .args([
+            "run",
+            "--data",
+            d,
+            "--agent",
+            "oracle",
+            "--size",
+            "16",
+            "--episodes",
+        ])
+        .arg(&lost)
+        .arg("--out")
+        .arg(dir.path().join("lost-run"))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&said.stderr);
+    assert!(!said.status.success(), "{stderr}");
+    let id = format!("{}:minos:00000", e.scene_id);
+    let line = format!("error: episode {id}: no plan found");
+    assert_eq!(
+        stderr
+            .lines()
+            .filter(|l| l.starts_with("error:"))
+            .collect::<Vec<_>>(),
+        [line.as_str()],
+        "{stderr}"
+    );
     let line = minos()
         .args([
             "episodes",

@@ -194,7 +194,13 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         })?
     };
     for (id, e) in &report.failures {
-        eprintln!("error: episode {id}: {}", minos::escape::error_line(e));
+        // Agents' errors name their episode already ("episode X: no plan found").
+        let line = minos::escape::error_line(e);
+        if line.starts_with(&format!("episode {id}")) {
+            eprintln!("error: {line}");
+        } else {
+            eprintln!("error: episode {id}: {line}");
+        }
     }
     let steps: u32 = report.episodes.iter().map(|(_, m)| m.steps).sum();
     ctx.say(render_table(&report.groups));
