@@ -85,6 +85,17 @@ pub enum SettingsFileError {
         #[source]
         source: std::io::Error,
     },
+    /// `path` names neither one of the settings minos defines nor an existing file (a
+    /// mistyped suite name, say).
+    #[error("`{}` is neither a {what} ({}) nor a file", path.display(), .names.join(", "))]
+    NotNamed {
+        /// The name or file as given.
+        path: PathBuf,
+        /// What the names name.
+        what: &'static str,
+        /// The names minos defines.
+        names: Vec<&'static str>,
+    },
     /// The file breaks a rule.
     #[error("{}", path.display())]
     Invalid {

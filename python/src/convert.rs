@@ -146,6 +146,9 @@ fn kind(e: &(dyn std::error::Error + 'static)) -> Option<Kind> {
     {
         return Some(Kind::NotFound);
     }
+    if let Some(minos::invalid::SettingsFileError::NotNamed { .. }) = e.downcast_ref() {
+        return Some(Kind::BadInput);
+    }
     if let Some(minos::pipeline::split::SplitJobError::Name(_)) = e.downcast_ref() {
         return Some(Kind::BadInput);
     }

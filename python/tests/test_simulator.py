@@ -174,3 +174,6 @@ def test_an_empty_sensor_file_is_refused_as_the_cli_refuses_it(world, tmp_path):
         minos.Simulator(world.data, world.scenes[0], sensors=empty)
     with pytest.raises(minos.NotFoundError, match=f"^{tmp_path / 'none.toml'}: "):
         minos.Simulator(world.data, world.scenes[0], sensors=tmp_path / "none.toml")
+    # A bare word that is neither a suite nor a file: the suites are listed.
+    with pytest.raises(minos.BadInputError, match="^`depth` is neither a sensor suite \\(minos, minos-paper, all\\) nor a file$"):
+        minos.Simulator(world.data, world.scenes[0], sensors="depth")

@@ -251,6 +251,14 @@ impl SensorSuite {
     ) -> Result<Self, crate::invalid::SettingsFileError> {
         match SuiteName::of_spec(spec) {
             Some(name) => Ok(Self::named(name, size)),
+            // A bare word that is no file was meant as a suite's name.
+            None if spec.extension().is_none() && !spec.exists() => {
+                Err(crate::invalid::SettingsFileError::NotNamed {
+                    path: spec.to_path_buf(),
+                    what: SuiteName::WHAT,
+                    names: SuiteName::names(),
+                })
+            }
             None => Self::read(spec),
         }
     }
@@ -455,6 +463,12 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("/nonexistent/minos-papr.toml"), "{e}");
+        // A bare word that is no file is a mistyped suite: the error lists the suites.
+        let e = spec("depth").unwrap_err().to_string();
+        assert_eq!(
+            e,
+            "`depth` is neither a sensor suite (minos, minos-paper, all) nor a file"
+        );
     }
 
     #[test]
