@@ -149,6 +149,12 @@ fn kind(e: &(dyn std::error::Error + 'static)) -> Option<Kind> {
     if let Some(minos::invalid::SettingsFileError::NotNamed { .. }) = e.downcast_ref() {
         return Some(Kind::BadInput);
     }
+    if let Some(minos::pipeline::episodes::ImportJobError::Read(
+        minos::episode::import::ImportError::Task { .. },
+    )) = e.downcast_ref()
+    {
+        return Some(Kind::BadInput);
+    }
     if let Some(minos::pipeline::split::SplitJobError::Name(_)) = e.downcast_ref() {
         return Some(Kind::BadInput);
     }

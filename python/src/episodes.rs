@@ -1,5 +1,6 @@
 //! Episodes in Python: `minos.read_episodes(path)` and the read-only `Episode` it returns
-//! (the library's [`Episode`], fields as properties).
+//! (the library's [`Episode`], fields as properties), and `minos.import_episodes` (`minos
+//! episodes import`).
 
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -7,7 +8,7 @@ use pyo3::types::PyDict;
 use minos::episode::format::read_episodes as read_file;
 use minos::episode::{Episode, Goal};
 
-use crate::convert::{path_of, py_err};
+use crate::convert::{path_of, py_err, term};
 
 /// One episode of an episode file (`minos.read_episodes`): a start pose and a goal.
 #[pyclass(name = "Episode", module = "minos", frozen, from_py_object)]
@@ -135,4 +136,43 @@ pub fn read_episodes(path: &Bound<'_, PyAny>) -> PyResult<Vec<PyEpisode>> {
     let p = path_of(path)?;
     let eps = read_file(&p).map_err(|e| py_err(e.into()))?;
     Ok(eps.into_iter().map(|inner| PyEpisode { inner }).collect())
+}
+
+/// `minos episodes import`: reads `file`, a Habitat-Lab (`format="habitat"`) or MINOS
+/// (`"minos-csv"`) episode file, each row as the file says or, with `task="roomgoal"`, a MINOS
+/// table as MINOS's RoomGoal configurations read it. With `out`, writes the episode file and
+/// its provenance record. Returns `{"episodes": [Episode], "scenes", "out", "provenance"}`
+/// (`out` and `provenance` are `None` without `out`).
+#[pyfunction]
+#[pyo3(signature = (file, format, out = None, task = None))]
+pub fn import_episodes<'py>(
+    py: Python<'py>,
+    file: &Bound<'py, PyAny>,
+    format: &str,
+    out: Option<&Bound<'py, PyAny>>,
+    task: Option<&str>,
+) -> PyResult<Bound<'py, PyDict>> {
+    use minos::pipeline::episodes::{import_job, ImportJob};
+    let job = ImportJob {
+        from: term("format", format)?,
+        file: path_of(file)?,
+        task: task.map(|t| term("task", t)).transpose()?,
+        out: out.filter(|o| !o.is_none()).map(path_of).transpose()?,
+        command: vec!["minos.import_episodes".to_string()],
+    };
+    let report = py
+        .detach(|| import_job(&job))
+        .map_err(|e| py_err(e.into()))?;
+    let d = PyDict::new(py);
+    let list: Vec<PyEpisode> = report
+        .episodes
+        .into_iter()
+        .map(|inner| PyEpisode { inner })
+        .collect();
+    d.set_item("episodes", list)?;
+    d.set_item("scenes", report.scenes)?;
+    let (out, provenance) = report.written.unzip();
+    d.set_item("out", out)?;
+    d.set_item("provenance", provenance)?;
+    Ok(d)
 }

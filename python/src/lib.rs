@@ -88,6 +88,7 @@ fn _minos(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<pathfinder::PathFinder>()?;
     m.add_class::<env::VecCore>()?;
     m.add_function(wrap_pyfunction!(episodes::read_episodes, m)?)?;
+    m.add_function(wrap_pyfunction!(episodes::import_episodes, m)?)?;
     m.add_function(wrap_pyfunction!(pipeline::generate, m)?)?;
     m.add_function(wrap_pyfunction!(pipeline::ingest, m)?)?;
     m.add_function(wrap_pyfunction!(split::split, m)?)?;

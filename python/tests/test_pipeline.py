@@ -150,6 +150,32 @@ def test_episodes_equal_the_cli(world, tmp_path, minos_bin):
     assert all(e.task == "roomgoal" for e in minos.read_episodes(tmp_path / "r.parquet"))
 
 
+def test_imported_minos_tables_equal_the_cli(world, tmp_path, minos_bin):
+    e = world.episodes[0]
+    x, y, z = e.start_position
+    table = tmp_path / "states.csv"
+    table.write_text(
+        "split,sceneId,roomId,roomType,startX,startY,startZ,startAngle,goalObjectId,goalX,goalY,goalZ\n"
+        f"test,{e.scene_id},0_2,Kitchen,{x},{y + 0.545},{z},0,,{x + 1},{y},{z}\n"
+    )
+    r = minos.import_episodes(table, "minos-csv", out=tmp_path / "py.parquet", task="roomgoal")
+    assert (r["scenes"], r["out"], r["provenance"]) == (
+        1, tmp_path / "py.parquet", tmp_path / "py.parquet.provenance.json")
+    [got] = r["episodes"]
+    assert (got.task, got.scene_id) == ("roomgoal", e.scene_id)
+    assert abs(got.start_position[1] - y) < 1e-5
+    cli(minos_bin, "episodes", "import", "--from", "minos-csv", table, "--task", "roomgoal",
+        "--out", tmp_path / "cli.parquet")
+    assert (tmp_path / "cli.parquet").read_bytes() == (tmp_path / "py.parquet").read_bytes()
+    # Without out nothing is written; a Habitat file is not read as another task.
+    assert minos.import_episodes(table, "minos-csv")["out"] is None
+    assert minos.import_episodes(table, "minos-csv")["episodes"][0].task == "pointgoal"
+    with pytest.raises(minos.BadInputError, match="cannot be read as roomgoal episodes"):
+        minos.import_episodes(table, "habitat", task="roomgoal")
+    with pytest.raises(minos.BadInputError, match="format"):
+        minos.import_episodes(table, "habitat-json")
+
+
 def test_vln_episodes_and_their_export_equal_the_cli_with_provenance(world, tmp_path, minos_bin):
     # One library job behind both doors: the same episode file, statistics and VLN-CE export,
     # and a provenance record whose checksums are the files' (recomputed here).

@@ -374,14 +374,14 @@ fn import(a: ImportArgs, ctx: &Context) -> anyhow::Result<ExitCode> {
     })?;
     ctx.say(format!(
         "read {} episodes of {} scenes from {}",
-        report.episodes,
+        report.episodes.len(),
         report.scenes,
         a.file.display()
     ));
     if let Some((out, record)) = &report.written {
         ctx.say(format!(
             "wrote {} episodes -> {} (provenance: {})",
-            report.episodes,
+            report.episodes.len(),
             out.display(),
             record.display()
         ));

@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 
 use crate::episode::format::{read_episodes, write_episodes, EpisodeFileError};
 use crate::episode::import::{import_episodes, ForeignFormat, ImportError};
-use crate::episode::Task;
+use crate::episode::{Episode, Task};
 use crate::provenance::{self, ProvenanceError};
 use crate::vocab::Vocabulary;
 
@@ -29,10 +29,10 @@ pub struct ImportJob {
 }
 
 /// What an import read and wrote.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct ImportReport {
-    /// Episodes read.
-    pub episodes: usize,
+    /// The episodes read (as written, when written).
+    pub episodes: Vec<Episode>,
     /// Distinct scenes they name.
     pub scenes: usize,
     /// The episode file and its provenance record, when written.
@@ -62,18 +62,18 @@ pub fn import_job(job: &ImportJob) -> Result<ImportReport, ImportJobError> {
         .map(|e| e.scene_id.as_str())
         .collect::<BTreeSet<_>>()
         .len();
-    let written = match &job.out {
-        None => None,
+    let (episodes, written) = match &job.out {
+        None => (episodes, None),
         Some(out) => {
             write_episodes(out, &episodes)?;
             let back = read_episodes(out)?;
             let record =
                 write_provenance(job, out, back.len()).map_err(ImportJobError::Provenance)?;
-            Some((out.clone(), record))
+            (back, Some((out.clone(), record)))
         }
     };
     Ok(ImportReport {
-        episodes: episodes.len(),
+        episodes,
         scenes,
         written,
     })
