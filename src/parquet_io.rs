@@ -30,23 +30,82 @@ pub enum ParquetFileError {
         source: std::io::Error,
     },
     /// Parquet / Arrow error, or a column missing or of the wrong type.
-    #[error("{path}: {message}")]
+    #[error("{path}: {cause}")]
     Format {
         /// The file.
         path: String,
         /// What is wrong.
-        message: String,
+        #[source]
+        cause: FormatCause,
     },
 }
 
 impl ParquetFileError {
-    /// A format error of `path`. Control characters in `message` (a column name or value
-    /// quoted from a corrupt file may hold a newline) are escaped: the error stays one line.
-    pub fn format(path: &Path, message: impl ToString) -> Self {
+    /// A format error of `path`: a Parquet or Arrow error, or a table rule broken (an
+    /// [`Invalid`] or its text).
+    pub fn format(path: &Path, cause: impl Into<FormatCause>) -> Self {
         ParquetFileError::Format {
             path: path.display().to_string(),
-            message: crate::escape::escape_controls(&message.to_string()),
+            cause: cause.into(),
         }
+    }
+}
+
+/// What is wrong inside a Parquet file, or with the batches written to one: the Parquet or
+/// Arrow library's error (kept, to match on), or a rule of minos's tables broken (a column
+/// missing or of the wrong type). Shown with control characters escaped — a column name or
+/// value quoted from a damaged file may hold a newline — so the error stays one line; the
+/// shown text is the whole of it (no further `source()`).
+#[derive(Debug)]
+pub enum FormatCause {
+    /// The Parquet reader or writer failed.
+    Parquet(Box<parquet::errors::ParquetError>),
+    /// An Arrow operation failed (building, casting or joining batches).
+    Arrow(Box<arrow::error::ArrowError>),
+    /// A rule of minos's tables is broken, or a reader panicked on a damaged file.
+    Table(Box<Invalid>),
+}
+
+impl std::fmt::Display for FormatCause {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let text = match self {
+            FormatCause::Parquet(e) => e.to_string(),
+            FormatCause::Arrow(e) => e.to_string(),
+            FormatCause::Table(e) => e.to_string(),
+        };
+        f.write_str(&crate::escape::escape_controls(&text))
+    }
+}
+
+impl std::error::Error for FormatCause {}
+
+impl From<parquet::errors::ParquetError> for FormatCause {
+    fn from(e: parquet::errors::ParquetError) -> Self {
+        FormatCause::Parquet(Box::new(e))
+    }
+}
+
+impl From<arrow::error::ArrowError> for FormatCause {
+    fn from(e: arrow::error::ArrowError) -> Self {
+        FormatCause::Arrow(Box::new(e))
+    }
+}
+
+impl From<Invalid> for FormatCause {
+    fn from(e: Invalid) -> Self {
+        FormatCause::Table(Box::new(e))
+    }
+}
+
+impl From<String> for FormatCause {
+    fn from(problem: String) -> Self {
+        FormatCause::Table(Box::new(Invalid::new(problem)))
+    }
+}
+
+impl From<&str> for FormatCause {
+    fn from(problem: &str) -> Self {
+        FormatCause::Table(Box::new(Invalid::new(problem)))
     }
 }
 
@@ -101,7 +160,8 @@ pub fn write_batches(
             path: path.display().to_string(),
             source,
         },
-        other => ParquetFileError::format(path, other),
+        WriteErr::Parquet(e) => ParquetFileError::format(path, e),
+        WriteErr::Arrow(e) => ParquetFileError::format(path, e),
     })
 }
 
@@ -366,10 +426,22 @@ mod tests {
         assert!(err.starts_with(&missing.display().to_string()), "{err}");
         let junk = dir.path().join("junk.parquet");
         std::fs::write(&junk, b"not parquet").unwrap();
-        assert!(read_batches(&junk)
-            .unwrap_err()
-            .to_string()
-            .contains("junk.parquet"));
+        let junk_err = read_batches(&junk).unwrap_err();
+        assert!(junk_err.to_string().contains("junk.parquet"));
+        // The Parquet reader's own error is kept as the cause, printed once by error_line.
+        let ParquetFileError::Format {
+            cause: FormatCause::Parquet(cause),
+            ..
+        } = &junk_err
+        else {
+            panic!("{junk_err:?}")
+        };
+        let source = std::error::Error::source(&junk_err)
+            .expect("a cause")
+            .to_string();
+        assert_eq!(source, cause.to_string());
+        let line = crate::escape::error_line(&junk_err);
+        assert_eq!(line.matches(&source).count(), 1, "{line}");
         // A batch that fails midway: no file, no temporary file.
         let (schema, batch) = table();
         let out = dir.path().join("out.parquet");
@@ -377,6 +449,16 @@ mod tests {
         let bad = Err(arrow::error::ArrowError::ComputeError("boom".into()));
         let err = write_batches(&out, schema, props, [Ok(batch), bad]).unwrap_err();
         assert!(err.to_string().contains("boom"), "{err}");
+        assert!(
+            matches!(
+                &err,
+                ParquetFileError::Format {
+                    cause: FormatCause::Arrow(_),
+                    ..
+                }
+            ),
+            "{err:?}"
+        );
         let names: Vec<_> = std::fs::read_dir(dir.path())
             .unwrap()
             .map(|e| e.unwrap().file_name())

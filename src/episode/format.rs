@@ -61,7 +61,9 @@ use arrow::datatypes::{Field, Schema};
 use super::vln::Route;
 use super::{Difficulty, Episode, Goal, GoalTarget, TargetRoom, Task};
 use crate::invalid::Invalid;
-use crate::parquet_io::{read_batches, write_batches, writer_properties, ParquetFileError};
+use crate::parquet_io::{
+    read_batches, write_batches, writer_properties, FormatCause, ParquetFileError,
+};
 
 /// The optional `goal_room_ids` / `goal_room_classes` columns of a batch.
 struct TargetRooms<'a> {
@@ -514,9 +516,10 @@ fn to_batch(eps: &[Episode]) -> Result<RecordBatch, arrow::error::ArrowError> {
 /// Writes `episodes` to `path` atomically, one row per episode in the order given (see the
 /// module documentation for the columns). The same episodes always give the same bytes.
 pub fn write_episodes(path: &Path, episodes: &[Episode]) -> Result<(), EpisodeFileError> {
-    let format = |message: String| ParquetFileError::format(path, message);
     // The schema does not depend on the data: take it from an empty batch.
-    let schema = to_batch(&[]).map_err(|e| format(e.to_string()))?.schema();
+    let schema = to_batch(&[])
+        .map_err(|e| ParquetFileError::format(path, e))?
+        .schema();
     let props = writer_properties(3, Some(BATCH_ROWS), &schema);
     let batches = episodes.chunks(BATCH_ROWS).map(to_batch);
     write_batches(path, schema, props, batches).map_err(EpisodeFileError::from)
@@ -533,17 +536,17 @@ pub fn read_episodes(path: &Path) -> Result<Vec<Episode>, EpisodeFileError> {
 
 fn read_episodes_unguarded(path: &Path) -> Result<Vec<Episode>, EpisodeFileError> {
     let p = path.display().to_string();
-    let format = |message: String| ParquetFileError::format(path, message);
+    let format = |cause: FormatCause| ParquetFileError::format(path, cause);
     // The schema this module writes: files rewritten by pandas, polars or duckdb hold
     // variants of its types (plain lists for fixed-size points, int64 for a column a user set).
-    let schema = to_batch(&[]).map_err(|e| format(e.to_string()))?.schema();
+    let schema = to_batch(&[]).map_err(|e| format(e.into()))?.schema();
     let reader = read_batches(path)?.conform_to(&schema);
     let mut episodes = Vec::new();
     for batch in reader {
-        let batch = batch.map_err(|e| format(e.to_string()))?;
+        let batch = batch.map_err(|e| format(e.into()))?;
         let first_row = episodes.len();
         read_batch(&batch, first_row, &mut episodes).map_err(|e| match e {
-            BatchError::Format(message) => format(message).into(),
+            BatchError::Format(message) => format(message.into()).into(),
             BatchError::Value {
                 row,
                 column,

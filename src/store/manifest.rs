@@ -216,12 +216,11 @@ pub fn write_manifest(path: &Path, rows: &[ManifestRow]) -> Result<(), ManifestE
 
 /// Reads every row of a manifest.
 pub fn read_manifest(path: &Path) -> Result<Vec<ManifestRow>, ManifestError> {
-    let fmt = |m: String| ParquetFileError::format(path, m);
     let reader = read_batches(path)?.conform_to(&schema());
     let mut rows = Vec::new();
     for batch in reader {
-        let batch = batch.map_err(|e| fmt(e.to_string()))?;
-        read_batch(&batch, &mut rows).map_err(|e| fmt(e.to_string()))?;
+        let batch = batch.map_err(|e| ParquetFileError::format(path, e))?;
+        read_batch(&batch, &mut rows).map_err(|e| ParquetFileError::format(path, e))?;
     }
     Ok(rows)
 }

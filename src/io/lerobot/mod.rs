@@ -150,10 +150,10 @@ impl From<ParquetFileError> for LerobotError {
                 path: path.into(),
                 source,
             },
-            ParquetFileError::Format { path, message } => LerobotError::Read {
+            ParquetFileError::Format { path, cause } => LerobotError::Read {
                 path: path.into(),
                 record: "file".into(),
-                message,
+                message: cause.to_string(),
             },
         }
     }
