@@ -14,10 +14,7 @@ use crate::provenance::{self, MINOS};
 pub const PROVENANCE: &str = "meta/provenance.json";
 
 fn provenance_error(e: provenance::ProvenanceError) -> LerobotError {
-    LerobotError::Write {
-        path: e.path.clone(),
-        message: e.source.to_string(),
-    }
+    super::write_error(&e.path, e.source)
 }
 
 /// Writes `root/README.md` from `root/meta/info.json`, then `root/meta/provenance.json`.
@@ -30,12 +27,7 @@ pub fn write_card_and_provenance(
     let info_path = root.join("meta/info.json");
     let info: Value = std::fs::read(&info_path)
         .map_err(io(&info_path))
-        .and_then(|b| {
-            serde_json::from_slice(&b).map_err(|e| LerobotError::Write {
-                path: info_path.clone(),
-                message: e.to_string(),
-            })
-        })?;
+        .and_then(|b| serde_json::from_slice(&b).map_err(|e| super::write_error(&info_path, e)))?;
     let readme = root.join("README.md");
     write_bytes_atomic(&readme, dataset_card(&info).as_bytes()).map_err(io(&readme))?;
     let mut source = serde_json::Map::new();

@@ -106,11 +106,8 @@ pub struct VideoPlace {
 /// Episode rows per `meta/episodes` file.
 pub const EPISODES_PER_META_FILE: usize = 1000;
 
-fn parquet_error(path: &Path, e: impl ToString) -> LerobotError {
-    LerobotError::Write {
-        path: path.to_path_buf(),
-        message: e.to_string(),
-    }
+fn parquet_error(path: &Path, e: impl Into<super::WriteCause>) -> LerobotError {
+    super::write_error(path, e)
 }
 
 /// Writes one Parquet file of `batch` (zstd), its schema metadata also as the file's

@@ -86,22 +86,24 @@ pub enum LerobotError {
         source: std::io::Error,
     },
     /// A run table that cannot be read, or a bad record in it.
-    #[error("{}: {record}: {message}", path.display())]
+    #[error("{}: {record}: {cause}", path.display())]
     Read {
         /// The table.
         path: PathBuf,
         /// The record (`row 12`, `column \`depth\``).
         record: String,
         /// What is wrong.
-        message: String,
+        #[source]
+        cause: ReadCause,
     },
     /// A dataset file that could not be written.
-    #[error("{}: {message}", path.display())]
+    #[error("{}: {cause}", path.display())]
     Write {
         /// The file.
         path: PathBuf,
         /// What went wrong.
-        message: String,
+        #[source]
+        cause: WriteCause,
     },
     /// The run's tables disagree with each other.
     #[error("{}: {message}", path.display())]
@@ -153,9 +155,83 @@ impl From<ParquetFileError> for LerobotError {
             ParquetFileError::Format { path, cause } => LerobotError::Read {
                 path: path.into(),
                 record: "file".into(),
-                message: cause.to_string(),
+                cause: ReadCause::Table(cause),
             },
         }
+    }
+}
+
+/// What is wrong with a run table's record: the table itself (its Parquet or Arrow error, or
+/// a rule of the run tables broken), or an image cell that does not decode.
+#[derive(Debug, thiserror::Error)]
+pub enum ReadCause {
+    /// The table, or a rule of it.
+    #[error(transparent)]
+    Table(#[from] crate::parquet_io::FormatCause),
+    /// An image cell, or an image column's metadata.
+    #[error(transparent)]
+    Image(#[from] crate::io::image_codec::CodecError),
+}
+
+impl From<crate::invalid::Invalid> for ReadCause {
+    fn from(e: crate::invalid::Invalid) -> Self {
+        ReadCause::Table(e.into())
+    }
+}
+
+impl From<arrow::error::ArrowError> for ReadCause {
+    fn from(e: arrow::error::ArrowError) -> Self {
+        ReadCause::Table(e.into())
+    }
+}
+
+impl From<&str> for ReadCause {
+    fn from(problem: &str) -> Self {
+        ReadCause::Table(problem.into())
+    }
+}
+
+impl From<String> for ReadCause {
+    fn from(problem: String) -> Self {
+        ReadCause::Table(problem.into())
+    }
+}
+
+/// Why a dataset file could not be written: the Parquet or Arrow library's error, a JSON
+/// one, or the file system's.
+#[derive(Debug, thiserror::Error)]
+pub enum WriteCause {
+    /// The Parquet writer failed.
+    #[error(transparent)]
+    Parquet(Box<parquet::errors::ParquetError>),
+    /// A record batch could not be built.
+    #[error(transparent)]
+    Arrow(Box<arrow::error::ArrowError>),
+    /// A JSON file could not be made or read back.
+    #[error(transparent)]
+    Json(#[from] serde_json::Error),
+    /// The file system failed.
+    #[error(transparent)]
+    Io(#[from] std::io::Error),
+}
+
+impl From<parquet::errors::ParquetError> for WriteCause {
+    fn from(e: parquet::errors::ParquetError) -> Self {
+        WriteCause::Parquet(Box::new(e))
+    }
+}
+
+impl From<arrow::error::ArrowError> for WriteCause {
+    fn from(e: arrow::error::ArrowError) -> Self {
+        WriteCause::Arrow(Box::new(e))
+    }
+}
+
+/// A [`LerobotError::Write`] of `path`.
+pub(crate) fn write_error(path: &Path, cause: impl Into<WriteCause>) -> LerobotError {
+    LerobotError::Write {
+        path: path.to_path_buf(),
+        cause: cause.into(),
     }
 }
 
@@ -259,10 +335,7 @@ impl DataFile {
         let file = File::create(&path).map_err(io(&path))?;
         let props = data_properties(&schema);
         let writer =
-            ArrowWriter::try_new(file, schema, Some(props)).map_err(|e| LerobotError::Write {
-                path: path.clone(),
-                message: e.to_string(),
-            })?;
+            ArrowWriter::try_new(file, schema, Some(props)).map_err(|e| write_error(&path, e))?;
         Ok(DataFile {
             index,
             path,
@@ -272,10 +345,7 @@ impl DataFile {
 
     fn close(self) -> Result<(), LerobotError> {
         let path = self.path;
-        self.writer.close().map_err(|e| LerobotError::Write {
-            path,
-            message: e.to_string(),
-        })?;
+        self.writer.close().map_err(|e| write_error(&path, e))?;
         Ok(())
     }
 }
@@ -566,10 +636,7 @@ fn write_into(
                 }
             };
             let mut current = current;
-            let werr = |path: &Path, e: parquet::errors::ParquetError| LerobotError::Write {
-                path: path.to_path_buf(),
-                message: e.to_string(),
-            };
+            let werr = |path: &Path, e: parquet::errors::ParquetError| write_error(path, e);
             current
                 .writer
                 .write(&batch)
@@ -630,10 +697,7 @@ fn write_into(
     meta::write_tasks(root, &tasks)?;
     meta::write_episodes(root, &metas, &features)?;
     let json_file = |path: PathBuf, value: serde_json::Value| -> Result<(), LerobotError> {
-        let bytes = serde_json::to_vec_pretty(&value).map_err(|e| LerobotError::Write {
-            path: path.clone(),
-            message: e.to_string(),
-        })?;
+        let bytes = serde_json::to_vec_pretty(&value).map_err(|e| write_error(&path, e))?;
         write_bytes_atomic(&path, &bytes).map_err(io(&path))
     };
     json_file(
@@ -736,5 +800,53 @@ impl VideoStream {
             from_timestamp,
             to_timestamp: file.next_timestamp(),
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn write_errors_keep_their_cause_typed_and_print_it_once() {
+        let json = serde_json::from_str::<serde_json::Value>("{").unwrap_err();
+        let text = json.to_string();
+        let e = write_error(Path::new("meta/info.json"), json);
+        assert!(matches!(
+            &e,
+            LerobotError::Write {
+                cause: WriteCause::Json(_),
+                ..
+            }
+        ));
+        assert_eq!(e.to_string(), format!("meta/info.json: {text}"));
+        let source = std::error::Error::source(&e).expect("the cause");
+        assert_eq!(source.to_string(), text);
+        assert_eq!(crate::escape::error_line(&e), e.to_string());
+        // A run table that is no Parquet: the reader's error, typed, behind the record.
+        let dir = tempfile::tempdir().unwrap();
+        let junk = dir.path().join("observations.parquet");
+        std::fs::write(&junk, b"not parquet").unwrap();
+        let Err(read) = ObservationRows::open(&junk) else {
+            panic!("junk opened")
+        };
+        let LerobotError::Read {
+            record,
+            cause: ReadCause::Table(crate::parquet_io::FormatCause::Parquet(_)),
+            ..
+        } = &read
+        else {
+            panic!("{read:?}")
+        };
+        assert_eq!(record, "file");
+        assert!(std::error::Error::source(&read).is_some());
+        let arrow = arrow::error::ArrowError::ComputeError("boom".into());
+        assert!(matches!(
+            write_error(Path::new("d.parquet"), arrow),
+            LerobotError::Write {
+                cause: WriteCause::Arrow(_),
+                ..
+            }
+        ));
     }
 }

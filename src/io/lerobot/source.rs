@@ -89,11 +89,11 @@ pub struct StepRow {
     pub steps_left: [f32; 1],
 }
 
-fn read_error(path: &Path, record: String, message: impl ToString) -> LerobotError {
+fn read_error(path: &Path, record: String, cause: impl Into<super::ReadCause>) -> LerobotError {
     LerobotError::Read {
         path: path.to_path_buf(),
         record,
-        message: message.to_string(),
+        cause: cause.into(),
     }
 }
 
@@ -347,7 +347,7 @@ impl ObservationRows {
                 return Err(read_error(&self.path, record, format!("{}: null", c.name)));
             }
             let image = decode_cell(cells.value(i), &c.format)
-                .map_err(|e| read_error(&self.path, record.clone(), format!("{}: {e}", c.name)))?;
+                .map_err(|e| read_error(&self.path, format!("{record}: column `{}`", c.name), e))?;
             images.push(image);
         }
         let row = (ids.value(i).to_string(), steps.value(i), images);
