@@ -406,6 +406,42 @@ fn an_external_process_drives_the_agent_over_json_lines() {
         matches!(failure, EpisodeFailure::Run(e) if matches!(**e, EpisodeError::Agent(_))),
         "{failure:?}"
     );
+    // Down to the protocol fault: the reply as read, the JSON parser's error as its source.
+    let mut chain: Vec<&(dyn std::error::Error + 'static)> = vec![failure];
+    while let Some(next) = chain.last().and_then(|e| e.source()) {
+        chain.push(next);
+    }
+    let fault = chain
+        .iter()
+        .find_map(|e| e.downcast_ref::<minos::run::agents::ExternalFault>())
+        .expect("the external fault in the chain");
+    assert!(
+        matches!(fault, minos::run::agents::ExternalFault::NotJson { reply, .. } if reply == "nope"),
+        "{fault:?}"
+    );
+    assert!(
+        chain.iter().any(|e| e.is::<serde_json::Error>()),
+        "{chain:?}"
+    );
+    let line = minos::escape::error_line(failure);
+    assert_eq!(line.matches("is not JSON").count(), 1, "{line}");
+    // A command that cannot start (sh exits at once): the run goes on, the episode fails.
+    let gone = run(
+        &config(
+            &dir.path().join("gone"),
+            AgentKind::External("exit 0".into()),
+            blind(),
+        ),
+        &episodes,
+        &NoProgress,
+    )
+    .unwrap();
+    assert_eq!(gone.failures.len(), 2);
+    let line = minos::escape::error_line(&gone.failures[0].1);
+    assert!(
+        line.contains("closed its output") || line.contains("write: "),
+        "{line}"
+    );
 }
 
 /// What a recording logged at one entity.

@@ -25,12 +25,23 @@ pub enum AgentError {
     #[error("{0} used before reset")]
     NotReset(&'static str),
     /// The external agent's process could not be started or spoken to.
-    #[error("external agent `{command}`: {message}")]
+    #[error("external agent `{command}`: {fault}")]
     External {
         /// Its command line.
         command: String,
         /// What went wrong.
-        message: String,
+        #[source]
+        fault: ExternalFault,
+    },
+    /// A person's agent (`minos serve`): the page left, or what it must be shown could not
+    /// be made.
+    #[error("human: {what}{}", .source.as_ref().map(|s| format!(": {s}")).unwrap_or_default())]
+    Human {
+        /// What happened (`the page left or was idle too long`, `map of <scene>`).
+        what: String,
+        /// The cause, when one failed.
+        #[source]
+        source: Option<Box<dyn std::error::Error + Send + Sync>>,
     },
     /// The external agent's process closed its output.
     #[error("external agent `{0}` closed its output")]
@@ -38,6 +49,41 @@ pub enum AgentError {
     /// A reply of the external agent that is not a decision.
     #[error("{0}")]
     Reply(#[from] ReplyError),
+}
+
+/// How an external agent's process failed or broke the JSON-lines protocol.
+#[derive(Debug, thiserror::Error)]
+pub enum ExternalFault {
+    /// `sh -c COMMAND` could not be started.
+    #[error("cannot start it: {0}")]
+    Spawn(#[source] std::io::Error),
+    /// Its standard input or output could not be taken.
+    #[error("no {0}")]
+    NoPipe(&'static str),
+    /// A message could not be written to it.
+    #[error("write: {0}")]
+    Write(#[source] std::io::Error),
+    /// Its reply could not be read.
+    #[error("read: {0}")]
+    Read(#[source] std::io::Error),
+    /// Its reply line is not JSON.
+    #[error("reply `{}` is not JSON: {source}", crate::escape::escape_controls(.reply))]
+    NotJson {
+        /// The line, trimmed.
+        reply: String,
+        /// The parser's error.
+        #[source]
+        source: serde_json::Error,
+    },
+    /// Its reply is JSON but not a decision.
+    #[error("step {step}: {source}")]
+    Reply {
+        /// The step it answered.
+        step: u32,
+        /// What is wrong with it.
+        #[source]
+        source: ReplyError,
+    },
 }
 
 /// A reply of an external agent that is not a decision.

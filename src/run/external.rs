@@ -11,7 +11,7 @@ use serde_json::{json, Value};
 use crate::episode::Episode;
 use crate::sim::{Actions, Observation, Simulator};
 
-use super::agents::{Agent, AgentError, Decision, ReplyError};
+use super::agents::{Agent, AgentError, Decision, ExternalFault, ReplyError};
 
 /// A running external policy.
 pub struct ExternalAgent {
@@ -25,9 +25,9 @@ pub struct ExternalAgent {
 impl ExternalAgent {
     /// Starts `command` with `sh -c`.
     pub fn spawn(command: &str) -> Result<Self, AgentError> {
-        let fail = |message: String| AgentError::External {
+        let fail = |fault| AgentError::External {
             command: command.to_string(),
-            message,
+            fault,
         };
         let mut child = Command::new("sh")
             .arg("-c")
@@ -35,13 +35,16 @@ impl ExternalAgent {
             .stdin(Stdio::piped())
             .stdout(Stdio::piped())
             .spawn()
-            .map_err(|e| fail(e.to_string()))?;
-        let stdin = child.stdin.take().ok_or_else(|| fail("no stdin".into()))?;
+            .map_err(|e| fail(ExternalFault::Spawn(e)))?;
+        let stdin = child
+            .stdin
+            .take()
+            .ok_or_else(|| fail(ExternalFault::NoPipe("stdin")))?;
         let stdout = BufReader::new(
             child
                 .stdout
                 .take()
-                .ok_or_else(|| fail("no stdout".into()))?,
+                .ok_or_else(|| fail(ExternalFault::NoPipe("stdout")))?,
         );
         Ok(ExternalAgent {
             command: command.to_string(),
@@ -52,10 +55,10 @@ impl ExternalAgent {
         })
     }
 
-    fn fail(&self, message: String) -> AgentError {
+    fn fail(&self, fault: ExternalFault) -> AgentError {
         AgentError::External {
             command: self.command.clone(),
-            message,
+            fault,
         }
     }
 
@@ -63,7 +66,7 @@ impl ExternalAgent {
         let line = msg.to_string();
         writeln!(self.stdin, "{line}")
             .and_then(|_| self.stdin.flush())
-            .map_err(|e| self.fail(format!("write: {e}")))
+            .map_err(|e| self.fail(ExternalFault::Write(e)))
     }
 
     fn receive(&mut self) -> Result<Value, AgentError> {
@@ -71,12 +74,16 @@ impl ExternalAgent {
         let n = self
             .stdout
             .read_line(&mut line)
-            .map_err(|e| self.fail(format!("read: {e}")))?;
+            .map_err(|e| self.fail(ExternalFault::Read(e)))?;
         if n == 0 {
             return Err(AgentError::ExternalClosed(self.command.clone()));
         }
-        serde_json::from_str(line.trim())
-            .map_err(|e| self.fail(format!("reply `{}` is not JSON: {e}", line.trim())))
+        serde_json::from_str(line.trim()).map_err(|source| {
+            self.fail(ExternalFault::NotJson {
+                reply: line.trim().to_string(),
+                source,
+            })
+        })
     }
 }
 
@@ -172,7 +179,12 @@ impl Agent for ExternalAgent {
         let msg = observation_json(&self.episode, obs, sim);
         self.send(&msg)?;
         let reply = self.receive()?;
-        parse_reply(&reply).map_err(|e| self.fail(format!("step {}: {e}", obs.measurements.step)))
+        parse_reply(&reply).map_err(|source| {
+            self.fail(ExternalFault::Reply {
+                step: obs.measurements.step,
+                source,
+            })
+        })
     }
 
     fn stops(&self) -> bool {

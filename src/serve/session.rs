@@ -373,17 +373,17 @@ struct HumanAgent {
 }
 
 fn gone() -> AgentError {
-    AgentError::External {
-        command: "human".into(),
-        message: "the page left or was idle too long".into(),
+    AgentError::Human {
+        what: "the page left or was idle too long".into(),
+        source: None,
     }
 }
 
 impl Agent for HumanAgent {
     fn reset(&mut self, episode: &Episode, sim: &Simulator) -> Result<(), AgentError> {
-        let (intro, map) = episode_intro(episode, sim).map_err(|e| AgentError::External {
-            command: "human".into(),
-            message: format!("map of {}: {e}", episode.scene_id),
+        let (intro, map) = episode_intro(episode, sim).map_err(|e| AgentError::Human {
+            what: format!("map of {}", episode.scene_id),
+            source: Some(Box::new(e)),
         })?;
         let level = map.level;
         let ok = self.link.text(intro);
@@ -434,9 +434,9 @@ impl Agent for HumanAgent {
         }
         let views = self.link.views.load(Ordering::Relaxed);
         let messages =
-            camera_messages(obs, sim, views, self.frames).map_err(|e| AgentError::External {
-                command: "human".into(),
-                message: crate::escape::error_line(&e),
+            camera_messages(obs, sim, views, self.frames).map_err(|e| AgentError::Human {
+                what: "camera images".into(),
+                source: Some(Box::new(e)),
             })?;
         for msg in messages {
             if !self.link.send(Update::Binary(msg)) {
