@@ -403,6 +403,28 @@ fn scene_instances_place_objects_from_configs_and_discovery_skips_their_parts() 
         .sources
         .iter()
         .any(|p| p.ends_with("objects/box.object_config.json")));
+
+    // A template whose config cannot be used fails the scene at the record that names it,
+    // the config's own error kept as the cause.
+    std::fs::write(
+        root.join("objects/box.object_config.json"),
+        r#"{"render_asset": "box.gltf", "up": [0, 1, 0], "front": [0, 1, 0]}"#,
+    )
+    .unwrap();
+    let err = GltfLoader::open(root, None)
+        .unwrap()
+        .load(&entry)
+        .expect_err("up and front are parallel");
+    let minos::scene::formats::LoadError::Referenced { node, source, .. } = &err else {
+        panic!("{err:?}")
+    };
+    assert!(node.contains("object_instances"), "{node}");
+    assert!(
+        source.to_string().contains("box.object_config.json"),
+        "{source}"
+    );
+    let line = minos::escape::error_line(&err);
+    assert_eq!(line.matches("box.object_config.json").count(), 1, "{line}");
 }
 
 /// sem.glb (floor + box) and, when `colored`, sem.semantic.glb with the same geometry

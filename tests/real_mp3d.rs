@@ -139,10 +139,15 @@ fn real_house_loads_with_the_header_counts_classes_and_categories() {
 #[test]
 fn truncated_house_fails_with_a_line_numbered_error_and_the_batch_goes_on() {
     let Some(mp3d) = real_data() else { return };
-    let err = loader(&mp3d)
+    let failure = loader(&mp3d)
         .load(&entry(&mp3d, TRUNCATED))
-        .expect_err("truncated file must fail")
-        .to_string();
+        .expect_err("truncated file must fail");
+    // The parser's error is kept as the cause, with its line.
+    assert!(
+        matches!(&failure, minos::scene::formats::LoadError::House { source, .. } if source.line == 171),
+        "{failure:?}"
+    );
+    let err = failure.to_string();
     eprintln!("{err}");
     assert!(!err.contains('\n'));
     assert!(

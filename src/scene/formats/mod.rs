@@ -72,6 +72,27 @@ pub enum LoadError {
         /// Where (line, field) and what is wrong.
         message: String,
     },
+    /// A Matterport3D `.house` file breaks its format (the line and what is wrong).
+    #[error("{}: {source}", path.display())]
+    House {
+        /// The file.
+        path: PathBuf,
+        /// The line and the problem.
+        #[source]
+        source: mp3d::house_file::HouseError,
+    },
+    /// One record of a valid file refers to another file (a template, a mesh) that cannot
+    /// be used.
+    #[error("{}: node {node}: {source}", path.display())]
+    Referenced {
+        /// The file holding the record.
+        path: PathBuf,
+        /// The record's id.
+        node: String,
+        /// Why the referenced file cannot be used.
+        #[source]
+        source: Box<LoadError>,
+    },
     /// One record (node, object) of a valid file is wrong.
     #[error("{}: node {node}: {message}", path.display())]
     Node {
@@ -90,6 +111,15 @@ impl LoadError {
         LoadError::Parse {
             path: path.to_path_buf(),
             message: one_line(message.into()),
+        }
+    }
+
+    /// A record error caused by another file's.
+    pub fn referenced(path: &Path, node: impl Into<String>, source: LoadError) -> Self {
+        LoadError::Referenced {
+            path: path.to_path_buf(),
+            node: node.into(),
+            source: Box::new(source),
         }
     }
 

@@ -286,7 +286,7 @@ impl GltfLoader {
             |kind: Kind, record: &str, template: &str| match self.resolve(kind, template, path) {
                 Ok(r) => Ok(r),
                 Err(ResolveError::Missing) => Err(missing(kind, record, template)),
-                Err(ResolveError::Load(e)) => Err(LoadError::node(path, record, e.to_string())),
+                Err(ResolveError::Load(e)) => Err(LoadError::referenced(path, record, e)),
             };
         let stage = si.stage.as_ref().ok_or_else(|| {
             LoadError::node(
@@ -309,18 +309,14 @@ impl GltfLoader {
             }
             let spec = self.stage_spec(&r, &mut asm.warnings)?;
             asm.add_stage(&spec)
-                .map_err(|e| LoadError::node(path, &stage.record, e.to_string()))?;
+                .map_err(|e| LoadError::referenced(path, &stage.record, e))?;
         }
         let mut resolved: HashMap<&str, (Resolved, Quat)> = HashMap::new();
         for (i, inst) in si.objects.iter().enumerate() {
             if !resolved.contains_key(inst.template.as_str()) {
                 let r = resolve(Kind::Object, &inst.record, &inst.template)?;
                 let frame = frame_to_world(r.attributes.up, r.attributes.front).map_err(|m| {
-                    LoadError::node(
-                        path,
-                        &inst.record,
-                        LoadError::parse(&r.config, m).to_string(),
-                    )
+                    LoadError::referenced(path, &inst.record, LoadError::parse(&r.config, m))
                 })?;
                 asm.sources.extend(r.sources.iter().cloned());
                 resolved.insert(inst.template.as_str(), (r, frame));
@@ -342,7 +338,7 @@ impl GltfLoader {
                 self.template_categories(&inst.template),
                 &placement,
             )
-            .map_err(|e| LoadError::node(path, &inst.record, e.to_string()))?;
+            .map_err(|e| LoadError::referenced(path, &inst.record, e))?;
         }
         if si.articulated > 0 {
             asm.warnings.push(format!(

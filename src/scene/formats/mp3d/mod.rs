@@ -278,7 +278,10 @@ impl Mp3dLoader {
             path: path.clone(),
             source,
         })?;
-        let house = house_file::parse(&bytes).map_err(|e| LoadError::parse(path, e.to_string()))?;
+        let house = house_file::parse(&bytes).map_err(|source| LoadError::House {
+            path: path.to_path_buf(),
+            source,
+        })?;
         self.build(entry, &house)
     }
 
