@@ -25,10 +25,10 @@ use super::scene::RenderScene;
 pub enum GpuError {
     /// No adapter (install `mesa-vulkan-drivers` for lavapipe, or use the CPU renderer).
     #[error("no GPU adapter found ({0}); the CPU renderer works without one")]
-    NoAdapter(String),
+    NoAdapter(#[source] wgpu::RequestAdapterError),
     /// The device could not be created.
     #[error("GPU device: {0}")]
-    Device(String),
+    Device(#[source] wgpu::RequestDeviceError),
     /// Rendering or read-back failed.
     #[error("GPU render: {0}")]
     Render(String),
@@ -144,7 +144,7 @@ impl GpuRenderer {
         } else {
             attempt(Some(wgpu::Backends::PRIMARY)).or_else(|_| attempt(Some(wgpu::Backends::all())))
         }
-        .map_err(|e| GpuError::NoAdapter(e.to_string()))?;
+        .map_err(GpuError::NoAdapter)?;
         let info = adapter.get_info();
         let supported = adapter.limits();
         // Scenes of millions of triangles and batches of thousands of views need the
@@ -162,7 +162,7 @@ impl GpuRenderer {
             memory_hints: wgpu::MemoryHints::Performance,
             trace: wgpu::Trace::Off,
         }))
-        .map_err(|e| GpuError::Device(e.to_string()))?;
+        .map_err(GpuError::Device)?;
         let pipeline = match method {
             GpuMethod::RayTrace => Pipeline::Trace(trace::Tracer::new(&device)),
             GpuMethod::Rasterise => Pipeline::Raster(raster::Raster::new(&device)),
