@@ -290,9 +290,79 @@ impl BenchReport {
 }
 
 /// Why a benchmark could not run (one line).
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("{0}")]
-pub struct BenchError(pub String);
+#[derive(Debug, thiserror::Error)]
+pub enum BenchError {
+    /// A pool of `threads` threads could not be made.
+    #[error("a {threads}-thread pool: {source}")]
+    Pool {
+        /// Its size.
+        threads: usize,
+        /// The cause.
+        #[source]
+        source: rayon::ThreadPoolBuildError,
+    },
+    /// A rollout thread panicked.
+    #[error("a rollout thread panicked")]
+    WorkerPanicked,
+    /// The DATA folder could not be read (its manifest, a scene, a grid); `hint` says which
+    /// step makes what is missing.
+    #[error("{source}{hint}")]
+    Data {
+        /// The cause.
+        #[source]
+        source: crate::store::StoreError,
+        /// ` (ingest the scene first)`, ` (bake the scene first)` or nothing.
+        hint: &'static str,
+    },
+    /// No scene of the manifest was ingested without error.
+    #[error("{}: no scene ingested without error (ingest the scenes first)", .0.display())]
+    NothingIngested(std::path::PathBuf),
+    /// The scene's grid was baked for another body.
+    #[error("{scene}: {source}")]
+    Body {
+        /// The scene.
+        scene: String,
+        /// The mismatch.
+        #[source]
+        source: crate::body::BodyMismatch,
+    },
+    /// Baking failed.
+    #[error(transparent)]
+    Bake(#[from] crate::navmesh::build::BuildError),
+    /// The scene's simulator could not be made.
+    #[error(transparent)]
+    Simulator(#[from] crate::sim::simulator::SimError),
+    /// The renderer failed (making it, or a frame).
+    #[error(transparent)]
+    Render(#[from] crate::render::gpu::GpuError),
+    /// An agent could not decide.
+    #[error(transparent)]
+    Agent(#[from] crate::run::agents::AgentError),
+    /// A lockstep of the batched rollout failed.
+    #[error(transparent)]
+    Step(#[from] crate::run::stepper::StepError),
+    /// The GPU batch benchmark has nothing to render.
+    #[error("GPU batch: {0}")]
+    GpuBatch(&'static str),
+    /// What the benchmark needs was not loaded (a bug: each kind loads what it needs).
+    #[error("no {0}")]
+    NotLoaded(&'static str),
+    /// The scene gave nothing to measure (`no PointGoal episode could be sampled`, `the
+    /// grid has no walkable floor`).
+    #[error("{scene}: {what}")]
+    Empty {
+        /// The scene.
+        scene: String,
+        /// What it lacks.
+        what: &'static str,
+    },
+}
+
+impl BenchError {
+    fn data(hint: &'static str) -> impl Fn(crate::store::StoreError) -> BenchError {
+        move |source| BenchError::Data { source, hint }
+    }
+}
 
 /// This thread's CPU time, where the platform says (Linux).
 fn thread_cpu() -> Option<Duration> {
@@ -393,23 +463,19 @@ pub fn bench(cfg: &BenchConfig) -> Result<BenchReport, BenchError> {
     rayon::ThreadPoolBuilder::new()
         .num_threads(1)
         .build()
-        .map_err(|e| BenchError(format!("a one-thread pool: {e}")))?
+        .map_err(|source| BenchError::Pool { threads: 1, source })?
         .install(|| bench_on_this_thread(cfg))
 }
 
 /// [`bench`] on the calling thread (and whatever pool it is in).
 fn bench_on_this_thread(cfg: &BenchConfig) -> Result<BenchReport, BenchError> {
-    let err = |e: &dyn std::fmt::Display| BenchError(e.to_string());
     let scene_ref = match &cfg.scene {
         Some(s) => s.clone(),
         None => {
-            let ids = cfg.data.ingested_ids().map_err(|e| err(&e))?;
-            let first = ids.first().ok_or_else(|| {
-                BenchError(format!(
-                    "{}: no scene ingested without error (ingest the scenes first)",
-                    cfg.data.manifest_path().display()
-                ))
-            })?;
+            let ids = cfg.data.ingested_ids().map_err(BenchError::data(""))?;
+            let first = ids
+                .first()
+                .ok_or_else(|| BenchError::NothingIngested(cfg.data.manifest_path()))?;
             SceneRef::parse(first)
         }
     };
@@ -420,7 +486,7 @@ fn bench_on_this_thread(cfg: &BenchConfig) -> Result<BenchReport, BenchError> {
         let (scene, _) = timer.stage("load scene", "scenes", one, || {
             cfg.data
                 .load_scene(&scene_ref)
-                .map_err(|e| BenchError(format!("{e} (ingest the scene first)")))
+                .map_err(BenchError::data(" (ingest the scene first)"))
         })?;
         Some(scene)
     } else {
@@ -430,7 +496,7 @@ fn bench_on_this_thread(cfg: &BenchConfig) -> Result<BenchReport, BenchError> {
         Some(timer.stage("load grid", "grids", one, || {
             cfg.data
                 .read_grid(&scene_ref)
-                .map_err(|e| BenchError(format!("{e} (bake the scene first)")))
+                .map_err(BenchError::data(" (bake the scene first)"))
         })?)
     } else {
         None
@@ -459,21 +525,20 @@ fn bench_on_this_thread(cfg: &BenchConfig) -> Result<BenchReport, BenchError> {
             allow_mismatch: cfg.allow_body_mismatch,
         }
         .check(&g.params.body)
-        .map_err(|e| BenchError(format!("{scene_ref}: {e}")))?;
+        .map_err(|source| BenchError::Body {
+            scene: scene_ref.to_string(),
+            source,
+        })?;
     }
     match cfg.kind {
         BenchKind::Bake => {
-            let scene = scene
-                .as_ref()
-                .ok_or_else(|| BenchError("no scene".into()))?;
+            let scene = scene.as_ref().ok_or(BenchError::NotLoaded("scene"))?;
             let params = NavParams::for_body(cfg.agent.body);
-            let grid = timer.stage("bake", "scenes", one, || {
-                build(scene, &params).map_err(|e| err(&e))
-            })?;
+            let grid = timer.stage("bake", "scenes", one, || build(scene, &params))?;
             report.walkable_spans = grid.spans.iter().filter(|s| s.walkable).count() as u64;
         }
         BenchKind::Episodes => {
-            let grid = grid.as_ref().ok_or_else(|| BenchError("no grid".into()))?;
+            let grid = grid.as_ref().ok_or(BenchError::NotLoaded("grid"))?;
             let sampled = timer.stage(
                 "sample",
                 "episodes",
@@ -481,15 +546,16 @@ fn bench_on_this_thread(cfg: &BenchConfig) -> Result<BenchReport, BenchError> {
                 || episodes(cfg, grid, &scene_ref),
             );
             if sampled.is_empty() {
-                return Err(BenchError(format!(
-                    "{scene_ref}: no PointGoal episode could be sampled"
-                )));
+                return Err(BenchError::Empty {
+                    scene: scene_ref.to_string(),
+                    what: "no PointGoal episode could be sampled",
+                });
             }
         }
         BenchKind::Render | BenchKind::Run => {
             let (scene, grid) = match (scene, grid) {
                 (Some(s), Some(g)) => (s, g),
-                _ => return Err(BenchError("no scene or grid".into())),
+                _ => return Err(BenchError::NotLoaded("scene or grid")),
             };
             let eps = if cfg.kind == BenchKind::Run {
                 let eps = timer.stage(
@@ -499,9 +565,10 @@ fn bench_on_this_thread(cfg: &BenchConfig) -> Result<BenchReport, BenchError> {
                     || episodes(cfg, &grid, &scene_ref),
                 );
                 if eps.is_empty() {
-                    return Err(BenchError(format!(
-                        "{scene_ref}: no PointGoal episode could be sampled"
-                    )));
+                    return Err(BenchError::Empty {
+                        scene: scene_ref.to_string(),
+                        what: "no PointGoal episode could be sampled",
+                    });
                 }
                 eps
             } else {
@@ -595,9 +662,12 @@ fn poses(
     let spans = grid.walkable_spans(None);
     (0..cfg.frames)
         .map(|_| {
-            let (_, p) = grid
-                .random_point_from(&mut rng, &spans)
-                .ok_or_else(|| BenchError(format!("{scene}: the grid has no walkable floor")))?;
+            let (_, p) =
+                grid.random_point_from(&mut rng, &spans)
+                    .ok_or_else(|| BenchError::Empty {
+                        scene: scene.to_string(),
+                        what: "the grid has no walkable floor",
+                    })?;
             Ok((p, rng.range_f64(0.0, std::f64::consts::TAU) as f32))
         })
         .collect()
@@ -614,10 +684,8 @@ fn prepare(
     } else {
         SceneAssets::new(scene, grid, &cfg.agent)
     };
-    let assets = Arc::new(assets.map_err(|e| BenchError(e.to_string()))?);
-    let renderer = Arc::new(
-        Renderer::new(cfg.renderer, &assets.render).map_err(|e| BenchError(e.to_string()))?,
-    );
+    let assets = Arc::new(assets?);
+    let renderer = Arc::new(Renderer::new(cfg.renderer, &assets.render)?);
     let sim = Simulator::new(
         assets.clone(),
         renderer,
@@ -638,7 +706,7 @@ fn render(timer: &mut Timer, sim: &mut Simulator, poses: &[(Vec3, f32)]) -> Resu
         let t = Instant::now();
         let (r, s) = timer.measure(|| sim.observe());
         let s = if wall { t.elapsed().as_secs_f64() } else { s };
-        r.map_err(|e| BenchError(e.to_string()))?;
+        r?;
         timer.add("render", "frames", 1, s);
     }
     if wall {
@@ -674,10 +742,7 @@ fn rollout_on_threads(
             .collect();
         workers
             .into_iter()
-            .map(|w| {
-                w.join()
-                    .unwrap_or_else(|_| Err(BenchError("a rollout thread panicked".into())))
-            })
+            .map(|w| w.join().unwrap_or_else(|_| Err(BenchError::WorkerPanicked)))
             .collect()
     });
     let wall = start.elapsed().as_secs_f64();
@@ -716,7 +781,7 @@ fn thread_pool(threads: usize) -> Result<rayon::ThreadPool, BenchError> {
     rayon::ThreadPoolBuilder::new()
         .num_threads(threads.max(1))
         .build()
-        .map_err(|e| BenchError(format!("a {threads}-thread pool: {e}")))
+        .map_err(|source| BenchError::Pool { threads, source })
 }
 
 /// The stepper of `minos run`'s oracle on `sim` (success needs its `stop`; the episodes'
@@ -740,31 +805,22 @@ fn episode_loop<'a>(
     geo: &Geodesic,
     eps: impl Iterator<Item = &'a Episode>,
 ) -> Result<u64, BenchError> {
-    let e = |e: &dyn std::fmt::Display| BenchError(e.to_string());
     let mut agent = OracleAgent::new();
     let mut steps = 0;
     for ep in eps {
-        clock
-            .time(RESET, "episodes", || {
-                stepper.reset_in(ep, Some(geo)).map(|_| ())
-            })
-            .map_err(|x| e(&x))?;
-        clock
-            .time("oracle plan", "episodes", || agent.reset(ep, stepper.sim()))
-            .map_err(|x| e(&x))?;
+        clock.time(RESET, "episodes", || {
+            stepper.reset_in(ep, Some(geo)).map(|_| ())
+        })?;
+        clock.time("oracle plan", "episodes", || agent.reset(ep, stepper.sim()))?;
         while !stepper.ended() {
-            let d = clock
-                .time("oracle decide", "steps", || {
-                    agent.decide(stepper.observation(), stepper.sim())
-                })
-                .map_err(|x| e(&x))?;
+            let d = clock.time("oracle decide", "steps", || {
+                agent.decide(stepper.observation(), stepper.sim())
+            })?;
             if d == Decision::Stop {
-                stepper.step(d).map_err(|x| e(&x))?;
+                stepper.step(d)?;
                 break;
             }
-            clock
-                .time("sim step", "steps", || stepper.step(d).map(|_| ()))
-                .map_err(|x| e(&x))?;
+            clock.time("sim step", "steps", || stepper.step(d).map(|_| ()))?;
             steps += 1;
         }
     }

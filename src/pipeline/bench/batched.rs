@@ -106,12 +106,11 @@ fn start_next(
     next: &AtomicUsize,
     geo: &Geodesic,
 ) -> Result<bool, BenchError> {
-    let err = |e: &dyn std::fmt::Display| BenchError(e.to_string());
     let Some(ep) = eps.get(next.fetch_add(1, Ordering::Relaxed)) else {
         return Ok(false);
     };
     stepper.prepare_in(ep, Some(geo));
-    agent.reset(ep, stepper.sim()).map_err(|e| err(&e))?;
+    agent.reset(ep, stepper.sim())?;
     Ok(true)
 }
 
@@ -194,8 +193,7 @@ pub(super) fn rollout_batched(
                     true => Ok(None),
                     false => a.decide(s.observation(), s.sim()).map(Some),
                 })
-                .collect::<Result<Vec<Option<Decision>>, _>>()
-                .map_err(|e| BenchError(e.to_string()))?;
+                .collect::<Result<Vec<Option<Decision>>, _>>()?;
             PhaseTimes::lap(&mut decide, t);
             // An oracle's stop ends its episode (the per-core loop takes no step for it);
             // the others step (or observe) together, and those that reach the step limit end.
@@ -218,8 +216,7 @@ pub(super) fn rollout_batched(
                 }
             }
             (steppers, agents) = stepping.into_iter().unzip();
-            let ended: Vec<bool> = step_many_timed(&mut steppers, &commands, &mut phases)
-                .map_err(|e| BenchError(e.to_string()))?
+            let ended: Vec<bool> = step_many_timed(&mut steppers, &commands, &mut phases)?
                 .iter()
                 .map(|o| o.done())
                 .collect();

@@ -37,17 +37,16 @@ pub(super) fn batches(
     scene: &RenderScene,
 ) -> Result<Vec<Stage>, BenchError> {
     let views = batch_views(sim, poses, cfg.batch)?;
-    let err = |e: &dyn std::fmt::Display| BenchError(format!("GPU batch: {e}"));
     // Both on all threads: frames are copied out of the read-back buffer in parallel.
     let pool = super::thread_pool(cfg.threads)?;
     let ids = pool.install(|| {
         repeat(views.len(), || {
-            gpu.render_views(&views).map(drop).map_err(|e| err(&e))
+            gpu.render_views(&views).map(drop).map_err(BenchError::from)
         })
     })?;
     let images = pool.install(|| {
         repeat(views.len(), || {
-            let frames = gpu.render_views(&views).map_err(|e| err(&e))?;
+            let frames = gpu.render_views(&views)?;
             frames.par_iter().zip(&views).for_each(|(f, v)| {
                 black_box(f.color(scene, &v.camera));
                 black_box(f.linear_depth(&v.camera));
@@ -68,9 +67,7 @@ pub(super) fn batches(
     }
     let derived = pool.install(|| {
         repeat(views.len(), || {
-            let frames = gpu
-                .render_views_with(&views, channels)
-                .map_err(|e| err(&e))?;
+            let frames = gpu.render_views_with(&views, channels)?;
             frames.par_iter().zip(&views).for_each(|(f, v)| {
                 black_box(f.color(scene, &v.camera));
                 black_box(f.linear_depth(&v.camera));
@@ -126,9 +123,7 @@ fn batch_views(
         let r = *resolution.get_or_insert_with(|| cameras.first().map(|c| (c.width, c.height)));
         cameras.retain(|c| Some((c.width, c.height)) == r);
         if cameras.is_empty() {
-            return Err(BenchError(
-                "GPU batch: the sensors have no camera to render".into(),
-            ));
+            return Err(BenchError::GpuBatch("the sensors have no camera to render"));
         }
         for camera in cameras {
             if views.len() == size {
@@ -143,5 +138,5 @@ fn batch_views(
             return Ok(views);
         }
     }
-    Err(BenchError("GPU batch: no pose to render from".into()))
+    Err(BenchError::GpuBatch("no pose to render from"))
 }
