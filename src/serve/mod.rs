@@ -88,9 +88,9 @@ pub enum ServeError {
     /// The tokio runtime could not start.
     #[error("runtime: {0}")]
     Runtime(std::io::Error),
-    /// A campaign's episode cannot be served.
-    #[error("{0}")]
-    Campaign(String),
+    /// A campaign's episode cannot be served (its scene is not in the DATA folder).
+    #[error(transparent)]
+    Campaign(Invalid),
     /// A setting makes no sense (the message names it and why).
     #[error("{0}")]
     Setting(String),
@@ -380,8 +380,7 @@ fn launch(
         scenes.sort();
         scenes.dedup();
         for scene in scenes {
-            app.contained(scene)
-                .map_err(|e| ServeError::Campaign(e.to_string()))?;
+            app.contained(scene).map_err(ServeError::Campaign)?;
         }
     }
     // The sockets of every session (each step's frames and JSON, every key press) go through

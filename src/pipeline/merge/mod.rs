@@ -77,6 +77,9 @@ pub enum MergeError {
     /// The merged recording could not be written.
     #[error(transparent)]
     WriteRecording(#[from] crate::io::rrd::RecordingError),
+    /// A shard's rerun recording could not be read.
+    #[error(transparent)]
+    ShardRecording(crate::io::rrd::RecordingError),
     /// The merged episode file could not be written.
     #[error(transparent)]
     WriteEpisodes(crate::pipeline::episodes::BatchWriteError),

@@ -470,7 +470,7 @@ pub fn merge_runs(
             .collect();
         let mut by_id = BTreeMap::new();
         for path in recorded_shards.iter().flatten() {
-            for (id, msgs) in recordings_of(path).map_err(|e| MergeError::Shards(e.to_string()))? {
+            for (id, msgs) in recordings_of(path).map_err(MergeError::ShardRecording)? {
                 by_id.insert(id, (path.clone(), msgs));
             }
         }
