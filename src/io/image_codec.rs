@@ -145,7 +145,10 @@ pub enum CodecError {
     },
     /// PNG encoding or decoding failed.
     #[error("PNG: {0}")]
-    Png(String),
+    Png(#[source] image::ImageError),
+    /// The image's pixel count does not fit its stated size.
+    #[error("PNG: pixel count does not fit the size")]
+    PngSize,
     /// The column metadata does not describe an image column.
     #[error("column metadata: {0}")]
     Metadata(String),
@@ -415,7 +418,7 @@ pub fn decode_cell(bytes: &[u8], format: &CellFormat) -> Result<Image, CodecErro
         return Ok(from_le_bytes(bytes, format.dtype, c));
     }
     let img = image::load_from_memory_with_format(bytes, image::ImageFormat::Png)
-        .map_err(|e| CodecError::Png(e.to_string()))?;
+        .map_err(CodecError::Png)?;
     if (img.width(), img.height()) != (format.width, format.height) {
         return Err(got(format!("a {}×{} PNG", img.width(), img.height())));
     }
@@ -518,13 +521,12 @@ where
     C: std::ops::Deref<Target = [P::Subpixel]>,
     [P::Subpixel]: image::EncodableLayout,
 {
-    let buffer =
-        buffer.ok_or_else(|| CodecError::Png("pixel count does not fit the size".into()))?;
+    let buffer = buffer.ok_or(CodecError::PngSize)?;
     let mut cursor = std::io::Cursor::new(std::mem::take(out));
     cursor.set_position(cursor.get_ref().len() as u64);
     let result = buffer
         .write_to(&mut cursor, image::ImageFormat::Png)
-        .map_err(|e| CodecError::Png(e.to_string()));
+        .map_err(CodecError::Png);
     *out = cursor.into_inner();
     result
 }
@@ -681,7 +683,11 @@ mod tests {
         assert!(encode_cell(&wrong, &f, &mut out).is_err());
         let short = Image::U16(vec![1; 14]);
         assert!(encode_cell(&short, &f, &mut out).is_err());
-        assert!(decode_cell(b"not a png", &f).is_err());
+        // The PNG decoder's own error is kept as the cause.
+        let e = decode_cell(b"not a png", &f).unwrap_err();
+        assert!(matches!(e, CodecError::Png(_)), "{e:?}");
+        let source = std::error::Error::source(&e).expect("the decoder's error");
+        assert!(source.is::<image::ImageError>());
         encode_cell(&Image::U16(vec![3; 15]), &f, &mut out).expect("encodes");
         let mut cut = out.clone();
         cut.truncate(out.len() / 2);
