@@ -144,7 +144,7 @@ fn check_file(path: &Path, shape: &[u64], fps: u64, places: &[Place], found: &mu
     let contents = match read_video(path, true) {
         Ok(c) => c,
         Err(e) => {
-            found.problem(path, "file", e);
+            found.problem(path, "file", crate::escape::error_line(&e));
             return 0;
         }
     };

@@ -443,6 +443,12 @@ mod tests {
         std::fs::write(&cut, &bytes[..bytes.len() / 2]).expect("write");
         let e = super::super::video_read::read_video(&cut, true).expect_err("cut");
         assert!(!e.to_string().contains('\n'), "{e}");
+        // The MP4 reader's own error is kept as the cause.
+        assert!(
+            matches!(e, super::super::video_read::VideoReadError::Mp4(_)),
+            "{e:?}"
+        );
+        assert!(std::error::Error::source(&e).is_some_and(|c| c.is::<mp4::Error>()));
     }
 
     #[test]

@@ -10,8 +10,52 @@ use openh264::decoder::{Decoder, DecoderConfig};
 use openh264::formats::YUVSource;
 use openh264::OpenH264API;
 
-use crate::escape::catch_quietly;
+use crate::escape::{catch_quietly, Panicked};
 use crate::invalid::Invalid;
+
+/// Why a video file cannot be read back: one line, what is wrong without the path (the
+/// caller names the file).
+#[derive(Debug, thiserror::Error)]
+pub enum VideoReadError {
+    /// The file could not be opened or measured.
+    #[error("{0}")]
+    Io(#[source] std::io::Error),
+    /// The MP4 reader panicked on it.
+    #[error("unreadable MP4: {0}")]
+    Unreadable(#[source] Panicked),
+    /// The MP4 reader refused it.
+    #[error("MP4: {0}")]
+    Mp4(#[source] mp4::Error),
+    /// Its tracks are not one H.264 video track with its parameter sets, or a sample's
+    /// NAL units are cut short.
+    #[error("{0}")]
+    Layout(#[source] Invalid),
+    /// The H.264 decoder failed.
+    #[error("H.264 decoder: {0}")]
+    Decoder(#[source] openh264::Error),
+    /// One frame (0-based) could not be read or decoded.
+    #[error("frame {frame}: {source}")]
+    Frame {
+        /// The frame.
+        frame: u32,
+        /// Why.
+        #[source]
+        source: Box<VideoReadError>,
+    },
+}
+
+impl VideoReadError {
+    fn frame(frame: u32) -> impl Fn(VideoReadError) -> VideoReadError {
+        move |e| VideoReadError::Frame {
+            frame,
+            source: Box::new(e),
+        }
+    }
+}
+
+fn layout(problem: impl Into<Invalid>) -> VideoReadError {
+    VideoReadError::Layout(problem.into())
+}
 
 /// A video file's index and, when asked for, its frames.
 #[derive(Debug, Clone, PartialEq)]
@@ -52,22 +96,29 @@ fn annex_b(sample: &[u8], out: &mut Vec<u8>) -> Result<(), Invalid> {
 
 /// Reads the video file `path`: its one video track's index, and every frame decoded when
 /// `decode` is set. The error is one line (what is wrong, without the path).
-pub fn read_video(path: &Path, decode: bool) -> Result<VideoContents, Invalid> {
-    let file = File::open(path).map_err(|e| e.to_string())?;
-    let size = file.metadata().map_err(|e| e.to_string())?.len();
+pub fn read_video(path: &Path, decode: bool) -> Result<VideoContents, VideoReadError> {
+    let file = File::open(path).map_err(VideoReadError::Io)?;
+    let size = file.metadata().map_err(VideoReadError::Io)?.len();
     catch_quietly(|| read_from(BufReader::new(file), size, decode))
-        .map_err(|panic| format!("unreadable MP4: {panic}"))?
+        .map_err(VideoReadError::Unreadable)?
 }
 
-fn read_from(reader: BufReader<File>, size: u64, decode: bool) -> Result<VideoContents, Invalid> {
-    let mut mp4 = mp4::Mp4Reader::read_header(reader, size).map_err(|e| format!("MP4: {e}"))?;
+fn read_from(
+    reader: BufReader<File>,
+    size: u64,
+    decode: bool,
+) -> Result<VideoContents, VideoReadError> {
+    let mut mp4 = mp4::Mp4Reader::read_header(reader, size).map_err(VideoReadError::Mp4)?;
     let videos: Vec<&mp4::Mp4Track> = mp4
         .tracks()
         .values()
         .filter(|t| matches!(t.track_type(), Ok(mp4::TrackType::Video)))
         .collect();
     let [t] = videos[..] else {
-        return Err(format!("{} video tracks where one is expected", videos.len()).into());
+        return Err(layout(format!(
+            "{} video tracks where one is expected",
+            videos.len()
+        )));
     };
     let track = t.track_id();
     let (width, height) = (u32::from(t.width()), u32::from(t.height()));
@@ -82,16 +133,18 @@ fn read_from(reader: BufReader<File>, size: u64, decode: bool) -> Result<VideoCo
         .map(<[u8]>::to_vec)
         .unwrap_or_default();
     if codec != "avc1" {
-        return Err(format!("codec `{codec}` where `avc1` (H.264) is expected").into());
+        return Err(layout(format!(
+            "codec `{codec}` where `avc1` (H.264) is expected"
+        )));
     }
     if sps.is_empty() || pps.is_empty() {
-        return Err("the H.264 track has no parameter sets".into());
+        return Err(layout("the H.264 track has no parameter sets"));
     }
-    let count = mp4.sample_count(track).map_err(|e| format!("MP4: {e}"))?;
+    let count = mp4.sample_count(track).map_err(VideoReadError::Mp4)?;
     let mut decoder = if decode {
         Some(
             Decoder::with_api_config(OpenH264API::from_source(), DecoderConfig::new())
-                .map_err(|e| format!("H.264 decoder: {e}"))?,
+                .map_err(VideoReadError::Decoder)?,
         )
     } else {
         None
@@ -107,10 +160,11 @@ fn read_from(reader: BufReader<File>, size: u64, decode: bool) -> Result<VideoCo
     };
     let mut packet = Vec::new();
     for id in 1..=count {
+        let in_frame = VideoReadError::frame(id - 1);
         let sample = mp4
             .read_sample(track, id)
-            .map_err(|e| format!("frame {}: {e}", id - 1))?
-            .ok_or_else(|| format!("frame {}: missing", id - 1))?;
+            .map_err(|e| in_frame(VideoReadError::Mp4(e)))?
+            .ok_or_else(|| in_frame(layout("missing")))?;
         out.samples.push((sample.start_time, sample.is_sync));
         let Some(decoder) = decoder.as_mut() else {
             continue;
@@ -122,10 +176,10 @@ fn read_from(reader: BufReader<File>, size: u64, decode: bool) -> Result<VideoCo
                 packet.extend_from_slice(ps);
             }
         }
-        annex_b(&sample.bytes, &mut packet).map_err(|e| format!("frame {}: {e}", id - 1))?;
+        annex_b(&sample.bytes, &mut packet).map_err(|e| in_frame(VideoReadError::Layout(e)))?;
         let picture = decoder
             .decode(&packet)
-            .map_err(|e| format!("frame {}: H.264 decoder: {e}", id - 1))?;
+            .map_err(|e| in_frame(VideoReadError::Decoder(e)))?;
         if let Some(p) = picture {
             let (w, h) = p.dimensions();
             let mut rgb = vec![0u8; w * h * 3];
@@ -135,10 +189,7 @@ fn read_from(reader: BufReader<File>, size: u64, decode: bool) -> Result<VideoCo
         }
     }
     if let Some(decoder) = decoder.as_mut() {
-        for p in decoder
-            .flush_remaining()
-            .map_err(|e| format!("H.264 decoder: {e}"))?
-        {
+        for p in decoder.flush_remaining().map_err(VideoReadError::Decoder)? {
             let (w, h) = p.dimensions();
             let mut rgb = vec![0u8; w * h * 3];
             p.write_rgb8(&mut rgb);
