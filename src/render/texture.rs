@@ -9,8 +9,6 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::invalid::Invalid;
-
 /// Largest side of a texture after loading (pixels).
 pub const MAX_TEXTURE_SIZE: u32 = 256;
 
@@ -26,13 +24,25 @@ pub enum TextureError {
         source: std::io::Error,
     },
     /// The file is not an image minos can decode (PNG or JPEG).
-    #[error("{}: not a PNG or JPEG image: {message}", path.display())]
+    #[error("{}: not a PNG or JPEG image: {source}", path.display())]
     Decode {
         /// The file.
         path: PathBuf,
         /// What the decoder said.
-        message: String,
+        #[source]
+        source: TextureDecodeError,
     },
+}
+
+/// Why image bytes are not a texture.
+#[derive(Debug, thiserror::Error)]
+pub enum TextureDecodeError {
+    /// The image crate could not decode them.
+    #[error(transparent)]
+    Image(#[from] image::ImageError),
+    /// The image has no pixels.
+    #[error("empty image")]
+    Empty,
 }
 
 /// An RGB texture (sRGB bytes, rows from the top of the image).
@@ -63,19 +73,19 @@ impl Texture {
             path: path.to_path_buf(),
             source,
         })?;
-        Texture::decode(&bytes).map_err(|message| TextureError::Decode {
+        Texture::decode(&bytes).map_err(|source| TextureError::Decode {
             path: path.to_path_buf(),
-            message: message.to_string(),
+            source,
         })
     }
 
     /// Decodes PNG or JPEG bytes (format from the content) and downscales them to at most
     /// [`MAX_TEXTURE_SIZE`] per side.
-    pub fn decode(bytes: &[u8]) -> Result<Texture, Invalid> {
-        let img = image::load_from_memory(bytes).map_err(|e| e.to_string())?;
+    pub fn decode(bytes: &[u8]) -> Result<Texture, TextureDecodeError> {
+        let img = image::load_from_memory(bytes)?;
         let (w, h) = (img.width(), img.height());
         if w == 0 || h == 0 {
-            return Err("empty image".into());
+            return Err(TextureDecodeError::Empty);
         }
         let img = if w.max(h) > MAX_TEXTURE_SIZE {
             let scale = MAX_TEXTURE_SIZE as f64 / w.max(h) as f64;
@@ -198,7 +208,10 @@ mod tests {
         let t = Texture::decode(&png).unwrap();
         assert_eq!((t.width, t.height), (256, 128));
         assert_eq!(t.texels[0], [10, 200, 30]);
-        assert!(Texture::decode(b"not an image").is_err());
+        assert!(matches!(
+            Texture::decode(b"not an image"),
+            Err(TextureDecodeError::Image(_))
+        ));
         let e = Texture::load(Path::new("/nonexistent/x.png")).unwrap_err();
         assert!(e.to_string().contains("/nonexistent/x.png"), "{e}");
     }
