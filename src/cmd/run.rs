@@ -196,7 +196,10 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     for (id, e) in &report.failures {
         // Agents' errors name their episode already ("episode X: no plan found").
         let line = minos::escape::error_line(e);
-        if line.starts_with(&format!("episode {id}")) {
+        let named = line
+            .strip_prefix(&format!("episode {id}"))
+            .is_some_and(|rest| rest.starts_with([':', ' ']));
+        if named {
             eprintln!("error: {line}");
         } else {
             eprintln!("error: episode {id}: {line}");
