@@ -35,7 +35,8 @@
 //! (every one of the 100 rows of the Matterport3D house GdvgFV5R1Z5 has its goal, and none its
 //! start, inside that region's box). Reading a table as RoomGoal does the same: target id
 //! `roomId` (Matterport3D's `R<n>` becomes minos's region id `region<n>`), class `roomType`
-//! (a minos room-class name when it is one, spaces read as `_`), position the goal point.
+//! (a minos room-class name when it is one, [`RoomClass::from_name`]), position the goal
+//! point.
 //!
 //! **Frames.** MINOS's SUNCG coordinates are the house's own, which minos keeps. Its
 //! Matterport3D coordinates are SSTK's: (x, y, z) = (y, z, x) of the scan, where minos, as
@@ -503,8 +504,7 @@ impl RowReader<'_, '_> {
                         required(c.room_type, "goalRoomType")?,
                     )
                 };
-                let class = RoomClass::from_name(&raw.replace(' ', "_"))
-                    .map_or(raw, |k| k.name().to_string());
+                let class = RoomClass::from_name(&raw).map_or(raw, |k| k.name().to_string());
                 Goal::Room {
                     targets: vec![GoalTarget {
                         room: Some(TargetRoom {

@@ -68,7 +68,8 @@ impl RoomClass {
 
     /// Parses a class name or a common alias (`living`, `lounge`, `dining`, `balcony`, `hall`).
     pub fn from_name(name: &str) -> Option<RoomClass> {
-        let n = name.trim().to_ascii_lowercase();
+        // `living room` (Matterport3D's and MINOS's spelling) reads as `living_room`.
+        let n = name.trim().to_ascii_lowercase().replace(' ', "_");
         let class = match n.as_str() {
             "other" => RoomClass::Other,
             "bedroom" => RoomClass::Bedroom,
@@ -303,6 +304,14 @@ mod tests {
         for c in RoomClass::ALL {
             assert_eq!(RoomClass::from_name(c.name()), Some(c));
         }
+        assert_eq!(
+            RoomClass::from_name(" Living Room "),
+            Some(RoomClass::LivingRoom)
+        );
+        assert_eq!(
+            RoomClass::from_name("dining room"),
+            Some(RoomClass::DiningRoom)
+        );
         assert_eq!(RoomClass::ALL[5].index(), 5);
     }
 
