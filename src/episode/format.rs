@@ -61,9 +61,7 @@ use arrow::datatypes::{Field, Schema};
 use super::vln::Route;
 use super::{Difficulty, Episode, Goal, GoalTarget, TargetRoom, Task};
 use crate::invalid::Invalid;
-use crate::parquet_io::{
-    read_batches, write_batches, writer_properties, FormatCause, ParquetFileError,
-};
+use crate::parquet_io::{read_batches, write_batches, writer_properties, ParquetFileError};
 
 /// The optional `goal_room_ids` / `goal_room_classes` columns of a batch.
 struct TargetRooms<'a> {
@@ -536,17 +534,18 @@ pub fn read_episodes(path: &Path) -> Result<Vec<Episode>, EpisodeFileError> {
 
 fn read_episodes_unguarded(path: &Path) -> Result<Vec<Episode>, EpisodeFileError> {
     let p = path.display().to_string();
-    let format = |cause: FormatCause| ParquetFileError::format(path, cause);
     // The schema this module writes: files rewritten by pandas, polars or duckdb hold
     // variants of its types (plain lists for fixed-size points, int64 for a column a user set).
-    let schema = to_batch(&[]).map_err(|e| format(e.into()))?.schema();
+    let schema = to_batch(&[])
+        .map_err(|e| ParquetFileError::format(path, e))?
+        .schema();
     let reader = read_batches(path)?.conform_to(&schema);
     let mut episodes = Vec::new();
     for batch in reader {
-        let batch = batch.map_err(|e| format(e.into()))?;
+        let batch = batch.map_err(|e| ParquetFileError::format(path, e))?;
         let first_row = episodes.len();
         read_batch(&batch, first_row, &mut episodes).map_err(|e| match e {
-            BatchError::Format(message) => format(message.into()).into(),
+            BatchError::Format(message) => ParquetFileError::format(path, message).into(),
             BatchError::Value {
                 row,
                 column,

@@ -68,17 +68,18 @@ pub fn import_episodes(
     path: &Path,
     task: Option<Task>,
 ) -> Result<Vec<Episode>, ImportError> {
-    let refuse = |task| ImportError::Task {
-        path: path.display().to_string(),
-        format,
-        task,
-    };
     Ok(match (format, task) {
         (ForeignFormat::Habitat, None) => import_habitat(path)?,
         (
             ForeignFormat::MinosCsv,
             None | Some(Task::PointGoal | Task::ObjectGoal | Task::RoomGoal),
         ) => import_minos_csv(path, task)?,
-        (_, Some(task)) => return Err(refuse(task)),
+        (_, Some(task)) => {
+            return Err(ImportError::Task {
+                path: path.display().to_string(),
+                format,
+                task,
+            })
+        }
     })
 }

@@ -18,7 +18,7 @@ use serde_json::{json, Value};
 
 use super::features::{Camera, Feature};
 use super::stats::{FeatureStats, StatLayout};
-use super::LerobotError;
+use super::{write_error, LerobotError};
 use crate::parquet_io::writer_properties;
 
 /// LeRobot's format version this module writes.
@@ -106,10 +106,6 @@ pub struct VideoPlace {
 /// Episode rows per `meta/episodes` file.
 pub const EPISODES_PER_META_FILE: usize = 1000;
 
-fn parquet_error(path: &Path, e: impl Into<super::WriteCause>) -> LerobotError {
-    super::write_error(path, e)
-}
-
 /// Writes one Parquet file of `batch` (zstd), its schema metadata also as the file's
 /// key-value metadata (where pandas and pyarrow write theirs).
 fn write_parquet(path: &Path, batch: &RecordBatch) -> Result<(), LerobotError> {
@@ -135,9 +131,9 @@ fn write_parquet(path: &Path, batch: &RecordBatch) -> Result<(), LerobotError> {
         ))
         .build();
     let mut w = ArrowWriter::try_new(file, batch.schema(), Some(props))
-        .map_err(|e| parquet_error(path, e))?;
-    w.write(batch).map_err(|e| parquet_error(path, e))?;
-    w.close().map_err(|e| parquet_error(path, e))?;
+        .map_err(|e| write_error(path, e))?;
+    w.write(batch).map_err(|e| write_error(path, e))?;
+    w.close().map_err(|e| write_error(path, e))?;
     Ok(())
 }
 
@@ -169,7 +165,7 @@ pub fn write_tasks(root: &Path, tasks: &[String]) -> Result<(), LerobotError> {
             Arc::new(StringArray::from_iter_values(tasks)),
         ],
     )
-    .map_err(|e| parquet_error(&path, e))?;
+    .map_err(|e| write_error(&path, e))?;
     write_parquet(&path, &batch)
 }
 
@@ -314,7 +310,7 @@ pub fn write_episodes(
             }
         }
         let batch = RecordBatch::try_new(Arc::new(Schema::new(fields)), columns)
-            .map_err(|e| parquet_error(&path, e))?;
+            .map_err(|e| write_error(&path, e))?;
         write_parquet(&path, &batch)?;
     }
     Ok(())

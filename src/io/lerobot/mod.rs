@@ -167,33 +167,16 @@ impl From<ParquetFileError> for LerobotError {
 pub enum ReadCause {
     /// The table, or a rule of it.
     #[error(transparent)]
-    Table(#[from] crate::parquet_io::FormatCause),
+    Table(crate::parquet_io::FormatCause),
     /// An image cell, or an image column's metadata.
     #[error(transparent)]
     Image(#[from] crate::io::image_codec::CodecError),
 }
 
-impl From<crate::invalid::Invalid> for ReadCause {
-    fn from(e: crate::invalid::Invalid) -> Self {
+/// Whatever makes a table's cause (a Parquet or Arrow error, an `Invalid`, a rule's text).
+impl<T: Into<crate::parquet_io::FormatCause>> From<T> for ReadCause {
+    fn from(e: T) -> Self {
         ReadCause::Table(e.into())
-    }
-}
-
-impl From<arrow::error::ArrowError> for ReadCause {
-    fn from(e: arrow::error::ArrowError) -> Self {
-        ReadCause::Table(e.into())
-    }
-}
-
-impl From<&str> for ReadCause {
-    fn from(problem: &str) -> Self {
-        ReadCause::Table(problem.into())
-    }
-}
-
-impl From<String> for ReadCause {
-    fn from(problem: String) -> Self {
-        ReadCause::Table(problem.into())
     }
 }
 
@@ -636,12 +619,14 @@ fn write_into(
                 }
             };
             let mut current = current;
-            let werr = |path: &Path, e: parquet::errors::ParquetError| write_error(path, e);
             current
                 .writer
                 .write(&batch)
-                .map_err(|e| werr(&current.path, e))?;
-            current.writer.flush().map_err(|e| werr(&current.path, e))?;
+                .map_err(|e| write_error(&current.path, e))?;
+            current
+                .writer
+                .flush()
+                .map_err(|e| write_error(&current.path, e))?;
             metas.push(EpisodeMeta {
                 episode_index: k as i64,
                 task: ep.instruction.clone(),
