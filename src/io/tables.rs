@@ -299,11 +299,13 @@ fn quantised_depth_unit(c: &CameraSensor) -> Option<String> {
     ))
 }
 
-/// Streams one episode's observations into a part file, a row group at a time.
+/// Streams one episode's observations into a part file, a row group at a time: compressed
+/// and written on the calling thread, or, after [`ObservationWriter::write_behind`], on a
+/// thread of its own (the same bytes either way).
 pub struct ObservationWriter {
     path: std::path::PathBuf,
     tmp: std::path::PathBuf,
-    writer: ArrowWriter<File>,
+    sink: Sink,
     schema: SchemaRef,
     /// How each camera's images are stored, in camera order.
     formats: Vec<CellFormat>,
@@ -317,6 +319,24 @@ pub struct ObservationWriter {
     buf: Vec<u8>,
 }
 
+/// Where an [`ObservationWriter`]'s row groups are compressed and written.
+enum Sink {
+    /// On the thread that pushes the observations.
+    Here(Box<ArrowWriter<File>>),
+    /// On a thread of its own, fed one row group at a time; it hands the writer back (or
+    /// the first error) when the feed ends.
+    Behind {
+        feed: std::sync::mpsc::SyncSender<RecordBatch>,
+        thread: std::thread::JoinHandle<Result<Box<ArrowWriter<File>>, TableError>>,
+    },
+    /// Between the two, or after the writing thread failed (its error was returned).
+    Gone,
+}
+
+/// Row groups a writing thread may have waiting before [`ObservationWriter::push`] waits for
+/// it: one being written, one queued.
+const BEHIND: usize = 1;
+
 impl ObservationWriter {
     /// Starts the part file of `episode`.
     pub fn create(
@@ -329,17 +349,26 @@ impl ObservationWriter {
             std::fs::create_dir_all(dir).map_err(|e| file_error(path, e))?;
         }
         let tmp = temp_path(path);
+        let file = File::create(&tmp).map_err(|e| file_error(path, e))?;
+        Self::over(file, path, tmp, episode, cameras, encoding)
+    }
+
+    /// The writer of `episode`'s part file `path`, writing into `file`, opened at `tmp`.
+    fn over(
+        file: File,
+        path: &Path,
+        tmp: PathBuf,
+        episode: &str,
+        cameras: &[CameraSensor],
+        encoding: ImageEncoding,
+    ) -> Result<Self, TableError> {
         let schema = observation_schema(cameras, encoding);
-        let writer = ArrowWriter::try_new(
-            File::create(&tmp).map_err(|e| file_error(path, e))?,
-            schema.clone(),
-            Some(props(&schema)),
-        )
-        .map_err(|e| file_error(path, e))?;
+        let writer = ArrowWriter::try_new(file, schema.clone(), Some(props(&schema)))
+            .map_err(|e| file_error(path, e))?;
         Ok(ObservationWriter {
             path: path.to_path_buf(),
             tmp,
-            writer,
+            sink: Sink::Here(Box::new(writer)),
             schema,
             formats: cameras
                 .iter()
@@ -398,20 +427,85 @@ impl ObservationWriter {
         }
         let batch = RecordBatch::try_new(self.schema.clone(), columns)
             .map_err(|e| file_error(&self.path, e))?;
-        self.writer
-            .write(&batch)
+        match &mut self.sink {
+            Sink::Here(writer) => write_row_group(writer, &batch, &self.path),
+            Sink::Behind { feed, .. } => match feed.send(batch) {
+                Ok(()) => Ok(()),
+                // The writing thread stopped: it failed; its error says why.
+                Err(_) => self.take_writer().map(drop),
+            },
+            Sink::Gone => Err(content_error(&self.path, "written after a failed write")),
+        }
+    }
+
+    /// From now on, compresses and writes the row groups on a thread of its own, so that
+    /// [`ObservationWriter::push`] returns without waiting for them (unless a row group is
+    /// still waiting to be written when the next is full). For a run whose agent waits on
+    /// someone else (a person, another process), whose wait the writes then overlap. The
+    /// thread runs at a lower priority where the platform allows, so rendering the next
+    /// frame goes first. Bytes written are the same.
+    pub fn write_behind(&mut self) -> Result<(), TableError> {
+        let Sink::Here(mut writer) = std::mem::replace(&mut self.sink, Sink::Gone) else {
+            return Ok(());
+        };
+        let (feed, row_groups) = std::sync::mpsc::sync_channel::<RecordBatch>(BEHIND);
+        let path = self.path.clone();
+        let thread = std::thread::Builder::new()
+            .name("minos-obs-writer".into())
+            .spawn(move || {
+                lower_this_threads_priority();
+                for batch in row_groups {
+                    write_row_group(&mut writer, &batch, &path)?;
+                }
+                Ok(writer)
+            })
             .map_err(|e| file_error(&self.path, e))?;
-        self.writer.flush().map_err(|e| file_error(&self.path, e))?;
+        self.sink = Sink::Behind { feed, thread };
         Ok(())
+    }
+
+    /// The Parquet writer back from wherever it writes (waiting for a writing thread to
+    /// write what it was given); the writing thread's error if it failed.
+    fn take_writer(&mut self) -> Result<Box<ArrowWriter<File>>, TableError> {
+        match std::mem::replace(&mut self.sink, Sink::Gone) {
+            Sink::Here(writer) => Ok(writer),
+            Sink::Behind { feed, thread } => {
+                drop(feed);
+                thread.join().unwrap_or_else(|_| {
+                    Err(content_error(&self.path, "the thread writing it panicked"))
+                })
+            }
+            Sink::Gone => Err(content_error(&self.path, "written after a failed write")),
+        }
     }
 
     /// Finishes the part file (renamed into place).
     pub fn finish(mut self) -> Result<(), TableError> {
         self.flush()?;
+        let writer = self.take_writer()?;
         let path = self.path.clone();
-        self.writer.close().map_err(|e| file_error(&path, e))?;
+        writer.close().map_err(|e| file_error(&path, e))?;
         crate::atomic::rename_durably(&self.tmp, &path).map_err(|e| file_error(&path, e))
     }
+}
+
+/// Lowers the calling thread's scheduling priority (nice 10) on Linux, where a thread has
+/// its own; elsewhere, and where it is not allowed, nothing.
+fn lower_this_threads_priority() {
+    #[cfg(target_os = "linux")]
+    if let Err(e) = rustix::process::setpriority_process(None, 10) {
+        tracing::debug!("could not lower a writing thread's priority: {e}");
+    }
+}
+
+/// Writes `batch` to `writer` as a row group of its own (compressed now) and flushes it.
+fn write_row_group(
+    writer: &mut ArrowWriter<File>,
+    batch: &RecordBatch,
+    path: &Path,
+) -> Result<(), TableError> {
+    writer.write(batch).map_err(|e| file_error(path, e))?;
+    writer.flush().map_err(|e| file_error(path, e))
 }
 
 /// Concatenates part files (in the order given) into `out`. Tables with binary (image)
@@ -775,5 +869,126 @@ mod tests {
         let color = plain.field_with_name("color").expect("color").metadata();
         assert_eq!(color["modality"], "color");
         assert_eq!(color["lossless"], "true");
+    }
+
+    /// Writes `steps` observations of the MINOS cameras at 8² into `path`, behind (on the
+    /// writer's own thread) or not.
+    fn write_observations(path: &Path, steps: u32, behind: bool) {
+        let cams = SensorSuite::minos(8).cameras;
+        let mut w =
+            ObservationWriter::create(path, "ep", &cams, ImageEncoding::Raw).expect("create");
+        if behind {
+            w.write_behind().expect("write behind");
+        }
+        for t in 0..steps {
+            let v = t as usize;
+            let images = vec![
+                (
+                    "color".to_string(),
+                    Image::U8 {
+                        channels: 3,
+                        data: (0..8 * 8 * 3).map(|i| (i * 7 + v) as u8).collect(),
+                    },
+                ),
+                (
+                    "depth".to_string(),
+                    Image::F32 {
+                        channels: 1,
+                        data: (0..64).map(|i| (i + v) as f32 * 0.01).collect(),
+                    },
+                ),
+                (
+                    "semantic".to_string(),
+                    Image::U16((0..64).map(|i| (i * v % 40) as u16).collect()),
+                ),
+            ];
+            w.push(t, &images).expect("push");
+        }
+        w.finish().expect("finish");
+    }
+
+    #[test]
+    fn observations_written_behind_are_the_same_bytes() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let steps = ROW_GROUP as u32 * 3 + 5;
+        let (here, behind) = (
+            dir.path().join("here.parquet"),
+            dir.path().join("behind.parquet"),
+        );
+        write_observations(&here, steps, false);
+        write_observations(&behind, steps, true);
+        let (a, b) = (
+            std::fs::read(&here).expect("here"),
+            std::fs::read(&behind).expect("behind"),
+        );
+        assert_eq!(a, b, "the writing thread changed the bytes");
+        // Four row groups (3 full, one of 5 rows), every step in order.
+        assert_eq!(row_group_count(&behind).expect("row groups"), 4);
+        let table = read_table(&behind).expect("read");
+        let step = table.column_by_name("step").expect("step");
+        let step = step.as_any().downcast_ref::<UInt32Array>().expect("u32");
+        assert_eq!(step.values().to_vec(), (0..steps).collect::<Vec<_>>());
+        // Nothing but the finished file.
+        let names: Vec<_> = std::fs::read_dir(dir.path())
+            .expect("dir")
+            .map(|e| e.expect("entry").file_name())
+            .collect();
+        assert_eq!(names.len(), 2, "{names:?}");
+    }
+
+    /// A writing thread that fails (a full disk: Linux's `/dev/full`) hands its error to
+    /// the next `push` or to `finish`, naming the file; nothing panics or hangs.
+    #[cfg(target_os = "linux")]
+    #[test]
+    fn a_failed_write_behind_is_the_error_of_push_or_finish() {
+        let full = std::fs::OpenOptions::new().write(true).open("/dev/full");
+        let Ok(full) = full else {
+            eprintln!("skipped: no /dev/full to write into");
+            return;
+        };
+        let cams = SensorSuite::minos(8).cameras;
+        let path = Path::new("obs.parquet");
+        let mut w = ObservationWriter::over(
+            full,
+            path,
+            "obs.tmp".into(),
+            "ep",
+            &cams,
+            ImageEncoding::Raw,
+        )
+        .expect("writer");
+        w.write_behind().expect("write behind");
+        let images = vec![
+            (
+                "color".to_string(),
+                Image::U8 {
+                    channels: 3,
+                    data: vec![9; 8 * 8 * 3],
+                },
+            ),
+            (
+                "depth".to_string(),
+                Image::F32 {
+                    channels: 1,
+                    data: vec![1.5; 64],
+                },
+            ),
+            ("semantic".to_string(), Image::U16(vec![3; 64])),
+        ];
+        let mut errors = Vec::new();
+        for t in 0..ROW_GROUP as u32 * 4 {
+            if let Err(e) = w.push(t, &images) {
+                errors.push(e.to_string());
+            }
+        }
+        if let Err(e) = w.finish() {
+            errors.push(e.to_string());
+        }
+        assert!(
+            !errors.is_empty(),
+            "writes to a full disk reported no error"
+        );
+        assert!(errors[0].starts_with("obs.parquet: "), "{errors:?}");
+        assert!(errors[0].to_lowercase().contains("space"), "{errors:?}");
     }
 }

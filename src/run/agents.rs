@@ -172,6 +172,12 @@ pub trait Agent: Send {
     fn stops(&self) -> bool {
         false
     }
+    /// Whether [`Agent::decide`] waits on someone outside this thread (a person, another
+    /// process): the run then compresses and writes the observations on a thread of their
+    /// own, during that wait, instead of before the next step. No by default.
+    fn waits_elsewhere(&self) -> bool {
+        false
+    }
 }
 
 /// The single actions an agent of this simulator chooses among (the agent's

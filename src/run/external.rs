@@ -190,6 +190,10 @@ impl Agent for ExternalAgent {
     fn stops(&self) -> bool {
         true
     }
+    fn waits_elsewhere(&self) -> bool {
+        // On the agent's process.
+        true
+    }
 }
 
 #[cfg(test)]

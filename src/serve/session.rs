@@ -467,6 +467,10 @@ impl Agent for HumanAgent {
         // As for the oracle and replays: success needs an explicit stop at the goal.
         true
     }
+    fn waits_elsewhere(&self) -> bool {
+        // On the person: a row group's compression must not delay their next frame.
+        true
+    }
 }
 
 /// The episodes of a session: the one it started with, then what the page asks for.

@@ -61,9 +61,13 @@ pub fn run_episode(
     stepper.reset_in(ep, Some(&*geo))?;
     agent.reset(ep, stepper.sim())?;
     let mut written = EpisodeParts::open(stepper, ep, cfg, parts, index, record)?;
+    if agent.waits_elsewhere() {
+        written.write_behind()?;
+    }
     while !stepper.ended() {
-        // Shown first, written while the agent decides: a person's page gets the frame
-        // without waiting for the observation part's writes (a row group's compression).
+        // Shown first, then written: a person's page gets the frame without waiting for the
+        // observation part's writes, and a row group's compression (behind, where the agent
+        // waits elsewhere) overlaps the person's decision instead of delaying the next step.
         agent.present(stepper.observation(), stepper.sim())?;
         written.observed(stepper)?;
         let decision = agent.decide(stepper.observation(), stepper.sim())?;
@@ -129,6 +133,12 @@ impl EpisodeParts {
             pending: None,
             stopped: false,
         })
+    }
+
+    /// From now on, compresses and writes the observation part on a thread of its own
+    /// ([`ObservationWriter::write_behind`]): the same bytes.
+    pub fn write_behind(&mut self) -> Result<(), EpisodeError> {
+        self.writer.write_behind().map_err(EpisodeError::Table)
     }
 
     /// Writes the observation the agent decided `decision` on (the stepper's latest) and
