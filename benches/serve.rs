@@ -16,12 +16,14 @@
 //!    so a late frame delays the next press and later ones catch up), the sessions' schedules
 //!    spread over the period (`MINOS_BENCH_LOCKSTEP=1`: all at once); the frames per second
 //!    each session gets and the latencies of all (p50, p90, p99), also without the frames
-//!    that wait for an episode's end.
+//!    that wait for an episode's end, and in each quarter of the run (the sessions' start
+//!    against their steady state).
 //! 3. Frame encodings: a 256² view's message as raw RGB, JPEG, PNG and WebP (time and bytes).
 //!
 //! `MINOS_BENCH_STEPS` (default 200) sets the steps of the latency run, `MINOS_BENCH_SECONDS`
 //! (default 20) the length of the load run, `MINOS_BENCH_RATE` (default 10) its key presses
-//! per second and session.
+//! per second and session, `MINOS_BENCH_CLIENT_THREADS` (default 2) the scripted clients'
+//! threads.
 
 mod support;
 
@@ -71,7 +73,9 @@ fn create(addr: SocketAddr) -> String {
     v["token"].as_str().expect("a token").to_string()
 }
 
-/// Actions of a wandering person: mostly forward, some turns.
+/// Actions of a wandering person: mostly forward, some turns; blocked by a wall, they turn
+/// away ([`Walker`]) instead of pressing on into it (which would leave the camera facing the
+/// wall, a cheap frame to render, and the figures too good).
 const WALK: [&str; 8] = [
     "forward",
     "forward",
@@ -83,17 +87,68 @@ const WALK: [&str; 8] = [
     "turn_right",
 ];
 
+/// A wandering person's next actions: [`WALK`] in turn, and after a step that collided, a
+/// turn of 30–90° away from the wall (the direction and size vary with the press count).
+struct Walker {
+    presses: usize,
+    turning: usize,
+    turn: &'static str,
+}
+
+impl Walker {
+    fn new(start: usize) -> Self {
+        Walker {
+            presses: start,
+            turning: 0,
+            turn: "turn_left",
+        }
+    }
+
+    /// The action after a step that `collided` (or not).
+    fn next(&mut self, collided: bool) -> &'static str {
+        let i = self.presses;
+        self.presses += 1;
+        if collided && self.turning == 0 {
+            self.turning = 3 + i % 7;
+            self.turn = if (i / 7).is_multiple_of(2) {
+                "turn_left"
+            } else {
+                "turn_right"
+            };
+        }
+        if self.turning > 0 {
+            self.turning -= 1;
+            return self.turn;
+        }
+        WALK[i % WALK.len()]
+    }
+}
+
+/// What arrived for a step: its last view's message, whether an episode ended on the way
+/// (the frame is then the next episode's first), and whether the step collided.
+struct Arrived {
+    frame: Vec<u8>,
+    ended: bool,
+    collided: bool,
+}
+
 /// Waits for the frames of step `want` of the session (counting every step message since it
-/// began; answering an episode's end with "next"); that step's last view's message, and
-/// whether an episode ended on the way (the frame is then the next episode's first).
-async fn frame(ws: &mut Ws, steps: &mut u64, want: u64) -> Option<(Vec<u8>, bool)> {
-    let mut ended = false;
+/// began; answering an episode's end with "next").
+async fn frame(ws: &mut Ws, steps: &mut u64, want: u64) -> Option<Arrived> {
+    let (mut ended, mut collided) = (false, false);
     while let Some(Ok(m)) = ws.next().await {
         match m {
             Message::Binary(b) if b[0] == 1 && b[1] == 2 && *steps >= want => {
-                return Some((b.to_vec(), ended))
+                return Some(Arrived {
+                    frame: b.to_vec(),
+                    ended,
+                    collided,
+                })
             }
-            Message::Text(t) if t.as_str().contains("\"type\":\"step\"") => *steps += 1,
+            Message::Text(t) if t.as_str().contains("\"type\":\"step\"") => {
+                *steps += 1;
+                collided = t.as_str().contains("\"collision\":true");
+            }
             Message::Text(t) if t.as_str().contains("\"type\":\"done\"") => {
                 ended = true;
                 ws.send(Message::Text(r#"{"next":null}"#.into()))
@@ -106,8 +161,9 @@ async fn frame(ws: &mut Ws, steps: &mut u64, want: u64) -> Option<(Vec<u8>, bool
     None
 }
 
-/// A key press's latency (ms) and whether an episode ended before its frame.
-type Latency = (f64, bool);
+/// A key press's latency (ms), whether an episode ended before its frame, and when the key
+/// was pressed.
+type Latency = (f64, bool, Instant);
 
 /// One session: actions at most every `period`, for `duration` or `steps`; the latencies
 /// and the last frame.
@@ -117,6 +173,7 @@ async fn session(
     phase: Duration,
     duration: Duration,
     steps: usize,
+    mut walker: Walker,
 ) -> (Vec<Latency>, Vec<u8>) {
     let token = tokio::task::spawn_blocking(move || create(addr))
         .await
@@ -133,28 +190,25 @@ async fn session(
         .unwrap();
     let mut seen = 0;
     let mut want = 2;
-    let mut last = frame(&mut ws, &mut seen, want)
-        .await
-        .expect("first frames")
-        .0;
+    let last = frame(&mut ws, &mut seen, want).await.expect("first frames");
+    let mut collided = last.collided;
+    let mut last = last.frame;
     let mut latencies = Vec::new();
     let begin = Instant::now();
     // Key presses on a fixed schedule, every `period` (like a key held down), one in flight
     // as the page does: a late frame delays the next press, later presses catch up.
     let mut due = tokio::time::Instant::now() + phase;
-    let mut i = 0;
     while begin.elapsed() < duration && latencies.len() < steps {
         tokio::time::sleep_until(due).await;
         due += period;
         let sent = Instant::now();
-        let action = format!(r#"{{"action":"{}"}}"#, WALK[i % WALK.len()]);
-        i += 1;
+        let action = format!(r#"{{"action":"{}"}}"#, walker.next(collided));
         ws.send(Message::Text(action.into())).await.unwrap();
         want += 1;
         match frame(&mut ws, &mut seen, want).await {
-            Some((f, ended)) => {
-                last = f;
-                latencies.push((sent.elapsed().as_secs_f64() * 1e3, ended));
+            Some(a) => {
+                latencies.push((sent.elapsed().as_secs_f64() * 1e3, a.ended, sent));
+                (last, collided) = (a.frame, a.collided);
             }
             None => break,
         }
@@ -191,6 +245,30 @@ fn percentiles(mut v: Vec<f64>) -> String {
         v.last().copied().unwrap_or(f64::NAN),
         v.len()
     )
+}
+
+/// The latencies' percentiles in four windows of the load run (from `start`, `seconds`
+/// long): whether the tail is the sessions' start or their steady state.
+fn by_window(v: Vec<Latency>, start: Instant, seconds: u64) -> String {
+    let quarter = seconds as f64 / 4.0;
+    let mut windows = vec![Vec::new(); 4];
+    for (ms, _, at) in v {
+        let i = (at.saturating_duration_since(start).as_secs_f64() / quarter) as usize;
+        windows[i.min(3)].push(ms);
+    }
+    let parts: Vec<String> = windows
+        .into_iter()
+        .enumerate()
+        .map(|(i, w)| {
+            format!(
+                "{:.0}–{:.0} s: {}",
+                i as f64 * quarter,
+                (i + 1) as f64 * quarter,
+                percentiles(w)
+            )
+        })
+        .collect();
+    format!("by window of the load run: {}", parts.join("; "))
 }
 
 /// The latencies' percentiles, all of them and those within episodes (the others wait for
@@ -267,8 +345,10 @@ fn main() {
     )
     .expect("server");
     let addr = running.addr;
+    // The scripted clients' own threads (MINOS_BENCH_CLIENT_THREADS, default 2): with the
+    // server's threads busy, too few of them delay reading the frames and count as latency.
     let rt = tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(2)
+        .worker_threads(env("MINOS_BENCH_CLIENT_THREADS", 2).max(1) as usize)
         .enable_all()
         .build()
         .unwrap();
@@ -286,6 +366,7 @@ fn main() {
         Duration::ZERO,
         Duration::from_secs(600),
         steps,
+        Walker::new(0),
     ));
     println!(
         "key press -> frames, 1 session, back to back: {}",
@@ -314,6 +395,7 @@ fn main() {
                     phase,
                     Duration::from_secs(seconds),
                     usize::MAX,
+                    Walker::new(k * 3),
                 ))
             })
             .collect();
@@ -340,7 +422,11 @@ fn main() {
         },
         fps.iter().sum::<f64>() / fps.len() as f64,
         fps.iter().sum::<f64>(),
-        summary(all.into_iter().flatten().collect())
+        summary(all.iter().flatten().copied().collect())
+    );
+    println!(
+        "{}",
+        by_window(all.into_iter().flatten().collect(), t, seconds)
     );
     // Frame encodings of the last semantic view seen and of a synthetic colour-like view.
     let semantic = decoded(&pixels);
