@@ -188,6 +188,10 @@ fn top_left(a: [f32; 2], b: [f32; 2]) -> bool {
     (dy == 0.0 && dx < 0.0) || dy > 0.0
 }
 
+/// Bounding boxes narrower than this (pixels) are tested whole: solving a row's span
+/// ([`row_span`]) costs about as much as the tests it would save.
+const SPAN_MIN_WIDTH: i64 = 12;
+
 /// The pixels `xs..=xe` of the row whose centres lie at `py` that may be inside triangle
 /// `p` (positive area) — `minx..=maxx` narrowed to where every edge function can be ≥ 0 —,
 /// or `None` when no pixel can be. The exact per-pixel test still decides each pixel: the
@@ -273,8 +277,13 @@ fn raster(tris: &[ScreenTri], width: u32, y0: u32, y1: u32, ids: &mut [u32], dep
         let inv_area = 1.0 / area;
         for y in miny..=maxy {
             let py = y as f32 + 0.5;
-            let Some((xs, xe)) = row_span(&p, py, minx, maxx) else {
-                continue;
+            let (xs, xe) = if maxx - minx < SPAN_MIN_WIDTH {
+                (minx, maxx)
+            } else {
+                match row_span(&p, py, minx, maxx) {
+                    Some(span) => span,
+                    None => continue,
+                }
             };
             let row = ((y as u32 - y0) * width) as usize;
             for x in xs..=xe {
