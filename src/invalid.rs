@@ -96,21 +96,113 @@ pub enum SettingsFileError {
         /// The names minos defines.
         names: Vec<&'static str>,
     },
-    /// The file breaks a rule.
+    /// The file is not valid TOML or JSON, or breaks a rule.
     #[error("{}", path.display())]
     Invalid {
         /// The file.
         path: PathBuf,
         /// What is wrong.
         #[source]
-        source: Invalid,
+        source: SettingsCause,
     },
 }
+
+/// Why a settings file's text is not usable: its syntax or types (the TOML or JSON parser's
+/// error) or a rule it breaks.
+#[derive(Debug, thiserror::Error)]
+pub enum SettingsCause {
+    /// Not TOML, or TOML of the wrong shape.
+    #[error(transparent)]
+    Toml(Box<TomlError>),
+    /// Not JSON, or JSON of the wrong shape (the parser's error names line and column).
+    #[error(transparent)]
+    Json(#[from] serde_json::Error),
+    /// It parses but breaks a rule.
+    #[error(transparent)]
+    Invalid(#[from] Invalid),
+}
+
+impl SettingsCause {
+    /// The same cause inside `record` (a rule broken inside it; a syntax error is located by
+    /// its line already).
+    pub fn at(self, record: impl Into<String>) -> Self {
+        match self {
+            SettingsCause::Invalid(e) => SettingsCause::Invalid(e.at(record)),
+            other => other,
+        }
+    }
+}
+
+impl From<TomlError> for SettingsCause {
+    fn from(e: TomlError) -> Self {
+        SettingsCause::Toml(Box::new(e))
+    }
+}
+
+impl From<crate::vocab::UnknownName> for SettingsCause {
+    fn from(e: crate::vocab::UnknownName) -> Self {
+        SettingsCause::Invalid(e.into())
+    }
+}
+
+impl From<String> for SettingsCause {
+    fn from(problem: String) -> Self {
+        SettingsCause::Invalid(Invalid::new(problem))
+    }
+}
+
+impl From<&str> for SettingsCause {
+    fn from(problem: &str) -> Self {
+        SettingsCause::Invalid(Invalid::new(problem))
+    }
+}
+
+/// The TOML parser's error, with the line it points at: one line, `line N: message (`the
+/// line`)` (the parser's own text spans several lines, with a drawing of the place).
+#[derive(Debug)]
+pub struct TomlError {
+    /// The parser's error.
+    pub error: toml::de::Error,
+    /// The line number and the line's text, trimmed, where the parser located the error in
+    /// the text.
+    pub line: Option<(usize, String)>,
+}
+
+impl TomlError {
+    /// Error `error` of the parser on `text`.
+    pub fn in_text(error: toml::de::Error, text: &str) -> Self {
+        let line = error.span().map(|span| {
+            let start = span.start.min(text.len());
+            let n = text[..start].matches('\n').count() + 1;
+            (n, text.lines().nth(n - 1).unwrap_or("").trim().to_string())
+        });
+        TomlError { error, line }
+    }
+
+    /// Error `error` of the parser on a value built from the text (no place in it to show).
+    pub fn in_value(error: toml::de::Error) -> Self {
+        TomlError { error, line: None }
+    }
+}
+
+impl fmt::Display for TomlError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let message = self.error.message().replace('\n', " ");
+        match &self.line {
+            Some((n, text)) => write!(f, "line {n}: {message} (`{text}`)"),
+            None => f.write_str(&message),
+        }
+    }
+}
+
+/// The parser's error is [`TomlError::error`], not a source: its text would repeat the
+/// message over several lines.
+impl std::error::Error for TomlError {}
 
 /// Reads the settings file `path` and parses its text with `parse`.
 pub fn read_settings<T>(
     path: &Path,
-    parse: impl FnOnce(&str) -> Result<T, Invalid>,
+    parse: impl FnOnce(&str) -> Result<T, SettingsCause>,
 ) -> Result<T, SettingsFileError> {
     let text = std::fs::read_to_string(path).map_err(|source| SettingsFileError::Read {
         path: path.to_path_buf(),
@@ -134,8 +226,10 @@ mod tests {
         assert!(matches!(&e, SettingsFileError::Read { path, .. } if *path == file));
         std::fs::write(&file, "x = 1").unwrap();
         assert_eq!(read_settings(&file, |t| Ok(t.len())).unwrap(), 5);
-        let e =
-            read_settings(&file, |_| Err::<(), _>(Invalid::new("x = 1: no such key"))).unwrap_err();
+        let e = read_settings(&file, |_| {
+            Err::<(), _>(Invalid::new("x = 1: no such key").into())
+        })
+        .unwrap_err();
         assert_eq!(e.to_string(), file.display().to_string());
         let cause = std::error::Error::source(&e).map(ToString::to_string);
         assert_eq!(cause.as_deref(), Some("x = 1: no such key"));

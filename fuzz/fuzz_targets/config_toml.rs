@@ -9,6 +9,7 @@
 mod common;
 
 use libfuzzer_sys::fuzz_target;
+use minos::escape::error_line;
 use minos::navmesh::params::{params_from_toml, NavParams};
 use minos::scene::variants::{parse_spec_file, VariantSpec};
 use minos::sim::sensors::SensorSuite;
@@ -23,11 +24,11 @@ fuzz_target!(|data: &[u8]| {
     match kind % 3 {
         0 => match SensorSuite::parse(text, "fuzz.toml") {
             Ok(s) => assert!(s.validate().is_ok()),
-            Err(e) => common::one_line_naming(&e, "fuzz.toml"),
+            Err(e) => common::one_line_naming(&error_line(&e), "fuzz.toml"),
         },
         1 => match params_from_toml(text, NavParams::default()) {
             Ok(p) => assert!(p.validate().is_ok(), "accepted parameters do not validate"),
-            Err(e) => common::one_line_naming(&e, ""),
+            Err(e) => common::one_line_naming(&error_line(&e), ""),
         },
         _ => match parse_spec_file(text) {
             Ok(specs) => {
@@ -37,7 +38,7 @@ fuzz_target!(|data: &[u8]| {
                     assert_eq!(again, spec);
                 }
             }
-            Err(e) => common::one_line_naming(&e, ""),
+            Err(e) => common::one_line_naming(&error_line(&e), ""),
         },
     }
 });

@@ -4,7 +4,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::body::{AgentBody, AgentPreset};
-use crate::invalid::Invalid;
+use crate::invalid::{Invalid, SettingsCause, TomlError};
 
 /// What the navigation grid is built for: the agent's body and the grid resolution.
 ///
@@ -152,25 +152,25 @@ impl NavParams {
 /// Parameters from a TOML file: an optional `preset = "habitat" | "minos" | "minos-gridworld" |
 /// "minos-paper"` (the agent preset whose body the grid is for) and any stored field of [`NavParams`]
 /// overriding it, e.g. `cell_size = 0.1` or `agent_height = 1.3`.
-pub fn params_from_toml(text: &str, base: NavParams) -> Result<NavParams, Invalid> {
-    let mut table: toml::Table = text
-        .parse()
-        .map_err(|e: toml::de::Error| Invalid::new(e.message()))?;
+pub fn params_from_toml(text: &str, base: NavParams) -> Result<NavParams, SettingsCause> {
+    let mut table: toml::Table = text.parse().map_err(|e| TomlError::in_text(e, text))?;
     let base = match table.remove("preset") {
         Some(toml::Value::String(name)) => NavParams {
             body: name.parse::<AgentPreset>()?.body(),
             ..base
         },
-        Some(other) => return Err(Invalid::new(format!("preset = {other}: expected a string"))),
+        Some(other) => return Err(format!("preset = {other}: expected a string").into()),
         None => base,
     };
-    let mut merged = toml::Table::try_from(base).map_err(|e| Invalid::new(e.to_string()))?;
+    // Plain numbers always make a table; a failure would be a bug, said as such.
+    let mut merged = toml::Table::try_from(base)
+        .map_err(|e| format!("the base parameters as a TOML table: {e}"))?;
     for (k, v) in table {
         merged.insert(k, v);
     }
     let params: NavParams = toml::Value::Table(merged)
         .try_into()
-        .map_err(|e: toml::de::Error| Invalid::new(e.message()))?;
+        .map_err(TomlError::in_value)?;
     params.validate()?;
     Ok(params)
 }
@@ -197,6 +197,14 @@ mod tests {
         assert_eq!(p.body.radius, AgentBody::MINOS.radius);
         let err = params_from_toml("cel_size = 0.1", NavParams::default()).unwrap_err();
         assert!(err.to_string().contains("cel_size"), "{err}");
+        // Broken TOML: the line, quoted, and the parser's error kept (not its text).
+        let err = params_from_toml("cell_size = 0.1\nagent_height =\n", NavParams::default())
+            .unwrap_err();
+        let SettingsCause::Toml(t) = &err else {
+            panic!("not a TOML error: {err:?}");
+        };
+        assert_eq!(t.line, Some((2, "agent_height =".to_string())));
+        assert!(err.to_string().starts_with("line 2: ") && !err.to_string().contains('\n'));
         assert!(params_from_toml("cell_size = -1.0", NavParams::default()).is_err());
     }
 

@@ -86,9 +86,24 @@ pub fn previews_present(grid: &NavGrid, nav_file: &Path) -> bool {
         .all(|level| preview_path(nav_file, level).is_file())
 }
 
+/// A preview image that could not be written: the file, and why (the file system's error, or
+/// the PNG encoder's inside it).
+#[derive(Debug, thiserror::Error)]
+#[error("{}", path.display())]
+pub struct PreviewError {
+    /// The preview file.
+    pub path: std::path::PathBuf,
+    /// Why.
+    #[source]
+    pub source: std::io::Error,
+}
+
 /// Writes one PNG per level next to `nav_file`: `<stem>.L<level>.png`. Returns the paths; an
 /// error names the file.
-pub fn write_previews(grid: &NavGrid, nav_file: &Path) -> std::io::Result<Vec<std::path::PathBuf>> {
+pub fn write_previews(
+    grid: &NavGrid,
+    nav_file: &Path,
+) -> Result<Vec<std::path::PathBuf>, PreviewError> {
     let scale = if grid.cell() >= 0.1 { 4 } else { 2 };
     let mut out = Vec::new();
     for level in levels_present(grid) {
@@ -98,7 +113,10 @@ pub fn write_previews(grid: &NavGrid, nav_file: &Path) -> std::io::Result<Vec<st
             img.write_to(w, image::ImageFormat::Png)
                 .map_err(std::io::Error::other)
         })
-        .map_err(|e| std::io::Error::new(e.kind(), format!("{}: {e}", path.display())))?;
+        .map_err(|source| PreviewError {
+            path: path.clone(),
+            source,
+        })?;
         out.push(path);
     }
     Ok(out)

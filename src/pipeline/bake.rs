@@ -65,7 +65,7 @@ pub enum BakeFailure {
     Grid(Arc<NavFileError>),
     /// A preview image could not be written (the error names it).
     #[error(transparent)]
-    Preview(Arc<std::io::Error>),
+    Preview(Arc<crate::navmesh::preview::PreviewError>),
 }
 
 /// Result of a batch bake: one outcome per scene id, in input order.

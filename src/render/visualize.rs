@@ -48,7 +48,7 @@ pub fn encode_png(
     {
         let mut out = std::io::Cursor::new(Vec::new());
         img.write_to(&mut out, image::ImageFormat::Png)
-            .map_err(|e| std::io::Error::other(e.to_string()))?;
+            .map_err(std::io::Error::other)?;
         Ok(out.into_inner())
     }
     let save_rgb = |pixels: Vec<[u8; 3]>| -> std::io::Result<Vec<u8>> {

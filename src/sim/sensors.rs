@@ -5,7 +5,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::body::AgentPreset;
-use crate::invalid::Invalid;
+use crate::invalid::{Invalid, SettingsCause, TomlError};
 use crate::render::{Frame, RenderScene, Taxonomy};
 use crate::render::{Image, Modality};
 use crate::seed::Rng;
@@ -264,8 +264,11 @@ impl SensorSuite {
     }
 
     /// Parses a TOML (or, when it starts with `{`, JSON) sensor file; `source` names it in errors.
-    pub fn parse(text: &str, source: &str) -> Result<Self, Invalid> {
-        Self::parse_text(text).map_err(Invalid::inside(source))
+    pub fn parse(text: &str, source: &str) -> Result<Self, crate::invalid::SettingsFileError> {
+        Self::parse_text(text).map_err(|cause| crate::invalid::SettingsFileError::Invalid {
+            path: source.into(),
+            source: cause,
+        })
     }
 
     /// Reads the sensor file `path` (TOML, or JSON when it starts with `{`): the one reader
@@ -273,21 +276,19 @@ impl SensorSuite {
     pub fn read(path: &std::path::Path) -> Result<Self, crate::invalid::SettingsFileError> {
         crate::invalid::read_settings(path, |text| {
             if text.trim().is_empty() {
-                return Err(Invalid::new(
-                    "the sensor file is empty (it needs at least one [[cameras]] table)",
-                ));
+                return Err(
+                    "the sensor file is empty (it needs at least one [[cameras]] table)".into(),
+                );
             }
             Self::parse_text(text)
         })
     }
 
-    fn parse_text(text: &str) -> Result<Self, Invalid> {
+    fn parse_text(text: &str) -> Result<Self, SettingsCause> {
         let suite: SensorSuite = if text.trim_start().starts_with('{') {
-            // A field name in the message may hold a newline: keep the error on one line.
-            serde_json::from_str(text)
-                .map_err(|e| Invalid::new(e.to_string().replace('\n', " ")))?
+            serde_json::from_str(text)?
         } else {
-            toml::from_str(text).map_err(|e| Invalid::new(e.to_string().replace('\n', " ")))?
+            toml::from_str(text).map_err(|e| TomlError::in_text(e, text))?
         };
         suite.validate()?;
         Ok(suite)
@@ -476,9 +477,10 @@ mod tests {
         // Fuzzing regression (target `config_toml`): the unknown field's name was copied
         // into the message with its newline.
         let e = SensorSuite::parse("{\"[a\\\\\\n\"m", "s.json").unwrap_err();
+        let line = crate::escape::error_line(&e);
         assert!(
-            e.to_string().starts_with("s.json: unknown field") && !e.to_string().contains('\n'),
-            "{e}"
+            line.starts_with("s.json: unknown field") && !line.contains('\n'),
+            "{line}"
         );
     }
 
@@ -497,17 +499,28 @@ mod tests {
             Taxonomy::Mpcat40
         );
         let dup = "[[camera]]\nname = \"a\"\nmodality = \"color\"\nresolution = [8, 8]\n[[camera]]\nname = \"a\"\nmodality = \"depth\"\nresolution = [8, 8]\n";
-        assert!(SensorSuite::parse(dup, "s.toml")
-            .unwrap_err()
-            .to_string()
-            .contains("defined twice"));
-        assert!(SensorSuite::parse(
+        assert!(
+            crate::escape::error_line(&SensorSuite::parse(dup, "s.toml").unwrap_err())
+                .contains("defined twice")
+        );
+        let e = SensorSuite::parse(
             "[[camera]]\nname = \"a\"\nmodality = \"smell\"\nresolution = [8, 8]\n",
-            "s.toml"
+            "s.toml",
         )
-        .unwrap_err()
-        .to_string()
-        .starts_with("s.toml"));
+        .unwrap_err();
+        // The file, the line and the parser's message, on one line; the parser's error kept.
+        let line = crate::escape::error_line(&e);
+        assert!(
+            line.starts_with("s.toml: line 3: unknown variant `smell`"),
+            "{line}"
+        );
+        let Some(crate::invalid::SettingsCause::Toml(t)) =
+            std::error::Error::source(&e).and_then(|c| c.downcast_ref())
+        else {
+            panic!("not a TOML error: {e:?}");
+        };
+        assert_eq!(t.line, Some((3, "modality = \"smell\"".to_string())));
+        assert!(t.error.span().is_some());
     }
 
     #[test]

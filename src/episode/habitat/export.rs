@@ -198,7 +198,10 @@ pub fn export_habitat(
             "split name `{split}` cannot be a directory name"
         )));
     }
-    names.check().map_err(|e| shape(e.to_string()))?;
+    names.check().map_err(|source| HabitatError::SceneIds {
+        path: split_path.display().to_string(),
+        source,
+    })?;
     let mut by_scene: BTreeMap<&str, Vec<&Episode>> = BTreeMap::new();
     for e in episodes {
         by_scene.entry(e.scene_id.as_str()).or_default().push(e);

@@ -154,6 +154,16 @@ pub enum HabitatError {
         /// What is wrong.
         message: String,
     },
+    /// The scene ids an export was asked to write are unusable (a scene suffix holding a
+    /// path separator, say): the file they were bound for, and the rule they break.
+    #[error("{path}")]
+    SceneIds {
+        /// The file.
+        path: String,
+        /// What is wrong.
+        #[source]
+        source: crate::invalid::Invalid,
+    },
 }
 
 /// `record.field`, or `record[i]` for an element.
@@ -481,7 +491,15 @@ mod tests {
             suffix: "/x.glb".into(),
         };
         let err = export_habitat(dir.path(), "val", &bad, &eps).unwrap_err();
-        assert!(err.to_string().contains("path separator"), "{err}");
+        // The file it was bound for, the rule as the source.
+        assert!(
+            matches!(&err, HabitatError::SceneIds { path, .. } if path.ends_with("val.json.gz"))
+        );
+        let line = crate::escape::error_line(&err);
+        assert!(
+            line.contains("val.json.gz: ") && line.contains("path separator"),
+            "{line}"
+        );
     }
 
     #[test]

@@ -23,7 +23,7 @@ use std::fmt;
 
 use serde::{Deserialize, Serialize};
 
-use crate::invalid::Invalid;
+use crate::invalid::{Invalid, SettingsCause, TomlError};
 
 /// `keep_only = "arch"`: the MINOS `archOnly` keyword.
 pub const ARCH_ONLY: &str = "arch";
@@ -160,8 +160,8 @@ pub struct VariantSpec {
 
 impl VariantSpec {
     /// Parses one variant's table (the format of `DATA/variants/<name>.toml`).
-    pub fn from_toml(text: &str) -> Result<Self, Invalid> {
-        let spec: VariantSpec = toml::from_str(text).map_err(|e| one_line(&e, text))?;
+    pub fn from_toml(text: &str) -> Result<Self, SettingsCause> {
+        let spec: VariantSpec = toml::from_str(text).map_err(|e| TomlError::in_text(e, text))?;
         spec.validate()?;
         Ok(spec)
     }
@@ -203,10 +203,8 @@ impl VariantSpec {
 }
 
 /// Parses a spec file of named variants: one top-level table per variant.
-pub fn parse_spec_file(text: &str) -> Result<Vec<(String, VariantSpec)>, Invalid> {
-    let table: toml::Table = text
-        .parse()
-        .map_err(|e: toml::de::Error| one_line(&e, text))?;
+pub fn parse_spec_file(text: &str) -> Result<Vec<(String, VariantSpec)>, SettingsCause> {
+    let table: toml::Table = text.parse().map_err(|e| TomlError::in_text(e, text))?;
     for (name, value) in &table {
         validate_name(name)?;
         if !value.is_table() {
@@ -217,12 +215,12 @@ pub fn parse_spec_file(text: &str) -> Result<Vec<(String, VariantSpec)>, Invalid
         return Err("no variants defined (expected tables such as `[empty]`)".into());
     }
     let specs: std::collections::BTreeMap<String, VariantSpec> =
-        toml::from_str(text).map_err(|e| one_line(&e, text))?;
+        toml::from_str(text).map_err(|e| TomlError::in_text(e, text))?;
     specs
         .into_iter()
         .map(|(name, spec)| match spec.validate() {
             Ok(()) => Ok((name, spec)),
-            Err(e) => Err(format!("[{name}]: {e}").into()),
+            Err(e) => Err(SettingsCause::Invalid(e.at(format!("[{name}]")))),
         })
         .collect()
 }
@@ -239,18 +237,6 @@ pub fn validate_name(name: &str) -> Result<(), Invalid> {
     } else {
         Err(format!("variant name {name:?}: use 1–64 letters, digits, `-` or `_`").into())
     }
-}
-
-/// A TOML error on one line, naming the line and quoting it (so the field is visible).
-fn one_line(e: &toml::de::Error, text: &str) -> String {
-    let msg = e.message().replace('\n', " ");
-    let Some(span) = e.span() else {
-        return msg;
-    };
-    let start = span.start.min(text.len());
-    let line_no = text[..start].matches('\n').count() + 1;
-    let line = text.lines().nth(line_no - 1).unwrap_or("").trim();
-    format!("line {line_no}: {msg} (`{line}`)")
 }
 
 #[cfg(test)]
