@@ -152,6 +152,7 @@ pub fn key_of(d: &Decision) -> (&'static str, &'static str, u32) {
 
 /// Starts Chromium on `url`; returns it and its DevTools port.
 pub fn launch(browser: &Path, profile: &Path, url: &str) -> (Browser, u16) {
+    std::fs::create_dir_all(profile).expect("the browser profile's folder");
     let mut child = Command::new(browser)
         .args([
             "--headless=new",
@@ -164,6 +165,9 @@ pub fn launch(browser: &Path, profile: &Path, url: &str) -> (Browser, u16) {
         ])
         .arg(format!("--user-data-dir={}", profile.display()))
         .arg(url)
+        // Chromium makes its singleton-socket folder in TMPDIR and leaves it when killed: in
+        // the profile, it goes with the test's temporary folder.
+        .env("TMPDIR", profile)
         .stdout(Stdio::null())
         .stderr(Stdio::null())
         .spawn()
