@@ -10,6 +10,7 @@ use super::manifest::ManifestError;
 use super::scene_file::{read_scene, SceneFileError, SceneHeader};
 use super::DataDir;
 use crate::atomic::write_bytes_atomic;
+use crate::invalid::SettingsCause;
 use crate::navmesh::file::NavFileError;
 use crate::scene::variants::{
     apply_variant, validate_name, MaterialStats, VariantError, VariantReport, VariantSpec,
@@ -27,13 +28,14 @@ pub enum StoreError {
         /// The cause.
         source: std::io::Error,
     },
-    /// A file that does not parse or is inconsistent.
-    #[error("{path}: {message}")]
+    /// A variant or statistics file that does not parse or breaks a rule.
+    #[error("{path}: {source}")]
     Format {
         /// The file.
         path: PathBuf,
-        /// What is wrong.
-        message: String,
+        /// What is wrong (the TOML or JSON parser's error, or the rule).
+        #[source]
+        source: SettingsCause,
     },
     /// A variant name that cannot be used.
     #[error("{0}")]
@@ -117,10 +119,7 @@ impl DataDir {
                 source: e,
             },
         })?;
-        VariantSpec::from_toml(&text).map_err(|message| StoreError::Format {
-            path,
-            message: message.to_string(),
-        })
+        VariantSpec::from_toml(&text).map_err(|source| StoreError::Format { path, source })
     }
 
     /// The names of every variant defined in `data`, sorted.
@@ -144,7 +143,7 @@ impl DataDir {
         let path = self.material_stats_path();
         let text = serde_json::to_string_pretty(stats).map_err(|e| StoreError::Format {
             path: path.clone(),
-            message: e.to_string(),
+            source: e.into(),
         })?;
         write_bytes_atomic(&path, text.as_bytes()).map_err(io_err(&path))?;
         Ok(path)
@@ -156,7 +155,7 @@ impl DataDir {
         let text = std::fs::read_to_string(&path).map_err(io_err(&path))?;
         let stats: MaterialStats = serde_json::from_str(&text).map_err(|e| StoreError::Format {
             path: path.clone(),
-            message: e.to_string(),
+            source: e.into(),
         })?;
         if stats.version != crate::scene::variants::materials::STATS_VERSION {
             return Err(StoreError::StaleStats {
@@ -165,9 +164,9 @@ impl DataDir {
                 expected: crate::scene::variants::materials::STATS_VERSION,
             });
         }
-        stats.validate().map_err(|message| StoreError::Format {
+        stats.validate().map_err(|e| StoreError::Format {
             path,
-            message: message.to_string(),
+            source: e.into(),
         })?;
         Ok(stats)
     }
@@ -209,5 +208,37 @@ impl DataDir {
             .iter()
             .map(|p| std::fs::metadata(p).and_then(|m| m.modified()).ok())
             .try_fold(SystemTime::UNIX_EPOCH, |acc, t| t.map(|t| acc.max(t)))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_broken_variant_file_names_it_and_keeps_the_parsers_error() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let data = DataDir::new(dir.path());
+        let path = data.variant_path("bare");
+        std::fs::create_dir_all(path.parent().expect("a folder")).expect("variants folder");
+        std::fs::write(&path, "empty = true\nremove = [\n").expect("write");
+        let e = data.read_variant("bare").expect_err("broken TOML");
+        let StoreError::Format { path: p, source } = &e else {
+            panic!("not a format error: {e:?}");
+        };
+        assert_eq!(p, &path);
+        let SettingsCause::Toml(t) = source else {
+            panic!("not a TOML error: {source:?}");
+        };
+        assert!(t.line.is_some(), "{t}");
+        let line = crate::escape::error_line(&e);
+        assert!(
+            line.starts_with(&format!("{}: line ", path.display())),
+            "{line}"
+        );
+        // A rule broken, not the syntax: the rule, as the cause.
+        std::fs::write(&path, "clutter = 1\n").expect("write");
+        let e = data.read_variant("bare").expect_err("a bad field");
+        assert!(matches!(&e, StoreError::Format { .. }), "{e:?}");
     }
 }
