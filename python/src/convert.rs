@@ -178,6 +178,8 @@ fn kind(e: &(dyn std::error::Error + 'static)) -> Option<Kind> {
         .then_some(Kind::BadInput);
     }
     let bad_input = e.is::<minos::invalid::Invalid>()
+        || e.is::<minos::invalid::SettingsCause>()
+        || e.is::<minos::invalid::TomlError>()
         || e.is::<minos::split::ExprError>()
         || e.is::<minos::scene::formats::LoadError>()
         || e.is::<minos::parquet_io::ParquetFileError>()

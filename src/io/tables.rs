@@ -431,8 +431,11 @@ impl ObservationWriter {
             Sink::Here(writer) => write_row_group(writer, &batch, &self.path),
             Sink::Behind { feed, .. } => match feed.send(batch) {
                 Ok(()) => Ok(()),
-                // The writing thread stopped: it failed; its error says why.
-                Err(_) => self.take_writer().map(drop),
+                // The writing thread stopped: it failed, and its error says why.
+                Err(_) => match self.take_writer() {
+                    Err(e) => Err(e),
+                    Ok(_) => Err(content_error(&self.path, "the writing thread stopped")),
+                },
             },
             Sink::Gone => Err(content_error(&self.path, "written after a failed write")),
         }

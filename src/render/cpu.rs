@@ -232,43 +232,71 @@ fn row_span(p: &[[f32; 2]; 3], py: f32, minx: i64, maxx: i64) -> Option<(i64, i6
     Some((xs as i64, xe as i64))
 }
 
-/// Rasterises `tris` into rows `y0..y1` (buffers hold those rows only).
-fn raster(tris: &[ScreenTri], width: u32, y0: u32, y1: u32, ids: &mut [u32], depth: &mut [f32]) {
-    for t in tris {
-        let mut p = t.p;
-        let mut z = t.z;
+/// A triangle ready to rasterise into rows `y0..y1` of an image `width` wide: its vertices
+/// and depths in counter-clockwise order (positive `area`, twice the signed area) and its
+/// pixel bounding box, clipped to the rows and the image.
+struct Setup {
+    p: [[f32; 2]; 3],
+    z: [f32; 3],
+    area: f32,
+    minx: i64,
+    maxx: i64,
+    miny: i64,
+    maxy: i64,
+}
+
+impl Setup {
+    /// `None` for a degenerate triangle or one outside the rows.
+    fn of(t: &ScreenTri, width: u32, y0: u32, y1: u32) -> Option<Setup> {
+        let (mut p, mut z) = (t.p, t.z);
         let mut area = edge(p[0], p[1], p[2]);
         if area == 0.0 || !area.is_finite() {
-            continue;
+            return None;
         }
         if area < 0.0 {
             p.swap(1, 2);
             z.swap(1, 2);
             area = -area;
         }
-        let minx = p
-            .iter()
-            .map(|v| v[0])
-            .fold(f32::INFINITY, f32::min)
-            .floor()
-            .max(0.0) as i64;
-        let maxx = (p
-            .iter()
-            .map(|v| v[0])
-            .fold(f32::NEG_INFINITY, f32::max)
-            .ceil() as i64)
-            .min(width as i64 - 1);
-        let miny =
-            (p.iter().map(|v| v[1]).fold(f32::INFINITY, f32::min).floor() as i64).max(y0 as i64);
-        let maxy = (p
-            .iter()
-            .map(|v| v[1])
-            .fold(f32::NEG_INFINITY, f32::max)
-            .ceil() as i64)
-            .min(y1 as i64 - 1);
-        if minx > maxx || miny > maxy {
+        let lo = |k: usize| p.iter().map(|v| v[k]).fold(f32::INFINITY, f32::min).floor();
+        let hi = |k: usize| {
+            p.iter()
+                .map(|v| v[k])
+                .fold(f32::NEG_INFINITY, f32::max)
+                .ceil()
+        };
+        let (minx, maxx) = (lo(0).max(0.0) as i64, (hi(0) as i64).min(width as i64 - 1));
+        let (miny, maxy) = (
+            (lo(1) as i64).max(y0 as i64),
+            (hi(1) as i64).min(y1 as i64 - 1),
+        );
+        (minx <= maxx && miny <= maxy).then_some(Setup {
+            p,
+            z,
+            area,
+            minx,
+            maxx,
+            miny,
+            maxy,
+        })
+    }
+}
+
+/// Rasterises `tris` into rows `y0..y1` (buffers hold those rows only).
+fn raster(tris: &[ScreenTri], width: u32, y0: u32, y1: u32, ids: &mut [u32], depth: &mut [f32]) {
+    for t in tris {
+        let Some(Setup {
+            p,
+            z,
+            area,
+            minx,
+            maxx,
+            miny,
+            maxy,
+        }) = Setup::of(t, width, y0, y1)
+        else {
             continue;
-        }
+        };
         let tl = [
             top_left(p[1], p[2]),
             top_left(p[2], p[0]),
@@ -313,7 +341,8 @@ mod tests {
     use super::*;
     use crate::seed::Rng;
 
-    /// The rasteriser before row spans: every pixel of the bounding box tested.
+    /// The rasteriser before row spans: every pixel of the bounding box tested (the same
+    /// triangle set-up).
     fn raster_box(
         tris: &[ScreenTri],
         width: u32,
@@ -323,37 +352,13 @@ mod tests {
         depth: &mut [f32],
     ) {
         for t in tris {
-            let (mut p, mut z) = (t.p, t.z);
-            let mut area = edge(p[0], p[1], p[2]);
-            if area == 0.0 || !area.is_finite() {
+            let Some(s) = Setup::of(t, width, y0, y1) else {
                 continue;
-            }
-            if area < 0.0 {
-                p.swap(1, 2);
-                z.swap(1, 2);
-                area = -area;
-            }
-            let xs = p.map(|v| v[0]);
-            let ys = p.map(|v| v[1]);
-            let minx = (xs
-                .iter()
-                .copied()
-                .fold(f32::INFINITY, f32::min)
-                .floor()
-                .max(0.0)) as i64;
-            let maxx = (xs.iter().copied().fold(f32::NEG_INFINITY, f32::max).ceil() as i64)
-                .min(width as i64 - 1);
-            let miny =
-                (ys.iter().copied().fold(f32::INFINITY, f32::min).floor() as i64).max(y0 as i64);
-            let maxy = (ys.iter().copied().fold(f32::NEG_INFINITY, f32::max).ceil() as i64)
-                .min(y1 as i64 - 1);
-            let tl = [
-                top_left(p[1], p[2]),
-                top_left(p[2], p[0]),
-                top_left(p[0], p[1]),
-            ];
-            for y in miny..=maxy {
-                for x in minx..=maxx {
+            };
+            let (p, z) = (s.p, s.z);
+            let tl = [(1, 2), (2, 0), (0, 1)].map(|(a, b)| top_left(p[a], p[b]));
+            for y in s.miny..=s.maxy {
+                for x in s.minx..=s.maxx {
                     let q = [x as f32 + 0.5, y as f32 + 0.5];
                     let w = [
                         edge(p[1], p[2], q),
@@ -363,7 +368,7 @@ mod tests {
                     if !(0..3).all(|k| w[k] > 0.0 || (w[k] == 0.0 && tl[k])) {
                         continue;
                     }
-                    let d = (w[0] * z[0] + w[1] * z[1] + w[2] * z[2]) * (1.0 / area);
+                    let d = (w[0] * z[0] + w[1] * z[1] + w[2] * z[2]) * (1.0 / s.area);
                     let i = ((y as u32 - y0) * width) as usize + x as usize;
                     if (0.0..=1.0).contains(&d) && d < depth[i] {
                         depth[i] = d;
