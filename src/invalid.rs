@@ -122,17 +122,6 @@ pub enum SettingsCause {
     Invalid(#[from] Invalid),
 }
 
-impl SettingsCause {
-    /// The same cause inside `record` (a rule broken inside it; a syntax error is located by
-    /// its line already).
-    pub fn at(self, record: impl Into<String>) -> Self {
-        match self {
-            SettingsCause::Invalid(e) => SettingsCause::Invalid(e.at(record)),
-            other => other,
-        }
-    }
-}
-
 impl From<TomlError> for SettingsCause {
     fn from(e: TomlError) -> Self {
         SettingsCause::Toml(Box::new(e))
