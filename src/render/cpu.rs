@@ -189,47 +189,72 @@ fn top_left(a: [f32; 2], b: [f32; 2]) -> bool {
 }
 
 /// Bounding boxes narrower than this (pixels) are tested whole: solving a row's span
-/// ([`row_span`]) costs about as much as the tests it would save.
+/// ([`RowSpans`]) costs about as much as the tests it would save.
 const SPAN_MIN_WIDTH: i64 = 12;
 
-/// The pixels `xs..=xe` of the row whose centres lie at `py` that may be inside triangle
-/// `p` (positive area) — `minx..=maxx` narrowed to where every edge function can be ≥ 0 —,
-/// or `None` when no pixel can be. The exact per-pixel test still decides each pixel: the
-/// span is widened by one pixel and by a bound on the rounding of both the test and this
-/// solution, so it never leaves out a pixel the test would keep, and frames are the same
-/// bits as testing the whole bounding box (for about half the tests on a typical triangle).
-fn row_span(p: &[[f32; 2]; 3], py: f32, minx: i64, maxx: i64) -> Option<(i64, i64)> {
-    let (mut lo, mut hi) = (minx as f32, maxx as f32);
-    for (a, b) in [(p[1], p[2]), (p[2], p[0]), (p[0], p[1])] {
-        let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
-        // edge(a, b, q) = dx (py − a.y) − dy (q.x − a.x): its sign along the row changes
-        // where q.x = a.x + c / dy.
-        let c = dx * (py - a[1]);
-        if dy == 0.0 {
-            // Constant along the row (the test computes exactly `c`).
-            if c < 0.0 {
-                return None;
+/// Where a triangle `p` (positive area) can cover pixels along a row: per edge, its start
+/// `a`, direction `(dx, dy)` and how far the box `minx..=maxx` reaches from `a.x` — what
+/// [`RowSpans::at`] needs on every row, worked out once per triangle.
+struct RowSpans {
+    edges: [([f32; 2], f32, f32, f32); 3],
+    minx: i64,
+    maxx: i64,
+}
+
+impl RowSpans {
+    fn new(p: &[[f32; 2]; 3], minx: i64, maxx: i64) -> Self {
+        let edge = |a: [f32; 2], b: [f32; 2]| {
+            let reach = (minx as f32 + 0.5 - a[0])
+                .abs()
+                .max((maxx as f32 + 0.5 - a[0]).abs());
+            (a, b[0] - a[0], b[1] - a[1], reach)
+        };
+        RowSpans {
+            edges: [edge(p[1], p[2]), edge(p[2], p[0]), edge(p[0], p[1])],
+            minx,
+            maxx,
+        }
+    }
+
+    /// The pixels `xs..=xe` of the row whose centres lie at `py` that may be inside the
+    /// triangle — `minx..=maxx` narrowed to where every edge function can be ≥ 0 —, or
+    /// `None` when no pixel can be. The exact per-pixel test still decides each pixel: the
+    /// span is widened by one pixel and by a bound on the rounding of both the test and this
+    /// solution, so it never leaves out a pixel the test would keep, and frames are the same
+    /// bits as testing the whole bounding box (for about half the tests on a typical
+    /// triangle).
+    fn at(&self, py: f32) -> Option<(i64, i64)> {
+        let (mut lo, mut hi) = (self.minx as f32, self.maxx as f32);
+        for &(a, dx, dy, reach) in &self.edges {
+            // edge(a, b, q) = dx (py − a.y) − dy (q.x − a.x): its sign along the row changes
+            // where q.x = a.x + c / dy.
+            let c = dx * (py - a[1]);
+            if dy == 0.0 {
+                // Constant along the row (the test computes exactly `c`).
+                if c < 0.0 {
+                    return None;
+                }
+                continue;
             }
-            continue;
+            let cross = a[0] + c / dy;
+            let slack = 1.0 + 8.0 * f32::EPSILON * ((c / dy).abs() + a[0].abs() + reach);
+            // Pixel x's centre is x + 0.5.
+            if dy > 0.0 {
+                hi = hi.min(cross - 0.5 + slack);
+            } else {
+                lo = lo.max(cross - 0.5 - slack);
+            }
         }
-        let cross = a[0] + c / dy;
-        let reach = (minx as f32 + 0.5 - a[0])
-            .abs()
-            .max((maxx as f32 + 0.5 - a[0]).abs());
-        let slack = 1.0 + 8.0 * f32::EPSILON * ((c / dy).abs() + a[0].abs() + reach);
-        // Pixel x's centre is x + 0.5.
-        if dy > 0.0 {
-            hi = hi.min(cross - 0.5 + slack);
-        } else {
-            lo = lo.max(cross - 0.5 - slack);
+        let (xs, xe) = (
+            lo.floor().max(self.minx as f32),
+            hi.ceil().min(self.maxx as f32),
+        );
+        // NaN bounds (from infinite coordinates) compare false: the whole box then.
+        if xs > xe {
+            return None;
         }
+        Some((xs as i64, xe as i64))
     }
-    let (xs, xe) = (lo.floor().max(minx as f32), hi.ceil().min(maxx as f32));
-    // NaN bounds (from infinite coordinates) compare false: the whole box then.
-    if xs > xe {
-        return None;
-    }
-    Some((xs as i64, xe as i64))
 }
 
 /// A triangle ready to rasterise into rows `y0..y1` of an image `width` wide: its vertices
@@ -303,15 +328,15 @@ fn raster(tris: &[ScreenTri], width: u32, y0: u32, y1: u32, ids: &mut [u32], dep
             top_left(p[0], p[1]),
         ];
         let inv_area = 1.0 / area;
+        let spans = (maxx - minx >= SPAN_MIN_WIDTH).then(|| RowSpans::new(&p, minx, maxx));
         for y in miny..=maxy {
             let py = y as f32 + 0.5;
-            let (xs, xe) = if maxx - minx < SPAN_MIN_WIDTH {
-                (minx, maxx)
-            } else {
-                match row_span(&p, py, minx, maxx) {
+            let (xs, xe) = match &spans {
+                None => (minx, maxx),
+                Some(spans) => match spans.at(py) {
                     Some(span) => span,
                     None => continue,
-                }
+                },
             };
             let row = ((y as u32 - y0) * width) as usize;
             for x in xs..=xe {
