@@ -874,6 +874,30 @@ mod tests {
         assert_eq!(color["lossless"], "true");
     }
 
+    /// Step `v`'s images of the MINOS cameras at 8² (different for each step).
+    fn observation(v: usize) -> Vec<(String, Image)> {
+        vec![
+            (
+                "color".to_string(),
+                Image::U8 {
+                    channels: 3,
+                    data: (0..8 * 8 * 3).map(|i| (i * 7 + v) as u8).collect(),
+                },
+            ),
+            (
+                "depth".to_string(),
+                Image::F32 {
+                    channels: 1,
+                    data: (0..64).map(|i| (i + v) as f32 * 0.01).collect(),
+                },
+            ),
+            (
+                "semantic".to_string(),
+                Image::U16((0..64).map(|i| (i * v % 40) as u16).collect()),
+            ),
+        ]
+    }
+
     /// Writes `steps` observations of the MINOS cameras at 8² into `path`, behind (on the
     /// writer's own thread) or not.
     fn write_observations(path: &Path, steps: u32, behind: bool) {
@@ -884,27 +908,7 @@ mod tests {
             w.write_behind().expect("write behind");
         }
         for t in 0..steps {
-            let v = t as usize;
-            let images = vec![
-                (
-                    "color".to_string(),
-                    Image::U8 {
-                        channels: 3,
-                        data: (0..8 * 8 * 3).map(|i| (i * 7 + v) as u8).collect(),
-                    },
-                ),
-                (
-                    "depth".to_string(),
-                    Image::F32 {
-                        channels: 1,
-                        data: (0..64).map(|i| (i + v) as f32 * 0.01).collect(),
-                    },
-                ),
-                (
-                    "semantic".to_string(),
-                    Image::U16((0..64).map(|i| (i * v % 40) as u16).collect()),
-                ),
-            ];
+            let images = observation(t as usize);
             w.push(t, &images).expect("push");
         }
         w.finish().expect("finish");
@@ -961,23 +965,7 @@ mod tests {
         )
         .expect("writer");
         w.write_behind().expect("write behind");
-        let images = vec![
-            (
-                "color".to_string(),
-                Image::U8 {
-                    channels: 3,
-                    data: vec![9; 8 * 8 * 3],
-                },
-            ),
-            (
-                "depth".to_string(),
-                Image::F32 {
-                    channels: 1,
-                    data: vec![1.5; 64],
-                },
-            ),
-            ("semantic".to_string(), Image::U16(vec![3; 64])),
-        ];
+        let images = observation(1);
         let mut errors = Vec::new();
         for t in 0..ROW_GROUP as u32 * 4 {
             if let Err(e) = w.push(t, &images) {
