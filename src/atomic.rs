@@ -150,6 +150,23 @@ pub fn sync_filesystem(path: &Path) -> io::Result<()> {
     }
 }
 
+/// Removes folder `dir` and everything in it as one step for a reader: `dir` is first
+/// renamed to `.<name>.old-<pid>` and only then emptied, so a process killed while removing
+/// leaves a temporary folder that the next sweep ([`sweep_stale`]) removes, never a
+/// half-emptied `dir` that still looks like what it was. A missing `dir` is already removed.
+pub fn remove_dir_atomic(dir: &Path) -> io::Result<()> {
+    let name = dir
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let old = dir.with_file_name(format!(".{name}.old-{}", std::process::id()));
+    match fs::rename(dir, &old) {
+        Ok(()) => fs::remove_dir_all(&old),
+        Err(e) if e.kind() == io::ErrorKind::NotFound => Ok(()),
+        Err(e) => Err(e),
+    }
+}
+
 /// The process id in a temporary name — `.<name>.tmp-<pid>`, or `.<name>.old-<pid>` for a
 /// folder being replaced — or `None` for any other name.
 pub fn temp_owner(file_name: &str) -> Option<u32> {
@@ -313,6 +330,28 @@ mod tests {
             vec![format!(".b.nav.tmp-{mine}"), "a.nav".into(), "sub".into()]
         );
         assert!(sweep_stale(&d.join("missing")).unwrap().is_empty());
+    }
+
+    #[test]
+    fn a_folder_goes_whole_and_what_a_killed_removal_left_is_swept() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let parts = d.join(".parts");
+        fs::create_dir(&parts).unwrap();
+        fs::write(parts.join("000007.json"), b"{}").unwrap();
+        fs::write(parts.join("000007.obs.parquet"), b"x").unwrap();
+        remove_dir_atomic(&parts).unwrap();
+        assert_eq!(fs::read_dir(d).unwrap().count(), 0, "nothing left");
+        remove_dir_atomic(&parts).expect("a missing folder is removed already");
+        // A removal killed midway (after the rename) left a temporary folder, holding part of
+        // what was there; `.parts` itself is gone, so no reader takes the rest for the whole.
+        let dead = 4_194_305 + 17;
+        let left = d.join(format!(".parts.old-{dead}"));
+        fs::create_dir(&left).unwrap();
+        fs::write(left.join("000007.json"), b"{}").unwrap();
+        assert!(!parts.exists());
+        assert_eq!(sweep_stale(d).unwrap(), vec![left]);
+        assert_eq!(fs::read_dir(d).unwrap().count(), 0);
     }
 
     #[test]

@@ -114,7 +114,7 @@ impl BodyRule {
     pub fn check(&self, grid: &AgentBody) -> Result<(), BodyMismatch> {
         match self.body.check_grid(grid) {
             Err(e) if self.allow_mismatch => {
-                tracing::warn!("{e}; the mismatch is allowed");
+                tracing::warn!("{}; the mismatch is allowed", crate::escape::error_line(&e));
                 Ok(())
             }
             r => r,

@@ -18,19 +18,28 @@ pub fn escape_controls(text: &str) -> String {
         .collect()
 }
 
-/// An error and its causes (its `source()` chain) on one line, `: ` between them, skipping
-/// a cause whose text the line already holds (errors that print their cause in their own
-/// message as well as exposing it), with line breaks made spaces: the text of `error: …`
-/// in both front doors, and of an error kept in a report (a run's failed episodes).
+/// An error and its causes (its `source()` chain) on one line, `: ` between them, with line
+/// breaks made spaces: the text of `error: …` in both front doors, of a warning, and of an
+/// error kept in a report (a run's failed episodes). minos's errors print themselves only
+/// and keep their cause as their `source()` (`tests/layering.rs` checks every `#[error]`),
+/// so this is the one way to show one whole; a cause that the error before it in the chain
+/// printed already (a dependency's error that prints the cause it also returns) is not
+/// repeated.
 pub fn error_line(e: &(dyn std::error::Error + 'static)) -> String {
     let mut line = e.to_string();
+    let mut previous = line.clone();
     let mut cause = e.source();
     while let Some(c) = cause {
         let text = c.to_string();
-        if !line.contains(&text) {
+        // minos's own errors print only themselves; a dependency's error may also print the
+        // cause it returns as its source, whole or after `: ` (image's and arrow's wrappers
+        // do): that cause is not shown twice.
+        let printed = previous == text || previous.ends_with(&format!(": {text}"));
+        if !text.is_empty() && !printed {
             line.push_str(": ");
             line.push_str(&text);
         }
+        previous = text;
         cause = c.source();
     }
     line.replace('\n', " ")
@@ -90,9 +99,21 @@ mod tests {
     #[error("bad\nvalue")]
     struct Inner;
 
-    #[derive(Debug, thiserror::Error)]
-    #[error("file.toml: {0}")]
-    struct Says(#[source] Inner);
+    /// A dependency's kind of error: prints its cause and returns it as its source.
+    #[derive(Debug)]
+    struct Says(Inner);
+
+    impl std::fmt::Display for Says {
+        fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+            write!(f, "file.toml: {}", self.0)
+        }
+    }
+
+    impl std::error::Error for Says {
+        fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+            Some(&self.0)
+        }
+    }
 
     #[test]
     fn an_error_line_holds_each_cause_once() {
@@ -100,8 +121,13 @@ mod tests {
             error_line(&Outer("file.toml", Inner)),
             "reading file.toml: bad value"
         );
-        // A cause the message prints already is not repeated.
+        // A cause the error before it printed is not repeated; text that only looks like
+        // the cause is kept.
         assert_eq!(error_line(&Says(Inner)), "file.toml: bad value");
+        assert_eq!(
+            error_line(&Outer("bad\nvalue", Inner)),
+            "reading bad value: bad value"
+        );
         assert_eq!(error_line(&Inner), "bad value");
     }
 

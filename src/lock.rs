@@ -56,7 +56,7 @@ pub enum LockError {
         command: String,
     },
     /// The folder or its lock file cannot be created or locked.
-    #[error("{}: cannot take the writer's lock: {source}", path.display())]
+    #[error("{}: cannot take the writer's lock", path.display())]
     Io {
         /// The lock file (or the folder).
         path: PathBuf,

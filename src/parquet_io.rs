@@ -22,7 +22,7 @@ use crate::invalid::Invalid;
 #[derive(Debug, thiserror::Error)]
 pub enum ParquetFileError {
     /// File system error.
-    #[error("{path}: {source}")]
+    #[error("{path}")]
     Io {
         /// The file.
         path: String,
@@ -30,7 +30,7 @@ pub enum ParquetFileError {
         source: std::io::Error,
     },
     /// Parquet / Arrow error, or a column missing or of the wrong type.
-    #[error("{path}: {cause}")]
+    #[error("{path}")]
     Format {
         /// The file.
         path: String,
@@ -368,7 +368,10 @@ mod tests {
     #[test]
     fn format_errors_escape_control_characters() {
         let e = ParquetFileError::format(Path::new("t.parquet"), "field `a\nb\u{1}c` é");
-        assert_eq!(e.to_string(), "t.parquet: field `a\\nb\\u{1}c` é");
+        assert_eq!(
+            crate::escape::error_line(&e),
+            "t.parquet: field `a\\nb\\u{1}c` é"
+        );
     }
 
     fn table() -> (SchemaRef, RecordBatch) {
@@ -448,7 +451,7 @@ mod tests {
         let props = writer_properties(1, None, &schema);
         let bad = Err(arrow::error::ArrowError::ComputeError("boom".into()));
         let err = write_batches(&out, schema, props, [Ok(batch), bad]).unwrap_err();
-        assert!(err.to_string().contains("boom"), "{err}");
+        assert!(crate::escape::error_line(&err).contains("boom"), "{err}");
         assert!(
             matches!(
                 &err,

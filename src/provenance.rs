@@ -20,7 +20,7 @@ pub const SOURCE_COMMIT: &str = env!("MINOS_SOURCE_COMMIT");
 
 /// A provenance record that could not be made; the message names the file.
 #[derive(Debug, thiserror::Error)]
-#[error("{}: {source}", path.display())]
+#[error("{}", path.display())]
 pub struct ProvenanceError {
     /// The file or folder.
     pub path: PathBuf,

@@ -28,8 +28,8 @@ pub enum ShardError {
         value: String,
     },
     /// `MINOS_SHARD` is not a shard.
-    #[error("shard auto: MINOS_SHARD={0}")]
-    Explicit(Box<ShardError>),
+    #[error("shard auto: MINOS_SHARD")]
+    Explicit(#[source] Box<ShardError>),
     /// The scheduler's numbers make no shard.
     #[error("shard auto: {origin} gives shard {index} of {count}: need 0 <= i < n")]
     Scheduler {

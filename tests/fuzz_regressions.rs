@@ -19,9 +19,19 @@ fn input(name: &str) -> PathBuf {
         .join(name)
 }
 
-fn one_line_error<T: std::fmt::Debug, E: std::fmt::Display>(r: Result<T, E>, names: &str) {
-    let e = r.expect_err("refused").to_string();
-    assert!(e.contains(names) && !e.contains('\n'), "{e}");
+fn one_line_error<T: std::fmt::Debug, E: std::error::Error + 'static>(
+    r: Result<T, E>,
+    names: &str,
+) {
+    let e = r.expect_err("refused");
+    let line = minos::escape::error_line(&e);
+    assert!(line.contains(names), "{line}");
+    // Every message of the chain is one line by itself (error_line only joins them).
+    let mut link: Option<&(dyn std::error::Error + 'static)> = Some(&e);
+    while let Some(l) = link {
+        assert!(!l.to_string().contains('\n'), "{l:?}");
+        link = l.source();
+    }
 }
 
 #[test]
@@ -46,15 +56,12 @@ fn episode_parquet_whose_field_name_holds_a_newline() {
     // raw: two lines. Control characters are now escaped.
     let path = input("episodes_parquet-newline_in_field_name.parquet");
     let r = std::panic::catch_unwind(|| read_episodes(&path)).expect("no panic");
-    let e = r.expect_err("refused").to_string();
+    let e = minos::escape::error_line(r.as_ref().expect_err("refused"));
     assert!(
         e.contains("expected field named euclidean_d\\u{1}\\u{0}\\u{0}\\nnce"),
         "{e}"
     );
-    one_line_error(
-        Err::<(), _>(e),
-        "episodes_parquet-newline_in_field_name.parquet",
-    );
+    one_line_error(r, "episodes_parquet-newline_in_field_name.parquet");
 }
 
 #[test]

@@ -669,3 +669,166 @@ fn library_errors_are_typed_not_strings() {
         "library code returning Result<_, String>: {offenders:?}"
     );
 }
+
+/// `file`'s text, strings and comments kept, up to its unit tests (`#[cfg(test)] mod tests`).
+fn text_before_tests(file: &Path) -> String {
+    let text = std::fs::read_to_string(file).expect("readable source");
+    let cut = text.find("#[cfg(test)]\nmod tests").unwrap_or(text.len());
+    text[..cut].to_string()
+}
+
+/// The `#[error(…)]` attributes in `code` whose message prints a field that is also the
+/// error's `source()` (a field named `source`, or marked `#[source]` or `#[from]`) beside
+/// words of its own: each such attribute, whitespace folded. `#[error(transparent)]` and a
+/// bare wrapper (`#[error("{0}")]` around its source) are fine.
+fn printed_sources(code: &str) -> Vec<String> {
+    let lines: Vec<&str> = code.lines().collect();
+    let mut found = Vec::new();
+    let mut i = 0;
+    while i < lines.len() {
+        if !lines[i].contains("#[error(") {
+            i += 1;
+            continue;
+        }
+        let mut attr = lines[i].to_string();
+        while !attr.trim_end().ends_with(")]") && i + 1 < lines.len() {
+            i += 1;
+            attr.push(' ');
+            attr.push_str(lines[i].trim());
+        }
+        i += 1;
+        if attr.contains("transparent") {
+            continue;
+        }
+        // The variant or struct the attribute describes, up to where its fields close.
+        let mut decl = String::new();
+        let mut depth = 0i32;
+        while i < lines.len() {
+            let line = lines[i].trim();
+            if line.starts_with("#[error(") {
+                break;
+            }
+            decl.push_str(line);
+            decl.push('\n');
+            i += 1;
+            if line.starts_with("//") || (line.starts_with("#[") && depth == 0) {
+                continue;
+            }
+            depth += line.matches(['{', '(']).count() as i32;
+            depth -= line.matches(['}', ')']).count() as i32;
+            if depth <= 0 && (line.ends_with(',') || line.ends_with('}') || line.ends_with(';')) {
+                break;
+            }
+        }
+        let mut sources = Vec::new();
+        let mut marked = false;
+        for line in decl.lines() {
+            let line = line.trim().trim_start_matches("pub ");
+            if line == "#[source]" || line == "#[from]" {
+                marked = true;
+                continue;
+            }
+            if let Some((name, _)) = line.split_once(':') {
+                let name = name.trim();
+                if name.chars().all(|c| c.is_alphanumeric() || c == '_') && !name.is_empty() {
+                    if marked || name == "source" {
+                        sources.push(name.to_string());
+                    }
+                    marked = false;
+                }
+            }
+        }
+        // Tuple fields: `Name(#[from] A, B)`.
+        if let (Some(open), Some(close)) = (decl.find('('), decl.rfind(')')) {
+            if !decl[..open].contains('{') && open < close {
+                let mut depth = 0;
+                let mut field = 0;
+                let mut start = open + 1;
+                for (k, c) in decl[open + 1..close].char_indices() {
+                    let at = open + 1 + k;
+                    match c {
+                        '(' | '<' | '[' => depth += 1,
+                        ')' | '>' | ']' => depth -= 1,
+                        ',' if depth == 0 => {
+                            if decl[start..at].contains("#[source]")
+                                || decl[start..at].contains("#[from]")
+                            {
+                                sources.push(field.to_string());
+                            }
+                            field += 1;
+                            start = at + 1;
+                        }
+                        _ => {}
+                    }
+                }
+                if decl[start..close].contains("#[source]")
+                    || decl[start..close].contains("#[from]")
+                {
+                    sources.push(field.to_string());
+                }
+            }
+        }
+        let prints = |name: &str| {
+            attr.contains(&format!("{{{name}}}"))
+                || attr.contains(&format!("{{{name}:"))
+                || attr.contains(&format!(".{name})"))
+                || attr.contains(&format!(".{name}."))
+                || attr.contains(&format!(".{name},"))
+        };
+        // A wrapper that adds nothing says its cause's words as its own and keeps the cause
+        // as its source, so typed inspection of the chain (remedies, Python's exception
+        // classes) still finds it; `error_line` does not repeat it.
+        let wrapper = |name: &str| attr.replace(' ', "") == format!("#[error(\"{{{name}}}\")]");
+        if sources.iter().any(|s| prints(s) && !wrapper(s)) {
+            found.push(attr.split_whitespace().collect::<Vec<_>>().join(" "));
+        }
+    }
+    found
+}
+
+/// An error prints itself and keeps its cause as its `source()`, never both: the one-line
+/// text of an error and its causes is `escape::error_line`'s to make, so no message says a
+/// cause twice and no caller needs to de-duplicate text.
+#[test]
+fn library_errors_print_their_cause_once() {
+    let printing = [
+        "#[error(\"{}: {source}\", path.display())]\nIo {\n    path: PathBuf,\n    source: io::Error,\n},",
+        "#[error(\"lerobot: {0}\")]\nLerobot(#[from] LerobotError),",
+        "#[error(\"step {step}: {why}\")]\nStep {\n    step: u32,\n    #[source]\n    why: Invalid,\n},",
+        "#[error(\"human{}\", .source.as_ref().map(|s| s.to_string()).unwrap_or_default())]\nHuman {\n    source: Option<Box<dyn Error>>,\n},",
+        "#[error(\n    \"{}: {cause} (hint)\",\n    path.display()\n)]\nNoStats {\n    path: PathBuf,\n    #[source]\n    cause: io::Error,\n},",
+    ];
+    for code in printing {
+        assert_eq!(printed_sources(code).len(), 1, "{code}");
+    }
+    let fine = [
+        "#[error(\"{}\", path.display())]\nIo {\n    path: PathBuf,\n    source: io::Error,\n},",
+        "#[error(transparent)]\nLerobot(#[from] LerobotError),",
+        "#[error(\"step {step}: {0}\")]\nStep(String, #[source] Invalid),",
+        "#[error(\"{0}\")]\nText(String),",
+        "#[error(\"{0}\")]\nGrid(#[from] NavFileError),",
+        "#[error(\"{source}\")]\nStore {\n    #[source]\n    source: StoreError,\n},",
+        "#[error(\"row {row}: {message}\")]\nRow {\n    row: usize,\n    message: String,\n},",
+    ];
+    for code in fine {
+        assert_eq!(printed_sources(code), Vec::<String>::new(), "{code}");
+    }
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut files = Vec::new();
+    rust_files(&root.join("src"), &mut files);
+    let offenders: Vec<String> = files
+        .iter()
+        .flat_map(|f| {
+            let name = f.strip_prefix(root).unwrap_or(f).display().to_string();
+            printed_sources(&text_before_tests(f))
+                .into_iter()
+                .map(move |a| format!("{name}: {a}"))
+        })
+        .collect();
+    assert!(files.len() > 100, "library files found: {}", files.len());
+    assert!(
+        offenders.is_empty(),
+        "errors that print their source as well as returning it:\n{}",
+        offenders.join("\n")
+    );
+}

@@ -400,7 +400,8 @@ fn an_external_process_drives_the_agent_over_json_lines() {
     .unwrap();
     assert_eq!(bad.failures.len(), 2);
     let failure = &bad.failures[0].1;
-    assert!(failure.to_string().contains("not JSON"), "{failure}");
+    let line = minos::escape::error_line(failure);
+    assert!(line.contains("not JSON"), "{line}");
     // The cause is kept typed: the agent's own error, not a flattened line.
     assert!(
         matches!(failure, EpisodeFailure::Run(e) if matches!(**e, EpisodeError::Agent(_))),

@@ -36,7 +36,9 @@ fn env_err(e: VectorEnvError) -> PyErr {
         VectorEnvError::NoEnvironments => bad_input("num_envs: at least one environment"),
         VectorEnvError::NoEpisodes => bad_input("episodes: no episode to run"),
         VectorEnvError::Threads(e) => bad_input(format!("threads: {e}")),
-        VectorEnvError::Actions { .. } => pyo3::exceptions::PyValueError::new_err(e.to_string()),
+        VectorEnvError::Actions { .. } => {
+            pyo3::exceptions::PyValueError::new_err(minos::escape::error_line(&e))
+        }
         e => typed_err(e),
     }
 }

@@ -89,7 +89,8 @@ fn is_batch(obj: &Bound<'_, PyAny>) -> bool {
 
 impl PathFinder {
     fn route(&self, a: Vec3, b: Vec3) -> PyResult<Route> {
-        route(&self.grid, a, b).map_err(|e| msg_err(format!("{}: {e}", self.file)))
+        route(&self.grid, a, b)
+            .map_err(|e| msg_err(format!("{}: {}", self.file, minos::escape::error_line(&e))))
     }
 
     fn distances(&self, py: Python<'_>, a: Vec<Vec3>, b: Vec<Vec3>) -> PyResult<Vec<f32>> {
@@ -122,7 +123,7 @@ impl PathFinder {
         let file = data.grid_path(&scene_ref).display().to_string();
         let grid = py
             .detach(|| data.read_grid(&scene_ref))
-            .map_err(|e| msg_err(format!("scene {scene}: {e}")))?;
+            .map_err(|e| msg_err(format!("scene {scene}: {}", minos::escape::error_line(&e))))?;
         let rng = Rng::new(derive_seed(seed, &[&grid.scene, "pathfinder"]));
         Ok(PathFinder { grid, file, rng })
     }

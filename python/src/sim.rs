@@ -21,7 +21,7 @@ use minos::sim::sensors::{dtype_of, CameraSensor};
 use minos::sim::{Actions, AgentConfig, GoalSpec, Observation, SceneAssets, SensorSuite};
 use minos::store::DataDir;
 
-use crate::convert::{msg_err, point, preset, py_err, sensor_suite};
+use crate::convert::{msg_err, point, preset, py_err, sensor_suite, typed_err};
 use crate::episodes::PyEpisode;
 
 /// A scene ready for simulators: its assets and renderer, shared by every simulator on it.
@@ -316,13 +316,13 @@ impl Simulator {
         action: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let a = parse_action(action, action_set(&self.sim))?;
-        let obs = py.detach(|| self.sim.step(a)).map_err(msg_err)?;
+        let obs = py.detach(|| self.sim.step(a)).map_err(typed_err)?;
         observation_dict(py, obs, &self.cameras)
     }
 
     /// The observation at the current state, without stepping.
     fn observe<'py>(&mut self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let obs = py.detach(|| self.sim.observe()).map_err(msg_err)?;
+        let obs = py.detach(|| self.sim.observe()).map_err(typed_err)?;
         observation_dict(py, obs, &self.cameras)
     }
 
@@ -379,14 +379,15 @@ impl Simulator {
         py.detach(|| -> Result<&'static str, String> {
             if oracle.is_none() {
                 let mut o = OracleAgent::new();
-                o.reset(ep, sim).map_err(|e| e.to_string())?;
+                o.reset(ep, sim)
+                    .map_err(|e| minos::escape::error_line(&e))?;
                 *oracle = Some(o);
             }
             let o = oracle.as_mut().ok_or("oracle")?;
             Ok(
                 match o
                     .decide(&Observation::blind(), sim)
-                    .map_err(|e| e.to_string())?
+                    .map_err(|e| minos::escape::error_line(&e))?
                 {
                     Decision::Stop => STOP,
                     Decision::Act(a) => single_name(&a),

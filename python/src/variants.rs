@@ -74,8 +74,9 @@ pub fn variants<'py>(
         .detach(|| define_variants(&job, mode, &bar))
         .map_err(|e| match e {
             VariantsError::NoChange { .. } if from_kwargs => bad_input(format!(
-                "{e} (pass remove=, keep_only=, empty=True, hide=, open_doors=True or \
-                 retexture_seed=)"
+                "{} (pass remove=, keep_only=, empty=True, hide=, open_doors=True or \
+                 retexture_seed=)",
+                minos::escape::error_line(&e)
             )),
             e => typed_err(e),
         })?;

@@ -315,7 +315,9 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     let outcome = {
         let bar = ctx.progress(job.scenes.len() as u64, "episodes");
         run_job(&job, &bar).map_err(|e| match e {
-            EpisodesJobError::UnknownCategories { .. } => anyhow::anyhow!("--categories: {e}"),
+            EpisodesJobError::UnknownCategories { .. } => {
+                anyhow::anyhow!("--categories: {}", minos::escape::error_line(&e))
+            }
             other => other.into(),
         })?
     };

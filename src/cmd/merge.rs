@@ -102,8 +102,12 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
             let bar = ctx.progress(6, "merge");
             // The library names no flag; the command line adds its own.
             let report = merge_runs(&shards, &merge, &bar).map_err(|e| match e {
-                MergeError::RecordingUnnamed { .. } => anyhow::anyhow!("{e} (--rerun FILE.rrd)"),
-                MergeError::NothingRecorded { .. } => anyhow::anyhow!("--rerun {e}"),
+                MergeError::RecordingUnnamed { .. } => {
+                    anyhow::anyhow!("{} (--rerun FILE.rrd)", minos::escape::error_line(&e))
+                }
+                MergeError::NothingRecorded { .. } => {
+                    anyhow::anyhow!("--rerun {}", minos::escape::error_line(&e))
+                }
                 MergeError::Unfinished { .. } => anyhow::Error::new(e)
                     .context("finish the shard first (run it again with --resume)"),
                 other => other.into(),

@@ -191,7 +191,7 @@ fn answer(grid: &NavGrid, from: Vec3, to: Vec3, r: Result<Route, NotWalkable>) -
             euclidean,
             rooms: Vec::new(),
             doors: Vec::new(),
-            error: Some(e.to_string()),
+            error: Some(minos::escape::error_line(&e)),
         },
     }
 }
@@ -207,8 +207,9 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         .with_context(|| format!("scene {}", q.scene))?;
     match &q.asked {
         Asked::One { from, to } => {
-            let r =
-                route(&grid, *from, *to).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+            let r = route(&grid, *from, *to).map_err(|e| {
+                anyhow::anyhow!("{}: {}", path.display(), minos::escape::error_line(&e))
+            })?;
             print_one(&grid, *from, *to, &r, q.json);
         }
         Asked::Pairs { file, out } => answer_pairs(&grid, file, out.as_deref(), q.json, ctx)?,

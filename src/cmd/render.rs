@@ -124,7 +124,9 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
             .with_context(|| format!("--variant {v}"))?;
     }
     let report = render_views(&job).map_err(|e| match e {
-        RenderError::NowhereToStand(_) => anyhow::anyhow!("{e} (--pose)"),
+        RenderError::NowhereToStand(_) => {
+            anyhow::anyhow!("{} (--pose)", minos::escape::error_line(&e))
+        }
         e => e.into(),
     })?;
     let [x, y, z, yaw] = report.pose;

@@ -189,7 +189,9 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     let report = {
         let bar = ctx.progress(episodes.len() as u64, "run");
         run_episodes(&cfg, &episodes, ctx.lock_mode, &bar).map_err(|e| match e {
-            RolloutError::Interrupted { .. } => anyhow::anyhow!("{e} (--resume keeps them)"),
+            RolloutError::Interrupted { .. } => {
+                anyhow::anyhow!("{} (--resume keeps them)", minos::escape::error_line(&e))
+            }
             e => e.into(),
         })?
     };

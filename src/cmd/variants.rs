@@ -117,7 +117,8 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         let bar = ctx.progress(0, "variants");
         define_variants(&job, ctx.lock_mode, &bar).map_err(|e| match e {
             VariantsError::NoChange { .. } if args.spec.is_none() => anyhow::anyhow!(
-                "{e} (use --remove, --keep-only, --empty, --hide, --open-doors or --retexture-seed)"
+                "{} (use --remove, --keep-only, --empty, --hide, --open-doors or --retexture-seed)",
+                minos::escape::error_line(&e)
             ),
             e => e.into(),
         })?

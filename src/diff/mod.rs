@@ -58,7 +58,7 @@ impl DiffReport {
 #[derive(Debug, thiserror::Error)]
 pub enum DiffError {
     /// A path that cannot be read.
-    #[error("{}: {source}", path.display())]
+    #[error("{}", path.display())]
     Io {
         /// The path.
         path: PathBuf,

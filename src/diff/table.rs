@@ -26,7 +26,9 @@ fn read(path: &Path) -> Result<RecordBatch, ParquetFileError> {
 pub(super) fn first_difference(a: &Path, b: &Path) -> Option<String> {
     let (ta, tb) = match (read(a), read(b)) {
         (Ok(x), Ok(y)) => (x, y),
-        (Err(e), _) | (_, Err(e)) => return Some(format!("cannot be read: {e}")),
+        (Err(e), _) | (_, Err(e)) => {
+            return Some(format!("cannot be read: {}", crate::escape::error_line(&e)))
+        }
     };
     let (sa, sb) = (ta.schema(), tb.schema());
     for f in sa.fields() {

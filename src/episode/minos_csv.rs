@@ -93,7 +93,7 @@ pub const MINOS_SUCCESS_RADIUS: f32 = 0.4;
 #[derive(Debug, thiserror::Error)]
 pub enum MinosCsvError {
     /// File system or decompression error.
-    #[error("{path}: {source}")]
+    #[error("{path}")]
     Io {
         /// The table.
         path: String,

@@ -187,7 +187,7 @@ pub enum GenerateError {
     #[error("invalid configuration: {0}")]
     Config(crate::invalid::Invalid),
     /// Writing failed.
-    #[error("{path}: {source}")]
+    #[error("{path}")]
     Io {
         /// What was being written.
         path: String,

@@ -144,7 +144,7 @@ pub enum CodecError {
         got: String,
     },
     /// PNG encoding or decoding failed.
-    #[error("PNG: {0}")]
+    #[error("PNG")]
     Png(#[source] image::ImageError),
     /// The image's pixel count does not fit its stated size.
     #[error("PNG: pixel count does not fit the size")]

@@ -51,7 +51,7 @@ pub const ANSWER_COLUMNS: [&str; 13] = [
 #[derive(Debug, thiserror::Error)]
 pub enum PairsError {
     /// File system error.
-    #[error("{path}: {source}")]
+    #[error("{path}")]
     Io {
         /// The file.
         path: String,

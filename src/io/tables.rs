@@ -37,7 +37,7 @@ pub const ROW_GROUP: usize = 32;
 #[derive(Debug, thiserror::Error)]
 pub enum TableError {
     /// A file of the table failed.
-    #[error("{}: {source}", path.display())]
+    #[error("{}", path.display())]
     File {
         /// The file.
         path: PathBuf,
@@ -63,10 +63,10 @@ pub enum TableCause {
     #[error(transparent)]
     Parquet(#[from] parquet::errors::ParquetError),
     /// The Parquet reader panicked on the file (a corrupt file; the panic was caught).
-    #[error("the Parquet reader failed: {0}")]
+    #[error("the Parquet reader failed")]
     Reader(#[from] Panicked),
     /// A camera image could not be encoded into its column.
-    #[error("step {step}: sensor `{sensor}`: {source}")]
+    #[error("step {step}: sensor `{sensor}`")]
     Encode {
         /// The step.
         step: u32,
@@ -337,6 +337,10 @@ enum Sink {
 /// it: one being written, one queued.
 const BEHIND: usize = 1;
 
+/// What a writer says when written to after one of its writes failed (it wrote nothing
+/// since).
+const AFTER_A_FAILED_WRITE: &str = "written after a failed write";
+
 impl ObservationWriter {
     /// Starts the part file of `episode`.
     pub fn create(
@@ -437,7 +441,7 @@ impl ObservationWriter {
                     Ok(_) => Err(content_error(&self.path, "the writing thread stopped")),
                 },
             },
-            Sink::Gone => Err(content_error(&self.path, "written after a failed write")),
+            Sink::Gone => Err(content_error(&self.path, AFTER_A_FAILED_WRITE)),
         }
     }
 
@@ -478,7 +482,7 @@ impl ObservationWriter {
                     Err(content_error(&self.path, "the thread writing it panicked"))
                 })
             }
-            Sink::Gone => Err(content_error(&self.path, "written after a failed write")),
+            Sink::Gone => Err(content_error(&self.path, AFTER_A_FAILED_WRITE)),
         }
     }
 
@@ -969,11 +973,11 @@ mod tests {
         let mut errors = Vec::new();
         for t in 0..ROW_GROUP as u32 * 4 {
             if let Err(e) = w.push(t, &images) {
-                errors.push(e.to_string());
+                errors.push(crate::escape::error_line(&e));
             }
         }
         if let Err(e) = w.finish() {
-            errors.push(e.to_string());
+            errors.push(crate::escape::error_line(&e));
         }
         assert!(
             !errors.is_empty(),

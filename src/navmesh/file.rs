@@ -55,11 +55,12 @@ pub const SPAN_BYTES: usize = 56;
 #[derive(Debug, thiserror::Error)]
 pub enum NavFileError {
     /// File system error.
-    #[error("{}: {cause}", path.display())]
+    #[error("{}", path.display())]
     Io {
         /// The file.
         path: PathBuf,
         /// The cause.
+        #[source]
         cause: std::io::Error,
     },
     /// Not a `.nav` file of this version, or corrupt.

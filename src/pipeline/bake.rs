@@ -211,8 +211,9 @@ pub fn bake_scenes(cfg: &BakeConfig, progress: &dyn Progress) -> BakeReport {
     let nav = cfg.data.nav_dir();
     if let Err(e) = sweep_stale(&nav) {
         tracing::warn!(
-            "{}: cannot remove stale temporary files: {e}",
-            nav.display()
+            "{}: cannot remove stale temporary files: {}",
+            nav.display(),
+            crate::escape::error_line(&e)
         );
     }
     bake_list(cfg, &cfg.scenes, progress)
@@ -281,8 +282,9 @@ pub fn bake_shard(cfg: &BakeConfig, shard: Shard, progress: &dyn Progress) -> Ba
         };
         if let Err(e) = sweep_stale_where(&nav, |of| of.starts_with(&stem)) {
             tracing::warn!(
-                "{}: cannot remove stale temporary files: {e}",
-                nav.display()
+                "{}: cannot remove stale temporary files: {}",
+                nav.display(),
+                crate::escape::error_line(&e)
             );
         }
     }

@@ -293,7 +293,7 @@ impl BenchReport {
 #[derive(Debug, thiserror::Error)]
 pub enum BenchError {
     /// A pool of `threads` threads could not be made.
-    #[error("a {threads}-thread pool: {source}")]
+    #[error("a {threads}-thread pool")]
     Pool {
         /// Its size.
         threads: usize,
@@ -306,7 +306,7 @@ pub enum BenchError {
     WorkerPanicked,
     /// The DATA folder could not be read (its manifest, a scene, a grid); `hint` says which
     /// step makes what is missing.
-    #[error("{source}{hint}")]
+    #[error("cannot read the DATA folder{hint}")]
     Data {
         /// The cause.
         #[source]
@@ -318,7 +318,7 @@ pub enum BenchError {
     #[error("{}: no scene ingested without error (ingest the scenes first)", .0.display())]
     NothingIngested(std::path::PathBuf),
     /// The scene's grid was baked for another body.
-    #[error("{scene}: {source}")]
+    #[error("{scene}")]
     Body {
         /// The scene.
         scene: String,

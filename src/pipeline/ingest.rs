@@ -185,7 +185,7 @@ pub enum IngestError {
     #[error(transparent)]
     Manifest(#[from] ManifestError),
     /// The id list could not be read.
-    #[error("{}: {source}", path.display())]
+    #[error("{}", path.display())]
     Ids {
         /// The id list.
         path: PathBuf,
@@ -203,7 +203,7 @@ pub enum IngestError {
     #[error(transparent)]
     Write(SceneFileError),
     /// Stale temporary files cannot be removed from a folder.
-    #[error("{}: cannot remove stale temporary files: {source}", path.display())]
+    #[error("{}: cannot remove stale temporary files", path.display())]
     Sweep {
         /// The folder.
         path: PathBuf,
@@ -289,7 +289,7 @@ fn ingest_one(
     }
     let loaded = match loader.load(house) {
         Ok(l) => l,
-        Err(e) => return Ok(fail(e.to_string())),
+        Err(e) => return Ok(fail(crate::escape::error_line(&e))),
     };
     let header = SceneHeader {
         id: house.id.clone(),
@@ -304,7 +304,7 @@ fn ingest_one(
         Ok(()) => {}
         // The folder's problem (a full disk, a read-only folder), not the scene's.
         Err(e @ SceneFileError::Io { .. }) => return Err(IngestError::Write(e)),
-        Err(e) => return Ok(fail(e.to_string())),
+        Err(e) => return Ok(fail(crate::escape::error_line(&e))),
     }
     Ok((
         ManifestRow::from_scene(&loaded.scene, &source),

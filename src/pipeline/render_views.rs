@@ -54,7 +54,7 @@ pub struct RenderReport {
 #[derive(Debug, thiserror::Error)]
 pub enum RenderError {
     /// The scene, its variant or its grid could not be read.
-    #[error("scene {scene}: {source}")]
+    #[error("scene {scene}")]
     Store {
         /// The scene.
         scene: SceneRef,
@@ -63,7 +63,7 @@ pub enum RenderError {
         source: StoreError,
     },
     /// The scene cannot carry the agent (its grid was baked for another body, …).
-    #[error("scene {scene}: {source}")]
+    #[error("scene {scene}")]
     Sim {
         /// The scene.
         scene: SceneRef,
@@ -78,7 +78,7 @@ pub enum RenderError {
     #[error("scene {0}: its grid has no walkable place to stand; give a pose")]
     NowhereToStand(SceneRef),
     /// An image could not be written.
-    #[error("{}: {source}", path.display())]
+    #[error("{}", path.display())]
     Write {
         /// The image file.
         path: PathBuf,

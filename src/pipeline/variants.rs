@@ -45,7 +45,7 @@ pub fn collect_stats(
         for (id, r) in loaded {
             match r {
                 Ok(scene) => builder.add(&scene),
-                Err(e) => failures.push((id, e.to_string())),
+                Err(e) => failures.push((id, crate::escape::error_line(&e))),
             }
         }
     }
@@ -56,10 +56,10 @@ pub fn collect_stats(
 #[derive(Debug, thiserror::Error)]
 pub enum DryRunError {
     /// The scene could not be read.
-    #[error("{0}")]
+    #[error(transparent)]
     Read(SceneFileError),
     /// The variant could not be applied to it.
-    #[error("{0}")]
+    #[error(transparent)]
     Apply(VariantError),
 }
 
@@ -312,7 +312,7 @@ pub fn define_variants(
                     v.unmatched
                         .extend(r.doors.unmatched.into_iter().map(|w| (id.clone(), w)));
                 }
-                Err(e) => v.failures.push((id, e.to_string())),
+                Err(e) => v.failures.push((id, crate::escape::error_line(&e))),
             }
         }
         v.path = data

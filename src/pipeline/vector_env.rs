@@ -71,7 +71,7 @@ pub enum VectorEnvError {
     #[error("{0}")]
     Threads(#[from] rayon::ThreadPoolBuildError),
     /// Scenes of the episodes cannot run (not ingested, not baked, baked for another body).
-    #[error("{count} of the {total} scenes of the episodes cannot run: scene {scene}: {first}")]
+    #[error("{count} of the {total} scenes of the episodes cannot run: scene {scene}")]
     NotReady {
         /// Scenes that cannot run.
         count: usize,
@@ -80,6 +80,7 @@ pub enum VectorEnvError {
         /// The first scene that cannot run (in scene-id order).
         scene: String,
         /// Why it cannot.
+        #[source]
         first: SceneLoadError,
     },
     /// An action index outside the action set.

@@ -72,12 +72,15 @@ impl Renderer {
                 Ok(mut g) => match g.upload(scene) {
                     Ok(()) => Renderer::Gpu(Box::new(g)),
                     Err(e) => {
-                        tracing::info!("renderer auto: the GPU cannot hold the scene ({e}); using the CPU renderer");
+                        tracing::info!("renderer auto: the GPU cannot hold the scene ({}); using the CPU renderer", crate::escape::error_line(&e));
                         Renderer::Cpu
                     }
                 },
                 Err(e) => {
-                    tracing::info!("renderer auto: no usable GPU ({e}); using the CPU renderer");
+                    tracing::info!(
+                        "renderer auto: no usable GPU ({}); using the CPU renderer",
+                        crate::escape::error_line(&e)
+                    );
                     Renderer::Cpu
                 }
             }),

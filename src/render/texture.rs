@@ -16,7 +16,7 @@ pub const MAX_TEXTURE_SIZE: u32 = 256;
 #[derive(Debug, thiserror::Error)]
 pub enum TextureError {
     /// The file could not be read.
-    #[error("{}: {source}", path.display())]
+    #[error("{}", path.display())]
     Io {
         /// The file.
         path: PathBuf,
@@ -24,7 +24,7 @@ pub enum TextureError {
         source: std::io::Error,
     },
     /// The file is not an image minos can decode (PNG or JPEG).
-    #[error("{}: not a PNG or JPEG image: {source}", path.display())]
+    #[error("{}: not a PNG or JPEG image", path.display())]
     Decode {
         /// The file.
         path: PathBuf,

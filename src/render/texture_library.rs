@@ -71,7 +71,8 @@ impl TextureLibrary {
                 Some(id)
             }
             Err(e) => {
-                self.missing.insert(name.to_string(), e.to_string());
+                self.missing
+                    .insert(name.to_string(), crate::escape::error_line(&e));
                 None
             }
         }

@@ -25,7 +25,7 @@ pub enum AgentError {
     #[error("{0} used before reset")]
     NotReset(&'static str),
     /// The external agent's process could not be started or spoken to.
-    #[error("external agent `{command}`: {fault}")]
+    #[error("external agent `{command}`")]
     External {
         /// Its command line.
         command: String,
@@ -35,7 +35,7 @@ pub enum AgentError {
     },
     /// A person's agent (`minos serve`): the page left, or what it must be shown could not
     /// be made.
-    #[error("human: {what}{}", .source.as_ref().map(|s| format!(": {s}")).unwrap_or_default())]
+    #[error("human: {what}")]
     Human {
         /// What happened (`the page left or was idle too long`, `map of <scene>`).
         what: String,
@@ -55,19 +55,19 @@ pub enum AgentError {
 #[derive(Debug, thiserror::Error)]
 pub enum ExternalFault {
     /// `sh -c COMMAND` could not be started.
-    #[error("cannot start it: {0}")]
+    #[error("cannot start it")]
     Spawn(#[source] std::io::Error),
     /// Its standard input or output could not be taken.
     #[error("no {0}")]
     NoPipe(&'static str),
     /// A message could not be written to it.
-    #[error("write: {0}")]
+    #[error("write")]
     Write(#[source] std::io::Error),
     /// Its reply could not be read.
-    #[error("read: {0}")]
+    #[error("read")]
     Read(#[source] std::io::Error),
     /// Its reply line is not JSON.
-    #[error("reply `{}` is not JSON: {source}", crate::escape::escape_controls(.reply))]
+    #[error("reply `{}` is not JSON", crate::escape::escape_controls(.reply))]
     NotJson {
         /// The line, trimmed.
         reply: String,
@@ -76,7 +76,7 @@ pub enum ExternalFault {
         source: serde_json::Error,
     },
     /// Its reply is JSON but not a decision.
-    #[error("step {step}: {source}")]
+    #[error("step {step}")]
     Reply {
         /// The step it answered.
         step: u32,

@@ -91,7 +91,7 @@ pub fn grids(shared: &Shared) -> Result<Vec<String>, ServeError> {
     for id in &played {
         let scene = SceneRef::parse(id);
         let problem = match shared.data.read_grid_params(&scene) {
-            Err(e) => Some(format!("not baked: {e}")),
+            Err(e) => Some(format!("not baked: {}", crate::escape::error_line(&e))),
             Ok(p) => body.check_grid(&p.body).err().map(|m| m.to_string()),
         };
         if let Some(p) = problem {
@@ -108,7 +108,7 @@ pub fn grids(shared: &Shared) -> Result<Vec<String>, ServeError> {
         }
         match shared.data.read_grid_params(&scene) {
             Err(e) => problems
-                .entry(e.to_string())
+                .entry(crate::escape::error_line(&e))
                 .or_default()
                 .push(scene.to_string()),
             Ok(p) => match body.check_grid(&p.body) {

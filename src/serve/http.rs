@@ -233,7 +233,7 @@ async fn create(
         },
     };
     if let Err(e) = app.contained(&scene) {
-        tracing::warn!("{e}");
+        tracing::warn!("{}", crate::escape::error_line(&e));
         return error(StatusCode::FORBIDDEN, e);
     }
     let (token, suffix, seed) = match (session_token(), random_hex(4), random_hex(8)) {

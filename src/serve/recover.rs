@@ -41,7 +41,10 @@ pub fn finish_sessions(shared: &Shared) {
                 report.episodes.len()
             ),
             Ok(None) => {}
-            Err(e) => tracing::warn!("session {name} (interrupted) left as it is: {e}"),
+            Err(e) => tracing::warn!(
+                "session {name} (interrupted) left as it is: {}",
+                crate::escape::error_line(&e)
+            ),
         }
     }
 }

@@ -259,7 +259,7 @@ pub fn run(shared: Arc<Shared>, name: &str, start: Start, link: Arc<Link>, sessi
     let end = match run_live(&cfg, &mut source, agent, LockMode::Fail) {
         Ok(report) => json!({"type": "end", "episodes": report.episodes.len(), "session": name}),
         Err(e) => {
-            tracing::error!("session {name}: {e}");
+            tracing::error!("session {name}: {}", crate::escape::error_line(&e));
             json!({"type": "error", "message": crate::escape::error_line(&e), "fatal": true})
         }
     };
@@ -617,7 +617,11 @@ impl EpisodeSource for Source {
                         .finished(&seat.participant, &self.name, episode, m, &times)
                     {
                         Ok(entry) => qc = json!(entry.verdict),
-                        Err(e) => tracing::error!("session {}: {e}", self.name),
+                        Err(e) => tracing::error!(
+                            "session {}: {}",
+                            self.name,
+                            crate::escape::error_line(&e)
+                        ),
                     }
                     more = seat.campaign.more_for(&seat.participant);
                 }

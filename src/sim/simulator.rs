@@ -26,7 +26,7 @@ use crate::render::Image;
 #[derive(Debug, thiserror::Error)]
 pub enum SimError {
     /// The scene has nothing to collide with, or a similar problem.
-    #[error("{0}")]
+    #[error(transparent)]
     Scene(crate::invalid::Invalid),
     /// The renderer could not be created.
     #[error(transparent)]

@@ -48,7 +48,7 @@ pub struct SceneHeader {
 #[derive(Debug, thiserror::Error)]
 pub enum SceneFileError {
     /// File system error.
-    #[error("{path}: {source}")]
+    #[error("{path}")]
     Io {
         /// The file.
         path: PathBuf,

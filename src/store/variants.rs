@@ -21,7 +21,7 @@ use crate::scene::{Scene, SceneRef};
 #[derive(Debug, thiserror::Error)]
 pub enum StoreError {
     /// File system error.
-    #[error("{path}: {source}")]
+    #[error("{path}")]
     Io {
         /// The file.
         path: PathBuf,
@@ -29,7 +29,7 @@ pub enum StoreError {
         source: std::io::Error,
     },
     /// A variant or statistics file that does not parse or breaks a rule.
-    #[error("{path}: {source}")]
+    #[error("{path}")]
     Format {
         /// The file.
         path: PathBuf,
@@ -38,7 +38,7 @@ pub enum StoreError {
         source: SettingsCause,
     },
     /// A variant name that cannot be used.
-    #[error("{0}")]
+    #[error(transparent)]
     Name(crate::invalid::Invalid),
     /// The compiled scene could not be read.
     #[error("{0}")]
@@ -53,7 +53,7 @@ pub enum StoreError {
     #[error("{0}")]
     Grid(#[from] NavFileError),
     /// The DATA folder has no readable manifest: nothing was ingested into it.
-    #[error("{}: cannot read the manifest: {source}", path.display())]
+    #[error("{}: cannot read the manifest", path.display())]
     NoManifest {
         /// The manifest.
         path: PathBuf,

@@ -30,7 +30,11 @@ pub(super) fn check(root: &Path, found: &mut Found, progress: &dyn Progress) {
         Ok(rows) => rows.len(),
         Err(e) => {
             let path = data.manifest_path();
-            found.problem(&path, "file", tables::strip_path(&e.to_string(), &path));
+            found.problem(
+                &path,
+                "file",
+                tables::strip_path(&crate::escape::error_line(&e), &path),
+            );
             0
         }
     };
@@ -38,7 +42,11 @@ pub(super) fn check(root: &Path, found: &mut Found, progress: &dyn Progress) {
     for path in files_with(&data.scenes_dir(), "mscene") {
         scenes += 1;
         if let Err(e) = crate::store::scene_file::read_header(&path) {
-            found.problem(&path, "header", tables::strip_path(&e.to_string(), &path));
+            found.problem(
+                &path,
+                "header",
+                tables::strip_path(&crate::escape::error_line(&e), &path),
+            );
         }
     }
     let mut grids = 0;
@@ -49,7 +57,11 @@ pub(super) fn check(root: &Path, found: &mut Found, progress: &dyn Progress) {
             .map(|s| s.to_string_lossy().into_owned())
             .unwrap_or_default();
         if let Err(e) = data.read_grid(&SceneRef::parse(&id)) {
-            found.problem(&path, "grid", tables::strip_path(&e.to_string(), &path));
+            found.problem(
+                &path,
+                "grid",
+                tables::strip_path(&crate::escape::error_line(&e), &path),
+            );
         }
     }
     found.checked.push(format!(

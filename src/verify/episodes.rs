@@ -44,7 +44,7 @@ pub(super) fn check(
     let episodes = match read_episodes(path) {
         Ok(e) => e,
         Err(e) => {
-            let message = super::tables::strip_path(&e.to_string(), path);
+            let message = super::tables::strip_path(&crate::escape::error_line(&e), path);
             found.problem(path, "file", message);
             return;
         }
@@ -90,7 +90,11 @@ fn navigable(path: &Path, episodes: &[Episode], data: &DataDir, found: &mut Foun
                         found.problem(
                             &data.grid_path(&scene),
                             "file",
-                            format!("no grid for scene `{}`: {err}", e.scene_id),
+                            format!(
+                                "no grid for scene `{}`: {}",
+                                e.scene_id,
+                                crate::escape::error_line(&err)
+                            ),
                         );
                         None
                     }

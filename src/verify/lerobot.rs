@@ -214,7 +214,11 @@ pub(super) fn check_dataset(root: &Path, found: &mut Found) -> Option<usize> {
         let batches = match read_batches(path) {
             Ok(b) => b,
             Err(e) => {
-                found.problem(path, "file", tables::strip_path(&e.to_string(), path));
+                found.problem(
+                    path,
+                    "file",
+                    tables::strip_path(&crate::escape::error_line(&e), path),
+                );
                 continue;
             }
         };
@@ -228,7 +232,11 @@ pub(super) fn check_dataset(root: &Path, found: &mut Found) -> Option<usize> {
             let batch = match batch {
                 Ok(b) => b,
                 Err(e) => {
-                    found.problem(path, format!("rows from {row_in_file}"), e.to_string());
+                    found.problem(
+                        path,
+                        format!("rows from {row_in_file}"),
+                        crate::escape::error_line(&e),
+                    );
                     break;
                 }
             };

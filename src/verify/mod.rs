@@ -155,7 +155,7 @@ pub enum VerifyError {
     )]
     Unknown(PathBuf),
     /// The path cannot be read.
-    #[error("{}: {source}", path.display())]
+    #[error("{}", path.display())]
     Io {
         /// The path.
         path: PathBuf,

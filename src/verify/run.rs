@@ -103,7 +103,11 @@ fn observations(path: &Path, steps: &Steps, found: &mut Found) {
     let batches = match read_batches(path) {
         Ok(b) => b,
         Err(e) => {
-            found.problem(path, "file", tables::strip_path(&e.to_string(), path));
+            found.problem(
+                path,
+                "file",
+                tables::strip_path(&crate::escape::error_line(&e), path),
+            );
             return;
         }
     };
@@ -115,7 +119,11 @@ fn observations(path: &Path, steps: &Steps, found: &mut Found) {
         }
         match CellFormat::from_metadata(f.metadata()) {
             Ok(format) => cameras.push((i, f.name().clone(), format)),
-            Err(e) => found.problem(path, format!("column `{}`", f.name()), e.to_string()),
+            Err(e) => found.problem(
+                path,
+                format!("column `{}`", f.name()),
+                crate::escape::error_line(&e),
+            ),
         }
     }
     let mut row = 0usize;
@@ -124,7 +132,11 @@ fn observations(path: &Path, steps: &Steps, found: &mut Found) {
         let batch = match batch {
             Ok(b) => b,
             Err(e) => {
-                found.problem(path, format!("rows from {row}"), e.to_string());
+                found.problem(
+                    path,
+                    format!("rows from {row}"),
+                    crate::escape::error_line(&e),
+                );
                 return;
             }
         };
@@ -162,7 +174,11 @@ fn observations(path: &Path, steps: &Steps, found: &mut Found) {
                 if col.is_null(k) {
                     found.problem(path, record.as_str(), format!("`{name}` is null"));
                 } else if let Err(e) = decode_cell(col.value(k), format) {
-                    found.problem(path, record.as_str(), format!("`{name}`: {e}"));
+                    found.problem(
+                        path,
+                        record.as_str(),
+                        format!("`{name}`: {}", crate::escape::error_line(&e)),
+                    );
                 }
             }
         }

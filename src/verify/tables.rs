@@ -17,7 +17,11 @@ pub(super) fn read(path: &Path, found: &mut Found) -> Option<RecordBatch> {
     let batches = match read_batches(path) {
         Ok(b) => b,
         Err(e) => {
-            found.problem(path, "file", strip_path(&e.to_string(), path));
+            found.problem(
+                path,
+                "file",
+                strip_path(&crate::escape::error_line(&e), path),
+            );
             return None;
         }
     };
@@ -27,7 +31,7 @@ pub(super) fn read(path: &Path, found: &mut Found) -> Option<RecordBatch> {
         match b {
             Ok(b) => all.push(b),
             Err(e) => {
-                found.problem(path, "file", e.to_string());
+                found.problem(path, "file", crate::escape::error_line(&e));
                 return None;
             }
         }
@@ -35,7 +39,7 @@ pub(super) fn read(path: &Path, found: &mut Found) -> Option<RecordBatch> {
     match arrow::compute::concat_batches(&schema, &all) {
         Ok(b) => Some(b),
         Err(e) => {
-            found.problem(path, "file", e.to_string());
+            found.problem(path, "file", crate::escape::error_line(&e));
             None
         }
     }

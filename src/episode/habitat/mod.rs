@@ -109,7 +109,7 @@ const SCENE_EXTENSIONS: [&str; 7] = ["glb", "gltf", "ply", "obj", "json", "house
 #[derive(Debug, thiserror::Error)]
 pub enum HabitatError {
     /// File system error.
-    #[error("{path}: {source}")]
+    #[error("{path}")]
     Io {
         /// The file.
         path: String,

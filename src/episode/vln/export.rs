@@ -70,7 +70,7 @@ pub enum VlnFormat {
 #[derive(Debug, thiserror::Error)]
 pub enum VlnExportError {
     /// File system error.
-    #[error("{path}: {source}")]
+    #[error("{path}")]
     Io {
         /// The file.
         path: String,

@@ -116,7 +116,7 @@ pub struct ExportSummary {
 #[derive(Debug, thiserror::Error)]
 pub enum ExportError {
     /// Writing the file failed.
-    #[error("{path}: {source}")]
+    #[error("{path}")]
     Io {
         /// The file being written.
         path: PathBuf,
@@ -156,9 +156,16 @@ pub fn export_scene(
     format: ExportFormat,
     out: &Path,
 ) -> Result<ExportSummary, ExportError> {
-    scene
-        .validate()
-        .map_err(|e| ExportError::invalid(out, format!("scene {} is invalid: {e}", scene.id)))?;
+    scene.validate().map_err(|e| {
+        ExportError::invalid(
+            out,
+            format!(
+                "scene {} is invalid: {}",
+                scene.id,
+                crate::escape::error_line(&e)
+            ),
+        )
+    })?;
     let plan = Plan::new(scene);
     match format {
         ExportFormat::Obj => obj::write(scene, &plan, out),

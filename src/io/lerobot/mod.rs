@@ -78,7 +78,7 @@ use video::{video_file_path, VideoFile};
 #[derive(Debug, thiserror::Error)]
 pub enum LerobotError {
     /// A file system error.
-    #[error("{}: {source}", path.display())]
+    #[error("{}", path.display())]
     Io {
         /// The file or folder.
         path: PathBuf,
@@ -86,7 +86,7 @@ pub enum LerobotError {
         source: std::io::Error,
     },
     /// A run table that cannot be read, or a bad record in it.
-    #[error("{}: {record}: {cause}", path.display())]
+    #[error("{}: {record}", path.display())]
     Read {
         /// The table.
         path: PathBuf,
@@ -97,7 +97,7 @@ pub enum LerobotError {
         cause: ReadCause,
     },
     /// A dataset file that could not be written.
-    #[error("{}: {cause}", path.display())]
+    #[error("{}", path.display())]
     Write {
         /// The file.
         path: PathBuf,
@@ -136,7 +136,7 @@ pub enum LerobotError {
         source: data::FrameError,
     },
     /// A sensor that cannot become a LeRobot feature.
-    #[error("{}: {source}", path.display())]
+    #[error("{}", path.display())]
     Feature {
         /// The observation table.
         path: PathBuf,
@@ -804,10 +804,13 @@ mod tests {
                 ..
             }
         ));
-        assert_eq!(e.to_string(), format!("meta/info.json: {text}"));
+        assert_eq!(e.to_string(), "meta/info.json");
         let source = std::error::Error::source(&e).expect("the cause");
         assert_eq!(source.to_string(), text);
-        assert_eq!(crate::escape::error_line(&e), e.to_string());
+        assert_eq!(
+            crate::escape::error_line(&e),
+            format!("meta/info.json: {text}")
+        );
         // A run table that is no Parquet: the reader's error, typed, behind the record.
         let dir = tempfile::tempdir().unwrap();
         let junk = dir.path().join("observations.parquet");

@@ -21,20 +21,20 @@ pub enum VideoReadError {
     #[error("{0}")]
     Io(#[source] std::io::Error),
     /// The MP4 reader panicked on it.
-    #[error("unreadable MP4: {0}")]
+    #[error("unreadable MP4")]
     Unreadable(#[source] Panicked),
     /// The MP4 reader refused it.
-    #[error("MP4: {0}")]
+    #[error("MP4")]
     Mp4(#[source] mp4::Error),
     /// Its tracks are not one H.264 video track with its parameter sets, or a sample's
     /// NAL units are cut short.
     #[error("{0}")]
     Layout(#[source] Invalid),
     /// The H.264 decoder failed.
-    #[error("H.264 decoder: {0}")]
+    #[error("H.264 decoder")]
     Decoder(#[source] openh264::Error),
     /// One frame (0-based) could not be read or decoded.
-    #[error("frame {frame}: {source}")]
+    #[error("frame {frame}")]
     Frame {
         /// The frame.
         frame: u32,

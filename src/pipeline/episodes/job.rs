@@ -69,7 +69,7 @@ pub struct EpisodesOutcome {
 #[derive(Debug, thiserror::Error)]
 pub enum EpisodesJobError {
     /// The split's lists could not be read.
-    #[error("split `{split}`: {source}")]
+    #[error("split `{split}`")]
     Split {
         /// The split name.
         split: String,
@@ -98,7 +98,7 @@ pub enum EpisodesJobError {
         known: String,
     },
     /// The file of given starts could not be read.
-    #[error("starts: {0}")]
+    #[error("starts")]
     Starts(#[source] EpisodeFileError),
     /// The episode file or its statistics.
     #[error(transparent)]
@@ -360,7 +360,7 @@ fn check_categories(
     if missing.len() == categories.len() && shard.count == 1 {
         return Err(err);
     }
-    Ok(Some(err.to_string()))
+    Ok(Some(crate::escape::error_line(&err)))
 }
 
 /// Writes `<out>.provenance.json` beside the episode file: minos version and commit, the

@@ -180,7 +180,7 @@ pub fn sample_scenes_from(
                 });
                 batch.episodes.extend(s.episodes);
             }
-            Err(e) => stats.problem = Some(e.to_string()),
+            Err(e) => stats.problem = Some(crate::escape::error_line(&e)),
         }
         batch.scenes.insert(id, stats);
     }
@@ -193,10 +193,10 @@ pub fn sample_scenes_from(
 #[derive(Debug, thiserror::Error)]
 enum SceneSkipped {
     /// Its grid is missing or unreadable.
-    #[error("{0}")]
+    #[error(transparent)]
     Grid(crate::store::StoreError),
     /// Its grid was baked for another body.
-    #[error("{0}")]
+    #[error(transparent)]
     Body(crate::body::BodyMismatch),
 }
 
@@ -420,7 +420,7 @@ pub enum BatchWriteError {
     #[error(transparent)]
     Episodes(#[from] EpisodeFileError),
     /// The statistics file, or sweeping stale temporaries.
-    #[error("{}: {source}", path.display())]
+    #[error("{}", path.display())]
     Io {
         /// The file.
         path: PathBuf,

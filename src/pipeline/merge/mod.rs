@@ -26,7 +26,7 @@ pub enum MergeError {
     #[error("{0}")]
     Shards(String),
     /// A shard's file could not be read.
-    #[error("{}: {source}", path.display())]
+    #[error("{}", path.display())]
     ShardIo {
         /// The file.
         path: PathBuf,
@@ -36,7 +36,7 @@ pub enum MergeError {
     },
     /// An episode file's statistics (`<file>.stats.json`) could not be read.
     #[error(
-        "{}: {source} (each episode file needs the statistics `minos episodes` writes beside it)",
+        "{}: each episode file needs the statistics `minos episodes` writes beside it",
         path.display()
     )]
     NoStats {
@@ -47,7 +47,7 @@ pub enum MergeError {
         source: std::io::Error,
     },
     /// A shard's JSON file (manifest, metrics, statistics) is not valid JSON.
-    #[error("{}: {source}", path.display())]
+    #[error("{}", path.display())]
     ShardJson {
         /// The file.
         path: PathBuf,
@@ -59,7 +59,7 @@ pub enum MergeError {
     #[error(transparent)]
     ShardEpisodes(crate::episode::format::EpisodeFileError),
     /// A file or folder of the merged output could not be written.
-    #[error("{}: {source}", path.display())]
+    #[error("{}", path.display())]
     WriteIo {
         /// The file or folder.
         path: PathBuf,
@@ -68,7 +68,7 @@ pub enum MergeError {
         source: std::io::Error,
     },
     /// The shards' rows could not be joined.
-    #[error("joining the shards' rows: {0}")]
+    #[error("joining the shards' rows")]
     Join(#[source] arrow::error::ArrowError),
     /// The merged run's metrics, checksums or LeRobot copy could not be written (the message
     /// names the file).
@@ -180,7 +180,13 @@ fn recorded_shard(path: &Path, value: Option<&str>) -> Result<Shard, MergeError>
             path.display()
         ))
     })?;
-    Shard::parse(v).map_err(|e| MergeError::Shards(format!("{}: shard {e}", path.display())))
+    Shard::parse(v).map_err(|e| {
+        MergeError::Shards(format!(
+            "{}: shard {}",
+            path.display(),
+            crate::escape::error_line(&e)
+        ))
+    })
 }
 
 #[cfg(test)]

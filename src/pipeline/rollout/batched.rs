@@ -83,7 +83,7 @@ pub(super) fn run_batched(
             Ok(a) => made.push((stepper_for(sim.sibling(), a.as_ref(), cfg), a)),
             // The environments made so far run every episode.
             Err(e) => {
-                tracing::warn!("one environment fewer: {e}");
+                tracing::warn!("one environment fewer: {}", crate::escape::error_line(&e));
                 break;
             }
         }

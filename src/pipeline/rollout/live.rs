@@ -25,7 +25,7 @@ use super::scene::{self, SceneRun};
 use super::{
     finish, io_error, preflight, EpisodeFailure, Failed, RolloutError, RunConfig, RunReport,
 };
-use crate::atomic::sweep_stale;
+use crate::atomic::{remove_dir_atomic, sweep_stale};
 use crate::episode::format::{read_episodes, write_episodes};
 use crate::episode::Episode;
 use crate::lock::{DirLock, LockMode};
@@ -127,7 +127,7 @@ pub fn run_live(
     }
     live.write_outputs()?;
     if live.report.failures.is_empty() {
-        let _ = std::fs::remove_dir_all(&parts);
+        let _ = remove_dir_atomic(&parts);
     }
     Ok(live.report)
 }
@@ -192,21 +192,21 @@ fn finish_parts(cfg: &RunConfig, parts: &Path) -> Result<RunReport, RolloutError
                 continue;
             }
             Err(e) => {
-                tracing::warn!("{e}: episode left out");
+                tracing::warn!("{}: episode left out", crate::escape::error_line(&e));
                 continue;
             }
         };
         let metrics = match read_done(parts, i) {
             Ok(m) => m,
             Err(e) => {
-                tracing::warn!("{e}: episode left out");
+                tracing::warn!("{}: episode left out", crate::escape::error_line(&e));
                 continue;
             }
         };
         live.played.push((i, episode, metrics));
     }
     live.write_outputs()?;
-    std::fs::remove_dir_all(parts).map_err(io_error(parts))?;
+    remove_dir_atomic(parts).map_err(io_error(parts))?;
     Ok(live.report)
 }
 

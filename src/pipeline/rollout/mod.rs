@@ -25,7 +25,7 @@ use std::sync::Arc;
 
 use rayon::prelude::*;
 
-use crate::atomic::{sweep_stale, write_bytes_atomic};
+use crate::atomic::{remove_dir_atomic, sweep_stale, write_bytes_atomic};
 use crate::body::{AgentPreset, BodyMismatch};
 use crate::episode::Episode;
 use crate::io::rrd::RecordingError;
@@ -160,7 +160,7 @@ pub enum RolloutError {
     #[error("the run folder's lock")]
     Lock(#[from] LockError),
     /// A file or folder of the output could not be written.
-    #[error("{}: {source}", path.display())]
+    #[error("{}", path.display())]
     Io {
         /// The file or folder.
         path: PathBuf,
@@ -187,7 +187,7 @@ pub enum RolloutError {
     #[error("colour cameras as video are a feature of the LeRobot copy: ask for it too")]
     VideoWithoutLerobot,
     /// The LeRobot copy could not be written.
-    #[error("lerobot: {0}")]
+    #[error("lerobot")]
     Lerobot(#[from] crate::io::lerobot::LerobotError),
     /// The output folder holds finished episodes of an interrupted run that is not this one
     /// (another configuration or other episodes), or that left no record of what it was and
@@ -421,7 +421,7 @@ pub fn run_with(
     }
     finish(cfg, &mine, &parts, &recorded, &mut report)?;
     if report.failures.is_empty() {
-        let _ = std::fs::remove_dir_all(&parts);
+        let _ = remove_dir_atomic(&parts);
     }
     Ok(report)
 }
@@ -443,7 +443,7 @@ fn keep_or_clear_parts(
     }
     let finished = parts::finished_count(parts).map_err(io_error(parts))?;
     if finished == 0 {
-        return std::fs::remove_dir_all(parts).map_err(io_error(parts));
+        return remove_dir_atomic(parts).map_err(io_error(parts));
     }
     let earlier = std::fs::read(parts.join(UNFINISHED_RECORD))
         .ok()
@@ -460,7 +460,7 @@ fn keep_or_clear_parts(
     match earlier {
         Some(earlier) => match manifest::first_difference(&earlier, record) {
             None => Ok(()),
-            Some(_) if finished_run => std::fs::remove_dir_all(parts).map_err(io_error(parts)),
+            Some(_) if finished_run => remove_dir_atomic(parts).map_err(io_error(parts)),
             Some(key) => Err(interrupted(Some(key))),
         },
         None if cfg.resume => Ok(()),
@@ -549,7 +549,10 @@ fn run_scene(
                 match scene::make_agent(&cfg.agent, cfg.seed) {
                     Ok(agent) => workers.push((workers[0].0.sibling(), agent)),
                     // The workers made so far run every episode.
-                    Err(e) => tracing::warn!("{scene_id}: one worker fewer: {e}"),
+                    Err(e) => tracing::warn!(
+                        "{scene_id}: one worker fewer: {}",
+                        crate::escape::error_line(&e)
+                    ),
                 }
             }
             let next = AtomicUsize::new(0);

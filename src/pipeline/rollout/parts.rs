@@ -13,7 +13,7 @@ use crate::run::metrics::EpisodeMetrics;
 #[derive(Debug, thiserror::Error)]
 pub enum PartError {
     /// Reading or writing the file failed.
-    #[error("{}: {source}", path.display())]
+    #[error("{}", path.display())]
     Io {
         /// The part file.
         path: PathBuf,
@@ -21,7 +21,7 @@ pub enum PartError {
         source: std::io::Error,
     },
     /// The part is not the JSON record minos writes (or could not be encoded as one).
-    #[error("{}: {source}", path.display())]
+    #[error("{}", path.display())]
     Json {
         /// The part file.
         path: PathBuf,

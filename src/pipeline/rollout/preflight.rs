@@ -59,10 +59,10 @@ enum SceneProblem {
     #[error("not ingested: no compiled scene in {} (ingest it first)", .0.display())]
     NotIngested(PathBuf),
     /// The compiled scene cannot be read.
-    #[error("{0} (ingest it again)")]
+    #[error("{} (ingest it again)", crate::escape::error_line(.0))]
     Unreadable(SceneFileError),
     /// The scene's variant is missing or unreadable.
-    #[error("variant {name}: {error}")]
+    #[error("variant {name}: {}", crate::escape::error_line(.error))]
     Variant {
         /// The variant's name.
         name: String,
@@ -82,10 +82,10 @@ enum SceneProblem {
         variant: Option<String>,
     },
     /// The grid's parameters cannot be read.
-    #[error("{0}")]
+    #[error(transparent)]
     Grid(StoreError),
     /// The grid was baked for another body.
-    #[error("{0}")]
+    #[error(transparent)]
     Body(BodyMismatch),
 }
 

@@ -61,10 +61,10 @@ pub enum SceneLoadError {
     Grid(#[source] StoreError),
     /// The simulator's assets could not be built (a body the grid was not baked for, a
     /// scene without geometry).
-    #[error("{0}")]
+    #[error(transparent)]
     Assets(SimError),
     /// The renderer could not be created.
-    #[error("{0}")]
+    #[error(transparent)]
     Renderer(GpuError),
 }
 

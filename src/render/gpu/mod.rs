@@ -24,10 +24,10 @@ use super::scene::RenderScene;
 #[derive(Debug, Clone, thiserror::Error)]
 pub enum GpuError {
     /// No adapter (install `mesa-vulkan-drivers` for lavapipe, or use the CPU renderer).
-    #[error("no GPU adapter found ({0}); the CPU renderer works without one")]
+    #[error("no GPU adapter found (the CPU renderer works without one)")]
     NoAdapter(#[source] wgpu::RequestAdapterError),
     /// The device could not be created.
-    #[error("GPU device: {0}")]
+    #[error("GPU device")]
     Device(#[source] wgpu::RequestDeviceError),
     /// Rendering or read-back failed.
     #[error("GPU render: {0}")]

@@ -311,7 +311,10 @@ impl Tracer {
         let derive = match self.deriver.upload(device, scene) {
             Ok(d) => Some(d),
             Err(e) => {
-                tracing::warn!("{e}: its images are derived on the CPU");
+                tracing::warn!(
+                    "{}: its images are derived on the CPU",
+                    crate::escape::error_line(&e)
+                );
                 None
             }
         };

@@ -57,7 +57,7 @@ pub trait DatasetLoader: Sync {
 #[derive(Debug, thiserror::Error)]
 pub enum LoadError {
     /// The file could not be read.
-    #[error("{}: {source}", path.display())]
+    #[error("{}", path.display())]
     Io {
         /// The file.
         path: PathBuf,
@@ -73,7 +73,7 @@ pub enum LoadError {
         message: String,
     },
     /// A Matterport3D `.house` file breaks its format (the line and what is wrong).
-    #[error("{}: {source}", path.display())]
+    #[error("{}", path.display())]
     House {
         /// The file.
         path: PathBuf,
@@ -83,7 +83,7 @@ pub enum LoadError {
     },
     /// One record of a valid file refers to another file (a template, a mesh) that cannot
     /// be used.
-    #[error("{}: node {node}: {source}", path.display())]
+    #[error("{}: node {node}", path.display())]
     Referenced {
         /// The file holding the record.
         path: PathBuf,

@@ -69,7 +69,7 @@ fn participant_of(
         Ok(Some(p)) => Ok(p),
         Ok(None) => Err((StatusCode::FORBIDDEN, "unknown participant link")),
         Err(e) => {
-            tracing::error!("{e}");
+            tracing::error!("{}", crate::escape::error_line(&e));
             Err((
                 StatusCode::INTERNAL_SERVER_ERROR,
                 "participants file unreadable",
@@ -241,10 +241,10 @@ async fn feedback(State(app): State<Arc<App>>, body: axum::body::Bytes) -> Respo
         Ok(()) => (StatusCode::CREATED, Json(json!({"thanks": true}))).into_response(),
         Err(e @ FeedbackError::TooMany) => error(StatusCode::TOO_MANY_REQUESTS, e.to_string()),
         Err(FeedbackError::Record(e)) => {
-            tracing::error!("{e}");
+            tracing::error!("{}", crate::escape::error_line(&e));
             error(StatusCode::INTERNAL_SERVER_ERROR, "feedback not kept")
         }
-        Err(e) => error(StatusCode::BAD_REQUEST, e.to_string()),
+        Err(e) => error(StatusCode::BAD_REQUEST, crate::escape::error_line(&e)),
     }
 }
 
@@ -288,7 +288,7 @@ async fn review(State(app): State<Arc<App>>, req: Request) -> Response {
         Ok(Err(e @ ReviewError::Tutorial)) => error(StatusCode::CONFLICT, e.to_string()),
         Ok(Err(e @ ReviewError::NoteTooLong(_))) => error(StatusCode::BAD_REQUEST, e.to_string()),
         Ok(Err(ReviewError::Record(e))) => {
-            tracing::error!("{e}");
+            tracing::error!("{}", crate::escape::error_line(&e));
             error(StatusCode::INTERNAL_SERVER_ERROR, "the review was not kept")
         }
         Err(e) => error(StatusCode::INTERNAL_SERVER_ERROR, e.to_string()),
@@ -404,7 +404,9 @@ fn run_replay(app: &App, demo: &Demo, index: usize, tx: &tokio::sync::mpsc::Send
             let (mut intro, map) = match episode_intro(episode, f.sim) {
                 Ok(x) => x,
                 Err(e) => {
-                    text(json!({"type": "error", "message": format!("map: {e}")}));
+                    text(
+                        json!({"type": "error", "message": format!("map: {}", crate::escape::error_line(&e))}),
+                    );
                     return false;
                 }
             };

@@ -103,7 +103,7 @@ pub fn mint(state: &Path, count: usize) -> Result<Vec<Participant>, CampaignErro
     let _lock = DirLock::acquire(state, "campaign links", LockMode::Wait).map_err(|e| {
         CampaignError::File {
             path: state.to_path_buf(),
-            message: e.to_string(),
+            message: crate::escape::error_line(&e),
         }
     })?;
     let mut all = Participants::load(state)?;

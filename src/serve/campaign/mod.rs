@@ -40,7 +40,7 @@ pub const DEMOS: &str = "demos";
 #[derive(Debug, thiserror::Error)]
 pub enum CampaignError {
     /// A file could not be read or written.
-    #[error("{}: {source}", path.display())]
+    #[error("{}", path.display())]
     Io {
         /// The file.
         path: PathBuf,
@@ -144,7 +144,7 @@ fn io(path: &Path) -> impl FnOnce(std::io::Error) -> CampaignError + '_ {
 fn sweep_session(dir: &Path) -> Result<(), CampaignError> {
     let parts = dir.join(".parts");
     if parts.exists() {
-        std::fs::remove_dir_all(&parts).map_err(io(&parts))?;
+        crate::atomic::remove_dir_atomic(&parts).map_err(io(&parts))?;
     }
     crate::atomic::sweep_stale(dir).map_err(io(dir))?;
     let lock = dir.join(crate::lock::LOCK_FILE);
@@ -166,7 +166,7 @@ impl Campaign {
             DirLock::acquire(&demos_dir, "serve --campaign", LockMode::Fail).map_err(|e| {
                 CampaignError::File {
                     path: demos_dir.clone(),
-                    message: e.to_string(),
+                    message: crate::escape::error_line(&e),
                 }
             })?;
         // Temporaries of a killed server or `campaign links` beside the state files.
@@ -213,7 +213,7 @@ impl Campaign {
                 p if p.exists() => {
                     crate::episode::format::read_episodes(&p).map_err(|e| CampaignError::File {
                         path: p.clone(),
-                        message: e.to_string(),
+                        message: crate::escape::error_line(&e),
                     })?
                 }
                 _ => Vec::new(),
