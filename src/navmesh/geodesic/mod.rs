@@ -238,9 +238,11 @@ impl<'g> Geodesic<'g> {
         self.sight.grid()
     }
 
-    /// The line-of-sight index.
-    pub fn sight(&self) -> &SightIndex<'g> {
-        &self.sight
+    internal! {
+        /// The line-of-sight index.
+        pub fn sight(&self) -> &SightIndex<'g> {
+            &self.sight
+        }
     }
 
     /// World position of a span (as [`NavGrid::span_position`]); `None` when out of range.
