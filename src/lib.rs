@@ -17,6 +17,22 @@
 //! The command line (`src/cmd/`, in the binary) only turns flags into the configuration
 //! structs of these modules.
 
+/// Declares an item of the library's internals (a module, a method): `pub` with the
+/// `internals` feature, which the library's own tests, benchmarks and fuzz targets turn on,
+/// and `pub(crate)` without it, so the binary, the Python bindings and every other user see
+/// only the API (`docs/ARCHITECTURE.md`, "API boundaries"). One declaration, its doc comment
+/// kept: `internal! { /// Docs. pub mod name; }`.
+macro_rules! internal {
+    ($(#[$meta:meta])* pub $($item:tt)*) => {
+        #[cfg(feature = "internals")]
+        $(#[$meta])*
+        pub $($item)*
+        #[cfg(not(feature = "internals"))]
+        $(#[$meta])*
+        pub(crate) $($item)*
+    };
+}
+
 pub mod atomic;
 pub mod body;
 pub mod diff;

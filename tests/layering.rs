@@ -670,6 +670,279 @@ fn library_errors_are_typed_not_strings() {
     );
 }
 
+/// The internal modules that `docs/ARCHITECTURE.md` lists ("API boundaries", "Internal
+/// modules": one bullet per module, its path the bullet's first code span), in order.
+fn internal_modules_of_the_doc(doc: &str) -> Vec<String> {
+    let section = doc
+        .split("\n### Internal modules\n")
+        .nth(1)
+        .expect("docs/ARCHITECTURE.md has an \"Internal modules\" section");
+    let section = section.split("\n#").next().unwrap_or(section);
+    section
+        .lines()
+        .filter_map(|l| l.strip_prefix("- `"))
+        .filter_map(|l| l.split('`').next())
+        .map(str::to_string)
+        .collect()
+}
+
+/// The modules a source file declares through `internal!` (`internal! { … pub mod x; }`),
+/// and those it declares plainly `pub` (`pub mod x;` outside the macro).
+fn declared_modules(code: &str) -> (BTreeSet<String>, BTreeSet<String>) {
+    let (mut internal, mut plain) = (BTreeSet::new(), BTreeSet::new());
+    let mut inside = false;
+    for line in code.lines().map(str::trim) {
+        if line.starts_with("internal! {") {
+            inside = true;
+        } else if inside && line == "}" {
+            inside = false;
+        } else if let Some(rest) = line.strip_prefix("pub mod ") {
+            let name = ident_at(rest);
+            if inside {
+                internal.insert(name);
+            } else {
+                plain.insert(name);
+            }
+        }
+    }
+    (internal, plain)
+}
+
+/// The file that declares the child modules of the library module `module` (`a::b` →
+/// `src/a/b/mod.rs` or `src/a/b.rs`; `` → `src/lib.rs`).
+fn declaring_file(src: &Path, module: &str) -> PathBuf {
+    if module.is_empty() {
+        return src.join("lib.rs");
+    }
+    let dir = src.join(module.replace("::", "/"));
+    if dir.join("mod.rs").is_file() {
+        dir.join("mod.rs")
+    } else {
+        dir.with_extension("rs")
+    }
+}
+
+/// Every library path a use tree or a path starting at `code` names, relative to `minos`
+/// (`navmesh::{build::build, NavGrid}` → `navmesh::build::build`, `navmesh::NavGrid`), and
+/// how many bytes it took.
+fn use_tree(code: &str, prefix: &str, out: &mut Vec<String>) -> usize {
+    let mut path = prefix.to_string();
+    let mut i = 0;
+    loop {
+        i += code[i..].len() - code[i..].trim_start().len();
+        let rest = &code[i..];
+        if rest.starts_with('{') {
+            i += 1;
+            loop {
+                i += code[i..].len() - code[i..].trim_start().len();
+                if code[i..].starts_with('}') {
+                    return i + 1;
+                }
+                i += use_tree(&code[i..], &path, out);
+                i += code[i..].len() - code[i..].trim_start().len();
+                if code[i..].starts_with(',') {
+                    i += 1;
+                } else {
+                    return i + usize::from(code[i..].starts_with('}'));
+                }
+            }
+        }
+        let name = ident_at(rest);
+        if name.is_empty() {
+            if !path.is_empty() {
+                out.push(path);
+            }
+            return i;
+        }
+        path = if path.is_empty() {
+            name.clone()
+        } else {
+            format!("{path}::{name}")
+        };
+        i += name.len();
+        if code[i..].trim_start().starts_with("::") {
+            i += code[i..].len() - code[i..].trim_start().len() + 2;
+        } else {
+            out.push(path);
+            return i;
+        }
+    }
+}
+
+/// The internal modules `code` names: through a path or use tree from `minos::`, or through
+/// the module's last two segments anywhere (`navmesh::build` after `use minos::navmesh;`).
+fn named_internals(code: &str, internals: &[String]) -> BTreeSet<String> {
+    let mut paths = Vec::new();
+    for (at, _) in code.match_indices("minos::") {
+        let before = code[..at].chars().last();
+        if !before.is_some_and(|c| c.is_ascii_alphanumeric() || c == '_') {
+            use_tree(&code[at + "minos::".len()..], "", &mut paths);
+        }
+    }
+    let mut found = BTreeSet::new();
+    for m in internals {
+        if paths
+            .iter()
+            .any(|p| p == m || p.starts_with(&format!("{m}::")))
+        {
+            found.insert(m.clone());
+        }
+        let segments: Vec<&str> = m.split("::").collect();
+        let tail = segments[segments.len().saturating_sub(2)..].join("::");
+        let bounded = code.match_indices(&tail).any(|(at, _)| {
+            let ident = |c: char| c.is_ascii_alphanumeric() || c == '_';
+            !code[..at].chars().last().is_some_and(ident)
+                && !code[at + tail.len()..].chars().next().is_some_and(ident)
+        });
+        if bounded {
+            found.insert(m.clone());
+        }
+    }
+    found
+}
+
+/// The API boundary of docs/ARCHITECTURE.md ("API boundaries"), enforced: every internal
+/// module the doc lists is declared through `internal!` (so it is `pub` only with the
+/// `internals` feature) and never plainly `pub`; every module declared through `internal!` is
+/// listed; and the front doors (`src/main.rs`, `src/cmd/`, `python/src/`), which build without
+/// the feature, name none of them. (`cargo test` builds the binary with the tests' features,
+/// so this test, not the compiler, is what catches a front door reaching an internal module
+/// there.) The manifests turn the feature on for the tests, benches and fuzz targets only.
+#[test]
+fn internal_modules_are_declared_behind_the_feature_and_front_doors_never_name_them() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let src = root.join("src");
+    let doc = std::fs::read_to_string(root.join("docs/ARCHITECTURE.md")).expect("doc");
+    let listed = internal_modules_of_the_doc(&doc);
+    assert!(listed.len() >= 5, "internal modules listed: {listed:?}");
+
+    let mut problems = Vec::new();
+    for m in &listed {
+        let (parent, name) = m.rsplit_once("::").unwrap_or(("", m));
+        let file = declaring_file(&src, parent);
+        let code = std::fs::read_to_string(&file).unwrap_or_default();
+        let (internal, plain) = declared_modules(&code);
+        if !internal.contains(name) {
+            problems.push(format!(
+                "{m}: not declared through internal! in {}",
+                file.display()
+            ));
+        }
+        if plain.contains(name) {
+            problems.push(format!("{m}: declared plainly `pub` in {}", file.display()));
+        }
+    }
+    // Every module declared through `internal!` anywhere is on the doc's list.
+    let mut files = Vec::new();
+    rust_files(&src, &mut files);
+    for file in &files {
+        let code = std::fs::read_to_string(file).expect("source");
+        let rel = file.strip_prefix(&src).expect("below src");
+        // The children of `src/a/b/mod.rs` and of `src/a/b.rs` are `a::b::…`.
+        let mut here = module_path(rel);
+        if rel == Path::new("lib.rs") || rel == Path::new("main.rs") {
+            here.clear();
+        }
+        for name in declared_modules(&code).0 {
+            let mut path = here.clone();
+            path.push(name);
+            let path = path.join("::");
+            if !listed.contains(&path) {
+                problems.push(format!(
+                    "{path}: declared through internal! but not listed in docs/ARCHITECTURE.md"
+                ));
+            }
+        }
+    }
+    for file in front_door_files(root) {
+        let rel = file
+            .strip_prefix(root)
+            .unwrap_or(&file)
+            .display()
+            .to_string();
+        for m in named_internals(&non_test_code(&file), &listed) {
+            problems.push(format!(
+                "{rel}: names the internal module `{m}`: use the API (docs/ARCHITECTURE.md)"
+            ));
+        }
+    }
+    // The feature: declared, on for the tests and benches (a dev-dependency of the crate on
+    // itself) and the fuzz targets, off for the bindings.
+    let manifest = |p: &str| std::fs::read_to_string(root.join(p)).expect(p);
+    let (cargo, fuzz, python) = (
+        manifest("Cargo.toml"),
+        manifest("fuzz/Cargo.toml"),
+        manifest("python/Cargo.toml"),
+    );
+    for (what, ok) in [
+        (
+            "Cargo.toml declares the feature",
+            cargo.contains("\n[features]\n") && cargo.contains("\ninternals = []\n"),
+        ),
+        (
+            "Cargo.toml's tests and benches turn it on",
+            cargo.contains("minos = { path = \".\", features = [\"internals\"] }"),
+        ),
+        (
+            "fuzz/Cargo.toml turns it on",
+            fuzz.contains("minos = { path = \"..\", features = [\"internals\"] }"),
+        ),
+        (
+            "python/Cargo.toml leaves it off",
+            python.contains("minos = { path = \"..\" }\n") && !python.contains("internals"),
+        ),
+    ] {
+        if !ok {
+            problems.push(what.to_string());
+        }
+    }
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
+}
+
+#[test]
+fn the_internal_module_check_sees_what_it_forbids() {
+    let internals: Vec<String> = ["navmesh::build", "io::rrd", "scene::formats::mp3d"]
+        .map(String::from)
+        .to_vec();
+    let names =
+        |code: &str| -> Vec<String> { named_internals(code, &internals).into_iter().collect() };
+    assert_eq!(
+        names("use minos::navmesh::{NavGrid, build::build};"),
+        ["navmesh::build"]
+    );
+    assert_eq!(names("use minos::{io::{rrd, tables}, seed};"), ["io::rrd"]);
+    assert_eq!(
+        names("let g = minos::navmesh::build::build(&s, &p);"),
+        ["navmesh::build"]
+    );
+    assert_eq!(
+        names("use minos::scene::{formats::{mp3d::Mp3dLoader, LoadError}};"),
+        ["scene::formats::mp3d"]
+    );
+    assert_eq!(
+        names("use minos::navmesh;\nlet g = navmesh::build::build(&s, &p);"),
+        ["navmesh::build"]
+    );
+    assert!(names(
+        "use minos::navmesh::{NavGrid, builder, route};\nuse minos::io::rrd_x;\n\
+         use minos::scene::formats::{LoadError, mp3d_x}; notminos::navmesh::buildx"
+    )
+    .is_empty());
+
+    let (internal, plain) = declared_modules(
+        "internal! {\n    /// Docs.\n    pub mod bvh;\n}\npub mod camera;\nmod image;\n",
+    );
+    assert_eq!(internal, BTreeSet::from(["bvh".to_string()]));
+    assert_eq!(plain, BTreeSet::from(["camera".to_string()]));
+    assert_eq!(
+        internal_modules_of_the_doc(
+            "## API boundaries\n\n### Internal modules\n\nText `x::y`.\n\n- `render::bvh` — the \
+             hierarchy;\n- `io::rrd` — the\n  encoder.\n\nAfter.\n\n## Entry points\n\n- `cmd`\n"
+        ),
+        ["render::bvh", "io::rrd"]
+    );
+}
+
 /// `file`'s text, strings and comments kept, up to its unit tests (`#[cfg(test)] mod tests`).
 fn text_before_tests(file: &Path) -> String {
     let text = std::fs::read_to_string(file).expect("readable source");

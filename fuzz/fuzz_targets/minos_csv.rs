@@ -11,7 +11,7 @@ use minos::episode::minos_csv::import_minos_csv;
 
 fuzz_target!(|data: &[u8]| {
     let path = common::temp_file("fuzz.csv", data);
-    if let Err(e) = import_minos_csv(&path) {
+    if let Err(e) = import_minos_csv(&path, None) {
         common::one_line_naming(&e.to_string(), "");
     }
 });

@@ -8,5 +8,10 @@ pub mod export;
 pub mod image_codec;
 pub mod lerobot;
 pub mod pairs;
-pub mod rrd;
+internal! {
+    pub mod rrd;
+}
 pub mod tables;
+
+pub use rrd::view::ViewReport;
+pub use rrd::RecordingError;

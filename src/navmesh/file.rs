@@ -7,10 +7,10 @@
 //!
 //! Version 3 adds, after the arrays, sections of query structures derived from the grid at
 //! bake time, as Detour bakes its query structures into a navmesh: the
-//! [`SightIndex`](super::los::SightIndex)'s clear squares (4 bytes per span), and the sparse
+//! `los::SightIndex`'s clear squares (4 bytes per span), and the sparse
 //! graph's edges and landmark distances ([`SparseEdges`], a few kB), each with its counts and
 //! a 64-bit [`checksum`]. Reading puts them in [`NavGrid::baked`], where
-//! [`SightIndex::new`](super::los::SightIndex::new) (and so every `Geodesic`) picks up the
+//! `los::SightIndex::new` (and so every `Geodesic`) picks up the
 //! squares instead of redoing the sweep (about 0.8 ms of a 55k-span grid's 1.45 ms
 //! `Geodesic::new`), and the first path query's graph build takes the edges instead of
 //! walking between every pair of vertices (about 0.45 ms). A section whose counts, checksum
@@ -225,7 +225,7 @@ impl Checksum {
 }
 
 /// The stored sections of a grid, built from the grid alone (whatever it carries in
-/// [`NavGrid::baked`]): the records of [`SightIndex::squares`](super::los::SightIndex::squares), and those of the sparse graph's
+/// [`NavGrid::baked`]): the records of `los::SightIndex::squares`, and those of the sparse graph's
 /// edges (`first`, `edges`, `marks`) with its vertex and edge counts when it has one.
 #[allow(clippy::type_complexity)]
 fn stored_sections(

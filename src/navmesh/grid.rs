@@ -130,7 +130,7 @@ pub struct NavGrid {
 /// the wrong length).
 #[derive(Debug, Clone, Default)]
 pub struct Baked {
-    /// Per span, the [`SightIndex`](super::los::SightIndex)'s side of the clear square ahead
+    /// Per span, the `los::SightIndex`'s side of the clear square ahead
     /// in each quadrant (empty when not stored).
     pub sight_squares: Vec<[u8; 4]>,
     /// The edges and landmark distances of the point-to-point search's sparse graph (see

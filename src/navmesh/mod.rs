@@ -6,21 +6,28 @@
 //! `geodesic` (any-angle distance fields), `path` (shortest paths with rooms and doors),
 //! `query` (snapping, sampling), `file` (the `.nav` format) and `preview` (PNG images).
 
-pub mod build;
+internal! {
+    pub mod build;
+}
 mod check;
 pub mod file;
 pub mod geodesic;
 pub mod grid;
 pub mod islands;
-pub mod los;
+internal! {
+    pub mod los;
+}
 pub mod params;
 pub mod path;
 pub mod preview;
 pub mod query;
-pub mod raster;
+internal! {
+    pub mod raster;
+}
 pub mod route;
 #[cfg(test)]
 pub(crate) mod testmaps;
 
+pub use build::BuildError;
 pub use grid::{NavGrid, Span, NONE};
 pub use params::NavParams;

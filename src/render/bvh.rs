@@ -30,7 +30,6 @@ mod avx;
 mod build;
 mod flat;
 mod packet;
-pub use flat::{FLAT_EMPTY, LEAF_WORDS, NODE_WORDS};
 pub use packet::{Packet, PacketStack};
 
 /// Largest number of triangles in a leaf.
@@ -376,7 +375,8 @@ impl Bvh {
         self.triangles
     }
 
-    /// Bytes the hierarchy holds (nodes and leaves).
+    /// Bytes the hierarchy holds (nodes and leaves; for the render bench).
+    #[cfg(feature = "internals")]
     pub fn memory_bytes(&self) -> usize {
         self.nodes.len() * std::mem::size_of::<Node>()
             + self.leaves.len() * std::mem::size_of::<Leaf>()

@@ -3,7 +3,9 @@
 //! (`labels`), the images sensors produce (`image`), textures (`texture`, `texture_library`), and two renderers producing the same frames, chosen in `renderer`: the CPU rasteriser (`cpu`, always
 //! available) and wgpu (`gpu`, when an adapter exists).
 
-pub mod bvh;
+internal! {
+    pub mod bvh;
+}
 pub mod camera;
 pub mod cpu;
 pub mod derived;

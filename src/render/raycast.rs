@@ -1,5 +1,5 @@
 //! The CPU ray caster: one primary ray per pixel centre through the scene's BVH
-//! ([`super::bvh`]), producing the same [`Frame`] as the rasteriser — the nearest triangle's
+//! (`bvh`), producing the same [`Frame`] as the rasteriser — the nearest triangle's
 //! id and its depth-buffer value — so every image derived from it is shaded, textured and
 //! labelled in one place ([`Frame`]'s methods). Its cost grows with the pixels and the
 //! logarithm of the triangles, where the rasteriser's grows with every triangle in the
@@ -9,7 +9,7 @@
 //! with camera-space depth in `[near, far]` (the ray parameter is that depth, the direction
 //! having unit length along the viewing axis), both faces count, and the depth-buffer value
 //! is the perspective projection's `z/w` of that depth. Pixels are cast in 4×4 tiles of 2×2
-//! packets (four rays traced together, [`super::bvh::Packet`]; the answer is each ray's
+//! packets (four rays traced together, `bvh::Packet`; the answer is each ray's
 //! nearest hit, ties to the lowest id, whatever the order or grouping), and large images are
 //! split into bands rendered in parallel, so frames are identical for any thread count.
 

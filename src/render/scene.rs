@@ -272,9 +272,11 @@ impl RenderScene {
         out
     }
 
-    /// The BVH over the triangles (built on the first call, then cached).
-    pub fn bvh(&self) -> &Bvh {
-        self.bvh.get_or_init(|| Bvh::new(&self.positions))
+    internal! {
+        /// The BVH over the triangles (built on the first call, then cached).
+        pub fn bvh(&self) -> &Bvh {
+            self.bvh.get_or_init(|| Bvh::new(&self.positions))
+        }
     }
 
     /// Number of triangles.

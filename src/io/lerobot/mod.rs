@@ -48,6 +48,7 @@ use parquet::file::properties::{EnabledStatistics, WriterProperties};
 use crate::atomic::{sweep_stale_of, write_bytes_atomic};
 use crate::parquet_io::ParquetFileError;
 use crate::progress::Progress;
+pub use data::FrameError;
 use data::{data_schema, episode_batch, EpisodeFrames};
 use features::FeatureError;
 pub use meta::FileIndex;

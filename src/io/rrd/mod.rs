@@ -145,11 +145,6 @@ impl RrdFile {
         Ok(rec)
     }
 
-    /// The final path.
-    pub fn path(&self) -> &Path {
-        &self.path
-    }
-
     /// An error about this recording.
     pub(crate) fn error(&self, message: impl std::fmt::Display) -> RecordingError {
         RecordingError::File {

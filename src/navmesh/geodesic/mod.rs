@@ -9,7 +9,7 @@
 //! Each span keeps a distance `g` and an *anchor*, the span its path heads to in a straight
 //! line. Relaxing neighbour `n` of a popped span `s` proposes `s`'s anchor, at cost
 //! `g(anchor) + |anchor − n|` (3D distance between span positions, so stairs count their
-//! rise). When a span is popped its anchor is verified with the [`SightIndex`]'s straight
+//! rise). When a span is popped its anchor is verified with the `SightIndex`'s straight
 //! walk; if the walk fails, the span is repaired from the best settled linked neighbour `k`
 //! (`g(k) + |k − n|`, anchor `k`). Following anchors from any span therefore gives a
 //! string-pulled polyline to the goal whose length is the field's distance.
@@ -35,7 +35,7 @@
 //! records of spans about to be expanded loaded ahead; the spans the flood reaches but the
 //! goal does not see are repaired from their best settled neighbour and queued, and Lazy
 //! Theta* settles the rest. On open floor the whole field is the flood. Around the goal the
-//! flood does not walk to each span: per quadrant, the [`SightIndex`]'s clear squares (tiled
+//! flood does not walk to each span: per quadrant, the `SightIndex`'s clear squares (tiled
 //! beyond their 255-cell cap) give a square of floor in which every walk from the goal
 //! succeeds as long as the heights stay within half the profile tolerance, so its rows are
 //! settled in memory order while they do, and only the spans whose links may leave that
@@ -94,7 +94,7 @@
 //! Measured on the 2-core build box with `cargo bench --bench navigation` (one core, best of
 //! 2–3 runs on a shared, noisy box): a full field over the open 50 × 50 m floor (992k
 //! walkable spans, [`distance_field`] including [`Geodesic::new`]) about 30 ms, of which
-//! building the [`SightIndex`] takes about 22 ms (a grid read from its `.nav` file carries the
+//! building the `SightIndex` takes about 22 ms (a grid read from its `.nav` file carries the
 //! index's clear squares, which halves `Geodesic::new` on the episode bench's houses), the
 //! flood about 5 ms and the search records and the exported field the rest; on the largest generated house (145k walkable
 //! spans, two levels) about 19 ms; point-to-point paths there about 0.13 ms per
@@ -208,7 +208,7 @@ impl Clone for Geodesic<'_> {
 }
 
 impl<'g> Geodesic<'g> {
-    /// Precomputes the [`SightIndex`] and the per-span search records (linear in the number
+    /// Precomputes the `SightIndex` and the per-span search records (linear in the number
     /// of spans).
     pub fn new(grid: &'g NavGrid) -> Self {
         let nx = i64::from(grid.nx);
@@ -238,9 +238,11 @@ impl<'g> Geodesic<'g> {
         self.sight.grid()
     }
 
-    /// The line-of-sight index.
-    pub fn sight(&self) -> &SightIndex<'g> {
-        &self.sight
+    internal! {
+        /// The line-of-sight index.
+        pub fn sight(&self) -> &SightIndex<'g> {
+            &self.sight
+        }
     }
 
     /// World position of a span (as [`NavGrid::span_position`]); `None` when out of range.

@@ -286,14 +286,15 @@ fn plain_walk(grid: &NavGrid, from: u32, to: u32, profile: bool) -> Walk {
 /// and `to` by following links, ending on `to` itself (not on another layer of its column).
 ///
 /// Both spans must be walkable; invalid indices give `false`. Allocation-free; costs one
-/// binary search per end plus one step per cell crossed (see [`SightIndex`] for a faster
-/// repeated query).
-pub fn line_of_sight(grid: &NavGrid, from: u32, to: u32) -> bool {
+/// binary search per end plus one step per cell crossed. The plain walk the [`SightIndex`]'s
+/// jumps are checked against (the library walks with the index).
+#[cfg(test)]
+pub(crate) fn line_of_sight(grid: &NavGrid, from: u32, to: u32) -> bool {
     walkable_pair(grid, from, to)
         && trace_links(grid, &plain_walk(grid, from, to, false), &mut |_| {})
 }
 
-/// Like [`line_of_sight`], and the floor heights along the walk stay within
+/// Like `line_of_sight`, and the floor heights along the walk stay within
 /// [`profile_tolerance`] of the straight 3D line between the two span positions (so a
 /// straight line from a floor up a ramp is refused where the slope changes).
 pub fn straight_line(grid: &NavGrid, from: u32, to: u32) -> bool {
@@ -301,7 +302,7 @@ pub fn straight_line(grid: &NavGrid, from: u32, to: u32) -> bool {
         && trace_links(grid, &plain_walk(grid, from, to, true), &mut |_| {})
 }
 
-/// Walks the straight XZ segment from span `from` to span `to` like [`line_of_sight`],
+/// Walks the straight XZ segment from span `from` to span `to` like `line_of_sight`,
 /// calling `visit` on every span stepped on in order, `from` first; returns whether the walk
 /// ended on `to` (when it did not, the spans visited are those up to where it stopped).
 pub fn walk_line(grid: &NavGrid, from: u32, to: u32, mut visit: impl FnMut(u32)) -> bool {

@@ -237,20 +237,6 @@ impl<'g> SightIndex<'g> {
         self.grid
     }
 
-    /// Column index of a span (`span` must be a valid index).
-    #[inline]
-    pub fn column(&self, span: u32) -> usize {
-        self.spans[span as usize].column as usize
-    }
-
-    /// Cell coordinates `(ix, iz)` of a span (`span` must be a valid index).
-    #[inline]
-    pub fn cell(&self, span: u32) -> (i64, i64) {
-        let c = i64::from(self.spans[span as usize].column);
-        let nx = i64::from(self.grid.nx.max(1));
-        (c % nx, c / nx)
-    }
-
     /// Asks the CPU to start loading a span's packed record (a hint; no effect on results).
     #[inline]
     pub(crate) fn prefetch(&self, span: u32) {
@@ -295,14 +281,16 @@ impl<'g> SightIndex<'g> {
 
     /// How many cells a walk from this span can jump at most, over all directions (0: it
     /// steps cell by cell whatever the direction).
-    pub fn jump_reach(&self, span: u32) -> u16 {
+    #[cfg(test)]
+    pub(crate) fn jump_reach(&self, span: u32) -> u16 {
         self.spans.get(span as usize).map_or(0, |s| {
             u16::from(s.ahead.iter().max().copied().unwrap_or(0).saturating_sub(1))
         })
     }
 
-    /// Same answer as [`line_of_sight`], jumping across open floor.
-    pub fn line_of_sight(&self, from: u32, to: u32) -> bool {
+    /// Same answer as `los::line_of_sight` (the plain walk), jumping across open floor.
+    #[cfg(test)]
+    pub(crate) fn line_of_sight(&self, from: u32, to: u32) -> bool {
         self.query(from, to, false)
     }
 

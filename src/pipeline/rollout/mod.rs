@@ -47,6 +47,7 @@ pub use episode::EpisodeError;
 pub use failure::EpisodeFailure;
 pub use live::{finish_live, run_live, EpisodeSource, PLAYED};
 use parts::part;
+pub use parts::{PartDone, PartError};
 use scene::SceneRun;
 pub use scene::{load as load_simulator, load_assets as load_scene_assets, SceneLoadError};
 

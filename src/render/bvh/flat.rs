@@ -16,7 +16,8 @@ pub const NODE_WORDS: usize = 32;
 /// Words per flattened leaf.
 pub const LEAF_WORDS: usize = 40;
 /// `count` of an unused child slot in the flattened nodes.
-pub const FLAT_EMPTY: u32 = EMPTY;
+#[cfg(test)]
+pub(crate) const FLAT_EMPTY: u32 = EMPTY;
 
 impl Bvh {
     /// The nodes as [`NODE_WORDS`] words each (floats as their bits); at least one node, so

@@ -156,6 +156,7 @@ impl Default for PacketStack {
     }
 }
 
+#[cfg(test)]
 impl PacketStack {
     /// A stack that traces without AVX on any CPU (the answers are the same bit for bit;
     /// for tests and comparisons).

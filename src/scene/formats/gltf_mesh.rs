@@ -285,11 +285,6 @@ impl MeshBuilder {
         self
     }
 
-    /// Triangles so far.
-    pub fn triangle_count(&self) -> usize {
-        self.mesh.triangle_count()
-    }
-
     /// Appends the triangle primitives of `node`'s own mesh (not its children) placed by
     /// `world`.
     pub fn add_node_mesh(

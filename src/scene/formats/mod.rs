@@ -4,12 +4,26 @@
 //! names the file, the record (node id, line) and what is wrong.
 
 mod gltf_hierarchy;
-pub mod gltf_mesh;
-pub mod gltf_scene;
-pub mod mp3d;
-pub mod obj_mesh;
-pub mod suncg;
-pub mod threedfront;
+internal! {
+    pub mod gltf_mesh;
+}
+internal! {
+    pub mod gltf_scene;
+}
+internal! {
+    pub mod mp3d;
+}
+internal! {
+    pub mod obj_mesh;
+}
+internal! {
+    pub mod suncg;
+}
+internal! {
+    pub mod threedfront;
+}
+
+pub use mp3d::house_file::HouseError;
 
 use std::path::{Path, PathBuf};
 

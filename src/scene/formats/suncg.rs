@@ -121,6 +121,7 @@ impl SuncgLoader {
     }
 
     /// The category table in use, if one was found.
+    #[cfg(feature = "internals")]
     pub fn mapping_path(&self) -> Option<&Path> {
         self.mapping_path.as_deref()
     }

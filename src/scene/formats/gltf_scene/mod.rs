@@ -78,6 +78,7 @@ use self::semantic::{category_from_name, CategoryMap};
 
 use super::{DatasetLoader, LoadError, LoadedScene, SceneEntry};
 
+#[cfg(feature = "internals")]
 pub use self::assemble::STAGE_ROOM_ID;
 use self::discover::walk;
 use self::resolve::{Kind, ResolveError, Resolved};
@@ -235,13 +236,9 @@ impl GltfLoader {
     }
 
     /// The category table in use, if any.
+    #[cfg(feature = "internals")]
     pub fn category_table(&self) -> Option<&Path> {
         self.category_table.as_deref()
-    }
-
-    /// Remarks about the root as a whole (skipped duplicate ids, ambiguous stage configs).
-    pub fn root_warnings(&self) -> &[String] {
-        &self.root_warnings
     }
 
     /// Every scene under the root, sorted by id.

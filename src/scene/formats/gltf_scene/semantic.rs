@@ -261,16 +261,6 @@ impl CategoryMap {
         Self::parse(&text, path)
     }
 
-    /// Number of raw categories.
-    pub fn len(&self) -> usize {
-        self.map.len()
-    }
-
-    /// True when the table maps nothing.
-    pub fn is_empty(&self) -> bool {
-        self.map.is_empty()
-    }
-
     /// The mapping of a raw category.
     pub fn get(&self, raw: &str) -> Option<&MappedCategory> {
         self.map.get(&key(raw))

@@ -523,7 +523,8 @@ pub fn parse(bytes: &[u8]) -> Result<HouseFile, HouseError> {
 }
 
 /// Parses a whole `.house` file from text.
-pub fn parse_str(text: &str) -> Result<HouseFile, HouseError> {
+#[cfg(test)]
+pub(crate) fn parse_str(text: &str) -> Result<HouseFile, HouseError> {
     parse(text.as_bytes())
 }
 

@@ -51,7 +51,7 @@ use super::suncg::floor_area_and_height;
 use super::{obj_mesh, DatasetLoader, LoadError, LoadedScene, SceneEntry};
 
 use build::{Build, RawMesh};
-pub use house_file::{HouseError, HouseFile};
+pub use house_file::HouseFile;
 pub use proxy::Obb;
 pub use tables::{CategoryTables, RegionLabels};
 
@@ -83,7 +83,8 @@ pub fn zup_to_yup(p: [f64; 3]) -> Vec3 {
 }
 
 /// Converts a y-up point back to Matterport3D's z-up frame: `(x, −z, y)`.
-pub fn yup_to_zup(p: Vec3) -> [f64; 3] {
+#[cfg(test)]
+pub(crate) fn yup_to_zup(p: Vec3) -> [f64; 3] {
     [f64::from(p.x), -f64::from(p.z), f64::from(p.y)]
 }
 
@@ -170,6 +171,7 @@ impl Mp3dLoader {
     }
 
     /// A loader for `root` with the given category tables (nothing is searched or read).
+    #[cfg(any(test, feature = "internals"))]
     pub fn with_tables(root: &Path, tables: CategoryTables) -> Self {
         Mp3dLoader {
             root: root.to_path_buf(),
@@ -182,24 +184,10 @@ impl Mp3dLoader {
     }
 
     /// The same loader with other options.
+    #[cfg(feature = "internals")]
     pub fn with_options(mut self, options: Mp3dOptions) -> Self {
         self.options = options;
         self
-    }
-
-    /// The options in use.
-    pub fn options(&self) -> Mp3dOptions {
-        self.options
-    }
-
-    /// The `category_mapping.tsv` in use, if one was found.
-    pub fn mapping_path(&self) -> Option<&Path> {
-        self.mapping_path.as_deref()
-    }
-
-    /// The category tables in use.
-    pub fn tables(&self) -> &CategoryTables {
-        &self.tables
     }
 
     /// Every scan under the root, sorted by id: `<root>/<id>/house_segmentations/<id>.house`

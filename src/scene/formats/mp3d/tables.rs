@@ -59,19 +59,11 @@ impl RegionLabels {
     }
 
     /// The MINOS class of a region letter (`other` when unknown).
-    pub fn class_of(&self, letter: &str) -> RoomClass {
+    #[cfg(test)]
+    pub(crate) fn class_of(&self, letter: &str) -> RoomClass {
         self.get(letter).map_or(RoomClass::Other, |l| l.class)
     }
 
-    /// Number of letters known.
-    pub fn len(&self) -> usize {
-        self.map.len()
-    }
-
-    /// True when the table is empty.
-    pub fn is_empty(&self) -> bool {
-        self.map.is_empty()
-    }
 }
 
 /// One row of `category_mapping.tsv`.
@@ -123,11 +115,6 @@ impl CategoryTables {
     /// The row with this 1-based `index`, when the mapping table was read.
     pub fn row(&self, index: usize) -> Option<&CategoryRow> {
         self.rows.get(&index)
-    }
-
-    /// Whether `category_mapping.tsv` was read.
-    pub fn has_mapping(&self) -> bool {
-        !self.rows.is_empty()
     }
 
     /// Name of an mpcat40 index, when `mpcat40.tsv` was read.
@@ -257,7 +244,7 @@ mod tests {
     #[test]
     fn every_region_letter_of_the_format_has_a_class() {
         let t = RegionLabels::builtin();
-        assert_eq!(t.len(), 31);
+        assert_eq!(t.map.len(), 31);
         let expect = [
             ("a", RoomClass::Bathroom),
             ("b", RoomClass::Bedroom),

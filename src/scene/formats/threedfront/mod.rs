@@ -44,8 +44,10 @@ use crate::scene::taxonomy::FlagTable;
 
 use super::{DatasetLoader, LoadError, LoadedScene, SceneEntry};
 
-pub use geometry::unit_box;
-pub use tables::{arch_role, ArchRole, FrontRoomTypes, FutureCategories, FutureCategory};
+pub use tables::{FrontRoomTypes, FutureCategories};
+// What `FutureCategories` hands out, named for the tests (the module is internal).
+#[cfg(feature = "internals")]
+pub use tables::FutureCategory;
 
 /// Loads 3D-FRONT scenes from one folder of scene JSON files.
 pub struct ThreeDFrontLoader {
@@ -95,11 +97,13 @@ impl ThreeDFrontLoader {
     }
 
     /// The 3D-FUTURE category table in use, if one was found.
+    #[cfg(feature = "internals")]
     pub fn mapping_path(&self) -> Option<&Path> {
         self.mapping_path.as_deref()
     }
 
     /// The 3D-FUTURE categories in use (empty without a table).
+    #[cfg(feature = "internals")]
     pub fn categories(&self) -> &FutureCategories {
         &self.categories
     }
@@ -170,6 +174,7 @@ impl ThreeDFrontLoader {
 
 /// Parses one scene file's bytes without a model folder or category table (furniture as boxes,
 /// categories from the file only). `path` names the file in messages; `id` is the scene id.
+#[cfg(feature = "internals")]
 pub fn parse_scene(bytes: &[u8], path: &Path, id: &str) -> Result<LoadedScene, LoadError> {
     ThreeDFrontLoader {
         root: PathBuf::new(),

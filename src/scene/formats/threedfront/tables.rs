@@ -43,15 +43,6 @@ impl FrontRoomTypes {
         self.map.get(&raw.trim().to_ascii_lowercase()).copied()
     }
 
-    /// Number of room types listed.
-    pub fn len(&self) -> usize {
-        self.map.len()
-    }
-
-    /// True when no room type is listed.
-    pub fn is_empty(&self) -> bool {
-        self.map.is_empty()
-    }
 }
 
 /// The 3D-FUTURE categories of one model.
@@ -159,11 +150,13 @@ impl FutureCategories {
     }
 
     /// Number of models listed.
+    #[cfg(feature = "internals")]
     pub fn len(&self) -> usize {
         self.map.len()
     }
 
     /// True when no model is listed.
+    #[cfg(feature = "internals")]
     pub fn is_empty(&self) -> bool {
         self.map.is_empty()
     }
@@ -350,7 +343,7 @@ mod tests {
     #[test]
     fn room_types_cover_the_nine_classes_case_insensitively() {
         let t = FrontRoomTypes::builtin();
-        assert!(t.len() >= 30, "{}", t.len());
+        assert!(t.map.len() >= 30, "{}", t.map.len());
         assert_eq!(t.class_of("LivingDiningRoom"), Some(RoomClass::LivingRoom));
         assert_eq!(t.class_of("masterbedroom"), Some(RoomClass::Bedroom));
         assert_eq!(t.class_of(" Bathroom "), Some(RoomClass::Bathroom));
@@ -369,7 +362,7 @@ mod tests {
                    0,a-1,Floor Lamp,Lighting\r\n\
                    1,b-2,,Chair\r\n\r\n";
         let t = FutureCategories::parse_csv(csv).unwrap();
-        assert_eq!(t.len(), 2);
+        assert_eq!(t.map.len(), 2);
         let a = t.get("a-1").unwrap();
         assert_eq!(a.category.as_deref(), Some("Floor Lamp"));
         assert_eq!(a.super_category.as_deref(), Some("Lighting"));
