@@ -147,7 +147,7 @@ fn truncated_house_fails_with_a_line_numbered_error_and_the_batch_goes_on() {
         matches!(&failure, minos::scene::formats::LoadError::House { source, .. } if source.line == 171),
         "{failure:?}"
     );
-    let err = failure.to_string();
+    let err = minos::escape::error_line(&failure);
     eprintln!("{err}");
     assert!(!err.contains('\n'));
     assert!(
