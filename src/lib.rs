@@ -38,6 +38,7 @@ pub mod body;
 pub mod diff;
 pub mod episode;
 pub mod escape;
+pub mod file_error;
 pub mod generate;
 pub mod invalid;
 pub mod io;

@@ -2,6 +2,7 @@
 //! and a run's tables: writer properties, writing record batches atomically, reading every
 //! batch, and typed columns, with errors that name the file.
 
+use crate::file_error::FileError;
 use std::fs::File;
 use std::path::Path;
 
@@ -22,13 +23,8 @@ use crate::invalid::Invalid;
 #[derive(Debug, thiserror::Error)]
 pub enum ParquetFileError {
     /// File system error.
-    #[error("{path}")]
-    Io {
-        /// The file.
-        path: String,
-        /// The cause.
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    Io(#[from] FileError),
     /// Parquet / Arrow error, or a column missing or of the wrong type.
     #[error("{path}")]
     Format {
@@ -156,10 +152,10 @@ pub fn write_batches(
         Ok(())
     })
     .map_err(|e| match e {
-        WriteErr::Io(source) => ParquetFileError::Io {
-            path: path.display().to_string(),
+        WriteErr::Io(source) => ParquetFileError::Io(FileError {
+            path: path.to_path_buf(),
             source,
-        },
+        }),
         WriteErr::Parquet(e) => ParquetFileError::format(path, e),
         WriteErr::Arrow(e) => ParquetFileError::format(path, e),
     })
@@ -190,9 +186,11 @@ pub fn read_batches_with(
         parquet::errors::ParquetError,
     >,
 ) -> Result<Batches, ParquetFileError> {
-    let file = File::open(path).map_err(|source| ParquetFileError::Io {
-        path: path.display().to_string(),
-        source,
+    let file = File::open(path).map_err(|source| {
+        ParquetFileError::Io(FileError {
+            path: path.to_path_buf(),
+            source,
+        })
     })?;
     let inner = crate::escape::catch_quietly(|| {
         ParquetRecordBatchReaderBuilder::try_new(file)

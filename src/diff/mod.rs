@@ -10,6 +10,7 @@
 mod json;
 mod table;
 
+use crate::file_error::FileError;
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
@@ -58,13 +59,8 @@ impl DiffReport {
 #[derive(Debug, thiserror::Error)]
 pub enum DiffError {
     /// A path that cannot be read.
-    #[error("{}", path.display())]
-    Io {
-        /// The path.
-        path: PathBuf,
-        /// The cause.
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    Io(#[from] FileError),
     /// A file and a folder.
     #[error("{} is a folder and {} is not: compare two outputs of the same kind", .0.display(), .1.display())]
     Kinds(PathBuf, PathBuf),
@@ -77,9 +73,11 @@ const SIDECARS: [&str; 2] = [".stats.json", ".provenance.json"];
 /// (with their sidecars, for episode files).
 pub fn diff(a: &Path, b: &Path) -> Result<DiffReport, DiffError> {
     let meta = |p: &Path| {
-        std::fs::metadata(p).map_err(|source| DiffError::Io {
-            path: p.to_path_buf(),
-            source,
+        std::fs::metadata(p).map_err(|source| {
+            DiffError::Io(FileError {
+                path: p.to_path_buf(),
+                source,
+            })
         })
     };
     let (ma, mb) = (meta(a)?, meta(b)?);
@@ -137,9 +135,11 @@ pub fn diff(a: &Path, b: &Path) -> Result<DiffReport, DiffError> {
 /// The first difference of two files, `None` when their bytes are equal.
 pub fn first_difference(a: &Path, b: &Path) -> Result<Option<String>, DiffError> {
     let read = |p: &Path| {
-        std::fs::read(p).map_err(|source| DiffError::Io {
-            path: p.to_path_buf(),
-            source,
+        std::fs::read(p).map_err(|source| {
+            DiffError::Io(FileError {
+                path: p.to_path_buf(),
+                source,
+            })
         })
     };
     let (ba, bb) = (read(a)?, read(b)?);

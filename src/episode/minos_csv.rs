@@ -69,6 +69,7 @@
 //! are accepted (quoted fields may not span lines). A bad row stops the import with an error
 //! naming the file, the line (the header is line 1) and the column.
 
+use crate::file_error::FileError;
 use std::borrow::Cow;
 use std::collections::HashMap;
 use std::io::BufRead;
@@ -93,13 +94,8 @@ pub const MINOS_SUCCESS_RADIUS: f32 = 0.4;
 #[derive(Debug, thiserror::Error)]
 pub enum MinosCsvError {
     /// File system or decompression error.
-    #[error("{path}")]
-    Io {
-        /// The table.
-        path: String,
-        /// The cause.
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    Io(#[from] FileError),
     /// The header line lacks required columns (or the file is empty).
     #[error("{path}: line 1: {}", escape_controls(.message))]
     Header {
@@ -254,9 +250,11 @@ impl Columns {
 /// `task` when given — RoomGoal as MINOS's RoomGoal configurations read the PointGoal tables.
 pub fn import_minos_csv(path: &Path, task: Option<Task>) -> Result<Vec<Episode>, MinosCsvError> {
     let p = path.display().to_string();
-    let io = |source| MinosCsvError::Io {
-        path: p.clone(),
-        source,
+    let io = |source| {
+        MinosCsvError::Io(FileError {
+            path: p.clone().into(),
+            source,
+        })
     };
     let (mut reader, _) = open_text(path).map_err(io)?;
     let mut buf = Vec::with_capacity(256);

@@ -16,6 +16,7 @@ pub mod scan;
 pub mod suncg_writer;
 pub mod textures;
 
+use crate::file_error::FileError;
 use std::path::Path;
 
 use rayon::prelude::*;
@@ -187,13 +188,8 @@ pub enum GenerateError {
     #[error("invalid configuration: {0}")]
     Config(crate::invalid::Invalid),
     /// Writing failed.
-    #[error("{path}")]
-    Io {
-        /// What was being written.
-        path: String,
-        /// The cause.
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    Io(#[from] FileError),
 }
 
 impl GenerateConfig {
@@ -362,7 +358,12 @@ pub fn generate(
     cfg.validate_for(format)?;
     let io_err = |path: &Path| {
         let path = path.display().to_string();
-        move |source| GenerateError::Io { path, source }
+        move |source| {
+            GenerateError::Io(FileError {
+                path: path.into(),
+                source,
+            })
+        }
     };
     if format == OutputFormat::Suncg {
         suncg_writer::write_library(out).map_err(io_err(out))?;

@@ -12,6 +12,7 @@
 //! per pair; lists joined by `;`), JSON lines, or Parquet (`--out FILE.parquet`); files are
 //! written atomically.
 
+use crate::file_error::FileError;
 use std::io::Write;
 use std::path::Path;
 use std::sync::Arc;
@@ -51,13 +52,8 @@ pub const ANSWER_COLUMNS: [&str; 13] = [
 #[derive(Debug, thiserror::Error)]
 pub enum PairsError {
     /// File system error.
-    #[error("{path}")]
-    Io {
-        /// The file.
-        path: String,
-        /// The cause.
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    Io(#[from] FileError),
     /// The file as a whole is wrong (no header, a column missing, not Parquet).
     #[error("{path}: {message}")]
     Shape {
@@ -114,9 +110,11 @@ pub fn read_pairs(path: &Path) -> Result<Vec<(Vec3, Vec3)>, PairsError> {
     if is_parquet(path) {
         read_parquet_pairs(path)
     } else {
-        let text = std::fs::read_to_string(path).map_err(|source| PairsError::Io {
-            path: path.display().to_string(),
-            source,
+        let text = std::fs::read_to_string(path).map_err(|source| {
+            PairsError::Io(FileError {
+                path: path.to_path_buf(),
+                source,
+            })
         })?;
         parse_csv_pairs(path, &text)
     }
@@ -383,9 +381,11 @@ pub fn write_answers(path: &Path, answers: &[PairAnswer]) -> Result<(), PairsErr
         write_batches(path, schema.clone(), props, batches)?;
         Ok(())
     } else {
-        write_atomic(path, |w| write_csv(w, answers)).map_err(|source| PairsError::Io {
-            path: path.display().to_string(),
-            source,
+        write_atomic(path, |w| write_csv(w, answers)).map_err(|source| {
+            PairsError::Io(FileError {
+                path: path.to_path_buf(),
+                source,
+            })
         })
     }
 }

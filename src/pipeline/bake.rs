@@ -6,6 +6,7 @@
 //! disk, a read-only folder) stops the batch: it is the folder's problem, not the scene's.
 //! Temporary files a killed bake left in `DATA/nav/` are removed first.
 
+use crate::file_error::FileError;
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -188,7 +189,7 @@ fn bake_one(cfg: &BakeConfig, id: &SceneRef) -> BakeOutcome {
     };
     match write_nav(&out, &grid) {
         Ok(()) => {}
-        Err(e @ NavFileError::Io { .. }) => {
+        Err(e @ NavFileError::Io(FileError { .. })) => {
             return BakeOutcome::WriteFailed(BakeFailure::Grid(Arc::new(e)))
         }
         Err(e) => return BakeOutcome::Failed(BakeFailure::Grid(Arc::new(e))),

@@ -15,6 +15,7 @@
 //! `--categories` and `--models` are made absolute (symbolic links resolved) before anything
 //! is read, so later commands give the same results from any working directory.
 
+use crate::file_error::FileError;
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 use std::time::SystemTime;
@@ -303,7 +304,7 @@ fn ingest_one(
     match write_scene(&compiled, &header, &loaded.scene) {
         Ok(()) => {}
         // The folder's problem (a full disk, a read-only folder), not the scene's.
-        Err(e @ SceneFileError::Io { .. }) => return Err(IngestError::Write(e)),
+        Err(e @ SceneFileError::Io(FileError { .. })) => return Err(IngestError::Write(e)),
         Err(e) => return Ok(fail(crate::escape::error_line(&e))),
     }
     Ok((

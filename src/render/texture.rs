@@ -7,6 +7,7 @@
 //! triangle filter), which bounds memory to about 192 KiB per texture and acts as a fixed
 //! pre-filter: the sensors' images are small (84²–256²), so finer texels would only alias.
 
+use crate::file_error::FileError;
 use std::path::{Path, PathBuf};
 
 /// Largest side of a texture after loading (pixels).
@@ -16,13 +17,8 @@ pub const MAX_TEXTURE_SIZE: u32 = 256;
 #[derive(Debug, thiserror::Error)]
 pub enum TextureError {
     /// The file could not be read.
-    #[error("{}", path.display())]
-    Io {
-        /// The file.
-        path: PathBuf,
-        /// The cause.
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    Io(#[from] FileError),
     /// The file is not an image minos can decode (PNG or JPEG).
     #[error("{}: not a PNG or JPEG image", path.display())]
     Decode {
@@ -69,9 +65,11 @@ impl Texture {
 
     /// Decodes a PNG or JPEG file and downscales it to at most [`MAX_TEXTURE_SIZE`] per side.
     pub fn load(path: &Path) -> Result<Texture, TextureError> {
-        let bytes = std::fs::read(path).map_err(|source| TextureError::Io {
-            path: path.to_path_buf(),
-            source,
+        let bytes = std::fs::read(path).map_err(|source| {
+            TextureError::Io(FileError {
+                path: path.to_path_buf(),
+                source,
+            })
         })?;
         Texture::decode(&bytes).map_err(|source| TextureError::Decode {
             path: path.to_path_buf(),

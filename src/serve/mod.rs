@@ -33,6 +33,7 @@ pub mod session;
 pub mod token;
 mod ws;
 
+use crate::file_error::FileError;
 use std::collections::HashMap;
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
@@ -78,13 +79,8 @@ pub enum ServeError {
         source: std::io::Error,
     },
     /// A folder could not be created or read.
-    #[error("{}", path.display())]
-    Io {
-        /// The folder.
-        path: PathBuf,
-        /// The cause.
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    Io(#[from] FileError),
     /// The tokio runtime could not start.
     #[error("runtime: {0}")]
     Runtime(std::io::Error),
@@ -273,9 +269,11 @@ fn playable_episodes(episodes: Vec<Episode>, scenes: &[String]) -> Vec<Episode> 
 }
 
 fn canonical(path: &Path) -> Result<PathBuf, ServeError> {
-    path.canonicalize().map_err(|source| ServeError::Io {
-        path: path.to_path_buf(),
-        source,
+    path.canonicalize().map_err(|source| {
+        ServeError::Io(FileError {
+            path: path.to_path_buf(),
+            source,
+        })
     })
 }
 
@@ -324,9 +322,11 @@ fn launch(
         allowed_hosts,
         rate,
     } = cfg;
-    std::fs::create_dir_all(&shared.out).map_err(|source| ServeError::Io {
-        path: shared.out.clone(),
-        source,
+    std::fs::create_dir_all(&shared.out).map_err(|source| {
+        ServeError::Io(FileError {
+            path: shared.out.clone(),
+            source,
+        })
     })?;
     shared.out = canonical(&shared.out)?;
     let data_root = canonical(shared.data.root())?;

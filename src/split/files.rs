@@ -4,6 +4,7 @@
 //! are ignored) so hand-written and official lists work as they are; writing is canonical
 //! (sorted, distinct, `\n` after every id) and atomic per file.
 
+use crate::file_error::FileError;
 use std::fs;
 use std::path::{Path, PathBuf};
 
@@ -27,9 +28,11 @@ pub fn read_lists(dir: &Path) -> Result<SplitLists, SplitError> {
     let mut lists = SplitLists::default();
     for s in Subset::ALL {
         let path = list_path(dir, s);
-        let text = fs::read_to_string(&path).map_err(|source| SplitError::Io {
-            path: path.display().to_string(),
-            source,
+        let text = fs::read_to_string(&path).map_err(|source| {
+            SplitError::Io(FileError {
+                path: path.to_path_buf(),
+                source,
+            })
         })?;
         *lists.get_mut(s) = parse_list(&text);
     }
@@ -49,9 +52,11 @@ pub fn split_dir(data: &DataDir, name: &str) -> Result<PathBuf, SplitError> {
 pub fn write_split(data: &DataDir, name: &str, lists: &SplitLists) -> Result<PathBuf, SplitError> {
     let dir = split_dir(data, name)?;
     // What a killed `split` left in the folder.
-    sweep_stale(&dir).map_err(|source| SplitError::Io {
-        path: dir.display().to_string(),
-        source,
+    sweep_stale(&dir).map_err(|source| {
+        SplitError::Io(FileError {
+            path: dir.to_path_buf(),
+            source,
+        })
     })?;
     let mut lists = lists.clone();
     lists.sort();
@@ -62,9 +67,11 @@ pub fn write_split(data: &DataDir, name: &str, lists: &SplitLists) -> Result<Pat
             text.push('\n');
         }
         let path = list_path(&dir, s);
-        write_bytes_atomic(&path, text.as_bytes()).map_err(|source| SplitError::Io {
-            path: path.display().to_string(),
-            source,
+        write_bytes_atomic(&path, text.as_bytes()).map_err(|source| {
+            SplitError::Io(FileError {
+                path: path.to_path_buf(),
+                source,
+            })
         })?;
     }
     crate::store::provenance::write_data_record(data).map_err(SplitError::Provenance)?;

@@ -15,6 +15,7 @@ pub mod expr;
 mod files;
 mod official;
 
+use crate::file_error::FileError;
 use std::collections::{HashMap, HashSet};
 use std::fmt;
 use std::str::FromStr;
@@ -36,14 +37,8 @@ pub enum SplitError {
     )]
     BadRatios(String),
     /// A file or folder could not be read or written (the cause is the error's source).
-    #[error("{path}")]
-    Io {
-        /// The file or folder.
-        path: String,
-        /// The cause.
-        #[source]
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    Io(#[from] FileError),
     /// One id in two subsets of the given lists.
     #[error("id `{id}` is listed in both {first} and {second}")]
     ListedTwice {

@@ -5,6 +5,7 @@
 //! front door says the remedy in its own words (the command line as a command and its flags,
 //! Python as a function call).
 
+use crate::file_error::FileError;
 use std::error::Error;
 
 use super::{SceneFileError, StoreError};
@@ -50,15 +51,15 @@ fn not_found(e: &std::io::Error) -> bool {
 fn remedy_here(e: &(dyn Error + 'static)) -> Option<Remedy> {
     if let Some(e) = e.downcast_ref::<NavFileError>() {
         return Some(match e {
-            NavFileError::Io { cause, .. } if not_found(cause) => Remedy::Bake,
-            NavFileError::Io { .. } => return None,
+            NavFileError::Io(FileError { source: cause, .. }) if not_found(cause) => Remedy::Bake,
+            NavFileError::Io(FileError { .. }) => return None,
             NavFileError::Format { .. } => Remedy::Rebake,
         });
     }
     if let Some(e) = e.downcast_ref::<SceneFileError>() {
         return Some(match e {
-            SceneFileError::Io { source, .. } if not_found(source) => Remedy::Ingest,
-            SceneFileError::Io { .. } => return None,
+            SceneFileError::Io(FileError { source, .. }) if not_found(source) => Remedy::Ingest,
+            SceneFileError::Io(FileError { .. }) => return None,
             SceneFileError::Format { .. } => Remedy::Reingest,
         });
     }

@@ -13,6 +13,7 @@
 //! so ingest rebuilds it. Decoding checks the checksum, then [`Scene::validate`] (every index
 //! in range, finite numbers), so no later stage indexes out of bounds on a corrupt file.
 
+use crate::file_error::FileError;
 use std::fs::File;
 use std::io::{self, Read, Write};
 use std::path::{Path, PathBuf};
@@ -48,13 +49,8 @@ pub struct SceneHeader {
 #[derive(Debug, thiserror::Error)]
 pub enum SceneFileError {
     /// File system error.
-    #[error("{path}")]
-    Io {
-        /// The file.
-        path: PathBuf,
-        /// The cause.
-        source: io::Error,
-    },
+    #[error(transparent)]
+    Io(#[from] FileError),
     /// Not a compiled scene, another format version, or corrupt.
     #[error("{path}: {message}")]
     Format {
@@ -97,9 +93,11 @@ pub fn write_scene(path: &Path, header: &SceneHeader, scene: &Scene) -> Result<(
         path: path.to_path_buf(),
         message: e.to_string(),
     })?;
-    write_atomic(path, |w| w.write_all(&bytes)).map_err(|source| SceneFileError::Io {
-        path: path.to_path_buf(),
-        source,
+    write_atomic(path, |w| w.write_all(&bytes)).map_err(|source| {
+        SceneFileError::Io(FileError {
+            path: path.to_path_buf(),
+            source,
+        })
     })
 }
 
@@ -163,18 +161,22 @@ pub fn decode(path: &Path, bytes: &[u8]) -> Result<(SceneHeader, Scene), SceneFi
 
 /// Reads a whole compiled scene.
 pub fn read_scene(path: &Path) -> Result<(SceneHeader, Scene), SceneFileError> {
-    let bytes = std::fs::read(path).map_err(|source| SceneFileError::Io {
-        path: path.to_path_buf(),
-        source,
+    let bytes = std::fs::read(path).map_err(|source| {
+        SceneFileError::Io(FileError {
+            path: path.to_path_buf(),
+            source,
+        })
     })?;
     decode(path, &bytes)
 }
 
 /// Reads only the header of a compiled scene.
 pub fn read_header(path: &Path) -> Result<SceneHeader, SceneFileError> {
-    let io_err = |source| SceneFileError::Io {
-        path: path.to_path_buf(),
-        source,
+    let io_err = |source| {
+        SceneFileError::Io(FileError {
+            path: path.to_path_buf(),
+            source,
+        })
     };
     let mut f = File::open(path).map_err(io_err)?;
     let mut prefix = [0u8; PREFIX];

@@ -3,6 +3,7 @@
 //! from), and [`DataDir::load_scene`], which reads a compiled scene and applies the variant its
 //! reference names (`<scene>@<variant>`): the one way every command loads a scene.
 
+use crate::file_error::FileError;
 use std::path::{Path, PathBuf};
 use std::time::SystemTime;
 
@@ -21,13 +22,8 @@ use crate::scene::{Scene, SceneRef};
 #[derive(Debug, thiserror::Error)]
 pub enum StoreError {
     /// File system error.
-    #[error("{path}")]
-    Io {
-        /// The file.
-        path: PathBuf,
-        /// The cause.
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    Io(#[from] FileError),
     /// A variant or statistics file that does not parse or breaks a rule.
     #[error("{path}")]
     Format {
@@ -81,9 +77,11 @@ pub enum StoreError {
 }
 
 fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> StoreError + '_ {
-    move |source| StoreError::Io {
-        path: path.to_path_buf(),
-        source,
+    move |source| {
+        StoreError::Io(FileError {
+            path: path.to_path_buf(),
+            source,
+        })
     }
 }
 
@@ -114,10 +112,10 @@ impl DataDir {
                 name: name.to_string(),
                 path: path.clone(),
             },
-            _ => StoreError::Io {
+            _ => StoreError::Io(FileError {
                 path: path.clone(),
                 source: e,
-            },
+            }),
         })?;
         VariantSpec::from_toml(&text).map_err(|source| StoreError::Format { path, source })
     }

@@ -30,6 +30,7 @@ mod run;
 mod tables;
 mod video;
 
+use crate::file_error::FileError;
 use std::collections::BTreeMap;
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -155,20 +156,17 @@ pub enum VerifyError {
     )]
     Unknown(PathBuf),
     /// The path cannot be read.
-    #[error("{}", path.display())]
-    Io {
-        /// The path.
-        path: PathBuf,
-        /// The cause.
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    Io(#[from] FileError),
 }
 
 /// The kind of output at `path`.
 pub fn detect(path: &Path) -> Result<OutputKind, VerifyError> {
-    let meta = std::fs::metadata(path).map_err(|source| VerifyError::Io {
-        path: path.to_path_buf(),
-        source,
+    let meta = std::fs::metadata(path).map_err(|source| {
+        VerifyError::Io(FileError {
+            path: path.to_path_buf(),
+            source,
+        })
     })?;
     if meta.is_file() {
         return if path.extension().is_some_and(|e| e == "parquet") {

@@ -1,5 +1,6 @@
 //! Writing a split as Habitat-Lab lays it out ([`export_habitat`]; layout in the module docs).
 
+use crate::file_error::FileError;
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -162,9 +163,11 @@ fn valid_component(name: &str) -> bool {
 }
 
 fn gzip_json<T: Serialize>(path: &Path, value: &T) -> Result<(), HabitatError> {
-    let io = |source| HabitatError::Io {
-        path: path.display().to_string(),
-        source,
+    let io = |source| {
+        HabitatError::Io(FileError {
+            path: path.to_path_buf(),
+            source,
+        })
     };
     let json = serde_json::to_vec(value).map_err(|e| io(std::io::Error::other(e)))?;
     write_atomic(path, |w| -> std::io::Result<()> {

@@ -1,5 +1,6 @@
 //! Reading one Habitat episode file (ours, or real Habitat / SemExp files) into [`Episode`]s ([`import_habitat`]).
 
+use crate::file_error::FileError;
 use std::collections::HashMap;
 use std::path::Path;
 
@@ -220,9 +221,11 @@ fn read_targets(path: &str, list: &str, goals: &[Value]) -> Result<Vec<GoalTarge
 /// module documentation for the shapes understood and the defaults.
 pub fn import_habitat(path: &Path) -> Result<Vec<Episode>, HabitatError> {
     let p = path.display().to_string();
-    let bytes = read_text_bytes(path).map_err(|source| HabitatError::Io {
-        path: p.clone(),
-        source,
+    let bytes = read_text_bytes(path).map_err(|source| {
+        HabitatError::Io(FileError {
+            path: p.clone().into(),
+            source,
+        })
     })?;
     let root: Value = serde_json::from_slice(&bytes).map_err(|e| HabitatError::Shape {
         path: p.clone(),

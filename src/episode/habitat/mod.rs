@@ -91,6 +91,7 @@
 
 use super::interchange::yaw_from_y_w;
 use crate::escape::escape_controls;
+use crate::file_error::FileError;
 
 /// Success radius (m) of imported PointNav episodes without one (Habitat's PointNav default).
 pub const DEFAULT_POINT_SUCCESS_RADIUS: f32 = 0.2;
@@ -109,13 +110,8 @@ const SCENE_EXTENSIONS: [&str; 7] = ["glb", "gltf", "ply", "obj", "json", "house
 #[derive(Debug, thiserror::Error)]
 pub enum HabitatError {
     /// File system error.
-    #[error("{path}")]
-    Io {
-        /// The file.
-        path: String,
-        /// The cause.
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    Io(#[from] FileError),
     /// The file is not JSON, or not an object with an `episodes` list.
     #[error("{path}: {}", escape_controls(.message))]
     Shape {

@@ -44,6 +44,7 @@
 //! Output is deterministic (fixed key order, gzip mtime 0) and written atomically; episodes
 //! without a route are refused with their id.
 
+use crate::file_error::FileError;
 use std::collections::BTreeMap;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -70,13 +71,8 @@ pub enum VlnFormat {
 #[derive(Debug, thiserror::Error)]
 pub enum VlnExportError {
     /// File system error.
-    #[error("{path}")]
-    Io {
-        /// The file.
-        path: String,
-        /// The cause.
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    Io(#[from] FileError),
     /// An episode that cannot be exported.
     #[error("{path}: episode {episode_id}")]
     Episode {
@@ -197,19 +193,21 @@ fn write_file(path: &Path, bytes: &[u8], gzip: bool) -> Result<(), VlnExportErro
         }
         Ok(())
     })
-    .map_err(|source| VlnExportError::Io {
-        path: path.display().to_string(),
-        source,
+    .map_err(|source| {
+        VlnExportError::Io(FileError {
+            path: path.to_path_buf(),
+            source,
+        })
     })
 }
 
 /// Checks that a split name can be a file name component.
 fn check_split(split: &str, path: &Path) -> Result<(), VlnExportError> {
     if split.is_empty() || split.starts_with('.') || split.contains(['/', '\\', '\0']) {
-        return Err(VlnExportError::Io {
-            path: path.display().to_string(),
+        return Err(VlnExportError::Io(FileError {
+            path: path.to_path_buf(),
             source: std::io::Error::other(format!("split name `{split}` cannot be a file name")),
-        });
+        }));
     }
     Ok(())
 }
@@ -289,9 +287,11 @@ pub fn export_vlnce(
             pad_index: 0,
         },
     };
-    let json = serde_json::to_vec(&file).map_err(|e| VlnExportError::Io {
-        path: path.display().to_string(),
-        source: std::io::Error::other(e),
+    let json = serde_json::to_vec(&file).map_err(|e| {
+        VlnExportError::Io(FileError {
+            path: path.to_path_buf(),
+            source: std::io::Error::other(e),
+        })
     })?;
     write_file(&path, &json, true)?;
     Ok(path)
@@ -334,9 +334,11 @@ pub fn export_r2r(
             levels_crossed: e.levels_crossed,
         });
     }
-    let json = serde_json::to_vec_pretty(&out).map_err(|e| VlnExportError::Io {
-        path: path.display().to_string(),
-        source: std::io::Error::other(e),
+    let json = serde_json::to_vec_pretty(&out).map_err(|e| {
+        VlnExportError::Io(FileError {
+            path: path.to_path_buf(),
+            source: std::io::Error::other(e),
+        })
     })?;
     write_file(&path, &json, false)?;
     Ok(path)

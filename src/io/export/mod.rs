@@ -17,6 +17,7 @@
 mod glb;
 mod obj;
 
+use crate::file_error::FileError;
 use std::collections::{HashMap, HashSet};
 use std::fmt;
 use std::io::{self, Write};
@@ -116,13 +117,8 @@ pub struct ExportSummary {
 #[derive(Debug, thiserror::Error)]
 pub enum ExportError {
     /// Writing the file failed.
-    #[error("{path}")]
-    Io {
-        /// The file being written.
-        path: PathBuf,
-        /// The cause.
-        source: io::Error,
-    },
+    #[error(transparent)]
+    Io(#[from] FileError),
     /// The scene or the output path cannot be exported as asked.
     #[error("{path}: {message}")]
     Invalid {
@@ -135,9 +131,11 @@ pub enum ExportError {
 
 impl ExportError {
     fn io(path: &Path) -> impl FnOnce(io::Error) -> ExportError + '_ {
-        move |source| ExportError::Io {
-            path: path.to_path_buf(),
-            source,
+        move |source| {
+            ExportError::Io(FileError {
+                path: path.to_path_buf(),
+                source,
+            })
         }
     }
 

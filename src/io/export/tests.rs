@@ -1,6 +1,7 @@
 //! Round-trip tests: export a hand-built scene, read it back with `tobj` / `gltf`, and compare
 //! with what [`Scene::object_world_mesh`] and [`Scene::surface_world_mesh`] give.
 
+use crate::file_error::FileError;
 use std::collections::BTreeSet;
 use std::fs;
 
@@ -453,7 +454,7 @@ fn io_errors_name_the_file() {
     fs::write(&blocker, b"x").expect("write");
     let out = blocker.join("house1.obj");
     let err = export_scene(&scene(), ExportFormat::Obj, &out).expect_err("parent is a file");
-    assert!(matches!(err, ExportError::Io { .. }), "{err:?}");
+    assert!(matches!(err, ExportError::Io(FileError { .. })), "{err:?}");
     assert!(
         err.to_string().contains(&blocker.display().to_string()),
         "{err}"

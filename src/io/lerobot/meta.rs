@@ -2,6 +2,7 @@
 //! (tasks as a pandas index, as LeRobot reads them) and `episodes/chunk-*/file-*.parquet`
 //! (one row per episode: its tasks, length, where its frames are, and its statistics).
 
+use crate::file_error::FileError;
 use std::collections::BTreeMap;
 use std::fs::File;
 use std::path::Path;
@@ -110,14 +111,18 @@ pub const EPISODES_PER_META_FILE: usize = 1000;
 /// key-value metadata (where pandas and pyarrow write theirs).
 fn write_parquet(path: &Path, batch: &RecordBatch) -> Result<(), LerobotError> {
     if let Some(dir) = path.parent() {
-        std::fs::create_dir_all(dir).map_err(|source| LerobotError::Io {
-            path: dir.to_path_buf(),
-            source,
+        std::fs::create_dir_all(dir).map_err(|source| {
+            LerobotError::Io(FileError {
+                path: dir.to_path_buf(),
+                source,
+            })
         })?;
     }
-    let file = File::create(path).map_err(|source| LerobotError::Io {
-        path: path.to_path_buf(),
-        source,
+    let file = File::create(path).map_err(|source| {
+        LerobotError::Io(FileError {
+            path: path.to_path_buf(),
+            source,
+        })
     })?;
     let props = writer_properties(1, None, &batch.schema())
         .into_builder()

@@ -38,6 +38,7 @@ pub mod stats;
 pub mod video;
 pub mod video_read;
 
+use crate::file_error::FileError;
 use std::fs::File;
 use std::path::{Path, PathBuf};
 
@@ -79,13 +80,8 @@ use video::{video_file_path, VideoFile};
 #[derive(Debug, thiserror::Error)]
 pub enum LerobotError {
     /// A file system error.
-    #[error("{}", path.display())]
-    Io {
-        /// The file or folder.
-        path: PathBuf,
-        /// The cause.
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    Io(#[from] FileError),
     /// A run table that cannot be read, or a bad record in it.
     #[error("{}: {record}", path.display())]
     Read {
@@ -149,10 +145,7 @@ pub enum LerobotError {
 impl From<ParquetFileError> for LerobotError {
     fn from(e: ParquetFileError) -> Self {
         match e {
-            ParquetFileError::Io { path, source } => LerobotError::Io {
-                path: path.into(),
-                source,
-            },
+            ParquetFileError::Io(f) => LerobotError::Io(f),
             ParquetFileError::Format { path, cause } => LerobotError::Read {
                 path: path.into(),
                 record: "file".into(),
@@ -272,9 +265,11 @@ pub fn fps_of_step(dt: f32) -> u32 {
 }
 
 fn io(path: &Path) -> impl FnOnce(std::io::Error) -> LerobotError + '_ {
-    move |source| LerobotError::Io {
-        path: path.to_path_buf(),
-        source,
+    move |source| {
+        LerobotError::Io(FileError {
+            path: path.to_path_buf(),
+            source,
+        })
     }
 }
 

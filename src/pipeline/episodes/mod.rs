@@ -2,6 +2,7 @@
 //! keep scene order, and gather rejection statistics. Sharding takes every n-th scene of the
 //! sorted list, so the union of all shards equals one unsharded run.
 
+use crate::file_error::FileError;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -395,19 +396,25 @@ impl EpisodeBatch {
     pub fn write(&self, out: &Path) -> Result<PathBuf, BatchWriteError> {
         let stats_path = PathBuf::from(format!("{}.stats.json", out.display()));
         for path in [out, stats_path.as_path()] {
-            sweep_stale_of(path).map_err(|source| BatchWriteError::Io {
-                path: path.to_path_buf(),
-                source,
+            sweep_stale_of(path).map_err(|source| {
+                BatchWriteError::Io(FileError {
+                    path: path.to_path_buf(),
+                    source,
+                })
             })?;
         }
         write_episodes(out, &self.episodes)?;
-        let stats = serde_json::to_vec_pretty(self).map_err(|e| BatchWriteError::Io {
-            path: stats_path.clone(),
-            source: std::io::Error::other(e),
+        let stats = serde_json::to_vec_pretty(self).map_err(|e| {
+            BatchWriteError::Io(FileError {
+                path: stats_path.clone(),
+                source: std::io::Error::other(e),
+            })
         })?;
-        write_bytes_atomic(&stats_path, &stats).map_err(|source| BatchWriteError::Io {
-            path: stats_path.clone(),
-            source,
+        write_bytes_atomic(&stats_path, &stats).map_err(|source| {
+            BatchWriteError::Io(FileError {
+                path: stats_path.clone(),
+                source,
+            })
         })?;
         Ok(stats_path)
     }
@@ -420,11 +427,6 @@ pub enum BatchWriteError {
     #[error(transparent)]
     Episodes(#[from] EpisodeFileError),
     /// The statistics file, or sweeping stale temporaries.
-    #[error("{}", path.display())]
-    Io {
-        /// The file.
-        path: PathBuf,
-        /// What went wrong.
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    Io(#[from] FileError),
 }

@@ -18,6 +18,7 @@ mod parts;
 mod preflight;
 mod scene;
 
+use crate::file_error::FileError;
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
@@ -161,13 +162,8 @@ pub enum RolloutError {
     #[error("the run folder's lock")]
     Lock(#[from] LockError),
     /// A file or folder of the output could not be written.
-    #[error("{}", path.display())]
-    Io {
-        /// The file or folder.
-        path: PathBuf,
-        /// The cause.
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    Io(#[from] FileError),
     /// A merged table could not be written (the message names the file).
     #[error(transparent)]
     Table(crate::io::tables::TableError),
@@ -259,9 +255,11 @@ pub fn body_mismatch_of(e: &(dyn std::error::Error + 'static)) -> Option<BodyMis
 }
 
 fn io_error(path: &Path) -> impl FnOnce(std::io::Error) -> RolloutError + '_ {
-    move |source| RolloutError::Io {
-        path: path.to_path_buf(),
-        source,
+    move |source| {
+        RolloutError::Io(FileError {
+            path: path.to_path_buf(),
+            source,
+        })
     }
 }
 

@@ -2,6 +2,7 @@
 //! `<index>.rrd` when recorded, and `<index>.json`, its metrics, written last, so an episode
 //! whose metrics exist is finished and a resumed run keeps it.
 
+use crate::file_error::FileError;
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
@@ -13,13 +14,8 @@ use crate::run::metrics::EpisodeMetrics;
 #[derive(Debug, thiserror::Error)]
 pub enum PartError {
     /// Reading or writing the file failed.
-    #[error("{}", path.display())]
-    Io {
-        /// The part file.
-        path: PathBuf,
-        /// The cause.
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    Io(#[from] FileError),
     /// The part is not the JSON record minos writes (or could not be encoded as one).
     #[error("{}", path.display())]
     Json {
@@ -105,15 +101,17 @@ pub fn write_done(
         path: path.clone(),
         source,
     })?;
-    write_bytes_atomic(&path, &json).map_err(|source| PartError::Io { path, source })
+    write_bytes_atomic(&path, &json).map_err(|source| PartError::Io(FileError { path, source }))
 }
 
 /// Reads the metrics part of an episode finished by an earlier run.
 pub fn read_done(dir: &Path, index: usize) -> Result<EpisodeMetrics, PartError> {
     let path = part(dir, index, "json");
-    let bytes = std::fs::read(&path).map_err(|source| PartError::Io {
-        path: path.clone(),
-        source,
+    let bytes = std::fs::read(&path).map_err(|source| {
+        PartError::Io(FileError {
+            path: path.clone(),
+            source,
+        })
     })?;
     let done: PartDone =
         serde_json::from_slice(&bytes).map_err(|source| PartError::Json { path, source })?;

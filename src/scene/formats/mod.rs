@@ -25,6 +25,7 @@ internal! {
 
 pub use mp3d::house_file::HouseError;
 
+use crate::file_error::FileError;
 use std::path::{Path, PathBuf};
 
 use super::mesh::Mesh;
@@ -71,13 +72,8 @@ pub trait DatasetLoader: Sync {
 #[derive(Debug, thiserror::Error)]
 pub enum LoadError {
     /// The file could not be read.
-    #[error("{}", path.display())]
-    Io {
-        /// The file.
-        path: PathBuf,
-        /// The cause.
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    Io(#[from] FileError),
     /// The file is not valid for its format.
     #[error("{}: {message}", path.display())]
     Parse {

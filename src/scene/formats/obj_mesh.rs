@@ -1,6 +1,7 @@
 //! Wavefront OBJ (+ MTL) meshes through `tobj`, merged into one indexed [`Mesh`] with a
 //! material slot per triangle.
 
+use crate::file_error::FileError;
 use std::cell::RefCell;
 use std::path::{Path, PathBuf};
 
@@ -12,10 +13,10 @@ use super::{guarded, LoadError};
 /// material per name used (real datasets often lack MTL files). A malformed MTL line is an
 /// error naming the MTL file and the line.
 pub fn load_obj(path: &Path) -> Result<Mesh, LoadError> {
-    let bytes = std::fs::read(path).map_err(|source| LoadError::Io {
+    let bytes = std::fs::read(path).map_err(|source| LoadError::Io(FileError {
         path: path.to_path_buf(),
         source,
-    })?;
+    }))?;
     load_obj_bytes(path, &bytes, &|mtl| std::fs::read(mtl))
 }
 
@@ -215,7 +216,7 @@ mod tests {
     #[test]
     fn missing_file_is_an_io_error_naming_it() {
         let err = load_obj(Path::new("/nonexistent/x.obj")).unwrap_err();
-        assert!(matches!(err, LoadError::Io { .. }));
+        assert!(matches!(err, LoadError::Io(FileError { .. })));
         assert!(err.to_string().contains("/nonexistent/x.obj"));
     }
 }

@@ -2,6 +2,7 @@
 //! demonstrations of each, the tutorial, the instructions, the agent and the quality
 //! thresholds. Paths in it are relative to the file. See `docs/FORMATS.md`.
 
+use crate::file_error::FileError;
 use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
@@ -73,9 +74,11 @@ pub struct Selection {
 impl CampaignSpec {
     /// Reads the campaign file `path`.
     pub fn read(path: &Path) -> Result<CampaignSpec, CampaignError> {
-        let text = std::fs::read_to_string(path).map_err(|source| CampaignError::Io {
-            path: path.to_path_buf(),
-            source,
+        let text = std::fs::read_to_string(path).map_err(|source| {
+            CampaignError::Io(FileError {
+                path: path.to_path_buf(),
+                source,
+            })
         })?;
         Self::parse(&text, path)
     }

@@ -3,6 +3,7 @@
 //! (rewritten atomically with each message) and shown to the operator. A lab reads it for
 //! what the numbers do not say (the controls were confusing, the page was slow).
 
+use crate::file_error::FileError;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -79,25 +80,29 @@ fn file(state: &Path, participant: &str) -> PathBuf {
 pub fn save(state: &Path, participant: &str, all: &[Feedback]) -> Result<(), CampaignError> {
     let path = file(state, participant);
     let dir = state.join(FEEDBACK);
-    std::fs::create_dir_all(&dir).map_err(|source| CampaignError::Io {
-        path: dir.clone(),
-        source,
+    std::fs::create_dir_all(&dir).map_err(|source| {
+        CampaignError::Io(FileError {
+            path: dir.clone(),
+            source,
+        })
     })?;
     let text = serde_json::to_string_pretty(all).map_err(|e| CampaignError::File {
         path: path.clone(),
         message: e.to_string(),
     })?;
     crate::atomic::write_bytes_atomic(&path, text.as_bytes())
-        .map_err(|source| CampaignError::Io { path, source })
+        .map_err(|source| CampaignError::Io(FileError { path, source }))
 }
 
 /// Every participant's messages in `state` (none when the folder does not exist); sweeps
 /// what a killed writer left.
 pub fn load_all(state: &Path) -> Result<BTreeMap<String, Vec<Feedback>>, CampaignError> {
     let dir = state.join(FEEDBACK);
-    let io = |source: std::io::Error| CampaignError::Io {
-        path: dir.clone(),
-        source,
+    let io = |source: std::io::Error| {
+        CampaignError::Io(FileError {
+            path: dir.clone(),
+            source,
+        })
     };
     let mut out = BTreeMap::new();
     if !dir.is_dir() {
@@ -114,9 +119,11 @@ pub fn load_all(state: &Path) -> Result<BTreeMap<String, Vec<Feedback>>, Campaig
         else {
             continue;
         };
-        let bytes = std::fs::read(&path).map_err(|source| CampaignError::Io {
-            path: path.clone(),
-            source,
+        let bytes = std::fs::read(&path).map_err(|source| {
+            CampaignError::Io(FileError {
+                path: path.clone(),
+                source,
+            })
         })?;
         let list: Vec<Feedback> =
             serde_json::from_slice(&bytes).map_err(|e| CampaignError::File {

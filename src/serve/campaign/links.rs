@@ -3,6 +3,7 @@
 //! token (`MINOS_OPERATOR_TOKEN`, else `STATE/operator.token`, made on first use). Tokens
 //! never travel on a command line.
 
+use crate::file_error::FileError;
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
@@ -36,9 +37,11 @@ pub struct Participants {
 }
 
 fn io(path: &Path) -> impl FnOnce(std::io::Error) -> CampaignError + '_ {
-    move |source| CampaignError::Io {
-        path: path.to_path_buf(),
-        source,
+    move |source| {
+        CampaignError::Io(FileError {
+            path: path.to_path_buf(),
+            source,
+        })
     }
 }
 

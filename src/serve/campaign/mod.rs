@@ -19,6 +19,7 @@ pub(super) mod http;
 pub mod links;
 pub mod record;
 
+use crate::file_error::FileError;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::{Mutex, MutexGuard, PoisonError};
@@ -40,13 +41,8 @@ pub const DEMOS: &str = "demos";
 #[derive(Debug, thiserror::Error)]
 pub enum CampaignError {
     /// A file could not be read or written.
-    #[error("{}", path.display())]
-    Io {
-        /// The file.
-        path: PathBuf,
-        /// The cause.
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    Io(#[from] FileError),
     /// A file says something wrong.
     #[error("{}: {message}", path.display())]
     File {
@@ -133,9 +129,11 @@ pub struct Campaign {
 }
 
 fn io(path: &Path) -> impl FnOnce(std::io::Error) -> CampaignError + '_ {
-    move |source| CampaignError::Io {
-        path: path.to_path_buf(),
-        source,
+    move |source| {
+        CampaignError::Io(FileError {
+            path: path.to_path_buf(),
+            source,
+        })
     }
 }
 

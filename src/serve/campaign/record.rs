@@ -3,6 +3,7 @@
 //! rewritten atomically after each episode and each review. `minos export-dataset
 //! --accepted` reads it.
 
+use crate::file_error::FileError;
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
@@ -96,7 +97,7 @@ impl SessionQc {
                 message: e.to_string(),
             }),
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(SessionQc::default()),
-            Err(source) => Err(CampaignError::Io { path, source }),
+            Err(source) => Err(CampaignError::Io(FileError { path, source })),
         }
     }
 
@@ -108,7 +109,7 @@ impl SessionQc {
             message: e.to_string(),
         })?;
         crate::atomic::write_bytes_atomic(&path, text.as_bytes())
-            .map_err(|source| CampaignError::Io { path, source })
+            .map_err(|source| CampaignError::Io(FileError { path, source }))
     }
 
     /// Ids of the accepted, non-tutorial episodes.

@@ -1,6 +1,7 @@
 //! Discovering scenes under a root: mapping stage configs to their assets, finding scene
 //! instances and bare stages, and the bounded walk over the folder tree.
 
+use crate::file_error::FileError;
 use super::*;
 
 /// Every file under `root` down to `max_depth` folder levels, sorted, paths normalised.
@@ -10,7 +11,7 @@ pub(super) fn walk(root: &Path, max_depth: usize) -> Result<Vec<PathBuf>, LoadEr
     while let Some((dir, depth)) = stack.pop() {
         let entries = match std::fs::read_dir(&dir) {
             Ok(e) => e,
-            Err(source) if depth == 0 => return Err(LoadError::Io { path: dir, source }),
+            Err(source) if depth == 0 => return Err(LoadError::Io(FileError { path: dir, source })),
             Err(_) => continue,
         };
         for e in entries.flatten() {

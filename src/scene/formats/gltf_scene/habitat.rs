@@ -17,6 +17,7 @@
 //! Where this module's job ends: it reads JSON it is handed and resolves paths relative to the
 //! file that holds them; finding files and loading geometry belong to the loader.
 
+use crate::file_error::FileError;
 use std::path::{Path, PathBuf};
 
 use glam::{Mat4, Quat, Vec3};
@@ -190,10 +191,10 @@ pub fn json_error(path: &Path, e: &serde_json::Error) -> LoadError {
 
 /// Reads a JSON file.
 pub fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, LoadError> {
-    let bytes = std::fs::read(path).map_err(|source| LoadError::Io {
+    let bytes = std::fs::read(path).map_err(|source| LoadError::Io(FileError {
         path: path.to_path_buf(),
         source,
-    })?;
+    }))?;
     let bytes = bytes.strip_prefix(b"\xef\xbb\xbf").unwrap_or(&bytes);
     serde_json::from_slice(bytes).map_err(|e| json_error(path, &e))
 }

@@ -5,6 +5,7 @@
 //! Text files may have a byte-order mark, CRLF line ends and trailing whitespace. Where this
 //! module's job ends: it parses and names; tying semantic ids to geometry is the loader's.
 
+use crate::file_error::FileError;
 use std::collections::{BTreeSet, HashMap, HashSet};
 use std::path::Path;
 
@@ -78,10 +79,10 @@ impl SemanticTable {
 
     /// Reads and parses a `.semantic.txt`.
     pub fn read(path: &Path) -> Result<Self, LoadError> {
-        let text = std::fs::read_to_string(path).map_err(|source| LoadError::Io {
+        let text = std::fs::read_to_string(path).map_err(|source| LoadError::Io(FileError {
             path: path.to_path_buf(),
             source,
-        })?;
+        }))?;
         Self::parse(&text, path)
     }
 
@@ -254,10 +255,10 @@ impl CategoryMap {
 
     /// Reads and parses a category-mapping TSV.
     pub fn read(path: &Path) -> Result<Self, LoadError> {
-        let text = std::fs::read_to_string(path).map_err(|source| LoadError::Io {
+        let text = std::fs::read_to_string(path).map_err(|source| LoadError::Io(FileError {
             path: path.to_path_buf(),
             source,
-        })?;
+        }))?;
         Self::parse(&text, path)
     }
 

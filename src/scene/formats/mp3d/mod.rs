@@ -35,6 +35,7 @@ pub mod ply;
 pub mod proxy;
 pub mod tables;
 
+use crate::file_error::FileError;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
@@ -199,10 +200,10 @@ impl Mp3dLoader {
         } else {
             self.root.clone()
         };
-        let entries = std::fs::read_dir(&dir).map_err(|source| LoadError::Io {
+        let entries = std::fs::read_dir(&dir).map_err(|source| LoadError::Io(FileError {
             path: dir.clone(),
             source,
-        })?;
+        }))?;
         let mut found: HashMap<String, PathBuf> = HashMap::new();
         let mut bare = Vec::new();
         for e in entries.flatten() {
@@ -262,10 +263,10 @@ impl Mp3dLoader {
     /// Loads one scan. Every failure names the file and the line or record.
     pub fn load(&self, entry: &SceneEntry) -> Result<LoadedScene, LoadError> {
         let path = &entry.path;
-        let bytes = std::fs::read(path).map_err(|source| LoadError::Io {
+        let bytes = std::fs::read(path).map_err(|source| LoadError::Io(FileError {
             path: path.clone(),
             source,
-        })?;
+        }))?;
         let house = house_file::parse(&bytes).map_err(|source| LoadError::House {
             path: path.to_path_buf(),
             source,
@@ -278,10 +279,10 @@ impl Mp3dLoader {
     pub fn build(&self, entry: &SceneEntry, house: &HouseFile) -> Result<LoadedScene, LoadError> {
         match self.mesh_files(entry) {
             MeshFiles::Ply(p) => {
-                let bytes = std::fs::read(&p).map_err(|source| LoadError::Io {
+                let bytes = std::fs::read(&p).map_err(|source| LoadError::Io(FileError {
                     path: p.clone(),
                     source,
-                })?;
+                }))?;
                 self.build_with_ply(entry, house, &p, &bytes)
             }
             MeshFiles::Obj(files) => {

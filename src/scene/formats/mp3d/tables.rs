@@ -6,6 +6,7 @@
 //! `C` records of each `.house` file (which carry the raw and mpcat40 names). This file only
 //! reads tables; [`super`] decides what to do with them.
 
+use crate::file_error::FileError;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
@@ -96,10 +97,10 @@ impl CategoryTables {
     pub fn read(mapping: Option<&Path>, mpcat40: Option<&Path>) -> Result<Self, LoadError> {
         let mut t = CategoryTables::default();
         let read = |p: &Path| {
-            std::fs::read_to_string(p).map_err(|source| LoadError::Io {
+            std::fs::read_to_string(p).map_err(|source| LoadError::Io(FileError {
                 path: p.to_path_buf(),
                 source,
-            })
+            }))
         };
         if let Some(p) = mapping {
             t.rows = parse_category_mapping(&read(p)?).map_err(|m| LoadError::parse(p, m))?;

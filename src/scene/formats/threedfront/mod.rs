@@ -37,6 +37,7 @@ mod geometry;
 mod json;
 mod tables;
 
+use crate::file_error::FileError;
 use std::path::{Path, PathBuf};
 
 use crate::scene::model::Dataset;
@@ -70,13 +71,13 @@ impl ThreeDFrontLoader {
         mapping: Option<&Path>,
     ) -> Result<Self, LoadError> {
         if let Some(m) = models.filter(|m| !m.is_dir()) {
-            return Err(LoadError::Io {
+            return Err(LoadError::Io(FileError {
                 path: m.to_path_buf(),
                 source: std::io::Error::new(
                     std::io::ErrorKind::NotFound,
                     "3D-FUTURE model folder not found",
                 ),
-            });
+            }));
         }
         let mapping_path = match mapping {
             Some(p) => Some(p.to_path_buf()),
@@ -111,10 +112,10 @@ impl ThreeDFrontLoader {
     /// Every `*.json` file directly in the root (except `model_info.json`), id = file stem,
     /// sorted by id.
     pub fn discover(&self) -> Result<Vec<SceneEntry>, LoadError> {
-        let entries = std::fs::read_dir(&self.root).map_err(|source| LoadError::Io {
+        let entries = std::fs::read_dir(&self.root).map_err(|source| LoadError::Io(FileError {
             path: self.root.clone(),
             source,
-        })?;
+        }))?;
         let mut scenes = Vec::new();
         for e in entries.flatten() {
             let path = e.path();
@@ -138,10 +139,10 @@ impl ThreeDFrontLoader {
 
     /// Loads one scene file. Every failure names the file and the record.
     pub fn load(&self, entry: &SceneEntry) -> Result<LoadedScene, LoadError> {
-        let bytes = std::fs::read(&entry.path).map_err(|source| LoadError::Io {
+        let bytes = std::fs::read(&entry.path).map_err(|source| LoadError::Io(FileError {
             path: entry.path.clone(),
             source,
-        })?;
+        }))?;
         let mut loaded = self.load_bytes(&entry.id, &entry.path, &bytes)?;
         if let Some(m) = &self.mapping_path {
             loaded.sources.push(m.clone());
@@ -249,10 +250,10 @@ fn find_mapping(root: &Path, models: Option<&Path>) -> Option<PathBuf> {
 
 /// Reads a category table: JSON (`model_info.json`) by extension, CSV otherwise.
 fn read_categories(path: &Path) -> Result<FutureCategories, LoadError> {
-    let text = std::fs::read_to_string(path).map_err(|source| LoadError::Io {
+    let text = std::fs::read_to_string(path).map_err(|source| LoadError::Io(FileError {
         path: path.to_path_buf(),
         source,
-    })?;
+    }))?;
     let is_json = path
         .extension()
         .is_some_and(|x| x.eq_ignore_ascii_case("json"));
