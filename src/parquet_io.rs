@@ -152,10 +152,7 @@ pub fn write_batches(
         Ok(())
     })
     .map_err(|e| match e {
-        WriteErr::Io(source) => ParquetFileError::Io(FileError {
-            path: path.to_path_buf(),
-            source,
-        }),
+        WriteErr::Io(source) => ParquetFileError::Io(FileError::new(path, source)),
         WriteErr::Parquet(e) => ParquetFileError::format(path, e),
         WriteErr::Arrow(e) => ParquetFileError::format(path, e),
     })
@@ -186,12 +183,8 @@ pub fn read_batches_with(
         parquet::errors::ParquetError,
     >,
 ) -> Result<Batches, ParquetFileError> {
-    let file = File::open(path).map_err(|source| {
-        ParquetFileError::Io(FileError {
-            path: path.to_path_buf(),
-            source,
-        })
-    })?;
+    let file =
+        File::open(path).map_err(|source| ParquetFileError::Io(FileError::new(path, source)))?;
     let inner = crate::escape::catch_quietly(|| {
         ParquetRecordBatchReaderBuilder::try_new(file)
             .and_then(configure)

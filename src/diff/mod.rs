@@ -72,14 +72,8 @@ const SIDECARS: [&str; 2] = [".stats.json", ".provenance.json"];
 /// Compares `a` with `b`: two folders file by file (hidden names skipped), or two files
 /// (with their sidecars, for episode files).
 pub fn diff(a: &Path, b: &Path) -> Result<DiffReport, DiffError> {
-    let meta = |p: &Path| {
-        std::fs::metadata(p).map_err(|source| {
-            DiffError::Io(FileError {
-                path: p.to_path_buf(),
-                source,
-            })
-        })
-    };
+    let meta =
+        |p: &Path| std::fs::metadata(p).map_err(|source| DiffError::Io(FileError::new(p, source)));
     let (ma, mb) = (meta(a)?, meta(b)?);
     let mut report = DiffReport::default();
     match (ma.is_dir(), mb.is_dir()) {
@@ -134,14 +128,8 @@ pub fn diff(a: &Path, b: &Path) -> Result<DiffReport, DiffError> {
 
 /// The first difference of two files, `None` when their bytes are equal.
 pub fn first_difference(a: &Path, b: &Path) -> Result<Option<String>, DiffError> {
-    let read = |p: &Path| {
-        std::fs::read(p).map_err(|source| {
-            DiffError::Io(FileError {
-                path: p.to_path_buf(),
-                source,
-            })
-        })
-    };
+    let read =
+        |p: &Path| std::fs::read(p).map_err(|source| DiffError::Io(FileError::new(p, source)));
     let (ba, bb) = (read(a)?, read(b)?);
     if ba == bb {
         return Ok(None);

@@ -250,12 +250,7 @@ impl Columns {
 /// `task` when given — RoomGoal as MINOS's RoomGoal configurations read the PointGoal tables.
 pub fn import_minos_csv(path: &Path, task: Option<Task>) -> Result<Vec<Episode>, MinosCsvError> {
     let p = path.display().to_string();
-    let io = |source| {
-        MinosCsvError::Io(FileError {
-            path: p.clone().into(),
-            source,
-        })
-    };
+    let io = |source| MinosCsvError::Io(FileError::new(p.clone(), source));
     let (mut reader, _) = open_text(path).map_err(io)?;
     let mut buf = Vec::with_capacity(256);
     let mut line_no: u64 = 0;

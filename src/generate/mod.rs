@@ -358,12 +358,7 @@ pub fn generate(
     cfg.validate_for(format)?;
     let io_err = |path: &Path| {
         let path = path.display().to_string();
-        move |source| {
-            GenerateError::Io(FileError {
-                path: path.into(),
-                source,
-            })
-        }
+        move |source| GenerateError::Io(FileError::new(path, source))
     };
     if format == OutputFormat::Suncg {
         suncg_writer::write_library(out).map_err(io_err(out))?;

@@ -110,12 +110,8 @@ pub fn read_pairs(path: &Path) -> Result<Vec<(Vec3, Vec3)>, PairsError> {
     if is_parquet(path) {
         read_parquet_pairs(path)
     } else {
-        let text = std::fs::read_to_string(path).map_err(|source| {
-            PairsError::Io(FileError {
-                path: path.to_path_buf(),
-                source,
-            })
-        })?;
+        let text = std::fs::read_to_string(path)
+            .map_err(|source| PairsError::Io(FileError::new(path, source)))?;
         parse_csv_pairs(path, &text)
     }
 }
@@ -381,12 +377,8 @@ pub fn write_answers(path: &Path, answers: &[PairAnswer]) -> Result<(), PairsErr
         write_batches(path, schema.clone(), props, batches)?;
         Ok(())
     } else {
-        write_atomic(path, |w| write_csv(w, answers)).map_err(|source| {
-            PairsError::Io(FileError {
-                path: path.to_path_buf(),
-                source,
-            })
-        })
+        write_atomic(path, |w| write_csv(w, answers))
+            .map_err(|source| PairsError::Io(FileError::new(path, source)))
     }
 }
 

@@ -352,12 +352,7 @@ pub fn write_nav(path: &Path, grid: &NavGrid) -> Result<(), NavFileError> {
         path: path.to_path_buf(),
         message: e.to_string(),
     })?;
-    write_bytes_atomic(path, &bytes).map_err(|cause| {
-        NavFileError::Io(FileError {
-            path: path.to_path_buf(),
-            source: cause,
-        })
-    })
+    write_bytes_atomic(path, &bytes).map_err(|cause| NavFileError::Io(FileError::new(path, cause)))
 }
 
 /// Why a read failed, before the path is attached.
@@ -463,10 +458,7 @@ impl ReadError {
     /// The error, naming `path`.
     fn at(self, path: &Path) -> NavFileError {
         match self {
-            ReadError::Io(cause) => NavFileError::Io(FileError {
-                path: path.to_path_buf(),
-                source: cause,
-            }),
+            ReadError::Io(cause) => NavFileError::Io(FileError::new(path, cause)),
             ReadError::Format(message) => NavFileError::Format {
                 path: path.to_path_buf(),
                 message,

@@ -65,12 +65,8 @@ impl Texture {
 
     /// Decodes a PNG or JPEG file and downscales it to at most [`MAX_TEXTURE_SIZE`] per side.
     pub fn load(path: &Path) -> Result<Texture, TextureError> {
-        let bytes = std::fs::read(path).map_err(|source| {
-            TextureError::Io(FileError {
-                path: path.to_path_buf(),
-                source,
-            })
-        })?;
+        let bytes =
+            std::fs::read(path).map_err(|source| TextureError::Io(FileError::new(path, source)))?;
         Texture::decode(&bytes).map_err(|source| TextureError::Decode {
             path: path.to_path_buf(),
             source,

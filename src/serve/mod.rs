@@ -269,12 +269,8 @@ fn playable_episodes(episodes: Vec<Episode>, scenes: &[String]) -> Vec<Episode> 
 }
 
 fn canonical(path: &Path) -> Result<PathBuf, ServeError> {
-    path.canonicalize().map_err(|source| {
-        ServeError::Io(FileError {
-            path: path.to_path_buf(),
-            source,
-        })
-    })
+    path.canonicalize()
+        .map_err(|source| ServeError::Io(FileError::new(path, source)))
 }
 
 /// Binds `bind` and serves `cfg` on a thread of its own until stopped. Refuses settings
@@ -322,12 +318,8 @@ fn launch(
         allowed_hosts,
         rate,
     } = cfg;
-    std::fs::create_dir_all(&shared.out).map_err(|source| {
-        ServeError::Io(FileError {
-            path: shared.out.clone(),
-            source,
-        })
-    })?;
+    std::fs::create_dir_all(&shared.out)
+        .map_err(|source| ServeError::Io(FileError::new(shared.out.clone(), source)))?;
     shared.out = canonical(&shared.out)?;
     let data_root = canonical(shared.data.root())?;
     if campaign.is_none() {

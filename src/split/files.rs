@@ -28,12 +28,8 @@ pub fn read_lists(dir: &Path) -> Result<SplitLists, SplitError> {
     let mut lists = SplitLists::default();
     for s in Subset::ALL {
         let path = list_path(dir, s);
-        let text = fs::read_to_string(&path).map_err(|source| {
-            SplitError::Io(FileError {
-                path: path.to_path_buf(),
-                source,
-            })
-        })?;
+        let text = fs::read_to_string(&path)
+            .map_err(|source| SplitError::Io(FileError::new(path, source)))?;
         *lists.get_mut(s) = parse_list(&text);
     }
     Ok(lists)
@@ -52,12 +48,7 @@ pub fn split_dir(data: &DataDir, name: &str) -> Result<PathBuf, SplitError> {
 pub fn write_split(data: &DataDir, name: &str, lists: &SplitLists) -> Result<PathBuf, SplitError> {
     let dir = split_dir(data, name)?;
     // What a killed `split` left in the folder.
-    sweep_stale(&dir).map_err(|source| {
-        SplitError::Io(FileError {
-            path: dir.to_path_buf(),
-            source,
-        })
-    })?;
+    sweep_stale(&dir).map_err(|source| SplitError::Io(FileError::new(&dir, source)))?;
     let mut lists = lists.clone();
     lists.sort();
     for s in Subset::ALL {
@@ -67,12 +58,8 @@ pub fn write_split(data: &DataDir, name: &str, lists: &SplitLists) -> Result<Pat
             text.push('\n');
         }
         let path = list_path(&dir, s);
-        write_bytes_atomic(&path, text.as_bytes()).map_err(|source| {
-            SplitError::Io(FileError {
-                path: path.to_path_buf(),
-                source,
-            })
-        })?;
+        write_bytes_atomic(&path, text.as_bytes())
+            .map_err(|source| SplitError::Io(FileError::new(path, source)))?;
     }
     crate::store::provenance::write_data_record(data).map_err(SplitError::Provenance)?;
     Ok(dir)

@@ -93,12 +93,8 @@ pub fn write_scene(path: &Path, header: &SceneHeader, scene: &Scene) -> Result<(
         path: path.to_path_buf(),
         message: e.to_string(),
     })?;
-    write_atomic(path, |w| w.write_all(&bytes)).map_err(|source| {
-        SceneFileError::Io(FileError {
-            path: path.to_path_buf(),
-            source,
-        })
-    })
+    write_atomic(path, |w| w.write_all(&bytes))
+        .map_err(|source| SceneFileError::Io(FileError::new(path, source)))
 }
 
 /// Checks the magic and the format version at the start of `bytes`.
@@ -161,23 +157,14 @@ pub fn decode(path: &Path, bytes: &[u8]) -> Result<(SceneHeader, Scene), SceneFi
 
 /// Reads a whole compiled scene.
 pub fn read_scene(path: &Path) -> Result<(SceneHeader, Scene), SceneFileError> {
-    let bytes = std::fs::read(path).map_err(|source| {
-        SceneFileError::Io(FileError {
-            path: path.to_path_buf(),
-            source,
-        })
-    })?;
+    let bytes =
+        std::fs::read(path).map_err(|source| SceneFileError::Io(FileError::new(path, source)))?;
     decode(path, &bytes)
 }
 
 /// Reads only the header of a compiled scene.
 pub fn read_header(path: &Path) -> Result<SceneHeader, SceneFileError> {
-    let io_err = |source| {
-        SceneFileError::Io(FileError {
-            path: path.to_path_buf(),
-            source,
-        })
-    };
+    let io_err = |source| SceneFileError::Io(FileError::new(path, source));
     let mut f = File::open(path).map_err(io_err)?;
     let mut prefix = [0u8; PREFIX];
     let n = read_up_to(&mut f, &mut prefix).map_err(io_err)?;

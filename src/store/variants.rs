@@ -77,12 +77,7 @@ pub enum StoreError {
 }
 
 fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> StoreError + '_ {
-    move |source| {
-        StoreError::Io(FileError {
-            path: path.to_path_buf(),
-            source,
-        })
-    }
+    move |source| StoreError::Io(FileError::new(path, source))
 }
 
 impl DataDir {
@@ -112,10 +107,7 @@ impl DataDir {
                 name: name.to_string(),
                 path: path.clone(),
             },
-            _ => StoreError::Io(FileError {
-                path: path.clone(),
-                source: e,
-            }),
+            _ => StoreError::Io(FileError::new(path.clone(), e)),
         })?;
         VariantSpec::from_toml(&text).map_err(|source| StoreError::Format { path, source })
     }

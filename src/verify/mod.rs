@@ -162,12 +162,8 @@ pub enum VerifyError {
 
 /// The kind of output at `path`.
 pub fn detect(path: &Path) -> Result<OutputKind, VerifyError> {
-    let meta = std::fs::metadata(path).map_err(|source| {
-        VerifyError::Io(FileError {
-            path: path.to_path_buf(),
-            source,
-        })
-    })?;
+    let meta =
+        std::fs::metadata(path).map_err(|source| VerifyError::Io(FileError::new(path, source)))?;
     if meta.is_file() {
         return if path.extension().is_some_and(|e| e == "parquet") {
             Ok(OutputKind::Episodes)

@@ -163,12 +163,7 @@ fn valid_component(name: &str) -> bool {
 }
 
 fn gzip_json<T: Serialize>(path: &Path, value: &T) -> Result<(), HabitatError> {
-    let io = |source| {
-        HabitatError::Io(FileError {
-            path: path.to_path_buf(),
-            source,
-        })
-    };
+    let io = |source| HabitatError::Io(FileError::new(path, source));
     let json = serde_json::to_vec(value).map_err(|e| io(std::io::Error::other(e)))?;
     write_atomic(path, |w| -> std::io::Result<()> {
         let mut gz = flate2::GzBuilder::new()

@@ -221,12 +221,8 @@ fn read_targets(path: &str, list: &str, goals: &[Value]) -> Result<Vec<GoalTarge
 /// module documentation for the shapes understood and the defaults.
 pub fn import_habitat(path: &Path) -> Result<Vec<Episode>, HabitatError> {
     let p = path.display().to_string();
-    let bytes = read_text_bytes(path).map_err(|source| {
-        HabitatError::Io(FileError {
-            path: p.clone().into(),
-            source,
-        })
-    })?;
+    let bytes = read_text_bytes(path)
+        .map_err(|source| HabitatError::Io(FileError::new(p.clone(), source)))?;
     let root: Value = serde_json::from_slice(&bytes).map_err(|e| HabitatError::Shape {
         path: p.clone(),
         message: format!("not JSON: {e}"),

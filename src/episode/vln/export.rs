@@ -193,12 +193,7 @@ fn write_file(path: &Path, bytes: &[u8], gzip: bool) -> Result<(), VlnExportErro
         }
         Ok(())
     })
-    .map_err(|source| {
-        VlnExportError::Io(FileError {
-            path: path.to_path_buf(),
-            source,
-        })
-    })
+    .map_err(|source| VlnExportError::Io(FileError::new(path, source)))
 }
 
 /// Checks that a split name can be a file name component.

@@ -131,12 +131,7 @@ pub enum ExportError {
 
 impl ExportError {
     fn io(path: &Path) -> impl FnOnce(io::Error) -> ExportError + '_ {
-        move |source| {
-            ExportError::Io(FileError {
-                path: path.to_path_buf(),
-                source,
-            })
-        }
+        move |source| ExportError::Io(FileError::new(path, source))
     }
 
     fn invalid(path: &Path, message: impl Into<String>) -> ExportError {

@@ -111,19 +111,11 @@ pub const EPISODES_PER_META_FILE: usize = 1000;
 /// key-value metadata (where pandas and pyarrow write theirs).
 fn write_parquet(path: &Path, batch: &RecordBatch) -> Result<(), LerobotError> {
     if let Some(dir) = path.parent() {
-        std::fs::create_dir_all(dir).map_err(|source| {
-            LerobotError::Io(FileError {
-                path: dir.to_path_buf(),
-                source,
-            })
-        })?;
+        std::fs::create_dir_all(dir)
+            .map_err(|source| LerobotError::Io(FileError::new(dir, source)))?;
     }
-    let file = File::create(path).map_err(|source| {
-        LerobotError::Io(FileError {
-            path: path.to_path_buf(),
-            source,
-        })
-    })?;
+    let file =
+        File::create(path).map_err(|source| LerobotError::Io(FileError::new(path, source)))?;
     let props = writer_properties(1, None, &batch.schema())
         .into_builder()
         .set_key_value_metadata(Some(

@@ -265,12 +265,7 @@ pub fn fps_of_step(dt: f32) -> u32 {
 }
 
 fn io(path: &Path) -> impl FnOnce(std::io::Error) -> LerobotError + '_ {
-    move |source| {
-        LerobotError::Io(FileError {
-            path: path.to_path_buf(),
-            source,
-        })
-    }
+    move |source| LerobotError::Io(FileError::new(path, source))
 }
 
 /// Data-file writer properties: zstd, no dictionaries (images and arrays are unique

@@ -396,12 +396,8 @@ impl EpisodeBatch {
     pub fn write(&self, out: &Path) -> Result<PathBuf, BatchWriteError> {
         let stats_path = PathBuf::from(format!("{}.stats.json", out.display()));
         for path in [out, stats_path.as_path()] {
-            sweep_stale_of(path).map_err(|source| {
-                BatchWriteError::Io(FileError {
-                    path: path.to_path_buf(),
-                    source,
-                })
-            })?;
+            sweep_stale_of(path)
+                .map_err(|source| BatchWriteError::Io(FileError::new(path, source)))?;
         }
         write_episodes(out, &self.episodes)?;
         let stats = serde_json::to_vec_pretty(self).map_err(|e| {
@@ -410,12 +406,8 @@ impl EpisodeBatch {
                 source: std::io::Error::other(e),
             })
         })?;
-        write_bytes_atomic(&stats_path, &stats).map_err(|source| {
-            BatchWriteError::Io(FileError {
-                path: stats_path.clone(),
-                source,
-            })
-        })?;
+        write_bytes_atomic(&stats_path, &stats)
+            .map_err(|source| BatchWriteError::Io(FileError::new(stats_path.clone(), source)))?;
         Ok(stats_path)
     }
 }

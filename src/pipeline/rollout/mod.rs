@@ -255,12 +255,7 @@ pub fn body_mismatch_of(e: &(dyn std::error::Error + 'static)) -> Option<BodyMis
 }
 
 fn io_error(path: &Path) -> impl FnOnce(std::io::Error) -> RolloutError + '_ {
-    move |source| {
-        RolloutError::Io(FileError {
-            path: path.to_path_buf(),
-            source,
-        })
-    }
+    move |source| RolloutError::Io(FileError::new(path, source))
 }
 
 /// Which episodes a run records for the rerun viewer, and where.

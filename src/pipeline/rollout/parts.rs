@@ -107,12 +107,8 @@ pub fn write_done(
 /// Reads the metrics part of an episode finished by an earlier run.
 pub fn read_done(dir: &Path, index: usize) -> Result<EpisodeMetrics, PartError> {
     let path = part(dir, index, "json");
-    let bytes = std::fs::read(&path).map_err(|source| {
-        PartError::Io(FileError {
-            path: path.clone(),
-            source,
-        })
-    })?;
+    let bytes = std::fs::read(&path)
+        .map_err(|source| PartError::Io(FileError::new(path.clone(), source)))?;
     let done: PartDone =
         serde_json::from_slice(&bytes).map_err(|source| PartError::Json { path, source })?;
     Ok(EpisodeMetrics::from(&done))

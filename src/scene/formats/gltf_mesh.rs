@@ -74,10 +74,7 @@ impl GltfFile {
     /// Reads and validates `path` (`.glb` or `.gltf`) and loads its buffers (embedded,
     /// `data:` URIs, or files beside it). Every failure names the file.
     pub fn open(path: &Path) -> Result<Self, LoadError> {
-        let bytes = std::fs::read(path).map_err(|source| LoadError::Io(FileError {
-            path: path.to_path_buf(),
-            source,
-        }))?;
+        let bytes = std::fs::read(path).map_err(|source| LoadError::Io(FileError::new(path, source)))?;
         let (json, blob) = split_glb(path, &bytes)?;
         let mut value: serde_json::Value = serde_json::from_slice(&json).map_err(|e| {
             LoadError::parse(

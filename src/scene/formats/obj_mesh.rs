@@ -13,10 +13,7 @@ use super::{guarded, LoadError};
 /// material per name used (real datasets often lack MTL files). A malformed MTL line is an
 /// error naming the MTL file and the line.
 pub fn load_obj(path: &Path) -> Result<Mesh, LoadError> {
-    let bytes = std::fs::read(path).map_err(|source| LoadError::Io(FileError {
-        path: path.to_path_buf(),
-        source,
-    }))?;
+    let bytes = std::fs::read(path).map_err(|source| LoadError::Io(FileError::new(path, source)))?;
     load_obj_bytes(path, &bytes, &|mtl| std::fs::read(mtl))
 }
 

@@ -103,10 +103,7 @@ impl SuncgLoader {
         };
         let categories = match &mapping_path {
             Some(p) => {
-                let text = std::fs::read_to_string(p).map_err(|source| LoadError::Io(FileError {
-                    path: p.clone(),
-                    source,
-                }))?;
+                let text = std::fs::read_to_string(p).map_err(|source| LoadError::Io(FileError::new(p.clone(), source)))?;
                 ModelCategories::parse(&text, &p.display().to_string())
                     .map_err(|m| LoadError::parse(p, m))?
             }
@@ -136,10 +133,7 @@ impl SuncgLoader {
         } else {
             self.root.clone()
         };
-        let entries = std::fs::read_dir(&dir).map_err(|source| LoadError::Io(FileError {
-            path: dir.clone(),
-            source,
-        }))?;
+        let entries = std::fs::read_dir(&dir).map_err(|source| LoadError::Io(FileError::new(dir.clone(), source)))?;
         let mut houses = Vec::new();
         for e in entries.flatten() {
             let path = e.path().join("house.json");
@@ -157,10 +151,7 @@ impl SuncgLoader {
     /// Loads one house. Every failure names `house.json` (or the mesh file) and the node.
     pub fn load(&self, house: &HouseEntry) -> Result<LoadedScene, LoadError> {
         let path = &house.path;
-        let bytes = std::fs::read(path).map_err(|source| LoadError::Io(FileError {
-            path: path.clone(),
-            source,
-        }))?;
+        let bytes = std::fs::read(path).map_err(|source| LoadError::Io(FileError::new(path.clone(), source)))?;
         let json: HouseJson = serde_json::from_slice(&nan_tokens_to_null(&bytes))
             .map_err(|e| LoadError::parse(path, crate::scene::formats::json_error_text(&e)))?;
         let mut ctx = HouseBuild {

@@ -74,12 +74,8 @@ pub struct Selection {
 impl CampaignSpec {
     /// Reads the campaign file `path`.
     pub fn read(path: &Path) -> Result<CampaignSpec, CampaignError> {
-        let text = std::fs::read_to_string(path).map_err(|source| {
-            CampaignError::Io(FileError {
-                path: path.to_path_buf(),
-                source,
-            })
-        })?;
+        let text = std::fs::read_to_string(path)
+            .map_err(|source| CampaignError::Io(FileError::new(path, source)))?;
         Self::parse(&text, path)
     }
 

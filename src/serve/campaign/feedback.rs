@@ -80,12 +80,8 @@ fn file(state: &Path, participant: &str) -> PathBuf {
 pub fn save(state: &Path, participant: &str, all: &[Feedback]) -> Result<(), CampaignError> {
     let path = file(state, participant);
     let dir = state.join(FEEDBACK);
-    std::fs::create_dir_all(&dir).map_err(|source| {
-        CampaignError::Io(FileError {
-            path: dir.clone(),
-            source,
-        })
-    })?;
+    std::fs::create_dir_all(&dir)
+        .map_err(|source| CampaignError::Io(FileError::new(dir.clone(), source)))?;
     let text = serde_json::to_string_pretty(all).map_err(|e| CampaignError::File {
         path: path.clone(),
         message: e.to_string(),
@@ -98,12 +94,7 @@ pub fn save(state: &Path, participant: &str, all: &[Feedback]) -> Result<(), Cam
 /// what a killed writer left.
 pub fn load_all(state: &Path) -> Result<BTreeMap<String, Vec<Feedback>>, CampaignError> {
     let dir = state.join(FEEDBACK);
-    let io = |source: std::io::Error| {
-        CampaignError::Io(FileError {
-            path: dir.clone(),
-            source,
-        })
-    };
+    let io = |source: std::io::Error| CampaignError::Io(FileError::new(dir.clone(), source));
     let mut out = BTreeMap::new();
     if !dir.is_dir() {
         return Ok(out);
@@ -119,12 +110,8 @@ pub fn load_all(state: &Path) -> Result<BTreeMap<String, Vec<Feedback>>, Campaig
         else {
             continue;
         };
-        let bytes = std::fs::read(&path).map_err(|source| {
-            CampaignError::Io(FileError {
-                path: path.clone(),
-                source,
-            })
-        })?;
+        let bytes = std::fs::read(&path)
+            .map_err(|source| CampaignError::Io(FileError::new(path.clone(), source)))?;
         let list: Vec<Feedback> =
             serde_json::from_slice(&bytes).map_err(|e| CampaignError::File {
                 path: path.clone(),

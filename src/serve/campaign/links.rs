@@ -37,12 +37,7 @@ pub struct Participants {
 }
 
 fn io(path: &Path) -> impl FnOnce(std::io::Error) -> CampaignError + '_ {
-    move |source| {
-        CampaignError::Io(FileError {
-            path: path.to_path_buf(),
-            source,
-        })
-    }
+    move |source| CampaignError::Io(FileError::new(path, source))
 }
 
 /// Writes `bytes` to `path` atomically, readable by the owner only.

@@ -129,12 +129,7 @@ pub struct Campaign {
 }
 
 fn io(path: &Path) -> impl FnOnce(std::io::Error) -> CampaignError + '_ {
-    move |source| {
-        CampaignError::Io(FileError {
-            path: path.to_path_buf(),
-            source,
-        })
-    }
+    move |source| CampaignError::Io(FileError::new(path, source))
 }
 
 /// Puts session folder `dir` back to what its finished episodes wrote: the parts of an

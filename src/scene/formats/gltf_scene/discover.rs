@@ -11,7 +11,7 @@ pub(super) fn walk(root: &Path, max_depth: usize) -> Result<Vec<PathBuf>, LoadEr
     while let Some((dir, depth)) = stack.pop() {
         let entries = match std::fs::read_dir(&dir) {
             Ok(e) => e,
-            Err(source) if depth == 0 => return Err(LoadError::Io(FileError { path: dir, source })),
+            Err(source) if depth == 0 => return Err(LoadError::Io(FileError::new(dir, source))),
             Err(_) => continue,
         };
         for e in entries.flatten() {

@@ -191,10 +191,7 @@ pub fn json_error(path: &Path, e: &serde_json::Error) -> LoadError {
 
 /// Reads a JSON file.
 pub fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, LoadError> {
-    let bytes = std::fs::read(path).map_err(|source| LoadError::Io(FileError {
-        path: path.to_path_buf(),
-        source,
-    }))?;
+    let bytes = std::fs::read(path).map_err(|source| LoadError::Io(FileError::new(path, source)))?;
     let bytes = bytes.strip_prefix(b"\xef\xbb\xbf").unwrap_or(&bytes);
     serde_json::from_slice(bytes).map_err(|e| json_error(path, &e))
 }

@@ -162,10 +162,7 @@ impl GltfLoader {
     /// read or one of those files is invalid.
     pub fn open(root: &Path, categories: Option<&Path>) -> Result<Self, LoadError> {
         let root = &normalize(root);
-        let meta = std::fs::metadata(root).map_err(|source| LoadError::Io(FileError {
-            path: root.clone(),
-            source,
-        }))?;
+        let meta = std::fs::metadata(root).map_err(|source| LoadError::Io(FileError::new(root.clone(), source)))?;
         // A single file brings the files of its own folder (its stage config, semantic table).
         let (folder, depth) = if meta.is_file() {
             (root.parent().unwrap_or(Path::new(".")).to_path_buf(), 0)

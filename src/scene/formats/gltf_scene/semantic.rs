@@ -79,10 +79,7 @@ impl SemanticTable {
 
     /// Reads and parses a `.semantic.txt`.
     pub fn read(path: &Path) -> Result<Self, LoadError> {
-        let text = std::fs::read_to_string(path).map_err(|source| LoadError::Io(FileError {
-            path: path.to_path_buf(),
-            source,
-        }))?;
+        let text = std::fs::read_to_string(path).map_err(|source| LoadError::Io(FileError::new(path, source)))?;
         Self::parse(&text, path)
     }
 
@@ -255,10 +252,7 @@ impl CategoryMap {
 
     /// Reads and parses a category-mapping TSV.
     pub fn read(path: &Path) -> Result<Self, LoadError> {
-        let text = std::fs::read_to_string(path).map_err(|source| LoadError::Io(FileError {
-            path: path.to_path_buf(),
-            source,
-        }))?;
+        let text = std::fs::read_to_string(path).map_err(|source| LoadError::Io(FileError::new(path, source)))?;
         Self::parse(&text, path)
     }
 

@@ -200,10 +200,7 @@ impl Mp3dLoader {
         } else {
             self.root.clone()
         };
-        let entries = std::fs::read_dir(&dir).map_err(|source| LoadError::Io(FileError {
-            path: dir.clone(),
-            source,
-        }))?;
+        let entries = std::fs::read_dir(&dir).map_err(|source| LoadError::Io(FileError::new(dir.clone(), source)))?;
         let mut found: HashMap<String, PathBuf> = HashMap::new();
         let mut bare = Vec::new();
         for e in entries.flatten() {
@@ -263,10 +260,7 @@ impl Mp3dLoader {
     /// Loads one scan. Every failure names the file and the line or record.
     pub fn load(&self, entry: &SceneEntry) -> Result<LoadedScene, LoadError> {
         let path = &entry.path;
-        let bytes = std::fs::read(path).map_err(|source| LoadError::Io(FileError {
-            path: path.clone(),
-            source,
-        }))?;
+        let bytes = std::fs::read(path).map_err(|source| LoadError::Io(FileError::new(path.clone(), source)))?;
         let house = house_file::parse(&bytes).map_err(|source| LoadError::House {
             path: path.to_path_buf(),
             source,
@@ -279,10 +273,7 @@ impl Mp3dLoader {
     pub fn build(&self, entry: &SceneEntry, house: &HouseFile) -> Result<LoadedScene, LoadError> {
         match self.mesh_files(entry) {
             MeshFiles::Ply(p) => {
-                let bytes = std::fs::read(&p).map_err(|source| LoadError::Io(FileError {
-                    path: p.clone(),
-                    source,
-                }))?;
+                let bytes = std::fs::read(&p).map_err(|source| LoadError::Io(FileError::new(p.clone(), source)))?;
                 self.build_with_ply(entry, house, &p, &bytes)
             }
             MeshFiles::Obj(files) => {

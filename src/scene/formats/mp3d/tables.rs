@@ -97,10 +97,7 @@ impl CategoryTables {
     pub fn read(mapping: Option<&Path>, mpcat40: Option<&Path>) -> Result<Self, LoadError> {
         let mut t = CategoryTables::default();
         let read = |p: &Path| {
-            std::fs::read_to_string(p).map_err(|source| LoadError::Io(FileError {
-                path: p.to_path_buf(),
-                source,
-            }))
+            std::fs::read_to_string(p).map_err(|source| LoadError::Io(FileError::new(p, source)))
         };
         if let Some(p) = mapping {
             t.rows = parse_category_mapping(&read(p)?).map_err(|m| LoadError::parse(p, m))?;

@@ -112,10 +112,7 @@ impl ThreeDFrontLoader {
     /// Every `*.json` file directly in the root (except `model_info.json`), id = file stem,
     /// sorted by id.
     pub fn discover(&self) -> Result<Vec<SceneEntry>, LoadError> {
-        let entries = std::fs::read_dir(&self.root).map_err(|source| LoadError::Io(FileError {
-            path: self.root.clone(),
-            source,
-        }))?;
+        let entries = std::fs::read_dir(&self.root).map_err(|source| LoadError::Io(FileError::new(self.root.clone(), source)))?;
         let mut scenes = Vec::new();
         for e in entries.flatten() {
             let path = e.path();
@@ -139,10 +136,7 @@ impl ThreeDFrontLoader {
 
     /// Loads one scene file. Every failure names the file and the record.
     pub fn load(&self, entry: &SceneEntry) -> Result<LoadedScene, LoadError> {
-        let bytes = std::fs::read(&entry.path).map_err(|source| LoadError::Io(FileError {
-            path: entry.path.clone(),
-            source,
-        }))?;
+        let bytes = std::fs::read(&entry.path).map_err(|source| LoadError::Io(FileError::new(entry.path.clone(), source)))?;
         let mut loaded = self.load_bytes(&entry.id, &entry.path, &bytes)?;
         if let Some(m) = &self.mapping_path {
             loaded.sources.push(m.clone());
@@ -250,10 +244,7 @@ fn find_mapping(root: &Path, models: Option<&Path>) -> Option<PathBuf> {
 
 /// Reads a category table: JSON (`model_info.json`) by extension, CSV otherwise.
 fn read_categories(path: &Path) -> Result<FutureCategories, LoadError> {
-    let text = std::fs::read_to_string(path).map_err(|source| LoadError::Io(FileError {
-        path: path.to_path_buf(),
-        source,
-    }))?;
+    let text = std::fs::read_to_string(path).map_err(|source| LoadError::Io(FileError::new(path, source)))?;
     let is_json = path
         .extension()
         .is_some_and(|x| x.eq_ignore_ascii_case("json"));
