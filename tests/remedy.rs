@@ -40,7 +40,7 @@ fn missing_and_stale_steps_are_named_as_data_and_the_cli_says_the_command() {
     std::fs::create_dir_all(&empty).unwrap();
     let e = DataDir::new(&empty).ingested_ids().unwrap_err();
     assert_eq!(remedy_of(&e), Some(Remedy::Ingest), "{e}");
-    neutral(&e.to_string());
+    neutral(&minos::escape::error_line(&e));
     let err = fails(&["bake"], &empty);
     assert!(err.ends_with("(run `minos ingest` first)"), "{err}");
     // Another writer holds the folder: wait for it.
@@ -52,7 +52,7 @@ fn missing_and_stale_steps_are_named_as_data_and_the_cli_says_the_command() {
             .lock("split", minos::lock::LockMode::Fail)
             .unwrap_err();
         assert_eq!(remedy_of(&e), Some(Remedy::Wait), "{e}");
-        neutral(&e.to_string());
+        neutral(&minos::escape::error_line(&e));
     }
 
     let (data, ids) = baked_houses(
@@ -85,7 +85,7 @@ fn missing_and_stale_steps_are_named_as_data_and_the_cli_says_the_command() {
         panic!("a corrupt grid reads");
     };
     assert_eq!(remedy_of(&e), Some(Remedy::Rebake), "{e}");
-    neutral(&e.to_string());
+    neutral(&minos::escape::error_line(&e));
     let err = view(data.root());
     assert!(err.contains("rebake it: `minos bake --force`"), "{err}");
     // No grid: bake it.
@@ -108,7 +108,7 @@ fn missing_and_stale_steps_are_named_as_data_and_the_cli_says_the_command() {
         panic!("a corrupt scene reads");
     };
     assert_eq!(remedy_of(&e), Some(Remedy::Reingest), "{e}");
-    neutral(&e.to_string());
+    neutral(&minos::escape::error_line(&e));
     let err = view(data.root());
     assert!(
         err.contains("ingest it again: `minos ingest --force`"),
@@ -118,7 +118,7 @@ fn missing_and_stale_steps_are_named_as_data_and_the_cli_says_the_command() {
     // A variant nobody defined.
     let e = data.read_variant("nope").unwrap_err();
     assert_eq!(remedy_of(&e), Some(Remedy::DefineVariant), "{e}");
-    neutral(&e.to_string());
+    neutral(&minos::escape::error_line(&e));
     let err = fails(&["bake", "--variant", "nope"], data.root());
     assert!(
         err.contains("--variant nope") && err.contains("define it with `minos variants"),

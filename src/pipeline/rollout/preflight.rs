@@ -26,7 +26,10 @@ pub fn check(cfg: &RunConfig, episodes: &[(usize, Episode)]) -> Result<(), Rollo
             if let SceneProblem::Body(b) = &problem {
                 body.get_or_insert(*b);
             }
-            problems.entry(problem.to_string()).or_default().push(id);
+            problems
+                .entry(crate::escape::error_line(&problem))
+                .or_default()
+                .push(id);
         }
     }
     if problems.is_empty() {
