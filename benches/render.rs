@@ -169,7 +169,7 @@ fn main() {
                         let f = cpu::render(scene, cam);
                         black_box(f.color(scene, cam));
                         black_box(f.linear_depth(cam));
-                        black_box(f.semantic(scene, minos::render::Taxonomy::Nyu40));
+                        black_box(f.semantic(scene, minos::scene::Taxonomy::Nyu40));
                     })
                 })
             })
@@ -251,7 +251,7 @@ fn images_fps(
                 let f = render(scene, cam);
                 black_box(f.color(scene, cam));
                 black_box(f.linear_depth(cam));
-                black_box(f.semantic(scene, minos::render::Taxonomy::Nyu40));
+                black_box(f.semantic(scene, minos::scene::Taxonomy::Nyu40));
             })
         })
     })
@@ -508,7 +508,7 @@ fn gpu_at_scale(rs: &RenderScene, grid: &minos::navmesh::NavGrid, poses: &[(Vec3
                 let s = &scenes[v.scene.0].1;
                 black_box(f.color(s, &v.camera));
                 black_box(f.linear_depth(&v.camera));
-                black_box(f.semantic(s, minos::render::Taxonomy::Nyu40));
+                black_box(f.semantic(s, minos::scene::Taxonomy::Nyu40));
             });
         });
         println!("| {size}² | {batch} | {pass:.0} fps | {derived:.0} fps |");

@@ -9,7 +9,8 @@ use std::f32::consts::FRAC_PI_2;
 
 use glam::Vec3;
 use minos::render::frame::NO_HIT;
-use minos::render::{cpu, raycast, Camera, RenderScene, Taxonomy};
+use minos::render::{cpu, raycast, Camera, RenderScene};
+use minos::scene::Taxonomy;
 
 #[test]
 fn ray_caster_matches_the_rasteriser_on_every_channel() {

@@ -304,7 +304,7 @@ fn the_coarse_taxonomy_labels_a_known_object_and_the_floor() {
         )
         .build();
     let mut suite = camera_suite(&[("s", Modality::Semantic)], size, 0.0);
-    suite.cameras[0].taxonomy = minos::render::Taxonomy::Coarse;
+    suite.cameras[0].taxonomy = minos::scene::Taxonomy::Coarse;
     let mut sim = sim_with(&scene, AgentConfig::minos_continuous(), suite);
     sim.reset(Vec3::new(5.0, 0.0, 5.0), 0.0, None, "e");
     let obs = sim.observe().unwrap();
@@ -444,8 +444,8 @@ fn cpu_and_wgpu_agree(method: minos::render::gpu::GpuMethod) {
                 let c = cpu::render(&rs, cam);
                 let (dc, dg) = (c.linear_depth(cam), g.linear_depth(cam));
                 let (sc, sg) = (
-                    c.semantic(&rs, minos::render::Taxonomy::Nyu40),
-                    g.semantic(&rs, minos::render::Taxonomy::Nyu40),
+                    c.semantic(&rs, minos::scene::Taxonomy::Nyu40),
+                    g.semantic(&rs, minos::scene::Taxonomy::Nyu40),
                 );
                 let (ic, ig) = (c.instance(&rs), g.instance(&rs));
                 let (cc, cg) = (c.color(&rs, cam), g.color(&rs, cam));
@@ -575,7 +575,8 @@ fn wgpu_renders_views_of_several_scenes_in_one_batch() {
 /// and depth of the batch are those of a batch that derives nothing.
 #[test]
 fn wgpu_derives_the_images_the_cpu_derives_from_its_frames() {
-    use minos::render::{Channel, Channels, Taxonomy};
+    use minos::render::{Channel, Channels};
+    use minos::scene::Taxonomy;
     let mut gpu = match minos::render::gpu::GpuRenderer::new() {
         Ok(g) => g,
         Err(e) => {

@@ -21,7 +21,6 @@ use minos::pipeline::bake::{bake_scenes, BakeConfig};
 use minos::pipeline::episodes::sample_scenes;
 use minos::pipeline::variants::collect_stats;
 use minos::progress::NoProgress;
-use minos::render::labels::Taxonomy;
 use minos::render::Renderer;
 use minos::render::RendererChoice;
 use minos::render::{Image, Modality};
@@ -31,6 +30,7 @@ use minos::scene::variants::materials::{
 };
 use minos::scene::variants::{MaterialStats, Retexture, TextureSet, VariantSpec};
 use minos::scene::Scene;
+use minos::scene::Taxonomy;
 use minos::seed::Rng;
 use minos::shard::Shard;
 use minos::sim::{AgentConfig, SceneAssets, SensorSuite, Simulator};

@@ -6,7 +6,7 @@
 //! otherwise, so callers never know which side made it.
 
 use super::image::Modality;
-use super::labels::Taxonomy;
+use crate::scene::Taxonomy;
 
 /// A set of images to derive, one bit per [`Channel`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]

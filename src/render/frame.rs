@@ -6,9 +6,9 @@ use glam::Vec3;
 
 use super::camera::Camera;
 use super::derived::{taxonomy_slot, Derived};
-use super::labels::Taxonomy;
 use super::prefetch::prefetch;
 use super::scene::RenderScene;
+use crate::scene::Taxonomy;
 
 /// Pixel shows no triangle.
 pub const NO_HIT: u32 = u32::MAX;

@@ -1,6 +1,6 @@
 //! Rendering: the scene as a triangle soup with per-triangle attributes (`scene`), the camera
-//! model (`camera`), frames and the images derived from them (`frame`; images a renderer derived itself, `derived`), label taxonomies
-//! (`labels`), the images sensors produce (`image`), textures (`texture`, `texture_library`), and two renderers producing the same frames, chosen in `renderer`: the CPU rasteriser (`cpu`, always
+//! model (`camera`), frames and the images derived from them (`frame`; images a renderer derived itself, `derived`; the
+//! label taxonomies are the scene's, `scene::Taxonomy`), the images sensors produce (`image`), textures (`texture`, `texture_library`), and two renderers producing the same frames, chosen in `renderer`: the CPU rasteriser (`cpu`, always
 //! available) and wgpu (`gpu`, when an adapter exists).
 
 internal! {
@@ -12,7 +12,6 @@ pub mod derived;
 pub mod frame;
 pub mod gpu;
 mod image;
-pub mod labels;
 mod prefetch;
 pub mod raycast;
 mod renderer;
@@ -25,6 +24,5 @@ pub use camera::Camera;
 pub use derived::{Channel, Channels};
 pub use frame::{Frame, NO_HIT};
 pub use image::{Image, Modality};
-pub use labels::Taxonomy;
 pub use renderer::{Renderer, RendererChoice};
 pub use scene::RenderScene;

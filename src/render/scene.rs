@@ -13,9 +13,9 @@ use rayon::prelude::*;
 use crate::scene::{Aabb, MaterialOverride, Mesh, Scene, SurfaceKind, WorldMesh};
 
 use super::bvh::Bvh;
-use super::labels::Taxonomy;
 use super::texture::Texture;
 use super::texture_library::TextureLibrary;
+use crate::scene::Taxonomy;
 
 /// No object / no room.
 pub const NO_ID: u32 = 0;

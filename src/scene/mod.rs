@@ -3,6 +3,7 @@
 
 pub mod formats;
 pub mod geometry;
+mod labels;
 pub mod mesh;
 pub mod model;
 pub mod room_colors;
@@ -11,6 +12,7 @@ pub mod taxonomy;
 pub mod variants;
 
 pub use geometry::Aabb;
+pub use labels::Taxonomy;
 pub use mesh::{Material, Mesh, WorldMesh};
 pub use model::{
     Categories, Dataset, Level, MaterialOverride, MeshId, Object, ObjectFlags, Room, Scene,

@@ -6,8 +6,9 @@ use serde::{Deserialize, Serialize};
 
 use crate::body::AgentPreset;
 use crate::invalid::{Invalid, SettingsCause, TomlError};
-use crate::render::{Frame, RenderScene, Taxonomy};
+use crate::render::{Frame, RenderScene};
 use crate::render::{Image, Modality};
+use crate::scene::Taxonomy;
 use crate::seed::Rng;
 use crate::vocab::{Term, Vocabulary};
 

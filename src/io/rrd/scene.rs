@@ -14,7 +14,8 @@ use crate::episode::Episode;
 use crate::navmesh::grid::NONE;
 use crate::navmesh::preview::{levels_present, render_level};
 use crate::navmesh::NavGrid;
-use crate::render::{RenderScene, Taxonomy};
+use crate::render::RenderScene;
+use crate::scene::Taxonomy;
 use crate::scene::room_colors::room_class_color;
 use crate::scene::SurfaceKind;
 

@@ -13,7 +13,8 @@ use rayon::prelude::*;
 
 use super::{BenchConfig, BenchError, Stage};
 use crate::render::gpu::{GpuRenderer, SceneSlot, View};
-use crate::render::{Channel, Channels, RenderScene, Taxonomy};
+use crate::render::{Channel, Channels, RenderScene};
+use crate::scene::Taxonomy;
 use crate::sim::Simulator;
 
 /// Name of the stage that renders batches (triangle ids and depth, read back).

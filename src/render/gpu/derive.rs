@@ -16,7 +16,7 @@ use super::GpuError;
 use crate::render::derived::{taxonomy_slot, Channel, Channels, Derived};
 use crate::render::frame::{AMBIENT, LIGHT};
 use crate::render::scene::RenderScene;
-use crate::render::Taxonomy;
+use crate::scene::Taxonomy;
 
 /// The shader.
 const SHADER: &str = include_str!("derive.wgsl");

@@ -7,7 +7,7 @@ use std::sync::OnceLock;
 
 use serde::{Deserialize, Serialize};
 
-use crate::scene::{Categories, SurfaceKind};
+use super::{Categories, SurfaceKind};
 
 /// A taxonomy of semantic classes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
