@@ -17,11 +17,16 @@ use std::path::{Path, PathBuf};
 
 /// The temporary path used while `path` is being written.
 pub fn temp_path(path: &Path) -> PathBuf {
+    sibling(path, "tmp")
+}
+
+/// `.<name>.<kind>-<pid>` beside `path`: a name [`temp_owner`] reads and the sweep removes.
+fn sibling(path: &Path, kind: &str) -> PathBuf {
     let name = path
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
-    path.with_file_name(format!(".{name}.tmp-{}", std::process::id()))
+    path.with_file_name(format!(".{name}.{kind}-{}", std::process::id()))
 }
 
 /// Writes `path` through `fill`, which receives a buffered writer on a temporary file; the
@@ -155,11 +160,7 @@ pub fn sync_filesystem(path: &Path) -> io::Result<()> {
 /// leaves a temporary folder that the next sweep ([`sweep_stale`]) removes, never a
 /// half-emptied `dir` that still looks like what it was. A missing `dir` is already removed.
 pub fn remove_dir_atomic(dir: &Path) -> io::Result<()> {
-    let name = dir
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let old = dir.with_file_name(format!(".{name}.old-{}", std::process::id()));
+    let old = sibling(dir, "old");
     match fs::rename(dir, &old) {
         Ok(()) => fs::remove_dir_all(&old),
         Err(e) if e.kind() == io::ErrorKind::NotFound => Ok(()),

@@ -4,7 +4,7 @@
 //! is the same everywhere: the path, then the cause (`escape::error_line`).
 
 use std::io;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// A file system error on `path`. Displays the path; the I/O error is its `source()`.
 #[derive(Debug, thiserror::Error)]
@@ -26,12 +26,6 @@ impl FileError {
         }
     }
 
-    /// The adapter for `map_err`: `std::fs::read(p).map_err(FileError::at(p))`.
-    pub fn at(path: impl AsRef<Path>) -> impl FnOnce(io::Error) -> FileError {
-        let path = path.as_ref().to_path_buf();
-        move |source| FileError { path, source }
-    }
-
     /// Whether the file or folder does not exist.
     pub fn not_found(&self) -> bool {
         self.source.kind() == io::ErrorKind::NotFound
@@ -44,7 +38,10 @@ mod tests {
 
     #[test]
     fn shows_the_path_and_keeps_the_cause_as_its_source() {
-        let e = FileError::at("DATA/houses.parquet")(io::Error::from(io::ErrorKind::NotFound));
+        let e = FileError::new(
+            "DATA/houses.parquet",
+            io::Error::from(io::ErrorKind::NotFound),
+        );
         assert_eq!(e.to_string(), "DATA/houses.parquet");
         assert!(e.not_found());
         let line = crate::escape::error_line(&e);

@@ -5,7 +5,6 @@
 //! front door says the remedy in its own words (the command line as a command and its flags,
 //! Python as a function call).
 
-use crate::file_error::FileError;
 use std::error::Error;
 
 use super::{SceneFileError, StoreError};
@@ -43,23 +42,19 @@ pub fn remedy_of(err: &(dyn Error + 'static)) -> Option<Remedy> {
     None
 }
 
-fn not_found(e: &std::io::Error) -> bool {
-    e.kind() == std::io::ErrorKind::NotFound
-}
-
 /// The remedy of `e` itself.
 fn remedy_here(e: &(dyn Error + 'static)) -> Option<Remedy> {
     if let Some(e) = e.downcast_ref::<NavFileError>() {
         return Some(match e {
-            NavFileError::Io(FileError { source: cause, .. }) if not_found(cause) => Remedy::Bake,
-            NavFileError::Io(FileError { .. }) => return None,
+            NavFileError::Io(f) if f.not_found() => Remedy::Bake,
+            NavFileError::Io(_) => return None,
             NavFileError::Format { .. } => Remedy::Rebake,
         });
     }
     if let Some(e) = e.downcast_ref::<SceneFileError>() {
         return Some(match e {
-            SceneFileError::Io(FileError { source, .. }) if not_found(source) => Remedy::Ingest,
-            SceneFileError::Io(FileError { .. }) => return None,
+            SceneFileError::Io(f) if f.not_found() => Remedy::Ingest,
+            SceneFileError::Io(_) => return None,
             SceneFileError::Format { .. } => Remedy::Reingest,
         });
     }
