@@ -11,7 +11,8 @@ use std::time::Instant;
 use minos::generate::{generate, plan_house, GenerateConfig, OutputFormat};
 use minos::pipeline::ingest::{ingest, IngestConfig};
 use minos::progress::NoProgress;
-use minos::scene::formats::suncg::{HouseEntry, SuncgLoader};
+use minos::scene::formats::suncg::SuncgLoader;
+use minos::scene::formats::{DatasetLoader, SceneEntry};
 
 /// Runs `f` (which processes `n` items) `reps` times; returns the best items per second.
 fn best_rate(n: usize, reps: usize, mut f: impl FnMut()) -> f64 {
@@ -119,7 +120,7 @@ fn real_sample(real: &Path, tmp: &Path) {
     let root = real.join("suncg");
     let id = "00e2eed27fb6b5c911624902888039ee";
     let loader = SuncgLoader::open(&root, None).expect("loader");
-    let entry = HouseEntry {
+    let entry = SceneEntry {
         id: id.into(),
         path: root.join(id).join("house.json"),
     };

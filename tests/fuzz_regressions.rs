@@ -11,6 +11,7 @@ use minos::episode::format::read_episodes;
 use minos::generate::GenerateConfig;
 use minos::scene::formats::load_mesh_file;
 use minos::scene::formats::suncg::SuncgLoader;
+use minos::scene::formats::DatasetLoader;
 use minos::scene::formats::SceneEntry;
 
 fn input(name: &str) -> PathBuf {

@@ -8,6 +8,7 @@ use glam::Vec3;
 use minos::navmesh::build::build;
 use minos::navmesh::NavParams;
 use minos::scene::formats::gltf_scene::{GltfLoader, STAGE_ROOM_ID};
+use minos::scene::formats::DatasetLoader;
 use minos::scene::formats::{LoadedScene, SceneEntry};
 use minos::scene::{Aabb, RoomClass, Scene, SurfaceKind};
 use serde_json::{json, Value};

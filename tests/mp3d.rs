@@ -18,6 +18,7 @@ use minos::progress::NoProgress;
 use minos::scene::formats::mp3d::{
     house_file, zup_to_yup, GeometrySource, Mp3dLoader, Mp3dOptions,
 };
+use minos::scene::formats::DatasetLoader;
 use minos::scene::formats::SceneEntry;
 use minos::scene::{Scene, SurfaceKind};
 use minos::store::manifest::read_manifest;

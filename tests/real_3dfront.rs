@@ -12,6 +12,7 @@ use minos::episode::Task;
 use minos::navmesh::build::build;
 use minos::navmesh::NavParams;
 use minos::scene::formats::threedfront::ThreeDFrontLoader;
+use minos::scene::formats::DatasetLoader;
 use minos::scene::{RoomClass, SurfaceKind};
 use serde_json::Value;
 

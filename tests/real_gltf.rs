@@ -15,6 +15,7 @@ use minos::navmesh::NavParams;
 use minos::pipeline::ingest::{ingest, DatasetFormat, IngestConfig, Outcome};
 use minos::progress::NoProgress;
 use minos::scene::formats::gltf_scene::{GltfLoader, STAGE_ROOM_ID};
+use minos::scene::formats::DatasetLoader;
 use minos::scene::formats::{load_mesh_file, SceneEntry};
 use minos::scene::RoomClass;
 

@@ -14,6 +14,7 @@ use minos::navmesh::NavParams;
 use minos::pipeline::ingest::{ingest, DatasetFormat, IngestConfig, Outcome};
 use minos::progress::NoProgress;
 use minos::scene::formats::mp3d::{house_file, zup_to_yup, Mp3dLoader};
+use minos::scene::formats::DatasetLoader;
 use minos::scene::formats::SceneEntry;
 use minos::scene::{RoomClass, SurfaceKind};
 

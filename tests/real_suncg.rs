@@ -6,7 +6,8 @@ use crate::common;
 use std::collections::BTreeSet;
 use std::path::PathBuf;
 
-use minos::scene::formats::suncg::{HouseEntry, SuncgLoader};
+use minos::scene::formats::suncg::SuncgLoader;
+use minos::scene::formats::{DatasetLoader, SceneEntry};
 use minos::scene::{RoomClass, SurfaceKind};
 
 const HOUSE: &str = "00e2eed27fb6b5c911624902888039ee";
@@ -29,7 +30,7 @@ fn real_suncg_house_loads_with_all_objects_categories_and_bbox() {
     assert!(loader
         .mapping_path()
         .is_some_and(|p| p.ends_with("house3d_ModelCategoryMapping.csv")));
-    let entry = HouseEntry {
+    let entry = SceneEntry {
         id: HOUSE.into(),
         path: root.join(HOUSE).join("house.json"),
     };

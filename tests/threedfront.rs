@@ -14,6 +14,7 @@ use minos::navmesh::{NavGrid, NavParams};
 use minos::pipeline::ingest::{ingest, DatasetFormat, IngestConfig, Outcome};
 use minos::progress::NoProgress;
 use minos::scene::formats::threedfront::{parse_scene, ThreeDFrontLoader};
+use minos::scene::formats::DatasetLoader;
 use minos::scene::formats::{LoadError, LoadedScene, SceneEntry};
 use minos::scene::{Object, RoomClass, Scene, SurfaceKind};
 use serde_json::{json, Value};

@@ -15,7 +15,7 @@ use std::sync::OnceLock;
 
 use libfuzzer_sys::fuzz_target;
 use minos::scene::formats::suncg::SuncgLoader;
-use minos::scene::formats::SceneEntry;
+use minos::scene::formats::{DatasetLoader, SceneEntry};
 
 fn loader() -> &'static (SuncgLoader, PathBuf) {
     static LOADER: OnceLock<(SuncgLoader, PathBuf)> = OnceLock::new();

@@ -112,7 +112,7 @@
 //!
 //! `mod.rs` holds [`Geodesic`] (the grid, its sight index, the pooled search records) and
 //! [`DistanceField`]; `records.rs` the per-span search state, queue and link iteration;
-//! `field.rs` distance fields (flood, Lazy Theta*, the weighted mode); `sparse.rs` the sparse
+//! `field.rs` distance fields (flood, Lazy Theta*, the weighted mode); `sparse/` the sparse
 //! point-to-point graph (labels, portals, vertices, landmarks) and its search.
 
 use std::cmp::Reverse;

@@ -80,9 +80,6 @@ struct MaterialJson {
     texture: Option<String>,
 }
 
-/// One house found under a SUNCG root (its `house.json`).
-pub type HouseEntry = SceneEntry;
-
 /// Loads SUNCG houses from one dataset root.
 pub struct SuncgLoader {
     root: PathBuf,
@@ -124,9 +121,31 @@ impl SuncgLoader {
         self.mapping_path.as_deref()
     }
 
+    fn find_mesh(&self, house: &SceneEntry, folder: &str, stem: &str) -> Option<PathBuf> {
+        let standard = match folder {
+            "room" => self.root.join("room").join(&house.id),
+            _ => self.root.join("object").join(stem),
+        };
+        let beside = house.path.parent().unwrap_or(Path::new("."));
+        let candidates: Vec<PathBuf> = [standard.as_path(), beside]
+            .into_iter()
+            .flat_map(|dir| {
+                MESH_EXTENSIONS
+                    .iter()
+                    .map(move |ext| dir.join(format!("{stem}.{ext}")))
+            })
+            .collect();
+        candidates.into_iter().find(|p| p.is_file())
+    }
+}
+
+impl DatasetLoader for SuncgLoader {
+    fn dataset(&self) -> Dataset {
+        Dataset::Suncg
+    }
     /// Every house under the root: `root/house/<id>/house.json`, or `root/<id>/house.json`,
     /// sorted by id.
-    pub fn discover(&self) -> Result<Vec<HouseEntry>, LoadError> {
+    fn discover(&self) -> Result<Vec<SceneEntry>, LoadError> {
         let standard = self.root.join("house");
         let dir = if standard.is_dir() {
             standard
@@ -138,7 +157,7 @@ impl SuncgLoader {
         for e in entries.flatten() {
             let path = e.path().join("house.json");
             if path.is_file() {
-                houses.push(HouseEntry {
+                houses.push(SceneEntry {
                     id: e.file_name().to_string_lossy().into_owned(),
                     path,
                 });
@@ -147,9 +166,8 @@ impl SuncgLoader {
         houses.sort();
         Ok(houses)
     }
-
     /// Loads one house. Every failure names `house.json` (or the mesh file) and the node.
-    pub fn load(&self, house: &HouseEntry) -> Result<LoadedScene, LoadError> {
+    fn load(&self, house: &SceneEntry) -> Result<LoadedScene, LoadError> {
         let path = &house.path;
         let bytes = std::fs::read(path).map_err(|source| LoadError::Io(FileError::new(path.clone(), source)))?;
         let json: HouseJson = serde_json::from_slice(&nan_tokens_to_null(&bytes))
@@ -187,35 +205,6 @@ impl SuncgLoader {
             warnings: ctx.warnings,
         })
     }
-
-    fn find_mesh(&self, house: &HouseEntry, folder: &str, stem: &str) -> Option<PathBuf> {
-        let standard = match folder {
-            "room" => self.root.join("room").join(&house.id),
-            _ => self.root.join("object").join(stem),
-        };
-        let beside = house.path.parent().unwrap_or(Path::new("."));
-        let candidates: Vec<PathBuf> = [standard.as_path(), beside]
-            .into_iter()
-            .flat_map(|dir| {
-                MESH_EXTENSIONS
-                    .iter()
-                    .map(move |ext| dir.join(format!("{stem}.{ext}")))
-            })
-            .collect();
-        candidates.into_iter().find(|p| p.is_file())
-    }
-}
-
-impl DatasetLoader for SuncgLoader {
-    fn dataset(&self) -> Dataset {
-        Dataset::Suncg
-    }
-    fn discover(&self) -> Result<Vec<SceneEntry>, LoadError> {
-        SuncgLoader::discover(self)
-    }
-    fn load(&self, entry: &SceneEntry) -> Result<LoadedScene, LoadError> {
-        SuncgLoader::load(self, entry)
-    }
     fn scene_layout(&self) -> &'static str {
         "house/<id>/house.json or <id>/house.json"
     }
@@ -251,7 +240,7 @@ fn find_mapping(root: &Path) -> Option<PathBuf> {
 /// State while one house is assembled.
 struct HouseBuild<'a> {
     loader: &'a SuncgLoader,
-    house: &'a HouseEntry,
+    house: &'a SceneEntry,
     root_transform: Mat4,
     scene: Scene,
     sources: Vec<PathBuf>,

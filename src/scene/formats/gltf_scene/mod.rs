@@ -239,13 +239,9 @@ impl GltfLoader {
         self.category_table.as_deref()
     }
 
-    /// Every scene under the root, sorted by id.
-    pub fn discover(&self) -> Result<Vec<SceneEntry>, LoadError> {
-        Ok(self.scenes.clone())
-    }
-
-    /// Loads one scene. Every failure names the file and the record.
-    pub fn load(&self, entry: &SceneEntry) -> Result<LoadedScene, LoadError> {
+    /// Loads one scene (unguarded: [`DatasetLoader::load`] catches the gltf crate's panics).
+    /// Every failure names the file and the record.
+    fn assemble(&self, entry: &SceneEntry) -> Result<LoadedScene, LoadError> {
         let mut asm = Assembler::new(&entry.id, &entry.path, &self.categories);
         if let Some(t) = &self.category_table {
             asm.sources.push(t.clone());
@@ -357,13 +353,14 @@ impl DatasetLoader for GltfLoader {
     fn dataset(&self) -> Dataset {
         Dataset::Gltf
     }
+    /// Every scene under the root, sorted by id.
     fn discover(&self) -> Result<Vec<SceneEntry>, LoadError> {
-        GltfLoader::discover(self)
+        Ok(self.scenes.clone())
     }
-    /// [`GltfLoader::load`], a panic inside the gltf crate on a malformed file becoming an
-    /// error naming the scene's file (the batch goes on).
+    /// Loads one scene; a panic inside the gltf crate on a malformed file becomes an error
+    /// naming the scene's file (the batch goes on).
     fn load(&self, entry: &SceneEntry) -> Result<LoadedScene, LoadError> {
-        crate::scene::formats::guarded(&entry.path, || GltfLoader::load(self, entry))?
+        crate::scene::formats::guarded(&entry.path, || self.assemble(entry))?
     }
     fn scene_layout(&self) -> &'static str {
         ".glb, .gltf or .scene_instance.json files in any folder"

@@ -191,43 +191,6 @@ impl Mp3dLoader {
         self
     }
 
-    /// Every scan under the root, sorted by id: `<root>/<id>/house_segmentations/<id>.house`
-    /// (under `<root>/v1/scans/` when that exists) and bare `<root>/<id>.house` files.
-    pub fn discover(&self) -> Result<Vec<SceneEntry>, LoadError> {
-        let scans = self.root.join("v1").join("scans");
-        let dir = if scans.is_dir() {
-            scans
-        } else {
-            self.root.clone()
-        };
-        let entries = std::fs::read_dir(&dir).map_err(|source| LoadError::Io(FileError::new(dir.clone(), source)))?;
-        let mut found: HashMap<String, PathBuf> = HashMap::new();
-        let mut bare = Vec::new();
-        for e in entries.flatten() {
-            let path = e.path();
-            let name = e.file_name().to_string_lossy().into_owned();
-            if path.is_dir() {
-                let house = path
-                    .join("house_segmentations")
-                    .join(format!("{name}.house"));
-                if house.is_file() {
-                    found.insert(name, house);
-                }
-            } else if let Some(stem) = name.strip_suffix(".house").filter(|s| !s.is_empty()) {
-                bare.push((stem.to_string(), path));
-            }
-        }
-        for (id, path) in bare {
-            found.entry(id).or_insert(path);
-        }
-        let mut out: Vec<SceneEntry> = found
-            .into_iter()
-            .map(|(id, path)| SceneEntry { id, path })
-            .collect();
-        out.sort();
-        Ok(out)
-    }
-
     /// The geometry files of a house, following [`Mp3dOptions::geometry`].
     pub fn mesh_files(&self, entry: &SceneEntry) -> MeshFiles {
         if self.options.geometry == GeometrySource::Proxy {
@@ -255,17 +218,6 @@ impl Mp3dLoader {
             }
         }
         MeshFiles::Proxy
-    }
-
-    /// Loads one scan. Every failure names the file and the line or record.
-    pub fn load(&self, entry: &SceneEntry) -> Result<LoadedScene, LoadError> {
-        let path = &entry.path;
-        let bytes = std::fs::read(path).map_err(|source| LoadError::Io(FileError::new(path.clone(), source)))?;
-        let house = house_file::parse(&bytes).map_err(|source| LoadError::House {
-            path: path.to_path_buf(),
-            source,
-        })?;
-        self.build(entry, &house)
     }
 
     /// Builds the scene of an already parsed house, reading its geometry files as
@@ -351,11 +303,51 @@ impl DatasetLoader for Mp3dLoader {
     fn dataset(&self) -> Dataset {
         Dataset::Mp3d
     }
+    /// Every scan under the root, sorted by id: `<root>/<id>/house_segmentations/<id>.house`
+    /// (under `<root>/v1/scans/` when that exists) and bare `<root>/<id>.house` files.
     fn discover(&self) -> Result<Vec<SceneEntry>, LoadError> {
-        Mp3dLoader::discover(self)
+        let scans = self.root.join("v1").join("scans");
+        let dir = if scans.is_dir() {
+            scans
+        } else {
+            self.root.clone()
+        };
+        let entries = std::fs::read_dir(&dir).map_err(|source| LoadError::Io(FileError::new(dir.clone(), source)))?;
+        let mut found: HashMap<String, PathBuf> = HashMap::new();
+        let mut bare = Vec::new();
+        for e in entries.flatten() {
+            let path = e.path();
+            let name = e.file_name().to_string_lossy().into_owned();
+            if path.is_dir() {
+                let house = path
+                    .join("house_segmentations")
+                    .join(format!("{name}.house"));
+                if house.is_file() {
+                    found.insert(name, house);
+                }
+            } else if let Some(stem) = name.strip_suffix(".house").filter(|s| !s.is_empty()) {
+                bare.push((stem.to_string(), path));
+            }
+        }
+        for (id, path) in bare {
+            found.entry(id).or_insert(path);
+        }
+        let mut out: Vec<SceneEntry> = found
+            .into_iter()
+            .map(|(id, path)| SceneEntry { id, path })
+            .collect();
+        out.sort();
+        Ok(out)
     }
+    /// Loads one scan. Every failure names the file and the line or record.
     fn load(&self, entry: &SceneEntry) -> Result<LoadedScene, LoadError> {
-        Mp3dLoader::load(self, entry)
+        let path = &entry.path;
+        let bytes = std::fs::read(path).map_err(|source| LoadError::Io(FileError::new(path.clone(), source)))?;
+        let house = house_file::parse(&bytes).map_err(|source| LoadError::House {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        self.build(entry, &house)
     }
     fn scene_layout(&self) -> &'static str {
         "<scan>/house_segmentations/<scan>.house or <scan>.house (in v1/scans/ when present)"

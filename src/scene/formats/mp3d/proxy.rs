@@ -240,34 +240,10 @@ impl MeshBuilder {
         }
     }
 
-    /// Adds a closed box from its bottom corners `c[0..4]` and top corners `c[4..8]` (the top
-    /// corner `c[4 + k]` above the bottom corner `c[k]`, the bottom corners in order around
-    /// the box). Every face points away from the box's centre.
-    pub fn solid_box(&mut self, c: [Vec3; 8], slot: u16) {
-        let centre = c.iter().copied().sum::<Vec3>() / 8.0;
-        let mut faces: Vec<[usize; 4]> = vec![[0, 1, 2, 3], [4, 5, 6, 7]];
-        for k in 0..4 {
-            let j = (k + 1) % 4;
-            faces.push([k, j, 4 + j, 4 + k]);
-        }
-        for f in faces {
-            let q = [c[f[0]], c[f[1]], c[f[2]], c[f[3]]];
-            let mid = (q[0] + q[1] + q[2] + q[3]) / 4.0;
-            let n = (q[1] - q[0]).cross(q[2] - q[0]) + (q[2] - q[0]).cross(q[3] - q[0]);
-            let q = if n.dot(mid - centre) >= 0.0 {
-                q
-            } else {
-                [q[0], q[3], q[2], q[1]]
-            };
-            let v = [
-                self.vertex(q[0]),
-                self.vertex(q[1]),
-                self.vertex(q[2]),
-                self.vertex(q[3]),
-            ];
-            self.triangle_indices([v[0], v[1], v[2]], slot);
-            self.triangle_indices([v[0], v[2], v[3]], slot);
-        }
+    /// Adds a closed box with flat faces ([`Mesh::push_box`]; normals are recomputed by
+    /// [`MeshBuilder::finish`]).
+    pub fn push_box(&mut self, c: [Vec3; 8], slot: u16) {
+        self.mesh.push_box(c, slot);
     }
 
     /// True when no triangle was added.
@@ -291,27 +267,9 @@ impl MeshBuilder {
 pub fn unit_box() -> Mesh {
     let mut b = MeshBuilder::new("mp3d proxy unit box");
     let slot = b.material("object", [0.6, 0.55, 0.5]);
-    let h = 0.5;
-    let bottom = [
-        Vec3::new(-h, -h, -h),
-        Vec3::new(h, -h, -h),
-        Vec3::new(h, -h, h),
-        Vec3::new(-h, -h, h),
-    ];
-    let up = Vec3::new(0.0, 1.0, 0.0);
-    b.solid_box(
-        [
-            bottom[0],
-            bottom[1],
-            bottom[2],
-            bottom[3],
-            bottom[0] + up,
-            bottom[1] + up,
-            bottom[2] + up,
-            bottom[3] + up,
-        ],
-        slot,
-    );
+    let [b0, b1, b2, b3] = [[-0.5, -0.5], [0.5, -0.5], [0.5, 0.5], [-0.5, 0.5]]
+        .map(|[x, z]| Vec3::new(x, -0.5, z));
+    b.push_box([b0, b1, b2, b3, b0 + Vec3::Y, b1 + Vec3::Y, b2 + Vec3::Y, b3 + Vec3::Y], slot);
     b.finish()
 }
 
@@ -545,7 +503,7 @@ pub fn build_surfaces(
                             let quad = [a, b, out(b, WALL_THICKNESS), out(a, WALL_THICKNESS)];
                             let bottom = quad.map(|c| Vec3::new(c[0], y, c[1]));
                             let top = quad.map(|c| Vec3::new(c[0], y + h, c[1]));
-                            wall.solid_box(
+                            wall.push_box(
                                 [
                                     bottom[0], bottom[1], bottom[2], bottom[3], top[0], top[1],
                                     top[2], top[3],
@@ -656,7 +614,7 @@ mod tests {
     }
 
     #[test]
-    fn solid_boxes_face_outwards() {
+    fn unit_box_faces_outwards() {
         let m = unit_box();
         assert_eq!(m.triangle_count(), 12);
         for t in m.indices.chunks_exact(3) {

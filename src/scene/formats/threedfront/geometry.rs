@@ -148,79 +148,17 @@ fn unit_normals(v: &[Option<f64>], n: usize) -> Option<Vec<[f32; 3]>> {
 }
 
 /// A box one metre on each side standing on the origin: x and z in [−½, ½], y in [0, 1]
-/// (the placement convention of 3D-FUTURE models: origin at the bottom centre). Each face
-/// has its own four vertices so normals are flat; triangles wind counter-clockwise outside.
+/// (the placement convention of 3D-FUTURE models: origin at the bottom centre), with flat
+/// faces wound counter-clockwise outside ([`Mesh::push_box`]).
 pub fn unit_box() -> Mesh {
-    // (outward normal, the four corners counter-clockwise seen from outside)
-    let faces: [([f32; 3], [[f32; 3]; 4]); 6] = [
-        (
-            [1.0, 0.0, 0.0],
-            [
-                [0.5, 0.0, 0.5],
-                [0.5, 0.0, -0.5],
-                [0.5, 1.0, -0.5],
-                [0.5, 1.0, 0.5],
-            ],
-        ),
-        (
-            [-1.0, 0.0, 0.0],
-            [
-                [-0.5, 0.0, -0.5],
-                [-0.5, 0.0, 0.5],
-                [-0.5, 1.0, 0.5],
-                [-0.5, 1.0, -0.5],
-            ],
-        ),
-        (
-            [0.0, 1.0, 0.0],
-            [
-                [-0.5, 1.0, 0.5],
-                [0.5, 1.0, 0.5],
-                [0.5, 1.0, -0.5],
-                [-0.5, 1.0, -0.5],
-            ],
-        ),
-        (
-            [0.0, -1.0, 0.0],
-            [
-                [-0.5, 0.0, -0.5],
-                [0.5, 0.0, -0.5],
-                [0.5, 0.0, 0.5],
-                [-0.5, 0.0, 0.5],
-            ],
-        ),
-        (
-            [0.0, 0.0, 1.0],
-            [
-                [-0.5, 0.0, 0.5],
-                [0.5, 0.0, 0.5],
-                [0.5, 1.0, 0.5],
-                [-0.5, 1.0, 0.5],
-            ],
-        ),
-        (
-            [0.0, 0.0, -1.0],
-            [
-                [0.5, 0.0, -0.5],
-                [-0.5, 0.0, -0.5],
-                [-0.5, 1.0, -0.5],
-                [0.5, 1.0, -0.5],
-            ],
-        ),
-    ];
     let mut mesh = Mesh {
         name: "3dfront/unit_box".into(),
         materials: vec![Material::solid("furniture_box", [0.6, 0.55, 0.5])],
         ..Default::default()
     };
-    for (normal, corners) in faces {
-        let base = mesh.positions.len() as u32;
-        mesh.positions.extend(corners);
-        mesh.normals.extend([normal; 4]);
-        mesh.indices
-            .extend([base, base + 1, base + 2, base, base + 2, base + 3]);
-        mesh.face_materials.extend([0, 0]);
-    }
+    let bottom = [[-0.5, -0.5], [0.5, -0.5], [0.5, 0.5], [-0.5, 0.5]];
+    let [b0, b1, b2, b3] = bottom.map(|[x, z]| Vec3::new(x, 0.0, z));
+    mesh.push_box([b0, b1, b2, b3, b0 + Vec3::Y, b1 + Vec3::Y, b2 + Vec3::Y, b3 + Vec3::Y], 0);
     mesh
 }
 

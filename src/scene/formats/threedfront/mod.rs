@@ -109,41 +109,6 @@ impl ThreeDFrontLoader {
         &self.categories
     }
 
-    /// Every `*.json` file directly in the root (except `model_info.json`), id = file stem,
-    /// sorted by id.
-    pub fn discover(&self) -> Result<Vec<SceneEntry>, LoadError> {
-        let entries = std::fs::read_dir(&self.root).map_err(|source| LoadError::Io(FileError::new(self.root.clone(), source)))?;
-        let mut scenes = Vec::new();
-        for e in entries.flatten() {
-            let path = e.path();
-            let is_json = path
-                .extension()
-                .is_some_and(|x| x.eq_ignore_ascii_case("json"));
-            let name = e.file_name().to_string_lossy().into_owned();
-            if !is_json || name.starts_with('.') || name == "model_info.json" || !path.is_file() {
-                continue;
-            }
-            if let Some(stem) = path.file_stem() {
-                scenes.push(SceneEntry {
-                    id: stem.to_string_lossy().into_owned(),
-                    path,
-                });
-            }
-        }
-        scenes.sort();
-        Ok(scenes)
-    }
-
-    /// Loads one scene file. Every failure names the file and the record.
-    pub fn load(&self, entry: &SceneEntry) -> Result<LoadedScene, LoadError> {
-        let bytes = std::fs::read(&entry.path).map_err(|source| LoadError::Io(FileError::new(entry.path.clone(), source)))?;
-        let mut loaded = self.load_bytes(&entry.id, &entry.path, &bytes)?;
-        if let Some(m) = &self.mapping_path {
-            loaded.sources.push(m.clone());
-        }
-        Ok(loaded)
-    }
-
     /// Loads a scene from the bytes of its file; `path` names it in messages and `id` is the
     /// scene id. Reads no file except 3D-FUTURE meshes under the model folder.
     pub fn load_bytes(
@@ -186,11 +151,38 @@ impl DatasetLoader for ThreeDFrontLoader {
     fn dataset(&self) -> Dataset {
         Dataset::ThreeDFront
     }
+    /// Every `*.json` file directly in the root (except `model_info.json`), id = file stem,
+    /// sorted by id.
     fn discover(&self) -> Result<Vec<SceneEntry>, LoadError> {
-        ThreeDFrontLoader::discover(self)
+        let entries = std::fs::read_dir(&self.root).map_err(|source| LoadError::Io(FileError::new(self.root.clone(), source)))?;
+        let mut scenes = Vec::new();
+        for e in entries.flatten() {
+            let path = e.path();
+            let is_json = path
+                .extension()
+                .is_some_and(|x| x.eq_ignore_ascii_case("json"));
+            let name = e.file_name().to_string_lossy().into_owned();
+            if !is_json || name.starts_with('.') || name == "model_info.json" || !path.is_file() {
+                continue;
+            }
+            if let Some(stem) = path.file_stem() {
+                scenes.push(SceneEntry {
+                    id: stem.to_string_lossy().into_owned(),
+                    path,
+                });
+            }
+        }
+        scenes.sort();
+        Ok(scenes)
     }
+    /// Loads one scene file. Every failure names the file and the record.
     fn load(&self, entry: &SceneEntry) -> Result<LoadedScene, LoadError> {
-        ThreeDFrontLoader::load(self, entry)
+        let bytes = std::fs::read(&entry.path).map_err(|source| LoadError::Io(FileError::new(entry.path.clone(), source)))?;
+        let mut loaded = self.load_bytes(&entry.id, &entry.path, &bytes)?;
+        if let Some(m) = &self.mapping_path {
+            loaded.sources.push(m.clone());
+        }
+        Ok(loaded)
     }
     fn scene_layout(&self) -> &'static str {
         "<scene uid>.json files (model_info.json aside)"
