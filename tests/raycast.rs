@@ -8,7 +8,7 @@ use crate::common;
 use std::f32::consts::FRAC_PI_2;
 
 use glam::Vec3;
-use minos::render::frame::NO_HIT;
+use minos::render::NO_HIT;
 use minos::render::{cpu, raycast, Camera, RenderScene};
 use minos::scene::Taxonomy;
 

@@ -95,6 +95,7 @@ pub fn rasterise(scene: &RenderScene, camera: &Camera) -> Frame {
 }
 
 /// Renders several cameras in parallel.
+#[cfg(feature = "internals")]
 pub fn render_batch(scene: &RenderScene, cameras: &[Camera]) -> Vec<Frame> {
     cameras.par_iter().map(|c| render(scene, c)).collect()
 }

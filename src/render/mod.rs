@@ -6,23 +6,31 @@
 internal! {
     pub mod bvh;
 }
-pub mod camera;
-pub mod cpu;
-pub mod derived;
-pub mod frame;
+mod camera;
+internal! {
+    pub mod cpu;
+}
+internal! {
+    pub mod derived;
+}
+mod frame;
 pub mod gpu;
 mod image;
 mod prefetch;
-pub mod raycast;
+internal! {
+    pub mod raycast;
+}
 mod renderer;
-pub mod scene;
+internal! {
+    pub mod scene;
+}
 pub mod texture;
 pub mod texture_library;
 pub mod visualize;
 
 pub use camera::Camera;
-pub use derived::{Channel, Channels};
+pub use derived::{Channel, Channels, Derived};
 pub use frame::{Frame, NO_HIT};
 pub use image::{Image, Modality};
 pub use renderer::{Renderer, RendererChoice};
-pub use scene::RenderScene;
+pub use scene::{Cluster, RenderScene, TriInfo, UvMap};
