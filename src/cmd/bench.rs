@@ -10,7 +10,7 @@ use minos::scene::SceneRef;
 use minos::sim::{AgentConfig, SensorSuite};
 use minos::store::DataDir;
 
-use super::common::{sensor_suite, vocab};
+use super::common::{sensor_suite, sensors_help, vocab};
 use super::Context;
 
 /// Benchmarks `bench` can run.
@@ -54,9 +54,7 @@ pub struct Args {
     /// Renderer of `render` and `run`.
     #[arg(long, value_parser = vocab::<RendererChoice>(), default_value = "cpu")]
     renderer: RendererChoice,
-    /// Sensor file (TOML or JSON) or suite (minos, minos-paper, all); default: RGB, depth and semantic cameras at --size (grey,
-    /// depth and semantic at 90° for --preset minos-paper).
-    #[arg(long)]
+    #[arg(long, help = sensors_help("RGB, depth and semantic cameras at --size (grey, depth and semantic at 90° for --preset minos-paper)."))]
     sensors: Option<PathBuf>,
     /// Image size of the default sensors.
     #[arg(long, default_value_t = 84)]

@@ -11,7 +11,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use minos::episode::Episode;
 use minos::lock::LockMode;
 use minos::pipeline::split::{scenes_of, ScenesError};
-use minos::sim::SensorSuite;
+use minos::sim::{SensorSuite, SuiteName};
 use minos::store::DataDir;
 use minos::vocab::Vocabulary;
 use tracing_subscriber::EnvFilter;
@@ -255,6 +255,15 @@ pub fn parse_threads(s: &str) -> Result<usize, String> {
         ));
     }
     Ok(n)
+}
+
+/// The help of `--sensors`: a sensor file or one of the library's suites (named from its
+/// vocabulary, so a new suite shows up here), then what the command renders without it.
+pub fn sensors_help(default: &str) -> String {
+    format!(
+        "Sensor file (TOML or JSON) or suite ({}); default: {default}",
+        SuiteName::names().join(", ")
+    )
 }
 
 /// `--sensors NAME|FILE` ([`SensorSuite::from_spec`] at `size`²), or `default` when not given.

@@ -12,7 +12,7 @@ use minos::scene::SceneRef;
 use minos::sim::{AgentConfig, SensorSuite};
 use minos::store::DataDir;
 
-use super::common::{sensor_suite, vocab};
+use super::common::{sensor_suite, sensors_help, vocab};
 use super::Context;
 
 /// Render what an agent's sensors see at a pose, one PNG per sensor (colour; depth as 16-bit
@@ -56,8 +56,7 @@ pub struct Args {
     /// Render on a grid baked for another body than --preset's.
     #[arg(long)]
     allow_body_mismatch: bool,
-    /// Sensor file (TOML or JSON) or suite (minos, minos-paper, all); default: every modality at --size.
-    #[arg(long)]
+    #[arg(long, help = sensors_help("every modality at --size."))]
     sensors: Option<PathBuf>,
     /// Image size of the default sensors.
     #[arg(long, default_value_t = 256)]

@@ -21,7 +21,7 @@ use minos::shard::ShardSpec;
 use minos::sim::{AgentConfig, SensorSuite};
 use minos::store::DataDir;
 
-use super::common::{on_variant, sensor_suite, vocab};
+use super::common::{on_variant, sensor_suite, sensors_help, vocab};
 use super::Context;
 
 /// Roll out episodes with an agent, writing Parquet datasets (trajectories, observations,
@@ -67,9 +67,7 @@ pub struct Args {
     /// Run on grids baked for another body than --preset's (recorded in manifest.json).
     #[arg(long)]
     allow_body_mismatch: bool,
-    /// Sensor file (TOML or JSON) or suite (minos, minos-paper, all); default: MINOS's RGB, depth, semantic at --size and 4 contacts
-    /// (grey, depth and semantic at 90° for --preset minos-paper).
-    #[arg(long)]
+    #[arg(long, help = sensors_help("MINOS's RGB, depth, semantic at --size and 4 contacts (grey, depth and semantic at 90° for --preset minos-paper)."))]
     sensors: Option<PathBuf>,
     /// Image size of the default sensors.
     #[arg(long, default_value_t = 84)]

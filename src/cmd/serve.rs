@@ -19,7 +19,7 @@ use minos::serve::{FrameFormat, RateLimits, ServeConfig, Shared};
 use minos::sim::{AgentConfig, SensorSuite};
 use minos::store::DataDir;
 
-use super::common::{on_variant, sensor_suite, vocab};
+use super::common::{on_variant, sensor_suite, sensors_help, vocab};
 
 /// The environment variable an access token may come from (out of sight of `ps`).
 pub const ACCESS_TOKEN_ENV: &str = "MINOS_ACCESS_TOKEN";
@@ -81,9 +81,7 @@ pub struct Args {
     /// Agent preset (body and motion); the grids must be baked for its body.
     #[arg(long, value_parser = vocab::<AgentPreset>(), default_value = "habitat")]
     preset: AgentPreset,
-    /// Sensor file (TOML or JSON) or suite (minos, minos-paper, all); default: MINOS's RGB, depth, semantic at --size (grey,
-    /// depth and semantic at 90° for --preset minos-paper).
-    #[arg(long)]
+    #[arg(long, help = sensors_help("MINOS's RGB, depth, semantic at --size (grey, depth and semantic at 90° for --preset minos-paper)."))]
     sensors: Option<PathBuf>,
     /// Image size of the default sensors.
     #[arg(long, default_value_t = 256)]
