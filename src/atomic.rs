@@ -168,6 +168,33 @@ pub fn remove_dir_atomic(dir: &Path) -> io::Result<()> {
     }
 }
 
+/// Puts the finished folder `tmp` (written at [`temp_path`]`(dir)`) in place of `dir` as
+/// one step for a reader: `tmp`'s files are synced, an existing `dir` is renamed to
+/// `.<name>.old-<pid>`, `tmp` takes its name (and the parent folder is synced), then the old
+/// copy is removed. When `tmp` cannot take the name, the old `dir` is put back. A process
+/// killed in between leaves the old `dir` or the new one, and a temporary folder that the
+/// next sweep ([`sweep_stale`]) removes.
+pub fn replace_dir(tmp: &Path, dir: &Path) -> io::Result<()> {
+    sync_tree(tmp)?;
+    let old = sibling(dir, "old");
+    let moved = match fs::rename(dir, &old) {
+        Ok(()) => true,
+        Err(e) if e.kind() == io::ErrorKind::NotFound => false,
+        Err(e) => return Err(e),
+    };
+    if let Err(e) = fs::rename(tmp, dir) {
+        if moved {
+            let _ = fs::rename(&old, dir);
+        }
+        return Err(e);
+    }
+    sync_dir(parent_of(dir))?;
+    match fs::remove_dir_all(&old) {
+        Err(e) if e.kind() != io::ErrorKind::NotFound => Err(e),
+        _ => Ok(()),
+    }
+}
+
 /// The process id in a temporary name — `.<name>.tmp-<pid>`, or `.<name>.old-<pid>` for a
 /// folder being replaced — or `None` for any other name.
 pub fn temp_owner(file_name: &str) -> Option<u32> {
@@ -331,6 +358,34 @@ mod tests {
             vec![format!(".b.nav.tmp-{mine}"), "a.nav".into(), "sub".into()]
         );
         assert!(sweep_stale(&d.join("missing")).unwrap().is_empty());
+    }
+
+    #[test]
+    fn replace_dir_swaps_whole_folders_and_leaves_nothing_beside_them() {
+        let d = tempfile::tempdir().unwrap();
+        let out = d.path().join("ds");
+        for (round, text) in [(0, "first"), (1, "second")] {
+            let tmp = temp_path(&out);
+            fs::create_dir(&tmp).unwrap();
+            fs::write(tmp.join("f"), text).unwrap();
+            replace_dir(&tmp, &out).unwrap();
+            assert_eq!(
+                fs::read_to_string(out.join("f")).unwrap(),
+                text,
+                "round {round}"
+            );
+            let names: Vec<_> = fs::read_dir(d.path())
+                .unwrap()
+                .map(|e| e.unwrap().file_name().into_string().unwrap())
+                .collect();
+            assert_eq!(names, vec!["ds".to_string()], "round {round}");
+        }
+        // A temporary folder that cannot take the name (here: none) is an error, and the
+        // dataset in place stays where it was.
+        let err = replace_dir(&temp_path(&out), &out).unwrap_err();
+        assert_eq!(err.kind(), io::ErrorKind::NotFound);
+        assert_eq!(fs::read_to_string(out.join("f")).unwrap(), "second");
+        assert_eq!(fs::read_dir(d.path()).unwrap().count(), 1);
     }
 
     #[test]

@@ -102,6 +102,13 @@ pub enum LerobotError {
         #[source]
         cause: WriteCause,
     },
+    /// The output path ends in no folder name (`/`, `..`): there is nothing to replace
+    /// safely.
+    #[error("{}: names no folder to write the dataset into", path.display())]
+    NoFolderName {
+        /// The output path.
+        path: PathBuf,
+    },
     /// The run's tables disagree with each other.
     #[error("{}: {message}", path.display())]
     Mismatch {
@@ -357,6 +364,11 @@ pub fn write_dataset_of(
     options: &DatasetOptions,
     progress: &dyn Progress,
 ) -> Result<DatasetSummary, LerobotError> {
+    if out.file_name().is_none() {
+        return Err(LerobotError::NoFolderName {
+            path: out.to_path_buf(),
+        });
+    }
     if sources.is_empty() {
         return Err(LerobotError::Mismatch {
             path: out.to_path_buf(),
@@ -368,13 +380,9 @@ pub fn write_dataset_of(
         .filter(|p| !p.as_os_str().is_empty())
         .unwrap_or(Path::new("."));
     std::fs::create_dir_all(parent).map_err(io(parent))?;
-    let name = out
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "lerobot".into());
     // What a killed writer of this dataset left beside it.
     sweep_stale_of(out).map_err(io(parent))?;
-    let tmp = parent.join(format!(".{name}.tmp-{}", std::process::id()));
+    let tmp = crate::atomic::temp_path(out);
     if tmp.exists() {
         std::fs::remove_dir_all(&tmp).map_err(io(&tmp))?;
     }
@@ -384,15 +392,7 @@ pub fn write_dataset_of(
     });
     match result {
         Ok(summary) => {
-            let old = parent.join(format!(".{name}.old-{}", std::process::id()));
-            if out.exists() {
-                std::fs::rename(out, &old).map_err(io(out))?;
-            }
-            // Every file of the copy on disk before it takes the final name.
-            crate::atomic::rename_durably(&tmp, out).map_err(io(out))?;
-            if old.exists() {
-                std::fs::remove_dir_all(&old).map_err(io(&old))?;
-            }
+            crate::atomic::replace_dir(&tmp, out).map_err(io(out))?;
             Ok(summary)
         }
         Err(e) => {
@@ -782,6 +782,25 @@ impl VideoStream {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_output_path_without_a_folder_name_is_refused_before_anything_moves() {
+        let options = DatasetOptions {
+            fps: 10,
+            robot_type: "minos".into(),
+            run: None,
+            video: false,
+        };
+        for out in ["/", "..", "a/.."] {
+            let e = write_dataset_of(&[], Path::new(out), &options, &crate::progress::NoProgress)
+                .unwrap_err();
+            assert!(matches!(e, LerobotError::NoFolderName { .. }), "{out}: {e}");
+            assert_eq!(
+                e.to_string(),
+                format!("{out}: names no folder to write the dataset into")
+            );
+        }
+    }
 
     #[test]
     fn write_errors_keep_their_cause_typed_and_print_it_once() {
