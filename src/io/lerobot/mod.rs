@@ -12,7 +12,10 @@
 //!                                             stats/<feature>/<stat>, minos/episode_id, minos/scene_id
 //! DIR/data/chunk-000/file-000.parquet         the frames, episodes whole and in order, with
 //!                                             the Hugging Face `datasets` features as schema
-//!                                             metadata; a new file after 100 MB
+//!                                             metadata; row groups of whole episodes up to
+//!                                             [`ROW_GROUP_BYTES`], numeric columns packed by
+//!                                             kind (`compact_columns`); a new file after
+//!                                             100 MB
 //! DIR/videos/<key>/chunk-000/file-000.mp4     with `video`: each colour camera's frames as
 //!                                             H.264 in MP4, episodes whole and in order
 //!                                             ([`video`]); a new file after 200 MB
