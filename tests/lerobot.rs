@@ -348,6 +348,144 @@ fn the_dataset_follows_the_lerobot_v3_layout() {
     }
 }
 
+/// Each column chunk of a Parquet file: (path, physical type, encodings, codec), per row
+/// group; and the file's key-value metadata keys.
+#[allow(clippy::type_complexity)]
+fn column_chunks(
+    path: &Path,
+) -> (
+    Vec<
+        Vec<(
+            String,
+            parquet::basic::Type,
+            Vec<parquet::basic::Encoding>,
+            String,
+        )>,
+    >,
+    Vec<String>,
+) {
+    let reader =
+        parquet::file::reader::SerializedFileReader::new(std::fs::File::open(path).expect("open"))
+            .expect("parquet");
+    let meta = parquet::file::reader::FileReader::metadata(&reader);
+    let groups = meta
+        .row_groups()
+        .iter()
+        .map(|g| {
+            g.columns()
+                .iter()
+                .map(|c| {
+                    (
+                        c.column_path().string(),
+                        c.column_type(),
+                        c.encodings().collect(),
+                        format!("{:?}", c.compression()),
+                    )
+                })
+                .collect()
+        })
+        .collect();
+    let keys = meta
+        .file_metadata()
+        .key_value_metadata()
+        .map(|kv| kv.iter().map(|k| k.key.clone()).collect())
+        .unwrap_or_default();
+    (groups, keys)
+}
+
+#[test]
+fn parquet_files_pack_numbers_by_kind_in_row_groups_of_whole_episodes() {
+    use parquet::basic::{Encoding, Type};
+    let root = run_dir("raw").join("lerobot");
+    let files = data_files(&root);
+    assert_eq!(files.len(), 1, "{files:?}");
+    let (groups, keys) = column_chunks(&files[0]);
+    // A small dataset is one row group (it was one per episode), so every episode is whole
+    // in it; the schema metadata stays.
+    let episodes = fixture().episodes.len();
+    assert!(episodes >= 4);
+    assert_eq!(groups.len(), 1, "{episodes} episodes");
+    assert!(keys.contains(&"huggingface".to_string()), "{keys:?}");
+    assert!(keys.contains(&"ARROW:schema".to_string()), "{keys:?}");
+    let (mut ints, mut floats) = (0, 0);
+    for (path, kind, encodings, codec) in &groups[0] {
+        assert!(codec.starts_with("ZSTD"), "{path}: {codec}");
+        assert!(
+            !encodings.contains(&Encoding::RLE_DICTIONARY)
+                && !encodings.contains(&Encoding::PLAIN_DICTIONARY),
+            "{path}: {encodings:?}"
+        );
+        match kind {
+            Type::INT64 | Type::INT32 => {
+                ints += 1;
+                assert!(
+                    encodings.contains(&Encoding::DELTA_BINARY_PACKED),
+                    "{path}: {encodings:?}"
+                );
+            }
+            Type::FLOAT | Type::DOUBLE => {
+                floats += 1;
+                assert!(
+                    encodings.contains(&Encoding::BYTE_STREAM_SPLIT),
+                    "{path}: {encodings:?}"
+                );
+            }
+            _ => {}
+        }
+    }
+    // index, frame_index, episode_index, task_index; the vectors, timestamp, reward.
+    assert!(
+        ints >= 4 && floats >= 5,
+        "{ints} integer, {floats} float columns"
+    );
+    // The index columns read back as the frames' own numbering.
+    let b = frames(&root);
+    let index = col::<Int64Array>(&b, "index");
+    assert!(index
+        .values()
+        .iter()
+        .enumerate()
+        .all(|(i, v)| *v == i as i64));
+
+    // meta/episodes: numbers packed the same way, no statistics and no serialised Arrow
+    // schema in the footer; the types are the Parquet schema's own.
+    let path = root.join("meta/episodes/chunk-000/file-000.parquet");
+    let (groups, keys) = column_chunks(&path);
+    assert!(!keys.contains(&"ARROW:schema".to_string()), "{keys:?}");
+    for (path, kind, encodings, _) in &groups[0] {
+        if matches!(kind, Type::DOUBLE) {
+            assert!(
+                encodings.contains(&Encoding::BYTE_STREAM_SPLIT),
+                "{path}: {encodings:?}"
+            );
+        }
+    }
+    let reader =
+        parquet::file::reader::SerializedFileReader::new(std::fs::File::open(&path).expect("open"))
+            .expect("parquet");
+    let rg = parquet::file::reader::FileReader::metadata(&reader).row_group(0);
+    assert!(rg.columns().iter().all(|c| c.statistics().is_none()));
+    let e = table(&path);
+    assert_eq!(e.num_rows(), episodes);
+    assert_eq!(
+        e.schema()
+            .field_with_name("tasks")
+            .expect("tasks")
+            .data_type(),
+        &arrow::datatypes::DataType::List(std::sync::Arc::new(arrow::datatypes::Field::new(
+            "item",
+            arrow::datatypes::DataType::Utf8,
+            true
+        )))
+    );
+    let lengths = col::<Int64Array>(&e, "length");
+    assert_eq!(
+        lengths.values().iter().sum::<i64>() as usize,
+        b.num_rows(),
+        "episode lengths add up to the frames"
+    );
+}
+
 /// The run's observation rows: (episode id, step) → column → cell bytes.
 fn observation_cells(run: &Path) -> BTreeMap<(String, u32), BTreeMap<String, Vec<u8>>> {
     let mut out = BTreeMap::new();

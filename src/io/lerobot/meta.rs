@@ -13,14 +13,15 @@ use arrow::array::{
     StringArray, StringBuilder,
 };
 use arrow::datatypes::{Field, Schema};
+use parquet::arrow::arrow_writer::ArrowWriterOptions;
 use parquet::arrow::ArrowWriter;
 use parquet::file::metadata::KeyValue;
 use serde_json::{json, Value};
 
 use super::features::{Camera, Feature};
 use super::stats::{FeatureStats, StatLayout};
-use super::{write_error, LerobotError};
-use crate::parquet_io::writer_properties;
+use super::{compact_columns, write_error, zstd, LerobotError};
+use parquet::file::properties::{EnabledStatistics, WriterProperties};
 
 /// LeRobot's format version this module writes.
 pub const CODEBASE_VERSION: &str = "v3.0";
@@ -107,17 +108,22 @@ pub struct VideoPlace {
 /// Episode rows per `meta/episodes` file.
 pub const EPISODES_PER_META_FILE: usize = 1000;
 
-/// Writes one Parquet file of `batch` (zstd), its schema metadata also as the file's
-/// key-value metadata (where pandas and pyarrow write theirs).
-fn write_parquet(path: &Path, batch: &RecordBatch) -> Result<(), LerobotError> {
+/// Writes one Parquet file of `batch` (zstd, the numeric columns compacted, no column
+/// statistics: a reader filters these few rows in memory), its schema metadata also as the
+/// file's key-value metadata (where pandas and pyarrow write theirs). `arrow_schema`: also
+/// the serialised Arrow schema (`ARROW:schema`); without it readers take the types from
+/// the Parquet schema, which says all of them for plain integers, floats, strings and lists
+/// (it was a quarter of a `meta/episodes` file of 60 episodes).
+fn write_parquet(path: &Path, batch: &RecordBatch, arrow_schema: bool) -> Result<(), LerobotError> {
     if let Some(dir) = path.parent() {
         std::fs::create_dir_all(dir)
             .map_err(|source| LerobotError::Io(FileError::new(dir, source)))?;
     }
     let file =
         File::create(path).map_err(|source| LerobotError::Io(FileError::new(path, source)))?;
-    let props = writer_properties(1, None, &batch.schema())
-        .into_builder()
+    let builder = WriterProperties::builder()
+        .set_compression(zstd())
+        .set_statistics_enabled(EnabledStatistics::None)
         .set_key_value_metadata(Some(
             batch
                 .schema()
@@ -125,9 +131,14 @@ fn write_parquet(path: &Path, batch: &RecordBatch) -> Result<(), LerobotError> {
                 .iter()
                 .map(|(k, v)| KeyValue::new(k.clone(), v.clone()))
                 .collect(),
-        ))
+        ));
+    let props = compact_columns(builder, &batch.schema())
+        .map_err(|e| write_error(path, e))?
         .build();
-    let mut w = ArrowWriter::try_new(file, batch.schema(), Some(props))
+    let options = ArrowWriterOptions::new()
+        .with_properties(props)
+        .with_skip_arrow_metadata(!arrow_schema);
+    let mut w = ArrowWriter::try_new_with_options(file, batch.schema(), options)
         .map_err(|e| write_error(path, e))?;
     w.write(batch).map_err(|e| write_error(path, e))?;
     w.close().map_err(|e| write_error(path, e))?;
@@ -163,7 +174,7 @@ pub fn write_tasks(root: &Path, tasks: &[String]) -> Result<(), LerobotError> {
         ],
     )
     .map_err(|e| write_error(&path, e))?;
-    write_parquet(&path, &batch)
+    write_parquet(&path, &batch, true)
 }
 
 /// A list column of f64 lists nested `depth` deep (1: `[v]`, 3: `[[[v]]]`) from JSON.
@@ -308,7 +319,7 @@ pub fn write_episodes(
         }
         let batch = RecordBatch::try_new(Arc::new(Schema::new(fields)), columns)
             .map_err(|e| write_error(&path, e))?;
-        write_parquet(&path, &batch)?;
+        write_parquet(&path, &batch, false)?;
     }
     Ok(())
 }
