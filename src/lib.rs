@@ -46,6 +46,7 @@ pub mod lock;
 pub mod navmesh;
 pub mod parquet_io;
 pub mod pipeline;
+mod prefetch;
 pub mod progress;
 pub mod provenance;
 pub mod render;

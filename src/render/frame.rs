@@ -6,8 +6,8 @@ use glam::Vec3;
 
 use super::camera::Camera;
 use super::derived::{taxonomy_slot, Derived};
-use super::prefetch::prefetch;
 use super::scene::RenderScene;
+use crate::prefetch::prefetch;
 use crate::scene::Taxonomy;
 
 /// Pixel shows no triangle.

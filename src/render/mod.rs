@@ -16,7 +16,6 @@ internal! {
 mod frame;
 pub mod gpu;
 mod image;
-mod prefetch;
 internal! {
     pub mod raycast;
 }
@@ -33,4 +32,4 @@ pub use derived::{Channel, Channels, Derived};
 pub use frame::{Frame, NO_HIT};
 pub use image::{Image, Modality};
 pub use renderer::{Renderer, RendererChoice};
-pub use scene::{Cluster, RenderScene, TriInfo, UvMap};
+pub use scene::{Cluster, RenderScene, TriInfo, UvMap, NO_ID, NO_TEXTURE};

@@ -3,6 +3,7 @@
 //! Dijkstra for `clearance_weight > 1` (see the module overview in `mod.rs`).
 
 use super::*;
+use crate::prefetch::prefetch;
 
 /// Signs `(sx, sz)` of the steps into quadrant `q` of the [`SightIndex`] (bit 0: towards -x,
 /// bit 1: towards -z).
@@ -148,19 +149,19 @@ impl<'g> Geodesic<'g> {
             head += 1;
             // The queue knows the order: load records well ahead.
             if let Some(&ahead) = fifo.get(head + 16) {
-                prefetch(nodes, ahead);
+                prefetch(nodes, ahead as usize);
                 sight.prefetch(ahead);
             }
             if let Some(&ahead) = fifo.get(head + 8) {
                 let c = sight.column_height(ahead).0 as usize;
-                prefetch(start, c.wrapping_sub(nx) as u32);
-                prefetch(start, (c + nx) as u32);
+                prefetch(start, c.wrapping_sub(nx));
+                prefetch(start, c + nx);
             }
             if let Some(&ahead) = fifo.get(head + 4) {
                 let c = sight.column_height(ahead).0 as usize;
                 for cc in [c.wrapping_sub(nx), c + nx] {
                     if let Some(&t) = start.get(cc) {
-                        prefetch(nodes, t);
+                        prefetch(nodes, t as usize);
                     }
                 }
             }
@@ -407,7 +408,7 @@ impl<'g> Geodesic<'g> {
                 continue;
             }
             if let Some(next) = queue.peek() {
-                prefetch(nodes, next);
+                prefetch(nodes, next as usize);
                 sight.prefetch(next);
             }
             let cell = self.here(s);

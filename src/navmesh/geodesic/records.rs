@@ -188,19 +188,3 @@ impl Iterator for Links<'_> {
         None
     }
 }
-
-/// Asks the CPU to start loading a span's record (a hint; no effect on results).
-#[inline(always)]
-pub(super) fn prefetch<T>(records: &[T], span: u32) {
-    #[cfg(target_arch = "x86_64")]
-    if let Some(n) = records.get(span as usize) {
-        // SAFETY: prefetching is a hint that never faults; the pointer is to a live record.
-        unsafe {
-            std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
-                (n as *const T).cast::<i8>(),
-            );
-        }
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = (records, span);
-}

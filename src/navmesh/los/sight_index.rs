@@ -240,17 +240,7 @@ impl<'g> SightIndex<'g> {
     /// Asks the CPU to start loading a span's packed record (a hint; no effect on results).
     #[inline]
     pub(crate) fn prefetch(&self, span: u32) {
-        #[cfg(target_arch = "x86_64")]
-        if let Some(s) = self.spans.get(span as usize) {
-            // SAFETY: prefetching is a hint that never faults; the pointer is to a live record.
-            unsafe {
-                std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
-                    (s as *const SightSpan).cast::<i8>(),
-                );
-            }
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        let _ = span;
+        crate::prefetch::prefetch(&self.spans, span as usize);
     }
 
     /// Column and floor height of a span (a valid index).

@@ -15,7 +15,7 @@
 use glam::{Mat4, Vec3, Vec4};
 
 use super::{slabs, Bvh, Hit, Leaf, Node, Ray, STACK};
-use crate::render::prefetch::prefetch;
+use crate::prefetch::prefetch;
 
 /// Rows of [`Packet::lanes`]: the reciprocal direction (x, y, z), then `origin · inv`
 /// (x, y, z), then the shear's rows (row × 3 + component).
