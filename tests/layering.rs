@@ -248,7 +248,8 @@ fn every_top_level_module_has_a_floor() {
         .lines()
         .filter_map(|l| {
             let l = l.trim();
-            l.strip_prefix("pub mod ").or_else(|| l.strip_prefix("mod "))
+            l.strip_prefix("pub mod ")
+                .or_else(|| l.strip_prefix("mod "))
         })
         .map(|m| m.trim_end_matches(';').to_string())
         .collect();

@@ -9,6 +9,7 @@
 pub mod catalog;
 mod furnish;
 pub mod layout;
+mod mp3d_mesh;
 pub mod mp3d_writer;
 mod objwrite;
 pub mod plan;

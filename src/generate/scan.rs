@@ -14,7 +14,7 @@ use crate::invalid::Invalid;
 use crate::seed::Rng;
 
 use super::layout::keep_outs;
-use super::mp3d_writer::{
+use super::mp3d_mesh::{
     cross3, grow, len3, segment_object, sub3, zup, MeshData, Quad, QuadKind, SegmentRec, EMPTY_BOX,
 };
 use super::plan::{HousePlan, Rect, Side, WALL_T};
