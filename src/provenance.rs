@@ -4,9 +4,10 @@
 //!
 //! Records hold no wall-clock time and no host name: the same inputs give the same bytes.
 
+use crate::file_error::FileError;
 use std::collections::BTreeMap;
 use std::io::Read;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use serde::Serialize;
 use sha2::{Digest, Sha256};
@@ -17,16 +18,6 @@ pub const FORMAT: &str = "minos-provenance/1";
 /// The source commit this minos was built from (`git rev-parse HEAD` at build time, the
 /// `MINOS_SOURCE_COMMIT` environment variable when set, or `unknown`).
 pub const SOURCE_COMMIT: &str = env!("MINOS_SOURCE_COMMIT");
-
-/// A provenance record that could not be made; the message names the file.
-#[derive(Debug, thiserror::Error)]
-#[error("{}", path.display())]
-pub struct ProvenanceError {
-    /// The file or folder.
-    pub path: PathBuf,
-    /// The cause.
-    pub source: std::io::Error,
-}
 
 /// The minos that made an output: `{"version": …, "commit": …}`.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize)]
@@ -53,11 +44,8 @@ pub struct FileSum {
 }
 
 /// The sha256 (lower-case hex) and size of the file at `path`, read in 1 MiB blocks.
-pub fn sha256_file(path: &Path) -> Result<FileSum, ProvenanceError> {
-    let err = |source| ProvenanceError {
-        path: path.to_path_buf(),
-        source,
-    };
+pub fn sha256_file(path: &Path) -> Result<FileSum, FileError> {
+    let err = |source| FileError::new(path, source);
     let mut file = std::fs::File::open(path).map_err(err)?;
     let mut hasher = Sha256::new();
     let mut buf = vec![0u8; 1 << 20];
@@ -83,14 +71,11 @@ fn hex(bytes: &[u8]) -> String {
 /// The checksum of every file under `dir` by its path relative to `dir` (`/`-separated,
 /// sorted), skipping hidden names (temporary files start with `.`) and the relative paths
 /// in `skip` (the record itself).
-pub fn checksums(dir: &Path, skip: &[&str]) -> Result<BTreeMap<String, FileSum>, ProvenanceError> {
+pub fn checksums(dir: &Path, skip: &[&str]) -> Result<BTreeMap<String, FileSum>, FileError> {
     let mut out = BTreeMap::new();
     let mut pending = vec![(dir.to_path_buf(), String::new())];
     while let Some((folder, prefix)) = pending.pop() {
-        let err = |source| ProvenanceError {
-            path: folder.clone(),
-            source,
-        };
+        let err = |source| FileError::new(&folder, source);
         for entry in std::fs::read_dir(&folder).map_err(err)? {
             let entry = entry.map_err(err)?;
             let name = entry.file_name().to_string_lossy().into_owned();
@@ -113,20 +98,12 @@ pub fn checksums(dir: &Path, skip: &[&str]) -> Result<BTreeMap<String, FileSum>,
 /// atomically, after removing what a killed writer of `path` left beside it (every record
 /// is written last, so a kill between its output and it would otherwise leave litter that no
 /// rerun sweeps).
-pub fn write_record(path: &Path, record: &serde_json::Value) -> Result<(), ProvenanceError> {
-    crate::atomic::sweep_stale_of(path).map_err(|source| ProvenanceError {
-        path: path.to_path_buf(),
-        source,
-    })?;
-    let mut bytes = serde_json::to_vec_pretty(record).map_err(|e| ProvenanceError {
-        path: path.to_path_buf(),
-        source: std::io::Error::other(e),
-    })?;
+pub fn write_record(path: &Path, record: &serde_json::Value) -> Result<(), FileError> {
+    crate::atomic::sweep_stale_of(path).map_err(|source| FileError::new(path, source))?;
+    let mut bytes = serde_json::to_vec_pretty(record)
+        .map_err(|e| FileError::new(path, std::io::Error::other(e)))?;
     bytes.push(b'\n');
-    crate::atomic::write_bytes_atomic(path, &bytes).map_err(|source| ProvenanceError {
-        path: path.to_path_buf(),
-        source,
-    })
+    crate::atomic::write_bytes_atomic(path, &bytes).map_err(|source| FileError::new(path, source))
 }
 
 #[cfg(test)]

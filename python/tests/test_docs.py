@@ -7,6 +7,8 @@ import inspect
 import re
 from pathlib import Path
 
+import numpy as np
+
 import minos
 
 DOC = Path(__file__).resolve().parents[2] / "docs" / "PYTHON.md"
@@ -83,3 +85,44 @@ def test_the_python_doc_shows_the_environments_arguments_as_they_are():
     vec = inspect.signature(VectorNavEnv.__init__).parameters
     assert set(vec) - {"self"} == set(keys) | {"num_envs", "threads"}, list(vec)
     assert vec["threads"].default is None
+
+
+def _doc_keys(start: str) -> set[str]:
+    """The backquoted words of the paragraph of docs/PYTHON.md that starts with ``start``."""
+    text = DOC.read_text()
+    i = text.index(start)
+    para = text[i:text.find("\n- ", i + 1)]
+    return set(re.findall(r"`(\w+)`", para))
+
+
+def test_the_python_doc_names_every_info_key_the_environments_give(world):
+    import pytest
+
+    pytest.importorskip("gymnasium")
+    from minos.gym import NavEnv, VectorNavEnv
+
+    keys = _doc_keys("- Step and reset infos")
+    env = NavEnv(data=world.data, episodes=world.point, size=8)
+    _, info = env.reset(seed=0)
+    _, _, _, _, step_info = env.step(0)
+    assert set(info) == set(step_info)
+    single = set(info)
+    assert single <= keys, f"undocumented: {single - keys}"
+    venv = VectorNavEnv(data=world.data, episodes=world.point, num_envs=2, size=8)
+    venv.reset(seed=0)
+    _, _, _, _, vinfo = venv.step(np.zeros(2, dtype=np.int64))
+    plain = {k for k in vinfo if not k.startswith("_")}
+    assert plain - single <= keys, f"undocumented: {plain - single - keys}"
+    assert {k for k in vinfo if k.startswith("_")} == {"_" + k for k in plain}
+    # Every key the paragraph names in backquotes is one an environment gives, or a word of
+    # the prose around them.
+    assert keys - single - plain <= {"None", "NavEnv", "VectorNavEnv", "_", "N"}, keys
+
+    hook_keys = _doc_keys("- `success_fn(obs, info) -> bool`")
+    seen = {}
+    env = NavEnv(data=world.data, episodes=world.point, size=8,
+                 success_fn=lambda o, i: seen.update(i) or False)
+    env.reset(seed=0)
+    env.step(0)
+    assert set(seen) <= hook_keys, f"undocumented: {set(seen) - hook_keys}"
+    assert {"reward", "success", "action", "episode"} <= set(seen)

@@ -2,6 +2,7 @@
 //! eroded (too close to obstacles) floor light grey, obstacles dark, doors marked, islands
 //! outlined.
 
+use crate::file_error::FileError;
 use std::path::Path;
 
 use image::{Rgb, RgbImage};
@@ -86,24 +87,12 @@ pub fn previews_present(grid: &NavGrid, nav_file: &Path) -> bool {
         .all(|level| preview_path(nav_file, level).is_file())
 }
 
-/// A preview image that could not be written: the file, and why (the file system's error, or
-/// the PNG encoder's inside it).
-#[derive(Debug, thiserror::Error)]
-#[error("{}", path.display())]
-pub struct PreviewError {
-    /// The preview file.
-    pub path: std::path::PathBuf,
-    /// Why.
-    #[source]
-    pub source: std::io::Error,
-}
-
 /// Writes one PNG per level next to `nav_file`: `<stem>.L<level>.png`. Returns the paths; an
 /// error names the file.
 pub fn write_previews(
     grid: &NavGrid,
     nav_file: &Path,
-) -> Result<Vec<std::path::PathBuf>, PreviewError> {
+) -> Result<Vec<std::path::PathBuf>, FileError> {
     let scale = if grid.cell() >= 0.1 { 4 } else { 2 };
     let mut out = Vec::new();
     for level in levels_present(grid) {
@@ -113,10 +102,7 @@ pub fn write_previews(
             img.write_to(w, image::ImageFormat::Png)
                 .map_err(std::io::Error::other)
         })
-        .map_err(|source| PreviewError {
-            path: path.clone(),
-            source,
-        })?;
+        .map_err(|source| FileError::new(&path, source))?;
         out.push(path);
     }
     Ok(out)

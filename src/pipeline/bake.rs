@@ -66,7 +66,7 @@ pub enum BakeFailure {
     Grid(Arc<NavFileError>),
     /// A preview image could not be written (the error names it).
     #[error(transparent)]
-    Preview(Arc<crate::navmesh::preview::PreviewError>),
+    Preview(Arc<crate::file_error::FileError>),
 }
 
 /// Result of a batch bake: one outcome per scene id, in input order.
@@ -228,7 +228,7 @@ pub enum BakeError {
     Lock(#[source] LockError),
     /// The grids are written, but the DATA folder's provenance record could not be.
     #[error("the DATA folder's provenance record")]
-    Provenance(#[source] crate::provenance::ProvenanceError),
+    Provenance(#[source] crate::file_error::FileError),
 }
 
 /// Bakes `shard` of `cfg.scenes` holding the DATA folder's lock as the bake needs it: the

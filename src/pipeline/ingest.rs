@@ -186,20 +186,14 @@ pub enum IngestError {
     #[error(transparent)]
     Manifest(#[from] ManifestError),
     /// The id list could not be read.
-    #[error("{}", path.display())]
-    Ids {
-        /// The id list.
-        path: PathBuf,
-        /// Why.
-        #[source]
-        source: std::io::Error,
-    },
+    #[error("{0}")]
+    Ids(#[source] FileError),
     /// Another process writes the DATA folder, or its lock cannot be taken.
     #[error("the DATA folder's lock")]
     Lock(#[from] LockError),
     /// The DATA folder's provenance record could not be written.
     #[error("the DATA folder's provenance record")]
-    Provenance(#[source] crate::provenance::ProvenanceError),
+    Provenance(#[source] crate::file_error::FileError),
     /// A compiled scene cannot be written (the message names it); nothing after it is.
     #[error(transparent)]
     Write(SceneFileError),
@@ -229,10 +223,8 @@ pub enum IngestError {
 
 /// Reads an id list: one id per line, `#` comments and blank lines ignored.
 pub fn read_id_list(path: &Path) -> Result<Vec<String>, IngestError> {
-    let text = std::fs::read_to_string(path).map_err(|source| IngestError::Ids {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let text = std::fs::read_to_string(path)
+        .map_err(|source| IngestError::Ids(FileError::new(path, source)))?;
     Ok(text
         .lines()
         .map(str::trim)
@@ -483,7 +475,7 @@ mod tests {
         let missing = dir.path().join("none.txt");
         let e = read_id_list(&missing).unwrap_err();
         assert!(
-            matches!(&e, IngestError::Ids { path, source }
+            matches!(&e, IngestError::Ids(FileError { path, source })
                 if path == &missing && source.kind() == std::io::ErrorKind::NotFound),
             "{e:?}"
         );

@@ -2,6 +2,7 @@
 //! camera. Without a pose the agent stands where the view is most open
 //! ([`most_open_pose`]), so a first look at a scene never faces a wall.
 
+use crate::file_error::FileError;
 use std::path::PathBuf;
 use std::sync::Arc;
 
@@ -78,14 +79,8 @@ pub enum RenderError {
     #[error("scene {0}: its grid has no walkable place to stand; give a pose")]
     NowhereToStand(SceneRef),
     /// An image could not be written.
-    #[error("{}", path.display())]
-    Write {
-        /// The image file.
-        path: PathBuf,
-        /// The cause.
-        #[source]
-        source: std::io::Error,
-    },
+    #[error("{0}")]
+    Write(#[source] FileError),
 }
 
 /// Renders `job`: one PNG per camera in `job.out`.
@@ -122,10 +117,8 @@ pub fn render_views(job: &RenderJob) -> Result<RenderReport, RenderError> {
     for ((name, image), sensor) in obs.images.iter().zip(&sensors.cameras) {
         let path = job.out.join(format!("{name}.png"));
         let [w, h] = sensor.resolution;
-        write_png(&path, sensor.modality, image, w, h).map_err(|source| RenderError::Write {
-            path: path.clone(),
-            source,
-        })?;
+        write_png(&path, sensor.modality, image, w, h)
+            .map_err(|source| RenderError::Write(FileError::new(&path, source)))?;
         images.push(path);
     }
     Ok(RenderReport {

@@ -210,7 +210,7 @@ pub enum VariantsError {
     Store(#[source] StoreError),
     /// The DATA folder's provenance record could not be written.
     #[error("the DATA folder's provenance record")]
-    Provenance(#[source] crate::provenance::ProvenanceError),
+    Provenance(#[source] crate::file_error::FileError),
 }
 
 /// Does not pass a stage's total on: the driver announces the whole work once.

@@ -59,7 +59,7 @@ pub enum SplitError {
     },
     /// The split is written, but the DATA folder's provenance record could not be.
     #[error("the DATA folder's provenance record")]
-    Provenance(#[source] crate::provenance::ProvenanceError),
+    Provenance(#[source] crate::file_error::FileError),
     /// A split name that is not a plain folder name.
     #[error("split name `{0}` must be a plain folder name (not empty, no `/`, `\\`, `.` or `..`)")]
     BadName(String),

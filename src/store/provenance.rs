@@ -4,7 +4,8 @@
 use std::path::Path;
 
 use super::DataDir;
-use crate::provenance::{sha256_file, ProvenanceError};
+use crate::file_error::FileError;
+use crate::provenance::sha256_file;
 
 /// The DATA folder's provenance record, at its root.
 pub const DATA_RECORD: &str = "provenance.json";
@@ -13,7 +14,7 @@ pub const DATA_RECORD: &str = "provenance.json";
 /// wrote it and the sha256 of every file the folder holds (no command line, time or host: the
 /// same DATA gives the same record). The drivers that write DATA rewrite it when they finish:
 /// an unsharded ingest, an unsharded bake, a split and `variants`.
-pub fn write_data_record(data: &DataDir) -> Result<(), ProvenanceError> {
+pub fn write_data_record(data: &DataDir) -> Result<(), FileError> {
     let files = crate::provenance::checksums(data.root(), &[DATA_RECORD])?;
     let record = serde_json::json!({
         "format": crate::provenance::FORMAT,

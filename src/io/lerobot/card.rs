@@ -13,7 +13,7 @@ use crate::provenance::{self, MINOS};
 /// The provenance record's path inside the dataset.
 pub const PROVENANCE: &str = "meta/provenance.json";
 
-fn provenance_error(e: provenance::ProvenanceError) -> LerobotError {
+fn provenance_error(e: crate::file_error::FileError) -> LerobotError {
     super::write_error(&e.path, e.source)
 }
 

@@ -9,7 +9,8 @@ use std::path::{Path, PathBuf};
 use crate::episode::format::{read_episodes, write_episodes, EpisodeFileError};
 use crate::episode::import::{import_episodes, ForeignFormat, ImportError};
 use crate::episode::{Episode, Task};
-use crate::provenance::{self, ProvenanceError};
+use crate::file_error::FileError;
+use crate::provenance;
 use crate::vocab::Vocabulary;
 
 /// What to import and where to write it.
@@ -50,7 +51,7 @@ pub enum ImportJobError {
     Write(#[from] EpisodeFileError),
     /// The provenance record could not be written.
     #[error("the episode file's provenance record")]
-    Provenance(#[source] ProvenanceError),
+    Provenance(#[source] FileError),
 }
 
 /// Runs `job`: reads the foreign file, and when `job.out` is set writes the episodes (read
@@ -81,7 +82,7 @@ pub fn import_job(job: &ImportJob) -> Result<ImportReport, ImportJobError> {
 
 /// Writes `<out>.provenance.json`: the command, the source file with its format and
 /// checksum, and the checksum of the episode file.
-fn write_provenance(job: &ImportJob, out: &Path, count: usize) -> Result<PathBuf, ProvenanceError> {
+fn write_provenance(job: &ImportJob, out: &Path, count: usize) -> Result<PathBuf, FileError> {
     let name = out
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())

@@ -11,8 +11,9 @@ use crate::episode::habitat::{export_habitat, HabitatError, SceneIdStyle};
 use crate::episode::sample::{category_preset, SampleConfig};
 use crate::episode::vln::export::{export_r2r, export_vlnce, VlnExportError, VlnFormat};
 use crate::episode::Task;
+use crate::file_error::FileError;
 use crate::progress::Progress;
-use crate::provenance::{self, ProvenanceError};
+use crate::provenance;
 use crate::scene::RoomClass;
 use crate::shard::Shard;
 use crate::split::{read_split, SplitError, Subset};
@@ -105,7 +106,7 @@ pub enum EpisodesJobError {
     Write(#[from] BatchWriteError),
     /// The provenance record.
     #[error(transparent)]
-    Provenance(#[from] ProvenanceError),
+    Provenance(#[from] FileError),
     /// The Habitat export.
     #[error(transparent)]
     Habitat(#[from] HabitatError),
@@ -370,7 +371,7 @@ fn write_provenance(
     job: &EpisodesJob,
     batch: &EpisodeBatch,
     stats_path: &Path,
-) -> Result<PathBuf, ProvenanceError> {
+) -> Result<PathBuf, FileError> {
     let name = |p: &Path| {
         p.file_name()
             .map(|n| n.to_string_lossy().into_owned())

@@ -13,6 +13,7 @@
 pub mod episodes;
 pub mod run;
 
+use crate::file_error::FileError;
 use std::path::{Path, PathBuf};
 
 use crate::lock::LockError;
@@ -26,14 +27,8 @@ pub enum MergeError {
     #[error("{0}")]
     Shards(String),
     /// A shard's file could not be read.
-    #[error("{}", path.display())]
-    ShardIo {
-        /// The file.
-        path: PathBuf,
-        /// Why.
-        #[source]
-        source: std::io::Error,
-    },
+    #[error("{0}")]
+    ShardIo(#[source] FileError),
     /// An episode file's statistics (`<file>.stats.json`) could not be read.
     #[error(
         "{}: each episode file needs the statistics `minos episodes` writes beside it",
@@ -59,14 +54,8 @@ pub enum MergeError {
     #[error(transparent)]
     ShardEpisodes(crate::episode::format::EpisodeFileError),
     /// A file or folder of the merged output could not be written.
-    #[error("{}", path.display())]
-    WriteIo {
-        /// The file or folder.
-        path: PathBuf,
-        /// Why.
-        #[source]
-        source: std::io::Error,
-    },
+    #[error("{0}")]
+    WriteIo(#[source] FileError),
     /// The shards' rows could not be joined.
     #[error("joining the shards' rows")]
     Join(#[source] arrow::error::ArrowError),

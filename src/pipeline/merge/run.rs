@@ -13,6 +13,7 @@
 //! - `manifest.json`: the shards' manifest (which must agree but for `command`, `shard` and
 //!   `rerun`) with shard `0/1`, the merged recording, and the merge's own command.
 
+use crate::file_error::FileError;
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
@@ -66,10 +67,7 @@ fn shard_error(path: &Path, what: impl std::fmt::Display) -> MergeError {
 
 /// `path` of the merged output could not be written.
 fn write_io(path: &Path) -> impl FnOnce(std::io::Error) -> MergeError + '_ {
-    move |source| MergeError::WriteIo {
-        path: path.to_path_buf(),
-        source,
-    }
+    move |source| MergeError::WriteIo(FileError::new(path, source))
 }
 
 /// Reads a shard's manifest, episode table and failures.
@@ -88,10 +86,7 @@ fn read_shard(dir: &Path) -> Result<(ShardRun, Shard), MergeError> {
     let episodes = read_table(&dir.join("episodes.parquet")).map_err(MergeError::ShardTable)?;
     let metrics_path = dir.join("metrics.json");
     let metrics: Value = std::fs::read(&metrics_path)
-        .map_err(|source| MergeError::ShardIo {
-            path: metrics_path.clone(),
-            source,
-        })
+        .map_err(|source| MergeError::ShardIo(FileError::new(&metrics_path, source)))
         .and_then(|b| {
             serde_json::from_slice(&b).map_err(|source| MergeError::ShardJson {
                 path: metrics_path.clone(),
@@ -306,10 +301,8 @@ pub fn merge_runs(
     let out = &opts.out;
     let out_abs = std::path::absolute(out).map_err(write_io(out))?;
     for run in &runs {
-        let dir = std::path::absolute(&run.dir).map_err(|source| MergeError::ShardIo {
-            path: run.dir.clone(),
-            source,
-        })?;
+        let dir = std::path::absolute(&run.dir)
+            .map_err(|source| MergeError::ShardIo(FileError::new(&run.dir, source)))?;
         if out_abs.starts_with(&dir) || dir.starts_with(&out_abs) {
             return Err(shard_error(
                 out,

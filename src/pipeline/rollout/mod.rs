@@ -173,7 +173,7 @@ pub enum RolloutError {
     Write(EpisodeFailure),
     /// The checksums of the run folder's files could not be computed.
     #[error("checksums of the run's files")]
-    Checksums(#[source] crate::provenance::ProvenanceError),
+    Checksums(#[source] crate::file_error::FileError),
     /// A live run's file of played episodes could not be written.
     #[error("the played episodes")]
     Played(#[source] crate::episode::format::EpisodeFileError),
