@@ -10,7 +10,7 @@ use pyo3::types::PyDict;
 use minos::navmesh::geodesic::Geodesic;
 use minos::navmesh::route::{route, route_many, Route};
 use minos::navmesh::NavGrid;
-use minos::scene::{RoomClass, SceneRef};
+use minos::scene::SceneRef;
 use minos::seed::{derive_seed, Rng};
 use minos::store::DataDir;
 
@@ -25,28 +25,6 @@ pub struct PathFinder {
     grid: NavGrid,
     file: String,
     rng: Rng,
-}
-
-/// `(id, class)` of the rooms a route passes, as `nav query` names them.
-fn rooms(grid: &NavGrid, r: &Route) -> Vec<(String, String)> {
-    r.rooms
-        .iter()
-        .map(|&i| {
-            let room = &grid.rooms[i as usize];
-            let class = RoomClass::ALL
-                .get(room.class as usize)
-                .map_or("other", |c| c.name());
-            (room.id.clone(), class.to_string())
-        })
-        .collect()
-}
-
-/// Ids of the doors a route passes.
-fn doors(grid: &NavGrid, r: &Route) -> Vec<String> {
-    r.doors
-        .iter()
-        .map(|&i| grid.objects[i as usize].id.clone())
-        .collect()
 }
 
 /// `(N, 3)` float32 points from an array or a sequence of points.
@@ -176,7 +154,8 @@ impl PathFinder {
         d.set_item("reachable", r.reachable)?;
         d.set_item("geodesic", r.geodesic)?;
         d.set_item("euclidean", a.distance(b))?;
-        let rooms: Vec<Bound<'py, PyDict>> = rooms(&self.grid, &r)
+        let rooms: Vec<Bound<'py, PyDict>> = r
+            .room_names(&self.grid)
             .into_iter()
             .map(|(id, class)| {
                 let e = PyDict::new(py);
@@ -186,7 +165,7 @@ impl PathFinder {
             })
             .collect::<PyResult<_>>()?;
         d.set_item("rooms", rooms)?;
-        d.set_item("doors", doors(&self.grid, &r))?;
+        d.set_item("doors", r.door_ids(&self.grid))?;
         let flat: Vec<f32> = r.points.iter().flat_map(|p| p.to_array()).collect();
         let n = r.points.len();
         d.set_item("path", PyArray1::from_vec(py, flat).reshape([n, 3])?)?;
@@ -196,7 +175,7 @@ impl PathFinder {
     /// Room ids passed on the shortest path from a to b, in order.
     fn rooms_on_path(&self, a: &Bound<'_, PyAny>, b: &Bound<'_, PyAny>) -> PyResult<Vec<String>> {
         let r = self.route(point(a)?, point(b)?)?;
-        Ok(rooms(&self.grid, &r)
+        Ok(r.room_names(&self.grid)
             .into_iter()
             .map(|(id, _)| id)
             .collect())
@@ -205,7 +184,7 @@ impl PathFinder {
     /// Door ids passed on the shortest path from a to b, in order.
     fn doors_on_path(&self, a: &Bound<'_, PyAny>, b: &Bound<'_, PyAny>) -> PyResult<Vec<String>> {
         let r = self.route(point(a)?, point(b)?)?;
-        Ok(doors(&self.grid, &r))
+        Ok(r.door_ids(&self.grid))
     }
 
     /// True when an agent standing at p (y = floor height) is on walkable floor.

@@ -12,9 +12,9 @@ use anyhow::{bail, Context as _};
 use glam::Vec3;
 use minos::io::pairs::{read_pairs, write_answers, write_csv, write_json_lines, PairAnswer};
 use minos::navmesh::geodesic::Geodesic;
-use minos::navmesh::route::{route, route_many, NotWalkable, Route};
+use minos::navmesh::route::{route, route_many, Route};
 use minos::navmesh::NavGrid;
-use minos::scene::{RoomClass, SceneRef};
+use minos::scene::SceneRef;
 use minos::store::DataDir;
 use serde_json::json;
 
@@ -147,55 +147,6 @@ pub fn config(q: &QueryArgs) -> anyhow::Result<Query> {
     })
 }
 
-/// `(id, class name)` of the rooms a route passes.
-fn room_names(grid: &NavGrid, rooms: &[u32]) -> Vec<(String, String)> {
-    rooms
-        .iter()
-        .map(|&i| {
-            let room = &grid.rooms[i as usize];
-            let class = RoomClass::ALL
-                .get(room.class as usize)
-                .map_or("other", |c| c.name());
-            (room.id.clone(), class.to_string())
-        })
-        .collect()
-}
-
-/// Ids of the doors a route passes.
-fn door_ids(grid: &NavGrid, doors: &[u32]) -> Vec<String> {
-    doors
-        .iter()
-        .map(|&i| grid.objects[i as usize].id.clone())
-        .collect()
-}
-
-/// The answer row of one pair.
-fn answer(grid: &NavGrid, from: Vec3, to: Vec3, r: Result<Route, NotWalkable>) -> PairAnswer {
-    let euclidean = from.distance(to);
-    match r {
-        Ok(r) => PairAnswer {
-            from,
-            to,
-            reachable: r.reachable,
-            geodesic: r.geodesic,
-            euclidean,
-            rooms: room_names(grid, &r.rooms),
-            doors: door_ids(grid, &r.doors),
-            error: None,
-        },
-        Err(e) => PairAnswer {
-            from,
-            to,
-            reachable: false,
-            geodesic: None,
-            euclidean,
-            rooms: Vec::new(),
-            doors: Vec::new(),
-            error: Some(minos::escape::error_line(&e)),
-        },
-    }
-}
-
 /// Runs `minos nav`.
 pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     let NavCommand::Query(q) = args.command;
@@ -233,7 +184,7 @@ fn answer_pairs(
     let answers: Vec<PairAnswer> = pairs
         .iter()
         .zip(routes)
-        .map(|(&(from, to), r)| answer(grid, from, to, r))
+        .map(|(&(from, to), r)| PairAnswer::new(grid, from, to, r))
         .collect();
     let secs = t0.elapsed().as_secs_f64();
     let reachable = answers.iter().filter(|a| a.reachable).count();
@@ -268,8 +219,8 @@ fn answer_pairs(
 /// Prints the answer to one query, with its path.
 fn print_one(grid: &NavGrid, from: Vec3, to: Vec3, r: &Route, json: bool) {
     let euclidean = from.distance(to);
-    let rooms = room_names(grid, &r.rooms);
-    let doors = door_ids(grid, &r.doors);
+    let rooms = r.room_names(grid);
+    let doors = r.door_ids(grid);
     if json {
         let out = json!({
             "reachable": r.reachable,

@@ -26,6 +26,8 @@ use glam::Vec3;
 use serde_json::json;
 
 use crate::atomic::write_atomic;
+use crate::navmesh::route::{NotWalkable, Route};
+use crate::navmesh::NavGrid;
 use crate::parquet_io::{read_batches, write_batches, writer_properties, ParquetFileError};
 
 /// The six input columns, in the order of a pair's coordinates.
@@ -98,6 +100,36 @@ pub struct PairAnswer {
     pub doors: Vec<String>,
     /// Why there is no answer (a point far from walkable floor), if so.
     pub error: Option<String>,
+}
+
+impl PairAnswer {
+    /// The answer row of the pair `(from, to)` on `grid` from its route, or from why it has
+    /// none.
+    pub fn new(grid: &NavGrid, from: Vec3, to: Vec3, route: Result<Route, NotWalkable>) -> Self {
+        let euclidean = from.distance(to);
+        match route {
+            Ok(r) => PairAnswer {
+                from,
+                to,
+                reachable: r.reachable,
+                geodesic: r.geodesic,
+                euclidean,
+                rooms: r.room_names(grid),
+                doors: r.door_ids(grid),
+                error: None,
+            },
+            Err(e) => PairAnswer {
+                from,
+                to,
+                reachable: false,
+                geodesic: None,
+                euclidean,
+                rooms: Vec::new(),
+                doors: Vec::new(),
+                error: Some(crate::escape::error_line(&e)),
+            },
+        }
+    }
 }
 
 fn is_parquet(path: &Path) -> bool {

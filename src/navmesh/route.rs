@@ -11,6 +11,7 @@ use rayon::prelude::*;
 use super::geodesic::Geodesic;
 use super::grid::NavGrid;
 use super::path::{shortest_path, shortest_path_in, PathResult};
+use crate::scene::RoomClass;
 
 /// A route between two world points.
 #[derive(Debug, Clone, PartialEq)]
@@ -25,6 +26,32 @@ pub struct Route {
     pub doors: Vec<u32>,
     /// The polyline from `from` to `to` (empty when unreachable).
     pub points: Vec<Vec3>,
+}
+
+impl Route {
+    /// `(id, class name)` of the rooms the route passes, in order, as `minos nav query` and
+    /// the bindings' path finder name them (`other` for a class minos does not know).
+    pub fn room_names(&self, grid: &NavGrid) -> Vec<(String, String)> {
+        self.rooms
+            .iter()
+            .filter_map(|&i| grid.rooms.get(i as usize))
+            .map(|room| {
+                let class = RoomClass::ALL
+                    .get(room.class as usize)
+                    .map_or("other", |c| c.name());
+                (room.id.clone(), class.to_string())
+            })
+            .collect()
+    }
+
+    /// Ids of the doors the route passes, in order.
+    pub fn door_ids(&self, grid: &NavGrid) -> Vec<String> {
+        self.doors
+            .iter()
+            .filter_map(|&i| grid.objects.get(i as usize))
+            .map(|door| door.id.clone())
+            .collect()
+    }
 }
 
 /// A route endpoint that is not near walkable floor.
