@@ -29,9 +29,17 @@ pub enum GpuError {
     /// The device could not be created.
     #[error("GPU device")]
     Device(#[source] wgpu::RequestDeviceError),
-    /// Rendering or read-back failed.
+    /// Rendering failed: what the renderer found wrong.
     #[error("GPU render: {0}")]
     Render(String),
+    /// Reading rendered images back failed (waiting for the GPU, or mapping the buffer).
+    #[error("GPU read-back")]
+    ReadBack(#[source] std::sync::Arc<dyn std::error::Error + Send + Sync>),
+}
+
+/// A read-back failure with its cause kept as the error's source.
+fn read_back(e: impl std::error::Error + Send + Sync + 'static) -> GpuError {
+    GpuError::ReadBack(std::sync::Arc::new(e))
 }
 
 /// The environment variable to set, before any thread starts, so that looking for an adapter
@@ -377,16 +385,15 @@ fn map_read(
     device: &wgpu::Device,
     slice: &wgpu::BufferSlice<'_>,
 ) -> Result<wgpu::BufferView, GpuError> {
-    let err = |e: &dyn std::fmt::Display| GpuError::Render(e.to_string());
     let (tx, rx) = std::sync::mpsc::channel();
     slice.map_async(wgpu::MapMode::Read, move |r| {
         let _ = tx.send(r);
     });
     device
         .poll(wgpu::PollType::wait_indefinitely())
-        .map_err(|e| err(&e))?;
-    rx.recv().map_err(|e| err(&e))?.map_err(|e| err(&e))?;
-    slice.get_mapped_range().map_err(|e| err(&e))
+        .map_err(read_back)?;
+    rx.recv().map_err(read_back)?.map_err(read_back)?;
+    slice.get_mapped_range().map_err(read_back)
 }
 
 #[cfg(test)]
