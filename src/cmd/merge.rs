@@ -4,10 +4,8 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use anyhow::bail;
-use minos::pipeline::merge::episodes::merge_episodes;
-use minos::pipeline::merge::run::{merge_runs, RunMerge};
-use minos::pipeline::merge::MergeError;
+use minos::pipeline::merge::run::RunMerge;
+use minos::pipeline::merge::{MergeError, MergeJob};
 
 use super::Context;
 
@@ -42,102 +40,60 @@ pub struct Args {
     shards: Vec<PathBuf>,
 }
 
-/// What `minos merge` does.
-#[derive(Debug, Clone)]
-pub enum MergeJob {
-    /// Join run folders.
-    Runs {
-        /// The shards' folders.
-        shards: Vec<PathBuf>,
-        /// Output and options.
-        merge: RunMerge,
-    },
-    /// Join episode files.
-    Episodes {
-        /// The shards' episode files.
-        shards: Vec<PathBuf>,
-        /// The merged episode file.
-        out: PathBuf,
-    },
-}
-
-/// Flags → the merge: run folders when every shard is a folder, episode files when every
-/// shard is a file; anything else is refused.
+/// Flags → the merge (run folders or episode files: the library tells them apart).
 pub fn config(args: &Args, ctx: &Context) -> anyhow::Result<MergeJob> {
-    let folders = args.shards.iter().filter(|p| p.is_dir()).count();
-    let files = args.shards.iter().filter(|p| p.is_file()).count();
-    if let Some(missing) = args.shards.iter().find(|p| !p.exists()) {
-        bail!("{}: no such shard", missing.display());
-    }
-    if folders == args.shards.len() {
-        Ok(MergeJob::Runs {
-            shards: args.shards.clone(),
-            merge: RunMerge {
-                out: args.out.clone(),
-                rerun: args.rerun.clone(),
-                command: std::env::args().collect(),
-                lock: ctx.lock_mode,
-            },
-        })
-    } else if files == args.shards.len() {
-        if let Some(r) = &args.rerun {
-            bail!(
-                "--rerun {}: episode files have no recordings (it is for run folders)",
-                r.display()
-            );
+    let merge = RunMerge {
+        out: args.out.clone(),
+        rerun: args.rerun.clone(),
+        command: std::env::args().collect(),
+        lock: ctx.lock_mode,
+    };
+    MergeJob::of_shards(args.shards.clone(), merge).map_err(|e| match e {
+        MergeError::NoRecordingOfEpisodes { .. } => {
+            anyhow::anyhow!("--rerun {}", minos::escape::error_line(&e))
         }
-        Ok(MergeJob::Episodes {
-            shards: args.shards.clone(),
-            out: args.out.clone(),
-        })
-    } else {
-        bail!("shards must all be run folders or all episode files, not a mix")
-    }
+        other => other.into(),
+    })
 }
 
 /// Runs `minos merge`.
 pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
-    let report = match config(&args, ctx)? {
-        MergeJob::Runs { shards, merge } => {
-            let bar = ctx.progress(6, "merge");
-            // The library names no flag; the command line adds its own.
-            let report = merge_runs(&shards, &merge, &bar).map_err(|e| match e {
-                MergeError::RecordingUnnamed { .. } => {
-                    anyhow::anyhow!("{} (--rerun FILE.rrd)", minos::escape::error_line(&e))
-                }
-                MergeError::NothingRecorded { .. } => {
-                    anyhow::anyhow!("--rerun {}", minos::escape::error_line(&e))
-                }
-                MergeError::Unfinished { .. } => anyhow::Error::new(e)
-                    .context("finish the shard first (run it again with --resume)"),
-                other => other.into(),
-            })?;
-            drop(bar);
-            ctx.say(format!(
-                "merged {} shards: {} episodes ({} failed in their shard){} -> {}",
-                report.shards,
-                report.episodes,
-                report.failures,
-                merge
-                    .rerun
-                    .as_ref()
-                    .map(|p| format!(", {} recorded -> {}", report.recorded, p.display()))
-                    .unwrap_or_default(),
-                merge.out.display()
-            ));
-            report
+    let job = config(&args, ctx)?;
+    let bar = ctx.progress(6, "merge");
+    // The library names no flag; the command line adds its own.
+    let report = job.run(&bar).map_err(|e| match e {
+        MergeError::RecordingUnnamed { .. } => {
+            anyhow::anyhow!("{} (--rerun FILE.rrd)", minos::escape::error_line(&e))
         }
-        MergeJob::Episodes { shards, out } => {
-            let report = merge_episodes(&shards, &out)?;
-            ctx.say(format!(
-                "merged {} shards: {} episodes -> {}",
-                report.shards,
-                report.episodes,
-                out.display()
-            ));
-            report
+        MergeError::NothingRecorded { .. } => {
+            anyhow::anyhow!("--rerun {}", minos::escape::error_line(&e))
         }
-    };
+        MergeError::Unfinished { .. } => {
+            anyhow::Error::new(e).context("finish the shard first (run it again with --resume)")
+        }
+        other => other.into(),
+    })?;
+    drop(bar);
+    match &job {
+        MergeJob::Runs { merge, .. } => ctx.say(format!(
+            "merged {} shards: {} episodes ({} failed in their shard){} -> {}",
+            report.shards,
+            report.episodes,
+            report.failures,
+            merge
+                .rerun
+                .as_ref()
+                .map(|p| format!(", {} recorded -> {}", report.recorded, p.display()))
+                .unwrap_or_default(),
+            merge.out.display()
+        )),
+        MergeJob::Episodes { out, .. } => ctx.say(format!(
+            "merged {} shards: {} episodes -> {}",
+            report.shards,
+            report.episodes,
+            out.display()
+        )),
+    }
     Ok(if report.failures == 0 {
         ExitCode::SUCCESS
     } else {

@@ -8,7 +8,8 @@
 //! - [`run`]: run folders (`minos run --shard i/n --out DIR`): the three tables,
 //!   `metrics.json`, `manifest.json`, the rerun recording and the LeRobot copy.
 //!
-//! Both check that the inputs are the shards `0/n … n−1/n` of one job, each once.
+//! Both check that the inputs are the shards `0/n … n−1/n` of one job, each once;
+//! [`MergeJob`] tells which of the two a list of shards asks for.
 
 pub mod episodes;
 pub mod run;
@@ -17,7 +18,9 @@ use crate::file_error::FileError;
 use std::path::{Path, PathBuf};
 
 use crate::lock::LockError;
+use crate::progress::Progress;
 use crate::shard::Shard;
+use run::RunMerge;
 
 /// Why shards could not be merged (each message names the file and what is wrong).
 #[derive(Debug, thiserror::Error)]
@@ -97,12 +100,80 @@ pub enum MergeError {
         /// The first shard's manifest, which says so.
         manifest: PathBuf,
     },
+    /// A shard path names nothing.
+    #[error("{}: no such shard", path.display())]
+    NoSuchShard {
+        /// The path.
+        path: PathBuf,
+    },
+    /// Some shards are run folders and some episode files.
+    #[error("shards must all be run folders or all episode files, not a mix")]
+    MixedShards,
+    /// A merged recording was asked of episode files, which have none.
+    #[error("{}: episode files have no recordings (a recording merges with run folders)", file.display())]
+    NoRecordingOfEpisodes {
+        /// The file named for the recording.
+        file: PathBuf,
+    },
     /// A file was named for the merged recording, but the shards recorded nothing.
     #[error("{}: the shards recorded nothing for rerun", file.display())]
     NothingRecorded {
         /// The file named.
         file: PathBuf,
     },
+}
+
+/// One merge: run folders, or episode files.
+#[derive(Debug, Clone)]
+pub enum MergeJob {
+    /// Join run folders.
+    Runs {
+        /// The shards' folders.
+        shards: Vec<PathBuf>,
+        /// Output and options.
+        merge: RunMerge,
+    },
+    /// Join episode files.
+    Episodes {
+        /// The shards' episode files.
+        shards: Vec<PathBuf>,
+        /// The merged episode file.
+        out: PathBuf,
+    },
+}
+
+impl MergeJob {
+    /// The merge of `shards` into `merge.out`: of run folders when every shard is a folder,
+    /// of episode files when every one is a file (which have no recording, so
+    /// `merge.rerun` must be `None`); a missing shard, or a mix, is refused.
+    pub fn of_shards(shards: Vec<PathBuf>, merge: RunMerge) -> Result<MergeJob, MergeError> {
+        if let Some(missing) = shards.iter().find(|p| !p.exists()) {
+            return Err(MergeError::NoSuchShard {
+                path: missing.clone(),
+            });
+        }
+        if shards.iter().all(|p| p.is_dir()) {
+            Ok(MergeJob::Runs { shards, merge })
+        } else if shards.iter().all(|p| p.is_file()) {
+            if let Some(file) = merge.rerun {
+                return Err(MergeError::NoRecordingOfEpisodes { file });
+            }
+            Ok(MergeJob::Episodes {
+                shards,
+                out: merge.out,
+            })
+        } else {
+            Err(MergeError::MixedShards)
+        }
+    }
+
+    /// Runs the merge ([`run::merge_runs`] or [`episodes::merge_episodes`]).
+    pub fn run(&self, progress: &dyn Progress) -> Result<MergeReport, MergeError> {
+        match self {
+            MergeJob::Runs { shards, merge } => run::merge_runs(shards, merge, progress),
+            MergeJob::Episodes { shards, out } => episodes::merge_episodes(shards, out),
+        }
+    }
 }
 
 /// What a merge joined.
@@ -181,6 +252,37 @@ fn recorded_shard(path: &Path, value: Option<&str>) -> Result<Shard, MergeError>
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_merge_is_of_run_folders_or_of_episode_files_never_both() {
+        let d = tempfile::tempdir().unwrap();
+        let (a, b) = (d.path().join("a"), d.path().join("b"));
+        std::fs::create_dir(&a).unwrap();
+        std::fs::create_dir(&b).unwrap();
+        let f = d.path().join("part.parquet");
+        std::fs::write(&f, b"x").unwrap();
+        let merge = |rerun: Option<&str>| RunMerge {
+            out: d.path().join("out"),
+            rerun: rerun.map(PathBuf::from),
+            command: Vec::new(),
+            lock: Default::default(),
+        };
+        let job = MergeJob::of_shards(vec![a.clone(), b.clone()], merge(Some("r.rrd"))).unwrap();
+        assert!(
+            matches!(job, MergeJob::Runs { ref shards, .. } if shards == &[a.clone(), b.clone()])
+        );
+        let job = MergeJob::of_shards(vec![f.clone()], merge(None)).unwrap();
+        assert!(matches!(job, MergeJob::Episodes { ref out, .. } if out == &d.path().join("out")));
+        let e = MergeJob::of_shards(vec![f.clone()], merge(Some("r.rrd"))).unwrap_err();
+        assert!(
+            matches!(e, MergeError::NoRecordingOfEpisodes { ref file } if file == Path::new("r.rrd"))
+        );
+        let e = MergeJob::of_shards(vec![a.clone(), f.clone()], merge(None)).unwrap_err();
+        assert!(matches!(e, MergeError::MixedShards), "{e}");
+        let gone = d.path().join("gone");
+        let e = MergeJob::of_shards(vec![a, gone.clone()], merge(None)).unwrap_err();
+        assert_eq!(e.to_string(), format!("{}: no such shard", gone.display()));
+    }
 
     fn shards(list: &[&str]) -> Vec<(PathBuf, Shard)> {
         list.iter()
