@@ -11,7 +11,7 @@ use minos::body::{AgentPreset, BodyRule};
 use minos::episode::habitat::SceneIdStyle;
 use minos::episode::import::ForeignFormat;
 use minos::episode::sample::{SampleConfig, Select};
-use minos::episode::vln::export::VlnFormat;
+use minos::episode::vln::export::{EpisodeExport, VlnFormat};
 use minos::episode::Task;
 use minos::pipeline::episodes::{
     default_min_geodesic, default_min_rooms, default_success_radius, expand_categories, import_job,
@@ -20,6 +20,7 @@ use minos::pipeline::episodes::{
 use minos::shard::ShardSpec;
 use minos::split::Subset;
 use minos::store::DataDir;
+use minos::vocab::Vocabulary;
 
 use super::common::vocab;
 use super::Context;
@@ -161,8 +162,7 @@ pub struct SampleArgs {
     /// Indexed Job with MINOS_SHARD_COUNT, or MINOS_SHARD=i/n).
     #[arg(long, value_parser = ShardSpec::parse, default_value = "0/1")]
     shard: ShardSpec,
-    /// Also write Habitat-Lab's layout (DIR/<subset>/<subset>.json.gz + content/) into DIR.
-    #[arg(long, num_args = 2, value_names = ["FORMAT", "DIR"])]
+    #[arg(long, num_args = 2, value_names = ["FORMAT", "DIR"], help = export_help())]
     export: Option<Vec<String>>,
     /// Scene path prefix written into Habitat's scene_id.
     #[arg(long, default_value = "")]
@@ -196,6 +196,18 @@ struct ImportArgs {
     task: Option<Task>,
 }
 
+/// The help of `--export`: each format the library writes, from its vocabulary.
+fn export_help() -> String {
+    let formats: Vec<String> = EpisodeExport::TERMS
+        .iter()
+        .map(|t| format!("{}: {}", t.name, t.help))
+        .collect();
+    format!(
+        "Also write the episodes in FORMAT into DIR ({})",
+        formats.join("; ")
+    )
+}
+
 /// Flags → the job (reads the split lists and checks the variant).
 pub fn config(a: &SampleArgs) -> anyhow::Result<EpisodesJob> {
     let (Some(data), Some(task), Some(out)) = (a.data.as_ref(), a.task, a.out.as_ref()) else {
@@ -208,30 +220,26 @@ pub fn config(a: &SampleArgs) -> anyhow::Result<EpisodesJob> {
     if a.bins.len() != 2 || a.bins[0] > a.bins[1] {
         bail!("--bins: expected two increasing distances, e.g. 3,6");
     }
-    let habitat_export = match a.export.as_deref() {
+    let export = match a.export.as_deref() {
         None => None,
-        Some([format, dir]) if format == "habitat" => Some(PathBuf::from(dir)),
-        Some([format, _]) if format == "vlnce" || format == "r2r" => None,
-        Some(other) => bail!(
-            "--export: unknown format `{}` (habitat, vlnce, r2r)",
-            other[0]
-        ),
+        Some([format, dir]) => Some((
+            EpisodeExport::parse_name(format).map_err(|e| anyhow::anyhow!("--export: {e}"))?,
+            PathBuf::from(dir),
+        )),
+        Some(other) => bail!("--export: expected FORMAT DIR, got {} values", other.len()),
     };
-    let vln_export = match a.export.as_deref() {
-        Some([format, dir]) if format == "vlnce" || format == "r2r" => {
+    let (habitat_export, vln_export) = match export {
+        None => (None, None),
+        Some((EpisodeExport::Habitat, dir)) => (Some(dir), None),
+        Some((EpisodeExport::Vln(format), dir)) => {
             if task != Task::Vln {
-                bail!("--export {format}: VLN exports need --task vln");
+                bail!(
+                    "--export {}: VLN exports need --task vln",
+                    EpisodeExport::Vln(format).term_name()
+                );
             }
-            Some((
-                if format == "vlnce" {
-                    VlnFormat::VlnCe
-                } else {
-                    VlnFormat::R2r
-                },
-                PathBuf::from(dir),
-            ))
+            (None, Some((format, dir)))
         }
-        _ => None,
     };
     if task == Task::Vln && habitat_export.is_some() {
         bail!(

@@ -67,6 +67,40 @@ pub enum VlnFormat {
     R2r,
 }
 
+/// The layouts `minos episodes --export` writes beside the episode file: Habitat-Lab's
+/// (point, object and room goals) or one of the VLN formats.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum EpisodeExport {
+    /// Habitat-Lab's `DIR/<subset>/<subset>.json.gz` and `content/`.
+    Habitat,
+    /// A VLN format (VLN tasks only).
+    Vln(VlnFormat),
+}
+
+impl crate::vocab::Vocabulary for EpisodeExport {
+    const WHAT: &'static str = "format";
+    const TERMS: &'static [crate::vocab::Term<Self>] = &[
+        crate::vocab::Term {
+            value: EpisodeExport::Habitat,
+            name: "habitat",
+            aliases: &[],
+            help: "Habitat-Lab's layout, DIR/<subset>/<subset>.json.gz and content/",
+        },
+        crate::vocab::Term {
+            value: EpisodeExport::Vln(VlnFormat::VlnCe),
+            name: "vlnce",
+            aliases: &[],
+            help: "VLN-CE, habitat-lab's R2RVLN-v1; VLN episodes only",
+        },
+        crate::vocab::Term {
+            value: EpisodeExport::Vln(VlnFormat::R2r),
+            name: "r2r",
+            aliases: &[],
+            help: "R2R's JSON; VLN episodes only",
+        },
+    ];
+}
+
 /// Errors writing a VLN export.
 #[derive(Debug, thiserror::Error)]
 pub enum VlnExportError {
