@@ -4,7 +4,6 @@
 //! simulator, motion models) with one vocabulary across every command.
 
 use std::fmt;
-use std::str::FromStr;
 
 use serde::{Deserialize, Serialize};
 
@@ -180,12 +179,6 @@ impl AgentPreset {
     }
 }
 
-impl fmt::Display for AgentPreset {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
 impl crate::vocab::Vocabulary for AgentPreset {
     const WHAT: &'static str = "agent preset";
     const TERMS: &'static [crate::vocab::Term<Self>] = &[
@@ -216,14 +209,7 @@ impl crate::vocab::Vocabulary for AgentPreset {
     ];
 }
 
-impl FromStr for AgentPreset {
-    type Err = crate::vocab::UnknownName;
-
-    /// A preset by name; `minos-continuous` is accepted for `minos`.
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        crate::vocab::Vocabulary::parse_name(s)
-    }
-}
+crate::vocab::name_traits!(AgentPreset);
 
 #[cfg(test)]
 mod tests {

@@ -120,6 +120,10 @@ pub enum SettingsCause {
     /// It parses but breaks a rule.
     #[error(transparent)]
     Invalid(#[from] Invalid),
+    /// The defaults the file's values override could not be laid out as TOML to merge them
+    /// (a bug: they are plain numbers and names).
+    #[error("the defaults as a TOML table")]
+    Defaults(#[source] toml::ser::Error),
 }
 
 impl From<TomlError> for SettingsCause {

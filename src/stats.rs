@@ -142,7 +142,7 @@ fn compute_refs<'a>(rows: impl Iterator<Item = &'a ManifestRow>) -> Stats {
         let classes: BTreeSet<RoomClass> = row
             .room_classes
             .iter()
-            .filter_map(|n| RoomClass::from_name(n))
+            .filter_map(|n| RoomClass::from_label(n))
             .collect();
         for c in classes {
             class_houses[usize::from(c.index())] += 1;

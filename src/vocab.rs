@@ -68,6 +68,28 @@ pub trait Vocabulary: Copy + PartialEq + Sized + 'static {
     }
 }
 
+/// Gives vocabularies `Display` (the name) and `FromStr` (a name or an alias, else
+/// [`UnknownName`]), both read from [`Vocabulary::TERMS`]: write it after each
+/// `impl Vocabulary`, so `format!("{x}")`, `.parse()` and clap all spell the one table.
+macro_rules! name_traits {
+    ($($t:ty),+ $(,)?) => {$(
+        impl ::std::fmt::Display for $t {
+            fn fmt(&self, f: &mut ::std::fmt::Formatter<'_>) -> ::std::fmt::Result {
+                f.pad($crate::vocab::Vocabulary::term_name(*self))
+            }
+        }
+
+        impl ::std::str::FromStr for $t {
+            type Err = $crate::vocab::UnknownName;
+
+            fn from_str(text: &str) -> Result<Self, Self::Err> {
+                <$t as $crate::vocab::Vocabulary>::parse_name(text)
+            }
+        }
+    )+};
+}
+pub(crate) use name_traits;
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -104,5 +126,17 @@ mod tests {
         let e = Fruit::parse_name("plum").unwrap_err();
         assert_eq!(e.to_string(), "unknown fruit `plum` (apple, pear)");
         assert_eq!(Fruit::names(), vec!["apple", "pear"]);
+    }
+
+    name_traits!(Fruit);
+
+    #[test]
+    fn display_and_from_str_read_the_table() {
+        assert_eq!(Fruit::Pear.to_string(), "pear");
+        assert_eq!(format!("{:>6}|", Fruit::Apple), " apple|");
+        assert_eq!("malus".parse::<Fruit>(), Ok(Fruit::Apple));
+        let e = "Pear".parse::<Fruit>().unwrap_err();
+        assert_eq!(e.given, "Pear");
+        assert_eq!(e.known, vec!["apple", "pear"]);
     }
 }

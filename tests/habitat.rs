@@ -200,7 +200,7 @@ fn object_goals_name_the_room_their_object_stands_in() {
             let most = counts.values().copied().max().unwrap();
             let r = g.rooms.iter().position(|r| r.id == room.id).unwrap() as u32;
             assert_eq!(counts.get(&r), Some(&most), "{}: {room:?}", t.id);
-            let class = minos::scene::RoomClass::from_name(&room.class).unwrap();
+            let class = minos::scene::RoomClass::from_label(&room.class).unwrap();
             assert_eq!(class.index(), g.rooms[r as usize].class);
             checked += 1;
         }

@@ -747,7 +747,8 @@ fn frames_equal_the_runs_own_tables() {
         let room = col::<StringArray>(&traj, "goal_room");
         let mut one_hot = [0.0f32; 9];
         if room.is_valid(i) {
-            let class = minos::scene::taxonomy::RoomClass::from_name(room.value(i)).expect("class");
+            let class =
+                minos::scene::taxonomy::RoomClass::from_label(room.value(i)).expect("class");
             one_hot[class.index() as usize] = 1.0;
         }
         assert_eq!(vector("observation.goal_room"), one_hot);

@@ -1564,7 +1564,7 @@ fn every_step_carries_goal_features_an_independent_computation_agrees_with() {
                     checked[1] += 1;
                 }
                 Goal::Room { class, .. } => {
-                    let want = minos::scene::taxonomy::RoomClass::from_name(class).unwrap();
+                    let want = minos::scene::taxonomy::RoomClass::from_label(class).unwrap();
                     assert_eq!(room.value(r), want.name());
                     assert!(object.is_null(r));
                     checked[2] += 1;

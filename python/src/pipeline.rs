@@ -330,8 +330,8 @@ pub fn sample_episodes<'py>(
     let stratified = term::<Stratify>("stratify", stratify)?.applies(subset);
     let (categories, all_categories) = expand_categories(&categories)
         .ok_or_else(|| bad_input("categories: give [\"all\"] alone"))?;
-    let room_classes = parse_room_classes(&room_types)
-        .map_err(|t| bad_input(format!("room_types: unknown class `{t}`")))?;
+    let room_classes =
+        parse_room_classes(&room_types).map_err(|e| bad_input(format!("room_types: {e}")))?;
     let agent_preset = crate::convert::preset("preset", preset)?;
     let dir_of =
         |e: Option<&Bound<'py, PyAny>>| e.filter(|e| !e.is_none()).map(path_of).transpose();

@@ -12,7 +12,7 @@ use pyo3::types::PyDict;
 
 use minos::episode::{Difficulty, Episode, Goal, Task};
 use minos::pipeline::rollout::{load_scene_assets, SceneLoadError};
-use minos::render::Image;
+use minos::render::{Image, PixelType};
 use minos::render::{Renderer, RendererChoice};
 use minos::run::agents::{action_set, Agent, Decision, STOP};
 use minos::run::metrics::reached;
@@ -52,7 +52,7 @@ pub fn load_scene(
 pub fn image_shape(c: &CameraSensor) -> Vec<usize> {
     let (w, h) = (c.resolution[0] as usize, c.resolution[1] as usize);
     match dtype_of(c) {
-        ("uint16" | "uint32", _) => vec![h, w],
+        (PixelType::U16 | PixelType::U32, _) => vec![h, w],
         (_, ch) => vec![h, w, ch as usize],
     }
 }
@@ -136,18 +136,7 @@ pub fn parse_action(obj: &Bound<'_, PyAny>, names: &[&str]) -> PyResult<Actions>
         for (k, v) in d.iter() {
             let k: String = k.extract()?;
             let v: f32 = v.extract()?;
-            let slot = match k.as_str() {
-                "forward" => &mut a.forward,
-                "backward" => &mut a.backward,
-                "strafe_left" => &mut a.strafe_left,
-                "strafe_right" => &mut a.strafe_right,
-                "turn_left" => &mut a.turn_left,
-                "turn_right" => &mut a.turn_right,
-                "look_up" => &mut a.look_up,
-                "look_down" => &mut a.look_down,
-                other => return Err(unknown_action(other)),
-            };
-            *slot = v;
+            *a.strength_mut(&k).ok_or_else(|| unknown_action(&k))? = v;
         }
         return Ok(a);
     }
@@ -421,7 +410,7 @@ pub fn sensor_specs<'py>(
                     .unwrap_or_default(),
             )?;
             d.set_item("shape", image_shape(c))?;
-            d.set_item("dtype", dtype_of(c).0)?;
+            d.set_item("dtype", dtype_of(c).0.name())?;
             Ok(d)
         })
         .collect()

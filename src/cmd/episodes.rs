@@ -261,8 +261,8 @@ pub fn config(a: &SampleArgs) -> anyhow::Result<EpisodesJob> {
     scene_names
         .check()
         .map_err(|e| anyhow::anyhow!("--scene-suffix: {e}"))?;
-    let room_classes = parse_room_classes(&a.room_types)
-        .map_err(|t| anyhow::anyhow!("--room-types: unknown class `{t}`"))?;
+    let room_classes =
+        parse_room_classes(&a.room_types).map_err(|e| anyhow::anyhow!("--room-types: {e}"))?;
     let subset = a.subset;
     // The library's errors name the split or the variant (as Python reports them).
     let scenes = select_scenes(&data, a.split.as_deref(), subset, a.variant.as_deref())?;

@@ -44,7 +44,10 @@ Examples:
 /// Flags of `minos split`.
 #[derive(Debug, clap::Args)]
 #[command(
-    after_help = format!("{SYNTAX_HELP}\n\n{AFTER_HELP}"),
+    after_help = format!(
+        "{}\n\n{AFTER_HELP}",
+        SYNTAX_HELP.replacen("Filter expressions", "Filter expressions (--where)", 1)
+    ),
     group(ArgGroup::new("source").required(true).args(["lists", "ratios"])),
 )]
 pub struct Args {

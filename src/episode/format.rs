@@ -692,11 +692,13 @@ fn read_batch(
             }};
         }
         let task_name = get!(task, "task");
-        let task_v = Task::from_name(task_name)
-            .ok_or_else(|| bad("task", format!("unknown task `{task_name}`")))?;
+        let task_v = task_name
+            .parse::<Task>()
+            .map_err(|e| bad("task", e.to_string()))?;
         let diff_name = get!(difficulty, "difficulty");
-        let difficulty_v = Difficulty::from_name(diff_name)
-            .ok_or_else(|| bad("difficulty", format!("unknown difficulty `{diff_name}`")))?;
+        let difficulty_v = diff_name
+            .parse::<Difficulty>()
+            .map_err(|e| bad("difficulty", e.to_string()))?;
 
         let goal = if matches!(task_v, Task::PointGoal | Task::Vln) {
             Goal::Point {

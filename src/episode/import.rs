@@ -35,6 +35,8 @@ impl crate::vocab::Vocabulary for ForeignFormat {
     ];
 }
 
+crate::vocab::name_traits!(ForeignFormat);
+
 /// Why a foreign episode file could not be read.
 #[derive(Debug, thiserror::Error)]
 pub enum ImportError {

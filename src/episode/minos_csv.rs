@@ -35,7 +35,7 @@
 //! (every one of the 100 rows of the Matterport3D house GdvgFV5R1Z5 has its goal, and none its
 //! start, inside that region's box). Reading a table as RoomGoal does the same: target id
 //! `roomId` (Matterport3D's `R<n>` becomes minos's region id `region<n>`), class `roomType`
-//! (a minos room-class name when it is one, [`RoomClass::from_name`]), position the goal
+//! (a minos room-class name when it is one, [`RoomClass::from_label`]), position the goal
 //! point.
 //!
 //! **Frames.** MINOS's SUNCG coordinates are the house's own, which minos keeps. Its
@@ -497,7 +497,7 @@ impl RowReader<'_, '_> {
                         required(c.room_type, "goalRoomType")?,
                     )
                 };
-                let class = RoomClass::from_name(&raw).map_or(raw, |k| k.name().to_string());
+                let class = RoomClass::from_label(&raw).map_or(raw, |k| k.name().to_string());
                 Goal::Room {
                     targets: vec![GoalTarget {
                         room: Some(TargetRoom {

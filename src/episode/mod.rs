@@ -59,16 +59,13 @@ impl crate::vocab::Vocabulary for Task {
     ];
 }
 
+crate::vocab::name_traits!(Task);
+
 impl Task {
     /// Name used on the command line and in files (`pointgoal`, `objectgoal`, `roomgoal`,
     /// `vln`).
     pub fn name(self) -> &'static str {
         crate::vocab::Vocabulary::term_name(self)
-    }
-
-    /// Parses a task name.
-    pub fn from_name(s: &str) -> Option<Task> {
-        <Task as crate::vocab::Vocabulary>::parse_name(s).ok()
     }
 }
 
@@ -131,24 +128,36 @@ pub enum Difficulty {
     Hard,
 }
 
+impl crate::vocab::Vocabulary for Difficulty {
+    const WHAT: &'static str = "difficulty";
+    const TERMS: &'static [crate::vocab::Term<Self>] = &[
+        crate::vocab::Term {
+            value: Difficulty::Easy,
+            name: "easy",
+            aliases: &[],
+            help: "short geodesic distance",
+        },
+        crate::vocab::Term {
+            value: Difficulty::Medium,
+            name: "medium",
+            aliases: &[],
+            help: "medium geodesic distance",
+        },
+        crate::vocab::Term {
+            value: Difficulty::Hard,
+            name: "hard",
+            aliases: &[],
+            help: "long geodesic distance",
+        },
+    ];
+}
+
+crate::vocab::name_traits!(Difficulty);
+
 impl Difficulty {
     /// `easy`, `medium` or `hard`.
     pub fn name(self) -> &'static str {
-        match self {
-            Difficulty::Easy => "easy",
-            Difficulty::Medium => "medium",
-            Difficulty::Hard => "hard",
-        }
-    }
-
-    /// Parses a name.
-    pub fn from_name(s: &str) -> Option<Difficulty> {
-        match s {
-            "easy" => Some(Difficulty::Easy),
-            "medium" => Some(Difficulty::Medium),
-            "hard" => Some(Difficulty::Hard),
-            _ => None,
-        }
+        crate::vocab::Vocabulary::term_name(self)
     }
 }
 

@@ -69,6 +69,8 @@ impl crate::vocab::Vocabulary for Select {
     ];
 }
 
+crate::vocab::name_traits!(Select);
+
 /// How episodes are sampled.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SampleConfig {

@@ -89,6 +89,8 @@ impl crate::vocab::Vocabulary for HouseFormat {
     ];
 }
 
+crate::vocab::name_traits!(HouseFormat);
+
 /// What a scan house looks like (see [`scan`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ScanOptions {
@@ -151,6 +153,8 @@ impl crate::vocab::Vocabulary for Furnishing {
         },
     ];
 }
+
+crate::vocab::name_traits!(Furnishing);
 
 /// What to generate.
 #[derive(Debug, Clone, PartialEq)]

@@ -20,7 +20,7 @@ use std::collections::HashMap;
 
 use image::{DynamicImage, ImageBuffer, Luma, Rgb, Rgba};
 
-use crate::render::{Image, Modality};
+use crate::render::{Image, Modality, PixelType};
 use crate::sim::sensors::{dtype_of, CameraSensor};
 
 /// Millimetres per metre of `png16-depth-mm`.
@@ -63,6 +63,8 @@ impl crate::vocab::Vocabulary for ImageEncoding {
     ];
 }
 
+crate::vocab::name_traits!(ImageEncoding);
+
 /// The stored form of one image column (one row of the module table).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum CellEncoding {
@@ -80,6 +82,50 @@ pub enum CellEncoding {
     Png16Normal,
 }
 
+impl crate::vocab::Vocabulary for CellEncoding {
+    const WHAT: &'static str = "cell encoding";
+    const TERMS: &'static [crate::vocab::Term<Self>] = &[
+        crate::vocab::Term {
+            value: CellEncoding::RawLe,
+            name: "raw-le",
+            aliases: &[],
+            help: "raw little-endian pixels",
+        },
+        crate::vocab::Term {
+            value: CellEncoding::Png8,
+            name: "png",
+            aliases: &[],
+            help: "8-bit PNG (grey, or RGB for three channels)",
+        },
+        crate::vocab::Term {
+            value: CellEncoding::Png16,
+            name: "png16",
+            aliases: &[],
+            help: "16-bit grey PNG",
+        },
+        crate::vocab::Term {
+            value: CellEncoding::PngRgba8U32Le,
+            name: "png-rgba8-u32le",
+            aliases: &[],
+            help: "u32 ids as 8-bit RGBA PNG (the id's little-endian bytes)",
+        },
+        crate::vocab::Term {
+            value: CellEncoding::Png16DepthMm,
+            name: "png16-depth-mm",
+            aliases: &[],
+            help: "f32 depth as 16-bit grey PNG of millimetres",
+        },
+        crate::vocab::Term {
+            value: CellEncoding::Png16Normal,
+            name: "png16-normal",
+            aliases: &[],
+            help: "f32 unit normals as 16-bit RGB PNG of (v + 1) / 2 × 65535",
+        },
+    ];
+}
+
+crate::vocab::name_traits!(CellEncoding);
+
 /// Everything needed to decode one image column: the pixels' dtype and shape and their
 /// stored form.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -94,42 +140,6 @@ pub struct CellFormat {
     pub height: u32,
     /// Channels per pixel.
     pub channels: u32,
-}
-
-/// The dtype of a sensor's pixels.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum PixelType {
-    /// `uint8`.
-    U8,
-    /// `uint16`.
-    U16,
-    /// `uint32`.
-    U32,
-    /// `float32`.
-    F32,
-}
-
-impl PixelType {
-    /// The NumPy dtype name.
-    pub fn name(self) -> &'static str {
-        match self {
-            PixelType::U8 => "uint8",
-            PixelType::U16 => "uint16",
-            PixelType::U32 => "uint32",
-            PixelType::F32 => "float32",
-        }
-    }
-
-    /// Parses a NumPy dtype name.
-    pub fn from_name(s: &str) -> Option<PixelType> {
-        Some(match s {
-            "uint8" => PixelType::U8,
-            "uint16" => PixelType::U16,
-            "uint32" => PixelType::U32,
-            "float32" => PixelType::F32,
-            _ => return None,
-        })
-    }
 }
 
 /// An image that cannot be encoded or a cell that cannot be decoded.
@@ -171,28 +181,7 @@ impl CellEncoding {
 
     /// The name in the column metadata's `encoding`.
     pub fn name(self) -> &'static str {
-        match self {
-            CellEncoding::RawLe => "raw-le",
-            CellEncoding::Png8 => "png",
-            CellEncoding::Png16 => "png16",
-            CellEncoding::PngRgba8U32Le => "png-rgba8-u32le",
-            CellEncoding::Png16DepthMm => "png16-depth-mm",
-            CellEncoding::Png16Normal => "png16-normal",
-        }
-    }
-
-    /// Parses [`CellEncoding::name`].
-    pub fn from_name(s: &str) -> Option<CellEncoding> {
-        [
-            CellEncoding::RawLe,
-            CellEncoding::Png8,
-            CellEncoding::Png16,
-            CellEncoding::PngRgba8U32Le,
-            CellEncoding::Png16DepthMm,
-            CellEncoding::Png16Normal,
-        ]
-        .into_iter()
-        .find(|e| e.name() == s)
+        crate::vocab::Vocabulary::term_name(self)
     }
 
     /// The largest difference between a pixel and its decoded value (0 for lossless forms).
@@ -231,8 +220,6 @@ impl CellFormat {
     /// How `choice` stores the images of `camera`.
     pub fn for_camera(camera: &CameraSensor, choice: ImageEncoding) -> CellFormat {
         let (dtype, channels) = dtype_of(camera);
-        // `dtype_of` only names the four pixel types.
-        let dtype = PixelType::from_name(dtype).unwrap_or(PixelType::U8);
         CellFormat {
             encoding: CellEncoding::choose(choice, camera.modality, dtype),
             dtype,
@@ -268,11 +255,12 @@ impl CellFormat {
                 .ok_or_else(|| CodecError::Metadata(format!("no `{k}`")))
         };
         let dtype = get("dtype")?;
-        let dtype = PixelType::from_name(dtype)
-            .ok_or_else(|| CodecError::Metadata(format!("dtype `{dtype}` is not a pixel type")))?;
-        let encoding = get("encoding")?;
-        let encoding = CellEncoding::from_name(encoding)
-            .ok_or_else(|| CodecError::Metadata(format!("unknown encoding `{encoding}`")))?;
+        let dtype = dtype
+            .parse::<PixelType>()
+            .map_err(|e| CodecError::Metadata(e.to_string()))?;
+        let encoding = get("encoding")?
+            .parse::<CellEncoding>()
+            .map_err(|e| CodecError::Metadata(e.to_string()))?;
         let shape = get("shape")?;
         let dims: Vec<u32> = shape
             .trim_matches(|c| c == '[' || c == ']')
@@ -347,7 +335,7 @@ pub fn encode_cell(img: &Image, format: &CellFormat, out: &mut Vec<u8>) -> Resul
     let (w, h) = (format.width, format.height);
     match (format.encoding, img) {
         (CellEncoding::RawLe, img) => {
-            if img.dtype() != (format.dtype.name(), format.channels) {
+            if img.dtype() != (format.dtype, format.channels) {
                 return Err(mismatch());
             }
             let start = out.len();
@@ -599,7 +587,7 @@ mod tests {
     }
 
     fn pixel_type(img: &Image) -> PixelType {
-        PixelType::from_name(img.dtype().0).expect("a pixel type")
+        img.dtype().0
     }
 
     #[test]

@@ -163,8 +163,7 @@ pub fn params_from_toml(text: &str, base: NavParams) -> Result<NavParams, Settin
         None => base,
     };
     // Plain numbers always make a table; a failure would be a bug, said as such.
-    let mut merged = toml::Table::try_from(base)
-        .map_err(|e| format!("the base parameters as a TOML table: {e}"))?;
+    let mut merged = toml::Table::try_from(base).map_err(SettingsCause::Defaults)?;
     for (k, v) in table {
         merged.insert(k, v);
     }

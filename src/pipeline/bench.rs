@@ -102,6 +102,8 @@ impl crate::vocab::Vocabulary for BenchKind {
     ];
 }
 
+crate::vocab::name_traits!(BenchKind);
+
 /// What to measure.
 #[derive(Debug, Clone)]
 pub struct BenchConfig {

@@ -62,10 +62,11 @@ impl crate::vocab::Vocabulary for DatasetFormat {
             value: DatasetFormat::ThreeDFront,
             name: "3dfront",
             aliases: &[],
-            help: "3D-FRONT: <root>/<scene uid>.json; furniture meshes from --models (3D-FUTURE \
-                   <jid>/raw_model.obj) or boxes; categories from --categories, else a \
-                   model_info.json or *ModelCategoryMapping.csv in --models, <root>, \
-                   <root>/metadata or <root>/../metadata",
+            help: "3D-FRONT: <root>/<scene uid>.json; furniture meshes from the 3D-FUTURE \
+                   models folder (<jid>/raw_model.obj) when one is given, else boxes; \
+                   categories from the categories file given, else a model_info.json or \
+                   *ModelCategoryMapping.csv in the models folder, <root>, <root>/metadata \
+                   or <root>/../metadata",
         },
         crate::vocab::Term {
             value: DatasetFormat::Gltf,
@@ -73,7 +74,7 @@ impl crate::vocab::Vocabulary for DatasetFormat {
             aliases: &[],
             help: "glTF: every .glb/.gltf (id = file stem) and *.scene_instance.json under \
                    <root>, with Habitat stage/object/dataset configs and HM3D .semantic.txt \
-                   beside them; --categories takes a Habitat category-mapping TSV",
+                   beside them; the categories file is a Habitat category-mapping TSV",
         },
         crate::vocab::Term {
             value: DatasetFormat::Mp3d,
@@ -85,6 +86,8 @@ impl crate::vocab::Vocabulary for DatasetFormat {
         },
     ];
 }
+
+crate::vocab::name_traits!(DatasetFormat);
 
 impl DatasetFormat {
     /// The loader of this format for `cfg.root`.

@@ -25,6 +25,58 @@ pub enum Modality {
     RoomClass,
 }
 
+/// The dtype of a sensor's pixels, named as NumPy names it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum PixelType {
+    /// `uint8`.
+    U8,
+    /// `uint16`.
+    U16,
+    /// `uint32`.
+    U32,
+    /// `float32`.
+    F32,
+}
+
+impl crate::vocab::Vocabulary for PixelType {
+    const WHAT: &'static str = "pixel type";
+    const TERMS: &'static [crate::vocab::Term<Self>] = &[
+        crate::vocab::Term {
+            value: PixelType::U8,
+            name: "uint8",
+            aliases: &[],
+            help: "8-bit unsigned (colour, grey, quantised depth, room class)",
+        },
+        crate::vocab::Term {
+            value: PixelType::U16,
+            name: "uint16",
+            aliases: &[],
+            help: "16-bit unsigned (semantic classes, quantised depth)",
+        },
+        crate::vocab::Term {
+            value: PixelType::U32,
+            name: "uint32",
+            aliases: &[],
+            help: "32-bit unsigned (instance and room ids)",
+        },
+        crate::vocab::Term {
+            value: PixelType::F32,
+            name: "float32",
+            aliases: &[],
+            help: "32-bit float (depth in metres, normals)",
+        },
+    ];
+}
+
+crate::vocab::name_traits!(PixelType);
+
+impl PixelType {
+    /// The NumPy dtype name.
+    pub fn name(self) -> &'static str {
+        crate::vocab::Vocabulary::term_name(self)
+    }
+}
+
 /// A sensor image.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Image {
@@ -49,13 +101,13 @@ pub enum Image {
 }
 
 impl Image {
-    /// `(dtype, channels)` as a NumPy dtype name.
-    pub fn dtype(&self) -> (&'static str, u32) {
+    /// `(dtype, channels)`.
+    pub fn dtype(&self) -> (PixelType, u32) {
         match self {
-            Image::U8 { channels, .. } => ("uint8", *channels),
-            Image::U16(_) => ("uint16", 1),
-            Image::U32(_) => ("uint32", 1),
-            Image::F32 { channels, .. } => ("float32", *channels),
+            Image::U8 { channels, .. } => (PixelType::U8, *channels),
+            Image::U16(_) => (PixelType::U16, 1),
+            Image::U32(_) => (PixelType::U32, 1),
+            Image::F32 { channels, .. } => (PixelType::F32, *channels),
         }
     }
 

@@ -30,6 +30,6 @@ pub mod visualize;
 pub use camera::Camera;
 pub use derived::{Channel, Channels, Derived};
 pub use frame::{Frame, NO_HIT};
-pub use image::{Image, Modality};
+pub use image::{Image, Modality, PixelType};
 pub use renderer::{Renderer, RendererChoice};
 pub use scene::{Cluster, RenderScene, TriInfo, UvMap, NO_ID, NO_TEXTURE};

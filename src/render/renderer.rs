@@ -42,6 +42,8 @@ impl crate::vocab::Vocabulary for RendererChoice {
     ];
 }
 
+crate::vocab::name_traits!(RendererChoice);
+
 /// A renderer instance.
 pub enum Renderer {
     /// The CPU rasteriser.

@@ -107,8 +107,8 @@ pub fn encode_png(
                 .collect(),
         ),
         _ => Err(std::io::Error::other(format!(
-            "no PNG view of {modality:?} stored as {:?}",
-            image.dtype()
+            "no PNG view of {modality:?} stored as {}",
+            image.dtype().0
         ))),
     }
 }

@@ -110,17 +110,8 @@ pub fn parse_reply(v: &Value) -> Result<Decision, ReplyError> {
                 .as_f64()
                 .ok_or_else(|| ReplyError(format!("actions.{k}: not a number")))?
                 as f32;
-            match k.as_str() {
-                "forward" => a.forward = s,
-                "backward" => a.backward = s,
-                "strafe_left" => a.strafe_left = s,
-                "strafe_right" => a.strafe_right = s,
-                "turn_left" => a.turn_left = s,
-                "turn_right" => a.turn_right = s,
-                "look_up" => a.look_up = s,
-                "look_down" => a.look_down = s,
-                other => return Err(ReplyError(format!("actions: unknown action `{other}`"))),
-            }
+            *a.strength_mut(k)
+                .ok_or_else(|| ReplyError(format!("actions: unknown action `{k}`")))? = s;
         }
         return Ok(Decision::Act(a.clamped()));
     }
@@ -141,7 +132,7 @@ fn observation_json(episode: &str, obs: &Observation, sim: &Simulator) -> Value 
                 name.clone(),
                 json!({
                     "shape": [cam.resolution[1], cam.resolution[0], channels],
-                    "dtype": dtype,
+                    "dtype": dtype.name(),
                     "base64": base64::engine::general_purpose::STANDARD.encode(img.to_le_bytes()),
                 }),
             )

@@ -60,16 +60,13 @@ impl crate::vocab::Vocabulary for Reward {
     ];
 }
 
+crate::vocab::name_traits!(Reward);
+
 impl Reward {
     /// `dist_time`, `path_delta` or `geodesic` (its [`Vocabulary`](crate::vocab::Vocabulary)
     /// name).
     pub fn name(self) -> &'static str {
         crate::vocab::Vocabulary::term_name(self)
-    }
-
-    /// A reward function by its [`Reward::name`].
-    pub fn from_name(s: &str) -> Option<Reward> {
-        <Reward as crate::vocab::Vocabulary>::parse_name(s).ok()
     }
 
     /// The reward of a step from `before` to `after` (Euclidean, geodesic distances).

@@ -70,7 +70,7 @@ impl StepFeatures {
         let direction = m.goal_direction.unwrap_or([0.0, 0.0]);
         let (goal_room, goal_object) = match &episode.goal {
             Goal::Point { .. } => (None, None),
-            Goal::Room { class, .. } => (RoomClass::from_name(class), None),
+            Goal::Room { class, .. } => (RoomClass::from_label(class), None),
             Goal::Object { category, .. } => (None, Some(category.clone())),
         };
         StepFeatures {

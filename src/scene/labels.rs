@@ -95,19 +95,35 @@ fn tables() -> &'static Tables {
     })
 }
 
-impl Taxonomy {
-    /// Parses `nyu40`, `mpcat40` or `coarse`.
-    pub fn from_name(s: &str) -> Option<Taxonomy> {
-        match s {
-            "nyu40" => Some(Taxonomy::Nyu40),
-            "mpcat40" => Some(Taxonomy::Mpcat40),
-            "coarse" => Some(Taxonomy::Coarse),
-            _ => None,
-        }
-    }
+impl crate::vocab::Vocabulary for Taxonomy {
+    const WHAT: &'static str = "taxonomy";
+    const TERMS: &'static [crate::vocab::Term<Self>] = &[
+        crate::vocab::Term {
+            value: Taxonomy::Nyu40,
+            name: "nyu40",
+            aliases: &[],
+            help: "NYU-40 classes (0 = void)",
+        },
+        crate::vocab::Term {
+            value: Taxonomy::Mpcat40,
+            name: "mpcat40",
+            aliases: &[],
+            help: "Matterport3D's mpcat40 classes (0 = void)",
+        },
+        crate::vocab::Term {
+            value: Taxonomy::Coarse,
+            name: "coarse",
+            aliases: &[],
+            help: "coarse classes: wall, floor, door, chair, … (0 = void)",
+        },
+    ];
+}
 
+crate::vocab::name_traits!(Taxonomy);
+
+impl Taxonomy {
     /// Class names by index.
-    pub fn names(self) -> &'static [String] {
+    pub fn class_names(self) -> &'static [String] {
         match self {
             Taxonomy::Nyu40 => &tables().nyu40_names,
             Taxonomy::Mpcat40 => &tables().mpcat40_names,
@@ -187,8 +203,8 @@ mod tests {
             ..Default::default()
         };
         assert_eq!(Taxonomy::Mpcat40.object_class(&stairs), 16);
-        assert_eq!(Taxonomy::Nyu40.names()[40], "otherprop");
-        assert_eq!(Taxonomy::Mpcat40.names().len(), 42);
+        assert_eq!(Taxonomy::Nyu40.class_names()[40], "otherprop");
+        assert_eq!(Taxonomy::Mpcat40.class_names().len(), 42);
     }
 
     #[test]
@@ -201,7 +217,7 @@ mod tests {
                 mpcat40: None,
             })
         };
-        let names = Taxonomy::Coarse.names();
+        let names = Taxonomy::Coarse.class_names();
         let id = |name: &str| names.iter().position(|n| n == name).unwrap() as u16;
         assert_eq!(id("bed"), 9);
         assert_eq!(coarse("double_bed", Some("bed"), Some("bed")), id("bed"));
@@ -219,6 +235,7 @@ mod tests {
         assert_eq!(coarse("vase", Some("vase"), None), id("other"));
         assert_eq!(Taxonomy::Coarse.surface_class(SurfaceKind::Floor), 2);
         assert_eq!(Taxonomy::Coarse.surface_class(SurfaceKind::Ceiling), 3);
-        assert_eq!(Taxonomy::from_name("coarse"), Some(Taxonomy::Coarse));
+        assert_eq!("coarse".parse::<Taxonomy>(), Ok(Taxonomy::Coarse));
+        assert_eq!(Taxonomy::Mpcat40.to_string(), "mpcat40");
     }
 }

@@ -48,17 +48,7 @@ impl RoomClass {
 
     /// Canonical name (`living_room`).
     pub fn name(self) -> &'static str {
-        match self {
-            RoomClass::Other => "other",
-            RoomClass::Bedroom => "bedroom",
-            RoomClass::LivingRoom => "living_room",
-            RoomClass::Bathroom => "bathroom",
-            RoomClass::Kitchen => "kitchen",
-            RoomClass::DiningRoom => "dining_room",
-            RoomClass::Office => "office",
-            RoomClass::Hallway => "hallway",
-            RoomClass::Outdoor => "outdoor",
-        }
+        crate::vocab::Vocabulary::term_name(self)
     }
 
     /// The class index (0–8).
@@ -66,25 +56,87 @@ impl RoomClass {
         self as u8
     }
 
-    /// Parses a class name or a common alias (`living`, `lounge`, `dining`, `balcony`, `hall`).
-    pub fn from_name(name: &str) -> Option<RoomClass> {
-        // `living room` (Matterport3D's and MINOS's spelling) reads as `living_room`.
-        let n = name.trim().to_ascii_lowercase().replace(' ', "_");
-        let class = match n.as_str() {
-            "other" => RoomClass::Other,
-            "bedroom" => RoomClass::Bedroom,
-            "living_room" | "living" | "livingroom" | "lounge" => RoomClass::LivingRoom,
-            "bathroom" | "toilet" => RoomClass::Bathroom,
-            "kitchen" => RoomClass::Kitchen,
-            "dining_room" | "dining" | "diningroom" => RoomClass::DiningRoom,
-            "office" | "study" => RoomClass::Office,
-            "hallway" | "hall" | "corridor" => RoomClass::Hallway,
-            "outdoor" | "balcony" => RoomClass::Outdoor,
-            _ => return None,
-        };
-        Some(class)
+    /// Reads a dataset's or a user's room label: a class name or an alias of it (see
+    /// [`RoomClass::TERMS`](crate::vocab::Vocabulary::TERMS)), in any case, with spaces for
+    /// underscores (`Living Room`, Matterport3D's and MINOS's spelling, reads as
+    /// `living_room`).
+    pub fn parse_label(label: &str) -> Result<RoomClass, crate::vocab::UnknownName> {
+        let name = label.trim().to_ascii_lowercase().replace(' ', "_");
+        crate::vocab::Vocabulary::parse_name(&name).map_err(|e: crate::vocab::UnknownName| {
+            crate::vocab::UnknownName {
+                given: label.to_string(),
+                ..e
+            }
+        })
+    }
+
+    /// [`RoomClass::parse_label`], `None` for a label of no class.
+    pub fn from_label(label: &str) -> Option<RoomClass> {
+        RoomClass::parse_label(label).ok()
     }
 }
+
+impl crate::vocab::Vocabulary for RoomClass {
+    const WHAT: &'static str = "room class";
+    const TERMS: &'static [crate::vocab::Term<Self>] = &[
+        crate::vocab::Term {
+            value: RoomClass::Other,
+            name: "other",
+            aliases: &[],
+            help: "anything else (storage, garage, unlabeled …)",
+        },
+        crate::vocab::Term {
+            value: RoomClass::Bedroom,
+            name: "bedroom",
+            aliases: &[],
+            help: "bedroom",
+        },
+        crate::vocab::Term {
+            value: RoomClass::LivingRoom,
+            name: "living_room",
+            aliases: &["living", "livingroom", "lounge"],
+            help: "living room, lounge",
+        },
+        crate::vocab::Term {
+            value: RoomClass::Bathroom,
+            name: "bathroom",
+            aliases: &["toilet"],
+            help: "bathroom, toilet",
+        },
+        crate::vocab::Term {
+            value: RoomClass::Kitchen,
+            name: "kitchen",
+            aliases: &[],
+            help: "kitchen",
+        },
+        crate::vocab::Term {
+            value: RoomClass::DiningRoom,
+            name: "dining_room",
+            aliases: &["dining", "diningroom"],
+            help: "dining room",
+        },
+        crate::vocab::Term {
+            value: RoomClass::Office,
+            name: "office",
+            aliases: &["study"],
+            help: "office, study",
+        },
+        crate::vocab::Term {
+            value: RoomClass::Hallway,
+            name: "hallway",
+            aliases: &["hall", "corridor"],
+            help: "hallway, entryway, corridor",
+        },
+        crate::vocab::Term {
+            value: RoomClass::Outdoor,
+            name: "outdoor",
+            aliases: &["balcony"],
+            help: "outdoor, balcony",
+        },
+    ];
+}
+
+crate::vocab::name_traits!(RoomClass);
 
 fn csv_rows(text: &str) -> impl Iterator<Item = Vec<&str>> {
     text.lines()
@@ -105,7 +157,7 @@ impl RoomTypeTable {
         let text = include_str!("../../data/taxonomy/suncg_room_types.csv");
         let map = csv_rows(text)
             .filter_map(|r| {
-                let class = RoomClass::from_name(r.get(1)?)?;
+                let class = RoomClass::from_label(r.get(1)?)?;
                 Some((r.first()?.to_ascii_lowercase(), class))
             })
             .collect();
@@ -302,16 +354,29 @@ mod tests {
     #[test]
     fn class_names_round_trip() {
         for c in RoomClass::ALL {
-            assert_eq!(RoomClass::from_name(c.name()), Some(c));
+            assert_eq!(RoomClass::from_label(c.name()), Some(c));
+            assert_eq!(c.to_string().parse::<RoomClass>(), Ok(c));
         }
         assert_eq!(
-            RoomClass::from_name(" Living Room "),
+            RoomClass::from_label(" Living Room "),
             Some(RoomClass::LivingRoom)
         );
         assert_eq!(
-            RoomClass::from_name("dining room"),
+            RoomClass::from_label("dining room"),
             Some(RoomClass::DiningRoom)
         );
+        assert_eq!(RoomClass::from_label("Corridor"), Some(RoomClass::Hallway));
+        // The table is exact; labels are read leniently.
+        assert!("Living Room".parse::<RoomClass>().is_err());
+        let e = RoomClass::parse_label("Attic").unwrap_err();
+        assert_eq!(e.given, "Attic");
+        assert_eq!(e.known.len(), 9);
+        // Every class is in the table, in index order.
+        let named: Vec<RoomClass> = <RoomClass as crate::vocab::Vocabulary>::TERMS
+            .iter()
+            .map(|t| t.value)
+            .collect();
+        assert_eq!(named, RoomClass::ALL);
         assert_eq!(RoomClass::ALL[5].index(), 5);
     }
 

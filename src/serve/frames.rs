@@ -76,6 +76,8 @@ impl crate::vocab::Vocabulary for LosslessFormat {
     ];
 }
 
+crate::vocab::name_traits!(LosslessFormat);
+
 /// JPEG quality of [`FrameFormat::default`].
 pub const DEFAULT_JPEG_QUALITY: u8 = 85;
 

@@ -233,8 +233,9 @@ async fn create(
         },
     };
     if let Err(e) = app.contained(&scene) {
-        tracing::warn!("{}", crate::escape::error_line(&e));
-        return error(StatusCode::FORBIDDEN, e);
+        let line = crate::escape::error_line(&e);
+        tracing::warn!("{line}");
+        return error(StatusCode::FORBIDDEN, line);
     }
     let (token, suffix, seed) = match (session_token(), random_hex(4), random_hex(8)) {
         (Ok(t), Ok(s), Ok(seed)) => (t, s, u64::from_str_radix(&seed, 16).unwrap_or(0)),

@@ -41,7 +41,6 @@ use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, Instant};
 
 use crate::episode::Episode;
-use crate::invalid::Invalid;
 use crate::scene::SceneRef;
 pub use frames::FrameFormat;
 pub use rate::RateLimits;
@@ -82,11 +81,11 @@ pub enum ServeError {
     #[error(transparent)]
     Io(#[from] FileError),
     /// The tokio runtime could not start.
-    #[error("runtime: {0}")]
-    Runtime(std::io::Error),
+    #[error("the async runtime")]
+    Runtime(#[source] std::io::Error),
     /// A campaign's episode cannot be served (its scene is not in the DATA folder).
     #[error(transparent)]
-    Campaign(Invalid),
+    Campaign(#[from] UnservableScene),
     /// A setting makes no sense (the message names it and why).
     #[error("{0}")]
     Setting(String),
@@ -173,23 +172,52 @@ impl App {
 
     /// Whether the files scene `id` is loaded from lie inside the DATA folder (a symbolic
     /// link out of it is refused).
-    fn contained(&self, id: &str) -> Result<(), Invalid> {
+    fn contained(&self, id: &str) -> Result<(), UnservableScene> {
         let scene = SceneRef::parse(id);
         let data = &self.shared.data;
         for path in [data.scene_path(&scene.scene), data.grid_path(&scene)] {
-            let real = path
-                .canonicalize()
-                .map_err(|e| format!("scene {id}: {}: {e}", path.display()))?;
+            let real = match path.canonicalize() {
+                Ok(real) => real,
+                Err(e) => {
+                    return Err(UnservableScene::Missing {
+                        scene: id.to_string(),
+                        file: FileError::new(path, e),
+                    })
+                }
+            };
             if !real.starts_with(&self.data_root) {
-                return Err(format!(
-                    "scene {id}: {} leads outside the DATA folder",
-                    path.display()
-                )
-                .into());
+                return Err(UnservableScene::Outside {
+                    scene: id.to_string(),
+                    path,
+                });
             }
         }
         Ok(())
     }
+}
+
+/// A scene whose files are missing or lie outside the DATA folder (a symbolic link out of
+/// it), so the server refuses to load it.
+#[derive(Debug, thiserror::Error)]
+pub enum UnservableScene {
+    /// A file the scene is loaded from cannot be resolved (it does not exist, or cannot be
+    /// read).
+    #[error("scene {scene}")]
+    Missing {
+        /// The scene id.
+        scene: String,
+        /// The file and what the file system said.
+        #[source]
+        file: FileError,
+    },
+    /// A file the scene is loaded from resolves to a place outside the DATA folder.
+    #[error("scene {scene}: {} leads outside the DATA folder", path.display())]
+    Outside {
+        /// The scene id.
+        scene: String,
+        /// The file, as the DATA folder names it.
+        path: PathBuf,
+    },
 }
 
 /// A running server.
@@ -372,7 +400,7 @@ fn launch(
         scenes.sort();
         scenes.dedup();
         for scene in scenes {
-            app.contained(scene).map_err(ServeError::Campaign)?;
+            app.contained(scene)?;
         }
     }
     // The sockets of every session (each step's frames and JSON, every key press) go through

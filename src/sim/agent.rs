@@ -259,20 +259,28 @@ impl Actions {
         "idle",
     ];
 
+    /// The strength of the single action `name` (`forward` … `look_down`, as
+    /// [`Actions::NAMES`] spells them; not `idle`), `None` for another name: the one place
+    /// action names meet fields, for every reader of named strengths.
+    pub fn strength_mut(&mut self, name: &str) -> Option<&mut f32> {
+        Some(match name {
+            "forward" => &mut self.forward,
+            "backward" => &mut self.backward,
+            "strafe_left" => &mut self.strafe_left,
+            "strafe_right" => &mut self.strafe_right,
+            "turn_left" => &mut self.turn_left,
+            "turn_right" => &mut self.turn_right,
+            "look_up" => &mut self.look_up,
+            "look_down" => &mut self.look_down,
+            _ => return None,
+        })
+    }
+
     /// One action at full strength, by name (`idle` for nothing).
     pub fn single(name: &str) -> Option<Actions> {
         let mut a = Actions::IDLE;
-        match name {
-            "forward" => a.forward = 1.0,
-            "backward" => a.backward = 1.0,
-            "strafe_left" => a.strafe_left = 1.0,
-            "strafe_right" => a.strafe_right = 1.0,
-            "turn_left" => a.turn_left = 1.0,
-            "turn_right" => a.turn_right = 1.0,
-            "look_up" => a.look_up = 1.0,
-            "look_down" => a.look_down = 1.0,
-            "idle" => {}
-            _ => return None,
+        if name != "idle" {
+            *a.strength_mut(name)? = 1.0;
         }
         Some(a)
     }
@@ -379,5 +387,32 @@ pub fn intended_motion(
             state.angular_velocity = w;
             ([v[0] * cfg.dt, v[1] * cfg.dt], w * cfg.dt)
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn each_action_name_reaches_its_own_strength() {
+        for (i, name) in Actions::NAMES[..8].iter().enumerate() {
+            let mut a = Actions::IDLE;
+            *a.strength_mut(name).expect("a single action") = 0.5;
+            let mut want = [0.0; 8];
+            want[i] = 0.5;
+            assert_eq!(a.strengths(), want, "{name}");
+            assert_eq!(Actions::single(name).map(|s| s.strengths()[i]), Some(1.0));
+            assert_eq!(
+                Actions::single(name).and_then(|s| s.single_name()),
+                Some(*name)
+            );
+        }
+        assert_eq!(Actions::NAMES[8], "idle");
+        let mut idle = Actions::IDLE;
+        assert_eq!(idle.strength_mut("idle"), None);
+        assert_eq!(idle.strength_mut("jump"), None);
+        assert_eq!(Actions::single("idle"), Some(Actions::IDLE));
+        assert_eq!(Actions::single("jump"), None);
     }
 }

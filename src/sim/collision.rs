@@ -8,11 +8,30 @@ use parry3d::math::{Pose, Vector};
 use parry3d::query;
 use parry3d::shape::{Ball, Cylinder, TriMesh};
 
-use crate::invalid::Invalid;
 use crate::scene::Scene;
 
 /// Gap left between the climb height and the bottom of the collision cylinder (m).
 const CLEARANCE: f32 = 0.01;
+
+/// A scene that gives no collision mesh.
+#[derive(Debug, thiserror::Error)]
+pub enum CollisionError {
+    /// Every triangle of the scene is degenerate, or it has none.
+    #[error("scene {scene}: no triangles to collide with")]
+    NoTriangles {
+        /// The scene id.
+        scene: String,
+    },
+    /// parry3d refused the mesh.
+    #[error("scene {scene}: collision mesh")]
+    Mesh {
+        /// The scene id.
+        scene: String,
+        /// parry3d's reason.
+        #[source]
+        source: parry3d::shape::TriMeshBuilderError,
+    },
+}
 
 /// The scene's triangles as one collision mesh, and the agent's collision shape.
 pub struct CollisionWorld {
@@ -28,7 +47,12 @@ fn v(p: Vec3) -> Vector {
 impl CollisionWorld {
     /// Builds the collision mesh of every triangle of the scene (rooms, ground, objects) and the
     /// body cylinder from `max_climb` to `height` above the floor.
-    pub fn new(scene: &Scene, radius: f32, height: f32, max_climb: f32) -> Result<Self, Invalid> {
+    pub fn new(
+        scene: &Scene,
+        radius: f32,
+        height: f32,
+        max_climb: f32,
+    ) -> Result<Self, CollisionError> {
         let mut vertices: Vec<Vector> = Vec::new();
         let mut indices: Vec<[u32; 3]> = Vec::new();
         let mut add = |m: &crate::scene::WorldMesh| {
@@ -61,10 +85,14 @@ impl CollisionWorld {
             (b - a).cross(c - a).length() > 1e-12
         });
         if indices.is_empty() {
-            return Err(format!("scene {}: no triangles to collide with", scene.id).into());
+            return Err(CollisionError::NoTriangles {
+                scene: scene.id.clone(),
+            });
         }
-        let mesh = TriMesh::new(vertices, indices)
-            .map_err(|e| format!("scene {}: collision mesh: {e:?}", scene.id))?;
+        let mesh = TriMesh::new(vertices, indices).map_err(|source| CollisionError::Mesh {
+            scene: scene.id.clone(),
+            source,
+        })?;
         let bottom = max_climb + CLEARANCE;
         let half = ((height - bottom) / 2.0).max(0.01);
         Ok(CollisionWorld {

@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 use crate::body::AgentPreset;
 use crate::invalid::{Invalid, SettingsCause, TomlError};
 use crate::render::{Frame, RenderScene};
-use crate::render::{Image, Modality};
+use crate::render::{Image, Modality, PixelType};
 use crate::scene::Taxonomy;
 use crate::seed::Rng;
 use crate::vocab::{Term, Vocabulary};
@@ -55,6 +55,8 @@ impl Vocabulary for SuiteName {
         },
     ];
 }
+
+crate::vocab::name_traits!(SuiteName);
 
 /// How depth is stored.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -397,18 +399,18 @@ impl CameraSensor {
 }
 
 /// `(dtype, channels)` of the images a camera sensor produces.
-pub fn dtype_of(c: &CameraSensor) -> (&'static str, u32) {
+pub fn dtype_of(c: &CameraSensor) -> (PixelType, u32) {
     match c.modality {
-        Modality::Color => ("uint8", 3),
-        Modality::Gray | Modality::RoomClass => ("uint8", 1),
+        Modality::Color => (PixelType::U8, 3),
+        Modality::Gray | Modality::RoomClass => (PixelType::U8, 1),
         Modality::Depth => match c.depth_encoding {
-            DepthEncoding::Float => ("float32", 1),
-            DepthEncoding::U8 => ("uint8", 1),
-            DepthEncoding::U16 => ("uint16", 1),
+            DepthEncoding::Float => (PixelType::F32, 1),
+            DepthEncoding::U8 => (PixelType::U8, 1),
+            DepthEncoding::U16 => (PixelType::U16, 1),
         },
-        Modality::Normal => ("float32", 3),
-        Modality::Semantic => ("uint16", 1),
-        Modality::Instance | Modality::Room => ("uint32", 1),
+        Modality::Normal => (PixelType::F32, 3),
+        Modality::Semantic => (PixelType::U16, 1),
+        Modality::Instance | Modality::Room => (PixelType::U32, 1),
     }
 }
 

@@ -25,9 +25,9 @@ use crate::render::Image;
 /// Errors building a simulator.
 #[derive(Debug, thiserror::Error)]
 pub enum SimError {
-    /// The scene has nothing to collide with, or a similar problem.
+    /// The scene has nothing to collide with, or parry3d refused its mesh.
     #[error(transparent)]
-    Scene(crate::invalid::Invalid),
+    Collision(#[from] crate::sim::collision::CollisionError),
     /// The renderer could not be created.
     #[error(transparent)]
     Render(#[from] GpuError),
@@ -79,7 +79,7 @@ impl SceneAssets {
         Ok(SceneAssets {
             id: scene.id.clone(),
             render,
-            collision: collision.map_err(SimError::Scene)?,
+            collision: collision?,
             grid,
         })
     }

@@ -32,7 +32,7 @@ use crate::store::manifest::ManifestRow;
 
 /// The language in a few lines, as `minos split --help` shows it.
 pub const SYNTAX_HELP: &str = "\
-Filter expressions (--where) select manifest rows:
+Filter expressions select manifest rows:
   comparisons     ==  !=  <  <=  >  >=   between two numbers or two strings
   logic           !  (not)   &&  (and)   ||  (or)   ( ) to group
   precedence      ! binds tightest, then comparisons, then &&, then ||
@@ -792,7 +792,7 @@ fn check(node: &Node) -> Result<Typed, ExprError> {
         NodeKind::Column(_, Column::Str(c)) => Typed::Str(StrTerm::Col(*c)),
         NodeKind::Call(Function::HasRoom, name) => Typed::Cond(Cond::HasRoom {
             name: name.clone(),
-            class: RoomClass::from_name(name),
+            class: RoomClass::from_label(name),
         }),
         NodeKind::Call(Function::HasCategory, name) => Typed::Cond(Cond::HasCategory(name.clone())),
         NodeKind::Not(inner) => Typed::Cond(Cond::Not(Box::new(check_cond(inner, "`!`")?))),
@@ -880,7 +880,7 @@ impl Cond {
                 let by_class = class.is_some_and(|c| {
                     row.room_classes
                         .iter()
-                        .any(|n| RoomClass::from_name(n) == Some(c))
+                        .any(|n| RoomClass::from_label(n) == Some(c))
                 });
                 by_class || row.room_types.iter().any(|t| eq_ignore_case(t, name))
             }

@@ -17,7 +17,6 @@ mod official;
 
 use crate::file_error::FileError;
 use std::collections::{HashMap, HashSet};
-use std::fmt;
 use std::str::FromStr;
 
 use crate::seed::derive_seed;
@@ -110,11 +109,7 @@ impl crate::vocab::Vocabulary for Subset {
     ];
 }
 
-impl fmt::Display for Subset {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.name())
-    }
-}
+crate::vocab::name_traits!(Subset);
 
 /// The ids of each subset of a split.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]

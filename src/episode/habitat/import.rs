@@ -325,9 +325,9 @@ fn read_episode(
 
     let category = r.string("object_category")?;
     let task = match info_str("task")? {
-        Some(t) => {
-            Task::from_name(t).ok_or_else(|| info_err("task", format!("unknown task `{t}`")))?
-        }
+        Some(t) => t
+            .parse::<Task>()
+            .map_err(|e| info_err("task", e.to_string()))?,
         None if category.is_some() => Task::ObjectGoal,
         None => Task::PointGoal,
     };
@@ -407,8 +407,9 @@ fn read_episode(
     };
     let geodesic_distance = info_num("geodesic_distance")?.map_or(f32::NAN, |d| d as f32);
     let difficulty = match info_str("difficulty")? {
-        Some(d) => Difficulty::from_name(d)
-            .ok_or_else(|| info_err("difficulty", format!("unknown difficulty `{d}`")))?,
+        Some(d) => d
+            .parse::<Difficulty>()
+            .map_err(|e| info_err("difficulty", e.to_string()))?,
         None => difficulty_for_geodesic(geodesic_distance),
     };
     let success_radius = match (info_num("success_radius")?, point_radius) {

@@ -101,6 +101,8 @@ impl crate::vocab::Vocabulary for EpisodeExport {
     ];
 }
 
+crate::vocab::name_traits!(EpisodeExport);
+
 /// Errors writing a VLN export.
 #[derive(Debug, thiserror::Error)]
 pub enum VlnExportError {

@@ -19,10 +19,8 @@ mod obj;
 
 use crate::file_error::FileError;
 use std::collections::{HashMap, HashSet};
-use std::fmt;
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
-use std::str::FromStr;
 
 use crate::scene::{
     Material, MaterialOverride, Mesh, MeshId, Object, Scene, SurfaceKind, WorldMesh,
@@ -55,6 +53,8 @@ impl crate::vocab::Vocabulary for ExportFormat {
     ];
 }
 
+crate::vocab::name_traits!(ExportFormat);
+
 impl ExportFormat {
     /// Every format, in the order the command line lists them.
     pub const ALL: [ExportFormat; 2] = [ExportFormat::Obj, ExportFormat::Glb];
@@ -75,24 +75,6 @@ impl ExportFormat {
         ExportFormat::ALL
             .into_iter()
             .find(|f| f.extension().eq_ignore_ascii_case(ext))
-    }
-}
-
-impl fmt::Display for ExportFormat {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-impl FromStr for ExportFormat {
-    type Err = crate::invalid::Invalid;
-
-    /// Parses `obj` or `glb` (any case).
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        ExportFormat::ALL
-            .into_iter()
-            .find(|f| f.name().eq_ignore_ascii_case(s.trim()))
-            .ok_or_else(|| format!("unknown export format `{s}` (expected obj or glb)").into())
     }
 }
 

@@ -402,7 +402,7 @@ fn formats_parse_and_infer_from_extensions() {
     );
     assert_eq!(ExportFormat::from_path(Path::new("b.gltf")), None);
     assert_eq!(ExportFormat::from_path(Path::new("b")), None);
-    assert_eq!("GLB".parse::<ExportFormat>(), Ok(ExportFormat::Glb));
+    assert_eq!("glb".parse::<ExportFormat>(), Ok(ExportFormat::Glb));
     assert!("ply"
         .parse::<ExportFormat>()
         .unwrap_err()

@@ -33,8 +33,9 @@ use serde_json::{json, Value};
 
 use super::image_file::ImageFile;
 use super::stats::StatLayout;
-use crate::io::image_codec::{modality_name, CellFormat, PixelType};
+use crate::io::image_codec::{modality_name, CellFormat};
 use crate::render::Modality;
+use crate::render::PixelType;
 use crate::run::step_features::{contact_names, GOAL_NAMES};
 use crate::scene::taxonomy::RoomClass;
 use crate::sim::Actions;

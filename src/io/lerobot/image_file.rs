@@ -16,8 +16,8 @@
 //! function of the pixels, so the same image gives the same file.
 
 use crate::invalid::Invalid;
-use crate::io::image_codec::PixelType;
 use crate::render::Image;
+use crate::render::PixelType;
 
 /// The file format of a camera's frames.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -53,7 +53,7 @@ pub enum ImageFileError {
     #[error("{dtype} pixels cannot be written as {format}")]
     Type {
         /// The pixels' dtype.
-        dtype: &'static str,
+        dtype: PixelType,
         /// The format's name.
         format: &'static str,
     },

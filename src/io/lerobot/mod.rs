@@ -76,6 +76,8 @@ impl crate::vocab::Vocabulary for DatasetLayout {
         help: "LeRobot v3.0",
     }];
 }
+
+crate::vocab::name_traits!(DatasetLayout);
 use source::{read_episodes, read_steps, EpisodeRow, ObservationRows, StepRow};
 use video::{video_file_path, VideoFile};
 

@@ -209,7 +209,7 @@ pub fn read_steps(path: &Path) -> Result<Vec<StepRow>, LerobotError> {
             };
             let mut room = [0.0f32; 9];
             if let Some(name) = text(goal_room) {
-                let class = RoomClass::from_name(&name).ok_or_else(|| {
+                let class = RoomClass::from_label(&name).ok_or_else(|| {
                     read_error(
                         path,
                         record.clone(),

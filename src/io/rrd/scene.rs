@@ -68,7 +68,7 @@ pub fn class_color(class: u16) -> [u8; 3] {
 
 /// The class names and colours of `taxonomy`, for segmentation images and the semantic mesh.
 pub fn annotation(taxonomy: Taxonomy) -> AnnotationContext {
-    AnnotationContext::new(taxonomy.names().iter().enumerate().map(|(i, name)| {
+    AnnotationContext::new(taxonomy.class_names().iter().enumerate().map(|(i, name)| {
         let [r, g, b] = class_color(i as u16);
         let label = if name.is_empty() {
             "void"

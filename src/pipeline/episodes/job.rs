@@ -21,7 +21,6 @@ use crate::store::{DataDir, StoreError};
 
 use super::{read_starts, sample_scenes_from, BatchWriteError, EpisodeBatch};
 use crate::episode::format::EpisodeFileError;
-use crate::invalid::Invalid;
 
 /// What a job samples and where it writes.
 #[derive(Debug, Clone)]
@@ -163,6 +162,8 @@ impl crate::vocab::Vocabulary for Stratify {
     ];
 }
 
+crate::vocab::name_traits!(Stratify);
+
 /// The scenes a job samples: those of `split` (its `subset`, or all three), or every ingested
 /// scene without a split — each as `(scene reference, subset name)`, on `variant` if given.
 pub fn select_scenes(
@@ -255,15 +256,17 @@ pub fn expand_categories(given: &[String]) -> Option<(Vec<String>, bool)> {
     Some((out, false))
 }
 
-/// Room class names → the classes (`None` for `any`, MINOS's any room); `Err` names the
-/// first unknown class.
-pub fn parse_room_classes(names: &[String]) -> Result<Option<Vec<RoomClass>>, Invalid> {
+/// Room class labels ([`RoomClass::parse_label`]) → the classes (`None` for `any`, MINOS's
+/// any room); `Err` names the first unknown label and the classes.
+pub fn parse_room_classes(
+    names: &[String],
+) -> Result<Option<Vec<RoomClass>>, crate::vocab::UnknownName> {
     if names.iter().any(|t| t == "any") {
         return Ok(None);
     }
     names
         .iter()
-        .map(|t| RoomClass::from_name(t).ok_or_else(|| Invalid::new(t.clone())))
+        .map(|t| RoomClass::parse_label(t))
         .collect::<Result<Vec<_>, _>>()
         .map(Some)
 }

@@ -136,6 +136,8 @@ impl crate::vocab::Vocabulary for RunFormat {
     ];
 }
 
+crate::vocab::name_traits!(RunFormat);
+
 /// Environments per scene stepped together on a GPU renderer when the run does not say.
 pub const GPU_BATCH: usize = 256;
 

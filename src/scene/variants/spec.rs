@@ -19,7 +19,6 @@
 //! ```
 
 use std::collections::BTreeMap;
-use std::fmt;
 
 use serde::{Deserialize, Serialize};
 
@@ -74,11 +73,7 @@ impl crate::vocab::Vocabulary for TextureSet {
     ];
 }
 
-impl fmt::Display for TextureSet {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.name())
-    }
-}
+crate::vocab::name_traits!(TextureSet);
 
 /// The state a door is put in.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]

@@ -155,13 +155,12 @@ impl Campaign {
         let demos_dir = spec.state.join(DEMOS);
         std::fs::create_dir_all(&demos_dir).map_err(io(&demos_dir))?;
         let demos_dir = demos_dir.canonicalize().map_err(io(&demos_dir))?;
-        let lock =
-            DirLock::acquire(&demos_dir, "serve --campaign", LockMode::Fail).map_err(|e| {
-                CampaignError::File {
-                    path: demos_dir.clone(),
-                    message: crate::escape::error_line(&e),
-                }
-            })?;
+        let lock = DirLock::acquire(&demos_dir, "campaign", LockMode::Fail).map_err(|e| {
+            CampaignError::File {
+                path: demos_dir.clone(),
+                message: crate::escape::error_line(&e),
+            }
+        })?;
         // Temporaries of a killed server or `campaign links` beside the state files.
         for dir in [&spec.state, &demos_dir] {
             crate::atomic::sweep_stale(dir).map_err(io(dir))?;

@@ -426,7 +426,7 @@ impl<'a> Assembler<'a> {
     pub fn add_regions(&mut self, regions: &[Region]) {
         let types = RoomTypeTable::suncg();
         for r in regions {
-            let class = RoomClass::from_name(&r.label).unwrap_or_else(|| types.class_of(&r.label));
+            let class = RoomClass::from_label(&r.label).unwrap_or_else(|| types.class_of(&r.label));
             self.rooms.push(Room {
                 id: r.name.clone(),
                 raw_types: if r.label.is_empty() {

@@ -41,7 +41,7 @@ impl RegionLabels {
             .skip(1)
             .filter_map(|l| {
                 let f: Vec<&str> = l.split(',').map(str::trim).collect();
-                let class = RoomClass::from_name(f.get(2)?)?;
+                let class = RoomClass::from_label(f.get(2)?)?;
                 Some((
                     f.first()?.to_string(),
                     RegionLabel {

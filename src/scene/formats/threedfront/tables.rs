@@ -31,7 +31,7 @@ impl FrontRoomTypes {
                 let (raw, class) = l.split_once(',')?;
                 Some((
                     raw.trim().to_ascii_lowercase(),
-                    RoomClass::from_name(class)?,
+                    RoomClass::from_label(class)?,
                 ))
             })
             .collect();
