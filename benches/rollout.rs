@@ -16,9 +16,11 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use minos::body::{AgentPreset, BodyRule};
+use minos::episode::interchange::DEFAULT_MAX_STEPS;
 use minos::episode::sample::SampleConfig;
 use minos::episode::{Episode, Task};
-use minos::io::tables::{ImageEncoding, ObservationWriter};
+use minos::io::image_codec::ImageEncoding;
+use minos::io::tables::ObservationWriter;
 use minos::navmesh::geodesic::Geodesic;
 use minos::pipeline::episodes::sample_scenes;
 use minos::pipeline::rollout::{run, AgentKind, RunConfig};
@@ -28,7 +30,7 @@ use minos::render::RendererChoice;
 use minos::run::agents::{Agent, Decision};
 use minos::run::metrics::Reward;
 use minos::run::oracle::OracleAgent;
-use minos::run::stepper::{EpisodeStepper, StepperConfig, DEFAULT_MAX_STEPS};
+use minos::run::stepper::{EpisodeStepper, StepperConfig};
 use minos::shard::Shard;
 use minos::sim::{AgentConfig, SceneAssets, SensorSuite, Simulator};
 

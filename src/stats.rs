@@ -11,7 +11,7 @@ use std::fmt::Write as _;
 
 use serde::Serialize;
 
-use crate::scene::taxonomy::RoomClass;
+use crate::scene::RoomClass;
 use crate::split::{SplitLists, Subset};
 use crate::store::manifest::ManifestRow;
 

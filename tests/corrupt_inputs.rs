@@ -74,7 +74,7 @@ fn an_mtl_colour_with_two_numbers_fails_its_house_only() {
 fn a_corrupt_compiled_scene_fails_its_bake_only_and_an_old_version_is_reingested() {
     use minos::body::{AgentBody, BodyRule};
     use minos::episode::sample::SampleConfig;
-    use minos::navmesh::params::NavParams;
+    use minos::navmesh::NavParams;
     use minos::pipeline::bake::{bake_scenes, BakeConfig};
     use minos::pipeline::episodes::sample_scenes;
     use minos::progress::NoProgress;

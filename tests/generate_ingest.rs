@@ -245,7 +245,10 @@ fn generate_resumes_an_interrupted_run() {
 
 /// The fraction of the rooms' floor that an agent can stand on, and whether every room's
 /// walkable floor is one island (every room reachable from every other), for each house.
-fn walkable_share(dir: &std::path::Path, plans: &[minos::generate::HousePlan]) -> Vec<(f32, bool)> {
+fn walkable_share(
+    dir: &std::path::Path,
+    plans: &[minos::generate::plan::HousePlan],
+) -> Vec<(f32, bool)> {
     let store = minos::store::DataDir::new(dir);
     plans
         .iter()

@@ -1113,3 +1113,124 @@ fn library_errors_print_their_cause_once() {
         offenders.join("\n")
     );
 }
+
+/// Whether the module at `path` (from the crate root) is reachable from outside the crate
+/// in the plain build: every module on the way is declared plainly `pub mod` (not private,
+/// not `pub(crate)`, not behind `internal!`).
+fn public_module(src: &Path, path: &[String]) -> bool {
+    (1..=path.len()).all(|i| {
+        let code = std::fs::read_to_string(declaring_file(src, &path[..i - 1].join("::")))
+            .unwrap_or_default();
+        declared_modules(&code).1.contains(&path[i - 1])
+    })
+}
+
+/// The re-exports of one library file (its `pub use` trees, unit tests aside) that give a
+/// second path to an item whose own module is public: `(re-exported path, the item's own
+/// path)`. `here` is the file's module path; paths into other crates are skipped.
+fn second_paths(src: &Path, code: &str, here: &[String]) -> Vec<(String, String)> {
+    let mut out = Vec::new();
+    let children: BTreeSet<String> = code
+        .lines()
+        .map(str::trim)
+        .filter_map(|l| {
+            l.strip_prefix("pub mod ")
+                .or_else(|| l.strip_prefix("mod "))
+                .or_else(|| l.strip_prefix("pub(crate) mod "))
+        })
+        .map(ident_at)
+        .collect();
+    for (at, _) in code.match_indices("pub use ") {
+        if !code[..at].ends_with('\n') && at != 0 {
+            continue;
+        }
+        let mut paths = Vec::new();
+        use_tree(&code[at + "pub use ".len()..], "", &mut paths);
+        for p in paths {
+            let segments: Vec<&str> = p.split("::").collect();
+            let first = segments[0];
+            if !["crate", "self", "super"].contains(&first) && !children.contains(first) {
+                continue; // another crate's item
+            }
+            let mut module: Vec<String> = here.to_vec();
+            for s in &segments[..segments.len() - 1] {
+                match *s {
+                    "crate" => module.clear(),
+                    "self" => {}
+                    "super" => {
+                        module.pop();
+                    }
+                    s => module.push(s.to_string()),
+                }
+            }
+            if public_module(src, &module) {
+                let item = segments[segments.len() - 1];
+                out.push((
+                    format!("{}::{item}", here.join("::")),
+                    format!("{}::{item}", module.join("::")),
+                ));
+            }
+        }
+    }
+    out
+}
+
+/// One path per type (docs/ARCHITECTURE.md, "API boundaries"): a `pub use` may lift an item
+/// out of a private or internal module (`sim::Simulator` from the private `sim::simulator`),
+/// never give an item of a public module a second name.
+#[test]
+fn a_type_has_one_path() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut files = Vec::new();
+    rust_files(&src, &mut files);
+    let mut problems = Vec::new();
+    let mut lifted = 0;
+    for file in &files {
+        let rel = file.strip_prefix(&src).expect("below src");
+        if rel.starts_with("cmd") || rel == Path::new("main.rs") {
+            continue;
+        }
+        let mut here = module_path(rel);
+        if rel == Path::new("lib.rs") {
+            here.clear();
+        }
+        let code = non_test_code(file);
+        lifted += code.matches("\npub use ").count();
+        for (second, own) in second_paths(&src, &code, &here) {
+            problems.push(format!(
+                "{}: `{second}` re-exports `{own}`, whose module is public: make the module \
+                 private (or internal) or drop the re-export",
+                rel.display()
+            ));
+        }
+    }
+    assert!(lifted >= 20, "pub use lines seen: {lifted}");
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
+}
+
+/// The one-path check tells a lift out of a private module from a second path.
+#[test]
+fn the_one_path_check_sees_a_second_path() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let here = vec!["sim".to_string()];
+    // `sim::simulator` is private, `sim::batch` public; `render::Frame` is already a path of
+    // its own (lifted out of the private `render::frame`), so `sim::Frame` would be a second.
+    let code = "mod simulator;\npub mod batch;\npub use simulator::Simulator;\n\
+                pub use batch::BatchSim;\npub use crate::render::Frame;\n\
+                pub use glam::Vec3;\n";
+    let found = second_paths(&src, code, &here);
+    let pair = |a: &str, b: &str| (a.to_string(), b.to_string());
+    assert_eq!(
+        found,
+        vec![
+            pair("sim::BatchSim", "sim::batch::BatchSim"),
+            pair("sim::Frame", "render::Frame")
+        ],
+        "{found:?}"
+    );
+    let code = "pub use crate::episode::interchange::DEFAULT_MAX_STEPS;\n";
+    assert_eq!(
+        second_paths(&src, code, &["run".into(), "stepper".into()]).len(),
+        1
+    );
+}

@@ -16,7 +16,7 @@ use arrow::array::{
 use common::{baked_houses, every_task_episodes, minos, tree_bytes, RunOk};
 use minos::episode::Episode;
 use minos::generate::GenerateConfig;
-use minos::io::tables::ImageEncoding;
+use minos::io::image_codec::ImageEncoding;
 use minos::pipeline::rollout::{run, AgentKind, RunConfig};
 use minos::progress::NoProgress;
 use minos::render::RendererChoice;
@@ -747,8 +747,7 @@ fn frames_equal_the_runs_own_tables() {
         let room = col::<StringArray>(&traj, "goal_room");
         let mut one_hot = [0.0f32; 9];
         if room.is_valid(i) {
-            let class =
-                minos::scene::taxonomy::RoomClass::from_label(room.value(i)).expect("class");
+            let class = minos::scene::RoomClass::from_label(room.value(i)).expect("class");
             one_hot[class.index() as usize] = 1.0;
         }
         assert_eq!(vector("observation.goal_room"), one_hot);

@@ -13,8 +13,8 @@ use arrow::array::{Array, BinaryArray, Float64Array, Int64Array, RecordBatch, St
 use common::{baked_houses, every_task_episodes, minos, tree_bytes, RunOk};
 use minos::episode::Episode;
 use minos::generate::GenerateConfig;
+use minos::io::image_codec::ImageEncoding;
 use minos::io::lerobot::video_read::read_video;
-use minos::io::tables::ImageEncoding;
 use minos::pipeline::rollout::{run, AgentKind, RunConfig};
 use minos::progress::NoProgress;
 use minos::render::RendererChoice;

@@ -14,7 +14,7 @@ use minos::body::{AgentBody, AgentPreset, BodyRule};
 use minos::episode::sample::SampleConfig;
 use minos::episode::{Episode, Task};
 use minos::generate::GenerateConfig;
-use minos::io::tables::ImageEncoding;
+use minos::io::image_codec::ImageEncoding;
 use minos::pipeline::episodes::sample_scenes;
 use minos::pipeline::rollout::{run, AgentKind, RunConfig};
 use minos::progress::NoProgress;

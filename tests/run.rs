@@ -11,7 +11,7 @@ use arrow::array::{Array, BinaryArray, Float32Array, StringArray, UInt32Array};
 use common::{baked_houses, every_task_episodes};
 use minos::episode::{Episode, Task};
 use minos::generate::GenerateConfig;
-use minos::io::tables::ImageEncoding;
+use minos::io::image_codec::ImageEncoding;
 use minos::pipeline::rollout::{run, AgentKind, EpisodeError, EpisodeFailure, RunConfig};
 use minos::progress::NoProgress;
 use minos::render::RendererChoice;
@@ -1366,9 +1366,9 @@ fn vector_envs_of_1_to_32_environments_on_1_to_32_threads_reset_and_step() {
 
 #[test]
 fn the_stepper_numbers_actions_once_and_refuses_steps_outside_an_episode() {
+    use minos::episode::interchange::DEFAULT_MAX_STEPS;
     use minos::run::stepper::{
         step_many, ActionSpace, Command, EpisodeStepper, StepError, StepperConfig,
-        DEFAULT_MAX_STEPS,
     };
     // The action set: the motion model's single actions, then stop; indices round-trip.
     for body in [
@@ -1564,7 +1564,7 @@ fn every_step_carries_goal_features_an_independent_computation_agrees_with() {
                     checked[1] += 1;
                 }
                 Goal::Room { class, .. } => {
-                    let want = minos::scene::taxonomy::RoomClass::from_label(class).unwrap();
+                    let want = minos::scene::RoomClass::from_label(class).unwrap();
                     assert_eq!(room.value(r), want.name());
                     assert!(object.is_null(r));
                     checked[2] += 1;

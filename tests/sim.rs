@@ -323,7 +323,7 @@ fn the_coarse_taxonomy_labels_a_known_object_and_the_floor() {
 #[test]
 fn contact_fires_only_on_the_touching_side() {
     let mut sensors = blind();
-    sensors.contact = Some(minos::sim::sensors::ContactSensors {
+    sensors.contact = Some(minos::sim::ContactSensors {
         count: 4,
         height: 0.3,
     });

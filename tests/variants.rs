@@ -24,7 +24,7 @@ use minos::progress::NoProgress;
 use minos::render::Renderer;
 use minos::render::RendererChoice;
 use minos::render::{Image, Modality};
-use minos::scene::variants::materials::{
+use minos::scene::variants::{
     effective_material, material_key, object_category, surface_category, used_slots,
     DEFAULT_FRACTIONS,
 };

@@ -283,7 +283,7 @@ fn every_landmark_room_and_stop_named_is_grounded_in_the_scene() {
                             // The closest instance of its category to the goal among those
                             // beside the goal room's floor (within 0.3 m of it, at its height).
                             let room_floor = grid.room_spans(goal_room);
-                            let beside_room = |o: &minos::navmesh::grid::NavObject| {
+                            let beside_room = |o: &minos::navmesh::NavObject| {
                                 room_floor.iter().any(|&s| {
                                     let p = grid.span_position(s as usize);
                                     box_distance(p, o.min, o.max) <= 0.3

@@ -10,9 +10,9 @@ mod common;
 
 use libfuzzer_sys::fuzz_target;
 use minos::escape::error_line;
-use minos::navmesh::params::{params_from_toml, NavParams};
+use minos::navmesh::{params_from_toml, NavParams};
 use minos::scene::variants::{parse_spec_file, VariantSpec};
-use minos::sim::sensors::SensorSuite;
+use minos::sim::SensorSuite;
 
 fuzz_target!(|data: &[u8]| {
     let Some((&kind, rest)) = data.split_first() else {

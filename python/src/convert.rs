@@ -115,7 +115,7 @@ enum Kind {
 fn kind(e: &(dyn std::error::Error + 'static)) -> Option<Kind> {
     use minos::pipeline::rollout::{RolloutError, SceneLoadError};
     use minos::pipeline::vector_env::VectorEnvError;
-    use minos::sim::simulator::SimError;
+    use minos::sim::SimError;
     if e.is::<minos::body::BodyMismatch>() {
         return Some(Kind::Body);
     }
@@ -184,7 +184,7 @@ fn kind(e: &(dyn std::error::Error + 'static)) -> Option<Kind> {
         || e.is::<minos::scene::formats::LoadError>()
         || e.is::<minos::parquet_io::ParquetFileError>()
         || e.is::<minos::episode::format::EpisodeFileError>()
-        || e.is::<minos::store::SceneFileError>();
+        || e.is::<minos::store::scene_file::SceneFileError>();
     bad_input.then_some(Kind::BadInput)
 }
 

@@ -14,7 +14,7 @@ use minos::pipeline::vector_env::{EnvOutcome, VectorEnv, VectorEnvConfig, Vector
 use minos::render::Image;
 use minos::run::metrics::Reward;
 use minos::run::step_features::StepFeatures;
-use minos::sim::sensors::CameraSensor;
+use minos::sim::CameraSensor;
 use minos::sim::{AgentConfig, Observation};
 use minos::store::DataDir;
 

@@ -18,7 +18,7 @@ use minos::episode::sample::{SampleConfig, Select};
 use minos::episode::vln::export::VlnFormat;
 use minos::episode::Task;
 use minos::generate::{GenerateConfig, HouseFormat};
-use minos::io::tables::ImageEncoding;
+use minos::io::image_codec::ImageEncoding;
 use minos::lock::LockMode;
 use minos::navmesh::NavParams;
 use minos::pipeline::bake::{

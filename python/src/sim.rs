@@ -17,7 +17,7 @@ use minos::render::{Renderer, RendererChoice};
 use minos::run::agents::{action_set, Agent, Decision, STOP};
 use minos::run::metrics::reached;
 use minos::run::oracle::OracleAgent;
-use minos::sim::sensors::{dtype_of, CameraSensor};
+use minos::sim::{dtype_of, CameraSensor};
 use minos::sim::{Actions, AgentConfig, GoalSpec, Observation, SceneAssets, SensorSuite};
 use minos::store::DataDir;
 
@@ -74,7 +74,7 @@ pub fn image_array<'py>(
 /// The measurements of a step as a dict (`None` where a value is unknown).
 pub fn measurements_dict<'py>(
     py: Python<'py>,
-    m: &minos::sim::simulator::Measurements,
+    m: &minos::sim::Measurements,
 ) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
     d.set_item("step", m.step)?;

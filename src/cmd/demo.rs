@@ -11,7 +11,7 @@ use minos::episode::format::write_episodes;
 use minos::episode::sample::SampleConfig;
 use minos::episode::Task;
 use minos::generate::{generate, GenerateConfig, OutputFormat};
-use minos::io::tables::ImageEncoding;
+use minos::io::image_codec::ImageEncoding;
 use minos::navmesh::NavParams;
 use minos::pipeline::bake::{bake, BakeConfig};
 use minos::pipeline::episodes::{run_job, EpisodesJob};

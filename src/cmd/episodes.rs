@@ -579,7 +579,8 @@ mod tests {
     fn without_a_split_every_ingested_scene_is_used() {
         let dir = tempfile::tempdir().unwrap();
         let data = DataDir::new(dir.path());
-        let row = |id: &str| minos::store::ManifestRow::failed(id, "suncg", "/x", "".into());
+        let row =
+            |id: &str| minos::store::manifest::ManifestRow::failed(id, "suncg", "/x", "".into());
         let mut rows = vec![row("a"), row("b"), row("c")];
         for r in &mut rows[..2] {
             r.error = None;

@@ -9,7 +9,7 @@ use anyhow::Context as _;
 use minos::body::AgentPreset;
 use minos::episode::format::read_episodes;
 use minos::episode::Episode;
-use minos::io::tables::ImageEncoding;
+use minos::io::image_codec::ImageEncoding;
 use minos::pipeline::rollout::{
     run_with as run_episodes, AgentKind, Provenance, RerunOutput, RolloutError, RunConfig,
     RunFormat,

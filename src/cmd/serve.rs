@@ -10,12 +10,15 @@ use std::time::Duration;
 use anyhow::{bail, Context as _};
 use minos::body::AgentPreset;
 use minos::episode::format::read_episodes;
-use minos::io::tables::ImageEncoding;
+use minos::io::image_codec::ImageEncoding;
 use minos::render::RendererChoice;
 use minos::run::metrics::Reward;
 use minos::serve::campaign::CampaignSpec;
+use minos::serve::frames::FrameFormat;
 use minos::serve::frames::{LosslessFormat, DEFAULT_JPEG_QUALITY};
-use minos::serve::{FrameFormat, RateLimits, ServeConfig, Shared};
+use minos::serve::rate::RateLimits;
+use minos::serve::session::Shared;
+use minos::serve::ServeConfig;
 use minos::sim::{AgentConfig, SensorSuite};
 use minos::store::DataDir;
 

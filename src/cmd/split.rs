@@ -7,7 +7,7 @@ use std::process::ExitCode;
 use anyhow::Context as _;
 use clap::ArgGroup;
 use minos::pipeline::split::{make_split, Method, SplitJob, SplitJobError};
-use minos::split::expr::SYNTAX_HELP;
+use minos::split::SYNTAX_HELP;
 use minos::split::{Expr, Ratios, SplitResult};
 use minos::store::DataDir;
 

@@ -18,6 +18,7 @@ pub mod suncg_writer;
 pub mod textures;
 
 use crate::file_error::FileError;
+use plan::HousePlan;
 use std::path::Path;
 
 use rayon::prelude::*;
@@ -25,8 +26,6 @@ use rayon::prelude::*;
 use crate::invalid::Invalid;
 use crate::progress::Progress;
 use crate::seed::{derive_seed, Rng};
-
-pub use plan::HousePlan;
 
 /// Bumped when the generator's output for a given configuration changes; part of house ids.
 pub const GENERATOR_VERSION: u32 = 2;

@@ -21,7 +21,7 @@ use std::collections::HashMap;
 use image::{DynamicImage, ImageBuffer, Luma, Rgb, Rgba};
 
 use crate::render::{Image, Modality, PixelType};
-use crate::sim::sensors::{dtype_of, CameraSensor};
+use crate::sim::{dtype_of, CameraSensor};
 
 /// Millimetres per metre of `png16-depth-mm`.
 const DEPTH_UNITS_PER_METRE: f32 = 1000.0;

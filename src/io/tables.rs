@@ -21,14 +21,14 @@ use parquet::file::writer::SerializedFileWriter;
 
 use crate::atomic::temp_path;
 use crate::escape::Panicked;
-pub use crate::io::image_codec::ImageEncoding;
+use crate::io::image_codec::ImageEncoding;
 use crate::io::image_codec::{encode_cell, CellFormat, CodecError};
 use crate::parquet_io::{self, writer_properties, ParquetFileError};
 use crate::render::Image;
 use crate::run::agents::Decision;
 use crate::run::step_features::StepFeatures;
-use crate::scene::taxonomy::RoomClass;
-use crate::sim::sensors::CameraSensor;
+use crate::scene::RoomClass;
+use crate::sim::CameraSensor;
 
 /// Observation rows per row group.
 pub const ROW_GROUP: usize = 32;
@@ -286,7 +286,7 @@ pub fn observation_schema(cameras: &[CameraSensor], encoding: ImageEncoding) -> 
 
 /// How a quantised depth sensor's values map to metres (`None` for other sensors).
 fn quantised_depth_unit(c: &CameraSensor) -> Option<String> {
-    use crate::sim::sensors::DepthEncoding;
+    use crate::sim::DepthEncoding;
     let max = match (c.modality, c.depth_encoding) {
         (crate::render::Modality::Depth, DepthEncoding::U8) => 255,
         (crate::render::Modality::Depth, DepthEncoding::U16) => 65535,
@@ -856,7 +856,7 @@ pub fn read_replay(path: &Path) -> Result<HashMap<String, Vec<Decision>>, TableE
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sim::sensors::DepthEncoding;
+    use crate::sim::DepthEncoding;
     use crate::sim::SensorSuite;
 
     #[test]

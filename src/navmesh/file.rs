@@ -789,9 +789,9 @@ fn read_labels(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::navmesh::grid::NONE;
     use crate::navmesh::los::SightIndex;
     use crate::navmesh::testmaps::MapSpec;
+    use crate::navmesh::NONE;
 
     fn grid() -> NavGrid {
         let rows = [

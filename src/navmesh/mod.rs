@@ -12,12 +12,12 @@ internal! {
 mod check;
 pub mod file;
 pub mod geodesic;
-pub mod grid;
+mod grid;
 pub mod islands;
 internal! {
     pub mod los;
 }
-pub mod params;
+mod params;
 pub mod path;
 pub mod preview;
 pub mod query;
@@ -29,5 +29,8 @@ pub mod route;
 pub(crate) mod testmaps;
 
 pub use build::BuildError;
-pub use grid::{NavGrid, Span, NONE};
-pub use params::NavParams;
+pub use grid::{
+    Baked, Island, NavGrid, NavObject, NavRoom, Span, SparseEdges, SparseLabels, DIRS, NONE,
+    SPARSE_GATE, SPARSE_LANDMARKS,
+};
+pub use params::{params_from_toml, NavParams};

@@ -20,7 +20,7 @@ use crate::lock::{LockError, LockMode};
 use crate::navmesh::build::build;
 use crate::navmesh::file::NavFileError;
 use crate::navmesh::file::{read_nav, read_nav_params, write_nav};
-use crate::navmesh::params::params_from_toml;
+use crate::navmesh::params_from_toml;
 use crate::navmesh::preview::{previews_present, write_previews};
 use crate::navmesh::NavParams;
 use crate::progress::Progress;

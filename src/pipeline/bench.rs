@@ -31,6 +31,7 @@ use std::time::{Duration, Instant};
 use glam::Vec3;
 
 use crate::body::BodyRule;
+use crate::episode::interchange::DEFAULT_MAX_STEPS;
 use crate::episode::sample::{sample_scene, SampleConfig};
 use crate::episode::{Episode, Task};
 use crate::navmesh::build::build;
@@ -40,7 +41,7 @@ use crate::render::Renderer;
 use crate::render::RendererChoice;
 use crate::run::agents::{Agent, Decision};
 use crate::run::oracle::OracleAgent;
-use crate::run::stepper::{EpisodeStepper, StepperConfig, DEFAULT_MAX_STEPS};
+use crate::run::stepper::{EpisodeStepper, StepperConfig};
 use crate::scene::{Scene, SceneRef};
 use crate::seed::{derive_seed, Rng};
 use crate::sim::{AgentConfig, SceneAssets, SensorSuite, Simulator};
@@ -333,7 +334,7 @@ pub enum BenchError {
     Bake(#[from] crate::navmesh::build::BuildError),
     /// The scene's simulator could not be made.
     #[error(transparent)]
-    Simulator(#[from] crate::sim::simulator::SimError),
+    Simulator(#[from] crate::sim::SimError),
     /// The renderer failed (making it, or a frame).
     #[error(transparent)]
     Render(#[from] crate::render::gpu::GpuError),

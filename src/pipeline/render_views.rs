@@ -13,7 +13,7 @@ use crate::render::gpu::GpuError;
 use crate::render::visualize::write_png;
 use crate::render::{Image, Modality, Renderer, RendererChoice};
 use crate::scene::SceneRef;
-use crate::sim::simulator::SimError;
+use crate::sim::SimError;
 use crate::sim::{AgentConfig, SceneAssets, SensorSuite, Simulator};
 use crate::store::{DataDir, StoreError};
 

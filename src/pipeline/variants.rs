@@ -10,14 +10,15 @@ use crate::atomic::sweep_stale;
 use crate::invalid::{read_settings, Invalid, SettingsFileError};
 use crate::lock::{LockError, LockMode};
 use crate::progress::Progress;
-use crate::scene::variants::materials::DEFAULT_FRACTIONS;
+use crate::scene::variants::DEFAULT_FRACTIONS;
 use crate::scene::variants::{
     apply_variant, parse_spec_file, validate_name, MaterialStats, MaterialStatsBuilder, TextureSet,
     VariantError, VariantReport, VariantSpec,
 };
 use crate::scene::Scene;
 use crate::store::provenance::write_data_record;
-use crate::store::{DataDir, SceneFileError, StoreError};
+use crate::store::scene_file::SceneFileError;
+use crate::store::{DataDir, StoreError};
 
 /// Computes material statistics over the compiled scenes `ids` (in parallel; the result does
 /// not depend on the order or thread count). Scenes that cannot be read are returned with

@@ -17,6 +17,7 @@ use std::sync::Arc;
 use rayon::prelude::*;
 
 use super::rollout::{load_scene_assets, SceneLoadError};
+use crate::episode::interchange::DEFAULT_MAX_STEPS;
 use crate::episode::Episode;
 use crate::render::{Renderer, RendererChoice};
 use crate::run::agents::{Agent, AgentError, Decision};
@@ -24,10 +25,10 @@ use crate::run::metrics::Reward;
 use crate::run::oracle::OracleAgent;
 use crate::run::step_features::StepFeatures;
 use crate::run::stepper::{
-    step_many, ActionSpace, Command, EpisodeStepper, StepError, StepperConfig, DEFAULT_MAX_STEPS,
+    step_many, ActionSpace, Command, EpisodeStepper, StepError, StepperConfig,
 };
 use crate::seed::{derive_seed, Rng};
-use crate::sim::simulator::prepare_render;
+use crate::sim::prepare_render;
 use crate::sim::{AgentConfig, Observation, SceneAssets, SensorSuite, Simulator};
 use crate::store::DataDir;
 

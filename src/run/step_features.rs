@@ -14,8 +14,8 @@
 //! `[right, forward]` (the agent faces −Z; right is +X: `docs/FORMATS.md`, conventions).
 
 use crate::episode::{Episode, Goal};
-use crate::scene::taxonomy::RoomClass;
-use crate::sim::simulator::Measurements;
+use crate::scene::RoomClass;
+use crate::sim::Measurements;
 
 use super::agents::Decision;
 

@@ -12,12 +12,12 @@
 //! shape of vector environments and of batched rendering.
 //!
 //! The step limit is the run's (`max_steps`) or else the episode's own; simulators made
-//! without an episode at hand use [`DEFAULT_MAX_STEPS`].
+//! without an episode at hand use
+//! [`DEFAULT_MAX_STEPS`](crate::episode::interchange::DEFAULT_MAX_STEPS).
 
 use glam::Vec3;
 use rayon::prelude::*;
 
-pub use crate::episode::interchange::DEFAULT_MAX_STEPS;
 use crate::episode::Episode;
 use crate::navmesh::geodesic::Geodesic;
 use crate::render::gpu::GpuError;
@@ -512,7 +512,7 @@ pub enum Command<'e> {
 /// returned.
 ///
 /// Scene data built on first use (the CPU ray caster's BVH) must be built before the batch
-/// (see [`crate::sim::simulator::prepare_render`]): a pool thread waiting on another's
+/// (see [`crate::sim::prepare_render`]): a pool thread waiting on another's
 /// lazy build while that build waits on pool work deadlocks.
 pub fn step_many<'s>(
     steppers: &'s mut [EpisodeStepper],

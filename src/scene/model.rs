@@ -11,7 +11,7 @@ use super::geometry::Aabb;
 use super::mesh::{Mesh, WorldMesh};
 use super::taxonomy::RoomClass;
 
-pub use super::taxonomy::{Categories, ObjectFlags};
+use super::taxonomy::{Categories, ObjectFlags};
 use crate::invalid::Invalid;
 
 /// Index of a mesh in [`Scene::meshes`].

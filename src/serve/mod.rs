@@ -42,9 +42,9 @@ use std::time::{Duration, Instant};
 
 use crate::episode::Episode;
 use crate::scene::SceneRef;
-pub use frames::FrameFormat;
-pub use rate::RateLimits;
-pub use session::{Shared, Start};
+use frames::FrameFormat;
+use rate::RateLimits;
+use session::{Shared, Start};
 
 /// How a server runs, beyond what its sessions share.
 #[derive(Debug)]

@@ -21,7 +21,7 @@ use crate::episode::instruction::instruction;
 use crate::episode::sample::SampleConfig;
 use crate::episode::{Episode, Task};
 use crate::invalid::Invalid;
-use crate::io::tables::ImageEncoding;
+use crate::io::image_codec::ImageEncoding;
 use crate::lock::LockMode;
 use crate::pipeline::episodes::sample_scenes;
 use crate::pipeline::rollout::{

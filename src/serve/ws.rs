@@ -166,7 +166,7 @@ mod tests {
             sensors: crate::sim::SensorSuite::minos(8),
             renderer: crate::render::RendererChoice::Cpu,
             reward: crate::run::metrics::Reward::Geodesic,
-            encoding: crate::io::tables::ImageEncoding::Raw,
+            encoding: crate::io::image_codec::ImageEncoding::Raw,
             seed: 0,
             idle: std::time::Duration::from_secs(1),
             command: Vec::new(),

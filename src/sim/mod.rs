@@ -3,12 +3,17 @@
 //! and many simulators stepped and observed at once (`batch`: one render call per shared
 //! renderer).
 
-pub mod agent;
+mod agent;
 pub mod batch;
 pub mod collision;
-pub mod sensors;
-pub mod simulator;
+mod sensors;
+mod simulator;
 
-pub use agent::{Actions, AgentConfig, AgentState};
-pub use sensors::{SensorSuite, SuiteName};
-pub use simulator::{GoalSpec, Observation, SceneAssets, Simulator};
+pub use agent::{intended_motion, ActionSet, Actions, AgentConfig, AgentState, Motion};
+pub use sensors::{
+    dtype_of, CameraSensor, ContactSensors, DepthEncoding, DepthNoise, SensorSuite, SuiteName,
+};
+pub use simulator::{
+    prepare_render, GoalSpec, Measurements, Observation, SceneAssets, SimError, Simulator,
+    Transition,
+};

@@ -182,7 +182,7 @@ struct GoalState {
 /// their pending tasks that needs the same BVH — a deadlock (`VectorNavEnv(num_envs=N,
 /// threads=N)` for N ≥ 8 hung so).
 pub fn prepare_render(assets: &SceneAssets, renderer: &Renderer, sensors: &SensorSuite) {
-    let ray_cast = |c: &crate::sim::sensors::CameraSensor| {
+    let ray_cast = |c: &crate::sim::CameraSensor| {
         let [w, h] = c.resolution;
         Method::for_size(assets.render.triangle_count(), w, h) == Method::RayCast
     };

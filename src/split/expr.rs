@@ -27,7 +27,7 @@
 
 use std::fmt;
 
-use crate::scene::taxonomy::RoomClass;
+use crate::scene::RoomClass;
 use crate::store::manifest::ManifestRow;
 
 /// The language in a few lines, as `minos split --help` shows it.

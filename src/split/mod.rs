@@ -2,7 +2,8 @@
 //!
 //! Responsible for deciding which scene ids go into which subset — from official id lists
 //! ([`split_by_lists`]) or by seeded ratios ([`split_by_ratios`]) — after dropping the scenes
-//! that failed to ingest and those a `--where` filter ([`Expr`], see [`expr`]) rejects; and for
+//! that failed to ingest and those a filter expression ([`Expr`], its language in
+//! [`SYNTAX_HELP`]) rejects; and for
 //! the on-disk form `DATA/splits/<name>/{train,val,test}.txt` ([`write_split`],
 //! [`read_split`]). It works on manifest rows already in memory: reading the manifest and
 //! reporting to the user are the caller's job.
@@ -11,7 +12,7 @@
 //! so a scene's subset depends only on the seed, its id and the ratios. Adding or removing
 //! other scenes never moves it.
 
-pub mod expr;
+mod expr;
 mod files;
 mod official;
 
@@ -22,7 +23,7 @@ use std::str::FromStr;
 use crate::seed::derive_seed;
 use crate::store::manifest::ManifestRow;
 
-pub use expr::{Expr, ExprError, ExprErrorKind};
+pub use expr::{CmpOp, Expr, ExprError, ExprErrorKind, MAX_DEPTH, SYNTAX_HELP};
 pub use files::{parse_list, read_lists, read_split, split_dir, write_split};
 pub use official::{official_lists, official_names, resolve_lists};
 

@@ -18,15 +18,15 @@ pub mod manifest;
 pub mod provenance;
 pub mod remedy;
 pub mod scene_file;
-pub mod variants;
+mod variants;
 
 use std::path::{Path, PathBuf};
 
 use crate::lock::{DirLock, LockError, LockMode};
 use crate::scene::SceneRef;
 
-pub use manifest::{ManifestError, ManifestRow};
-pub use scene_file::{SceneFileError, SceneHeader};
+use manifest::{ManifestError, ManifestRow};
+use scene_file::SceneFileError;
 pub use variants::StoreError;
 
 /// File name of the manifest in a DATA folder.

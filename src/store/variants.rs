@@ -147,11 +147,11 @@ impl DataDir {
             path: path.clone(),
             source: e.into(),
         })?;
-        if stats.version != crate::scene::variants::materials::STATS_VERSION {
+        if stats.version != crate::scene::variants::STATS_VERSION {
             return Err(StoreError::StaleStats {
                 path,
                 version: stats.version,
-                expected: crate::scene::variants::materials::STATS_VERSION,
+                expected: crate::scene::variants::STATS_VERSION,
             });
         }
         stats.validate().map_err(|e| StoreError::Format {

@@ -12,7 +12,8 @@ pub use skip::skip;
 
 use std::path::{Path, PathBuf};
 
-use minos::generate::{generate, plan_house, GenerateConfig, HousePlan, OutputFormat};
+use minos::generate::plan::HousePlan;
+use minos::generate::{generate, plan_house, GenerateConfig, OutputFormat};
 use minos::pipeline::ingest::{ingest, IngestConfig, IngestReport};
 use minos::progress::NoProgress;
 

@@ -156,7 +156,7 @@ pub fn run_config(
         shard: minos::shard::Shard::ALL,
         resume: false,
         reward: minos::run::metrics::Reward::DistTime,
-        encoding: minos::io::tables::ImageEncoding::Raw,
+        encoding: minos::io::image_codec::ImageEncoding::Raw,
         lerobot: false,
         lerobot_video: false,
         rerun: None,
@@ -167,7 +167,7 @@ pub fn run_config(
 
 /// Rate limits for scripted clients, which answer each frame at once, faster than a
 /// person's keys (the rate-limit tests set their own).
-pub const SCRIPTED_RATE: minos::serve::RateLimits = minos::serve::RateLimits {
+pub const SCRIPTED_RATE: minos::serve::rate::RateLimits = minos::serve::rate::RateLimits {
     messages_per_second: 10_000,
     sessions_per_minute: 10_000,
 };

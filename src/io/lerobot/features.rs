@@ -37,7 +37,7 @@ use crate::io::image_codec::{modality_name, CellFormat};
 use crate::render::Modality;
 use crate::render::PixelType;
 use crate::run::step_features::{contact_names, GOAL_NAMES};
-use crate::scene::taxonomy::RoomClass;
+use crate::scene::RoomClass;
 use crate::sim::Actions;
 
 /// Names of the state vector's elements.

@@ -17,7 +17,7 @@ use crate::parquet_io::{column, read_batches};
 use crate::render::{Image, Modality};
 use crate::run::agents::Decision;
 use crate::run::step_features::action_vector;
-use crate::scene::taxonomy::RoomClass;
+use crate::scene::RoomClass;
 
 /// The tables of a run folder that the LeRobot copy is made from.
 #[derive(Debug, Clone, PartialEq)]

@@ -14,7 +14,7 @@ use super::{RecordingError, RrdFile};
 use crate::episode::Episode;
 use crate::render::Camera;
 use crate::render::{Image as SensorImage, Modality};
-use crate::sim::sensors::{CameraSensor, DepthEncoding};
+use crate::sim::{CameraSensor, DepthEncoding};
 use crate::sim::{AgentConfig, AgentState, Observation, SceneAssets};
 
 /// The agent's base (pose per step).

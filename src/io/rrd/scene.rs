@@ -11,7 +11,7 @@ use rerun::{
 use super::{RecordingError, RrdFile};
 use crate::episode::goal::{goal_positions, shortest_path};
 use crate::episode::Episode;
-use crate::navmesh::grid::NONE;
+use crate::navmesh::NONE;
 use crate::navmesh::preview::{levels_present, render_level};
 use crate::navmesh::NavGrid;
 use crate::render::RenderScene;

@@ -11,7 +11,8 @@ use crate::body::BodyMismatch;
 use crate::episode::Episode;
 use crate::scene::SceneRef;
 use crate::store::scene_file::read_header;
-use crate::store::{SceneFileError, StoreError};
+use crate::store::scene_file::SceneFileError;
+use crate::store::StoreError;
 
 /// Scenes named per problem in the error, at most.
 const LISTED: usize = 5;

@@ -5,6 +5,7 @@
 use std::sync::Arc;
 
 use super::{AgentKind, RunConfig};
+use crate::episode::interchange::DEFAULT_MAX_STEPS;
 use crate::navmesh::geodesic::Geodesic;
 use crate::render::gpu::GpuError;
 use crate::render::{Renderer, RendererChoice};
@@ -13,9 +14,9 @@ use crate::run::agents::{
 };
 use crate::run::external::ExternalAgent;
 use crate::run::oracle::OracleAgent;
-use crate::run::stepper::{EpisodeStepper, StepperConfig, DEFAULT_MAX_STEPS};
+use crate::run::stepper::{EpisodeStepper, StepperConfig};
 use crate::scene::SceneRef;
-use crate::sim::simulator::SimError;
+use crate::sim::SimError;
 use crate::sim::{AgentConfig, SceneAssets, Simulator};
 use crate::store::{DataDir, StoreError};
 

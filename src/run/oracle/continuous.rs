@@ -21,8 +21,8 @@ use glam::Vec3;
 
 use crate::episode::Episode;
 use crate::run::metrics::reached;
-use crate::sim::agent::{AgentState, Motion};
 use crate::sim::{Actions, Simulator};
+use crate::sim::{AgentState, Motion};
 
 use super::{angle_between, backtrack, remaining, Node};
 

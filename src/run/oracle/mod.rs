@@ -32,8 +32,8 @@ use std::collections::{BinaryHeap, HashMap};
 use glam::Vec3;
 
 use crate::episode::{Episode, Goal};
-use crate::sim::agent::{AgentState, Motion};
 use crate::sim::{Actions, Observation, Simulator};
+use crate::sim::{AgentState, Motion};
 
 use super::agents::{action_set, Agent, AgentError, Decision};
 use super::metrics::reached;

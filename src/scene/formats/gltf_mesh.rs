@@ -19,7 +19,7 @@ use std::path::{Path, PathBuf};
 
 use glam::{Mat3, Mat4, Vec3};
 
-use crate::scene::mesh::{Material, Mesh};
+use crate::scene::{Material, Mesh};
 
 use super::LoadError;
 

@@ -5,7 +5,7 @@ use crate::file_error::FileError;
 use std::cell::RefCell;
 use std::path::{Path, PathBuf};
 
-use crate::scene::mesh::{Material, Mesh};
+use crate::scene::{Material, Mesh};
 
 use super::{guarded, LoadError};
 

@@ -14,12 +14,12 @@ use std::path::{Path, PathBuf};
 use glam::{Mat4, Quat, Vec3};
 use serde::Deserialize;
 
-use crate::scene::geometry::Aabb;
-use crate::scene::mesh::Mesh;
-use crate::scene::model::{
+use crate::scene::Aabb;
+use crate::scene::Mesh;
+use crate::scene::{
     Categories, Dataset, Level, MaterialOverride, MeshId, Object, Room, Scene, Surface, SurfaceKind,
 };
-use crate::scene::taxonomy::{FlagTable, ModelCategories, RoomTypeTable};
+use crate::scene::{FlagTable, ModelCategories, RoomTypeTable};
 
 use super::{
     load_mesh_file, nan_tokens_to_null, DatasetLoader, LoadError, LoadedScene, SceneEntry,

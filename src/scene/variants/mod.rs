@@ -7,18 +7,23 @@
 //! later stage (navigation grids, episodes, rendering, rollouts) sees the variant like any other
 //! scene. Retexturing draws from [`MaterialStats`] computed over the ingested scenes.
 
-pub mod clutter;
-pub mod doors;
-pub mod materials;
-pub mod retexture;
-pub mod spec;
+mod clutter;
+mod doors;
+mod materials;
+mod retexture;
+mod spec;
 
-pub use clutter::{apply_clutter, is_architecture, survives_empty};
-pub use doors::{apply_doors, DoorReport};
-pub use materials::{MaterialEntry, MaterialStats, MaterialStatsBuilder};
+pub use clutter::{apply_clutter, is_architecture, keeps, survives_empty, ARCH_CATEGORIES};
+pub use doors::{apply_doors, DoorReport, HEADER_BAND};
+pub use materials::{
+    effective_material, material_key, object_category, surface_category, texture_set_of,
+    used_slots, MaterialEntry, MaterialStats, MaterialStatsBuilder, DEFAULT_FRACTIONS,
+    GROUND_CATEGORY, STATS_VERSION,
+};
 pub use retexture::{apply_retexture, RetextureReport};
 pub use spec::{
     parse_spec_file, validate_name, DoorState, KeepOnly, Retexture, TextureSet, VariantSpec,
+    ARCH_ONLY,
 };
 
 use crate::scene::{Scene, SceneRef};
@@ -61,6 +66,7 @@ pub fn apply_variant(
         let stats = stats.ok_or_else(|| VariantError::NoStats(name.to_string()))?;
         report.retexture = Some(apply_retexture(scene, &base, r, stats));
     }
+
     scene.id = SceneRef::base(base.as_str())
         .with_variant(Some(name))
         .to_string();

@@ -12,8 +12,8 @@
 //! (the unfinished episode's parts, temporaries, session locks), so a restart after
 //! `kill -9` goes on where the finished episodes left off.
 
-pub mod assign;
-pub mod config;
+mod assign;
+mod config;
 pub mod feedback;
 pub(super) mod http;
 pub mod links;

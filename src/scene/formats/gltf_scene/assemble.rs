@@ -14,12 +14,12 @@ use glam::{Mat4, Quat, Vec3};
 use crate::scene::formats::gltf_mesh::{node_matrix, GltfFile, MeshBuilder, MAX_NODE_VISITS};
 use crate::scene::formats::suncg::floor_area_and_height;
 use crate::scene::formats::{load_mesh_file, LoadError, LoadedScene};
-use crate::scene::geometry::Aabb;
-use crate::scene::mesh::{Mesh, WorldMesh};
-use crate::scene::model::{
+use crate::scene::Aabb;
+use crate::scene::{Mesh, WorldMesh};
+use crate::scene::{
     Categories, Dataset, Level, MeshId, Object, Room, Scene, Surface, SurfaceKind,
 };
-use crate::scene::taxonomy::{FlagTable, RoomClass, RoomTypeTable};
+use crate::scene::{FlagTable, RoomClass, RoomTypeTable};
 
 use super::habitat::{Placement, Region};
 use super::semantic::{category_from_name, structural_kind, CategoryMap, SemanticTable};

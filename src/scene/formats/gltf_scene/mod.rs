@@ -68,7 +68,7 @@ use std::path::{Path, PathBuf};
 
 use glam::{Quat, Vec3};
 
-use crate::scene::model::{Categories, Dataset};
+use crate::scene::{Categories, Dataset};
 
 use self::assemble::{Assembler, StageSpec};
 use self::habitat::{

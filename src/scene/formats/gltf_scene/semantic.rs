@@ -10,7 +10,7 @@ use std::collections::{BTreeSet, HashMap, HashSet};
 use std::path::Path;
 
 use crate::invalid::Invalid;
-use crate::scene::model::{Categories, SurfaceKind};
+use crate::scene::{Categories, SurfaceKind};
 
 use super::super::LoadError;
 

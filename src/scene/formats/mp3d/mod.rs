@@ -41,12 +41,12 @@ use std::path::{Path, PathBuf};
 
 use glam::Vec3;
 
-use crate::scene::geometry::Aabb;
-use crate::scene::mesh::{Material, Mesh};
-use crate::scene::model::{
+use crate::scene::Aabb;
+use crate::scene::{Material, Mesh};
+use crate::scene::{
     Categories, Dataset, Level, MeshId, Object, ObjectFlags, Room, Scene, Surface, SurfaceKind,
 };
-use crate::scene::taxonomy::{FlagTable, RoomClass};
+use crate::scene::{FlagTable, RoomClass};
 
 use super::suncg::floor_area_and_height;
 use super::{obj_mesh, DatasetLoader, LoadError, LoadedScene, SceneEntry};

@@ -16,8 +16,8 @@
 use glam::{Mat4, Vec3};
 
 use crate::invalid::Invalid;
-use crate::scene::geometry::Aabb;
-use crate::scene::mesh::{Material, Mesh};
+use crate::scene::Aabb;
+use crate::scene::{Material, Mesh};
 
 /// Distance (m) within which two regions' outlines count as one shared boundary (no wall).
 pub const SHARE_TOLERANCE: f32 = 0.15;

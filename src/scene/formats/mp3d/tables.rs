@@ -11,7 +11,7 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 use crate::invalid::Invalid;
-use crate::scene::taxonomy::RoomClass;
+use crate::scene::RoomClass;
 
 use super::super::LoadError;
 

@@ -13,12 +13,12 @@ use glam::{Mat4, Vec3};
 
 use crate::scene::formats::suncg::floor_area_and_height;
 use crate::scene::formats::{load_mesh_file, LoadError, LoadedScene};
-use crate::scene::geometry::Aabb;
-use crate::scene::mesh::{Material, Mesh};
-use crate::scene::model::{
+use crate::scene::Aabb;
+use crate::scene::{Material, Mesh};
+use crate::scene::{
     Categories, Dataset, Level, MeshId, Object, Room, Scene, Surface, SurfaceKind,
 };
-use crate::scene::taxonomy::{FlagTable, RoomClass};
+use crate::scene::{FlagTable, RoomClass};
 
 use super::geometry::{append_placed, child_transform, furniture_extent, inline_mesh, unit_box};
 use super::json::{ChildJson, FrontJson, FurnitureJson, MaterialJson};

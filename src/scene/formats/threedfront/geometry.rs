@@ -10,7 +10,7 @@
 use glam::{Mat4, Quat, Vec3};
 
 use crate::invalid::Invalid;
-use crate::scene::mesh::{Material, Mesh, WorldMesh};
+use crate::scene::{Material, Mesh, WorldMesh};
 
 use super::json::{ChildJson, FurnitureJson, MeshJson};
 

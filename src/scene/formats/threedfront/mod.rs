@@ -40,8 +40,8 @@ mod tables;
 use crate::file_error::FileError;
 use std::path::{Path, PathBuf};
 
-use crate::scene::model::Dataset;
-use crate::scene::taxonomy::FlagTable;
+use crate::scene::Dataset;
+use crate::scene::FlagTable;
 
 use super::{DatasetLoader, LoadError, LoadedScene, SceneEntry};
 

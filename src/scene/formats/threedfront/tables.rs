@@ -9,8 +9,8 @@ use std::collections::HashMap;
 use serde::Deserialize;
 
 use crate::invalid::Invalid;
-use crate::scene::model::{ObjectFlags, SurfaceKind};
-use crate::scene::taxonomy::RoomClass;
+use crate::scene::{ObjectFlags, SurfaceKind};
+use crate::scene::RoomClass;
 
 /// 3D-FRONT room types (`LivingDiningRoom`, `MasterBedroom`, …) to MINOS room classes.
 #[derive(Debug, Clone)]
