@@ -1234,3 +1234,81 @@ fn the_one_path_check_sees_a_second_path() {
         1
     );
 }
+
+/// Every module path the "API boundaries" section of docs/ARCHITECTURE.md names, its
+/// `code` spans read as use trees (`pipeline::{ingest, merge::run}` → `pipeline::ingest`,
+/// `pipeline::merge::run`), with every prefix of each (naming an item names its module).
+fn api_paths_of_the_doc(doc: &str) -> BTreeSet<String> {
+    let section = doc
+        .split("\n## API boundaries\n")
+        .nth(1)
+        .expect("docs/ARCHITECTURE.md has an \"API boundaries\" section");
+    let section = section.split("\n### ").next().unwrap_or(section);
+    let text = section.replace('\n', " ");
+    let mut paths = Vec::new();
+    for span in text.split('`').skip(1).step_by(2) {
+        use_tree(span, "", &mut paths);
+    }
+    let mut named = BTreeSet::new();
+    for p in paths {
+        let segments: Vec<&str> = p.split("::").collect();
+        for i in 1..=segments.len() {
+            named.insert(segments[..i].join("::"));
+        }
+    }
+    named
+}
+
+/// Every module reachable from outside the crate in the plain build (declared plainly `pub`
+/// all the way from the crate root), as `a::b` paths.
+fn public_modules(src: &Path) -> Vec<String> {
+    let mut files = Vec::new();
+    rust_files(src, &mut files);
+    let mut found = Vec::new();
+    for file in &files {
+        let rel = file.strip_prefix(src).expect("below src");
+        if rel.starts_with("cmd") || rel == Path::new("main.rs") {
+            continue;
+        }
+        let mut here = module_path(rel);
+        if rel == Path::new("lib.rs") {
+            here.clear();
+        }
+        let code = std::fs::read_to_string(file).expect("source");
+        for name in declared_modules(&code).1 {
+            let mut path = here.clone();
+            path.push(name);
+            if public_module(src, &path) {
+                found.push(path.join("::"));
+            }
+        }
+    }
+    found.sort();
+    found
+}
+
+/// The API is written down (docs/ARCHITECTURE.md, "API boundaries"): every public module is
+/// named there, so a new module is a decision — private, internal, or API and named.
+#[test]
+fn every_public_module_is_named_in_the_api() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let doc = std::fs::read_to_string(root.join("docs/ARCHITECTURE.md")).expect("doc");
+    let named = api_paths_of_the_doc(&doc);
+    let public = public_modules(&root.join("src"));
+    assert!(public.len() >= 80, "public modules found: {public:?}");
+    // The reader sees nested trees and items under their modules.
+    for p in [
+        "pipeline::merge::run",
+        "navmesh::geodesic",
+        "episode::vln::walk",
+        "vocab",
+    ] {
+        assert!(named.contains(p), "{p} not read from the doc");
+    }
+    let unnamed: Vec<&String> = public.iter().filter(|m| !named.contains(*m)).collect();
+    assert!(
+        unnamed.is_empty(),
+        "public modules that docs/ARCHITECTURE.md's \"API boundaries\" does not name: \
+         {unnamed:?} (make them private, internal!, or name them)"
+    );
+}

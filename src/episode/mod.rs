@@ -6,7 +6,9 @@ pub mod format;
 pub mod goal;
 pub mod habitat;
 pub mod import;
-pub mod instruction;
+internal! {
+    pub mod instruction;
+}
 pub mod interchange;
 pub mod minos_csv;
 pub mod sample;

@@ -8,14 +8,18 @@
 
 pub mod catalog;
 mod furnish;
-pub mod layout;
+internal! {
+    pub mod layout;
+}
 mod mp3d_mesh;
 pub mod mp3d_writer;
 mod objwrite;
 pub mod plan;
 pub mod scan;
 pub mod suncg_writer;
-pub mod textures;
+internal! {
+    pub mod textures;
+}
 
 use crate::file_error::FileError;
 use plan::HousePlan;

@@ -13,13 +13,17 @@ mod check;
 pub mod file;
 pub mod geodesic;
 mod grid;
-pub mod islands;
+internal! {
+    pub mod islands;
+}
 internal! {
     pub mod los;
 }
 mod params;
 pub mod path;
-pub mod preview;
+internal! {
+    pub mod preview;
+}
 pub mod query;
 internal! {
     pub mod raster;

@@ -6,7 +6,9 @@
 //! rolls agents out over many episodes is `crate::pipeline::rollout`.
 
 pub mod agents;
-pub mod external;
+internal! {
+    pub mod external;
+}
 pub mod metrics;
 pub mod oracle;
 pub mod qc;

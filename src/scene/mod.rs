@@ -6,7 +6,9 @@ mod geometry;
 mod labels;
 mod mesh;
 mod model;
-pub mod room_colors;
+internal! {
+    pub mod room_colors;
+}
 mod scene_ref;
 mod taxonomy;
 pub mod variants;

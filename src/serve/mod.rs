@@ -27,10 +27,14 @@ pub mod frames;
 mod http;
 pub mod rate;
 mod recover;
-pub mod replay;
+internal! {
+    pub mod replay;
+}
 mod security;
 pub mod session;
-pub mod token;
+internal! {
+    pub mod token;
+}
 mod ws;
 
 use crate::file_error::FileError;

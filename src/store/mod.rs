@@ -15,7 +15,9 @@
 
 mod grids;
 pub mod manifest;
-pub mod provenance;
+internal! {
+    pub mod provenance;
+}
 pub mod remedy;
 pub mod scene_file;
 mod variants;

@@ -16,7 +16,9 @@
 pub mod export;
 pub mod grammar;
 pub mod landmarks;
-pub mod tokens;
+internal! {
+    pub mod tokens;
+}
 pub mod walk;
 
 use serde::{Deserialize, Serialize};

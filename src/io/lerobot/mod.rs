@@ -31,7 +31,9 @@
 //! folder is written under a temporary name and renamed into place when complete. Same run
 //! tables ⇒ same bytes.
 
-pub mod card;
+internal! {
+    pub mod card;
+}
 mod data;
 pub mod features;
 pub mod image_file;
@@ -39,7 +41,9 @@ mod meta;
 pub mod source;
 pub mod stats;
 pub mod video;
-pub mod video_read;
+internal! {
+    pub mod video_read;
+}
 
 use crate::file_error::FileError;
 use std::fs::File;

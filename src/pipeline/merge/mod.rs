@@ -11,7 +11,9 @@
 //! Both check that the inputs are the shards `0/n … n−1/n` of one job, each once;
 //! [`MergeJob`] tells which of the two a list of shards asks for.
 
-pub mod episodes;
+internal! {
+    pub mod episodes;
+}
 pub mod run;
 
 use crate::file_error::FileError;

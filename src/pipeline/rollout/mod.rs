@@ -13,7 +13,9 @@ mod batched;
 mod episode;
 mod failure;
 mod live;
-pub mod manifest;
+internal! {
+    pub mod manifest;
+}
 mod parts;
 mod preflight;
 mod scene;
