@@ -229,7 +229,13 @@ pub fn run_config(shared: &Shared, name: &str) -> RunConfig {
 
 /// Runs session `name` until its page leaves; writes into `shared.out/<name>/`. Tells the
 /// page how it ended.
-pub fn run(shared: Arc<Shared>, name: &str, start: Start, link: Arc<Link>, session_seed: u64) {
+pub fn run_session(
+    shared: Arc<Shared>,
+    name: &str,
+    start: Start,
+    link: Arc<Link>,
+    session_seed: u64,
+) {
     let cfg = run_config(&shared, name);
     let clock = Arc::new(Mutex::new(Clock::default()));
     let seat = match &start {

@@ -91,7 +91,7 @@ pub async fn drive(
     let spawned = std::thread::Builder::new()
         .name(format!("session {name}"))
         .spawn(move || {
-            session::run(shared, &name, start, link, seed);
+            session::run_session(shared, &name, start, link, seed);
             ending.remove(&thread_token);
             ending.session_threads.fetch_sub(1, Ordering::AcqRel);
             tracing::info!("session {name} ended");

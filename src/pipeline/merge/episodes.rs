@@ -8,11 +8,18 @@ use std::path::{Path, PathBuf};
 use super::{check_shards, recorded_shard, MergeError, MergeReport};
 use crate::episode::format::read_episodes;
 use crate::pipeline::episodes::EpisodeBatch;
+use crate::progress::Progress;
 use crate::shard::Shard;
 
 /// Joins the episode files `parts` (each with its `<part>.stats.json`) into `out` and
-/// `<out>.stats.json`: the bytes `minos episodes` writes without `--shard`.
-pub fn merge_episodes(parts: &[PathBuf], out: &Path) -> Result<MergeReport, MergeError> {
+/// `<out>.stats.json`: the bytes `minos episodes` writes without `--shard`. `progress`
+/// counts each shard read, then the write.
+pub fn merge_episodes(
+    parts: &[PathBuf],
+    out: &Path,
+    progress: &dyn Progress,
+) -> Result<MergeReport, MergeError> {
+    progress.set_total(parts.len() as u64 + 1);
     let mut found: Vec<(PathBuf, Shard)> = Vec::new();
     let mut batches: Vec<EpisodeBatch> = Vec::new();
     for part in parts {
@@ -43,6 +50,7 @@ pub fn merge_episodes(parts: &[PathBuf], out: &Path) -> Result<MergeReport, Merg
             )));
         }
         batches.push(batch);
+        progress.advance(1);
     }
     check_shards(&found)?;
     let mut merged = EpisodeBatch {
@@ -73,10 +81,55 @@ pub fn merge_episodes(parts: &[PathBuf], out: &Path) -> Result<MergeReport, Merg
         .sort_by(|a, b| (&a.scene_id, &a.split).cmp(&(&b.scene_id, &b.split)));
     merged.summarise();
     let stats = merged.write(out).map_err(MergeError::WriteEpisodes)?;
+    progress.advance(1);
     Ok(MergeReport {
         shards: parts.len(),
         episodes: merged.total,
         written: vec![out.to_path_buf(), stats],
         ..MergeReport::default()
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::atomic::{AtomicU64, Ordering};
+
+    #[derive(Default)]
+    struct Counted {
+        total: AtomicU64,
+        done: AtomicU64,
+    }
+
+    impl Progress for Counted {
+        fn set_total(&self, total: u64) {
+            self.total.store(total, Ordering::Relaxed);
+        }
+        fn advance(&self, n: u64) {
+            self.done.fetch_add(n, Ordering::Relaxed);
+        }
+    }
+
+    #[test]
+    fn progress_counts_each_shard_and_the_write_to_its_total() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let parts: Vec<PathBuf> = (0..3)
+            .map(|i| {
+                let part = dir.path().join(format!("e{i}.parquet"));
+                let batch = EpisodeBatch {
+                    shard: format!("{i}/3"),
+                    ..EpisodeBatch::default()
+                };
+                batch.write(&part).expect("write a shard");
+                part
+            })
+            .collect();
+        let progress = Counted::default();
+        let out = dir.path().join("all.parquet");
+        let report = merge_episodes(&parts, &out, &progress).expect("merge");
+        assert_eq!(report.shards, 3);
+        assert_eq!(progress.total.load(Ordering::Relaxed), 4);
+        assert_eq!(progress.done.load(Ordering::Relaxed), 4);
+        assert!(out.is_file());
+    }
 }

@@ -173,7 +173,7 @@ impl MergeJob {
     pub fn run(&self, progress: &dyn Progress) -> Result<MergeReport, MergeError> {
         match self {
             MergeJob::Runs { shards, merge } => run::merge_runs(shards, merge, progress),
-            MergeJob::Episodes { shards, out } => episodes::merge_episodes(shards, out),
+            MergeJob::Episodes { shards, out } => episodes::merge_episodes(shards, out, progress),
         }
     }
 }
