@@ -5,26 +5,10 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
 
-use anyhow::Context as _;
-use minos::body::{AgentPreset, BodyRule};
-use minos::episode::format::write_episodes;
-use minos::episode::sample::SampleConfig;
-use minos::episode::Task;
-use minos::generate::{generate, GenerateConfig, OutputFormat};
-use minos::io::image_codec::ImageEncoding;
-use minos::navmesh::NavParams;
-use minos::pipeline::bake::{bake, BakeConfig};
-use minos::pipeline::episodes::{run_job, EpisodesJob};
-use minos::pipeline::ingest::{ingest, IngestConfig, Outcome};
-use minos::pipeline::rollout::{run as rollout, AgentKind, Provenance, RerunOutput, RunConfig};
-use minos::pipeline::split::{make_split, Method, SplitJob, SplitReport};
-use minos::render::RendererChoice;
-use minos::run::metrics::{render_table, Reward};
-use minos::shard::Shard;
-use minos::sim::{AgentConfig, SensorSuite};
-use minos::split::{Expr, Ratios};
+use minos::pipeline::demo::{DemoJob, DemoObserver, DemoStage};
+use minos::progress::Progress;
+use minos::run::metrics::render_table;
 use minos::stats;
-use minos::store::DataDir;
 
 use super::Context;
 
@@ -53,200 +37,107 @@ pub struct Args {
     seed: u64,
 }
 
+/// Flags → the job.
+fn config(args: &Args) -> DemoJob {
+    DemoJob {
+        out: args.out.clone(),
+        houses: args.houses,
+        seed: args.seed,
+        command: std::env::args().collect(),
+    }
+}
+
+/// Prints each stage as it ends, and shows its progress.
+impl DemoObserver for Context {
+    fn progress(&self, total: u64, what: &str) -> Box<dyn Progress + '_> {
+        Box::new(Context::progress(self, total, what))
+    }
+
+    fn finished(&self, stage: DemoStage<'_>) {
+        match stage {
+            DemoStage::Generated { houses, root } => self.say(format!(
+                "1/7 generated {houses} houses      -> {}",
+                root.display()
+            )),
+            DemoStage::Ingested(report) => self.say(format!(
+                "2/7 ingested {} scenes ({} failed) -> {}",
+                report.scenes.len(),
+                report.count(minos::pipeline::ingest::Outcome::Failed),
+                report.manifest.display()
+            )),
+            DemoStage::Split { all, multiroom } => {
+                let (a, m) = (&all.result.lists, &multiroom.result.lists);
+                self.say(format!(
+                    "3/7 splits: all {}/{}/{} -> {}, multiroom (3-5 rooms) {}/{}/{} -> {}",
+                    a.train.len(),
+                    a.val.len(),
+                    a.test.len(),
+                    all.dir.display(),
+                    m.train.len(),
+                    m.val.len(),
+                    m.test.len(),
+                    multiroom.dir.display()
+                ));
+            }
+            DemoStage::Statistics(columns) => {
+                self.say("4/7 statistics of split `all`:");
+                self.say(stats::render_table(columns));
+            }
+            DemoStage::Baked {
+                scenes,
+                report,
+                nav_dir,
+            } => {
+                for (id, e) in report.failures() {
+                    eprintln!("error: scene {id}: {e}");
+                }
+                self.say(format!(
+                    "5/7 baked {scenes} navigation grids ({} failed) -> {}",
+                    report.failures().count(),
+                    nav_dir.display()
+                ));
+            }
+            DemoStage::Episodes {
+                batches,
+                dir,
+                oracle_episodes,
+                oracle_file,
+            } => {
+                let written: Vec<String> = batches
+                    .iter()
+                    .map(|(task, b)| format!("{} {}", b.total, task.name()))
+                    .collect();
+                self.say(format!(
+                    "6/7 episodes: {} -> {} (the oracle's {oracle_episodes} in {})",
+                    written.join(", "),
+                    dir.display(),
+                    oracle_file.display()
+                ));
+            }
+            DemoStage::Oracle {
+                report,
+                dir,
+                recording,
+            } => {
+                self.say(format!(
+                    "7/7 oracle rollouts (RGB-D-semantic 84², Habitat agent) of {} validation \
+                     episodes -> {} (Parquet tables and a LeRobot v3.0 dataset in lerobot/), {} \
+                     recorded -> {}",
+                    report.episodes.len(),
+                    dir.display(),
+                    report.recorded,
+                    recording.display()
+                ));
+                self.say(render_table(&report.groups));
+            }
+        }
+    }
+}
+
 /// Runs `minos demo`.
 pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
     let start = Instant::now();
-    let root = args.out.join("suncg");
-    let data = args.out.join("data");
-    let cfg = GenerateConfig {
-        houses: args.houses,
-        seed: args.seed,
-        ..GenerateConfig::default()
-    };
-    {
-        let bar = ctx.progress(cfg.houses as u64, "generate");
-        generate(&cfg, OutputFormat::Suncg, &root, false, &bar).context("generate")?;
-    }
-    ctx.say(format!(
-        "1/7 generated {} houses      -> {}",
-        cfg.houses,
-        root.display()
-    ));
-    let report = {
-        let bar = ctx.progress(0, "ingest");
-        ingest(&IngestConfig::suncg(&root, &data), &bar).context("ingest")?
-    };
-    let failed = report.count(Outcome::Failed);
-    ctx.say(format!(
-        "2/7 ingested {} scenes ({failed} failed) -> {}",
-        report.scenes.len(),
-        report.manifest.display()
-    ));
-    let store = DataDir::new(&data);
-    // One agent for every stage: the grids are baked for the body the oracle moves.
-    let preset = AgentPreset::default();
-    let ratios = Ratios::new([0.6, 0.2, 0.2])?;
-    let multiroom = Expr::parse("nrooms > 2 && nrooms < 6").context("demo filter")?;
-    let split = |name: &str, filter: Option<Expr>| {
-        let job = SplitJob {
-            data: store.clone(),
-            name: name.to_string(),
-            filter,
-            method: Method::Ratios(ratios, args.seed),
-        };
-        make_split(&job, ctx.lock_mode).with_context(|| format!("split {name}"))
-    };
-    let SplitReport {
-        result: all,
-        dir: all_dir,
-    } = split("all", None)?;
-    let SplitReport {
-        result: mr,
-        dir: mr_dir,
-    } = split("multiroom", Some(multiroom))?;
-    let rows = store.read_manifest()?;
-    ctx.say(format!(
-        "3/7 splits: all {}/{}/{} -> {}, multiroom (3-5 rooms) {}/{}/{} -> {}",
-        all.lists.train.len(),
-        all.lists.val.len(),
-        all.lists.test.len(),
-        all_dir.display(),
-        mr.lists.train.len(),
-        mr.lists.val.len(),
-        mr.lists.test.len(),
-        mr_dir.display()
-    ));
-    ctx.say("4/7 statistics of split `all`:");
-    ctx.say(stats::render_table(&stats::compute_split(
-        &rows, &all.lists,
-    )));
-    let ids: Vec<String> = rows
-        .iter()
-        .filter(|r| r.error.is_none())
-        .map(|r| r.id.clone())
-        .collect();
-    let bake = {
-        let bar = ctx.progress(ids.len() as u64, "bake");
-        let cfg = BakeConfig {
-            data: store.clone(),
-            scenes: store.refs(&ids, None)?,
-            params: NavParams::preset(preset),
-            force: false,
-            previews: true,
-        };
-        // The driver holds DATA's lock and rewrites its provenance record.
-        bake(&cfg, minos::shard::Shard::ALL, ctx.lock_mode, &bar)?
-    };
-    let bake_failed = bake.failures().count();
-    for (id, e) in bake.failures() {
-        eprintln!("error: scene {id}: {e}");
-    }
-    ctx.say(format!(
-        "5/7 baked {} navigation grids ({bake_failed} failed) -> {}",
-        ids.len(),
-        store.nav_dir().display()
-    ));
-    let scenes: Vec<(String, String)> = [
-        ("train", &all.lists.train),
-        ("val", &all.lists.val),
-        ("test", &all.lists.test),
-    ]
-    .iter()
-    .flat_map(|(subset, ids)| ids.iter().map(move |id| (id.clone(), subset.to_string())))
-    .collect();
-    let episodes_dir = args.out.join("episodes");
-    let mut written = Vec::new();
-    let mut validation = Vec::new();
-    for task in [Task::PointGoal, Task::ObjectGoal, Task::RoomGoal] {
-        let cfg = SampleConfig {
-            task,
-            per_scene: 10,
-            seed: args.seed,
-            ..SampleConfig::default()
-        };
-        // As `minos episodes` samples and writes them: statistics and provenance beside.
-        let job = EpisodesJob {
-            data: store.clone(),
-            scenes: scenes.clone(),
-            sample: cfg,
-            body_rule: BodyRule::strict(preset.body()),
-            shard: Shard::ALL,
-            out: episodes_dir.join(format!("{}.parquet", task.name())),
-            habitat_export: None,
-            vln_export: None,
-            scene_names: Default::default(),
-            command: std::env::args().collect(),
-            starts: None,
-        };
-        let batch = {
-            let bar = ctx.progress(scenes.len() as u64, task.name());
-            run_job(&job, &bar)?.batch
-        };
-        written.push(format!("{} {}", batch.total, task.name()));
-        // The oracle demonstrates the validation episodes (3 per scene and task).
-        validation.extend(
-            batch
-                .episodes
-                .into_iter()
-                .filter(|e| e.split == "val" && e.episode_id.ends_with(|c: char| c < '3')),
-        );
-    }
-    // The oracle's episodes in a file of their own, which its manifest.json names, so the
-    // run can be repeated with `minos run --episodes`.
-    let validation_file = episodes_dir.join("oracle_val.parquet");
-    write_episodes(&validation_file, &validation)
-        .with_context(|| validation_file.display().to_string())?;
-    ctx.say(format!(
-        "6/7 episodes: {} -> {} (the oracle's {} in {})",
-        written.join(", "),
-        episodes_dir.display(),
-        validation.len(),
-        validation_file.display()
-    ));
-    let run_dir = args.out.join("runs").join("oracle");
-    let recording = args.out.join("episode.rrd");
-    let run_cfg = RunConfig {
-        batch: None,
-        data: store.clone(),
-        out: run_dir.clone(),
-        agent: AgentKind::Oracle,
-        agent_config: AgentConfig::preset(preset),
-        sensors: SensorSuite::minos(84),
-        renderer: RendererChoice::Cpu,
-        max_steps: None,
-        seed: args.seed,
-        shard: Shard::ALL,
-        resume: true,
-        reward: Reward::Geodesic,
-        encoding: ImageEncoding::Raw,
-        lerobot: true,
-        lerobot_video: false,
-        rerun: Some(RerunOutput {
-            path: recording.clone(),
-            episodes: 1,
-        }),
-        allow_body_mismatch: false,
-        provenance: Provenance {
-            command: std::env::args().collect(),
-            episodes_file: Some(validation_file.clone()),
-            variant: None,
-            agent: "oracle".into(),
-            preset: Some(preset),
-        },
-    };
-    let report = {
-        let bar = ctx.progress(validation.len() as u64, "oracle");
-        rollout(&run_cfg, &validation, &bar)?
-    };
-    ctx.say(format!(
-        "7/7 oracle rollouts (RGB-D-semantic 84², Habitat agent) of {} validation episodes -> {} \
-         (Parquet tables and a LeRobot v3.0 dataset in lerobot/), {} recorded -> {}",
-        report.episodes.len(),
-        run_dir.display(),
-        report.recorded,
-        recording.display()
-    ));
-    ctx.say(render_table(&report.groups));
+    let report = config(&args).run(ctx.lock_mode, ctx)?;
     ctx.say(format!(
         "done in {:.1} s. Next:\n  rerun {rrd}   (scrub the recorded episode: `pip install rerun-sdk==0.36.*`)\n  \
          minos view --data {d} --scene {id} --episodes {e} --out {id}.rrd\n  \
@@ -258,18 +149,20 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
          lerobot: LeRobotDataset(\"minos/demo\", root=\"{lr}\")\n  \
          minos serve --data {d} --episodes {e} --out {demos}   (play the episodes in a browser and record demonstrations)",
         start.elapsed().as_secs_f64(),
-        rrd = recording.display(),
-        nav = store.nav_dir().display(),
-        d = data.display(),
-        id = ids.first().map(String::as_str).unwrap_or("ID"),
-        e = episodes_dir.join("pointgoal.parquet").display(),
-        r = run_dir.join("observations.parquet").display(),
-        lr = run_dir.join("lerobot").display(),
+        rrd = report.recording.display(),
+        nav = minos::store::DataDir::new(&report.data).nav_dir().display(),
+        d = report.data.display(),
+        id = report.first_scene.as_deref().unwrap_or("ID"),
+        e = report.episodes.join("pointgoal.parquet").display(),
+        r = report.run.join("observations.parquet").display(),
+        lr = report.run.join("lerobot").display(),
         demos = args.out.join("demos").display(),
     ));
-    Ok(if failed == 0 && bake_failed == 0 {
-        ExitCode::SUCCESS
-    } else {
-        ExitCode::FAILURE
-    })
+    Ok(
+        if report.ingest_failures == 0 && report.bake_failures == 0 {
+            ExitCode::SUCCESS
+        } else {
+            ExitCode::FAILURE
+        },
+    )
 }

@@ -10,6 +10,7 @@
 
 pub mod bake;
 pub mod bench;
+pub mod demo;
 pub mod episodes;
 pub mod ingest;
 pub mod merge;
