@@ -1,19 +1,16 @@
-//! Finding and loading the textures a scene's materials name, once per file.
+//! Loading the textures a scene's materials name, once per file.
 //!
-//! A material's texture name is resolved relative to the folder of the mesh file that uses it
-//! (where OBJ `map_Kd` paths and glTF image URIs point), then in SUNCG's shared `texture/`
-//! folder two levels up (`room/<house>/` and `object/<model>/` sit beside `texture/`); a name
-//! without an extension (SUNCG's `wood_1`) also tries `.png`, `.jpg` and `.jpeg`. A texture
-//! that cannot be found or decoded is recorded once and its triangles keep their flat
-//! material colour, so a missing file never fails rendering.
+//! Where a name may be on disk is the loaders' knowledge of their datasets' layouts
+//! ([`texture_candidates`]: beside the mesh, then SUNCG's shared `texture/` folder); this
+//! library loads the first candidate that exists. A texture that cannot be found or decoded
+//! is recorded once and its triangles keep their flat material colour, so a missing file
+//! never fails rendering.
 
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 
 use super::texture::Texture;
-
-/// Extensions tried after a bare texture name.
-const EXTENSIONS: [&str; 3] = ["png", "jpg", "jpeg"];
+use crate::scene::formats::texture_candidates;
 
 /// Textures loaded for one scene, indexed by the ids [`TextureLibrary::resolve`] hands out.
 #[derive(Debug, Default)]
@@ -51,7 +48,10 @@ impl TextureLibrary {
     }
 
     fn load(&mut self, name: &str, dir: &Path) -> Option<u32> {
-        let Some(file) = candidates(name, dir).into_iter().find(|p| p.is_file()) else {
+        let Some(file) = texture_candidates(name, dir)
+            .into_iter()
+            .find(|p| p.is_file())
+        else {
             self.missing.insert(
                 name.to_string(),
                 format!("not found beside {} or in its ../../texture", dir.display()),
@@ -82,28 +82,6 @@ impl TextureLibrary {
     pub fn missing(&self) -> impl Iterator<Item = (&str, &str)> {
         self.missing.iter().map(|(k, v)| (k.as_str(), v.as_str()))
     }
-}
-
-/// The files a texture name may denote, in order of preference.
-fn candidates(name: &str, dir: &Path) -> Vec<PathBuf> {
-    let name = name.trim().replace('\\', "/");
-    if name.is_empty() || name.starts_with("data:") {
-        return Vec::new();
-    }
-    let rel = Path::new(&name);
-    let bases: Vec<PathBuf> = if rel.is_absolute() {
-        vec![rel.to_path_buf()]
-    } else {
-        vec![dir.join(rel), dir.join("../../texture").join(rel)]
-    };
-    let mut out = Vec::new();
-    for b in bases {
-        if b.extension().is_none() {
-            out.extend(EXTENSIONS.iter().map(|e| b.with_extension(e)));
-        }
-        out.push(b);
-    }
-    out
 }
 
 #[cfg(test)]

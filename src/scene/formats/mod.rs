@@ -31,6 +31,35 @@ use std::path::{Path, PathBuf};
 use super::mesh::Mesh;
 use super::model::{Dataset, Scene};
 
+/// Extensions tried after a bare texture name (SUNCG's `wood_1`).
+const TEXTURE_EXTENSIONS: [&str; 3] = ["png", "jpg", "jpeg"];
+
+/// The files a material's texture `name` may denote for a mesh in `mesh_dir`, in order of
+/// preference: relative to the mesh's folder (where OBJ `map_Kd` paths and glTF image URIs
+/// point), then in SUNCG's shared `texture/` folder two levels up (`room/<house>/` and
+/// `object/<model>/` sit beside `texture/`); a name without an extension also tries `.png`,
+/// `.jpg` and `.jpeg`. An absolute name is itself; an empty or `data:` name has none.
+pub fn texture_candidates(name: &str, mesh_dir: &Path) -> Vec<PathBuf> {
+    let name = name.trim().replace('\\', "/");
+    if name.is_empty() || name.starts_with("data:") {
+        return Vec::new();
+    }
+    let rel = Path::new(&name);
+    let bases: Vec<PathBuf> = if rel.is_absolute() {
+        vec![rel.to_path_buf()]
+    } else {
+        vec![mesh_dir.join(rel), mesh_dir.join("../../texture").join(rel)]
+    };
+    let mut out = Vec::new();
+    for b in bases {
+        if b.extension().is_none() {
+            out.extend(TEXTURE_EXTENSIONS.iter().map(|e| b.with_extension(e)));
+        }
+        out.push(b);
+    }
+    out
+}
+
 /// One scene found under a dataset root.
 #[derive(Debug, Clone, PartialEq, Eq, PartialOrd, Ord)]
 pub struct SceneEntry {
@@ -256,5 +285,34 @@ mod tests {
         let s = br#"{"a": [1, NaN, -Infinity], "b": "NaN"}"#;
         let out = nan_tokens_to_null(s);
         assert_eq!(&out[..], br#"{"a": [1, null, null], "b": "NaN"}"#);
+    }
+
+    #[test]
+    fn texture_names_are_looked_for_beside_the_mesh_then_in_suncgs_texture_folder() {
+        let dir = Path::new("/d/room/h1");
+        let p = |s: &str| PathBuf::from(s);
+        assert_eq!(
+            texture_candidates("a\\b.png", dir),
+            vec![
+                p("/d/room/h1/a/b.png"),
+                p("/d/room/h1/../../texture/a/b.png")
+            ]
+        );
+        assert_eq!(
+            texture_candidates(" wood_1 ", dir),
+            vec![
+                p("/d/room/h1/wood_1.png"),
+                p("/d/room/h1/wood_1.jpg"),
+                p("/d/room/h1/wood_1.jpeg"),
+                p("/d/room/h1/wood_1"),
+                p("/d/room/h1/../../texture/wood_1.png"),
+                p("/d/room/h1/../../texture/wood_1.jpg"),
+                p("/d/room/h1/../../texture/wood_1.jpeg"),
+                p("/d/room/h1/../../texture/wood_1"),
+            ]
+        );
+        assert_eq!(texture_candidates("/t/x.jpg", dir), vec![p("/t/x.jpg")]);
+        assert!(texture_candidates("", dir).is_empty());
+        assert!(texture_candidates("data:image/png;base64,AAAA", dir).is_empty());
     }
 }
