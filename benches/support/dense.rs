@@ -107,21 +107,8 @@ fn clutter(base: &RenderScene, boxes: usize, seed: u64) -> RenderScene {
             ..base.tris[t]
         };
         let start = out.tris.len() as u32;
-        let corner = |i: usize| {
-            Vec3::new(
-                if i & 1 == 0 { lo.x } else { hi.x },
-                if i & 2 == 0 { lo.y } else { hi.y },
-                if i & 4 == 0 { lo.z } else { hi.z },
-            )
-        };
-        for q in [
-            [0, 4, 6, 2],
-            [1, 3, 7, 5],
-            [0, 1, 5, 4],
-            [2, 6, 7, 3],
-            [0, 2, 3, 1],
-            [4, 5, 7, 6],
-        ] {
+        let corner = |i: usize| Vec3::from(minos::scene::box_corner(lo.into(), hi.into(), i));
+        for q in minos::scene::BOX_FACES {
             for tri in [[q[0], q[1], q[2]], [q[0], q[2], q[3]]] {
                 let p = tri.map(corner);
                 let normal = (p[1] - p[0]).cross(p[2] - p[0]).normalize();

@@ -134,21 +134,8 @@ impl MeshOut {
         segment: i32,
         kind: QuadKind,
     ) {
-        let v = |k: usize| {
-            [
-                if k & 1 == 0 { min[0] } else { max[0] },
-                if k & 2 == 0 { min[1] } else { max[1] },
-                if k & 4 == 0 { min[2] } else { max[2] },
-            ]
-        };
-        for f in [
-            [0, 4, 6, 2],
-            [1, 3, 7, 5],
-            [0, 1, 5, 4],
-            [2, 6, 7, 3],
-            [0, 2, 3, 1],
-            [4, 5, 7, 6],
-        ] {
+        let v = |k: usize| crate::scene::box_corner(min, max, k);
+        for f in crate::scene::BOX_FACES {
             self.quad(
                 [v(f[0]), v(f[1]), v(f[2]), v(f[3])],
                 category,

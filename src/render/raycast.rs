@@ -166,22 +166,9 @@ mod tests {
 
     /// The six faces of a box as twelve outward triangles.
     fn cube(lo: Vec3, hi: Vec3) -> Vec<[Vec3; 3]> {
-        let c = |i: usize| {
-            Vec3::new(
-                if i & 1 == 0 { lo.x } else { hi.x },
-                if i & 2 == 0 { lo.y } else { hi.y },
-                if i & 4 == 0 { lo.z } else { hi.z },
-            )
-        };
-        [
-            [0, 4, 6, 2],
-            [1, 3, 7, 5],
-            [0, 1, 5, 4],
-            [2, 6, 7, 3],
-            [0, 2, 3, 1],
-            [4, 5, 7, 6],
-        ]
-        .iter()
+        let c = |i: usize| Vec3::from(crate::scene::box_corner(lo.into(), hi.into(), i));
+        crate::scene::BOX_FACES
+            .iter()
         .flat_map(|q| [[c(q[0]), c(q[1]), c(q[2])], [c(q[0]), c(q[2]), c(q[3])]])
         .collect()
     }

@@ -3,6 +3,28 @@
 use glam::{Mat4, Vec3};
 use serde::{Deserialize, Serialize};
 
+/// The six faces of an axis-aligned box as quads of its corners ([`box_corner`] numbering),
+/// each wound counter-clockwise seen from outside: −x, +x, −y, +y, −z, +z. Split a quad
+/// `q` into the triangles `q0 q1 q2` and `q0 q2 q3`.
+pub const BOX_FACES: [[usize; 4]; 6] = [
+    [0, 4, 6, 2],
+    [1, 3, 7, 5],
+    [0, 1, 5, 4],
+    [2, 6, 7, 3],
+    [0, 2, 3, 1],
+    [4, 5, 7, 6],
+];
+
+/// Corner `i` (0–7) of the box from `min` to `max`: bit 0 of `i` picks the larger x, bit 1
+/// the larger y, bit 2 the larger z.
+pub fn box_corner<T: Copy>(min: [T; 3], max: [T; 3], i: usize) -> [T; 3] {
+    [
+        if i & 1 == 0 { min[0] } else { max[0] },
+        if i & 2 == 0 { min[1] } else { max[1] },
+        if i & 4 == 0 { min[2] } else { max[2] },
+    ]
+}
+
 /// An axis-aligned bounding box in metres. An empty box has `min > max`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Aabb {
@@ -111,6 +133,38 @@ impl Aabb {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn box_faces_wind_outwards_and_cover_the_six_sides() {
+        let (min, max) = ([0.0f32, 0.0, 0.0], [1.0f32, 2.0, 3.0]);
+        let centre = Vec3::new(0.5, 1.0, 1.5);
+        let mut normals = Vec::new();
+        let mut uses = [0; 8];
+        for q in BOX_FACES {
+            let p = q.map(|i| Vec3::from(box_corner(min, max, i)));
+            for tri in [[p[0], p[1], p[2]], [p[0], p[2], p[3]]] {
+                let n = (tri[1] - tri[0]).cross(tri[2] - tri[0]);
+                let mid = (tri[0] + tri[1] + tri[2]) / 3.0;
+                assert!(n.dot(mid - centre) > 0.0, "{q:?} winds inwards");
+            }
+            let n = (p[1] - p[0]).cross(p[2] - p[0]).normalize();
+            normals.push(n.to_array().map(|v| v.round() as i32));
+            q.iter().for_each(|&i| uses[i] += 1);
+        }
+        normals.sort();
+        let mut axes = vec![
+            [-1, 0, 0],
+            [1, 0, 0],
+            [0, -1, 0],
+            [0, 1, 0],
+            [0, 0, -1],
+            [0, 0, 1],
+        ];
+        axes.sort();
+        assert_eq!(normals, axes);
+        assert_eq!(uses, [3; 8], "every corner is on three faces");
+        assert_eq!(box_corner(min, max, 5), [1.0, 0.0, 3.0]);
+    }
 
     #[test]
     fn empty_box_grows_to_points_and_unions() {

@@ -13,7 +13,7 @@ mod scene_ref;
 mod taxonomy;
 pub mod variants;
 
-pub use geometry::Aabb;
+pub use geometry::{box_corner, Aabb, BOX_FACES};
 pub use labels::Taxonomy;
 pub use mesh::{Material, Mesh, WorldMesh};
 pub use model::{

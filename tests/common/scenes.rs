@@ -21,20 +21,9 @@ pub fn box_mesh(min: [f32; 3], max: [f32; 3]) -> Mesh {
 pub fn add_box(m: &mut Mesh, min: [f32; 3], max: [f32; 3]) {
     let o = m.positions.len() as u32;
     for i in 0..8 {
-        m.positions.push([
-            if i & 1 == 0 { min[0] } else { max[0] },
-            if i & 2 == 0 { min[1] } else { max[1] },
-            if i & 4 == 0 { min[2] } else { max[2] },
-        ]);
+        m.positions.push(minos::scene::box_corner(min, max, i));
     }
-    for q in [
-        [0, 4, 6, 2],
-        [1, 3, 7, 5],
-        [0, 1, 5, 4],
-        [2, 6, 7, 3],
-        [0, 2, 3, 1],
-        [4, 5, 7, 6],
-    ] {
+    for q in minos::scene::BOX_FACES.map(|q| q.map(|i| i as u32)) {
         m.indices
             .extend([o + q[0], o + q[1], o + q[2], o + q[0], o + q[2], o + q[3]]);
         m.face_materials.extend([0, 0]);
