@@ -263,8 +263,10 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         d = data.display(),
         id = ids.first().map(String::as_str).unwrap_or("ID"),
         e = episodes_dir.join("pointgoal.parquet").display(),
-        r = run_dir.join("observations.parquet").display(),
-        lr = run_dir.join("lerobot").display(),
+        r = minos::io::run_dir::RunDir::new(&run_dir)
+            .observations()
+            .display(),
+        lr = minos::io::run_dir::RunDir::new(&run_dir).lerobot().display(),
         demos = args.out.join("demos").display(),
     ));
     Ok(if failed == 0 && bake_failed == 0 {

@@ -21,6 +21,7 @@ use crate::episode::instruction::instruction;
 use crate::episode::sample::SampleConfig;
 use crate::episode::{Episode, Task};
 use crate::invalid::Invalid;
+use crate::io::run_dir::RunDir;
 use crate::io::tables::ImageEncoding;
 use crate::lock::LockMode;
 use crate::pipeline::episodes::sample_scenes;
@@ -268,7 +269,7 @@ pub fn run(shared: Arc<Shared>, name: &str, start: Start, link: Arc<Link>, sessi
 
 /// The episode file a session's replay reads: its own `played.parquet`.
 fn cfg_episodes_file(shared: &Shared, name: &str) -> PathBuf {
-    shared.out.join(name).join(crate::pipeline::rollout::PLAYED)
+    RunDir::new(shared.out.join(name)).played()
 }
 
 /// The wall-clock times of an episode's actions (for its quality record; never in the
