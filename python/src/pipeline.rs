@@ -15,7 +15,7 @@ use minos::body::{AgentPreset, BodyRule};
 use minos::episode::format::read_episodes;
 use minos::episode::habitat::SceneIdStyle;
 use minos::episode::sample::{SampleConfig, Select};
-use minos::episode::vln::export::VlnFormat;
+use minos::episode::vln::export::{EpisodeExport, VlnFormat};
 use minos::episode::Task;
 use minos::generate::{GenerateConfig, HouseFormat};
 use minos::io::tables::ImageEncoding;
@@ -25,8 +25,9 @@ use minos::pipeline::bake::{
     self as bake_driver, grid_params, BakeConfig, BakeOutcome, GridParamsError,
 };
 use minos::pipeline::episodes::{
-    default_min_geodesic, default_min_rooms, default_success_radius, expand_categories,
-    parse_room_classes, run_job, select_scenes, EpisodesJob, Stratify,
+    check_options, default_min_geodesic, default_min_rooms, default_same_level,
+    default_success_radius, expand_categories, parse_room_classes, run_job, select_scenes,
+    EpisodeOptionsError, EpisodesJob, Stratify,
 };
 use minos::pipeline::ingest::{ingest_with, read_id_list, DatasetFormat, IngestConfig, Outcome};
 use minos::pipeline::rollout::{AgentKind, Provenance, RerunOutput, RunConfig, RunFormat};
@@ -36,6 +37,7 @@ use minos::shard::Shard;
 use minos::sim::AgentConfig;
 use minos::split::Subset;
 use minos::store::DataDir;
+use minos::vocab::Vocabulary;
 
 use crate::convert::{
     bad_input, msg_err, path_of, py_err, sensor_suite, term, with_threads, PyProgress,
@@ -321,11 +323,6 @@ pub fn sample_episodes<'py>(
     let starts = starts.map(path_of).transpose()?;
     let task: Task = term("task", task)?;
     let subset: Option<Subset> = subset.map(|s| term("subset", s)).transpose()?;
-    if bins.0 > bins.1 {
-        return Err(bad_input(
-            "bins: expected two increasing distances, e.g. (3, 6)",
-        ));
-    }
     let select: Select = term("select", select)?;
     let stratified = term::<Stratify>("stratify", stratify)?.applies(subset);
     let (categories, all_categories) = expand_categories(&categories)
@@ -342,16 +339,21 @@ pub fn sample_episodes<'py>(
         (None, Some(d)) => Some((VlnFormat::R2r, d)),
         (None, None) => None,
     };
-    if vln_export.is_some() && task != Task::Vln {
-        return Err(bad_input(
-            "export_vlnce / export_r2r: VLN exports need task=\"vln\"",
-        ));
-    }
-    if task == Task::Vln && habitat_export.is_some() {
-        return Err(bad_input(
-            "export_habitat: VLN episodes export as export_vlnce (habitat-lab's R2RVLN-v1) or export_r2r",
-        ));
-    }
+    let exports = habitat_export
+        .as_ref()
+        .map(|_| EpisodeExport::Habitat)
+        .into_iter()
+        .chain(vln_export.as_ref().map(|(f, _)| EpisodeExport::Vln(*f)));
+    check_options(task, [bins.0, bins.1], exports).map_err(|e| match e {
+        EpisodeOptionsError::BinsOutOfOrder { .. } => bad_input(format!("bins: {e}, e.g. (3, 6)")),
+        EpisodeOptionsError::VlnExportOfOtherTask { format, .. } => bad_input(format!(
+            "export_{}: {e} (task=\"vln\")",
+            EpisodeExport::Vln(format).term_name()
+        )),
+        EpisodeOptionsError::HabitatExportOfVln => bad_input(format!(
+            "export_habitat: {e} (export_vlnce= or export_r2r=)"
+        )),
+    })?;
     let scene_names = SceneIdStyle {
         prefix: scene_prefix.to_string(),
         suffix: scene_suffix.to_string(),
@@ -377,8 +379,7 @@ pub fn sample_episodes<'py>(
         ratio_rule,
         min_doors,
         min_rooms: min_rooms.unwrap_or_else(|| default_min_rooms(task)),
-        // As the CLI: ObjectGoal keeps to one floor unless told otherwise.
-        same_level: same_level.unwrap_or(task == Task::ObjectGoal),
+        same_level: same_level.unwrap_or_else(|| default_same_level(task)),
         bins: [bins.0, bins.1],
         stratified,
         max_steps,
