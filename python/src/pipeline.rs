@@ -12,7 +12,6 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use minos::body::{AgentPreset, BodyRule};
-use minos::episode::format::read_episodes;
 use minos::episode::habitat::SceneIdStyle;
 use minos::episode::sample::{SampleConfig, Select};
 use minos::episode::vln::export::{EpisodeExport, VlnFormat};
@@ -30,7 +29,9 @@ use minos::pipeline::episodes::{
     EpisodeOptionsError, EpisodesJob, Stratify,
 };
 use minos::pipeline::ingest::{ingest_with, read_id_list, DatasetFormat, IngestConfig, Outcome};
-use minos::pipeline::rollout::{AgentKind, Provenance, RerunOutput, RunConfig, RunFormat};
+use minos::pipeline::rollout::{
+    run_episodes_of, AgentKind, Provenance, RerunOutput, RunConfig, RunEpisodesError, RunFormat,
+};
 use minos::pipeline::split::{scenes_of, ScenesError};
 use minos::run::metrics::Reward;
 use minos::shard::Shard;
@@ -484,13 +485,13 @@ pub fn run<'py>(
     let report = py
         .detach(|| -> anyhow::Result<_> {
             let kind = AgentKind::from_name(agent).context("agent")?;
-            let mut eps = read_episodes(&episodes_file)?;
-            if let Some(name) = variant {
-                data.read_variant(name)
-                    .with_context(|| format!("variant={name:?}"))?;
-                eps = eps.into_iter().map(|e| e.on_variant(name)).collect();
-            }
-            kind.check_covers(agent, &eps, shard).context("agent")?;
+            let eps = run_episodes_of(&data, &episodes_file, variant, &kind, agent, shard)
+                .map_err(|e| match e {
+                    RunEpisodesError::Variant(_) => anyhow::Error::new(e)
+                        .context(format!("variant={:?}", variant.unwrap_or_default())),
+                    RunEpisodesError::Agent(_) => anyhow::Error::new(e).context("agent"),
+                    e => e.into(),
+                })?;
             let cfg = RunConfig {
                 batch,
                 data: data.clone(),

@@ -17,6 +17,7 @@ pub mod manifest;
 mod parts;
 mod preflight;
 mod scene;
+mod setup;
 
 use crate::file_error::FileError;
 use std::collections::{BTreeMap, BTreeSet};
@@ -53,6 +54,7 @@ use parts::part;
 pub use parts::{PartDone, PartError};
 use scene::SceneRun;
 pub use scene::{load as load_simulator, load_assets as load_scene_assets, SceneLoadError};
+pub use setup::{episodes_on_variant, run_episodes_of, RunEpisodesError};
 
 /// What a run does.
 #[derive(Debug, Clone)]
