@@ -168,22 +168,15 @@ pub fn ingest<'py>(
         .map(|(row, o)| {
             let e = PyDict::new(py);
             e.set_item("id", &row.id)?;
-            e.set_item(
-                "outcome",
-                match o {
-                    Outcome::Compiled => "compiled",
-                    Outcome::UpToDate => "up_to_date",
-                    Outcome::Failed => "failed",
-                },
-            )?;
+            e.set_item("outcome", o.term_name())?;
             e.set_item("error", row.error.clone())?;
             Ok(e)
         })
         .collect::<PyResult<_>>()?;
     d.set_item("scenes", scenes)?;
-    d.set_item("compiled", report.count(Outcome::Compiled))?;
-    d.set_item("up_to_date", report.count(Outcome::UpToDate))?;
-    d.set_item("failed", report.count(Outcome::Failed))?;
+    for t in Outcome::TERMS {
+        d.set_item(t.name, report.count(t.value))?;
+    }
     d.set_item("missing_ids", report.missing_ids.clone())?;
     d.set_item("warnings", report.warnings.clone())?;
     d.set_item("manifest", report.manifest.clone())?;
@@ -278,6 +271,8 @@ pub fn bake<'py>(
 /// `categories` takes presets and `["all"]`; `starts=FILE` takes each scene's starts from an
 /// episode file, as `--starts`). Returns the statistics (total, means, rejected
 /// draws, per scene) with `out`, `stats`, `provenance` and `warnings`.
+// `max_steps = 500` is `episode::interchange::DEFAULT_MAX_STEPS` spelled as a literal, so
+// that Python's signature shows it (tests/python_api.rs checks that the two agree).
 #[pyfunction]
 #[pyo3(signature = (data, task, out, split = None, subset = None, variant = None, preset = "habitat", allow_body_mismatch = false, per_scene = 10, seed = 0, min_island_radius = 1.5, success_radius = None, categories = vec!["door".to_string(), "arch".to_string()], min_instances = 1, instructions = 3, room_types = vec!["any".to_string()], select = "any", min_geodesic = None, max_geodesic = 30.0, ratio_rule = true, min_doors = 0, min_rooms = None, same_level = None, bins = (3.0, 6.0), stratify = "auto", max_steps = 500, shard = "0/1", export_habitat = None, export_vlnce = None, export_r2r = None, scene_prefix = "", scene_suffix = "", starts = None, threads = None, progress = None))]
 #[allow(clippy::too_many_arguments)]
