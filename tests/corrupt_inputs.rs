@@ -160,7 +160,7 @@ fn a_corrupt_compiled_scene_fails_its_bake_only_and_an_old_version_is_reingested
             .scenes
             .iter()
             .find(|(r, _)| r.id == id)
-            .map(|(_, o)| o.clone())
+            .map(|(_, o)| *o)
             .unwrap()
     };
     assert_eq!(outcome(&ids[0]), Outcome::Compiled);

@@ -169,3 +169,34 @@ fn the_python_package_builds_and_its_tests_pass() {
     assert!(o.status.success(), "pytest failed:\n{report}");
     assert!(report.contains(" passed"), "pytest ran no test:\n{report}");
 }
+
+/// The default of a keyword argument in the `#[pyo3(signature = …)]` of `function` in
+/// `python/src/<file>` (the text after `name = `, up to the next comma).
+fn signature_default(file: &str, function: &str, name: &str) -> String {
+    let text = std::fs::read_to_string(root().join("python/src").join(file)).expect("source");
+    let at = text
+        .find(&format!("pub fn {function}<"))
+        .unwrap_or_else(|| panic!("{file}: no function {function}"));
+    let signature = text[..at]
+        .rfind("#[pyo3(signature = (")
+        .map(|s| &text[s..at])
+        .unwrap_or_else(|| panic!("{file}: {function} has no signature"));
+    let key = format!(" {name} = ");
+    let start = signature
+        .find(&key)
+        .unwrap_or_else(|| panic!("{function}: no default for {name}"))
+        + key.len();
+    let rest = &signature[start..];
+    rest[..rest.find([',', ')']).unwrap_or(rest.len())].to_string()
+}
+
+/// pyo3 shows a default that is not a literal as `...` in the signature Python sees (and
+/// `python/tests/test_docs.py` compares those with docs/PYTHON.md), so some defaults the
+/// library names are spelled as literals there: they must stay the library's values.
+#[test]
+fn literal_defaults_of_the_bindings_are_the_librarys() {
+    assert_eq!(
+        signature_default("pipeline.rs", "sample_episodes", "max_steps"),
+        minos::episode::interchange::DEFAULT_MAX_STEPS.to_string()
+    );
+}

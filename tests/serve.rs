@@ -20,8 +20,9 @@ use minos::episode::format::read_episodes;
 use minos::episode::Episode;
 use minos::generate::GenerateConfig;
 use minos::io::image_codec::ImageEncoding;
+use minos::io::run_dir::PLAYED;
 use minos::io::tables::read_replay;
-use minos::pipeline::rollout::{run, AgentKind, RunConfig, PLAYED};
+use minos::pipeline::rollout::{run, AgentKind, RunConfig};
 use minos::progress::NoProgress;
 use minos::render::RendererChoice;
 use minos::run::agents::Decision;
@@ -257,7 +258,7 @@ fn a_session_records_what_minos_run_writes_and_replays_byte_for_byte() {
     }
     // And the LeRobot export takes it as it is.
     minos::io::lerobot::write_dataset(
-        &minos::io::lerobot::RunTables::in_dir(&session),
+        &minos::io::lerobot::source::RunTables::in_dir(&session),
         &f.dir.path().join("lerobot"),
         &minos::io::lerobot::DatasetOptions {
             fps: 10,

@@ -1,6 +1,7 @@
 //! Every vocabulary a user picks names from (presets, renderers, rewards, image encodings,
 //! tasks, subsets, selections, stratification, dataset formats, run formats, house formats,
-//! export formats, benchmarks, foreign episode formats, frame formats, texture sets) is
+//! export formats, benchmarks, foreign episode formats, frame formats, texture sets, episode
+//! exports, ingest outcomes) is
 //! declared once on the library's enum: each
 //! name and alias parses back to its value, names do not repeat, an unknown name is refused
 //! with the known ones listed, and the command line refuses it in the same words.
@@ -10,6 +11,7 @@ use crate::common;
 use minos::body::AgentPreset;
 use minos::episode::import::ForeignFormat;
 use minos::episode::sample::Select;
+use minos::episode::vln::export::EpisodeExport;
 use minos::episode::Task;
 use minos::generate::{Furnishing, HouseFormat};
 use minos::io::export::ExportFormat;
@@ -17,7 +19,7 @@ use minos::io::image_codec::ImageEncoding;
 use minos::io::lerobot::DatasetLayout;
 use minos::pipeline::bench::BenchKind;
 use minos::pipeline::episodes::Stratify;
-use minos::pipeline::ingest::DatasetFormat;
+use minos::pipeline::ingest::{DatasetFormat, Outcome};
 use minos::pipeline::rollout::RunFormat;
 use minos::render::RendererChoice;
 use minos::run::metrics::Reward;
@@ -93,6 +95,8 @@ fn every_vocabulary_parses_its_names_and_refuses_others_with_the_list() {
     assert_eq!(check::<LosslessFormat>(), ["png", "webp"]);
     assert_eq!(check::<TextureSet>(), ["train", "val", "test"]);
     assert_eq!(check::<DatasetLayout>(), ["lerobot"]);
+    assert_eq!(check::<EpisodeExport>(), ["habitat", "vlnce", "r2r"]);
+    assert_eq!(check::<Outcome>(), ["compiled", "up_to_date", "failed"]);
     // Each export format is also the extension of its files.
     for f in ExportFormat::ALL {
         assert_eq!(f.extension(), f.term_name());

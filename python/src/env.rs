@@ -10,6 +10,7 @@ use pyo3::types::PyDict;
 
 use minos::episode::format::read_episodes;
 use minos::episode::Episode;
+use minos::pipeline::rollout::episodes_on_variant;
 use minos::pipeline::vector_env::{EnvOutcome, VectorEnv, VectorEnvConfig, VectorEnvError};
 use minos::render::Image;
 use minos::run::metrics::Reward;
@@ -260,10 +261,9 @@ impl VecCore {
             }
         };
         if let Some(name) = variant {
-            data.read_variant(name).map_err(|e| {
+            eps = episodes_on_variant(&data, Some(name), eps).map_err(|e| {
                 crate::convert::py_err(anyhow::Error::new(e).context(format!("variant={name:?}")))
             })?;
-            eps = eps.into_iter().map(|e| e.on_variant(name)).collect();
         }
         let agent_preset = preset("agent", agent)?;
         let body = AgentConfig::preset(agent_preset);

@@ -12,10 +12,9 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use minos::body::{AgentPreset, BodyRule};
-use minos::episode::format::read_episodes;
 use minos::episode::habitat::SceneIdStyle;
 use minos::episode::sample::{SampleConfig, Select};
-use minos::episode::vln::export::VlnFormat;
+use minos::episode::vln::export::{EpisodeExport, VlnFormat};
 use minos::episode::Task;
 use minos::generate::{GenerateConfig, HouseFormat};
 use minos::io::image_codec::ImageEncoding;
@@ -25,17 +24,21 @@ use minos::pipeline::bake::{
     self as bake_driver, grid_params, BakeConfig, BakeOutcome, GridParamsError,
 };
 use minos::pipeline::episodes::{
-    default_min_geodesic, default_min_rooms, default_success_radius, expand_categories,
-    parse_room_classes, run_job, select_scenes, EpisodesJob, Stratify,
+    check_options, default_min_geodesic, default_min_rooms, default_same_level,
+    default_success_radius, expand_categories, parse_room_classes, run_job, select_scenes,
+    EpisodeOptionsError, EpisodesJob, Stratify,
 };
 use minos::pipeline::ingest::{ingest_with, read_id_list, DatasetFormat, IngestConfig, Outcome};
-use minos::pipeline::rollout::{AgentKind, Provenance, RerunOutput, RunConfig, RunFormat};
+use minos::pipeline::rollout::{
+    run_episodes_of, AgentKind, Provenance, RerunOutput, RunConfig, RunEpisodesError, RunFormat,
+};
 use minos::pipeline::split::{scenes_of, ScenesError};
 use minos::run::metrics::Reward;
 use minos::shard::Shard;
 use minos::sim::AgentConfig;
 use minos::split::Subset;
 use minos::store::DataDir;
+use minos::vocab::Vocabulary;
 
 use crate::convert::{
     bad_input, msg_err, path_of, py_err, sensor_suite, term, with_threads, PyProgress,
@@ -165,22 +168,15 @@ pub fn ingest<'py>(
         .map(|(row, o)| {
             let e = PyDict::new(py);
             e.set_item("id", &row.id)?;
-            e.set_item(
-                "outcome",
-                match o {
-                    Outcome::Compiled => "compiled",
-                    Outcome::UpToDate => "up_to_date",
-                    Outcome::Failed => "failed",
-                },
-            )?;
+            e.set_item("outcome", o.term_name())?;
             e.set_item("error", row.error.clone())?;
             Ok(e)
         })
         .collect::<PyResult<_>>()?;
     d.set_item("scenes", scenes)?;
-    d.set_item("compiled", report.count(Outcome::Compiled))?;
-    d.set_item("up_to_date", report.count(Outcome::UpToDate))?;
-    d.set_item("failed", report.count(Outcome::Failed))?;
+    for t in Outcome::TERMS {
+        d.set_item(t.name, report.count(t.value))?;
+    }
     d.set_item("missing_ids", report.missing_ids.clone())?;
     d.set_item("warnings", report.warnings.clone())?;
     d.set_item("manifest", report.manifest.clone())?;
@@ -275,6 +271,8 @@ pub fn bake<'py>(
 /// `categories` takes presets and `["all"]`; `starts=FILE` takes each scene's starts from an
 /// episode file, as `--starts`). Returns the statistics (total, means, rejected
 /// draws, per scene) with `out`, `stats`, `provenance` and `warnings`.
+// `max_steps = 500` is `episode::interchange::DEFAULT_MAX_STEPS` spelled as a literal, so
+// that Python's signature shows it (tests/python_api.rs checks that the two agree).
 #[pyfunction]
 #[pyo3(signature = (data, task, out, split = None, subset = None, variant = None, preset = "habitat", allow_body_mismatch = false, per_scene = 10, seed = 0, min_island_radius = 1.5, success_radius = None, categories = vec!["door".to_string(), "arch".to_string()], min_instances = 1, instructions = 3, room_types = vec!["any".to_string()], select = "any", min_geodesic = None, max_geodesic = 30.0, ratio_rule = true, min_doors = 0, min_rooms = None, same_level = None, bins = (3.0, 6.0), stratify = "auto", max_steps = 500, shard = "0/1", export_habitat = None, export_vlnce = None, export_r2r = None, scene_prefix = "", scene_suffix = "", starts = None, threads = None, progress = None))]
 #[allow(clippy::too_many_arguments)]
@@ -321,11 +319,6 @@ pub fn sample_episodes<'py>(
     let starts = starts.map(path_of).transpose()?;
     let task: Task = term("task", task)?;
     let subset: Option<Subset> = subset.map(|s| term("subset", s)).transpose()?;
-    if bins.0 > bins.1 {
-        return Err(bad_input(
-            "bins: expected two increasing distances, e.g. (3, 6)",
-        ));
-    }
     let select: Select = term("select", select)?;
     let stratified = term::<Stratify>("stratify", stratify)?.applies(subset);
     let (categories, all_categories) = expand_categories(&categories)
@@ -342,16 +335,21 @@ pub fn sample_episodes<'py>(
         (None, Some(d)) => Some((VlnFormat::R2r, d)),
         (None, None) => None,
     };
-    if vln_export.is_some() && task != Task::Vln {
-        return Err(bad_input(
-            "export_vlnce / export_r2r: VLN exports need task=\"vln\"",
-        ));
-    }
-    if task == Task::Vln && habitat_export.is_some() {
-        return Err(bad_input(
-            "export_habitat: VLN episodes export as export_vlnce (habitat-lab's R2RVLN-v1) or export_r2r",
-        ));
-    }
+    let exports = habitat_export
+        .as_ref()
+        .map(|_| EpisodeExport::Habitat)
+        .into_iter()
+        .chain(vln_export.as_ref().map(|(f, _)| EpisodeExport::Vln(*f)));
+    check_options(task, [bins.0, bins.1], exports).map_err(|e| match e {
+        EpisodeOptionsError::BinsOutOfOrder { .. } => bad_input(format!("bins: {e}, e.g. (3, 6)")),
+        EpisodeOptionsError::VlnExportOfOtherTask { format, .. } => bad_input(format!(
+            "export_{}: {e} (task=\"vln\")",
+            EpisodeExport::Vln(format).term_name()
+        )),
+        EpisodeOptionsError::HabitatExportOfVln => bad_input(format!(
+            "export_habitat: {e} (export_vlnce= or export_r2r=)"
+        )),
+    })?;
     let scene_names = SceneIdStyle {
         prefix: scene_prefix.to_string(),
         suffix: scene_suffix.to_string(),
@@ -377,8 +375,7 @@ pub fn sample_episodes<'py>(
         ratio_rule,
         min_doors,
         min_rooms: min_rooms.unwrap_or_else(|| default_min_rooms(task)),
-        // As the CLI: ObjectGoal keeps to one floor unless told otherwise.
-        same_level: same_level.unwrap_or(task == Task::ObjectGoal),
+        same_level: same_level.unwrap_or_else(|| default_same_level(task)),
         bins: [bins.0, bins.1],
         stratified,
         max_steps,
@@ -483,13 +480,13 @@ pub fn run<'py>(
     let report = py
         .detach(|| -> anyhow::Result<_> {
             let kind = AgentKind::from_name(agent).context("agent")?;
-            let mut eps = read_episodes(&episodes_file)?;
-            if let Some(name) = variant {
-                data.read_variant(name)
-                    .with_context(|| format!("variant={name:?}"))?;
-                eps = eps.into_iter().map(|e| e.on_variant(name)).collect();
-            }
-            kind.check_covers(agent, &eps, shard).context("agent")?;
+            let eps = run_episodes_of(&data, &episodes_file, variant, &kind, agent, shard)
+                .map_err(|e| match e {
+                    RunEpisodesError::Variant(_) => anyhow::Error::new(e)
+                        .context(format!("variant={:?}", variant.unwrap_or_default())),
+                    RunEpisodesError::Agent(_) => anyhow::Error::new(e).context("agent"),
+                    e => e.into(),
+                })?;
             let cfg = RunConfig {
                 batch,
                 data: data.clone(),

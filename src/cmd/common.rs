@@ -6,9 +6,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
-use anyhow::Context as _;
 use indicatif::{ProgressBar, ProgressStyle};
-use minos::episode::Episode;
 use minos::lock::LockMode;
 use minos::pipeline::split::{scenes_of, ScenesError};
 use minos::sim::{SensorSuite, SuiteName};
@@ -221,21 +219,6 @@ where
             .aliases(t.aliases.iter().copied())
     });
     PossibleValuesParser::new(values).try_map(|name: String| T::parse_name(&name))
-}
-
-/// Moves `episodes` onto variant `name` of their scenes (`--variant` of `run` and `serve`)
-/// after checking that the DATA folder defines it.
-pub fn on_variant(
-    data: &DataDir,
-    name: Option<&str>,
-    episodes: Vec<Episode>,
-) -> anyhow::Result<Vec<Episode>> {
-    let Some(name) = name else {
-        return Ok(episodes);
-    };
-    data.read_variant(name)
-        .with_context(|| format!("--variant {name}"))?;
-    Ok(episodes.into_iter().map(|e| e.on_variant(name)).collect())
 }
 
 /// The most worker threads `--threads` accepts: far above any machine's cores, low enough

@@ -5,6 +5,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
 
+use minos::io::run_dir::RunDir;
 use minos::pipeline::demo::{DemoJob, DemoObserver, DemoStage};
 use minos::progress::Progress;
 use minos::run::metrics::render_table;
@@ -154,8 +155,8 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         d = report.data.display(),
         id = report.first_scene.as_deref().unwrap_or("ID"),
         e = report.episodes.join("pointgoal.parquet").display(),
-        r = report.run.join("observations.parquet").display(),
-        lr = report.run.join("lerobot").display(),
+        r = RunDir::new(&report.run).observations().display(),
+        lr = RunDir::new(&report.run).lerobot().display(),
         demos = args.out.join("demos").display(),
     ));
     Ok(

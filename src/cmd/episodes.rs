@@ -14,8 +14,9 @@ use minos::episode::sample::{SampleConfig, Select};
 use minos::episode::vln::export::{EpisodeExport, VlnFormat};
 use minos::episode::Task;
 use minos::pipeline::episodes::{
-    default_min_geodesic, default_min_rooms, default_success_radius, expand_categories, import_job,
-    parse_room_classes, run_job, select_scenes, EpisodesJob, EpisodesJobError, ImportJob, Stratify,
+    check_options, default_min_geodesic, default_min_rooms, default_same_level,
+    default_success_radius, expand_categories, import_job, parse_room_classes, run_job,
+    select_scenes, EpisodeOptionsError, EpisodesJob, EpisodesJobError, ImportJob, Stratify,
 };
 use minos::shard::ShardSpec;
 use minos::split::Subset;
@@ -217,9 +218,9 @@ pub fn config(a: &SampleArgs) -> anyhow::Result<EpisodesJob> {
         bail!("--subset needs --split (without one, every ingested scene is used)");
     }
     let data = DataDir::new(data);
-    if a.bins.len() != 2 || a.bins[0] > a.bins[1] {
+    let [easy, hard] = a.bins[..] else {
         bail!("--bins: expected two increasing distances, e.g. 3,6");
-    }
+    };
     let export = match a.export.as_deref() {
         None => None,
         Some([format, dir]) => Some((
@@ -228,24 +229,19 @@ pub fn config(a: &SampleArgs) -> anyhow::Result<EpisodesJob> {
         )),
         Some(other) => bail!("--export: expected FORMAT DIR, got {} values", other.len()),
     };
+    check_options(task, [easy, hard], export.as_ref().map(|(e, _)| *e)).map_err(|e| match e {
+        EpisodeOptionsError::BinsOutOfOrder { .. } => anyhow::anyhow!("--bins: {e}, e.g. 3,6"),
+        EpisodeOptionsError::VlnExportOfOtherTask { format, .. } => anyhow::anyhow!(
+            "--export {}: {e} (--task vln)",
+            EpisodeExport::Vln(format).term_name()
+        ),
+        EpisodeOptionsError::HabitatExportOfVln => anyhow::anyhow!("--export habitat: {e}"),
+    })?;
     let (habitat_export, vln_export) = match export {
         None => (None, None),
         Some((EpisodeExport::Habitat, dir)) => (Some(dir), None),
-        Some((EpisodeExport::Vln(format), dir)) => {
-            if task != Task::Vln {
-                bail!(
-                    "--export {}: VLN exports need --task vln",
-                    EpisodeExport::Vln(format).term_name()
-                );
-            }
-            (None, Some((format, dir)))
-        }
+        Some((EpisodeExport::Vln(format), dir)) => (None, Some((format, dir))),
     };
-    if task == Task::Vln && habitat_export.is_some() {
-        bail!(
-            "--export habitat: VLN episodes export as `vlnce` (habitat-lab's R2RVLN-v1) or `r2r`"
-        );
-    }
     if a.multi_level && task != Task::ObjectGoal {
         bail!("--multi-level: only ObjectGoal keeps to one level by default; other tasks already span levels");
     }
@@ -286,8 +282,8 @@ pub fn config(a: &SampleArgs) -> anyhow::Result<EpisodesJob> {
         ratio_rule: !a.no_ratio_rule,
         min_doors: a.min_doors,
         min_rooms: a.min_rooms.unwrap_or(default_min_rooms(task)),
-        same_level: a.same_level || (task == Task::ObjectGoal && !a.multi_level),
-        bins: [a.bins[0], a.bins[1]],
+        same_level: a.same_level || (default_same_level(task) && !a.multi_level),
+        bins: [easy, hard],
         stratified,
         max_steps: a.max_steps,
         ..SampleConfig::default()
@@ -414,7 +410,10 @@ mod tests {
         assert!(err.to_string().contains("--data"), "{err}");
         let base = "--data /nonexistent --task pointgoal --split s --out o.parquet";
         let err = config_of(&format!("{base} --bins 6,3")).unwrap_err();
-        assert!(err.to_string().starts_with("--bins"), "{err}");
+        assert_eq!(
+            err.to_string(),
+            "--bins: expected two increasing distances, e.g. 3,6"
+        );
         let err = config_of(&format!("{base} --export hm3d dir")).unwrap_err();
         assert!(err.to_string().contains("unknown format `hm3d`"), "{err}");
         let err = config_of(&format!("{base} --scene-suffix x/.glb")).unwrap_err();
@@ -547,9 +546,15 @@ mod tests {
         let j = job("--task vln --export r2r out").unwrap();
         assert_eq!(j.vln_export, Some((VlnFormat::R2r, PathBuf::from("out"))));
         let err = job("--task pointgoal --export vlnce out").unwrap_err();
-        assert!(err.to_string().contains("need --task vln"), "{err}");
+        assert_eq!(
+            err.to_string(),
+            "--export vlnce: VLN exports need task `vln`, not `pointgoal` (--task vln)"
+        );
         let err = job("--task vln --export habitat out").unwrap_err();
-        assert!(err.to_string().contains("vlnce"), "{err}");
+        assert_eq!(
+            err.to_string(),
+            "--export habitat: VLN episodes export as `vlnce` (habitat-lab's R2RVLN-v1) or `r2r`"
+        );
     }
 
     #[test]

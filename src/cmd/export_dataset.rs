@@ -1,15 +1,13 @@
 //! `minos export-dataset`: flags → [`ExportConfig`] ([`config`]) →
 //! [`minos::io::lerobot::write_dataset`]; prints what was written.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::ExitCode;
 
-use anyhow::Context as _;
-use minos::io::lerobot::{
-    fps_of_step, write_dataset_of, DatasetLayout, DatasetOptions, DemoSource, RunTables,
-};
-use minos::pipeline::rollout::LEROBOT_ROBOT_TYPE;
-use minos::serve::campaign::record::{SessionQc, QC_FILE};
+use minos::io::lerobot::source::RunTables;
+use minos::io::lerobot::{write_dataset_of, DatasetLayout, DatasetOptions, DemoSource};
+use minos::io::run_dir::RunDir;
+use minos::serve::campaign::record::SessionQc;
 
 use super::common::vocab;
 use super::Context;
@@ -78,77 +76,54 @@ pub struct ExportConfig {
     pub options: DatasetOptions,
 }
 
-/// The agent's step (`body.dt`) recorded in a run's manifest.
-fn manifest_step(run: &Path) -> anyhow::Result<f32> {
-    let path = run.join("manifest.json");
-    let text = std::fs::read_to_string(&path).with_context(|| {
-        format!(
-            "{}: cannot read the run's manifest (give --fps)",
-            path.display()
-        )
-    })?;
-    let manifest: serde_json::Value =
-        serde_json::from_str(&text).with_context(|| format!("{}: not JSON", path.display()))?;
-    let dt = manifest
-        .pointer("/body/dt")
-        .and_then(|v| v.as_f64())
-        .filter(|dt| dt.is_finite() && *dt > 0.0)
-        .with_context(|| format!("{}: body.dt: not a positive number", path.display()))?;
-    Ok(dt as f32)
-}
-
-/// Flags → what to export (reads the run's manifest.json for the frame rate).
+/// Flags → what to export (reads the first run's manifest.json for the frame rate and the
+/// configuration the dataset records).
 pub fn config(args: &Args) -> anyhow::Result<ExportConfig> {
     let DatasetLayout::Lerobot = args.format;
-    let mut runs = args.run.clone();
+    let mut runs: Vec<RunDir> = args.run.iter().map(RunDir::new).collect();
     if let Some(state) = &args.campaign_state {
         // Sessions that finished no episode have no tables.
         runs.extend(
             minos::serve::campaign::session_folders(state)?
                 .into_iter()
-                .filter(|s| s.join("episodes.parquet").is_file()),
+                .map(RunDir::new)
+                .filter(|s| s.episodes().is_file()),
         );
     }
-    let Some(first) = runs.first().cloned() else {
+    let Some(first) = runs.first() else {
         anyhow::bail!("no run to export (the campaign has no session yet)");
     };
-    let fps = match args.fps {
-        Some(fps) => fps,
-        None => fps_of_step(manifest_step(&first)?),
-    };
+    // Without --fps, the frame rate is the manifest's: its errors say how to do without.
+    let options = DatasetOptions::of_run(first, args.fps, args.video)
+        .map_err(|e| anyhow::anyhow!("{} (give --fps)", minos::escape::error_line(&e)))?;
     let mut sources = Vec::with_capacity(runs.len());
     for run in &runs {
         let keep = if args.accepted {
-            if !run.join(QC_FILE).is_file() {
+            if !run.qc().is_file() {
                 anyhow::bail!(
                     "{}: no quality records (qc.json): --accepted needs a campaign session",
-                    run.display()
+                    run.root().display()
                 );
             }
-            Some(SessionQc::load(run)?.accepted().into_iter().collect())
+            Some(
+                SessionQc::load(run.root())?
+                    .accepted()
+                    .into_iter()
+                    .collect(),
+            )
         } else {
             None
         };
         sources.push(DemoSource {
-            tables: RunTables::in_dir(run),
+            tables: RunTables::in_dir(run.root()),
             keep,
         });
     }
-    let run_dir = &first;
     Ok(ExportConfig {
         sources,
-        tables: RunTables::in_dir(run_dir),
+        tables: RunTables::in_dir(first.root()),
         out: args.out.clone(),
-        options: DatasetOptions {
-            fps,
-            robot_type: LEROBOT_ROBOT_TYPE.into(),
-            // The run's configuration, when its manifest is there to read.
-            run: std::fs::read(run_dir.join("manifest.json"))
-                .ok()
-                .and_then(|b| serde_json::from_slice(&b).ok())
-                .map(|m| minos::io::lerobot::run_configuration(&m)),
-            video: args.video,
-        },
+        options,
     })
 }
 
@@ -186,6 +161,7 @@ mod tests {
         // No manifest and no --fps: one error naming the manifest.
         let e = config(&flags("")).expect_err("no manifest").to_string();
         assert!(e.contains("manifest.json"), "{e}");
+        assert!(e.ends_with("(give --fps)"), "{e}");
         assert_eq!(config(&flags("--fps 30")).expect("given").options.fps, 30);
         std::fs::write(dir.path().join("manifest.json"), r#"{"body": {"dt": 0.1}}"#)
             .expect("write");
@@ -194,7 +170,13 @@ mod tests {
         assert_eq!(cfg.tables.episodes, dir.path().join("episodes.parquet"));
         std::fs::write(dir.path().join("manifest.json"), r#"{"body": {"dt": -1}}"#).expect("write");
         let e = config(&flags("")).expect_err("bad dt").to_string();
-        assert!(e.contains("body.dt"), "{e}");
+        assert!(e.contains("body.dt: not a positive number"), "{e}");
+        // With --fps the manifest's step is not needed, its configuration still recorded.
+        let cfg = config(&flags("--fps 5")).expect("given");
+        assert_eq!(
+            cfg.options.run,
+            Some(serde_json::json!({"body": {"dt": -1}}))
+        );
         assert!(parse_flags::<Args>(&format!("--run {run} --out x --fps 0")).is_err());
     }
 }

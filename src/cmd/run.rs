@@ -7,12 +7,11 @@ use std::process::ExitCode;
 
 use anyhow::Context as _;
 use minos::body::AgentPreset;
-use minos::episode::format::read_episodes;
 use minos::episode::Episode;
 use minos::io::image_codec::ImageEncoding;
 use minos::pipeline::rollout::{
-    run_with as run_episodes, AgentKind, Provenance, RerunOutput, RolloutError, RunConfig,
-    RunFormat,
+    run_episodes_of, run_with as run_episodes, AgentKind, Provenance, RerunOutput, RolloutError,
+    RunConfig, RunEpisodesError, RunFormat,
 };
 use minos::render::RendererChoice;
 use minos::run::metrics::render_table;
@@ -21,7 +20,7 @@ use minos::shard::ShardSpec;
 use minos::sim::{AgentConfig, SensorSuite};
 use minos::store::DataDir;
 
-use super::common::{on_variant, sensor_suite, sensors_help, vocab};
+use super::common::{sensor_suite, sensors_help, vocab};
 use super::Context;
 
 /// Roll out episodes with an agent, writing Parquet datasets (trajectories, observations,
@@ -136,18 +135,19 @@ pub fn config(args: &Args) -> anyhow::Result<(RunConfig, Vec<Episode>)> {
     let sensors = sensor_suite(args.sensors.as_deref(), args.size, || {
         SensorSuite::for_preset(preset, args.size)
     })?;
-    let episodes = on_variant(
-        &data,
-        args.variant.as_deref(),
-        read_episodes(&args.episodes)?,
-    )?;
     let shard = args
         .shard
         .resolve(|k| std::env::var(k).ok())
         .map_err(anyhow::Error::msg)?;
-    agent
-        .check_covers(&args.agent, &episodes, shard)
-        .context("--agent")?;
+    let variant = args.variant.as_deref();
+    let episodes = run_episodes_of(&data, &args.episodes, variant, &agent, &args.agent, shard)
+        .map_err(|e| match e {
+            RunEpisodesError::Variant(_) => {
+                anyhow::Error::new(e).context(format!("--variant {}", variant.unwrap_or_default()))
+            }
+            RunEpisodesError::Agent(_) => anyhow::Error::new(e).context("--agent"),
+            e => e.into(),
+        })?;
     let cfg = RunConfig {
         batch: args.batch.map(|b| b as usize),
         data,

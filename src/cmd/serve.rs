@@ -11,6 +11,7 @@ use anyhow::{bail, Context as _};
 use minos::body::AgentPreset;
 use minos::episode::format::read_episodes;
 use minos::io::image_codec::ImageEncoding;
+use minos::pipeline::rollout::episodes_on_variant;
 use minos::render::RendererChoice;
 use minos::run::metrics::Reward;
 use minos::serve::campaign::CampaignSpec;
@@ -22,7 +23,7 @@ use minos::serve::ServeConfig;
 use minos::sim::{AgentConfig, SensorSuite};
 use minos::store::DataDir;
 
-use super::common::{on_variant, sensor_suite, sensors_help, vocab};
+use super::common::{sensor_suite, sensors_help, vocab};
 
 /// The environment variable an access token may come from (out of sight of `ps`).
 pub const ACCESS_TOKEN_ENV: &str = "MINOS_ACCESS_TOKEN";
@@ -190,7 +191,11 @@ pub fn config(args: &Args, env: Option<String>) -> anyhow::Result<(ServeConfig, 
         Some(path) => read_episodes(path)?,
         None => Vec::new(),
     };
-    let episodes = on_variant(&data, args.variant.as_deref(), episodes)?;
+    let episodes = match args.variant.as_deref() {
+        Some(name) => episodes_on_variant(&data, Some(name), episodes)
+            .with_context(|| format!("--variant {name}"))?,
+        None => episodes,
+    };
     // A campaign's agent and sensors win over the flags.
     let preset = spec.as_ref().and_then(|c| c.preset).unwrap_or(args.preset);
     let size = spec.as_ref().and_then(|c| c.size).unwrap_or(args.size);

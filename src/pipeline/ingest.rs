@@ -147,7 +147,7 @@ impl IngestConfig {
 }
 
 /// How one scene went.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Outcome {
     /// Loaded from its sources and compiled.
     Compiled,
@@ -155,6 +155,31 @@ pub enum Outcome {
     UpToDate,
     /// It failed (the row holds the error).
     Failed,
+}
+
+/// The outcomes' names, as reports (Python's `ingest`) give them.
+impl crate::vocab::Vocabulary for Outcome {
+    const WHAT: &'static str = "ingest outcome";
+    const TERMS: &'static [crate::vocab::Term<Self>] = &[
+        crate::vocab::Term {
+            value: Outcome::Compiled,
+            name: "compiled",
+            aliases: &[],
+            help: "loaded from its sources and compiled",
+        },
+        crate::vocab::Term {
+            value: Outcome::UpToDate,
+            name: "up_to_date",
+            aliases: &[],
+            help: "its compiled scene was up to date",
+        },
+        crate::vocab::Term {
+            value: Outcome::Failed,
+            name: "failed",
+            aliases: &[],
+            help: "it failed (its manifest row holds the error)",
+        },
+    ];
 }
 
 /// What ingest did.

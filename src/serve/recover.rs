@@ -9,6 +9,7 @@
 use std::path::Path;
 
 use super::session::{run_config, Shared};
+use crate::io::run_dir::RunDir;
 use crate::lock::LOCK_FILE;
 use crate::pipeline::rollout::finish_live;
 
@@ -25,7 +26,7 @@ pub fn finish_sessions(shared: &Shared) {
     };
     let mut names: Vec<String> = entries
         .filter_map(Result::ok)
-        .filter(|e| e.path().join(".parts").is_dir())
+        .filter(|e| RunDir::new(e.path()).parts().is_dir())
         .filter_map(|e| e.file_name().to_str().map(str::to_string))
         .collect();
     names.sort();

@@ -10,6 +10,7 @@ use std::path::Path;
 
 use super::session::{run_config, Shared};
 use crate::episode::Episode;
+use crate::io::run_dir::RunDir;
 use crate::io::tables::{read_replay, TableError};
 use crate::pipeline::rollout::{load_simulator, SceneLoadError};
 use crate::run::agents::Decision;
@@ -42,9 +43,9 @@ pub enum ReplayError {
 /// The decisions session folder `dir` recorded for `episode_id`, in step order: from its
 /// trajectory table once the session has ended, otherwise from the episode's part file.
 pub fn recorded_decisions(dir: &Path, episode_id: &str) -> Result<Vec<Decision>, ReplayError> {
-    let table = dir.join("trajectories.parquet");
-    let mut files = vec![table];
-    if let Ok(entries) = std::fs::read_dir(dir.join(".parts")) {
+    let run = RunDir::new(dir);
+    let mut files = vec![run.trajectories()];
+    if let Ok(entries) = std::fs::read_dir(run.parts()) {
         let mut parts: Vec<_> = entries
             .filter_map(Result::ok)
             .map(|e| e.path())

@@ -22,6 +22,7 @@ use crate::episode::sample::SampleConfig;
 use crate::episode::{Episode, Task};
 use crate::invalid::Invalid;
 use crate::io::image_codec::ImageEncoding;
+use crate::io::run_dir::RunDir;
 use crate::lock::LockMode;
 use crate::pipeline::episodes::sample_scenes;
 use crate::pipeline::rollout::{
@@ -274,7 +275,7 @@ pub fn run_session(
 
 /// The episode file a session's replay reads: its own `played.parquet`.
 fn cfg_episodes_file(shared: &Shared, name: &str) -> PathBuf {
-    shared.out.join(name).join(crate::pipeline::rollout::PLAYED)
+    RunDir::new(shared.out.join(name)).played()
 }
 
 /// The wall-clock times of an episode's actions (for its quality record; never in the

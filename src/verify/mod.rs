@@ -173,7 +173,7 @@ pub fn detect(path: &Path) -> Result<OutputKind, VerifyError> {
     }
     if path.join("meta/info.json").is_file() {
         Ok(OutputKind::Lerobot)
-    } else if path.join("manifest.json").is_file() && path.join("trajectories.parquet").exists() {
+    } else if crate::io::run_dir::RunDir::new(path).is_run() {
         Ok(OutputKind::Run)
     } else if path.join("houses.parquet").exists() {
         Ok(OutputKind::Data)

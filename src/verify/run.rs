@@ -10,30 +10,32 @@ use arrow::datatypes::DataType;
 use super::{checksums, lerobot, quote, read_json, tables, Found};
 use crate::invalid::Invalid;
 use crate::io::image_codec::{decode_cell, CellFormat};
+use crate::io::run_dir::{RunDir, MANIFEST, TRAJECTORIES};
 use crate::parquet_io::read_batches;
 use crate::progress::Progress;
 
 /// Checks the run folder `root`.
 pub(super) fn check(root: &Path, found: &mut Found, progress: &dyn Progress) {
-    let manifest_path = root.join("manifest.json");
+    let run = RunDir::new(root);
+    let manifest_path = run.manifest();
     if let Some(manifest) = read_json(&manifest_path, found) {
         checksums::check(
             root,
             &manifest_path,
             manifest.get("files"),
-            Some(&["manifest.json"]),
+            Some(&[MANIFEST]),
             found,
             progress,
         );
     }
-    let traj_path = root.join("trajectories.parquet");
+    let traj_path = run.trajectories();
     let steps = trajectories(&traj_path, found);
     if let Some(steps) = &steps {
-        observations(&root.join("observations.parquet"), steps, found);
+        observations(&run.observations(), steps, found);
     }
-    let episodes = episodes(&root.join("episodes.parquet"), steps.as_ref(), found);
+    let episodes = episodes(&run.episodes(), steps.as_ref(), found);
     if let Some(ids) = &episodes {
-        metrics(&root.join("metrics.json"), ids, found);
+        metrics(&run.metrics(), ids, found);
     }
     if let Some(steps) = &steps {
         found.checked.push(format!(
@@ -42,7 +44,7 @@ pub(super) fn check(root: &Path, found: &mut Found, progress: &dyn Progress) {
             steps.rows.len()
         ));
     }
-    let copy = root.join("lerobot");
+    let copy = run.lerobot();
     if copy.join("meta/info.json").is_file() {
         let frames = lerobot::check_dataset(&copy, found);
         if let (Some(frames), Some(steps)) = (frames, &steps) {
@@ -251,7 +253,7 @@ fn episodes(path: &Path, steps: Option<&Steps>, found: &mut Found) -> Option<Vec
         extra.sort();
         for id in extra {
             found.problem(
-                &path.with_file_name("trajectories.parquet"),
+                &path.with_file_name(TRAJECTORIES),
                 format!("episode `{id}`"),
                 "not in episodes.parquet",
             );

@@ -54,6 +54,7 @@ use parquet::file::metadata::KeyValue;
 use parquet::file::properties::{EnabledStatistics, WriterProperties, WriterPropertiesBuilder};
 
 use crate::atomic::{sweep_stale_of, write_bytes_atomic};
+use crate::io::run_dir::{RunDir, RunManifest, RunManifestError};
 use crate::parquet_io::ParquetFileError;
 use crate::progress::Progress;
 pub use data::FrameError;
@@ -62,7 +63,7 @@ use features::FeatureError;
 pub use meta::FileIndex;
 pub use meta::CODEBASE_VERSION;
 use meta::{EpisodeMeta, VideoPlace};
-pub use source::RunTables;
+use source::RunTables;
 
 /// The dataset layouts `minos export-dataset` writes, by name (one so far).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -236,25 +237,53 @@ pub struct DatasetOptions {
     /// `robot_type` in `info.json`.
     pub robot_type: String,
     /// The run's configuration as its `manifest.json` records it, without the keys that differ
-    /// between the shards of one run or name this copy (see [`run_configuration`]); written
-    /// into `meta/provenance.json` as `run`.
+    /// between the shards of one run or name this copy (see [`RunManifest::configuration`]);
+    /// written into `meta/provenance.json` as `run`.
     pub run: Option<serde_json::Value>,
     /// Colour cameras as video features (H.264 in MP4 under `videos/`, lossy, ≈ 10–30×
     /// smaller) rather than lossless image files in the data files.
     pub video: bool,
 }
 
-/// The run configuration a LeRobot copy records: the run manifest `manifest` without
-/// `command`, `rerun` and `files` (a run's shards merged give the same dataset, and the same
-/// record, as the unsharded run; the command stays in the run folder's `manifest.json`).
-pub fn run_configuration(manifest: &serde_json::Value) -> serde_json::Value {
-    let mut m = manifest.clone();
-    if let Some(map) = m.as_object_mut() {
-        for key in ["command", "rerun", "files"] {
-            map.remove(key);
+/// `robot_type` of a run's LeRobot copy.
+pub const ROBOT_TYPE: &str = "minos-agent";
+
+impl DatasetOptions {
+    /// The options of the copy of the run whose manifest is `manifest`: `fps` frames per
+    /// second, or by default the agent's steps per second (its `body.dt`); the run's
+    /// configuration recorded; colour cameras as video with `video`.
+    pub fn of_manifest(
+        manifest: &RunManifest,
+        fps: Option<u32>,
+        video: bool,
+    ) -> Result<Self, RunManifestError> {
+        let fps = match fps {
+            Some(fps) => fps,
+            None => fps_of_step(manifest.step()?),
+        };
+        Ok(DatasetOptions {
+            fps,
+            robot_type: ROBOT_TYPE.into(),
+            run: Some(manifest.configuration()),
+            video,
+        })
+    }
+
+    /// The options of the copy of the run folder `run`, from its manifest as
+    /// [`DatasetOptions::of_manifest`] says; with `fps` given, a manifest that cannot be
+    /// read is no error (the copy then records no configuration).
+    pub fn of_run(run: &RunDir, fps: Option<u32>, video: bool) -> Result<Self, RunManifestError> {
+        match (run.read_manifest(), fps) {
+            (Ok(manifest), fps) => Self::of_manifest(&manifest, fps, video),
+            (Err(_), Some(fps)) => Ok(DatasetOptions {
+                fps,
+                robot_type: ROBOT_TYPE.into(),
+                run: None,
+                video,
+            }),
+            (Err(e), None) => Err(e),
         }
     }
-    m
 }
 
 /// What was written.

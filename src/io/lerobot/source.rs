@@ -13,6 +13,7 @@ use super::features::Camera;
 use super::LerobotError;
 use crate::invalid::Invalid;
 use crate::io::image_codec::{decode_cell, modality_from_name, CellFormat};
+use crate::io::run_dir::RunDir;
 use crate::parquet_io::{column, read_batches};
 use crate::render::{Image, Modality};
 use crate::run::agents::Decision;
@@ -33,10 +34,11 @@ pub struct RunTables {
 impl RunTables {
     /// The tables of the run folder `dir`.
     pub fn in_dir(dir: &Path) -> RunTables {
+        let run = RunDir::new(dir);
         RunTables {
-            trajectories: dir.join("trajectories.parquet"),
-            observations: dir.join("observations.parquet"),
-            episodes: dir.join("episodes.parquet"),
+            trajectories: run.trajectories(),
+            observations: run.observations(),
+            episodes: run.episodes(),
         }
     }
 }

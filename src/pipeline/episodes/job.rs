@@ -9,7 +9,9 @@ use std::path::{Path, PathBuf};
 use crate::body::{AgentPreset, BodyRule};
 use crate::episode::habitat::{export_habitat, HabitatError, SceneIdStyle};
 use crate::episode::sample::{category_preset, SampleConfig};
-use crate::episode::vln::export::{export_r2r, export_vlnce, VlnExportError, VlnFormat};
+use crate::episode::vln::export::{
+    export_r2r, export_vlnce, EpisodeExport, VlnExportError, VlnFormat,
+};
 use crate::episode::Task;
 use crate::file_error::FileError;
 use crate::progress::Progress;
@@ -19,6 +21,7 @@ use crate::shard::Shard;
 use crate::split::{read_split, SplitError, Subset};
 use crate::store::{DataDir, StoreError};
 
+use super::rules::{check_options, EpisodeOptionsError};
 use super::{read_starts, sample_scenes_from, BatchWriteError, EpisodeBatch};
 use crate::episode::format::EpisodeFileError;
 
@@ -68,6 +71,9 @@ pub struct EpisodesOutcome {
 /// Why a job could not run or finish. Messages are one line and name no front-door flag.
 #[derive(Debug, thiserror::Error)]
 pub enum EpisodesJobError {
+    /// The options break a rule ([`check_options`]).
+    #[error(transparent)]
+    Options(#[from] EpisodeOptionsError),
     /// The split's lists could not be read.
     #[error("split `{split}`")]
     Split {
@@ -239,6 +245,12 @@ pub fn default_min_rooms(task: Task) -> u32 {
     }
 }
 
+/// Whether start and goal keep to one level when not said: yes for ObjectGoal, as in
+/// Habitat's 2023 ObjectNav challenge (single-floor episodes); other tasks span levels.
+pub fn default_same_level(task: Task) -> bool {
+    task == Task::ObjectGoal
+}
+
 /// ObjectGoal category names as given → (the categories with presets expanded, whether
 /// `all`); `None` when `all` is given beside others.
 pub fn expand_categories(given: &[String]) -> Option<(Vec<String>, bool)> {
@@ -271,13 +283,20 @@ pub fn parse_room_classes(
         .map(Some)
 }
 
-/// Runs `job`: samples, checks the categories, writes the episode file with its statistics
-/// and provenance, exports.
+/// Runs `job`: checks its options ([`check_options`]), samples, checks the categories,
+/// writes the episode file with its statistics and provenance, exports.
 pub fn run_job(
     job: &EpisodesJob,
     progress: &dyn Progress,
 ) -> Result<EpisodesOutcome, EpisodesJobError> {
     let cfg = &job.sample;
+    let exports = job
+        .habitat_export
+        .as_ref()
+        .map(|_| EpisodeExport::Habitat)
+        .into_iter()
+        .chain(job.vln_export.as_ref().map(|(f, _)| EpisodeExport::Vln(*f)));
+    check_options(cfg.task, cfg.bins, exports)?;
     let starts = match &job.starts {
         Some(path) => Some(read_starts(path).map_err(EpisodesJobError::Starts)?),
         None => None,

@@ -21,12 +21,14 @@ use crate::store::DataDir;
 
 mod import;
 mod job;
+mod rules;
 pub use import::{import_job, ImportJob, ImportJobError, ImportReport};
 pub use job::{
-    default_min_geodesic, default_min_rooms, default_success_radius, expand_categories,
-    parse_room_classes, run_job, select_scenes, EpisodesJob, EpisodesJobError, EpisodesOutcome,
-    Stratify,
+    default_min_geodesic, default_min_rooms, default_same_level, default_success_radius,
+    expand_categories, parse_room_classes, run_job, select_scenes, EpisodesJob, EpisodesJobError,
+    EpisodesOutcome, Stratify,
 };
+pub use rules::{check_options, EpisodeOptionsError};
 
 /// Per-scene outcome in the statistics.
 #[derive(Debug, Clone, Default, Serialize, Deserialize)]

@@ -55,6 +55,9 @@ pub enum MergeError {
         #[source]
         source: serde_json::Error,
     },
+    /// A shard's manifest lacks what the merge needs (the message names the file and field).
+    #[error(transparent)]
+    ShardManifest(crate::io::run_dir::RunManifestError),
     /// A shard's episode file could not be read (the message names it).
     #[error(transparent)]
     ShardEpisodes(crate::episode::format::EpisodeFileError),

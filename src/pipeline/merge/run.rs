@@ -23,6 +23,7 @@ use serde_json::Value;
 use super::{check_shards, recorded_shard, MergeError, MergeReport};
 use crate::atomic::{sweep_stale, write_bytes_atomic};
 use crate::io::rrd::{recordings_of, write_recordings};
+use crate::io::run_dir::{RunDir, RunManifest, RunManifestError};
 use crate::io::tables::{
     copy_row_groups_from, read_table, row_group_episodes, write_episode_batch,
     write_trajectory_pieces,
@@ -51,8 +52,8 @@ const PER_SHARD_KEYS: [&str; 5] = ["command", "shard", "rerun", "scenes", "files
 
 /// One shard's run folder, read.
 struct ShardRun {
-    dir: PathBuf,
-    manifest: Value,
+    dir: RunDir,
+    manifest: RunManifest,
     episodes: RecordBatch,
     failures: Vec<FailedEpisode>,
     lerobot: bool,
@@ -72,19 +73,21 @@ fn write_io(path: &Path) -> impl FnOnce(std::io::Error) -> MergeError + '_ {
 
 /// Reads a shard's manifest, episode table and failures.
 fn read_shard(dir: &Path) -> Result<(ShardRun, Shard), MergeError> {
-    let path = dir.join("manifest.json");
-    let bytes = std::fs::read(&path).map_err(|source| MergeError::Unfinished {
-        manifest: path.clone(),
-        source,
-    })?;
-    let manifest: Value =
-        serde_json::from_slice(&bytes).map_err(|source| MergeError::ShardJson {
-            path: path.clone(),
+    let dir = RunDir::new(dir);
+    let manifest = dir.read_manifest().map_err(|e| match e {
+        RunManifestError::Read { path, source } => MergeError::Unfinished {
+            manifest: path,
             source,
-        })?;
-    let shard = recorded_shard(&path, manifest.get("shard").and_then(Value::as_str))?;
-    let episodes = read_table(&dir.join("episodes.parquet")).map_err(MergeError::ShardTable)?;
-    let metrics_path = dir.join("metrics.json");
+        },
+        RunManifestError::Json { path, source } => MergeError::ShardJson { path, source },
+        e => MergeError::ShardManifest(e),
+    })?;
+    let shard = recorded_shard(
+        manifest.path(),
+        manifest.value().get("shard").and_then(Value::as_str),
+    )?;
+    let episodes = read_table(&dir.episodes()).map_err(MergeError::ShardTable)?;
+    let metrics_path = dir.metrics();
     let metrics: Value = std::fs::read(&metrics_path)
         .map_err(|source| MergeError::ShardIo(FileError::new(&metrics_path, source)))
         .and_then(|b| {
@@ -113,13 +116,14 @@ fn read_shard(dir: &Path) -> Result<(ShardRun, Shard), MergeError> {
             })
         })
         .collect::<Result<Vec<_>, _>>()?;
+    let info = dir.lerobot().join("meta").join("info.json");
     let run = ShardRun {
-        dir: dir.to_path_buf(),
+        dir,
         manifest,
         episodes,
         failures,
-        lerobot: dir.join("lerobot").join("meta").join("info.json").is_file(),
-        lerobot_video: std::fs::read(dir.join("lerobot").join("meta").join("info.json"))
+        lerobot: info.is_file(),
+        lerobot_video: std::fs::read(&info)
             .ok()
             .and_then(|b| serde_json::from_slice::<Value>(&b).ok())
             .is_some_and(|info| info.get("video_path").is_some_and(|p| !p.is_null())),
@@ -141,9 +145,9 @@ fn shared_part(manifest: &Value) -> Value {
 /// Checks that the shards ran the same job (same episodes file, agent, sensors, seed, …).
 fn check_same_job(runs: &[ShardRun]) -> Result<(), MergeError> {
     let first = &runs[0];
-    let reference = shared_part(&first.manifest);
+    let reference = shared_part(first.manifest.value());
     for run in &runs[1..] {
-        let mine = shared_part(&run.manifest);
+        let mine = shared_part(run.manifest.value());
         if mine != reference {
             let keys: BTreeSet<&String> = reference
                 .as_object()
@@ -156,20 +160,20 @@ fn check_same_job(runs: &[ShardRun]) -> Result<(), MergeError> {
                 .find(|k| reference.get(k.as_str()) != mine.get(k.as_str()))
                 .map_or("(structure)".to_string(), |k| format!("`{k}`"));
             return Err(shard_error(
-                &run.dir.join("manifest.json"),
+                run.manifest.path(),
                 format!(
                     "{key} differs from {}: not shards of one run",
-                    first.dir.join("manifest.json").display()
+                    first.manifest.path().display()
                 ),
             ));
         }
         if run.lerobot != first.lerobot {
             return Err(shard_error(
-                &run.dir,
+                run.dir.root(),
                 format!(
                     "has {}a LeRobot copy but {} has {}: not shards of one run",
                     if run.lerobot { "" } else { "no " },
-                    first.dir.display(),
+                    first.dir.root().display(),
                     if first.lerobot { "one" } else { "none" }
                 ),
             ));
@@ -301,14 +305,14 @@ pub fn merge_runs(
     let out = &opts.out;
     let out_abs = std::path::absolute(out).map_err(write_io(out))?;
     for run in &runs {
-        let dir = std::path::absolute(&run.dir)
-            .map_err(|source| MergeError::ShardIo(FileError::new(&run.dir, source)))?;
+        let dir = std::path::absolute(run.dir.root())
+            .map_err(|source| MergeError::ShardIo(FileError::new(run.dir.root(), source)))?;
         if out_abs.starts_with(&dir) || dir.starts_with(&out_abs) {
             return Err(shard_error(
                 out,
                 format!(
                     "the merged folder must lie outside the shard {}",
-                    run.dir.display()
+                    run.dir.root().display()
                 ),
             ));
         }
@@ -318,6 +322,7 @@ pub fn merge_runs(
         .iter()
         .map(|r| {
             r.manifest
+                .value()
                 .get("rerun")
                 .and_then(Value::as_str)
                 .map(PathBuf::from)
@@ -325,13 +330,14 @@ pub fn merge_runs(
         .collect();
     let rerun_episodes = first
         .manifest
+        .value()
         .get("rerun_episodes")
         .and_then(Value::as_u64)
         .unwrap_or(0) as usize;
     match (&opts.rerun, recorded_shards.iter().all(Option::is_some)) {
         (None, true) => {
             return Err(MergeError::RecordingUnnamed {
-                manifest: first.dir.join("manifest.json"),
+                manifest: first.manifest.path().to_path_buf(),
             })
         }
         (Some(p), false) => return Err(MergeError::NothingRecorded { file: p.clone() }),
@@ -346,7 +352,7 @@ pub fn merge_runs(
     let schema = first.episodes.schema();
     let mut owner: BTreeMap<String, (usize, usize)> = BTreeMap::new();
     for (s, run) in runs.iter().enumerate() {
-        let path = run.dir.join("episodes.parquet");
+        let path = run.dir.episodes();
         if run.episodes.schema() != schema {
             return Err(shard_error(&path, "schema differs from the first shard's"));
         }
@@ -376,7 +382,8 @@ pub fn merge_runs(
         .map(|&(s, r)| (offsets[s] + r) as u32)
         .collect();
     let merged = arrow::compute::take_record_batch(&joined, &take).map_err(MergeError::Join)?;
-    let episodes_path = out.join("episodes.parquet");
+    let out_dir = RunDir::new(out);
+    let episodes_path = out_dir.episodes();
     write_episode_batch(&episodes_path, merged.clone()).map_err(MergeError::WriteTable)?;
     progress.advance(1);
 
@@ -403,7 +410,7 @@ pub fn merge_runs(
     // Trajectories: each episode's rows from its shard, re-batched as a run joins its parts.
     let mut trajectories = Vec::new();
     for run in &runs {
-        let path = run.dir.join("trajectories.parquet");
+        let path = run.dir.trajectories();
         let table = read_table(&path).map_err(MergeError::ShardTable)?;
         let ranges = episode_ranges(&table, &path)?;
         trajectories.push((path, table, ranges));
@@ -416,15 +423,11 @@ pub fn merge_runs(
             .ok_or_else(|| shard_error(path, format!("no steps of episode `{id}`")))?;
         pieces.push(table.slice(start, len));
     }
-    write_trajectory_pieces(&out.join("trajectories.parquet"), pieces)
-        .map_err(MergeError::WriteTable)?;
+    write_trajectory_pieces(&out_dir.trajectories(), pieces).map_err(MergeError::WriteTable)?;
     progress.advance(1);
 
     // Observations: each episode's row groups, copied.
-    let obs_paths: Vec<PathBuf> = runs
-        .iter()
-        .map(|r| r.dir.join("observations.parquet"))
-        .collect();
+    let obs_paths: Vec<PathBuf> = runs.iter().map(|r| r.dir.observations()).collect();
     let mut groups_of: BTreeMap<String, Vec<(usize, usize)>> = BTreeMap::new();
     for (s, path) in obs_paths.iter().enumerate() {
         for (g, id) in row_group_episodes(path)
@@ -446,7 +449,7 @@ pub fn merge_runs(
         crate::parquet_io::read_batches_with(&obs_paths[0], |b| Ok(b.with_row_groups(vec![])))
             .map(|r| arrow::array::RecordBatchReader::schema(&r))
             .map_err(|e| MergeError::ShardTable(e.into()))?;
-    copy_row_groups_from(&groups, obs_schema, &out.join("observations.parquet"))
+    copy_row_groups_from(&groups, obs_schema, &out_dir.observations())
         .map_err(MergeError::WriteTable)?;
     progress.advance(1);
 
@@ -486,12 +489,13 @@ pub fn merge_runs(
     }
     progress.advance(1);
 
-    let mut manifest = first.manifest.clone();
+    let mut manifest = first.manifest.value().clone();
     // The shards' scenes, each once, in id order (as one run over all the episodes lists them).
     let mut scenes: Vec<Value> = runs
         .iter()
         .flat_map(|s| {
             s.manifest
+                .value()
                 .get("scenes")
                 .and_then(Value::as_array)
                 .cloned()
@@ -522,13 +526,13 @@ pub fn merge_runs(
     }
 
     if first.lerobot {
-        let dt = first
-            .manifest
-            .pointer("/body/dt")
-            .and_then(Value::as_f64)
-            .ok_or_else(|| shard_error(&first.dir.join("manifest.json"), "no body.dt"))?;
-        write_lerobot(out, dt as f32, Some(&manifest), first.lerobot_video)
+        // The step is the shards' (the merged manifest keeps their `body`): a shard's
+        // manifest without one is the shard's problem.
+        first.manifest.step().map_err(MergeError::ShardManifest)?;
+        let merged = RunManifest::new(out_dir.manifest(), manifest);
+        write_lerobot(&out_dir, &merged, first.lerobot_video)
             .map_err(|e| MergeError::WriteRun(Box::new(e)))?;
+        manifest = merged.into_value();
     }
     progress.advance(1);
 
@@ -536,7 +540,7 @@ pub fn merge_runs(
         manifest["files"] = crate::pipeline::rollout::manifest::files_of(out)
             .map_err(|e| MergeError::WriteRun(Box::new(e)))?;
     }
-    let path = out.join("manifest.json");
+    let path = out_dir.manifest();
     // A JSON value always serialises.
     let bytes = serde_json::to_vec_pretty(&manifest).unwrap_or_default();
     write_bytes_atomic(&path, &bytes).map_err(write_io(&path))?;
@@ -547,9 +551,9 @@ pub fn merge_runs(
         recorded,
         written: vec![
             episodes_path,
-            out.join("metrics.json"),
-            out.join("trajectories.parquet"),
-            out.join("observations.parquet"),
+            out_dir.metrics(),
+            out_dir.trajectories(),
+            out_dir.observations(),
             path,
         ],
     })

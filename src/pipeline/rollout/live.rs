@@ -8,7 +8,7 @@
 //! grows with the episodes already played. When the run ends (the source has no more), the
 //! run's tables, `metrics.json` and `manifest.json` are written once from the finished parts,
 //! in episode-id order, then the finished episodes in the order played as an episode file,
-//! `DIR/played.parquet` ([`PLAYED`]): the `--episodes` of `minos run --agent
+//! `DIR/played.parquet` ([`RunDir::played`]): the `--episodes` of `minos run --agent
 //! replay:DIR/trajectories.parquet`, which gives the same tables. A run killed mid-session
 //! leaves its finished episodes in `DIR/.parts/` and no table; [`finish_live`] (which `minos
 //! serve` calls on its output folder at start-up) writes the outputs from them — the same
@@ -28,14 +28,11 @@ use super::{
 use crate::atomic::{remove_dir_atomic, sweep_stale};
 use crate::episode::format::{read_episodes, write_episodes};
 use crate::episode::Episode;
+use crate::io::run_dir::RunDir;
 use crate::lock::{DirLock, LockMode};
 use crate::navmesh::geodesic::Geodesic;
 use crate::run::agents::Agent;
 use crate::run::metrics::EpisodeMetrics;
-
-/// The episode file of a live run's finished episodes (in the order played), written after
-/// its tables.
-pub const PLAYED: &str = "played.parquet";
 
 /// Extension of the part file that holds an episode of a live run (its episode record).
 const EPISODE_PART: &str = "episode.parquet";
@@ -66,7 +63,7 @@ pub fn run_live(
     mode: LockMode,
 ) -> Result<RunReport, RolloutError> {
     let _lock = DirLock::acquire(&cfg.out, "serve", mode)?;
-    let parts = cfg.out.join(".parts");
+    let parts = RunDir::new(&cfg.out).parts();
     for dir in [cfg.out.as_path(), parts.as_path()] {
         sweep_stale(dir).map_err(io_error(dir))?;
     }
@@ -141,7 +138,7 @@ pub fn run_live(
 /// episodes finished (the folder is then left without tables, as such a run leaves it).
 /// Takes the folder's writer lock (fails at once while a live process holds it).
 pub fn finish_live(cfg: &RunConfig) -> Result<Option<RunReport>, RolloutError> {
-    let parts = cfg.out.join(".parts");
+    let parts = RunDir::new(&cfg.out).parts();
     if !parts.is_dir() {
         return Ok(None);
     }
@@ -291,6 +288,6 @@ impl Live<'_> {
             &mut self.report,
         )?;
         let played: Vec<Episode> = self.played.iter().map(|(_, e, _)| e.clone()).collect();
-        write_episodes(&self.cfg.out.join(PLAYED), &played).map_err(RolloutError::Played)
+        write_episodes(&RunDir::new(&self.cfg.out).played(), &played).map_err(RolloutError::Played)
     }
 }

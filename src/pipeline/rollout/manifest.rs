@@ -6,6 +6,7 @@
 use super::{io_error, RolloutError, RunConfig};
 use crate::atomic::write_bytes_atomic;
 use crate::episode::Episode;
+use crate::io::run_dir::{RunManifest, MANIFEST};
 
 /// The manifest of the run `cfg` but its `files` (`scenes`: the scene ids of its episodes).
 pub fn value<'a>(cfg: &RunConfig, scenes: impl IntoIterator<Item = &'a str>) -> serde_json::Value {
@@ -74,9 +75,10 @@ pub fn first_difference(a: &serde_json::Value, b: &serde_json::Value) -> Option<
 
 /// Writes `manifest` (from [`value`]) as `cfg.out/manifest.json`, last: it adds the checksums
 /// of the folder's other files.
-pub fn write(cfg: &RunConfig, mut manifest: serde_json::Value) -> Result<(), RolloutError> {
+pub fn write(cfg: &RunConfig, manifest: RunManifest) -> Result<(), RolloutError> {
+    let path = manifest.path().to_path_buf();
+    let mut manifest = manifest.into_value();
     manifest["files"] = files_of(&cfg.out)?;
-    let path = cfg.out.join("manifest.json");
     // A JSON value always serialises.
     let bytes = serde_json::to_vec_pretty(&manifest).unwrap_or_default();
     write_bytes_atomic(&path, &bytes).map_err(io_error(&path))
@@ -85,7 +87,6 @@ pub fn write(cfg: &RunConfig, mut manifest: serde_json::Value) -> Result<(), Rol
 /// The checksums of the files of the run folder `out` but `manifest.json` itself (and hidden
 /// ones: `.parts/`, the lock, temporary files), as `manifest.json`'s `files`.
 pub fn files_of(out: &std::path::Path) -> Result<serde_json::Value, RolloutError> {
-    let files =
-        crate::provenance::checksums(out, &["manifest.json"]).map_err(RolloutError::Checksums)?;
+    let files = crate::provenance::checksums(out, &[MANIFEST]).map_err(RolloutError::Checksums)?;
     Ok(serde_json::json!(files))
 }

@@ -19,6 +19,7 @@ internal! {
 mod parts;
 mod preflight;
 mod scene;
+mod setup;
 
 use crate::file_error::FileError;
 use std::collections::{BTreeMap, BTreeSet};
@@ -32,7 +33,9 @@ use crate::atomic::{remove_dir_atomic, sweep_stale, write_bytes_atomic};
 use crate::body::{AgentPreset, BodyMismatch};
 use crate::episode::Episode;
 use crate::io::image_codec::ImageEncoding;
+use crate::io::lerobot::DatasetOptions;
 use crate::io::rrd::RecordingError;
+use crate::io::run_dir::{RunDir, RunManifest, RunManifestError};
 use crate::io::tables::{merge, observation_schema, trajectory_schema};
 use crate::lock::{DirLock, LockError, LockMode};
 use crate::navmesh::geodesic::Geodesic;
@@ -49,14 +52,12 @@ use crate::render::RendererChoice;
 pub use agent_kind::{AgentKind, AgentNameError, AGENT_NAMES};
 pub use episode::EpisodeError;
 pub use failure::EpisodeFailure;
-pub use live::{finish_live, run_live, EpisodeSource, PLAYED};
+pub use live::{finish_live, run_live, EpisodeSource};
 use parts::part;
 pub use parts::{PartDone, PartError};
 use scene::SceneRun;
 pub use scene::{load as load_simulator, load_assets as load_scene_assets, SceneLoadError};
-
-/// `robot_type` of a run's LeRobot copy.
-pub const LEROBOT_ROBOT_TYPE: &str = "minos-agent";
+pub use setup::{episodes_on_variant, run_episodes_of, RunEpisodesError};
 
 /// What a run does.
 #[derive(Debug, Clone)]
@@ -191,6 +192,9 @@ pub enum RolloutError {
     /// The LeRobot copy could not be written.
     #[error("lerobot")]
     Lerobot(#[from] crate::io::lerobot::LerobotError),
+    /// The run's manifest lacks what its LeRobot copy needs.
+    #[error(transparent)]
+    Manifest(#[from] RunManifestError),
     /// The output folder holds finished episodes of an interrupted run that is not this one
     /// (another configuration or other episodes), or that left no record of what it was and
     /// the run was not asked to resume: starting over would silently discard them.
@@ -354,7 +358,8 @@ pub fn run_with(
     let mine = select(episodes, cfg.shard);
     preflight::check(cfg, &mine)?;
     let _lock = DirLock::acquire(&cfg.out, "run", mode)?;
-    let parts = cfg.out.join(".parts");
+    let run_dir = RunDir::new(&cfg.out);
+    let parts = run_dir.parts();
     let recording_dir = cfg.rerun.as_ref().and_then(|r| r.path.parent());
     for dir in [
         Some(cfg.out.as_path()),
@@ -369,7 +374,7 @@ pub fn run_with(
     let record = manifest::unfinished_record(cfg, &mine);
     keep_or_clear_parts(cfg, &parts, &record)?;
     std::fs::create_dir_all(&parts).map_err(io_error(&parts))?;
-    let record_path = parts.join(UNFINISHED_RECORD);
+    let record_path = run_dir.unfinished_record();
     // A JSON value always serialises.
     let record_bytes = serde_json::to_vec_pretty(&record).unwrap_or_default();
     write_bytes_atomic(&record_path, &record_bytes).map_err(io_error(&record_path))?;
@@ -425,10 +430,6 @@ pub fn run_with(
     Ok(report)
 }
 
-/// The file in `OUT/.parts/` recording what the unfinished run is
-/// ([`manifest::unfinished_record`]).
-const UNFINISHED_RECORD: &str = "run.json";
-
 /// What an earlier, unfinished run left in `parts` is kept when it is this run (its record
 /// equal to `record`; or, without a record, when `cfg.resume` says so) and removed when none
 /// of its episodes finished; finished episodes of another run are never silently removed.
@@ -444,7 +445,8 @@ fn keep_or_clear_parts(
     if finished == 0 {
         return remove_dir_atomic(parts).map_err(io_error(parts));
     }
-    let earlier = std::fs::read(parts.join(UNFINISHED_RECORD))
+    let run_dir = RunDir::new(&cfg.out);
+    let earlier = std::fs::read(run_dir.unfinished_record())
         .ok()
         .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok());
     let interrupted = |differs: Option<String>| RolloutError::Interrupted {
@@ -455,7 +457,7 @@ fn keep_or_clear_parts(
     };
     // A run that finished (its manifest written last) with failed episodes keeps its parts,
     // to retry those; another run over it replaces it, as over any finished run.
-    let finished_run = cfg.out.join("manifest.json").is_file();
+    let finished_run = run_dir.manifest().is_file();
     match earlier {
         Some(earlier) => match manifest::first_difference(&earlier, record) {
             None => Ok(()),
@@ -664,16 +666,13 @@ fn finish(
         .iter()
         .map(|(i, _)| part(parts, *i, "obs.parquet"))
         .collect();
-    merge(
-        &traj_parts,
-        trajectory_schema(),
-        &cfg.out.join("trajectories.parquet"),
-    )
-    .map_err(RolloutError::Table)?;
+    let run_dir = RunDir::new(&cfg.out);
+    merge(&traj_parts, trajectory_schema(), &run_dir.trajectories())
+        .map_err(RolloutError::Table)?;
     merge(
         &obs_parts,
         observation_schema(&cfg.sensors.cameras, cfg.encoding),
-        &cfg.out.join("observations.parquet"),
+        &run_dir.observations(),
     )
     .map_err(RolloutError::Table)?;
     // Every episode of the shard, in episode order: failed ones count as failures.
@@ -709,7 +708,7 @@ fn finish(
             )
         })
         .collect();
-    crate::io::tables::write_episode_table(&cfg.out.join("episodes.parquet"), &report.episodes)
+    crate::io::tables::write_episode_table(&run_dir.episodes(), &report.episodes)
         .map_err(RolloutError::Table)?;
     let metrics: Vec<(&str, EpisodeMetrics)> = report
         .episodes
@@ -726,14 +725,12 @@ fn finish(
         crate::io::rrd::concat(&recordings, &rerun.path)?;
         report.recorded = recordings.len();
     }
-    let manifest = manifest::value(cfg, mine.iter().map(|(_, e)| e.scene_id.as_str()));
+    let manifest = RunManifest::new(
+        run_dir.manifest(),
+        manifest::value(cfg, mine.iter().map(|(_, e)| e.scene_id.as_str())),
+    );
     if cfg.lerobot {
-        write_lerobot(
-            &cfg.out,
-            cfg.agent_config.dt,
-            Some(&manifest),
-            cfg.lerobot_video,
-        )?;
+        write_lerobot(&run_dir, &manifest, cfg.lerobot_video)?;
     }
     manifest::write(cfg, manifest)
 }
@@ -791,31 +788,25 @@ pub fn write_metrics(
         "episodes": episodes.iter().map(|(id, m)| serde_json::json!({"episode_id": id, "metrics": m})).collect::<Vec<_>>(),
         "failures": failures,
     });
-    let path = out.join("metrics.json");
+    let path = RunDir::new(out).metrics();
     // A JSON value always serialises.
     let bytes = serde_json::to_vec_pretty(&metrics).unwrap_or_default();
     write_bytes_atomic(&path, &bytes).map_err(io_error(&path))
 }
 
-/// Writes the LeRobot copy of the run tables in `out` into `out/lerobot` (`dt`: the agent's
-/// time step, which gives the dataset's fps; `manifest`: the run's, recorded in the copy's
-/// provenance as [`crate::io::lerobot::run_configuration`] says; `video`: colour cameras as
-/// video features).
+/// Writes the LeRobot copy of the tables of the run folder `run` into `RUN/lerobot`, as
+/// the run's `manifest` says (its frame rate from the agent's step, its configuration
+/// recorded in the copy's provenance: [`DatasetOptions::of_manifest`]); `video`: colour
+/// cameras as video features.
 pub fn write_lerobot(
-    out: &Path,
-    dt: f32,
-    manifest: Option<&serde_json::Value>,
+    run: &RunDir,
+    manifest: &RunManifest,
     video: bool,
 ) -> Result<(), RolloutError> {
-    let options = crate::io::lerobot::DatasetOptions {
-        fps: crate::io::lerobot::fps_of_step(dt),
-        robot_type: LEROBOT_ROBOT_TYPE.into(),
-        run: manifest.map(crate::io::lerobot::run_configuration),
-        video,
-    };
+    let options = DatasetOptions::of_manifest(manifest, None, video)?;
     crate::io::lerobot::write_dataset(
-        &crate::io::lerobot::RunTables::in_dir(out),
-        &out.join("lerobot"),
+        &crate::io::lerobot::source::RunTables::in_dir(run.root()),
+        &run.lerobot(),
         &options,
         &crate::progress::NoProgress,
     )?;

@@ -30,6 +30,7 @@ use feedback::{Feedback, FeedbackError};
 use record::{DemoEntry, SessionQc};
 
 use crate::episode::Episode;
+use crate::io::run_dir::RunDir;
 use crate::lock::{DirLock, LockMode};
 use crate::run::metrics::EpisodeMetrics;
 use crate::run::qc::{DemoQc, DemoRecord, Verdict};
@@ -135,7 +136,7 @@ fn io(path: &Path) -> impl FnOnce(std::io::Error) -> CampaignError + '_ {
 /// Puts session folder `dir` back to what its finished episodes wrote: the parts of an
 /// unfinished episode, temporaries and the session's lock file go.
 fn sweep_session(dir: &Path) -> Result<(), CampaignError> {
-    let parts = dir.join(".parts");
+    let parts = RunDir::new(dir).parts();
     if parts.exists() {
         crate::atomic::remove_dir_atomic(&parts).map_err(io(&parts))?;
     }
@@ -201,7 +202,7 @@ impl Campaign {
             let count = books.sessions.entry(participant.to_string()).or_default();
             *count = (*count).max(n);
             let mut qc = SessionQc::load(&dir)?;
-            let played = match dir.join(crate::pipeline::rollout::PLAYED) {
+            let played = match RunDir::new(&dir).played() {
                 p if p.exists() => {
                     crate::episode::format::read_episodes(&p).map_err(|e| CampaignError::File {
                         path: p.clone(),

@@ -9,10 +9,8 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use super::CampaignError;
+use crate::io::run_dir::RunDir;
 use crate::run::qc::{DemoQc, Verdict};
-
-/// The quality file in a session folder.
-pub const QC_FILE: &str = "qc.json";
 
 /// The quality record of one demonstration.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -90,7 +88,7 @@ pub struct SessionQc {
 impl SessionQc {
     /// The records of session folder `dir` (none when it has no file).
     pub fn load(dir: &Path) -> Result<SessionQc, CampaignError> {
-        let path = dir.join(QC_FILE);
+        let path = RunDir::new(dir).qc();
         match std::fs::read(&path) {
             Ok(bytes) => serde_json::from_slice(&bytes).map_err(|e| CampaignError::File {
                 path,
@@ -103,7 +101,7 @@ impl SessionQc {
 
     /// Writes the records into session folder `dir` (atomically).
     pub fn save(&self, dir: &Path) -> Result<(), CampaignError> {
-        let path = dir.join(QC_FILE);
+        let path = RunDir::new(dir).qc();
         let text = serde_json::to_string_pretty(self).map_err(|e| CampaignError::File {
             path: path.clone(),
             message: e.to_string(),
