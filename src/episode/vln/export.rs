@@ -17,7 +17,7 @@
 //! - `goals`: `[{"position": the route's end, "radius": the success radius}]`;
 //! - `reference_path`: the route's points [[x, y, z], …] (start, corners, goal);
 //! - `instruction`: `{"instruction_text", "instruction_tokens"}`, the tokens being indices into
-//!   the file's vocabulary padded with 0 to 200 ([`super::tokens`]);
+//!   the file's vocabulary padded with 0 to 200 (`vln::tokens`);
 //! - `info`: `geodesic_distance`, and as minos extensions `minos_episode_id`,
 //!   `instruction_index`, `levels_crossed`, `difficulty`, `split`, `seed`, `rooms` (the room
 //!   classes passed), `landmarks`, `goal_object`.

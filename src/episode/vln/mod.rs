@@ -5,7 +5,7 @@
 //! One file per concept: [`landmarks`] indexes a scene's objects by room (which categories are
 //! distinctive, which objects a route may stop next to), [`walk`] walks a reference path span
 //! by span into what an instruction can say (room changes, doors, turns, stairs, landmarks),
-//! [`grammar`] turns that into sentences, [`tokens`] is the tokeniser and vocabulary of the
+//! [`grammar`] turns that into sentences, `tokens` is the tokeniser and vocabulary of the
 //! VLN-CE export, and [`export`] writes VLN-CE and R2R files. Sampling lives with the other
 //! tasks in [`super::sample`].
 //!

@@ -25,7 +25,7 @@
 //! ```
 //!
 //! The features are described in [`features`]; every episode's task is its instruction in
-//! English ([`crate::episode::instruction`]), so language-conditioned policies get "find a
+//! English (`episode::instruction`), so language-conditioned policies get "find a
 //! chair" rather than "objectgoal". The copy is made from the run's own tables
 //! ([`RunTables`]), so an existing run converts without being run again, and the whole
 //! folder is written under a temporary name and renamed into place when complete. Same run

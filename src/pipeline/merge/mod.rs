@@ -3,7 +3,7 @@
 //! `run`) and every random choice is seeded by its item, never by its position in a shard, so
 //! the union of the shards' rows, put back in the list's order, is the unsharded output.
 //!
-//! - [`episodes`]: episode files (`minos episodes --shard i/n --out part.parquet`) and their
+//! - `episodes`: episode files (`minos episodes --shard i/n --out part.parquet`) and their
 //!   `.stats.json`;
 //! - [`run`]: run folders (`minos run --shard i/n --out DIR`): the three tables,
 //!   `metrics.json`, `manifest.json`, the rerun recording and the LeRobot copy.
@@ -172,7 +172,7 @@ impl MergeJob {
         }
     }
 
-    /// Runs the merge ([`run::merge_runs`] or [`episodes::merge_episodes`]).
+    /// Runs the merge ([`run::merge_runs`] or `episodes::merge_episodes`).
     pub fn run(&self, progress: &dyn Progress) -> Result<MergeReport, MergeError> {
         match self {
             MergeJob::Runs { shards, merge } => run::merge_runs(shards, merge, progress),
