@@ -125,7 +125,10 @@ fn the_python_package_builds_and_its_tests_pass() {
         }
     };
     // `pip install ./python` with the tools of the environment (no download of maturin per
-    // run); cargo builds the extension in this target folder.
+    // run); cargo builds the extension in this target folder, with the library as the tests
+    // built it (feature `internals`), so the library is not compiled a second time. The
+    // bindings' own build without the feature is `cargo clippy -p minos-python` (.ci/run),
+    // and tests/layering.rs checks they name no internal module.
     let o = run(Command::new(&python)
         .args([
             "-m",
@@ -138,6 +141,7 @@ fn the_python_package_builds_and_its_tests_pass() {
             "./python",
         ])
         .env("CARGO_TARGET_DIR", target_dir())
+        .env("MATURIN_PEP517_ARGS", "--features minos/internals")
         .env("PATH", path_with(&python)))
     .expect("pip runs");
     assert!(
