@@ -23,7 +23,7 @@ use minos::io::image_codec::ImageEncoding;
 use minos::io::tables::ObservationWriter;
 use minos::navmesh::geodesic::Geodesic;
 use minos::pipeline::episodes::sample_scenes;
-use minos::pipeline::rollout::{run, AgentKind, RunConfig};
+use minos::pipeline::rollout::{rollout, AgentKind, RunConfig};
 use minos::progress::NoProgress;
 use minos::render::Renderer;
 use minos::render::RendererChoice;
@@ -165,7 +165,7 @@ fn main() {
         };
         let (t, cpu0) = (Instant::now(), process_cpu());
         let report = pool
-            .install(|| run(&cfg, episodes, &NoProgress))
+            .install(|| rollout(&cfg, episodes, &NoProgress))
             .expect("run");
         let s = t.elapsed().as_secs_f64();
         let cpu = process_cpu().zip(cpu0).map_or(s, |(b, a)| b - a);

@@ -17,7 +17,7 @@ use common::{baked_houses, every_task_episodes, minos, tree_bytes, RunOk};
 use minos::episode::Episode;
 use minos::generate::GenerateConfig;
 use minos::io::image_codec::ImageEncoding;
-use minos::pipeline::rollout::{run, AgentKind, RunConfig};
+use minos::pipeline::rollout::{rollout, AgentKind, RunConfig};
 use minos::progress::NoProgress;
 use minos::render::RendererChoice;
 use minos::run::metrics::Reward;
@@ -57,7 +57,8 @@ fn fixture() -> &'static Fixture {
         assert!(episodes.len() >= 4, "{} episodes", episodes.len());
         let f = Fixture { dir, episodes };
         for (name, encoding) in [("raw", ImageEncoding::Raw), ("png", ImageEncoding::Png)] {
-            let report = run(&config(&f, name, encoding), &f.episodes, &NoProgress).expect("run");
+            let report =
+                rollout(&config(&f, name, encoding), &f.episodes, &NoProgress).expect("run");
             assert!(report.failures.is_empty(), "{:?}", report.failures);
         }
         f

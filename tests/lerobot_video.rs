@@ -15,7 +15,7 @@ use minos::episode::Episode;
 use minos::generate::GenerateConfig;
 use minos::io::image_codec::ImageEncoding;
 use minos::io::lerobot::video_read::read_video;
-use minos::pipeline::rollout::{run, AgentKind, RunConfig};
+use minos::pipeline::rollout::{rollout, AgentKind, RunConfig};
 use minos::progress::NoProgress;
 use minos::render::RendererChoice;
 use minos::run::metrics::Reward;
@@ -57,7 +57,7 @@ fn fixture() -> &'static Fixture {
         let episodes = every_task_episodes(&data_dir, &scenes, 1, 3);
         assert!(episodes.len() >= 4, "{} episodes", episodes.len());
         let f = Fixture { dir, episodes };
-        let report = run(&config(&f), &f.episodes, &NoProgress).expect("run");
+        let report = rollout(&config(&f), &f.episodes, &NoProgress).expect("run");
         assert!(report.failures.is_empty(), "{:?}", report.failures);
         f
     })

@@ -16,7 +16,7 @@ use minos::episode::{Episode, Task};
 use minos::generate::GenerateConfig;
 use minos::io::image_codec::ImageEncoding;
 use minos::pipeline::episodes::sample_scenes;
-use minos::pipeline::rollout::{run, AgentKind, RunConfig};
+use minos::pipeline::rollout::{rollout, AgentKind, RunConfig};
 use minos::progress::NoProgress;
 use minos::render::RendererChoice;
 use minos::run::metrics::Reward;
@@ -157,7 +157,7 @@ fn oracle_reaches_every_episode(body: AgentConfig, name: &str) -> BTreeSet<Strin
             );
         }
         let out = dir.path().join(format!("{name}{k}"));
-        let report = run(&config(data, &out, body), episodes, &NoProgress).unwrap();
+        let report = rollout(&config(data, &out, body), episodes, &NoProgress).unwrap();
         assert!(report.failures.is_empty(), "{name}: {:?}", report.failures);
         let all = &report.groups["all"];
         assert_eq!(all.episodes, episodes.len());
@@ -222,7 +222,7 @@ fn episodes_that_fail_with_an_error_count_as_failures_in_every_summary() {
         .collect();
     let dir = tempfile::tempdir().unwrap();
     let body = AgentConfig::minos_continuous();
-    let oracle = run(
+    let oracle = rollout(
         &config(data, &dir.path().join("oracle"), body),
         &two,
         &NoProgress,
@@ -236,7 +236,7 @@ fn episodes_that_fail_with_an_error_count_as_failures_in_every_summary() {
     replay.remove(&two[1].episode_id);
     let mut cfg = config(data, &dir.path().join("replay"), body);
     cfg.agent = AgentKind::Replay(replay);
-    let report = run(&cfg, &two, &NoProgress).unwrap();
+    let report = rollout(&cfg, &two, &NoProgress).unwrap();
     assert_eq!(report.failures.len(), 1, "{:?}", report.failures);
     assert_eq!(report.failures[0].0, two[1].episode_id);
     for group in ["all", "task=pointgoal"] {
@@ -267,7 +267,7 @@ fn episodes_that_fail_with_an_error_count_as_failures_in_every_summary() {
         let mut c = cfg.clone();
         c.out = dir.path().join(format!("shard{i}"));
         c.shard = Shard { index: i, count: 2 };
-        run(&c, &two, &NoProgress).unwrap();
+        rollout(&c, &two, &NoProgress).unwrap();
         shards.push(c.out);
     }
     let merged = dir.path().join("merged");

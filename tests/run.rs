@@ -12,7 +12,7 @@ use common::{baked_houses, every_task_episodes};
 use minos::episode::{Episode, Task};
 use minos::generate::GenerateConfig;
 use minos::io::image_codec::ImageEncoding;
-use minos::pipeline::rollout::{run, AgentKind, EpisodeError, EpisodeFailure, RunConfig};
+use minos::pipeline::rollout::{rollout, AgentKind, EpisodeError, EpisodeFailure, RunConfig};
 use minos::progress::NoProgress;
 use minos::render::RendererChoice;
 use minos::run::agents::Decision;
@@ -90,7 +90,7 @@ fn the_oracle_succeeds_on_every_episode_and_random_is_reported() {
     let dir = tempfile::tempdir().unwrap();
     let episodes = &data().1;
     assert!(episodes.len() >= 40, "{} episodes", episodes.len());
-    let report = run(
+    let report = rollout(
         &config(&dir.path().join("oracle"), AgentKind::Oracle, blind()),
         episodes,
         &NoProgress,
@@ -101,7 +101,7 @@ fn the_oracle_succeeds_on_every_episode_and_random_is_reported() {
     assert_eq!(all.episodes, episodes.len());
     assert_eq!(all.success, 1.0, "oracle success {}", all.success);
     assert!(all.spl >= 0.9, "oracle SPL {}", all.spl);
-    let random = run(
+    let random = rollout(
         &config(&dir.path().join("random"), AgentKind::Random, blind()),
         episodes,
         &NoProgress,
@@ -144,7 +144,7 @@ fn observations_read_back_bit_for_bit_and_replays_reproduce_poses() {
     let episodes = first_episodes(|t| t == Task::PointGoal, 3);
     let sensors = SensorSuite::minos(32);
     let out = dir.path().join("oracle");
-    run(
+    rollout(
         &config(&out, AgentKind::Oracle, sensors.clone()),
         &episodes,
         &NoProgress,
@@ -230,7 +230,7 @@ fn observations_read_back_bit_for_bit_and_replays_reproduce_poses() {
             .or_default()
             .push(Decision::from_name(actions.value(i)).unwrap());
     }
-    run(
+    rollout(
         &config(
             &replay_out,
             AgentKind::Replay(by_episode),
@@ -371,7 +371,7 @@ fn an_external_process_drives_the_agent_over_json_lines() {
     .unwrap();
     let cmd = format!("sh {}", script.display());
     let out = dir.path().join("ext");
-    let report = run(
+    let report = rollout(
         &config(&out, AgentKind::External(cmd), SensorSuite::minos(8)),
         &episodes,
         &NoProgress,
@@ -388,7 +388,7 @@ fn an_external_process_drives_the_agent_over_json_lines() {
             .collect::<Vec<_>>()
     );
     // A policy that answers garbage fails its episodes with a message naming the step.
-    let bad = run(
+    let bad = rollout(
         &config(
             &dir.path().join("bad"),
             AgentKind::External("while read l; do echo nope; done".into()),
@@ -427,7 +427,7 @@ fn an_external_process_drives_the_agent_over_json_lines() {
     let line = minos::escape::error_line(failure);
     assert_eq!(line.matches("is not JSON").count(), 1, "{line}");
     // A command that cannot start (sh exits at once): the run goes on, the episode fails.
-    let gone = run(
+    let gone = rollout(
         &config(
             &dir.path().join("gone"),
             AgentKind::External("exit 0".into()),
@@ -559,7 +559,7 @@ fn a_run_records_one_pose_and_image_per_step_and_leaves_the_tables_unchanged() {
     let episodes = first_episodes(|t| t != Task::ObjectGoal, 4);
     let sensors = SensorSuite::minos(16);
     let plain = dir.path().join("plain");
-    run(
+    rollout(
         &config(&plain, AgentKind::Oracle, sensors.clone()),
         &episodes,
         &NoProgress,
@@ -572,7 +572,7 @@ fn a_run_records_one_pose_and_image_per_step_and_leaves_the_tables_unchanged() {
         path: rrd.clone(),
         episodes: 2,
     });
-    let report = run(&cfg, &episodes, &NoProgress).unwrap();
+    let report = rollout(&cfg, &episodes, &NoProgress).unwrap();
     assert_eq!(report.recorded, 2);
     // Recording never changes the tables.
     for f in ["trajectories.parquet", "observations.parquet"] {
@@ -908,7 +908,7 @@ fn a_replay_without_some_episode_is_refused_up_front_naming_the_file() {
     let first = dir.path().join("first");
     let mut cfg = config(&first, AgentKind::Forward, blind());
     cfg.max_steps = Some(3);
-    run(&cfg, &episodes[..1], &NoProgress).unwrap();
+    rollout(&cfg, &episodes[..1], &NoProgress).unwrap();
     let table = first.join("trajectories.parquet");
     let agent = format!("replay:{}", table.display());
     let err = one_error(&run_cli(dir.path(), &episodes, &agent, &[]));
@@ -955,7 +955,7 @@ fn one_scenes_episodes_split_across_threads_give_the_one_thread_bytes() {
             .build()
             .unwrap()
             .install(|| {
-                run(
+                rollout(
                     &config(&out, AgentKind::Random, sensors.clone()),
                     &episodes,
                     &NoProgress,
@@ -1182,7 +1182,7 @@ fn the_rollout_and_the_vector_env_step_the_same_episodes_alike() {
         let out = dir.path().join(format!("{agent:?}"));
         let mut cfg = config(&out, agent.clone(), sensors.clone());
         cfg.max_steps = max_steps;
-        let report = run(&cfg, &episodes, &NoProgress).unwrap();
+        let report = rollout(&cfg, &episodes, &NoProgress).unwrap();
         assert!(report.failures.is_empty(), "{:?}", report.failures);
         let rollout = trajectories(&out.join("trajectories.parquet"));
         assert_eq!(rollout.len(), episodes.len());
@@ -1476,7 +1476,7 @@ fn every_step_carries_goal_features_an_independent_computation_agrees_with() {
     episodes.extend(first_episodes(|t| t == Task::ObjectGoal, 3));
     episodes.extend(first_episodes(|t| t == Task::RoomGoal, 3));
     let out = dir.path().join("oracle");
-    let report = run(
+    let report = rollout(
         &config(&out, AgentKind::Oracle, blind()),
         &episodes,
         &NoProgress,
@@ -1609,7 +1609,7 @@ fn runs_stepped_in_lockstep_batches_write_the_per_thread_bytes() {
                     path: dir.path().join("recording.rrd"),
                     episodes: 2,
                 });
-                let report = run(&cfg, &episodes, &NoProgress).unwrap();
+                let report = rollout(&cfg, &episodes, &NoProgress).unwrap();
                 assert!(report.failures.is_empty(), "{:?}", report.failures);
                 assert_eq!(report.episodes.len(), episodes.len());
                 folders.push(common::tree_bytes(&out));

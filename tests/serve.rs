@@ -22,7 +22,7 @@ use minos::generate::GenerateConfig;
 use minos::io::image_codec::ImageEncoding;
 use minos::io::run_dir::PLAYED;
 use minos::io::tables::read_replay;
-use minos::pipeline::rollout::{run, AgentKind, RunConfig};
+use minos::pipeline::rollout::{rollout, AgentKind, RunConfig};
 use minos::progress::NoProgress;
 use minos::render::RendererChoice;
 use minos::run::agents::Decision;
@@ -74,7 +74,7 @@ fn fixture() -> &'static Fixture {
         let episodes = every_task_episodes(&data, &scenes, 1, 3);
         assert_eq!(episodes.len(), 3, "one episode per task");
         let out = dir.path().join("oracle");
-        let report = run(
+        let report = rollout(
             &run_config(&data, &out, AgentKind::Oracle, sensors()),
             &episodes,
             &NoProgress,
@@ -244,7 +244,7 @@ fn a_session_records_what_minos_run_writes_and_replays_byte_for_byte() {
     assert_eq!(played, f.episodes);
     let replay_dir = f.dir.path().join("replay");
     let steps = read_replay(&session.join("trajectories.parquet")).expect("session steps");
-    run(
+    rollout(
         &run_config(&f.data, &replay_dir, AgentKind::Replay(steps), sensors()),
         &played,
         &NoProgress,
@@ -642,7 +642,7 @@ fn a_server_killed_mid_episode_leaves_the_finished_episodes_whole() {
     );
     // Its replay, with the server's --reward and --seed, gives the same tables.
     let replay_dir = f.dir.path().join("replay-killed");
-    run(
+    rollout(
         &RunConfig {
             reward: Reward::Geodesic,
             seed: 7,
@@ -1055,7 +1055,7 @@ fn a_variant_is_what_sessions_play_record_and_replay() {
     assert_eq!(manifest["variant"], "empty", "{manifest}");
     let steps = read_replay(&session.join("trajectories.parquet")).unwrap();
     let replay_dir = f.dir.path().join("replay-variant");
-    run(
+    rollout(
         &run_config(&data, &replay_dir, AgentKind::Replay(steps), sensors()),
         &played,
         &NoProgress,

@@ -21,7 +21,7 @@ use minos::generate::GenerateConfig;
 use minos::io::image_codec::ImageEncoding;
 use minos::io::run_dir::PLAYED;
 use minos::io::tables::read_replay;
-use minos::pipeline::rollout::{run, AgentKind, Provenance, RunConfig};
+use minos::pipeline::rollout::{rollout, AgentKind, Provenance, RunConfig};
 use minos::progress::NoProgress;
 use minos::render::RendererChoice;
 use minos::run::agents::Decision;
@@ -94,7 +94,7 @@ fn a_person_in_chromium_reaches_the_goal_and_the_demo_replays() {
     };
     // The oracle's actions are the keys to press.
     let oracle_dir = dir.path().join("oracle");
-    run(
+    rollout(
         &cfg(oracle_dir.clone(), AgentKind::Oracle),
         &episodes,
         &NoProgress,
@@ -226,7 +226,7 @@ fn a_person_in_chromium_reaches_the_goal_and_the_demo_replays() {
     let played = minos::episode::format::read_episodes(&session.join(PLAYED)).unwrap();
     let steps = read_replay(&session.join("trajectories.parquet")).unwrap();
     let replay_dir = dir.path().join("replay");
-    run(
+    rollout(
         &cfg(replay_dir.clone(), AgentKind::Replay(steps)),
         &played,
         &NoProgress,

@@ -23,7 +23,7 @@ use minos::generate::GenerateConfig;
 use minos::io::image_codec::ImageEncoding;
 use minos::io::run_dir::PLAYED;
 use minos::io::tables::read_replay;
-use minos::pipeline::rollout::{run, AgentKind};
+use minos::pipeline::rollout::{rollout, AgentKind};
 use minos::progress::NoProgress;
 use minos::render::RendererChoice;
 use minos::run::agents::Decision;
@@ -74,7 +74,7 @@ fn fixture() -> &'static Fixture {
         let episodes = every_task_episodes(&data, &scenes, 1, 3);
         assert_eq!(episodes.len(), 3, "one episode per task");
         let out = dir.path().join("oracle");
-        run(
+        rollout(
             &run_config(&data, &out, AgentKind::Oracle, SensorSuite::minos(32)),
             &episodes,
             &NoProgress,
@@ -434,7 +434,7 @@ fn a_server_killed_at_any_moment_loses_no_finished_episode_and_leaves_no_litter(
         assert_eq!(played, vec![tutorial.clone()]);
         let replay_dir = dir.join("replay");
         let steps = read_replay(&session.join("trajectories.parquet")).unwrap();
-        run(
+        rollout(
             &run_config(
                 &f.data,
                 &replay_dir,

@@ -18,7 +18,7 @@ use minos::episode::format::write_episodes;
 use minos::generate::GenerateConfig;
 use minos::io::image_codec::ImageEncoding;
 use minos::io::tables::read_replay;
-use minos::pipeline::rollout::{run, AgentKind};
+use minos::pipeline::rollout::{rollout, AgentKind};
 use minos::progress::NoProgress;
 use minos::render::RendererChoice;
 use minos::run::metrics::Reward;
@@ -61,7 +61,7 @@ fn a_participant_goes_from_tutorial_to_done_and_the_operator_sees_it() {
     let body = AgentConfig::habitat();
     let sensors = SensorSuite::minos(64);
     let oracle_dir = dir.path().join("oracle");
-    run(
+    rollout(
         &common::serve::run_config(&data, &oracle_dir, AgentKind::Oracle, sensors.clone()),
         &episodes,
         &NoProgress,

@@ -515,7 +515,7 @@ pub fn run<'py>(
             };
             minos::progress::Progress::set_total(&bar, eps.len() as u64);
             let r = with_threads(threads, || {
-                minos::pipeline::rollout::run_with(&cfg, &eps, LockMode::waiting_if(wait), &bar)
+                minos::pipeline::rollout::rollout_with(&cfg, &eps, LockMode::waiting_if(wait), &bar)
             })
             .map_err(anyhow::Error::msg)??;
             Ok(r)

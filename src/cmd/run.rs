@@ -1,5 +1,5 @@
 //! `minos run`: flags → [`RunConfig`] ([`config`]: agent, body, sensors, episodes), then
-//! [`minos::pipeline::rollout::run`], which writes the tables and the manifest; prints the
+//! [`minos::pipeline::rollout::rollout`], which writes the tables and the manifest; prints the
 //! metrics table.
 
 use std::path::PathBuf;
@@ -10,8 +10,8 @@ use minos::body::AgentPreset;
 use minos::episode::Episode;
 use minos::io::image_codec::ImageEncoding;
 use minos::pipeline::rollout::{
-    run_episodes_of, run_with as run_episodes, AgentKind, Provenance, RerunOutput, RolloutError,
-    RunConfig, RunEpisodesError, RunFormat,
+    rollout_with as run_episodes, run_episodes_of, AgentKind, Provenance, RerunOutput,
+    RolloutError, RunConfig, RunEpisodesError, RunFormat,
 };
 use minos::render::RendererChoice;
 use minos::run::metrics::render_table;

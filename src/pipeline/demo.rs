@@ -17,7 +17,7 @@ use crate::pipeline::bake::{bake, BakeConfig, BakeError, BakeReport};
 use crate::pipeline::episodes::{run_job, EpisodeBatch, EpisodesJob, EpisodesJobError};
 use crate::pipeline::ingest::{ingest_with, IngestConfig, IngestError, IngestReport};
 use crate::pipeline::rollout::{
-    run_with, AgentKind, Provenance, RerunOutput, RolloutError, RunConfig, RunReport,
+    rollout_with, AgentKind, Provenance, RerunOutput, RolloutError, RunConfig, RunReport,
 };
 use crate::pipeline::split::{make_split, Method, SplitJob, SplitJobError, SplitReport};
 use crate::progress::Progress;
@@ -298,7 +298,7 @@ impl DemoJob {
         };
         let report = {
             let bar = observer.progress(validation.len() as u64, "oracle");
-            run_with(&run, &validation, mode, bar.as_ref())?
+            rollout_with(&run, &validation, mode, bar.as_ref())?
         };
         observer.finished(DemoStage::Oracle {
             report: &report,

@@ -1,6 +1,6 @@
 //! A run fed one episode at a time by its caller: an interactive session (`minos serve`)
 //! plays the episodes a person chooses, with an agent that waits for that person's actions.
-//! Each episode is rolled out exactly as [`run_with`](super::run_with) rolls it out (the
+//! Each episode is rolled out exactly as [`rollout_with`](super::rollout_with) rolls it out (the
 //! same simulator set-up, episode loop and part files). A finished episode costs only its
 //! own files: its parts in `DIR/.parts/` (`<index>.traj.parquet`, `<index>.obs.parquet`,
 //! the episode itself as `<index>.episode.parquet`, and `<index>.json`, its metrics, last —
@@ -270,7 +270,7 @@ impl Live<'_> {
         Ok(m)
     }
 
-    /// Writes the outputs of `run_with` over the finished episodes (in episode-id order),
+    /// Writes the outputs of `rollout_with` over the finished episodes (in episode-id order),
     /// then the finished episodes in the order played. Nothing when none finished.
     fn write_outputs(&mut self) -> Result<(), RolloutError> {
         if self.played.is_empty() {

@@ -334,19 +334,19 @@ impl Failed {
 /// Runs the episodes, writes the tables, `metrics.json` and `manifest.json` into `cfg.out`.
 /// The scenes of this shard's episodes are checked first ([`RolloutError::NotReady`], with
 /// nothing written).
-/// Fails at once when another process writes `cfg.out` ([`run_with`] can wait instead).
-pub fn run(
+/// Fails at once when another process writes `cfg.out` ([`rollout_with`] can wait instead).
+pub fn rollout(
     cfg: &RunConfig,
     episodes: &[Episode],
     progress: &dyn Progress,
 ) -> Result<RunReport, RolloutError> {
-    run_with(cfg, episodes, LockMode::Fail, progress)
+    rollout_with(cfg, episodes, LockMode::Fail, progress)
 }
 
-/// [`run`], holding the output folder's writer lock (`OUT/.minos.lock`, taken as `mode` says)
+/// [`rollout`], holding the output folder's writer lock (`OUT/.minos.lock`, taken as `mode` says)
 /// from the end of the preflight on, and removing first what a killed run left in `OUT/`, in
 /// `OUT/.parts/` and beside the recording.
-pub fn run_with(
+pub fn rollout_with(
     cfg: &RunConfig,
     episodes: &[Episode],
     mode: LockMode,
@@ -775,7 +775,7 @@ impl FailedEpisode {
 }
 
 /// Writes `out/metrics.json`: the groups' aggregates (failed episodes counted as failures),
-/// each finished episode's metrics and each failure, in episode order (what [`run`] and
+/// each finished episode's metrics and each failure, in episode order (what [`rollout`] and
 /// `minos merge` write).
 pub fn write_metrics(
     out: &Path,
