@@ -40,6 +40,52 @@ pub const PARTS: &str = ".parts";
 /// when it is the same run).
 pub const UNFINISHED_RECORD: &str = "run.json";
 
+/// One of an episode's part files in `RUN/.parts/`, named `<index:06>.<extension>`: the
+/// files an unfinished run keeps per episode, the metrics last (an episode whose metrics
+/// part exists is finished).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PartFile {
+    /// `<index>.traj.parquet`: the episode's trajectory rows.
+    Trajectory,
+    /// `<index>.obs.parquet`: its observations.
+    Observations,
+    /// `<index>.rrd`: its rerun recording, when recorded.
+    Recording,
+    /// `<index>.episode.parquet`: the episode itself (a live run's, whose episodes are not
+    /// known in advance).
+    Episode,
+    /// `<index>.json`: its metrics, written last.
+    Metrics,
+}
+
+impl PartFile {
+    /// The file name's extension (after `<index>.`).
+    pub const fn extension(self) -> &'static str {
+        match self {
+            PartFile::Trajectory => "traj.parquet",
+            PartFile::Observations => "obs.parquet",
+            PartFile::Recording => "rrd",
+            PartFile::Episode => "episode.parquet",
+            PartFile::Metrics => "json",
+        }
+    }
+
+    /// The part file of episode `index` in the part folder `parts` (`RUN/.parts/`).
+    pub fn of(self, parts: &Path, index: usize) -> PathBuf {
+        parts.join(format!("{index:06}.{}", self.extension()))
+    }
+
+    /// The episode index of a part file's name, when it is a part of this kind.
+    pub fn index_of(self, file_name: &str) -> Option<usize> {
+        let stem = file_name
+            .strip_suffix(self.extension())?
+            .strip_suffix('.')?;
+        (!stem.is_empty() && stem.bytes().all(|b| b.is_ascii_digit()))
+            .then(|| stem.parse().ok())
+            .flatten()
+    }
+}
+
 /// A run folder (nothing is read or created by naming one).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct RunDir {
@@ -243,6 +289,35 @@ impl RunManifest {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn part_files_are_named_by_index_and_kind_and_read_back() {
+        let parts = Path::new("RUN/.parts");
+        assert_eq!(
+            PartFile::Trajectory.of(parts, 7),
+            Path::new("RUN/.parts/000007.traj.parquet")
+        );
+        assert_eq!(
+            PartFile::Metrics.of(parts, 12),
+            Path::new("RUN/.parts/000012.json")
+        );
+        for kind in [
+            PartFile::Trajectory,
+            PartFile::Observations,
+            PartFile::Recording,
+            PartFile::Episode,
+            PartFile::Metrics,
+        ] {
+            let name = kind.of(parts, 42);
+            let name = name.file_name().and_then(|n| n.to_str()).expect("a name");
+            assert_eq!(kind.index_of(name), Some(42), "{name}");
+        }
+        // `000003.traj.parquet` is not a metrics part, nor `.json` or `x.json`.
+        assert_eq!(PartFile::Metrics.index_of("000003.traj.parquet"), None);
+        assert_eq!(PartFile::Metrics.index_of(".json"), None);
+        assert_eq!(PartFile::Metrics.index_of("x.json"), None);
+        assert_eq!(PartFile::Trajectory.index_of("000003.obs.parquet"), None);
+    }
 
     #[test]
     fn every_path_is_under_the_root() {

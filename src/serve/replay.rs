@@ -10,7 +10,7 @@ use std::path::Path;
 
 use super::session::{run_config, Shared};
 use crate::episode::Episode;
-use crate::io::run_dir::RunDir;
+use crate::io::run_dir::{PartFile, RunDir};
 use crate::io::tables::{read_replay, TableError};
 use crate::pipeline::rollout::{load_simulator, SceneLoadError};
 use crate::run::agents::Decision;
@@ -52,7 +52,7 @@ pub fn recorded_decisions(dir: &Path, episode_id: &str) -> Result<Vec<Decision>,
             .filter(|p| {
                 p.file_name()
                     .and_then(|n| n.to_str())
-                    .is_some_and(|n| n.ends_with(".traj.parquet") && !n.starts_with('.'))
+                    .is_some_and(|n| PartFile::Trajectory.index_of(n).is_some())
             })
             .collect();
         parts.sort();

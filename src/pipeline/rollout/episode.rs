@@ -4,12 +4,13 @@
 
 use std::path::Path;
 
-use super::parts::{part, write_done, PartError};
+use super::parts::{write_done, PartError};
 use super::scene::SceneRun;
 use super::RunConfig;
 use crate::episode::Episode;
 use crate::io::rrd::episode::EpisodeRecorder;
 use crate::io::rrd::RecordingError;
+use crate::io::run_dir::PartFile;
 use crate::io::tables::{write_trajectory, ObservationWriter, StepRow, TableError};
 use crate::run::agents::AgentError;
 use crate::run::agents::Decision;
@@ -105,7 +106,7 @@ impl EpisodeParts {
         record: bool,
     ) -> Result<EpisodeParts, EpisodeError> {
         let recorder = if record {
-            let path = part(parts, index, "rrd");
+            let path = PartFile::Recording.of(parts, index);
             Some(EpisodeRecorder::create(
                 &path,
                 ep,
@@ -117,7 +118,7 @@ impl EpisodeParts {
             None
         };
         let writer = ObservationWriter::create(
-            &part(parts, index, "obs.parquet"),
+            &PartFile::Observations.of(parts, index),
             &ep.episode_id,
             &cfg.sensors.cameras,
             cfg.encoding,
@@ -225,7 +226,7 @@ impl EpisodeParts {
             ..
         } = self;
         writer.finish().map_err(EpisodeError::Table)?;
-        write_trajectory(&part(&parts, index, "traj.parquet"), &episode_id, &rows)
+        write_trajectory(&PartFile::Trajectory.of(&parts, index), &episode_id, &rows)
             .map_err(EpisodeError::Table)?;
         if let Some(mut r) = recorder {
             // Where the last action left the agent (a stop leaves it where it was).

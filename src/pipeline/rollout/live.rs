@@ -20,7 +20,7 @@ use std::path::Path;
 use std::sync::Arc;
 
 use super::episode::run_episode;
-use super::parts::{part, read_done};
+use super::parts::read_done;
 use super::scene::{self, SceneRun};
 use super::{
     finish, io_error, preflight, EpisodeFailure, Failed, RolloutError, RunConfig, RunReport,
@@ -28,14 +28,11 @@ use super::{
 use crate::atomic::{remove_dir_atomic, sweep_stale};
 use crate::episode::format::{read_episodes, write_episodes};
 use crate::episode::Episode;
-use crate::io::run_dir::RunDir;
+use crate::io::run_dir::{PartFile, RunDir};
 use crate::lock::{DirLock, LockMode};
 use crate::navmesh::geodesic::Geodesic;
 use crate::run::agents::Agent;
 use crate::run::metrics::EpisodeMetrics;
-
-/// Extension of the part file that holds an episode of a live run (its episode record).
-const EPISODE_PART: &str = "episode.parquet";
 
 /// Where the episodes of a live run come from, and who hears how they ended.
 pub trait EpisodeSource {
@@ -177,7 +174,7 @@ fn finish_parts(cfg: &RunConfig, parts: &Path) -> Result<RunReport, RolloutError
         report: RunReport::default(),
     };
     for i in indices {
-        let episode_part = part(parts, i, EPISODE_PART);
+        let episode_part = PartFile::Episode.of(parts, i);
         let episode = match read_episodes(&episode_part) {
             Ok(mut e) if e.len() == 1 => e.remove(0),
             Ok(e) => {
@@ -261,7 +258,7 @@ impl Live<'_> {
     fn play(&mut self, run: &mut SceneRun<'_>, ep: &Episode) -> Result<EpisodeMetrics, Failed> {
         let index = self.played.len();
         write_episodes(
-            &part(self.parts, index, EPISODE_PART),
+            &PartFile::Episode.of(self.parts, index),
             std::slice::from_ref(ep),
         )
         .map_err(|e| Failed::Write(EpisodeFailure::Record(Arc::new(e))))?;

@@ -35,7 +35,7 @@ use crate::episode::Episode;
 use crate::io::image_codec::ImageEncoding;
 use crate::io::lerobot::DatasetOptions;
 use crate::io::rrd::RecordingError;
-use crate::io::run_dir::{RunDir, RunManifest, RunManifestError};
+use crate::io::run_dir::{PartFile, RunDir, RunManifest, RunManifestError};
 use crate::io::tables::{merge, observation_schema, trajectory_schema};
 use crate::lock::{DirLock, LockError, LockMode};
 use crate::navmesh::geodesic::Geodesic;
@@ -53,7 +53,6 @@ pub use agent_kind::{AgentKind, AgentNameError, AGENT_NAMES};
 pub use episode::EpisodeError;
 pub use failure::EpisodeFailure;
 pub use live::{finish_live, run_live, EpisodeSource};
-use parts::part;
 pub use parts::{PartDone, PartError};
 use scene::SceneRun;
 pub use scene::{load as load_simulator, load_assets as load_scene_assets, SceneLoadError};
@@ -483,8 +482,8 @@ fn run_scene(
     // Finished earlier (parts are kept only when they are this run's): metrics written and,
     // when recorded, the recording too.
     let done = |i: usize| {
-        part(parts, i, "json").is_file()
-            && (!recorded.contains(&i) || part(parts, i, "rrd").is_file())
+        PartFile::Metrics.of(parts, i).is_file()
+            && (!recorded.contains(&i) || PartFile::Recording.of(parts, i).is_file())
     };
     let mut out: Vec<Outcome> = Vec::new();
     for (i, _) in eps.iter().filter(|(i, _)| done(*i)) {
@@ -660,11 +659,11 @@ fn finish(
         .collect();
     let traj_parts: Vec<PathBuf> = kept
         .iter()
-        .map(|(i, _)| part(parts, *i, "traj.parquet"))
+        .map(|(i, _)| PartFile::Trajectory.of(parts, *i))
         .collect();
     let obs_parts: Vec<PathBuf> = kept
         .iter()
-        .map(|(i, _)| part(parts, *i, "obs.parquet"))
+        .map(|(i, _)| PartFile::Observations.of(parts, *i))
         .collect();
     let run_dir = RunDir::new(&cfg.out);
     merge(&traj_parts, trajectory_schema(), &run_dir.trajectories())
@@ -720,7 +719,7 @@ fn finish(
         let recordings: Vec<PathBuf> = kept
             .iter()
             .filter(|(i, _)| recorded.contains(i))
-            .map(|(i, _)| part(parts, *i, "rrd"))
+            .map(|(i, _)| PartFile::Recording.of(parts, *i))
             .collect();
         crate::io::rrd::concat(&recordings, &rerun.path)?;
         report.recorded = recordings.len();

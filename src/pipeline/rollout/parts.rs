@@ -8,6 +8,7 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use crate::atomic::write_bytes_atomic;
+use crate::io::run_dir::PartFile;
 use crate::run::metrics::EpisodeMetrics;
 
 /// A metrics part that could not be written or read back.
@@ -26,20 +27,16 @@ pub enum PartError {
     },
 }
 
-/// The part file of episode `index` with extension `ext`.
-pub fn part(dir: &Path, index: usize, ext: &str) -> PathBuf {
-    dir.join(format!("{index:06}.{ext}"))
-}
-
 /// How many episodes in part folder `dir` are finished (have their metrics part).
 pub fn finished_count(dir: &Path) -> std::io::Result<usize> {
     let mut finished = 0;
     for entry in std::fs::read_dir(dir)? {
         let name = entry?.file_name();
-        let name = name.to_string_lossy();
-        if let Some(stem) = name.strip_suffix(".json") {
-            finished += usize::from(!stem.is_empty() && stem.bytes().all(|b| b.is_ascii_digit()));
-        }
+        finished += usize::from(
+            PartFile::Metrics
+                .index_of(&name.to_string_lossy())
+                .is_some(),
+        );
     }
     Ok(finished)
 }
@@ -96,7 +93,7 @@ pub fn write_done(
         final_geodesic: m.final_geodesic.is_finite().then_some(m.final_geodesic),
         ndtw: m.ndtw.is_finite().then_some(m.ndtw),
     };
-    let path = part(dir, index, "json");
+    let path = PartFile::Metrics.of(dir, index);
     let json = serde_json::to_vec(&done).map_err(|source| PartError::Json {
         path: path.clone(),
         source,
@@ -106,7 +103,7 @@ pub fn write_done(
 
 /// Reads the metrics part of an episode finished by an earlier run.
 pub fn read_done(dir: &Path, index: usize) -> Result<EpisodeMetrics, PartError> {
-    let path = part(dir, index, "json");
+    let path = PartFile::Metrics.of(dir, index);
     let bytes = std::fs::read(&path)
         .map_err(|source| PartError::Io(FileError::new(path.clone(), source)))?;
     let done: PartDone =
