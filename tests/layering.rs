@@ -1114,6 +1114,28 @@ fn library_errors_print_their_cause_once() {
     );
 }
 
+/// The library's source files (the binary's `main.rs` and `cmd/` left out), each with the
+/// module path its child modules hang under (`src/lib.rs` → none, `src/a/b.rs` → `a::b`).
+fn library_files(src: &Path) -> Vec<(PathBuf, Vec<String>)> {
+    let mut files = Vec::new();
+    rust_files(src, &mut files);
+    files
+        .into_iter()
+        .filter_map(|file| {
+            let rel = file.strip_prefix(src).expect("below src");
+            if rel.starts_with("cmd") || rel == Path::new("main.rs") {
+                return None;
+            }
+            let here = if rel == Path::new("lib.rs") {
+                Vec::new()
+            } else {
+                module_path(rel)
+            };
+            Some((file, here))
+        })
+        .collect()
+}
+
 /// Whether the module at `path` (from the crate root) is reachable from outside the crate
 /// in the plain build: every module on the way is declared plainly `pub mod` (not private,
 /// not `pub(crate)`, not behind `internal!`).
@@ -1181,20 +1203,11 @@ fn second_paths(src: &Path, code: &str, here: &[String]) -> Vec<(String, String)
 #[test]
 fn a_type_has_one_path() {
     let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
-    let mut files = Vec::new();
-    rust_files(&src, &mut files);
     let mut problems = Vec::new();
     let mut lifted = 0;
-    for file in &files {
+    for (file, here) in library_files(&src) {
         let rel = file.strip_prefix(&src).expect("below src");
-        if rel.starts_with("cmd") || rel == Path::new("main.rs") {
-            continue;
-        }
-        let mut here = module_path(rel);
-        if rel == Path::new("lib.rs") {
-            here.clear();
-        }
-        let code = non_test_code(file);
+        let code = non_test_code(&file);
         lifted += code.matches("\npub use ").count();
         for (second, own) in second_paths(&src, &code, &here) {
             problems.push(format!(
@@ -1262,18 +1275,8 @@ fn api_paths_of_the_doc(doc: &str) -> BTreeSet<String> {
 /// Every module reachable from outside the crate in the plain build (declared plainly `pub`
 /// all the way from the crate root), as `a::b` paths.
 fn public_modules(src: &Path) -> Vec<String> {
-    let mut files = Vec::new();
-    rust_files(src, &mut files);
     let mut found = Vec::new();
-    for file in &files {
-        let rel = file.strip_prefix(src).expect("below src");
-        if rel.starts_with("cmd") || rel == Path::new("main.rs") {
-            continue;
-        }
-        let mut here = module_path(rel);
-        if rel == Path::new("lib.rs") {
-            here.clear();
-        }
+    for (file, here) in library_files(src) {
         let code = std::fs::read_to_string(file).expect("source");
         for name in declared_modules(&code).1 {
             let mut path = here.clone();

@@ -141,16 +141,8 @@ impl Decision {
             return Some(Decision::Stop);
         }
         let mut a = Actions::IDLE;
-        for part in name.split('+') {
-            let one = Actions::single(part)?;
-            a.forward += one.forward;
-            a.backward += one.backward;
-            a.strafe_left += one.strafe_left;
-            a.strafe_right += one.strafe_right;
-            a.turn_left += one.turn_left;
-            a.turn_right += one.turn_right;
-            a.look_up += one.look_up;
-            a.look_down += one.look_down;
+        for part in name.split('+').filter(|&part| part != "idle") {
+            *a.strength_mut(part)? += 1.0;
         }
         Some(Decision::Act(a))
     }
