@@ -13,7 +13,7 @@ use arrow::array::{
     Array, BinaryArray, BooleanArray, FixedSizeListArray, Float32Array, Float64Array, Int64Array,
     ListArray, RecordBatch, StringArray, StructArray, UInt32Array,
 };
-use common::{baked_houses, every_task_episodes, minos, tree_bytes, RunOk};
+use common::{every_task_episodes, minos, tree_bytes, RunOk};
 use minos::episode::Episode;
 use minos::generate::GenerateConfig;
 use minos::io::image_codec::ImageEncoding;
@@ -32,30 +32,35 @@ const SIZE: [u32; 2] = [16, 12];
 /// A DATA folder with two baked houses, episodes of the three tasks, and one oracle run
 /// with every camera modality, written as raw pixels and as PNG.
 struct Fixture {
+    /// This file's outputs.
     dir: tempfile::TempDir,
+    /// The shared houses' DATA folder (read-only).
+    data: minos::store::DataDir,
     episodes: Vec<Episode>,
 }
 
 fn fixture() -> &'static Fixture {
     static F: std::sync::OnceLock<Fixture> = std::sync::OnceLock::new();
     F.get_or_init(|| {
+        // The same houses as the other LeRobot file's (built once for both).
+        let houses = common::shared_baked_houses(&GenerateConfig {
+            houses: 2,
+            seed: 8,
+            rooms: (3, 5),
+            levels: (1, 1),
+            closed_door_prob: 0.0,
+            ..Default::default()
+        });
         let dir = common::shared_tempdir();
-        let (data_dir, ids) = baked_houses(
-            dir.path(),
-            &GenerateConfig {
-                houses: 2,
-                seed: 8,
-                rooms: (3, 5),
-                levels: (1, 1),
-                closed_door_prob: 0.0,
-                ..Default::default()
-            },
-        );
-        let scenes: Vec<(String, String)> =
-            ids.into_iter().map(|id| (id, "val".to_string())).collect();
-        let episodes = every_task_episodes(&data_dir, &scenes, 1, 3);
+        let data = houses.data.clone();
+        let scenes = houses.scenes("val");
+        let episodes = every_task_episodes(&data, &scenes, 1, 3);
         assert!(episodes.len() >= 4, "{} episodes", episodes.len());
-        let f = Fixture { dir, episodes };
+        let f = Fixture {
+            dir,
+            data,
+            episodes,
+        };
         for (name, encoding) in [("raw", ImageEncoding::Raw), ("png", ImageEncoding::Png)] {
             let report =
                 rollout(&config(&f, name, encoding), &f.episodes, &NoProgress).expect("run");
@@ -76,7 +81,7 @@ fn sensors() -> SensorSuite {
 fn config(f: &Fixture, name: &str, encoding: ImageEncoding) -> RunConfig {
     RunConfig {
         batch: None,
-        data: minos::store::DataDir::new(f.dir.path().join("DATA")),
+        data: f.data.clone(),
         out: f.dir.path().join(name),
         agent: AgentKind::Oracle,
         agent_config: AgentConfig::habitat(),

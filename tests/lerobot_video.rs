@@ -10,7 +10,7 @@ use crate::common;
 use std::path::{Path, PathBuf};
 
 use arrow::array::{Array, BinaryArray, Float64Array, Int64Array, RecordBatch, StringArray};
-use common::{baked_houses, every_task_episodes, minos, tree_bytes, RunOk};
+use common::{every_task_episodes, minos, tree_bytes, RunOk};
 use minos::episode::Episode;
 use minos::generate::GenerateConfig;
 use minos::io::image_codec::ImageEncoding;
@@ -32,7 +32,10 @@ const SIZE: [u32; 2] = [64, 48];
 const MIN_PSNR: f64 = 32.0;
 
 struct Fixture {
+    /// This file's outputs.
     dir: tempfile::TempDir,
+    /// The shared houses' DATA folder (read-only).
+    data: minos::store::DataDir,
     #[allow(dead_code)]
     episodes: Vec<Episode>,
 }
@@ -40,23 +43,25 @@ struct Fixture {
 fn fixture() -> &'static Fixture {
     static F: std::sync::OnceLock<Fixture> = std::sync::OnceLock::new();
     F.get_or_init(|| {
+        // The same houses as the other LeRobot file's (built once for both).
+        let houses = common::shared_baked_houses(&GenerateConfig {
+            houses: 2,
+            seed: 8,
+            rooms: (3, 5),
+            levels: (1, 1),
+            closed_door_prob: 0.0,
+            ..Default::default()
+        });
         let dir = common::shared_tempdir();
-        let (data_dir, ids) = baked_houses(
-            dir.path(),
-            &GenerateConfig {
-                houses: 2,
-                seed: 8,
-                rooms: (3, 5),
-                levels: (1, 1),
-                closed_door_prob: 0.0,
-                ..Default::default()
-            },
-        );
-        let scenes: Vec<(String, String)> =
-            ids.into_iter().map(|id| (id, "val".to_string())).collect();
-        let episodes = every_task_episodes(&data_dir, &scenes, 1, 3);
+        let data = houses.data.clone();
+        let scenes = houses.scenes("val");
+        let episodes = every_task_episodes(&data, &scenes, 1, 3);
         assert!(episodes.len() >= 4, "{} episodes", episodes.len());
-        let f = Fixture { dir, episodes };
+        let f = Fixture {
+            dir,
+            data,
+            episodes,
+        };
         let report = rollout(&config(&f), &f.episodes, &NoProgress).expect("run");
         assert!(report.failures.is_empty(), "{:?}", report.failures);
         f
@@ -70,7 +75,7 @@ fn config(f: &Fixture) -> RunConfig {
     }
     RunConfig {
         batch: None,
-        data: minos::store::DataDir::new(f.dir.path().join("DATA")),
+        data: f.data.clone(),
         out: f.dir.path().join("run"),
         agent: AgentKind::Oracle,
         agent_config: AgentConfig::habitat(),

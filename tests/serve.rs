@@ -14,11 +14,10 @@ use std::sync::OnceLock;
 use std::time::{Duration, Instant};
 
 use common::serve::{connect, create, http, play, recv, run_config, send, Msg, SCRIPTED_RATE};
-use common::{baked_houses, every_task_episodes, minos, RunOk};
+use common::{minos, RunOk};
 use minos::body::AgentPreset;
 use minos::episode::format::read_episodes;
 use minos::episode::Episode;
-use minos::generate::GenerateConfig;
 use minos::io::image_codec::ImageEncoding;
 use minos::io::run_dir::PLAYED;
 use minos::io::tables::read_replay;
@@ -42,51 +41,36 @@ const TABLES: [&str; 4] = [
     "metrics.json",
 ];
 
+/// The shared house ([`common::serve::oracle_house`]) and a folder for this file's outputs.
 struct Fixture {
     dir: tempfile::TempDir,
     data: DataDir,
     episodes: Vec<Episode>,
-    /// The oracle's decisions per episode (from its own run, in `dir/oracle`).
-    oracle: HashMap<String, Vec<Decision>>,
+    /// The episodes as an episode file.
+    episodes_file: &'static Path,
+    /// The oracle's run folder.
+    oracle_dir: &'static Path,
+    /// The oracle's decisions per episode (from its own run, in `oracle_dir`).
+    oracle: &'static HashMap<String, Vec<Decision>>,
 }
 
 fn sensors() -> SensorSuite {
     SensorSuite::minos(32)
 }
 
-/// One generated house, baked; one episode of each task on it; the oracle run over them.
+/// One generated house, baked; one episode of each task on it; the oracle run over them
+/// (shared with the campaign tests), and this file's output folder.
 fn fixture() -> &'static Fixture {
     static F: OnceLock<Fixture> = OnceLock::new();
     F.get_or_init(|| {
-        let dir = common::shared_tempdir();
-        let (data, ids) = baked_houses(
-            dir.path(),
-            &GenerateConfig {
-                houses: 1,
-                seed: 5,
-                rooms: (3, 4),
-                levels: (1, 1),
-                closed_door_prob: 0.0,
-                ..Default::default()
-            },
-        );
-        let scenes: Vec<(String, String)> = ids.into_iter().map(|id| (id, "val".into())).collect();
-        let episodes = every_task_episodes(&data, &scenes, 1, 3);
-        assert_eq!(episodes.len(), 3, "one episode per task");
-        let out = dir.path().join("oracle");
-        let report = rollout(
-            &run_config(&data, &out, AgentKind::Oracle, sensors()),
-            &episodes,
-            &NoProgress,
-        )
-        .expect("oracle run");
-        assert!(report.failures.is_empty(), "{:?}", report.failures);
-        let oracle = read_replay(&out.join("trajectories.parquet")).expect("oracle steps");
+        let house = common::serve::oracle_house();
         Fixture {
-            dir,
-            data,
-            episodes,
-            oracle,
+            dir: common::shared_tempdir(),
+            data: house.data.clone(),
+            episodes: house.episodes.clone(),
+            episodes_file: &house.episodes_file,
+            oracle_dir: &house.oracle_dir,
+            oracle: &house.oracle,
         }
     })
 }
@@ -226,7 +210,7 @@ fn a_session_records_what_minos_run_writes_and_replays_byte_for_byte() {
     // The oracle's key presses gave the oracle's tables.
     for file in TABLES {
         assert!(
-            bytes(&session.join(file)) == bytes(&f.dir.path().join("oracle").join(file)),
+            bytes(&session.join(file)) == bytes(&f.oracle_dir.join(file)),
             "{file} differs from the oracle run's"
         );
     }
@@ -539,8 +523,7 @@ fn a_server_killed_mid_episode_leaves_the_finished_episodes_whole() {
     use std::io::BufRead;
     let f = fixture();
     let out = f.dir.path().join("demos-killed");
-    let episodes = f.dir.path().join("episodes.parquet");
-    minos::episode::format::write_episodes(&episodes, &f.episodes).unwrap();
+    let episodes = f.episodes_file;
     let mut child = minos()
         .args(["serve", "--bind", "127.0.0.1:0", "--size", "32", "--data"])
         .arg(f.data.root())

@@ -15,11 +15,10 @@ use std::sync::OnceLock;
 use std::time::{Duration, Instant};
 
 use common::serve::{connect, http, play, recv, run_config, send, Msg, Ws, SCRIPTED_RATE};
-use common::{baked_houses, every_task_episodes, minos, RunOk};
+use common::{minos, RunOk};
 use minos::body::AgentPreset;
-use minos::episode::format::{read_episodes, write_episodes};
+use minos::episode::format::read_episodes;
 use minos::episode::Episode;
-use minos::generate::GenerateConfig;
 use minos::io::image_codec::ImageEncoding;
 use minos::io::run_dir::PLAYED;
 use minos::io::tables::read_replay;
@@ -46,49 +45,27 @@ const TABLES: [&str; 4] = [
     "metrics.json",
 ];
 
+/// The serve tests' shared house ([`common::serve::oracle_house`]) and a folder for this
+/// file's outputs.
 struct Fixture {
     dir: tempfile::TempDir,
     data: DataDir,
     /// Tutorial first, then the two campaign episodes.
     episodes: Vec<Episode>,
     episodes_file: PathBuf,
-    oracle: std::collections::HashMap<String, Vec<Decision>>,
+    oracle: &'static std::collections::HashMap<String, Vec<Decision>>,
 }
 
 fn fixture() -> &'static Fixture {
     static F: OnceLock<Fixture> = OnceLock::new();
     F.get_or_init(|| {
-        let dir = common::shared_tempdir();
-        let (data, ids) = baked_houses(
-            dir.path(),
-            &GenerateConfig {
-                houses: 1,
-                seed: 5,
-                rooms: (3, 4),
-                levels: (1, 1),
-                closed_door_prob: 0.0,
-                ..Default::default()
-            },
-        );
-        let scenes: Vec<(String, String)> = ids.into_iter().map(|id| (id, "val".into())).collect();
-        let episodes = every_task_episodes(&data, &scenes, 1, 3);
-        assert_eq!(episodes.len(), 3, "one episode per task");
-        let out = dir.path().join("oracle");
-        rollout(
-            &run_config(&data, &out, AgentKind::Oracle, SensorSuite::minos(32)),
-            &episodes,
-            &NoProgress,
-        )
-        .expect("oracle run");
-        let oracle = read_replay(&out.join("trajectories.parquet")).expect("oracle steps");
-        let episodes_file = dir.path().join("episodes.parquet");
-        write_episodes(&episodes_file, &episodes).expect("episode file");
+        let house = common::serve::oracle_house();
         Fixture {
-            dir,
-            data,
-            episodes,
-            episodes_file,
-            oracle,
+            dir: common::shared_tempdir(),
+            data: house.data.clone(),
+            episodes: house.episodes.clone(),
+            episodes_file: house.episodes_file.clone(),
+            oracle: &house.oracle,
         }
     })
 }

@@ -11,15 +11,10 @@ use crate::common;
 use std::path::PathBuf;
 use std::time::Duration;
 
-use common::baked_houses;
 use common::browser::{chromium, launch, Cdp};
 use minos::body::AgentPreset;
 use minos::episode::format::write_episodes;
-use minos::generate::GenerateConfig;
 use minos::io::image_codec::ImageEncoding;
-use minos::io::tables::read_replay;
-use minos::pipeline::rollout::{rollout, AgentKind};
-use minos::progress::NoProgress;
 use minos::render::RendererChoice;
 use minos::run::metrics::Reward;
 use minos::serve::campaign::links::mint;
@@ -41,33 +36,14 @@ fn a_participant_goes_from_tutorial_to_done_and_the_operator_sees_it() {
         return;
     };
     let dir = tempfile::tempdir().unwrap();
-    let (data, ids) = baked_houses(
-        dir.path(),
-        &GenerateConfig {
-            houses: 1,
-            seed: 5,
-            rooms: (3, 4),
-            levels: (1, 1),
-            closed_door_prob: 0.0,
-            ..Default::default()
-        },
-    );
-    let scenes: Vec<(String, String)> = ids.iter().map(|id| (id.clone(), "val".into())).collect();
-    // A PointGoal tutorial and one ObjectGoal campaign episode.
-    let episodes: Vec<_> = common::every_task_episodes(&data, &scenes, 1, 3)
-        .into_iter()
-        .take(2)
-        .collect();
+    // The serve tests' shared house: a PointGoal tutorial and one ObjectGoal campaign
+    // episode of it, with the oracle's decisions (its plan does not depend on the cameras).
+    let house = common::serve::oracle_house();
+    let (data, oracle) = (&house.data, &house.oracle);
+    let ids = data.ingested_ids().unwrap();
+    let episodes: Vec<_> = house.episodes[..2].to_vec();
     let body = AgentConfig::habitat();
     let sensors = SensorSuite::minos(64);
-    let oracle_dir = dir.path().join("oracle");
-    rollout(
-        &common::serve::run_config(&data, &oracle_dir, AgentKind::Oracle, sensors.clone()),
-        &episodes,
-        &NoProgress,
-    )
-    .unwrap();
-    let oracle = read_replay(&oracle_dir.join("trajectories.parquet")).unwrap();
     let episodes_file = dir.path().join("episodes.parquet");
     write_episodes(&episodes_file, &episodes).unwrap();
     let file = dir.path().join("study.toml");

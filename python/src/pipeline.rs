@@ -340,16 +340,6 @@ pub fn sample_episodes<'py>(
         .map(|_| EpisodeExport::Habitat)
         .into_iter()
         .chain(vln_export.as_ref().map(|(f, _)| EpisodeExport::Vln(*f)));
-    check_options(task, [bins.0, bins.1], exports).map_err(|e| match e {
-        EpisodeOptionsError::BinsOutOfOrder { .. } => bad_input(format!("bins: {e}, e.g. (3, 6)")),
-        EpisodeOptionsError::VlnExportOfOtherTask { format, .. } => bad_input(format!(
-            "export_{}: {e} (task=\"vln\")",
-            EpisodeExport::Vln(format).term_name()
-        )),
-        EpisodeOptionsError::HabitatExportOfVln => bad_input(format!(
-            "export_habitat: {e} (export_vlnce= or export_r2r=)"
-        )),
-    })?;
     let scene_names = SceneIdStyle {
         prefix: scene_prefix.to_string(),
         suffix: scene_suffix.to_string(),
@@ -381,6 +371,19 @@ pub fn sample_episodes<'py>(
         max_steps,
         ..SampleConfig::default()
     };
+    check_options(&sample, exports).map_err(|e| match e {
+        EpisodeOptionsError::BinsOutOfOrder { .. } => bad_input(format!("bins: {e}, e.g. (3, 6)")),
+        EpisodeOptionsError::VlnExportOfOtherTask { format, .. } => bad_input(format!(
+            "export_{}: {e} (task=\"vln\")",
+            EpisodeExport::Vln(format).term_name()
+        )),
+        EpisodeOptionsError::HabitatExportOfVln => bad_input(format!(
+            "export_habitat: {e} (export_vlnce= or export_r2r=)"
+        )),
+        EpisodeOptionsError::MinInstancesOfOtherTask { .. } => {
+            bad_input(format!("min_instances: {e}"))
+        }
+    })?;
     let shard: Shard = crate::convert::shard(shard)?;
     let bar = PyProgress::new(progress, 0);
     let outcome = py

@@ -203,6 +203,11 @@ def test_vln_episodes_and_their_export_equal_the_cli_with_provenance(world, tmp_
     with pytest.raises(minos.MinosError, match="need task"):
         minos.sample_episodes(world.data, "pointgoal", tmp_path / "x.parquet",
                               export_r2r=tmp_path / "r2r")
+    # The library's rule, with the keyword in front: more than one instance per category is
+    # ObjectGoal's alone.
+    with pytest.raises(minos.BadInputError, match="^min_instances: at least 2 instances"):
+        minos.sample_episodes(world.data, "pointgoal", tmp_path / "x.parquet", min_instances=2)
+    assert not (tmp_path / "x.parquet").exists()
 
 
 def test_run_writes_what_the_cli_writes(world, tmp_path, minos_bin):

@@ -229,14 +229,7 @@ pub fn config(a: &SampleArgs) -> anyhow::Result<EpisodesJob> {
         )),
         Some(other) => bail!("--export: expected FORMAT DIR, got {} values", other.len()),
     };
-    check_options(task, [easy, hard], export.as_ref().map(|(e, _)| *e)).map_err(|e| match e {
-        EpisodeOptionsError::BinsOutOfOrder { .. } => anyhow::anyhow!("--bins: {e}, e.g. 3,6"),
-        EpisodeOptionsError::VlnExportOfOtherTask { format, .. } => anyhow::anyhow!(
-            "--export {}: {e} (--task vln)",
-            EpisodeExport::Vln(format).term_name()
-        ),
-        EpisodeOptionsError::HabitatExportOfVln => anyhow::anyhow!("--export habitat: {e}"),
-    })?;
+    let exports = export.as_ref().map(|(e, _)| *e);
     let (habitat_export, vln_export) = match export {
         None => (None, None),
         Some((EpisodeExport::Habitat, dir)) => (Some(dir), None),
@@ -247,9 +240,6 @@ pub fn config(a: &SampleArgs) -> anyhow::Result<EpisodesJob> {
     }
     let (categories, all_categories) =
         expand_categories(&a.categories).context("--categories all: give it alone")?;
-    if task != Task::ObjectGoal && a.min_instances > 1 {
-        bail!("--min-instances: only for --task objectgoal");
-    }
     let scene_names = SceneIdStyle {
         prefix: a.scene_prefix.clone(),
         suffix: a.scene_suffix.clone(),
@@ -260,8 +250,6 @@ pub fn config(a: &SampleArgs) -> anyhow::Result<EpisodesJob> {
     let room_classes =
         parse_room_classes(&a.room_types).map_err(|e| anyhow::anyhow!("--room-types: {e}"))?;
     let subset = a.subset;
-    // The library's errors name the split or the variant (as Python reports them).
-    let scenes = select_scenes(&data, a.split.as_deref(), subset, a.variant.as_deref())?;
     let stratified = a.stratify.applies(subset);
     let sample = SampleConfig {
         task,
@@ -288,6 +276,19 @@ pub fn config(a: &SampleArgs) -> anyhow::Result<EpisodesJob> {
         max_steps: a.max_steps,
         ..SampleConfig::default()
     };
+    check_options(&sample, exports).map_err(|e| match e {
+        EpisodeOptionsError::BinsOutOfOrder { .. } => anyhow::anyhow!("--bins: {e}, e.g. 3,6"),
+        EpisodeOptionsError::VlnExportOfOtherTask { format, .. } => anyhow::anyhow!(
+            "--export {}: {e} (--task vln)",
+            EpisodeExport::Vln(format).term_name()
+        ),
+        EpisodeOptionsError::HabitatExportOfVln => anyhow::anyhow!("--export habitat: {e}"),
+        EpisodeOptionsError::MinInstancesOfOtherTask { .. } => {
+            anyhow::anyhow!("--min-instances: {e}")
+        }
+    })?;
+    // The library's errors name the split or the variant (as Python reports them).
+    let scenes = select_scenes(&data, a.split.as_deref(), subset, a.variant.as_deref())?;
     Ok(EpisodesJob {
         data,
         scenes,
@@ -521,7 +522,8 @@ mod tests {
         assert!(all.all_categories && all.categories.is_empty());
         assert_eq!(all.min_instances, 2);
         assert!(job("--task objectgoal --categories all,bed").is_err());
-        assert!(job("--task pointgoal --min-instances 2").is_err());
+        let err = job("--task pointgoal --min-instances 2").unwrap_err();
+        assert!(err.to_string().starts_with("--min-instances: "), "{err}");
         let vln = job("--task vln").unwrap().sample;
         assert_eq!(vln.task, Task::Vln);
         assert_eq!(

@@ -13,8 +13,8 @@ use serde_json::Value;
 
 use super::{checksums, quote, read_json, tables, Found};
 use crate::invalid::Invalid;
-use crate::io::lerobot::card::PROVENANCE;
 use crate::io::lerobot::image_file::{decode, ImageFile};
+use crate::io::lerobot::layout::{self, FileIndex, PROVENANCE};
 use crate::io::lerobot::stats::{FeatureStats, StatLayout};
 use crate::parquet_io::read_batches;
 use crate::progress::Progress;
@@ -148,7 +148,7 @@ pub(super) struct EpisodeRow {
 
 /// Checks the dataset's files against each other; the frames it holds, when known.
 pub(super) fn check_dataset(root: &Path, found: &mut Found) -> Option<usize> {
-    let info_path = root.join("meta/info.json");
+    let info_path = root.join(layout::INFO);
     let info = read_json(&info_path, found)?;
     let fps = info.get("fps").and_then(Value::as_u64).unwrap_or(0);
     if fps == 0 {
@@ -179,7 +179,7 @@ pub(super) fn check_dataset(root: &Path, found: &mut Found) -> Option<usize> {
     // meta/episodes, by episode index.
     let mut metas: HashMap<i64, EpisodeRow> = HashMap::new();
     let mut meta_rows = 0usize;
-    for path in parquet_files(&root.join("meta/episodes")) {
+    for path in parquet_files(&root.join(layout::EPISODES)) {
         let Some(batch) = tables::read(&path, found) else {
             continue;
         };
@@ -205,12 +205,12 @@ pub(super) fn check_dataset(root: &Path, found: &mut Found) -> Option<usize> {
     let mut index: i64 = 0;
     let mut episodes_seen = 0usize;
     let mut current: Option<Current> = None;
-    let data_files = parquet_files(&root.join("data"));
+    let data_files = parquet_files(&root.join(layout::DATA));
     if data_files.is_empty() {
-        found.problem(&root.join("data"), "file", "no data files");
+        found.problem(&root.join(layout::DATA), "file", "no data files");
     }
     for path in &data_files {
-        let place = file_place(root, path);
+        let place = file_place(path);
         let batches = match read_batches(path) {
             Ok(b) => b,
             Err(e) => {
@@ -346,7 +346,7 @@ pub(super) fn check_dataset(root: &Path, found: &mut Found) -> Option<usize> {
     }
     if meta_rows != episodes_seen {
         found.problem(
-            &root.join("meta/episodes"),
+            &root.join(layout::EPISODES),
             "rows",
             format!("{meta_rows} episode rows where the data files hold {episodes_seen} episodes"),
         );
@@ -609,7 +609,7 @@ fn finish(
 
 /// `meta/stats.json` against the recomputed episodes' statistics aggregated as LeRobot does.
 fn dataset_stats(root: &Path, declared: &[Declared], all: &[Vec<FeatureStats>], found: &mut Found) {
-    let path = root.join("meta/stats.json");
+    let path = root.join(layout::STATS);
     let Some(stats) = read_json(&path, found) else {
         return;
     };
@@ -697,23 +697,7 @@ fn parquet_files(dir: &Path) -> Vec<PathBuf> {
     out
 }
 
-/// `(chunk, file)` of `data/chunk-NNN/file-NNN.parquet`.
-fn file_place(root: &Path, path: &Path) -> (u64, u64) {
-    let rel = path
-        .strip_prefix(root)
-        .unwrap_or(path)
-        .to_string_lossy()
-        .into_owned();
-    let num = |tag: &str| {
-        rel.split(tag)
-            .nth(1)
-            .map(|s| {
-                s.chars()
-                    .take_while(char::is_ascii_digit)
-                    .collect::<String>()
-            })
-            .and_then(|s| s.parse().ok())
-            .unwrap_or(0)
-    };
-    (num("chunk-"), num("file-"))
+/// `(chunk, file)` of `data/chunk-NNN/file-NNN.parquet` (`(0, 0)` for another name).
+fn file_place(path: &Path) -> (u64, u64) {
+    FileIndex::of_path(path).map_or((0, 0), |i| (i.chunk as u64, i.file as u64))
 }

@@ -171,7 +171,7 @@ pub fn detect(path: &Path) -> Result<OutputKind, VerifyError> {
             Err(VerifyError::Unknown(path.to_path_buf()))
         };
     }
-    if path.join("meta/info.json").is_file() {
+    if path.join(crate::io::lerobot::layout::INFO).is_file() {
         Ok(OutputKind::Lerobot)
     } else if crate::io::run_dir::RunDir::new(path).is_run() {
         Ok(OutputKind::Run)

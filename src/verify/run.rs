@@ -45,12 +45,12 @@ pub(super) fn check(root: &Path, found: &mut Found, progress: &dyn Progress) {
         ));
     }
     let copy = run.lerobot();
-    if copy.join("meta/info.json").is_file() {
+    if copy.join(crate::io::lerobot::layout::INFO).is_file() {
         let frames = lerobot::check_dataset(&copy, found);
         if let (Some(frames), Some(steps)) = (frames, &steps) {
             if frames != steps.rows.len() {
                 found.problem(
-                    &copy.join("meta/info.json"),
+                    &copy.join(crate::io::lerobot::layout::INFO),
                     "total_frames",
                     format!(
                         "{frames} frames where trajectories.parquet has {} rows",

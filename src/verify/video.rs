@@ -13,7 +13,8 @@ use serde_json::Value;
 
 use super::lerobot::EpisodeRow;
 use super::{tables, Found};
-use crate::io::lerobot::video::{CODEC, VIDEO_PATH};
+use crate::io::lerobot::layout::{self, FileIndex, VIDEO_PATH};
+use crate::io::lerobot::video::CODEC;
 use crate::io::lerobot::video_read::read_video;
 
 /// How far an episode's stored mean (per channel, in \[0, 1\]) may be from its decoded
@@ -45,7 +46,7 @@ pub(super) fn check(
     if videos.is_empty() {
         return;
     }
-    let info_path = root.join("meta/info.json");
+    let info_path = root.join(layout::INFO);
     if info.get("video_path").and_then(Value::as_str) != Some(VIDEO_PATH) {
         found.problem(
             &info_path,
@@ -84,7 +85,7 @@ pub(super) fn check(
             );
         }
         // Episodes by file, in episode order.
-        let mut by_file: BTreeMap<(i64, i64), Vec<Place>> = BTreeMap::new();
+        let mut by_file: BTreeMap<FileIndex, Vec<Place>> = BTreeMap::new();
         for e in &order {
             let m = &metas[e];
             let num = |name: &str| {
@@ -114,7 +115,10 @@ pub(super) fn check(
                 .map(|c| tables::cell_f64(c.as_ref(), m.row))
                 .unwrap_or_default();
             by_file
-                .entry((c as i64, f as i64))
+                .entry(FileIndex {
+                    chunk: c as usize,
+                    file: f as usize,
+                })
                 .or_default()
                 .push(Place {
                     episode: *e,
@@ -127,9 +131,8 @@ pub(super) fn check(
                     row: m.row,
                 });
         }
-        for ((chunk, file), places) in &by_file {
-            let rel = format!("videos/{key}/chunk-{chunk:03}/file-{file:03}.mp4");
-            let path = root.join(&rel);
+        for (index, places) in &by_file {
+            let path = root.join(index.video(key));
             frames_checked += check_file(&path, shape, fps, places, found);
         }
     }

@@ -89,6 +89,53 @@ pub fn baked_houses_for(
     (data, ids)
 }
 
+/// Houses generated, ingested and baked once per test run (Habitat's body), shared by every
+/// test of every file that asks for the same configuration ([`shared_baked_houses`]).
+/// Read-only: tests write their outputs in a folder of their own, and copy DATA to change it.
+pub struct SharedHouses {
+    /// The folder holding `suncg/` and `DATA/`.
+    pub dir: tempfile::TempDir,
+    /// The baked DATA folder.
+    pub data: minos::store::DataDir,
+    /// The scene ids in manifest order.
+    pub ids: Vec<String>,
+}
+
+impl SharedHouses {
+    /// The scenes as (id, split) pairs, every one in `split`.
+    pub fn scenes(&self, split: &str) -> Vec<(String, String)> {
+        self.ids
+            .iter()
+            .map(|id| (id.clone(), split.to_string()))
+            .collect()
+    }
+}
+
+/// [`baked_houses`] of `cfg`, built on first use and shared for the rest of the run: the
+/// second file asking for the same configuration waits for the first's build instead of
+/// repeating it (other configurations build meanwhile).
+pub fn shared_baked_houses(cfg: &GenerateConfig) -> &'static SharedHouses {
+    type Slot = &'static std::sync::OnceLock<SharedHouses>;
+    static BUILT: std::sync::Mutex<Vec<(String, Slot)>> = std::sync::Mutex::new(Vec::new());
+    let key = format!("{cfg:?}");
+    let slot: Slot = {
+        let mut built = BUILT.lock().unwrap_or_else(|e| e.into_inner());
+        match built.iter().find(|(k, _)| *k == key) {
+            Some((_, slot)) => slot,
+            None => {
+                let slot: Slot = Box::leak(Box::default());
+                built.push((key, slot));
+                slot
+            }
+        }
+    };
+    slot.get_or_init(|| {
+        let dir = shared_tempdir();
+        let (data, ids) = baked_houses(dir.path(), cfg);
+        SharedHouses { dir, data, ids }
+    })
+}
+
 /// Generates `houses` houses (3–4 rooms, `seed`) into `dir/suncg` and ingests them into
 /// `dir/DATA` with the binary, as a user would; returns the DATA folder.
 pub fn cli_ingested(dir: &Path, houses: usize, seed: u64) -> PathBuf {

@@ -134,6 +134,65 @@ pub async fn play(ws: &mut Ws, decisions: &[Decision]) -> Value {
     }
 }
 
+/// The house the serve tests share (`serve`, `serve_campaign`, `serve_campaign_browser`):
+/// one generated house, baked, with one episode of each task on it (PointGoal, ObjectGoal,
+/// RoomGoal, split `val`), their episode file and the oracle's run over them with
+/// [`run_config`] and MINOS's sensors at 32². Read-only, like [`super::SharedHouses`].
+pub struct OracleHouse {
+    /// The baked DATA folder.
+    pub data: minos::store::DataDir,
+    /// One episode per task.
+    pub episodes: Vec<minos::episode::Episode>,
+    /// `episodes` as an episode file.
+    pub episodes_file: std::path::PathBuf,
+    /// The oracle's run folder.
+    pub oracle_dir: std::path::PathBuf,
+    /// The oracle's decisions per episode id, read back from its run.
+    pub oracle: std::collections::HashMap<String, Vec<Decision>>,
+}
+
+/// [`OracleHouse`], built once per test run.
+pub fn oracle_house() -> &'static OracleHouse {
+    static HOUSE: std::sync::OnceLock<OracleHouse> = std::sync::OnceLock::new();
+    HOUSE.get_or_init(|| {
+        let houses = super::shared_baked_houses(&minos::generate::GenerateConfig {
+            houses: 1,
+            seed: 5,
+            rooms: (3, 4),
+            levels: (1, 1),
+            closed_door_prob: 0.0,
+            ..Default::default()
+        });
+        let episodes = super::every_task_episodes(&houses.data, &houses.scenes("val"), 1, 3);
+        assert_eq!(episodes.len(), 3, "one episode per task");
+        let out = super::shared_tempdir().keep();
+        let oracle_dir = out.join("oracle");
+        let report = minos::pipeline::rollout::rollout(
+            &run_config(
+                &houses.data,
+                &oracle_dir,
+                minos::pipeline::rollout::AgentKind::Oracle,
+                minos::sim::SensorSuite::minos(32),
+            ),
+            &episodes,
+            &minos::progress::NoProgress,
+        )
+        .expect("oracle run");
+        assert!(report.failures.is_empty(), "{:?}", report.failures);
+        let oracle = minos::io::tables::read_replay(&oracle_dir.join("trajectories.parquet"))
+            .expect("oracle steps");
+        let episodes_file = out.join("episodes.parquet");
+        minos::episode::format::write_episodes(&episodes_file, &episodes).expect("episode file");
+        OracleHouse {
+            data: houses.data.clone(),
+            episodes,
+            episodes_file,
+            oracle_dir,
+            oracle,
+        }
+    })
+}
+
 /// The run a session's recording is compared with: Habitat's body, `sensors`, the CPU
 /// renderer, seed 0, MINOS's reward, raw images, plain Parquet (what the serve fixtures'
 /// servers record with).

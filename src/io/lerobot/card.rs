@@ -6,12 +6,11 @@ use std::path::Path;
 
 use serde_json::{json, Value};
 
+use super::layout::{CARD, INFO, PROVENANCE};
 use super::{io, LerobotError, RunTables};
 use crate::atomic::write_bytes_atomic;
 use crate::provenance::{self, MINOS};
 
-/// The provenance record's path inside the dataset.
-pub const PROVENANCE: &str = "meta/provenance.json";
 
 fn provenance_error(e: crate::file_error::FileError) -> LerobotError {
     super::write_error(&e.path, e.source)
@@ -24,11 +23,11 @@ pub fn write_card_and_provenance(
     root: &Path,
     run: Option<&Value>,
 ) -> Result<(), LerobotError> {
-    let info_path = root.join("meta/info.json");
+    let info_path = root.join(INFO);
     let info: Value = std::fs::read(&info_path)
         .map_err(io(&info_path))
         .and_then(|b| serde_json::from_slice(&b).map_err(|e| super::write_error(&info_path, e)))?;
-    let readme = root.join("README.md");
+    let readme = root.join(CARD);
     write_bytes_atomic(&readme, dataset_card(&info).as_bytes()).map_err(io(&readme))?;
     let mut source = serde_json::Map::new();
     let name = |p: &Path| {

@@ -19,6 +19,7 @@ use parquet::file::metadata::KeyValue;
 use serde_json::{json, Value};
 
 use super::features::{Camera, Feature};
+use super::layout::{self, FileIndex, CHUNK_SIZE, DATA_PATH, VIDEO_PATH};
 use super::stats::{FeatureStats, StatLayout};
 use super::{compact_columns, write_error, zstd, LerobotError};
 use parquet::file::properties::{EnabledStatistics, WriterProperties};
@@ -26,48 +27,8 @@ use parquet::file::properties::{EnabledStatistics, WriterProperties};
 /// LeRobot's format version this module writes.
 pub const CODEBASE_VERSION: &str = "v3.0";
 
-/// Data files per chunk folder (LeRobot's default).
-pub const CHUNK_SIZE: usize = 1000;
-
 /// Largest data file before the next episode starts a new one (LeRobot's default), MB.
 pub const DATA_FILE_MB: u64 = 100;
-
-/// LeRobot's `data_path` template.
-pub const DATA_PATH: &str = "data/chunk-{chunk_index:03d}/file-{file_index:03d}.parquet";
-
-/// A file's place: chunk folder and file number.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct FileIndex {
-    /// `chunk-NNN`.
-    pub chunk: usize,
-    /// `file-NNN`.
-    pub file: usize,
-}
-
-impl FileIndex {
-    /// The next file (a new chunk after `CHUNK_SIZE` files), as LeRobot numbers them.
-    pub fn next(self) -> FileIndex {
-        if self.file + 1 == CHUNK_SIZE {
-            FileIndex {
-                chunk: self.chunk + 1,
-                file: 0,
-            }
-        } else {
-            FileIndex {
-                chunk: self.chunk,
-                file: self.file + 1,
-            }
-        }
-    }
-
-    /// `<dir>/chunk-NNN/file-NNN.parquet`.
-    pub fn path(self, dir: &str) -> String {
-        format!(
-            "{dir}/chunk-{:03}/file-{:03}.parquet",
-            self.chunk, self.file
-        )
-    }
-}
 
 /// One row of `meta/episodes`.
 #[derive(Debug, Clone, PartialEq)]
@@ -165,7 +126,7 @@ pub fn write_tasks(root: &Path, tasks: &[String]) -> Result<(), LerobotError> {
         ])
         .with_metadata([("pandas".to_string(), pandas.to_string())].into()),
     );
-    let path = root.join("meta/tasks.parquet");
+    let path = root.join(layout::TASKS);
     let batch = RecordBatch::try_new(
         schema,
         vec![
@@ -223,7 +184,7 @@ pub fn write_episodes(
         if k > 0 {
             place = place.next();
         }
-        let path = root.join(place.path("meta/episodes"));
+        let path = root.join(place.path(layout::EPISODES));
         let mut fields = Vec::new();
         let mut columns: Vec<ArrayRef> = Vec::new();
         let mut push = |name: &str, column: ArrayRef| {
@@ -396,7 +357,7 @@ pub fn info_json(
         "fps": fps,
         "splits": splits,
         "data_path": DATA_PATH,
-        "video_path": if has_video { json!(super::video::VIDEO_PATH) } else { Value::Null },
+        "video_path": if has_video { json!(VIDEO_PATH) } else { Value::Null },
         "features": feats,
     })
 }
@@ -404,23 +365,6 @@ pub fn info_json(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn file_indices_roll_into_a_new_chunk_after_chunk_size_files() {
-        let mut i = FileIndex::default();
-        for _ in 0..CHUNK_SIZE - 1 {
-            i = i.next();
-        }
-        assert_eq!(
-            i,
-            FileIndex {
-                chunk: 0,
-                file: 999
-            }
-        );
-        assert_eq!(i.next(), FileIndex { chunk: 1, file: 0 });
-        assert_eq!(i.next().path("data"), "data/chunk-001/file-000.parquet");
-    }
 
     #[test]
     fn splits_are_ranges_only_when_contiguous() {

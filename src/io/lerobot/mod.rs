@@ -37,6 +37,7 @@ internal! {
 mod data;
 pub mod features;
 pub mod image_file;
+pub mod layout;
 mod meta;
 pub mod source;
 pub mod stats;
@@ -60,7 +61,7 @@ use crate::progress::Progress;
 pub use data::FrameError;
 use data::{data_schema, episode_batch, EpisodeFrames};
 use features::FeatureError;
-pub use meta::FileIndex;
+use layout::FileIndex;
 pub use meta::CODEBASE_VERSION;
 use meta::{EpisodeMeta, VideoPlace};
 use source::RunTables;
@@ -386,7 +387,7 @@ impl DataFile {
         index: FileIndex,
         schema: arrow::datatypes::SchemaRef,
     ) -> Result<Self, LerobotError> {
-        let path = root.join(index.path("data"));
+        let path = root.join(index.path(layout::DATA));
         if let Some(dir) = path.parent() {
             std::fs::create_dir_all(dir).map_err(io(dir))?;
         }
@@ -761,7 +762,7 @@ fn write_into(
         write_bytes_atomic(&path, &bytes).map_err(io(&path))
     };
     json_file(
-        root.join("meta/stats.json"),
+        root.join(layout::STATS),
         meta::stats_json(&metas, &features),
     )?;
     let split_of: Vec<(String, usize)> = episodes
@@ -770,7 +771,7 @@ fn write_into(
         .map(|(i, e)| (e.split.clone(), i))
         .collect();
     json_file(
-        root.join("meta/info.json"),
+        root.join(layout::INFO),
         meta::info_json(
             &features,
             &cameras,

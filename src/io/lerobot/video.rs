@@ -24,10 +24,7 @@ use openh264::encoder::{
 use openh264::formats::YUVBuffer;
 use openh264::OpenH264API;
 
-use super::meta::FileIndex;
-
-/// LeRobot's `video_path` template.
-pub const VIDEO_PATH: &str = "videos/{video_key}/chunk-{chunk_index:03d}/file-{file_index:03d}.mp4";
+use super::layout::FileIndex;
 
 /// Largest video file before the next episode starts a new one (LeRobot's default), MB.
 pub const VIDEO_FILE_MB: u64 = 200;
@@ -359,10 +356,7 @@ impl VideoFile {
 
 /// The path of a camera's video file under the dataset root.
 pub fn video_file_path(root: &Path, key: &str, index: FileIndex) -> PathBuf {
-    root.join(format!(
-        "videos/{key}/chunk-{:03}/file-{:03}.mp4",
-        index.chunk, index.file
-    ))
+    root.join(index.video(key))
 }
 
 #[cfg(test)]

@@ -296,7 +296,7 @@ pub fn run_job(
         .map(|_| EpisodeExport::Habitat)
         .into_iter()
         .chain(job.vln_export.as_ref().map(|(f, _)| EpisodeExport::Vln(*f)));
-    check_options(cfg.task, cfg.bins, exports)?;
+    check_options(cfg, exports)?;
     let starts = match &job.starts {
         Some(path) => Some(read_starts(path).map_err(EpisodesJobError::Starts)?),
         None => None,

@@ -116,7 +116,7 @@ fn read_shard(dir: &Path) -> Result<(ShardRun, Shard), MergeError> {
             })
         })
         .collect::<Result<Vec<_>, _>>()?;
-    let info = dir.lerobot().join("meta").join("info.json");
+    let info = dir.lerobot().join(crate::io::lerobot::layout::INFO);
     let run = ShardRun {
         dir,
         manifest,
