@@ -29,33 +29,33 @@ pub struct PathFinder {
 
 /// `(N, 3)` float32 points from an array or a sequence of points.
 fn points(obj: &Bound<'_, PyAny>) -> PyResult<Vec<Vec3>> {
-    if let Ok(a) = obj.extract::<PyReadonlyArray2<'_, f32>>() {
-        if a.shape()[1] != 3 {
-            return Err(pyo3::exceptions::PyValueError::new_err(
-                "expected an (N, 3) array of points",
-            ));
-        }
-        return Ok(a
-            .as_array()
-            .rows()
-            .into_iter()
-            .map(|r| Vec3::new(r[0], r[1], r[2]))
-            .collect());
+    if let Some(points) = array_points::<f32>(obj) {
+        return points;
     }
-    if let Ok(a) = obj.extract::<PyReadonlyArray2<'_, f64>>() {
-        if a.shape()[1] != 3 {
-            return Err(pyo3::exceptions::PyValueError::new_err(
-                "expected an (N, 3) array of points",
-            ));
-        }
-        return Ok(a
-            .as_array()
-            .rows()
-            .into_iter()
-            .map(|r| Vec3::new(r[0] as f32, r[1] as f32, r[2] as f32))
-            .collect());
+    if let Some(points) = array_points::<f64>(obj) {
+        return points;
     }
     obj.try_iter()?.map(|p| point(&p?)).collect()
+}
+
+/// The rows of `obj` as points when it is a 2-D array of `T`; `None` when it is not one.
+fn array_points<T>(obj: &Bound<'_, PyAny>) -> Option<PyResult<Vec<Vec3>>>
+where
+    T: numpy::Element + Copy + Into<f64>,
+{
+    let a = obj.extract::<PyReadonlyArray2<'_, T>>().ok()?;
+    if a.shape()[1] != 3 {
+        return Some(Err(pyo3::exceptions::PyValueError::new_err(
+            "expected an (N, 3) array of points",
+        )));
+    }
+    let f = |v: T| v.into() as f32;
+    Some(Ok(a
+        .as_array()
+        .rows()
+        .into_iter()
+        .map(|r| Vec3::new(f(r[0]), f(r[1]), f(r[2])))
+        .collect()))
 }
 
 /// True when `obj` is a 2-D array (the batched form).
