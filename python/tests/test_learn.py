@@ -203,13 +203,39 @@ def test_smoke_the_loss_falls_and_the_loop_runs(world, oracle_dataset, tmp_path)
     assert rand["aggregate"]["episodes"] == len(world.episodes)
 
 
+def test_dart_adds_the_perturbed_oracles_frames_labelled_by_the_oracle(world, oracle_dataset):
+    from minos.learn.dart import noisy_demonstrations
+
+    demos = load_lerobot(oracle_dataset, ENV_ACTIONS, keys=["goal", "steps_left", "contact"])
+    before = demos.num_frames
+    venv = make_env(world.data, world.point, agent="habitat", num_envs=2, size=16)
+    recs = noisy_demonstrations(demos, venv, rounds=2, eps=0.5, seed=3)
+    assert [r["round"] for r in recs] == [1, 2] and recs[-1]["frames"] == demos.num_frames
+    added = demos.num_frames - before
+    assert added == sum(r["frames_added"] for r in recs) > 0
+    assert demos.num_episodes == len(world.episodes) * 3  # the oracle's, then two rounds
+    # Every added frame is labelled with what the oracle would do there (or has no label
+    # where it found no plan), never with the random move taken.
+    new = demos.labels[before:]
+    assert ((new >= 0) & (new < len(ENV_ACTIONS)) | (new == -100)).all()
+    # Half the steps random: the perturbed oracle takes longer than the oracle on average.
+    assert added / 2 > before
+    with pytest.raises(ValueError, match="eps"):
+        noisy_demonstrations(demos, venv, rounds=1, eps=1.0)
+
+
 def test_command_line_train_and_eval(world, oracle_dataset, tmp_path):
     from minos.learn.__main__ import main
 
     ckpt = tmp_path / "cli.pt"
     assert main(["-q", "train", "--dataset", str(oracle_dataset),
-                 "--modalities", "M", "--agent", "habitat", "--epochs", "1",
+                 "--modalities", "M,F", "--agent", "habitat", "--epochs", "1",
+                 "--noise", "1", "--noise-eps", "0.5", "--data", str(world.data),
+                 "--train-episodes", str(world.point), "--size", "24",
                  "--out", str(ckpt)]) == 0
+    with pytest.raises(SystemExit, match="--train-episodes"):
+        main(["-q", "train", "--dataset", str(oracle_dataset), "--noise", "1",
+              "--out", str(tmp_path / "no.pt")])
     out = tmp_path / "eval.json"
     assert main(["-q", "eval", "--checkpoint", str(ckpt), "--data", str(world.data),
                  "--episodes", str(world.point), "--agent", "habitat", "--max-steps", "30",
@@ -239,6 +265,9 @@ def test_tables_name_every_paper_cell_and_report_what_is_not_run(tmp_path):
         assert c.states == (c.task == "objectgoal"), name
         # Two DAgger rounds for every row that sees an image; blind rows are cloned only.
         assert c.dagger == 2 and not c.dagger_blind, name
+        # The modality table's blind rows get two DART rounds; the complexity table's M
+        # rows (an ablation: the paper's agents all saw images) are cloned only.
+        assert c.noise == (2 if c.task == "objectgoal" else 0) and c.noise_eps == 0.3, name
     rep = tables.report(tmp_path)
     assert "point-suncg-furnished-small" in rep and "| — |" in rep
 
@@ -260,6 +289,18 @@ def test_dagger_rows_are_other_rows_than_their_cloned_ones(tmp_path):
     assert row_file(tmp_path, asked, blind).name == "M-gru-s0-dagger1.json"
     none = CellConfig(work=str(tmp_path))
     assert row_file(tmp_path, none, seeing).name == "MD-gru-s0.json"
+    # DART rounds go to the rows without DAgger that sense contact, and name their row.
+    from minos.learn.cell import noise_rounds
+
+    touch = ("M", "F")
+    dart = CellConfig(work=str(tmp_path), dagger=2, dagger_blind=False, noise=2)
+    assert [noise_rounds(dart, m) for m in (seeing, blind, touch)] == [0, 0, 2]
+    assert noise_rounds(dart, ("M", "V", "F")) == 0  # DAgger's
+    assert row_file(tmp_path, dart, seeing).name == "MD-gru-s0-dagger2.json"
+    assert row_file(tmp_path, dart, blind).name == "M-gru-s0.json"
+    assert row_file(tmp_path, dart, touch).name == "MF-gru-s0-noise2.json"
+    other = CellConfig(work=str(tmp_path), noise=1, noise_eps=0.5)
+    assert row_file(tmp_path, other, touch).name == "MF-gru-s0-noise1e0.5.json"
 
 
 def test_a_cell_folder_made_with_other_data_settings_is_not_resumed(tmp_path):

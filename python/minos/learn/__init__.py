@@ -1,6 +1,6 @@
-"""minos.learn: the reference learner — behaviour cloning (and DAgger) from minos's LeRobot
-datasets and evaluation in :class:`minos.gym.VectorNavEnv` on unseen houses with minos's
-metrics (docs/PYTHON.md, "Learning"). Needs torch and lerobot.
+"""minos.learn: the reference learner — behaviour cloning (with DAgger or DART) from minos's
+LeRobot datasets and evaluation in :class:`minos.gym.VectorNavEnv` on unseen houses with
+minos's metrics (docs/PYTHON.md, "Learning"). Needs torch and lerobot.
 
     from minos.learn import load_lerobot, make_policy, train_bc, TrainConfig
     from minos.learn import make_env, evaluate_policy
@@ -14,6 +14,7 @@ Command line: ``python -m minos.learn {train,eval,cell} --help``.
 
 from .cell import CellConfig, run_cell
 from .dagger import dagger
+from .dart import noisy_demonstrations
 from .data import Demonstrations, load_lerobot
 from .evaluate import evaluate_policy, evaluate_random, make_env
 from .metrics import EpisodeMetrics, aggregate
@@ -23,5 +24,5 @@ from .train import TrainConfig, load_policy, make_policy, train_bc
 __all__ = [
     "CellConfig", "Demonstrations", "EpisodeMetrics", "NavPolicy", "PolicySpec", "TrainConfig",
     "aggregate", "dagger", "evaluate_policy", "evaluate_random", "load_lerobot", "load_policy",
-    "make_env", "make_policy", "run_cell", "train_bc",
+    "make_env", "make_policy", "noisy_demonstrations", "run_cell", "train_bc",
 ]

@@ -32,6 +32,12 @@ def _common_train(p: argparse.ArgumentParser) -> None:
     p.add_argument("--dagger", type=int, default=0, metavar="N",
                    help="DAgger rounds after behaviour cloning (needs the training episodes)")
     p.add_argument("--beta", type=float, default=0.5, help="DAgger's first oracle mixture")
+    p.add_argument("--noise", type=int, default=0, metavar="N",
+                   help="DART rounds before cloning: the oracle over the training episodes "
+                        "with random moves, labelled by the oracle (train: needs the training "
+                        "episodes; cell: rows without DAgger rounds)")
+    p.add_argument("--noise-eps", type=float, default=0.3,
+                   help="DART's probability of a random move per step")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--device", default="auto", help="auto (CUDA when present), cpu, cuda")
     p.add_argument("--size", type=int, default=84, help="image size the policy sees")
@@ -170,6 +176,7 @@ def main(argv: list[str] | None = None) -> int:
             test_per_scene=args.test_per_scene, max_steps=args.max_steps, size=args.size,
             memory=args.memory, hidden=args.hidden, epochs=args.epochs,
             batch_frames=args.batch_frames, lr=args.lr, dagger=args.dagger, beta=args.beta,
+            noise=args.noise, noise_eps=args.noise_eps,
             num_envs=args.num_envs, sample=not args.greedy, seed=args.seed, device=args.device)
         run_cell(cfg, progress=progress, random_only=args.random_only)
         return 0
@@ -194,6 +201,18 @@ def main(argv: list[str] | None = None) -> int:
               f"{demos.label_counts()}", file=sys.stderr)
         policy = make_policy(demos, mods, memory=args.memory, hidden=args.hidden,
                              image_size=args.size, use_stop=args.use_stop)
+        if (args.dagger or args.noise) and not (args.data and args.train_episodes):
+            raise SystemExit("--dagger and --noise need --data and --train-episodes")
+        if args.noise:
+            from .dart import noisy_demonstrations
+
+            demos.frames = {k: demos.frames[k] for k in policy.spec.keys}
+            noisy_demonstrations(demos, make_env(args.data, args.train_episodes,
+                                                 agent=args.agent, size=args.size,
+                                                 seed=args.seed, require_stop=args.use_stop),
+                                 rounds=args.noise, eps=args.noise_eps, seed=args.seed,
+                                 progress=progress,
+                                 callback=lambda r: print(json.dumps(r), file=sys.stderr))
         tc = TrainConfig(epochs=args.epochs, batch_frames=args.batch_frames, lr=args.lr,
                          seed=args.seed, device=args.device)
         hist = train_bc(policy, demos, tc, checkpoint=args.out, resume=args.resume,
@@ -202,8 +221,6 @@ def main(argv: list[str] | None = None) -> int:
         if args.dagger:
             from .dagger import dagger
 
-            if not (args.data and args.train_episodes):
-                raise SystemExit("--dagger needs --data and --train-episodes")
             venv = make_env(args.data, args.train_episodes, agent=args.agent, size=args.size,
                             seed=args.seed, require_stop=args.use_stop)
             recs = dagger(policy, demos, venv, tc, iterations=args.dagger, beta=args.beta,

@@ -18,7 +18,9 @@ rows are MINOS's random agent (``minos-random``: each button pressed with probab
 step), averaged over five seeds. Every row that sees an image (V or D) is
 behaviour-cloned from the oracle and then trained in two DAgger rounds (the oracle labelling
 the states the policy reaches in the training houses); blind rows (M, M+F) are cloned
-only. The data sizes are chosen so that a cell's training and
+without DAgger; in the modality table M+F (which senses contact) learns from the oracle's
+demonstrations plus two DART rounds (the oracle with a random move 30 % of the time,
+labelled by the oracle). The data sizes are chosen so that a cell's training and
 evaluation fit about 10 minutes of a 2-core CPU (docs/RESULTS.md says what each cell chose and
 what it took). ``--random-only`` stops each cell after its random row: the task-difficulty
 check in minutes, without training. A modality-table cell is one row of one column; the rows
@@ -104,7 +106,7 @@ def _modalities() -> dict[str, CellConfig]:
     base = CellConfig(work="", task="objectgoal", categories=["door", "arch"], select="random",
                       preset="minos-paper", per_scene=10, test_per_scene=10, max_steps=500,
                       size=84, epochs=8, ratio_rule=False, dagger=2, dagger_blind=False,
-                      states=True)
+                      states=True, noise=2)
     small = dict(rooms=(2, 2), min_doors=1, houses=100, test_houses=30)
     medium = dict(rooms=(3, 5), min_doors=2, houses=24, test_houses=8)
     cols = {
