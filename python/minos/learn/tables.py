@@ -34,7 +34,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Optional
 
-from .cell import CellConfig, dagger_rounds, random_file, row_file, run_cell
+from .cell import CellConfig, dagger_rounds, noise_rounds, random_file, row_file, run_cell
 from .features import modality_name, parse_modalities
 
 #: The paper's numbers: complexity cells → (random success %, best agent success %, agent).
@@ -170,8 +170,12 @@ def report(root: str | Path) -> str:
     allc = cells()
     pct = lambda v: "—" if v is None else f"{100 * v:.1f}"  # noqa: E731
     def how(cfg: CellConfig, row: str) -> str:
-        rounds = dagger_rounds(cfg, parse_modalities(row))
-        return f"cloned + {rounds} DAgger rounds" if rounds else "cloned"
+        mods = parse_modalities(row)
+        if dagger_rounds(cfg, mods):
+            return f"cloned + {dagger_rounds(cfg, mods)} DAgger rounds"
+        if noise_rounds(cfg, mods):
+            return f"cloned with {noise_rounds(cfg, mods)} DART rounds (ε {cfg.noise_eps:g})"
+        return "cloned"
 
     first = next(iter(allc.values()))
     lines = ["## Complexity (success %)", "",
@@ -204,7 +208,8 @@ def report(root: str | Path) -> str:
             f"{secs} |")
     door = allc[f"door-{MOD_COLUMNS[0]}/M+D"]
     lines += ["", "## Modalities (ObjectGoal door, success / speed %; paper DFP in brackets; "
-              f"M and M+F {how(door, 'M+F')}, the rows with an image {how(door, 'M+D')})",
+              f"M {how(door, 'M')}, M+F {how(door, 'M+F')}, the rows with an image "
+              f"{how(door, 'M+D')})",
               "",
               "| row | " + " | ".join(MOD_COLUMNS) + " |",
               "|---|" + "---|" * len(MOD_COLUMNS)]
