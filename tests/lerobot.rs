@@ -15,7 +15,6 @@ use arrow::array::{
 };
 use common::{every_task_episodes, minos, tree_bytes, RunOk};
 use minos::episode::Episode;
-use minos::generate::GenerateConfig;
 use minos::io::image_codec::ImageEncoding;
 use minos::pipeline::rollout::{rollout, AgentKind, RunConfig};
 use minos::progress::NoProgress;
@@ -42,15 +41,7 @@ struct Fixture {
 fn fixture() -> &'static Fixture {
     static F: std::sync::OnceLock<Fixture> = std::sync::OnceLock::new();
     F.get_or_init(|| {
-        // The same houses as the other LeRobot file's (built once for both).
-        let houses = common::shared_baked_houses(&GenerateConfig {
-            houses: 2,
-            seed: 8,
-            rooms: (3, 5),
-            levels: (1, 1),
-            closed_door_prob: 0.0,
-            ..Default::default()
-        });
+        let houses = common::lerobot_houses();
         let dir = common::shared_tempdir();
         let data = houses.data.clone();
         let scenes = houses.scenes("val");

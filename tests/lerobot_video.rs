@@ -12,7 +12,6 @@ use std::path::{Path, PathBuf};
 use arrow::array::{Array, BinaryArray, Float64Array, Int64Array, RecordBatch, StringArray};
 use common::{every_task_episodes, minos, tree_bytes, RunOk};
 use minos::episode::Episode;
-use minos::generate::GenerateConfig;
 use minos::io::image_codec::ImageEncoding;
 use minos::io::lerobot::video_read::read_video;
 use minos::pipeline::rollout::{rollout, AgentKind, RunConfig};
@@ -43,15 +42,7 @@ struct Fixture {
 fn fixture() -> &'static Fixture {
     static F: std::sync::OnceLock<Fixture> = std::sync::OnceLock::new();
     F.get_or_init(|| {
-        // The same houses as the other LeRobot file's (built once for both).
-        let houses = common::shared_baked_houses(&GenerateConfig {
-            houses: 2,
-            seed: 8,
-            rooms: (3, 5),
-            levels: (1, 1),
-            closed_door_prob: 0.0,
-            ..Default::default()
-        });
+        let houses = common::lerobot_houses();
         let dir = common::shared_tempdir();
         let data = houses.data.clone();
         let scenes = houses.scenes("val");

@@ -136,6 +136,18 @@ pub fn shared_baked_houses(cfg: &GenerateConfig) -> &'static SharedHouses {
     })
 }
 
+/// The houses both LeRobot test files export from (two 3–5-room houses, seed 8), built once.
+pub fn lerobot_houses() -> &'static SharedHouses {
+    shared_baked_houses(&GenerateConfig {
+        houses: 2,
+        seed: 8,
+        rooms: (3, 5),
+        levels: (1, 1),
+        closed_door_prob: 0.0,
+        ..Default::default()
+    })
+}
+
 /// Generates `houses` houses (3–4 rooms, `seed`) into `dir/suncg` and ingests them into
 /// `dir/DATA` with the binary, as a user would; returns the DATA folder.
 pub fn cli_ingested(dir: &Path, houses: usize, seed: u64) -> PathBuf {
