@@ -46,9 +46,8 @@ def dagger(policy, demos: Demonstrations, venv, config: TrainConfig, iterations:
                                record=True, beta=b, progress=bar,
                                goal_objects=policy.spec.extra.get("goal_objects"))
         bar.close()
-        frames = {k: torch.cat([f[k] for f, _ in res.episodes]) for k in keys}
-        labels = torch.cat([lab for _, lab in res.episodes])
-        demos.extend(frames, labels, [len(lab) for _, lab in res.episodes])
+        frames, labels, lengths = res.recorded(keys)
+        demos.extend(frames, labels, lengths)
         history = train_bc(policy, demos, config, progress=progress,
                            start_epoch=len(history), history=history)
         success = sum(m.success for m in res.metrics.values()) / max(len(res.metrics), 1)

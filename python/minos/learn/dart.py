@@ -51,9 +51,8 @@ def noisy_demonstrations(demos: Demonstrations, venv, rounds: int = 2, eps: floa
             res = run_episodes(venv, choose, keys, seed=seed + r, record=True,
                                beta=1.0 - eps, progress=bar, goal_objects=goal_objects)
         bar.close()
-        frames = {k: torch.cat([f[k] for f, _ in res.episodes]) for k in keys}
-        labels = torch.cat([lab for _, lab in res.episodes])
-        demos.extend(frames, labels, [len(lab) for _, lab in res.episodes])
+        frames, labels, lengths = res.recorded(keys)
+        demos.extend(frames, labels, lengths)
         metrics = res.metrics.values()
         rec = {"round": r, "eps": eps, "frames_added": int(labels.numel()),
                "frames": demos.num_frames,

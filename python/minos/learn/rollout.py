@@ -34,6 +34,13 @@ class RolloutResult:
     episode_ids: list[str] = field(default_factory=list)  # of ``episodes``
     steps: int = 0
 
+    def recorded(self, keys) -> tuple[dict[str, torch.Tensor], torch.Tensor, list[int]]:
+        """The recorded episodes as :meth:`Demonstrations.extend` takes them: the frames of
+        ``keys`` and the labels, concatenated in episode order, and each episode's length."""
+        frames = {k: torch.cat([f[k] for f, _ in self.episodes]) for k in keys}
+        labels = torch.cat([lab for _, lab in self.episodes])
+        return frames, labels, [len(lab) for _, lab in self.episodes]
+
 
 class _Track:
     """One environment's running episode."""
