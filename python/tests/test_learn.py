@@ -303,6 +303,25 @@ def test_dagger_rows_are_other_rows_than_their_cloned_ones(tmp_path):
     assert row_file(tmp_path, other, touch).name == "MF-gru-s0-noise1e0.5.json"
 
 
+def test_a_rows_table_line_counts_the_frames_its_rounds_added():
+    from minos.learn.cell import markdown
+
+    base = {"task": "objectgoal", "preset": "minos-paper", "name": "M+F", "memory": "gru",
+            "train_frames": 1000, "epochs": 8, "dagger": [], "noise": [], "success": 0.5,
+            "spl": 0.25, "speed": 0.125, "random": {"success": 0.1, "spl": 0.05, "speed": 0.0},
+            "seconds": {"train": 12.0, "eval": 3.0}}
+    dart = {**base, "noise": [{"frames_added": 300}, {"frames_added": 200}]}
+    dag = {**base, "name": "M+D", "dagger": [{"frames_added": 70}]}
+    head, rule, *lines = markdown([base, dart, dag]).splitlines()
+    cols = [c.strip() for c in head.strip("|").split("|")]
+    assert len(cols) == rule.count("---")
+    cells_of = [dict(zip(cols, (c.strip() for c in ln.strip("|").split("|")))) for ln in lines]
+    assert [c["oracle frames"] for c in cells_of] == ["1000"] * 3
+    assert [c["frames added"] for c in cells_of] == ["0", "500", "70"]
+    assert [(c["DAgger"], c["DART"]) for c in cells_of] == [("0", "0"), ("0", "2"), ("1", "0")]
+    assert cells_of[1]["success %"] == "50.0" and cells_of[1]["speed %"] == "12.5"
+
+
 def test_a_cell_folder_made_with_other_data_settings_is_not_resumed(tmp_path):
     # Its stages are skipped when their outputs exist, so a folder made with other houses or
     # episodes would give the new settings' rows the old data: refused, naming what changed.

@@ -413,16 +413,22 @@ def _subset(demos, keys: Sequence[str]):
 
 
 def markdown(rows: Sequence[dict]) -> str:
-    """Result rows as a Markdown table (percentages)."""
-    head = ("| task | preset | modalities | memory | train frames | epochs | DAgger | "
-            "success % | SPL % | speed % | random success % | random SPL % | random speed % | "
-            "train s | eval s |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n")
+    """Result rows as a Markdown table (percentages). ``oracle frames`` are the oracle's
+    demonstrations the row was cloned from; ``frames added`` those its DAgger or DART rounds
+    added before its last training."""
+    head = ("| task | preset | modalities | memory | oracle frames | frames added | epochs | "
+            "DAgger | DART | success % | SPL % | speed % | random success % | random SPL % | "
+            "random speed % | train s | eval s |\n"
+            "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n")
     lines = []
     for r in rows:
         pct = lambda v: f"{100 * v:.1f}"  # noqa: E731
+        rounds = list(r["dagger"]) + list(r.get("noise", []))
+        added = sum(rec["frames_added"] for rec in rounds)
         lines.append(
             f"| {r['task']} | {r['preset']} | {r['name']} | {r['memory']} | {r['train_frames']} "
-            f"| {r['epochs']} | {len(r['dagger'])} | {pct(r['success'])} | {pct(r['spl'])} | "
+            f"| {added} | {r['epochs']} | {len(r['dagger'])} | {len(r.get('noise', []))} | "
+            f"{pct(r['success'])} | {pct(r['spl'])} | "
             f"{pct(r['speed'])} | {pct(r['random']['success'])} | {pct(r['random']['spl'])} | "
             f"{pct(r['random']['speed'])} | {r['seconds']['train']:.0f} | "
             f"{r['seconds']['eval']:.0f} |")

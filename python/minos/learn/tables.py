@@ -181,7 +181,7 @@ def report(root: str | Path) -> str:
     lines = ["## Complexity (success %)", "",
              "| cell | rooms | houses (train/test) | test eps | paper random | minos random | "
              f"paper best | minos M ({how(first, 'M')}) | minos M+D, {how(first, 'M+D')} (SPL) "
-             "| train frames | cell s |",
+             "| oracle frames | cell s |",
              "|---|---|---|---|---|---|---|---|---|---|---|"]
     for name, (prand, pbest, agent) in PAPER_COMPLEXITY.items():
         cfg = allc[name]
