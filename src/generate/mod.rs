@@ -127,7 +127,7 @@ impl OutputFormat {
 /// Measured with the `minos-paper` agent's grids (walkable floor inside rooms, furnished over
 /// the `empty` variant): [`Furnishing::Standard`] 2-room houses keep ≈ 73 % of their floor
 /// walkable, the real SUNCG and 3D-FRONT samples ≈ 51 %, [`Furnishing::Dense`] houses ≈ the
-/// real ones (docs/RESULTS.md, "Furniture density").
+/// real ones (docs/RESULTS.md, "The random rows": not the furniture's density).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Furnishing {
     /// Each room class's recipe alone (a sofa, a coffee table, a TV stand, ...).
