@@ -193,8 +193,14 @@ def test_smoke_the_loss_falls_and_the_loop_runs(world, oracle_dataset, tmp_path)
     assert loaded.spec.keys == ["goal", "steps_left", "depth"] and ckpt_dict["epoch"] == 0
 
     venv = make_env(world.data, world.point, agent="habitat", num_envs=2, size=24, max_steps=40)
-    rounds = dagger(policy, demos, venv, TrainConfig(epochs=1, batch_frames=64), iterations=1)
+    # A round of one epoch where the cloning had three (`epochs`): the round's checkpoint
+    # holds one epoch.
+    with pytest.raises(ValueError, match="at least 1"):
+        dagger(policy, demos, venv, TrainConfig(epochs=3), iterations=1, epochs=0)
+    rounds = dagger(policy, demos, venv, TrainConfig(epochs=3, batch_frames=64), iterations=1,
+                    epochs=1, checkpoint=tmp_path / "d.pt")
     assert rounds[0]["frames_added"] > 0 and demos.num_frames == rounds[0]["frames"]
+    assert len(torch.load(tmp_path / "d.pt", weights_only=False)["history"]) == 1
     res = evaluate_policy(policy, venv, max_steps=40)
     agg = res["aggregate"]
     assert agg["episodes"] == len(world.episodes) and 0.0 <= agg["success"] <= 1.0
@@ -301,6 +307,11 @@ def test_dagger_rows_are_other_rows_than_their_cloned_ones(tmp_path):
     assert row_file(tmp_path, dart, touch).name == "MF-gru-s0-noise2.json"
     other = CellConfig(work=str(tmp_path), noise=1, noise_eps=0.5)
     assert row_file(tmp_path, other, touch).name == "MF-gru-s0-noise1e0.5.json"
+    # DAgger rounds shorter than the cloning are another row; as long as it, the same one.
+    short = CellConfig(work=str(tmp_path), dagger=2, epochs=8, dagger_epochs=3)
+    assert row_file(tmp_path, short, seeing).name == "MD-gru-s0-dagger2e3.json"
+    same = CellConfig(work=str(tmp_path), dagger=2, epochs=8, dagger_epochs=8)
+    assert row_file(tmp_path, same, seeing).name == "MD-gru-s0-dagger2.json"
 
 
 def test_a_rows_table_line_counts_the_frames_its_rounds_added():

@@ -32,6 +32,8 @@ def _common_train(p: argparse.ArgumentParser) -> None:
     p.add_argument("--dagger", type=int, default=0, metavar="N",
                    help="DAgger rounds after behaviour cloning (needs the training episodes)")
     p.add_argument("--beta", type=float, default=0.5, help="DAgger's first oracle mixture")
+    p.add_argument("--dagger-epochs", type=int, default=None, metavar="E",
+                   help="epochs of each DAgger round (default: --epochs)")
     p.add_argument("--noise", type=int, default=0, metavar="N",
                    help="DART rounds before cloning: the oracle over the training episodes "
                         "with random moves, labelled by the oracle (train: needs the training "
@@ -176,7 +178,7 @@ def main(argv: list[str] | None = None) -> int:
             test_per_scene=args.test_per_scene, max_steps=args.max_steps, size=args.size,
             memory=args.memory, hidden=args.hidden, epochs=args.epochs,
             batch_frames=args.batch_frames, lr=args.lr, dagger=args.dagger, beta=args.beta,
-            noise=args.noise, noise_eps=args.noise_eps,
+            dagger_epochs=args.dagger_epochs, noise=args.noise, noise_eps=args.noise_eps,
             num_envs=args.num_envs, sample=not args.greedy, seed=args.seed, device=args.device)
         run_cell(cfg, progress=progress, random_only=args.random_only)
         return 0
@@ -224,7 +226,7 @@ def main(argv: list[str] | None = None) -> int:
             venv = make_env(args.data, args.train_episodes, agent=args.agent, size=args.size,
                             seed=args.seed, require_stop=args.use_stop)
             recs = dagger(policy, demos, venv, tc, iterations=args.dagger, beta=args.beta,
-                          checkpoint=args.out, progress=progress,
+                          checkpoint=args.out, progress=progress, epochs=args.dagger_epochs,
                           callback=lambda r: print(json.dumps(r), file=sys.stderr))
             print(json.dumps({"history": hist, "dagger": recs}))
         else:

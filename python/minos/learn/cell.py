@@ -75,6 +75,9 @@ class CellConfig:
     lr: float = 1e-3
     dagger: int = 0
     beta: float = 0.5
+    # Epochs of each DAgger round (None: `epochs`, a full retraining on all the frames so
+    # far; fewer fine-tune the cloned policy instead, at a fraction of the cost).
+    dagger_epochs: Optional[int] = None
     # Whether blind rows (no image: measurements, contact bits, the previous action) get the
     # DAgger rounds too. The tables say no: the oracle turns away from a wall before touching
     # it, which such a policy cannot observe, and DAgger made M and M+F worse
@@ -121,12 +124,15 @@ def noise_rounds(cfg: CellConfig, mods: tuple[str, ...]) -> int:
 
 def row_file(work: Path, cfg: CellConfig, mods: tuple[str, ...]) -> Path:
     """Where a row's result is written:
-    ``WORK/results/<MODS>-<memory>-s<seed>[-dagger<N>|-noise<N>].json`` (a row trained with
-    DAgger or DART is another row than its behaviour-cloned one; a DART row's tag also names
-    its ε when it is not 0.3)."""
+    ``WORK/results/<MODS>-<memory>-s<seed>[-dagger<N>[e<E>]|-noise<N>[e<ε>]].json`` (a row
+    trained with DAgger or DART is another row than its behaviour-cloned one; a DAgger row's
+    tag also names its epochs a round when they are not the cloning's, a DART row's its ε
+    when it is not 0.3)."""
     tag = f"{modality_name(mods).replace('+', '')}-{cfg.memory}-s{cfg.seed}"
     if dagger_rounds(cfg, mods):
         tag += f"-dagger{dagger_rounds(cfg, mods)}"
+        if cfg.dagger_epochs is not None and cfg.dagger_epochs != cfg.epochs:
+            tag += f"e{cfg.dagger_epochs}"
     elif noise_rounds(cfg, mods):
         tag += f"-noise{noise_rounds(cfg, mods)}"
         if cfg.noise_eps != 0.3:
@@ -372,7 +378,8 @@ def run_cell(cfg: CellConfig, progress: bool = True, random_only: bool = False) 
             train_env = training_env()
             sub = _subset(demos, policy.spec.keys)
             dag = dagger(policy, sub, train_env, tc, iterations=rounds, beta=cfg.beta,
-                         checkpoint=ckpt.with_name(ckpt.stem + "-dagger.pt"), progress=progress)
+                         checkpoint=ckpt.with_name(ckpt.stem + "-dagger.pt"), progress=progress,
+                         epochs=cfg.dagger_epochs)
             train_s = time.perf_counter() - t0
         t0 = time.perf_counter()
         ev = evaluate_policy(policy, env, seed=cfg.seed, sample=cfg.sample,
@@ -384,7 +391,8 @@ def run_cell(cfg: CellConfig, progress: bool = True, random_only: bool = False) 
             "memory": cfg.memory, "seed": cfg.seed, "houses": cfg.houses,
             "test_houses": cfg.test_houses, "rooms": list(cfg.rooms),
             "train_episodes": demos.num_episodes, "train_frames": demos.num_frames,
-            "epochs": cfg.epochs, "dagger": dag, "noise": noise,
+            "epochs": cfg.epochs, "dagger_epochs": cfg.dagger_epochs if dag else None,
+            "dagger": dag, "noise": noise,
             "final_loss": history[-1]["loss"] if history else None,
             "train_accuracy": history[-1]["accuracy"] if history else None,
             "test_episodes": a["episodes"], "success": a["success"], "spl": a["spl"],

@@ -2,10 +2,15 @@
 on the training episodes (with probability β per step the oracle acts instead), label every
 visited frame with the oracle's action (``VectorNavEnv.oracle_actions()``), add those
 episodes to the demonstrations, and retrain; β halves every iteration (β_i = β₀ / 2^(i−1)).
+
+Each round retrains the policy it rolled out on every frame so far, so a round costs its
+epochs times all the frames: most of a DAgger row's time (docs/RESULTS.md, "Cost"). Fewer
+epochs per round than the cloning had (``epochs``) fine-tune instead of retraining.
 """
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 from typing import Any, Callable, Optional
 
@@ -20,16 +25,22 @@ from .util import Progress, ProgressArg, pick_device, save_atomic, torch_threads
 def dagger(policy, demos: Demonstrations, venv, config: TrainConfig, iterations: int = 3,
            beta: float = 0.5, checkpoint: Optional[str | Path] = None,
            progress: ProgressArg = None,
-           callback: Optional[Callable[[dict], Any]] = None) -> list[dict]:
+           callback: Optional[Callable[[dict], Any]] = None,
+           epochs: Optional[int] = None) -> list[dict]:
     """Runs ``iterations`` DAgger rounds on ``venv`` (a :class:`minos.gym.VectorNavEnv` over
-    the *training* episodes), each followed by ``config.epochs`` epochs of behaviour cloning
-    on all the frames so far; ``policy`` should already be trained on ``demos``. Returns one
+    the *training* episodes), each followed by ``epochs`` (default ``config.epochs``) epochs
+    of behaviour cloning on all the frames so far; ``policy`` should already be trained on
+    ``demos``. Returns one
     record per round (``iteration``, ``beta``, ``frames_added``, ``frames``, the rollout's
     success, and the last epoch's ``loss``). ``checkpoint`` is rewritten after every round.
     """
     if list(venv.action_names) != list(policy.spec.env_actions):
         raise ValueError(f"the policy acts in {policy.spec.env_actions}, the environment in "
                          f"{venv.action_names}")
+    if epochs is not None:
+        if epochs < 1:
+            raise ValueError(f"epochs: {epochs} DAgger epochs a round; at least 1")
+        config = replace(config, epochs=epochs)
     keys = policy.spec.keys
     demos.frames = {k: demos.frames[k] for k in keys}
     device = pick_device(config.device)

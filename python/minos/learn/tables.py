@@ -172,7 +172,9 @@ def report(root: str | Path) -> str:
     def how(cfg: CellConfig, row: str) -> str:
         mods = parse_modalities(row)
         if dagger_rounds(cfg, mods):
-            return f"cloned + {dagger_rounds(cfg, mods)} DAgger rounds"
+            per = "" if cfg.dagger_epochs in (None, cfg.epochs) else \
+                f" of {cfg.dagger_epochs} epochs"
+            return f"cloned + {dagger_rounds(cfg, mods)} DAgger rounds{per}"
         if noise_rounds(cfg, mods):
             return f"cloned with {noise_rounds(cfg, mods)} DART rounds (ε {cfg.noise_eps:g})"
         return "cloned"
