@@ -335,11 +335,10 @@ pub fn sample_episodes<'py>(
         (None, Some(d)) => Some((VlnFormat::R2r, d)),
         (None, None) => None,
     };
-    let exports = habitat_export
-        .as_ref()
-        .map(|_| EpisodeExport::Habitat)
-        .into_iter()
-        .chain(vln_export.as_ref().map(|(f, _)| EpisodeExport::Vln(*f)));
+    let exports = EpisodeExport::requested(
+        habitat_export.is_some(),
+        vln_export.as_ref().map(|(f, _)| *f),
+    );
     let scene_names = SceneIdStyle {
         prefix: scene_prefix.to_string(),
         suffix: scene_suffix.to_string(),

@@ -93,7 +93,7 @@ pub(super) fn check(
                     .ok()
                     .and_then(|v| v.get(m.row).copied())
             };
-            let col = |what: &str| format!("videos/{key}/{what}");
+            let col = |what: &str| layout::video_column(key, what);
             let values = (
                 num(&col("chunk_index")),
                 num(&col("file_index")),

@@ -103,6 +103,17 @@ impl crate::vocab::Vocabulary for EpisodeExport {
 
 crate::vocab::name_traits!(EpisodeExport);
 
+impl EpisodeExport {
+    /// The exports a job asks for: Habitat-Lab's layout when `habitat`, then the VLN format
+    /// `vln` (what [`crate::pipeline::episodes::check_options`] checks against the task).
+    pub fn requested(habitat: bool, vln: Option<VlnFormat>) -> impl Iterator<Item = Self> {
+        habitat
+            .then_some(Self::Habitat)
+            .into_iter()
+            .chain(vln.map(Self::Vln))
+    }
+}
+
 /// Errors writing a VLN export.
 #[derive(Debug, thiserror::Error)]
 pub enum VlnExportError {
@@ -378,6 +389,21 @@ pub fn export_r2r(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_requested_exports_are_habitat_then_the_vln_format() {
+        let all = |h, v| EpisodeExport::requested(h, v).collect::<Vec<_>>();
+        assert_eq!(all(false, None), []);
+        assert_eq!(all(true, None), [EpisodeExport::Habitat]);
+        assert_eq!(
+            all(false, Some(VlnFormat::R2r)),
+            [EpisodeExport::Vln(VlnFormat::R2r)]
+        );
+        assert_eq!(
+            all(true, Some(VlnFormat::VlnCe)),
+            [EpisodeExport::Habitat, EpisodeExport::Vln(VlnFormat::VlnCe)]
+        );
+    }
 
     #[test]
     fn an_episode_without_a_route_is_refused_naming_it_and_nothing_is_written() {

@@ -33,6 +33,16 @@ pub const DATA_PATH: &str = "data/chunk-{chunk_index:03d}/file-{file_index:03d}.
 /// LeRobot's `video_path` template, as `meta/info.json` states it.
 pub const VIDEO_PATH: &str = "videos/{video_key}/chunk-{chunk_index:03d}/file-{file_index:03d}.mp4";
 
+/// The folder of the video files, one folder per camera key.
+pub const VIDEOS: &str = "videos";
+
+/// The `meta/episodes` column holding one field of a camera's video place for each episode:
+/// `videos/<key>/<field>`, `field` one of `chunk_index`, `file_index`, `from_timestamp`,
+/// `to_timestamp`.
+pub fn video_column(key: &str, field: &str) -> String {
+    format!("{VIDEOS}/{key}/{field}")
+}
+
 /// A file's place: chunk folder and file number.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Default)]
 pub struct FileIndex {
@@ -69,7 +79,7 @@ impl FileIndex {
     /// `videos/<key>/chunk-NNN/file-NNN.mp4`: a camera's video file ([`VIDEO_PATH`]).
     pub fn video(self, key: &str) -> String {
         format!(
-            "videos/{key}/chunk-{:03}/file-{:03}.mp4",
+            "{VIDEOS}/{key}/chunk-{:03}/file-{:03}.mp4",
             self.chunk, self.file
         )
     }
@@ -132,6 +142,11 @@ mod tests {
         assert_eq!(
             FileIndex::of_path(Path::new("data/chunk-x/file-001.parquet")),
             None
+        );
+        // LeRobot 0.4.4's episode metadata names a video's place `videos/<key>/<field>`.
+        assert_eq!(
+            video_column("observation.images.color", "from_timestamp"),
+            "videos/observation.images.color/from_timestamp"
         );
     }
 }

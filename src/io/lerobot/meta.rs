@@ -210,7 +210,7 @@ pub fn write_episodes(
         for (v, key) in video_keys.enumerate() {
             let at = |e: &EpisodeMeta| e.videos.get(v).copied();
             push(
-                &format!("videos/{key}/chunk_index"),
+                &layout::video_column(key, "chunk_index"),
                 Arc::new(
                     rows.iter()
                         .map(|e| at(e).map(|p| p.file.chunk as i64))
@@ -218,7 +218,7 @@ pub fn write_episodes(
                 ),
             );
             push(
-                &format!("videos/{key}/file_index"),
+                &layout::video_column(key, "file_index"),
                 Arc::new(
                     rows.iter()
                         .map(|e| at(e).map(|p| p.file.file as i64))
@@ -226,7 +226,7 @@ pub fn write_episodes(
                 ),
             );
             push(
-                &format!("videos/{key}/from_timestamp"),
+                &layout::video_column(key, "from_timestamp"),
                 Arc::new(
                     rows.iter()
                         .map(|e| at(e).map(|p| p.from_timestamp))
@@ -234,7 +234,7 @@ pub fn write_episodes(
                 ),
             );
             push(
-                &format!("videos/{key}/to_timestamp"),
+                &layout::video_column(key, "to_timestamp"),
                 Arc::new(
                     rows.iter()
                         .map(|e| at(e).map(|p| p.to_timestamp))

@@ -290,12 +290,10 @@ pub fn run_job(
     progress: &dyn Progress,
 ) -> Result<EpisodesOutcome, EpisodesJobError> {
     let cfg = &job.sample;
-    let exports = job
-        .habitat_export
-        .as_ref()
-        .map(|_| EpisodeExport::Habitat)
-        .into_iter()
-        .chain(job.vln_export.as_ref().map(|(f, _)| EpisodeExport::Vln(*f)));
+    let exports = EpisodeExport::requested(
+        job.habitat_export.is_some(),
+        job.vln_export.as_ref().map(|(f, _)| *f),
+    );
     check_options(cfg, exports)?;
     let starts = match &job.starts {
         Some(path) => Some(read_starts(path).map_err(EpisodesJobError::Starts)?),
