@@ -209,6 +209,18 @@ def test_smoke_the_loss_falls_and_the_loop_runs(world, oracle_dataset, tmp_path)
     assert rand["aggregate"]["episodes"] == len(world.episodes)
 
 
+def test_a_policys_initial_weights_are_a_function_of_its_seed(world, oracle_dataset):
+    demos = load_lerobot(oracle_dataset, ENV_ACTIONS, keys=["goal", "steps_left", "depth"])
+    weights = lambda p: torch.cat([v.flatten() for v in p.state_dict().values()])  # noqa: E731
+    before = torch.get_rng_state()
+    a = make_policy(demos, ("M", "D"), image_size=40, seed=3)
+    assert torch.equal(torch.get_rng_state(), before)  # the global generator is left alone
+    torch.seed()
+    b = make_policy(demos, ("M", "D"), image_size=40, seed=3)
+    c = make_policy(demos, ("M", "D"), image_size=40, seed=4)
+    assert torch.equal(weights(a), weights(b)) and not torch.equal(weights(a), weights(c))
+
+
 def test_dart_adds_the_perturbed_oracles_frames_labelled_by_the_oracle(world, oracle_dataset):
     from minos.learn.dart import noisy_demonstrations
 
@@ -239,6 +251,18 @@ def test_command_line_train_and_eval(world, oracle_dataset, tmp_path):
                  "--noise", "1", "--noise-eps", "0.5", "--data", str(world.data),
                  "--train-episodes", str(world.point), "--size", "24",
                  "--out", str(ckpt)]) == 0
+    # The same command gives the same policy, whatever torch's global generator holds (torch
+    # seeds it at random in every process).
+    torch.seed()
+    again = tmp_path / "again.pt"
+    assert main(["-q", "train", "--dataset", str(oracle_dataset),
+                 "--modalities", "M,F", "--agent", "habitat", "--epochs", "1",
+                 "--noise", "1", "--noise-eps", "0.5", "--data", str(world.data),
+                 "--train-episodes", str(world.point), "--size", "24",
+                 "--out", str(again)]) == 0
+    first, second = (torch.load(p, weights_only=False)["model"] for p in (ckpt, again))
+    assert first.keys() == second.keys()
+    assert all(torch.equal(first[k], second[k]) for k in first)
     with pytest.raises(SystemExit, match="--train-episodes"):
         main(["-q", "train", "--dataset", str(oracle_dataset), "--noise", "1",
               "--out", str(tmp_path / "no.pt")])

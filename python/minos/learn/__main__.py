@@ -202,7 +202,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{demos.num_frames} frames, {demos.num_episodes} episodes; actions "
               f"{demos.label_counts()}", file=sys.stderr)
         policy = make_policy(demos, mods, memory=args.memory, hidden=args.hidden,
-                             image_size=args.size, use_stop=args.use_stop)
+                             image_size=args.size, use_stop=args.use_stop, seed=args.seed)
         if (args.dagger or args.noise) and not (args.data and args.train_episodes):
             raise SystemExit("--dagger and --noise need --data and --train-episodes")
         if args.noise:

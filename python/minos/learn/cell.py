@@ -356,7 +356,7 @@ def run_cell(cfg: CellConfig, progress: bool = True, random_only: bool = False) 
                          seed=cfg.seed, device=cfg.device)
         t0 = time.perf_counter()
         policy = make_policy(demos, mods, memory=cfg.memory, hidden=cfg.hidden,
-                             image_size=cfg.size)
+                             image_size=cfg.size, seed=cfg.seed)
 
         def training_env():
             return make_env(data, train_eps, agent=cfg.preset, num_envs=cfg.num_envs,

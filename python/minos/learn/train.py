@@ -34,9 +34,13 @@ class TrainConfig:
 
 
 def make_policy(demos: Demonstrations, modalities: Sequence[str], memory: str = "gru",
-                hidden: int = 128, image_size: int = 84, use_stop: bool = False) -> NavPolicy:
+                hidden: int = 128, image_size: int = 84, use_stop: bool = False,
+                seed: int = 0) -> NavPolicy:
     """A policy over ``modalities`` for the frames ``demos`` holds (``use_stop``: see
-    :class:`minos.learn.policy.PolicySpec`)."""
+    :class:`minos.learn.policy.PolicySpec`), its weights drawn from ``seed`` alone. (torch
+    seeds its global generator at random in every process, so weights drawn from it would
+    make the same training command give another policy each run; the global generator is
+    left as it was.)"""
     tasks = demos.info.get("tasks") or ["pointgoal"]
     keys = keys_for(modalities, demos.frames.keys(), demos.camera, tasks)
     channels = {k: int(demos.frames[k].shape[1]) for k in keys if demos.frames[k].ndim == 4}
@@ -45,7 +49,9 @@ def make_policy(demos: Demonstrations, modalities: Sequence[str], memory: str = 
                       env_actions=list(demos.env_actions), modalities=list(modalities),
                       image_size=image_size, hidden=hidden, memory=memory, use_stop=use_stop,
                       extra=extra)
-    return NavPolicy(spec)
+    with torch.random.fork_rng(devices=[]):
+        torch.manual_seed(seed)
+        return NavPolicy(spec)
 
 
 def _batches(demos: Demonstrations, budget: int, rng: np.random.Generator) -> list[np.ndarray]:
