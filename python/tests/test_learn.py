@@ -287,6 +287,7 @@ def test_tables_name_every_paper_cell_and_report_what_is_not_run(tmp_path):
     # no Habitat ratio rule, the empty cells on the furnished houses' episodes.
     for name, c in names.items():
         assert not c.ratio_rule and c.random_agent == "minos-random", name
+        assert (c.dagger, c.dagger_epochs) == (2, tables.DAGGER_EPOCHS), name
         assert c.select == ("any" if c.task == "pointgoal" else "random"), name
         if c.format == "suncg":
             assert c.min_doors == (1 if c.rooms == (2, 2) else 2), name

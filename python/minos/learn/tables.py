@@ -16,8 +16,8 @@ episodes sampled in the furnished houses and run with the furniture removed (MIN
 furnished configs shared one states file). The random
 rows are MINOS's random agent (``minos-random``: each button pressed with probability ½ per
 step), averaged over five seeds. Every row that sees an image (V or D) is
-behaviour-cloned from the oracle and then trained in two DAgger rounds (the oracle labelling
-the states the policy reaches in the training houses); blind rows (M, M+F) are cloned
+behaviour-cloned from the oracle and then trained in two DAgger rounds of three epochs (the
+oracle labelling the states the policy reaches in the training houses); blind rows (M, M+F) are cloned
 without DAgger; in the modality table M+F (which senses contact) learns from the oracle's
 demonstrations plus two DART rounds (the oracle with a random move 30 % of the time,
 labelled by the oracle). The data sizes are chosen so that a cell's training and
@@ -68,6 +68,12 @@ MOD_ROWS = [r for r in PAPER_MODALITIES if r != "random"]
 #: The trained rows of a complexity cell (measurements alone, and with depth).
 COMPLEXITY_ROWS = ["M", "M+D"]
 
+#: Epochs of each DAgger round: the rounds fine-tune the cloned policy rather than retrain
+#: it (a round of the cloning's 8–10 epochs on every frame so far put a 2-room door row at
+#: ≈ 13 minutes on a quiet 2-core box; with 3, door-small-empty M+D trained in 359 s with
+#: the same 93.9 % success; docs/RESULTS.md, "Cost").
+DAGGER_EPOCHS = 3
+
 
 def _complexity() -> dict[str, CellConfig]:
     # MINOS's episode filters: `pathNumDoors > 0` in 2-room SUNCG houses, `> 1` in 3–5-room
@@ -75,7 +81,8 @@ def _complexity() -> dict[str, CellConfig]:
     # goal is one random room (`select: random`, success in that room only).
     base = CellConfig(work="", modalities=list(COMPLEXITY_ROWS), preset="minos-paper",
                       per_scene=10, test_per_scene=10, max_steps=500, size=84, epochs=10,
-                      ratio_rule=False, dagger=2, dagger_blind=False)
+                      ratio_rule=False, dagger=2, dagger_blind=False,
+                      dagger_epochs=DAGGER_EPOCHS)
     small = dict(houses=40, test_houses=10, rooms=(2, 2), min_doors=1)
     medium = dict(houses=30, test_houses=10, rooms=(3, 5), epochs=8, min_doors=2)
     mp_small = dict(houses=24, test_houses=8, rooms=(3, 10), format="mp3d", epochs=8)
@@ -106,7 +113,7 @@ def _modalities() -> dict[str, CellConfig]:
     base = CellConfig(work="", task="objectgoal", categories=["door", "arch"], select="random",
                       preset="minos-paper", per_scene=10, test_per_scene=10, max_steps=500,
                       size=84, epochs=8, ratio_rule=False, dagger=2, dagger_blind=False,
-                      states=True, noise=2)
+                      dagger_epochs=DAGGER_EPOCHS, states=True, noise=2)
     small = dict(rooms=(2, 2), min_doors=1, houses=100, test_houses=30)
     medium = dict(rooms=(3, 5), min_doors=2, houses=24, test_houses=8)
     cols = {
