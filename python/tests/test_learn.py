@@ -246,20 +246,15 @@ def test_command_line_train_and_eval(world, oracle_dataset, tmp_path):
     from minos.learn.__main__ import main
 
     ckpt = tmp_path / "cli.pt"
-    assert main(["-q", "train", "--dataset", str(oracle_dataset),
-                 "--modalities", "M,F", "--agent", "habitat", "--epochs", "1",
-                 "--noise", "1", "--noise-eps", "0.5", "--data", str(world.data),
-                 "--train-episodes", str(world.point), "--size", "24",
-                 "--out", str(ckpt)]) == 0
+    train = ["-q", "train", "--dataset", str(oracle_dataset), "--modalities", "M,F",
+             "--agent", "habitat", "--epochs", "1", "--noise", "1", "--noise-eps", "0.5",
+             "--data", str(world.data), "--train-episodes", str(world.point), "--size", "24"]
+    assert main(train + ["--out", str(ckpt)]) == 0
     # The same command gives the same policy, whatever torch's global generator holds (torch
     # seeds it at random in every process).
     torch.seed()
     again = tmp_path / "again.pt"
-    assert main(["-q", "train", "--dataset", str(oracle_dataset),
-                 "--modalities", "M,F", "--agent", "habitat", "--epochs", "1",
-                 "--noise", "1", "--noise-eps", "0.5", "--data", str(world.data),
-                 "--train-episodes", str(world.point), "--size", "24",
-                 "--out", str(again)]) == 0
+    assert main(train + ["--out", str(again)]) == 0
     first, second = (torch.load(p, weights_only=False)["model"] for p in (ckpt, again))
     assert first.keys() == second.keys()
     assert all(torch.equal(first[k], second[k]) for k in first)
