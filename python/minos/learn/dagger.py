@@ -30,9 +30,9 @@ def dagger(policy, demos: Demonstrations, venv, config: TrainConfig, iterations:
     """Runs ``iterations`` DAgger rounds on ``venv`` (a :class:`minos.gym.VectorNavEnv` over
     the *training* episodes), each followed by ``epochs`` (default ``config.epochs``) epochs
     of behaviour cloning on all the frames so far; ``policy`` should already be trained on
-    ``demos``. Returns one
-    record per round (``iteration``, ``beta``, ``frames_added``, ``frames``, the rollout's
-    success, and the last epoch's ``loss``). ``checkpoint`` is rewritten after every round.
+    ``demos``. Returns one record per round (``iteration``, ``beta``, ``frames_added``,
+    ``frames``, the rollout's success, and the last epoch's ``loss``). ``checkpoint`` is
+    rewritten after every round.
     """
     if list(venv.action_names) != list(policy.spec.env_actions):
         raise ValueError(f"the policy acts in {policy.spec.env_actions}, the environment in "
