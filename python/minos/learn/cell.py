@@ -122,6 +122,14 @@ def noise_rounds(cfg: CellConfig, mods: tuple[str, ...]) -> int:
     return cfg.noise
 
 
+def round_epochs(cfg: CellConfig) -> Optional[int]:
+    """The epochs of each DAgger round when they differ from the cloning's
+    (``cfg.dagger_epochs``), else None: rounds as long as the cloning are the default."""
+    if cfg.dagger_epochs is None or cfg.dagger_epochs == cfg.epochs:
+        return None
+    return cfg.dagger_epochs
+
+
 def row_file(work: Path, cfg: CellConfig, mods: tuple[str, ...]) -> Path:
     """Where a row's result is written:
     ``WORK/results/<MODS>-<memory>-s<seed>[-dagger<N>[e<E>]|-noise<N>[e<ε>]].json`` (a row
@@ -131,8 +139,8 @@ def row_file(work: Path, cfg: CellConfig, mods: tuple[str, ...]) -> Path:
     tag = f"{modality_name(mods).replace('+', '')}-{cfg.memory}-s{cfg.seed}"
     if dagger_rounds(cfg, mods):
         tag += f"-dagger{dagger_rounds(cfg, mods)}"
-        if cfg.dagger_epochs is not None and cfg.dagger_epochs != cfg.epochs:
-            tag += f"e{cfg.dagger_epochs}"
+        if round_epochs(cfg) is not None:
+            tag += f"e{round_epochs(cfg)}"
     elif noise_rounds(cfg, mods):
         tag += f"-noise{noise_rounds(cfg, mods)}"
         if cfg.noise_eps != 0.3:

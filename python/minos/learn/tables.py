@@ -16,11 +16,11 @@ episodes sampled in the furnished houses and run with the furniture removed (MIN
 furnished configs shared one states file). The random
 rows are MINOS's random agent (``minos-random``: each button pressed with probability ½ per
 step), averaged over five seeds. Every row that sees an image (V or D) is
-behaviour-cloned from the oracle and then trained in two DAgger rounds of three epochs (the
-oracle labelling the states the policy reaches in the training houses); blind rows (M, M+F) are cloned
-without DAgger; in the modality table M+F (which senses contact) learns from the oracle's
-demonstrations plus two DART rounds (the oracle with a random move 30 % of the time,
-labelled by the oracle). The data sizes are chosen so that a cell's training and
+behaviour-cloned from the oracle and then trained in two DAgger rounds of three epochs
+(the oracle labelling the states the policy reaches in the training houses); blind rows
+(M, M+F) are cloned without DAgger; in the modality table M+F (which senses contact)
+learns from the oracle's demonstrations plus two DART rounds (the oracle with a random move
+30 % of the time, labelled by the oracle). The data sizes are chosen so that a cell's training and
 evaluation fit about 10 minutes of a 2-core CPU (docs/RESULTS.md says what each cell chose and
 what it took). ``--random-only`` stops each cell after its random row: the task-difficulty
 check in minutes, without training. A modality-table cell is one row of one column; the rows
@@ -34,7 +34,8 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Optional
 
-from .cell import CellConfig, dagger_rounds, noise_rounds, random_file, row_file, run_cell
+from .cell import (CellConfig, dagger_rounds, noise_rounds, random_file, round_epochs, row_file,
+                   run_cell)
 from .features import modality_name, parse_modalities
 
 #: The paper's numbers: complexity cells → (random success %, best agent success %, agent).
@@ -69,8 +70,8 @@ MOD_ROWS = [r for r in PAPER_MODALITIES if r != "random"]
 COMPLEXITY_ROWS = ["M", "M+D"]
 
 #: Epochs of each DAgger round: the rounds fine-tune the cloned policy rather than retrain
-#: it (a round of the cloning's 8–10 epochs on every frame so far put a 2-room door row at
-#: ≈ 13 minutes on a quiet 2-core box; with 3, door-small-empty M+D trained in 359 s with
+#: it (rounds of the cloning's 8 epochs on every frame so far would give door-small-empty
+#: M+D about 12 minutes of training on a quiet 2-core box; with 3 it trained in 359 s with
 #: the same 93.9 % success; docs/RESULTS.md, "Cost").
 DAGGER_EPOCHS = 3
 
@@ -179,8 +180,7 @@ def report(root: str | Path) -> str:
     def how(cfg: CellConfig, row: str) -> str:
         mods = parse_modalities(row)
         if dagger_rounds(cfg, mods):
-            per = "" if cfg.dagger_epochs in (None, cfg.epochs) else \
-                f" of {cfg.dagger_epochs} epochs"
+            per = "" if round_epochs(cfg) is None else f" of {round_epochs(cfg)} epochs"
             return f"cloned + {dagger_rounds(cfg, mods)} DAgger rounds{per}"
         if noise_rounds(cfg, mods):
             return f"cloned with {noise_rounds(cfg, mods)} DART rounds (ε {cfg.noise_eps:g})"
