@@ -4,7 +4,9 @@
 //! The lock is an advisory lock (`flock` on Unix, `LockFileEx` on Windows, through
 //! [`std::fs::File::try_lock`]) on `<folder>/.minos.lock`, taken by every command that writes
 //! the folder and held until it exits; the operating system releases it when the process dies,
-//! `kill -9` included, so a lock is never stale. While held, the file says who holds it
+//! `kill -9` included, so a lock is never stale (a dying holder's children can keep it a moment
+//! longer, so a writer that finds the named holder gone tries again for up to
+//! [`EXITED_HOLDER_GRACE`]). While held, the file says who holds it
 //! (`<pid> <command>`), so a second writer fails at once with one line naming the holder, or
 //! waits for it ([`LockMode::Wait`]). On release the file is emptied, so an interrupted run and
 //! an uninterrupted one leave the same bytes. Readers never take it: a command that only reads
@@ -13,9 +15,16 @@
 use std::fs::{File, OpenOptions, TryLockError};
 use std::io::{Read, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
 
 /// Name of the lock file inside a locked folder.
 pub const LOCK_FILE: &str = ".minos.lock";
+
+/// How long a writer keeps trying a lock whose named holder has exited. The lock goes with the
+/// holder's last open copy of the lock file, and a child the holder was starting when it died
+/// has a copy until it runs its program (the file is close-on-exec): on a loaded machine that
+/// can be milliseconds after the holder is gone and reaped.
+pub const EXITED_HOLDER_GRACE: Duration = Duration::from_secs(2);
 
 /// What a writer does when another process holds the lock.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -86,6 +95,8 @@ impl DirLock {
         match file.try_lock() {
             Ok(()) => {}
             Err(TryLockError::WouldBlock) if mode == LockMode::Wait => file.lock().map_err(io)?,
+            Err(TryLockError::WouldBlock)
+                if once_the_exited_holder_lets_go(&mut file, File::try_lock).map_err(io)? => {}
             Err(TryLockError::WouldBlock) => {
                 let (holder, command) = holder_of(&mut file);
                 return Err(LockError::Held {
@@ -127,6 +138,9 @@ impl DirLock {
             Err(TryLockError::WouldBlock) if mode == LockMode::Wait => {
                 file.lock_shared().map_err(io)?
             }
+            Err(TryLockError::WouldBlock)
+                if once_the_exited_holder_lets_go(&mut file, File::try_lock_shared)
+                    .map_err(io)? => {}
             Err(TryLockError::WouldBlock) => {
                 let (holder, held_by) = holder_of(&mut file);
                 return Err(LockError::Held {
@@ -178,6 +192,43 @@ fn open_lock_file(folder: &Path) -> Result<(File, PathBuf), LockError> {
             source,
         })?;
     Ok((file, path))
+}
+
+/// Whether `lock` (the caller's try-lock) succeeds within [`EXITED_HOLDER_GRACE`] when the
+/// held lock file names a holder that no longer runs; `false` at once when the holder runs or
+/// is unknown (a shard, a holder not yet written, a platform without the check).
+fn once_the_exited_holder_lets_go(
+    file: &mut File,
+    lock: fn(&File) -> Result<(), TryLockError>,
+) -> std::io::Result<bool> {
+    if !holder_has_exited(&holder_of(file).0) {
+        return Ok(false);
+    }
+    let start = Instant::now();
+    while start.elapsed() < EXITED_HOLDER_GRACE {
+        std::thread::sleep(Duration::from_millis(10));
+        match lock(file) {
+            Ok(()) => return Ok(true),
+            Err(TryLockError::WouldBlock) => {}
+            Err(TryLockError::Error(e)) => return Err(e),
+        }
+    }
+    Ok(false)
+}
+
+/// Whether the process `pid` (as a lock file spells it) is known to have exited.
+#[cfg(target_os = "linux")]
+fn holder_has_exited(pid: &str) -> bool {
+    let Some(pid) = pid.parse().ok().and_then(rustix::process::Pid::from_raw) else {
+        return false;
+    };
+    rustix::process::test_kill_process(pid) == Err(rustix::io::Errno::SRCH)
+}
+
+/// Whether the process `pid` is known to have exited: never known here.
+#[cfg(not(target_os = "linux"))]
+fn holder_has_exited(_pid: &str) -> bool {
+    false
 }
 
 /// The pid and command a held lock file names (`?` for what cannot be read: the holder may
@@ -240,6 +291,41 @@ mod tests {
         assert_eq!(std::fs::read(dir.path().join(LOCK_FILE)).unwrap(), b"");
         let again = DirLock::acquire(dir.path(), "ingest", LockMode::Fail).unwrap();
         drop(again);
+    }
+
+    #[test]
+    fn a_writer_waits_out_a_holder_that_has_exited_but_not_one_that_runs() {
+        let dir = tempfile::tempdir().unwrap();
+        let first = DirLock::acquire(dir.path(), "bake", LockMode::Fail).unwrap();
+        // The file names a process that has exited and been reaped, while another open copy
+        // of the file (here, this process's `first`) still holds the lock: as when a killed
+        // holder's child has not yet run its program.
+        let mut gone = std::process::Command::new("true").spawn().unwrap();
+        let gone_pid = gone.id();
+        gone.wait().unwrap();
+        std::fs::write(first.path(), format!("{gone_pid} run\n")).unwrap();
+        let folder = dir.path().to_path_buf();
+        let second = std::thread::spawn(move || {
+            DirLock::acquire(&folder, "run", LockMode::Fail).map(|l| {
+                let text = std::fs::read_to_string(l.path()).unwrap_or_default();
+                drop(l);
+                text
+            })
+        });
+        std::thread::sleep(Duration::from_millis(200));
+        assert!(
+            !second.is_finished(),
+            "the holder's copy still holds the lock"
+        );
+        drop(first);
+        let text = second.join().unwrap().unwrap();
+        assert_eq!(text, format!("{} run\n", std::process::id()));
+
+        // A holder that runs is named at once, not waited for.
+        let _held = DirLock::acquire(dir.path(), "bake", LockMode::Fail).unwrap();
+        let start = Instant::now();
+        let err = DirLock::acquire(dir.path(), "run", LockMode::Fail).unwrap_err();
+        assert!(start.elapsed() < EXITED_HOLDER_GRACE / 2, "{err}");
     }
 
     #[test]
