@@ -1,11 +1,12 @@
 """Checks behind the LeRobot export size figures (docs/PERFORMANCE.md, Colour as video).
 
-    python python/bench/lerobot_sizes.py psnr IMAGES VIDEO
+    python python/bench/lerobot_sizes.py psnr IMAGES VIDEO [--decoder torchcodec]
     python python/bench/lerobot_sizes.py same NEW OLD [--step N]
     python python/bench/lerobot_sizes.py png-estimate PNG_RUN IMAGES
 
 `psnr`: decodes the colour MP4 of the `--video` export VIDEO with PyAV (FFmpeg's H.264
-decoder, converted to `rgb24`) and compares every frame with the PPM cell of the image
+decoder, converted to `rgb24`), or with torchcodec (LeRobot's default video backend, which
+needs the system's FFmpeg libraries), and compares every frame with the PPM cell of the image
 export IMAGES of the same run: mean and worst per-frame PSNR.
 
 `same`: loads both exports with LeRobot's `LeRobotDataset(repo_id, root=...)` and checks
@@ -43,25 +44,40 @@ def ppm(cell: bytes) -> np.ndarray:
     return np.frombuffer(body, np.uint8).reshape(h, w, 3)
 
 
-def psnr(a: argparse.Namespace) -> None:
+def decoded_frames(video: str, decoder: str):
+    """The frames of one MP4, in order, as (h, w, 3) uint8 arrays."""
+    if decoder == "torchcodec":
+        from torchcodec.decoders import VideoDecoder
+
+        frames = VideoDecoder(video)
+        for k in range(len(frames)):
+            yield frames[k].permute(1, 2, 0).numpy()
+        return
     import av
 
+    with av.open(video) as container:
+        for frame in container.decode(video=0):
+            yield frame.to_ndarray(format="rgb24")
+
+
+def psnr(a: argparse.Namespace) -> None:
     cells = []
     for f in sorted(glob.glob(f"{a.images}/data/*/*.parquet")):
         t = pq.read_table(f, columns=["observation.images.color"])
         cells += [c["bytes"] for c in t.column(0).to_pylist()]
     values = []
     for video in sorted(glob.glob(f"{a.video}/videos/observation.images.color/*/*.mp4")):
-        with av.open(video) as container:
-            for frame in container.decode(video=0):
-                k = len(values)
-                got = frame.to_ndarray(format="rgb24").astype(np.float64)
-                mse = ((got - ppm(cells[k]).astype(np.float64)) ** 2).mean()
-                values.append(10 * np.log10(255**2 / max(mse, 1e-10)))
+        for frame in decoded_frames(video, a.decoder):
+            k = len(values)
+            if k >= len(cells):
+                sys.exit(f"{video}: more decoded frames than the {len(cells)} images")
+            got = frame.astype(np.float64)
+            mse = ((got - ppm(cells[k]).astype(np.float64)) ** 2).mean()
+            values.append(10 * np.log10(255**2 / max(mse, 1e-10)))
     if len(values) != len(cells):
         sys.exit(f"{len(values)} decoded frames for {len(cells)} images")
     v = np.array(values)
-    print(f"{len(v)} frames: mean {v.mean():.2f} dB, worst {v.min():.2f} dB")
+    print(f"{a.decoder}, {len(v)} frames: mean {v.mean():.2f} dB, worst {v.min():.2f} dB")
 
 
 def same(a: argparse.Namespace) -> None:
@@ -122,6 +138,7 @@ def main() -> None:
     p = sub.add_parser("psnr")
     p.add_argument("images")
     p.add_argument("video")
+    p.add_argument("--decoder", choices=("pyav", "torchcodec"), default="pyav")
     p.set_defaults(run=psnr)
     p = sub.add_parser("same")
     p.add_argument("new")
