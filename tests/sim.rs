@@ -183,6 +183,32 @@ fn a_closed_door_stops_the_agent_and_an_open_one_does_not() {
 }
 
 #[test]
+fn an_agent_walking_at_a_doorway_a_little_off_its_line_slides_past_the_jamb() {
+    // The doorway is x 4.5..5.5 in a wall at z 2.95..3.05; a body of radius r passes where its
+    // centre is over r from both jambs. Walking straight at it with the centre a few mm
+    // closer than r to a jamb, or at it obliquely past the jamb's corner, the body meets the
+    // corner's edge and must slide off it into the doorway, not stop there for good.
+    let agent = AgentConfig::minos_continuous();
+    let r = agent.body.radius;
+    for (x, yaw) in [
+        (4.5 + r - 0.006, 0.0),
+        (5.5 - r + 0.006, 0.0),
+        (4.5 + r - 0.03, 0.0),
+        (4.5 + r, -0.15),
+        (5.5 - r, 0.15),
+    ] {
+        let mut sim = sim_with(&doorway(false), agent, blind());
+        sim.reset(Vec3::new(x, 0.0, 3.6), yaw, None, "e");
+        for _ in 0..15 {
+            sim.step(act("forward")).unwrap();
+        }
+        let p = sim.state().position;
+        eprintln!("x {x} yaw {yaw}: {p:?}");
+        assert!(p[2] < 2.5, "stuck at the jamb from x {x}, yaw {yaw}: {p:?}");
+    }
+}
+
+#[test]
 fn tilt_clamps_at_straight_up_and_down() {
     let mut sim = sim_with(&open_room(), AgentConfig::minos_continuous(), blind());
     sim.reset(Vec3::new(5.0, 0.0, 5.0), 0.0, None, "e");

@@ -5,7 +5,7 @@
 
 use glam::Vec3;
 use parry3d::math::{Pose, Vector};
-use parry3d::query;
+use parry3d::query::{self, ShapeCastOptions};
 use parry3d::shape::{Ball, Cylinder, TriMesh};
 
 use crate::scene::Scene;
@@ -115,6 +115,33 @@ impl CollisionWorld {
         let c = query::contact(&pose, &self.body, &Pose::IDENTITY, &self.mesh, 0.0).ok()??;
         let n = Vec3::new(-c.normal1.x, 0.0, -c.normal1.z);
         n.try_normalize()
+    }
+
+    /// The horizontal normal (pointing back at the body) of the first surface the body
+    /// standing on `base` meets when moved by `d`, if it meets one on the way: at a corner,
+    /// the normal of the corner's edge where the body touches it, so a slide along it goes
+    /// around the corner. ([`CollisionWorld::push_out`] at the end of the move gives the
+    /// normal of the deepest overlap there, which, past a jamb's edge, is the face across
+    /// the way ahead.)
+    pub fn impact_normal(&self, base: Vec3, d: Vec3) -> Option<Vec3> {
+        let pose = Pose::from_translation(v(base + Vec3::Y * self.body_offset));
+        let options = ShapeCastOptions {
+            max_time_of_impact: 1.0,
+            target_distance: 0.0,
+            stop_at_penetration: true,
+            compute_impact_geometry_on_penetration: true,
+        };
+        let hit = query::cast_shapes(
+            &pose,
+            v(d),
+            &self.body,
+            &Pose::IDENTITY,
+            Vector::ZERO,
+            &self.mesh,
+            options,
+        )
+        .ok()??;
+        Vec3::new(-hit.normal1.x, 0.0, -hit.normal1.z).try_normalize()
     }
 
     /// True when a ball of `radius` at `center` touches the scene.

@@ -405,12 +405,22 @@ impl Simulator {
                 continue;
             }
             collided = true;
-            // Slide: drop the part of the motion going into what was hit.
-            let slid = self.assets.collision.push_out(base + step).and_then(|n| {
+            // Slide: drop the part of the motion going into what was hit, first as it is met
+            // on the way (around a corner's edge), else as it overlaps at the end of the move.
+            let collision = &self.assets.collision;
+            let slide = |n: Vec3| {
                 let s = step - n * step.dot(n).min(0.0);
                 (s.length_squared() > 1e-12).then_some(s)
-            });
-            match slid.and_then(|s| self.try_move(base, s).map(|b| (b, s))) {
+            };
+            let slid = [
+                collision.impact_normal(base, step),
+                collision.push_out(base + step),
+            ]
+            .into_iter()
+            .flatten()
+            .filter_map(slide)
+            .find_map(|s| self.try_move(base, s).map(|b| (b, s)));
+            match slid {
                 Some((b, s)) => {
                     base = b;
                     step = s;
