@@ -293,6 +293,23 @@ mod tests {
         drop(again);
     }
 
+    /// Takes `folder`'s lock for `command` on another thread; its result is what the lock
+    /// file said while that thread held it.
+    fn acquire_in_a_thread(
+        folder: &Path,
+        command: &'static str,
+        mode: LockMode,
+    ) -> std::thread::JoinHandle<Result<String, LockError>> {
+        let folder = folder.to_path_buf();
+        std::thread::spawn(move || {
+            DirLock::acquire(&folder, command, mode).map(|l| {
+                let text = std::fs::read_to_string(l.path()).unwrap_or_default();
+                drop(l);
+                text
+            })
+        })
+    }
+
     #[test]
     fn a_writer_waits_out_a_holder_that_has_exited_but_not_one_that_runs() {
         let dir = tempfile::tempdir().unwrap();
@@ -304,14 +321,7 @@ mod tests {
         let gone_pid = gone.id();
         gone.wait().unwrap();
         std::fs::write(first.path(), format!("{gone_pid} run\n")).unwrap();
-        let folder = dir.path().to_path_buf();
-        let second = std::thread::spawn(move || {
-            DirLock::acquire(&folder, "run", LockMode::Fail).map(|l| {
-                let text = std::fs::read_to_string(l.path()).unwrap_or_default();
-                drop(l);
-                text
-            })
-        });
+        let second = acquire_in_a_thread(dir.path(), "run", LockMode::Fail);
         std::thread::sleep(Duration::from_millis(200));
         assert!(
             !second.is_finished(),
@@ -332,14 +342,7 @@ mod tests {
     fn a_waiting_writer_gets_the_lock_when_the_holder_lets_go() {
         let dir = tempfile::tempdir().unwrap();
         let first = DirLock::acquire(dir.path(), "bake", LockMode::Fail).unwrap();
-        let folder = dir.path().to_path_buf();
-        let waiter = std::thread::spawn(move || {
-            DirLock::acquire(&folder, "split", LockMode::Wait).map(|l| {
-                let text = std::fs::read_to_string(l.path()).unwrap_or_default();
-                drop(l);
-                text
-            })
-        });
+        let waiter = acquire_in_a_thread(dir.path(), "split", LockMode::Wait);
         std::thread::sleep(std::time::Duration::from_millis(100));
         assert!(!waiter.is_finished(), "the waiter must block while held");
         drop(first);
