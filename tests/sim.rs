@@ -203,7 +203,6 @@ fn an_agent_walking_at_a_doorway_a_little_off_its_line_slides_past_the_jamb() {
             sim.step(act("forward")).unwrap();
         }
         let p = sim.state().position;
-        eprintln!("x {x} yaw {yaw}: {p:?}");
         assert!(p[2] < 2.5, "stuck at the jamb from x {x}, yaw {yaw}: {p:?}");
     }
 }

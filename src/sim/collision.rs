@@ -102,16 +102,21 @@ impl CollisionWorld {
         })
     }
 
+    /// The body's pose standing on `base` (x, floor height, z).
+    fn body_pose(&self, base: Vec3) -> Pose {
+        Pose::from_translation(v(base + Vec3::Y * self.body_offset))
+    }
+
     /// True when the body standing on `base` (x, floor height, z) overlaps the scene.
     pub fn blocked(&self, base: Vec3) -> bool {
-        let pose = Pose::from_translation(v(base + Vec3::Y * self.body_offset));
+        let pose = self.body_pose(base);
         query::intersection_test(&pose, &self.body, &Pose::IDENTITY, &self.mesh)
             .is_ok_and(|r| r.intersecting)
     }
 
     /// The horizontal direction pushing the body at `base` out of what it touches, if any.
     pub fn push_out(&self, base: Vec3) -> Option<Vec3> {
-        let pose = Pose::from_translation(v(base + Vec3::Y * self.body_offset));
+        let pose = self.body_pose(base);
         let c = query::contact(&pose, &self.body, &Pose::IDENTITY, &self.mesh, 0.0).ok()??;
         let n = Vec3::new(-c.normal1.x, 0.0, -c.normal1.z);
         n.try_normalize()
@@ -124,7 +129,7 @@ impl CollisionWorld {
     /// normal of the deepest overlap there, which, past a jamb's edge, is the face across
     /// the way ahead.)
     pub fn impact_normal(&self, base: Vec3, d: Vec3) -> Option<Vec3> {
-        let pose = Pose::from_translation(v(base + Vec3::Y * self.body_offset));
+        let pose = self.body_pose(base);
         let options = ShapeCastOptions {
             max_time_of_impact: 1.0,
             target_distance: 0.0,

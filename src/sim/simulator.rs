@@ -407,19 +407,15 @@ impl Simulator {
             collided = true;
             // Slide: drop the part of the motion going into what was hit, first as it is met
             // on the way (around a corner's edge), else as it overlaps at the end of the move.
+            // (The overlap's normal is asked for only when the first slide is blocked.)
             let collision = &self.assets.collision;
-            let slide = |n: Vec3| {
-                let s = step - n * step.dot(n).min(0.0);
-                (s.length_squared() > 1e-12).then_some(s)
+            let slide_along = |n: Option<Vec3>| {
+                let s = n.map(|n| step - n * step.dot(n).min(0.0))?;
+                (s.length_squared() > 1e-12).then_some(())?;
+                self.try_move(base, s).map(|b| (b, s))
             };
-            let slid = [
-                collision.impact_normal(base, step),
-                collision.push_out(base + step),
-            ]
-            .into_iter()
-            .flatten()
-            .filter_map(slide)
-            .find_map(|s| self.try_move(base, s).map(|b| (b, s)));
+            let slid = slide_along(collision.impact_normal(base, step))
+                .or_else(|| slide_along(collision.push_out(base + step)));
             match slid {
                 Some((b, s)) => {
                     base = b;
