@@ -22,7 +22,8 @@ from minos.learn.dagger import dagger  # noqa: E402
 from minos.learn.data import dataset_tasks, goal_objects, load_lerobot  # noqa: E402
 from minos.learn.evaluate import evaluate_policy, evaluate_random, make_env  # noqa: E402
 from minos.learn.features import (  # noqa: E402
-    ACTION_STRENGTHS, action_labels, keys_for, parse_modalities, strengths_of)
+    ACTION_STRENGTHS, action_labels, keys_for, modality_name, modality_tag, parse_modalities,
+    strengths_of)
 from minos.learn.metrics import EpisodeMetrics, aggregate  # noqa: E402
 from minos.learn.rollout import run_episodes  # noqa: E402
 from minos.learn.train import TrainConfig, load_policy, make_policy, train_bc, _batch  # noqa: E402
@@ -48,6 +49,12 @@ def test_action_strengths_map_to_the_environment_actions():
     assert parse_modalities("M,D") == ("M", "D") == parse_modalities("D+M")
     with pytest.raises(ValueError):
         parse_modalities("M,X")
+    # Rows are named in the paper's order of the senses; files keep the order results and
+    # checkpoints have always been written in.
+    every = parse_modalities("M+D+V+F")
+    assert every == ("M", "V", "D", "F")
+    assert modality_name(every) == "M+D+V+F" and modality_tag(every) == "MVDF"
+    assert modality_name(parse_modalities("MFV")) == "M+V+F"
 
 
 def test_preset_actions_are_the_environments(world):

@@ -18,7 +18,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from .features import modality_name, parse_modalities
+from .features import modality_name, modality_tag, parse_modalities
 
 PRESET_ACTIONS = {
     # VectorNavEnv(agent=...).action_names (tests/test_learn.py checks them against the env)
@@ -136,7 +136,7 @@ def row_file(work: Path, cfg: CellConfig, mods: tuple[str, ...]) -> Path:
     trained with DAgger or DART is another row than its behaviour-cloned one; a DAgger row's
     tag also names its epochs a round when they are not the cloning's, a DART row's its ε
     when it is not 0.3)."""
-    tag = f"{modality_name(mods).replace('+', '')}-{cfg.memory}-s{cfg.seed}"
+    tag = f"{modality_tag(mods)}-{cfg.memory}-s{cfg.seed}"
     if dagger_rounds(cfg, mods):
         tag += f"-dagger{dagger_rounds(cfg, mods)}"
         if round_epochs(cfg) is not None:

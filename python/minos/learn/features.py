@@ -84,9 +84,22 @@ def parse_modalities(text: str | Sequence[str]) -> tuple[str, ...]:
     return tuple(m for m in MODALITIES if m in letters)
 
 
+#: The paper's order of the senses in a row's name (its table has ``M+D+V+F``, not ``M+V+D+F``).
+PAPER_NAME_ORDER = ("M", "D", "V", "F", "S", "A")
+
+
 def modality_name(mods: Iterable[str]) -> str:
-    """``("M", "D")`` → ``"M+D"`` (the paper's row names)."""
-    return "+".join(mods)
+    """``("M", "V", "D")`` → ``"M+D+V"``: the paper's row names, in its order of the senses
+    (file names keep ``MODALITIES``' order: :func:`modality_tag`)."""
+    mods = set(mods)
+    return "+".join(m for m in PAPER_NAME_ORDER if m in mods)
+
+
+def modality_tag(mods: Iterable[str]) -> str:
+    """``("M", "V", "D")`` → ``"MVD"``: a row's name in file names (``MODALITIES``' order,
+    which names every result and checkpoint written so far)."""
+    mods = set(mods)
+    return "".join(m for m in MODALITIES if m in mods)
 
 
 def measurement_keys(tasks: Iterable[str]) -> list[str]:
@@ -237,5 +250,6 @@ def is_image_key(key: str) -> bool:
 __all__ = [
     "ACTION_STRENGTHS", "MODALITIES", "TASK_MEASUREMENTS", "action_labels", "env_frames",
     "goal_object_map", "is_image_key", "keys_for", "measurement_keys", "modality_name",
+    "modality_tag",
     "normalised_vector", "parse_modalities", "strengths_of", "vector_width",
 ]

@@ -36,7 +36,7 @@ from typing import Optional
 
 from .cell import (CellConfig, dagger_rounds, noise_rounds, random_file, round_epochs, row_file,
                    run_cell)
-from .features import modality_name, parse_modalities
+from .features import parse_modalities
 
 #: The paper's numbers: complexity cells → (random success %, best agent success %, agent).
 PAPER_COMPLEXITY = {
