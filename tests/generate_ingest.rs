@@ -8,7 +8,7 @@ use std::collections::BTreeSet;
 use common::{generate_into, ingest_into, tree_bytes};
 use minos::generate::plan::{OpeningKind, Rect};
 use minos::generate::{
-    generate, house_id, Furnishing, GenerateConfig, OutputFormat, GENERATOR_VERSION,
+    generate, house_id, plan_house, Furnishing, GenerateConfig, OutputFormat, GENERATOR_VERSION,
 };
 use minos::pipeline::ingest::Outcome;
 use minos::progress::NoProgress;
@@ -187,6 +187,63 @@ fn generated_houses_are_plausible_navigation_environments() {
     );
     assert!(sizes.len() >= 6, "room counts {sizes:?}");
     assert!(*sizes.iter().next().unwrap() >= 1 && *sizes.iter().last().unwrap() <= 12);
+}
+
+/// Houses face every way: the front door (the one door with a single room) is on an outside
+/// wall drawn among every living room's, hallway's and kitchen's. Generator version 2 put it
+/// on the first such room's first outside wall, which was the house's x = 0 side in every
+/// house.
+#[test]
+fn front_doors_face_every_way() {
+    let cfg = GenerateConfig {
+        houses: 80,
+        seed: 5,
+        rooms: (2, 5),
+        levels: (1, 1),
+        ..Default::default()
+    };
+    let mut faces = [0usize; 4];
+    for i in 0..cfg.houses {
+        let plan = plan_house(&cfg, i);
+        let level = &plan.levels[0];
+        let outline =
+            level
+                .rooms
+                .iter()
+                .fold(Rect::new(f64::MAX, f64::MAX, f64::MIN, f64::MIN), |b, r| {
+                    Rect::new(
+                        b.x0.min(r.rect.x0),
+                        b.z0.min(r.rect.z0),
+                        b.x1.max(r.rect.x1),
+                        b.z1.max(r.rect.z1),
+                    )
+                });
+        let fronts: Vec<_> = level
+            .objects
+            .iter()
+            .filter(|o| o.spec().fine == "door" && o.rooms.len() == 1)
+            .collect();
+        assert_eq!(fronts.len(), 1, "{}: {} front doors", plan.id, fronts.len());
+        let [x, _, z] = fronts[0].pos;
+        let gaps = [
+            (x - outline.x0).abs(),
+            (x - outline.x1).abs(),
+            (z - outline.z0).abs(),
+            (z - outline.z1).abs(),
+        ];
+        let side = (0..4).min_by(|&a, &b| gaps[a].total_cmp(&gaps[b])).unwrap();
+        assert!(
+            gaps[side] < 0.2,
+            "{}: front door at ({x}, {z}) is on no outside wall of {outline:?}",
+            plan.id
+        );
+        faces[side] += 1;
+    }
+    // 80 houses over four sides: every side gets its share within a wide margin.
+    assert!(
+        faces.iter().all(|&n| n >= 8),
+        "front doors per side (x0, x1, z0, z1): {faces:?}"
+    );
 }
 
 #[test]

@@ -532,43 +532,50 @@ fn free_spot(
     None
 }
 
+/// The closed front door: on an outside wall of a living room, hallway or kitchen, the wall
+/// drawn at random among all of theirs (so houses face every way), the next one tried when
+/// the drawn wall has no free spot.
 fn front_door(rng: &mut Rng, level: &mut LevelPlan, footprint: &Rect) {
-    let candidates: Vec<usize> = (0..level.rooms.len())
+    let mut walls: Vec<(usize, Side, f64, f64)> = (0..level.rooms.len())
         .filter(|&i| {
             matches!(
                 level.rooms[i].class,
                 RoomClass::LivingRoom | RoomClass::Hallway | RoomClass::Kitchen
             )
         })
+        .flat_map(|i| {
+            exterior_sides(&level.rooms[i].rect, footprint)
+                .into_iter()
+                .map(move |(side, u0, u1)| (i, side, u0, u1))
+        })
         .collect();
-    for &i in &candidates {
+    rng.shuffle(&mut walls);
+    for (i, side, u0, u1) in walls {
         let room = &level.rooms[i];
-        for (side, u0, u1) in exterior_sides(&room.rect, footprint) {
-            let width = 1.0;
-            let Some(u) = free_spot(rng, room, side, u0, u1, width) else {
-                continue;
-            };
-            let at = side_line(&room.rect, side, WALL_T / 2.0);
-            level.rooms[i].openings.push(Opening {
-                side,
-                u0: u - width / 2.0,
-                u1: u + width / 2.0,
-                y0: 0.0,
-                y1: DOOR_HEIGHT,
-                kind: OpeningKind::Door { open: false },
-            });
-            let model = model_index("g_door_closed_100");
-            level.objects.push(opening_object(
-                model,
-                side,
-                at,
-                u,
-                level.base_y,
-                true,
-                vec![i],
-            ));
-            return;
-        }
+        let width = 1.0;
+        let Some(u) = free_spot(rng, room, side, u0, u1, width) else {
+            continue;
+        };
+        let at = side_line(&room.rect, side, WALL_T / 2.0);
+        level.rooms[i].openings.push(Opening {
+            side,
+            u0: u - width / 2.0,
+            u1: u + width / 2.0,
+            y0: 0.0,
+            y1: DOOR_HEIGHT,
+            kind: OpeningKind::Door { open: false },
+        });
+        let model = model_index("g_door_closed_100");
+        level.objects.push(opening_object(
+            model,
+            side,
+            at,
+            u,
+            level.base_y,
+            true,
+            vec![i],
+        ));
+        return;
     }
 }
 

@@ -32,7 +32,7 @@ use crate::progress::Progress;
 use crate::seed::{derive_seed, Rng};
 
 /// Bumped when the generator's output for a given configuration changes; part of house ids.
-pub const GENERATOR_VERSION: u32 = 2;
+pub const GENERATOR_VERSION: u32 = 3;
 
 /// The on-disk format to write.
 #[derive(Debug, Clone, Copy, PartialEq)]
