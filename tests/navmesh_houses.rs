@@ -139,10 +139,13 @@ fn doors_rooms_and_levels_of_generated_houses_connect_as_planned() {
                 shortest_path(&grid, a, b).length().unwrap(),
                 shortest_path(&grid, b, a).length().unwrap(),
             );
-            // The field agrees with the path up to the search's cell-centred corners.
+            // The field agrees with the path up to the searches' cell-centred corners: both
+            // bend at span centres, not at the obstacles' true corners, and neither is exact
+            // (in one generator-version-3 house the point-to-point path is 3 mm, 0.08 %,
+            // longer than the field's string-pulled chain).
             let field = distance_field(&grid, &[b]).distance(a).unwrap();
             assert!(
-                field >= dab - 1e-3 && field <= dab * 1.05 + 0.05,
+                field >= dab * 0.998 - 1e-3 && field <= dab * 1.05 + 0.05,
                 "{}: field {field} vs path {dab}",
                 plan.id
             );
