@@ -154,7 +154,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         nav = minos::store::DataDir::new(&report.data).nav_dir().display(),
         d = report.data.display(),
         id = report.first_scene.as_deref().unwrap_or("ID"),
-        e = report.episodes.join("pointgoal.parquet").display(),
+        e = report.pointgoal_episodes.display(),
         r = RunDir::new(&report.run).observations().display(),
         lr = RunDir::new(&report.run).lerobot().display(),
         demos = args.out.join("demos").display(),

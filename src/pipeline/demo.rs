@@ -120,6 +120,8 @@ pub struct DemoReport {
     pub data: PathBuf,
     /// The episode files' folder.
     pub episodes: PathBuf,
+    /// The PointGoal episode file in it (every split), the one the next commands' examples use.
+    pub pointgoal_episodes: PathBuf,
     /// The oracle's run folder.
     pub run: PathBuf,
     /// The rerun recording.
@@ -130,6 +132,11 @@ pub struct DemoReport {
     pub ingest_failures: usize,
     /// Scenes whose grid failed to bake.
     pub bake_failures: usize,
+}
+
+/// The demo's episode file of `task` in the episodes folder `dir` (`pointgoal.parquet`, …).
+fn task_file(dir: &Path, task: Task) -> PathBuf {
+    dir.join(format!("{}.parquet", task.name()))
 }
 
 /// A stage of the demo that failed.
@@ -307,6 +314,7 @@ impl DemoJob {
         });
         Ok(DemoReport {
             data,
+            pointgoal_episodes: task_file(&episodes_dir, Task::PointGoal),
             episodes: episodes_dir,
             run: run_dir,
             recording,
@@ -370,7 +378,7 @@ impl DemoJob {
                 },
                 body_rule: BodyRule::strict(preset.body()),
                 shard: Shard::ALL,
-                out: dir.join(format!("{}.parquet", task.name())),
+                out: task_file(dir, task),
                 habitat_export: None,
                 vln_export: None,
                 scene_names: Default::default(),
