@@ -158,7 +158,7 @@ fn main() {
             reward: Reward::Geodesic,
             encoding: ImageEncoding::Raw,
             lerobot: false,
-            lerobot_video: false,
+            lerobot_video: None,
             rerun: None,
             allow_body_mismatch: false,
             provenance: Default::default(),

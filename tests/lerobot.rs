@@ -85,7 +85,7 @@ fn config(f: &Fixture, name: &str, encoding: ImageEncoding) -> RunConfig {
         reward: Reward::Geodesic,
         encoding,
         lerobot: true,
-        lerobot_video: false,
+        lerobot_video: None,
         rerun: None,
         allow_body_mismatch: false,
         provenance: Default::default(),

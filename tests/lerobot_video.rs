@@ -2,8 +2,9 @@
 //! layout against LeRobot v3.0's (`videos/<key>/chunk-000/file-000.mp4`, `video_path`, the
 //! episodes' `videos/<key>/…` places), every frame decoded back (OpenH264) within
 //! [`MIN_PSNR`] dB of the run's own raw frames, depth and labels still exact, the same bytes
-//! again from `export-dataset --video` at another thread count, `minos verify` passing the
-//! dataset and finding a damaged video, a shifted episode and a lying statistic.
+//! again from `export-dataset --video` at another thread count, `--video-qp` trading bytes
+//! for quality, `minos verify` passing the dataset and finding a damaged video, a shifted
+//! episode and a lying statistic.
 
 use crate::common;
 
@@ -27,7 +28,7 @@ use serde_json::Value;
 const SIZE: [u32; 2] = [64, 48];
 
 /// The smallest PSNR (dB, over all frames and channels) of the decoded video against the
-/// raw frames: OpenH264 at constant QP 26 gives ≈ 38–45 dB on rendered rooms.
+/// raw frames: OpenH264 at constant QP 26 (the default) gives ≈ 38–45 dB on rendered rooms.
 const MIN_PSNR: f64 = 32.0;
 
 struct Fixture {
@@ -79,7 +80,7 @@ fn config(f: &Fixture) -> RunConfig {
         reward: Reward::Geodesic,
         encoding: ImageEncoding::Raw,
         lerobot: true,
-        lerobot_video: true,
+        lerobot_video: Some(minos::io::lerobot::VideoSettings::default()),
         rerun: None,
         allow_body_mismatch: false,
         provenance: Default::default(),
@@ -309,6 +310,49 @@ fn export_dataset_video_gives_the_same_bytes_at_any_thread_count() {
     assert_eq!(info["features"][KEY]["dtype"], "image");
     assert!(info["video_path"].is_null());
     assert!(!images.join("videos").exists());
+}
+
+#[test]
+fn a_coarser_video_qp_gives_smaller_videos_further_from_the_raw_frames() {
+    let coarse = fixture().dir.path().join("exported-qp38");
+    minos()
+        .args(["export-dataset", "--video", "--video-qp", "38", "--run"])
+        .arg(run_dir())
+        .arg("--out")
+        .arg(&coarse)
+        .arg("-q")
+        .ok_output();
+    let qp = |root: &Path| {
+        json(&root.join("meta/info.json"))["features"][KEY]["info"]["minos.video_qp"].clone()
+    };
+    assert_eq!(qp(&coarse), 38);
+    assert_eq!(qp(&dataset()), 26);
+    let mp4 = |root: &Path| root.join(format!("videos/{KEY}/chunk-000/file-000.mp4"));
+    let size = |root: &Path| std::fs::metadata(mp4(root)).expect("video").len();
+    // Six steps of the quantiser double its step size: well under 70 % of the bytes.
+    assert!(
+        10 * size(&coarse) < 7 * size(&dataset()),
+        "{} against {} bytes",
+        size(&coarse),
+        size(&dataset())
+    );
+    let raw: Vec<u8> = raw_colour_frames().concat();
+    let quality = |root: &Path| {
+        psnr(
+            &raw,
+            &read_video(&mp4(root), true)
+                .expect("decodes")
+                .frames
+                .concat(),
+        )
+    };
+    let (fine, rough) = (quality(&dataset()), quality(&coarse));
+    assert!(rough < fine - 3.0, "{rough:.1} dB against {fine:.1} dB");
+    assert!(rough > 24.0, "{rough:.1} dB");
+    // Only the video changes: the data files are the same bytes.
+    let data =
+        |root: &Path| std::fs::read(root.join("data/chunk-000/file-000.parquet")).expect("data");
+    assert_eq!(data(&coarse), data(&dataset()));
 }
 
 fn verify(path: &Path) -> (bool, String) {

@@ -118,7 +118,7 @@ fn config(data: &DataDir, out: &Path, body: AgentConfig) -> RunConfig {
         reward: Reward::Geodesic,
         encoding: ImageEncoding::Raw,
         lerobot: false,
-        lerobot_video: false,
+        lerobot_video: None,
         rerun: None,
         allow_body_mismatch: false,
         provenance: Default::default(),

@@ -60,7 +60,7 @@ fn config(out: &Path, agent: AgentKind, sensors: SensorSuite) -> RunConfig {
         reward: Reward::Geodesic,
         encoding: ImageEncoding::Raw,
         lerobot: false,
-        lerobot_video: false,
+        lerobot_video: None,
         rerun: None,
         allow_body_mismatch: false,
         provenance: Default::default(),

@@ -248,7 +248,7 @@ fn a_session_records_what_minos_run_writes_and_replays_byte_for_byte() {
             fps: 10,
             robot_type: "human".into(),
             run: None,
-            video: false,
+            video: None,
         },
         &NoProgress,
     )

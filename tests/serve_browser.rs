@@ -87,7 +87,7 @@ fn a_person_in_chromium_reaches_the_goal_and_the_demo_replays() {
         reward: Reward::DistTime,
         encoding: ImageEncoding::Raw,
         lerobot: false,
-        lerobot_video: false,
+        lerobot_video: None,
         rerun: None,
         allow_body_mismatch: false,
         provenance: Provenance::default(),

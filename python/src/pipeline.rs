@@ -18,6 +18,8 @@ use minos::episode::vln::export::{EpisodeExport, VlnFormat};
 use minos::episode::Task;
 use minos::generate::{GenerateConfig, HouseFormat};
 use minos::io::image_codec::ImageEncoding;
+use minos::io::lerobot::video::MAX_QP;
+use minos::io::lerobot::VideoSettings;
 use minos::lock::LockMode;
 use minos::navmesh::NavParams;
 use minos::pipeline::bake::{
@@ -420,12 +422,13 @@ pub fn sample_episodes<'py>(
 
 /// `minos run`: rolls out the episodes of `episodes` (a file) with `agent` into `out`
 /// (Parquet tables, metrics.json, manifest.json; LeRobot with `format="lerobot"`; a rerun
-/// recording with `rerun=FILE`; colour cameras as H.264 video features with `video=True`;
+/// recording with `rerun=FILE`; colour cameras as H.264 video features with `video=True`, at
+/// H.264 quantiser `video_qp` (0–51, as `--video-qp`);
 /// `batch` environments per scene stepped in lockstep, as `--batch`). Returns `{"episodes": n, "resumed": n, "steps": n,
 /// "seconds": s, "failures": [(id, error)], "groups": {group: aggregates}, "metrics": [per
 /// episode]}`; a run that cannot start raises MinosError.
 #[pyfunction]
-#[pyo3(signature = (data, episodes, agent, out, variant = None, preset = "habitat", allow_body_mismatch = false, sensors = None, size = 84, max_steps = None, seed = 0, shard = "0/1", resume = false, reward = "dist_time", image_encoding = "raw", format = "parquet", video = false, renderer = "cpu", batch = None, rerun = None, rerun_episodes = 1, threads = None, wait = false, progress = None))]
+#[pyo3(signature = (data, episodes, agent, out, variant = None, preset = "habitat", allow_body_mismatch = false, sensors = None, size = 84, max_steps = None, seed = 0, shard = "0/1", resume = false, reward = "dist_time", image_encoding = "raw", format = "parquet", video = false, video_qp = 26, renderer = "cpu", batch = None, rerun = None, rerun_episodes = 1, threads = None, wait = false, progress = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn run<'py>(
     py: Python<'py>,
@@ -446,6 +449,7 @@ pub fn run<'py>(
     image_encoding: &str,
     format: &str,
     video: bool,
+    video_qp: u8,
     renderer: &str,
     batch: Option<usize>,
     rerun: Option<&Bound<'py, PyAny>>,
@@ -464,6 +468,20 @@ pub fn run<'py>(
     let encoding: ImageEncoding = term("image_encoding", image_encoding)?;
     let lerobot = term::<RunFormat>("format", format)?.writes_lerobot();
     let renderer = crate::convert::renderer(renderer)?;
+    let video_settings = match (video, VideoSettings::with_qp(video_qp)) {
+        (true, Some(settings)) => Some(settings),
+        (false, Some(settings)) if settings == VideoSettings::default() => None,
+        (false, _) => {
+            return Err(pyo3::exceptions::PyValueError::new_err(
+                "video_qp: the quantiser of video features needs video=True",
+            ))
+        }
+        (true, None) => {
+            return Err(pyo3::exceptions::PyValueError::new_err(format!(
+                "video_qp: {video_qp} is not an H.264 quantiser (0–{MAX_QP})"
+            )))
+        }
+    };
     let rerun = rerun
         .filter(|r| !r.is_none())
         .map(path_of)
@@ -504,7 +522,7 @@ pub fn run<'py>(
                 reward,
                 encoding,
                 lerobot,
-                lerobot_video: video,
+                lerobot_video: video_settings,
                 rerun,
                 allow_body_mismatch,
                 provenance: Provenance {

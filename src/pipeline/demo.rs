@@ -289,7 +289,7 @@ impl DemoJob {
             reward: Reward::Geodesic,
             encoding: ImageEncoding::Raw,
             lerobot: true,
-            lerobot_video: false,
+            lerobot_video: None,
             rerun: Some(RerunOutput {
                 path: recording.clone(),
                 episodes: 1,

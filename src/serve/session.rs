@@ -215,7 +215,7 @@ pub fn run_config(shared: &Shared, name: &str) -> RunConfig {
         reward: shared.reward,
         encoding: shared.encoding,
         lerobot: false,
-        lerobot_video: false,
+        lerobot_video: None,
         rerun: None,
         allow_body_mismatch: false,
         provenance: Provenance {

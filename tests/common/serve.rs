@@ -217,7 +217,7 @@ pub fn run_config(
         reward: minos::run::metrics::Reward::DistTime,
         encoding: minos::io::image_codec::ImageEncoding::Raw,
         lerobot: false,
-        lerobot_video: false,
+        lerobot_video: None,
         rerun: None,
         allow_body_mismatch: false,
         provenance: Default::default(),

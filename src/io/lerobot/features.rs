@@ -33,6 +33,7 @@ use serde_json::{json, Value};
 
 use super::image_file::ImageFile;
 use super::stats::StatLayout;
+use super::video::VideoSettings;
 use crate::io::image_codec::{modality_name, CellFormat};
 use crate::render::Modality;
 use crate::render::PixelType;
@@ -274,6 +275,8 @@ pub enum FeatureKind {
         camera: usize,
         /// Frames per second.
         fps: u32,
+        /// How it is encoded.
+        settings: VideoSettings,
     },
     /// Any other camera `cameras[i]` (`observation.<name>`): as image files that keep its
     /// values where it has [`Camera::image_file`], else as a [c, h, w] array of its dtype.
@@ -312,12 +315,13 @@ pub struct RunShape {
     pub goal_objects: Vec<String>,
 }
 
-/// The dataset's features, in column order, for the run's cameras and shape; with
-/// `video_fps`, colour cameras H.264 takes become video features of that frame rate.
+/// The dataset's features, in column order, for the run's cameras and shape; with `video`,
+/// colour cameras H.264 takes become video features of `fps` frames per second, encoded so.
 pub fn features(
     cameras: &[Camera],
     shape: &RunShape,
-    video_fps: Option<u32>,
+    fps: u32,
+    video: Option<VideoSettings>,
 ) -> Result<Vec<Feature>, FeatureError> {
     let mut out: Vec<Feature> = [VectorValue::State, VectorValue::Action]
         .into_iter()
@@ -334,10 +338,14 @@ pub fn features(
         if c.name.is_empty() || c.name.contains('/') {
             return Err(bad("LeRobot feature names cannot be empty or contain `/`"));
         }
-        if let Some(fps) = video_fps.filter(|_| c.is_video()) {
+        if let Some(settings) = video.filter(|_| c.is_video()) {
             out.push(Feature {
                 key: format!("observation.images.{}", c.name),
-                kind: FeatureKind::Video { camera: i, fps },
+                kind: FeatureKind::Video {
+                    camera: i,
+                    fps,
+                    settings,
+                },
             });
         } else if c.is_image() {
             out.push(Feature {
@@ -439,7 +447,11 @@ impl Feature {
             FeatureKind::Frame(v) => {
                 json!({"dtype": scalar_name(v.scalar()), "shape": [1], "names": null})
             }
-            FeatureKind::Video { camera, fps } => {
+            FeatureKind::Video {
+                camera,
+                fps,
+                settings,
+            } => {
                 let c = &cameras[*camera];
                 let f = &c.format;
                 json!({
@@ -458,7 +470,8 @@ impl Feature {
                         "minos.sensor": c.name,
                         "minos.modality": modality_name(c.modality),
                         "minos.sensor_dtype": f.dtype.name(),
-                        "minos.storage": super::video::STORAGE,
+                        "minos.storage": settings.storage(),
+                        "minos.video_qp": settings.qp,
                         "minos.tensor": format!("float32 [3, {}, {}] in [0, 1]", f.height, f.width),
                     },
                 })
@@ -610,7 +623,7 @@ mod tests {
             camera("rooms", Modality::RoomClass, PixelType::U8, 1),
             camera("normal", Modality::Normal, PixelType::F32, 3),
         ];
-        let f = features(&cams, &RunShape::default(), None).expect("valid");
+        let f = features(&cams, &RunShape::default(), 10, None).expect("valid");
         let keys: Vec<&str> = f.iter().map(|f| f.key.as_str()).collect();
         assert_eq!(
             &keys[..6],
@@ -690,14 +703,26 @@ mod tests {
             camera("depth", Modality::Depth, PixelType::F32, 1),
             odd,
         ];
-        let f = features(&cams, &RunShape::default(), Some(10)).expect("valid");
-        assert_eq!(f[2].kind, FeatureKind::Video { camera: 0, fps: 10 });
+        let settings = VideoSettings::with_qp(31).expect("a quantiser");
+        let f = features(&cams, &RunShape::default(), 10, Some(settings)).expect("valid");
+        assert_eq!(
+            f[2].kind,
+            FeatureKind::Video {
+                camera: 0,
+                fps: 10,
+                settings
+            }
+        );
         assert!(!f[2].in_data());
         let info = f[2].info(&cams);
         assert_eq!(info["dtype"], "video");
         assert_eq!(info["shape"], json!([64, 84, 3]));
         assert_eq!(info["info"]["video.fps"], 10);
         assert_eq!(info["info"]["video.codec"], "h264");
+        assert_eq!(info["info"]["minos.video_qp"], 31);
+        assert!(info["info"]["minos.storage"]
+            .as_str()
+            .is_some_and(|s| s.contains("constant QP 31")));
         assert_eq!(f[2].stat_layout(), StatLayout::Image);
         // Grey, depth and an odd-width colour camera (no 4:2:0 video) stay image files.
         for k in [3, 4, 5] {
@@ -705,7 +730,7 @@ mod tests {
             assert!(f[k].in_data());
         }
         // Without video, colour is an image.
-        let f = features(&cams, &RunShape::default(), None).expect("valid");
+        let f = features(&cams, &RunShape::default(), 10, None).expect("valid");
         assert_eq!(f[2].kind, FeatureKind::Image(0));
     }
 
@@ -750,7 +775,7 @@ mod tests {
     fn sensor_names_that_make_bad_keys_are_refused() {
         for name in ["a/b", "", "state", "depth_image"] {
             let cams = vec![camera(name, Modality::Depth, PixelType::F32, 1)];
-            let e = features(&cams, &RunShape::default(), None)
+            let e = features(&cams, &RunShape::default(), 10, None)
                 .expect_err(name)
                 .to_string();
             assert!(e.contains(&format!("sensor `{name}`")), "{e}");
@@ -759,6 +784,7 @@ mod tests {
         assert!(features(
             &[camera("image", Modality::Color, PixelType::U8, 3)],
             &RunShape::default(),
+            10,
             None
         )
         .is_ok());

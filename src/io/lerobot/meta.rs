@@ -328,6 +328,26 @@ pub fn splits(episodes: &[(String, usize)], total: usize) -> Value {
     }
 }
 
+/// How the dataset whose `meta/info.json` is `info` encodes its video features: `None`
+/// without video (no `video_path`); a feature that records no quantiser (minos before
+/// `minos.video_qp`) was encoded at [`super::video::DEFAULT_QP`].
+pub fn video_settings(info: &Value) -> Option<super::VideoSettings> {
+    if info.get("video_path").is_none_or(|p| p.is_null()) {
+        return None;
+    }
+    let recorded = info
+        .get("features")
+        .and_then(|f| f.as_object())
+        .into_iter()
+        .flat_map(|f| f.values())
+        .filter(|f| f.get("dtype").and_then(|d| d.as_str()) == Some("video"))
+        .find_map(|f| f.pointer("/info/minos.video_qp").and_then(|q| q.as_u64()));
+    Some(match recorded.and_then(|q| u8::try_from(q).ok()) {
+        Some(qp) => super::VideoSettings::with_qp(qp).unwrap_or_default(),
+        None => super::VideoSettings::default(),
+    })
+}
+
 /// The contents of `meta/info.json`.
 #[allow(clippy::too_many_arguments)]
 pub fn info_json(
@@ -383,5 +403,28 @@ mod tests {
             json!({"train": "0:3"})
         );
         assert_eq!(splits(&eps(&["", ""]), 2), json!({"train": "0:2"}));
+    }
+
+    #[test]
+    fn a_datasets_video_settings_are_read_back_from_its_info() {
+        let info = |qp: Value| {
+            json!({
+                "video_path": VIDEO_PATH,
+                "features": {
+                    "observation.state": {"dtype": "float32", "info": null},
+                    "observation.images.color": {"dtype": "video", "info": {"minos.video_qp": qp}},
+                },
+            })
+        };
+        let qp = |v: Option<super::super::VideoSettings>| v.map(|s| s.qp);
+        assert_eq!(qp(video_settings(&info(json!(34)))), Some(34));
+        // Written before minos recorded it: the quantiser there was, the default.
+        assert_eq!(qp(video_settings(&info(Value::Null))), Some(26));
+        assert_eq!(qp(video_settings(&info(json!(99)))), Some(26));
+        // No video path: no video.
+        let mut images = info(json!(34));
+        images["video_path"] = Value::Null;
+        assert_eq!(qp(video_settings(&images)), None);
+        assert_eq!(qp(video_settings(&json!({}))), None);
     }
 }

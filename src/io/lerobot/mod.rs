@@ -62,7 +62,7 @@ pub use data::FrameError;
 use data::{data_schema, episode_batch, EpisodeFrames};
 use features::FeatureError;
 use layout::FileIndex;
-pub use meta::CODEBASE_VERSION;
+pub use meta::{video_settings, CODEBASE_VERSION};
 use meta::{EpisodeMeta, VideoPlace};
 use source::RunTables;
 
@@ -85,6 +85,7 @@ impl crate::vocab::Vocabulary for DatasetLayout {
 
 crate::vocab::name_traits!(DatasetLayout);
 use source::{read_episodes, read_steps, EpisodeRow, ObservationRows, StepRow};
+pub use video::VideoSettings;
 use video::{video_file_path, VideoFile};
 
 /// Why the LeRobot copy could not be written; every message names the file.
@@ -242,8 +243,8 @@ pub struct DatasetOptions {
     /// written into `meta/provenance.json` as `run`.
     pub run: Option<serde_json::Value>,
     /// Colour cameras as video features (H.264 in MP4 under `videos/`, lossy, ≈ 10–30×
-    /// smaller) rather than lossless image files in the data files.
-    pub video: bool,
+    /// smaller), encoded so, rather than lossless image files in the data files (`None`).
+    pub video: Option<VideoSettings>,
 }
 
 /// `robot_type` of a run's LeRobot copy.
@@ -256,7 +257,7 @@ impl DatasetOptions {
     pub fn of_manifest(
         manifest: &RunManifest,
         fps: Option<u32>,
-        video: bool,
+        video: Option<VideoSettings>,
     ) -> Result<Self, RunManifestError> {
         let fps = match fps {
             Some(fps) => fps,
@@ -273,7 +274,11 @@ impl DatasetOptions {
     /// The options of the copy of the run folder `run`, from its manifest as
     /// [`DatasetOptions::of_manifest`] says; with `fps` given, a manifest that cannot be
     /// read is no error (the copy then records no configuration).
-    pub fn of_run(run: &RunDir, fps: Option<u32>, video: bool) -> Result<Self, RunManifestError> {
+    pub fn of_run(
+        run: &RunDir,
+        fps: Option<u32>,
+        video: Option<VideoSettings>,
+    ) -> Result<Self, RunManifestError> {
         match (run.read_manifest(), fps) {
             (Ok(manifest), fps) => Self::of_manifest(&manifest, fps, video),
             (Err(_), Some(fps)) => Ok(DatasetOptions {
@@ -538,21 +543,24 @@ fn write_into(
         .collect();
     let shape = run_shape(&every_step, &first.tables.trajectories)?;
     drop(every_step);
-    let video_fps = options.video.then_some(options.fps);
-    let features = features::features(&cameras, &shape, video_fps).map_err(|source| {
-        LerobotError::Feature {
-            path: first.tables.observations.clone(),
-            source,
-        }
-    })?;
+    let features =
+        features::features(&cameras, &shape, options.fps, options.video).map_err(|source| {
+            LerobotError::Feature {
+                path: first.tables.observations.clone(),
+                source,
+            }
+        })?;
     // One writer per video feature: its key, camera, the file being filled and the next
     // file's place.
     let mut videos: Vec<VideoStream> = features
         .iter()
         .filter_map(|f| match f.kind {
-            features::FeatureKind::Video { camera, .. } => Some(VideoStream {
+            features::FeatureKind::Video {
+                camera, settings, ..
+            } => Some(VideoStream {
                 key: f.key.clone(),
                 camera,
+                settings,
                 file: None,
                 next: FileIndex::default(),
             }),
@@ -795,6 +803,7 @@ fn write_into(
 struct VideoStream {
     key: String,
     camera: usize,
+    settings: VideoSettings,
     file: Option<VideoFile>,
     next: FileIndex,
 }
@@ -826,12 +835,19 @@ impl VideoStream {
                 let index = self.next;
                 self.next = index.next();
                 let path = video_file_path(root, &self.key, index);
-                let f = VideoFile::create(path.clone(), index, format.width, format.height, fps)
-                    .map_err(|source| LerobotError::Video {
-                        path,
-                        episode: None,
-                        source: Box::new(source),
-                    })?;
+                let f = VideoFile::create(
+                    path.clone(),
+                    index,
+                    format.width,
+                    format.height,
+                    fps,
+                    self.settings,
+                )
+                .map_err(|source| LerobotError::Video {
+                    path,
+                    episode: None,
+                    source: Box::new(source),
+                })?;
                 self.file.insert(f)
             }
         };
@@ -874,7 +890,7 @@ mod tests {
             fps: 10,
             robot_type: "minos".into(),
             run: None,
-            video: false,
+            video: None,
         };
         for out in ["/", "..", "a/.."] {
             let e = write_dataset_of(&[], Path::new(out), &options, &crate::progress::NoProgress)

@@ -3,8 +3,9 @@
 //! (`videos/<key>/chunk-NNN/file-NNN.mp4`, a new file after [`VIDEO_FILE_MB`]).
 //!
 //! Encoding is OpenH264's (the `openh264` crate, built from its bundled source: no system
-//! library or ffmpeg), constrained baseline, rate control off at a constant QP, one thread,
-//! no frame skipping: the same frames give the same bytes. Every episode starts with an IDR
+//! library or ffmpeg): High profile with CABAC entropy coding, rate control off at a constant
+//! QP ([`VideoSettings`], 26 by default), one thread, no frame skipping: the same frames
+//! give the same bytes. Every episode starts with an IDR
 //! frame (and another comes every [`KEYFRAME_INTERVAL`] frames), so a reader seeks to an
 //! episode or a frame without decoding what comes before it. Frame `k` of a file is shown at
 //! `k / fps` seconds exactly (track timescale `1000 · fps`, 1000 ticks a frame), which is
@@ -23,6 +24,7 @@ use openh264::encoder::{
 };
 use openh264::formats::YUVBuffer;
 use openh264::OpenH264API;
+use openh264_sys2::{SEncParamExt, ENCODER_OPTION_SVC_ENCODE_PARAM_EXT, PRO_HIGH};
 
 use super::layout::FileIndex;
 
@@ -38,8 +40,42 @@ pub const KEYFRAME_INTERVAL: u32 = 30;
 /// The codec's name as LeRobot's `info.json` records it (`video.codec`).
 pub const CODEC: &str = "h264";
 
-/// How `info.json` describes the storage (`minos.storage`).
-pub const STORAGE: &str = "H.264 (OpenH264, constant QP 26, BT.601 limited range) in MP4, lossy";
+/// The quantiser of [`VideoSettings::default`]: ≈ 38.9 dB mean PSNR on 84² rendered rooms,
+/// ≈ 42.6 dB at 256² (docs/PERFORMANCE.md).
+pub const DEFAULT_QP: u8 = 26;
+
+/// The largest quantiser H.264 has.
+pub const MAX_QP: u8 = 51;
+
+/// How colour cameras are encoded: the one choice a user makes, size against quality.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct VideoSettings {
+    /// H.264's quantiser, the same for every frame (0 = finest, [`MAX_QP`] = coarsest; each
+    /// 6 steps double the quantiser's step size). Measured on 84² rendered rooms: 26 gives
+    /// ≈ 38.9 dB mean PSNR, 37 ≈ 32.7 dB in 40 % of the bytes (docs/PERFORMANCE.md).
+    pub qp: u8,
+}
+
+impl Default for VideoSettings {
+    fn default() -> Self {
+        VideoSettings { qp: DEFAULT_QP }
+    }
+}
+
+impl VideoSettings {
+    /// Settings with quantiser `qp`, or `None` when H.264 has no such quantiser.
+    pub fn with_qp(qp: u8) -> Option<VideoSettings> {
+        (qp <= MAX_QP).then_some(VideoSettings { qp })
+    }
+
+    /// How `info.json` describes the storage (`minos.storage`).
+    pub fn storage(&self) -> String {
+        format!(
+            "H.264 (OpenH264, High profile, CABAC, constant QP {}, BT.601 limited range) in MP4, lossy",
+            self.qp
+        )
+    }
+}
 
 /// The pixel format (`video.pix_fmt`).
 pub const PIX_FMT: &str = "yuv420p";
@@ -146,7 +182,8 @@ pub fn rgb_to_i420(rgb: &[u8], width: usize, height: usize) -> Vec<u8> {
     out
 }
 
-/// The encoder's settings (see the module documentation).
+/// The encoder's settings that the `openh264` crate sets (see the module documentation and
+/// [`start_encoder`]).
 fn encoder_config() -> EncoderConfig {
     EncoderConfig::new()
         .usage_type(UsageType::CameraVideoRealTime)
@@ -159,6 +196,54 @@ fn encoder_config() -> EncoderConfig {
         .intra_frame_period(IntraFramePeriod::from_num_frames(KEYFRAME_INTERVAL))
         .num_threads(1)
         .vui(VuiConfig::bt601())
+}
+
+/// An encoder for `width`×`height` frames with the settings of the module documentation.
+///
+/// The `openh264` crate sets neither the constant quantiser (rate control off uses the
+/// layer's `iDLayerQp`, 26 unless told) nor CABAC, and it initialises OpenH264 at the
+/// first frame. So this encodes one grey frame (its bytes are dropped), then hands OpenH264
+/// the crate's parameters with the quantiser, CABAC and High profile set: a new profile
+/// makes OpenH264 start afresh (`WelsEncoderParamAdjust`), so the next frame is an IDR
+/// frame with its own parameter sets, as from a new encoder.
+fn start_encoder(
+    width: usize,
+    height: usize,
+    settings: VideoSettings,
+) -> Result<Encoder, VideoError> {
+    let failed = |source| VideoError::Encoder {
+        frame: None,
+        source,
+    };
+    let mut encoder =
+        Encoder::with_api_config(OpenH264API::from_source(), encoder_config()).map_err(failed)?;
+    let grey = YUVBuffer::from_vec(vec![128u8; width * height * 3 / 2], width, height);
+    encoder.encode(&grey).map_err(failed)?;
+    let mut params = SEncParamExt::default();
+    // SAFETY: the encoder is initialised (it encoded a frame); OpenH264 fills and reads a
+    // whole `SEncParamExt`, which `params` is, for this option; only the quantiser, the
+    // entropy coder and the profile change, all of which OpenH264 validates.
+    let (got, set) = unsafe {
+        let api = encoder.raw_api();
+        let got = api.get_option(
+            ENCODER_OPTION_SVC_ENCODE_PARAM_EXT,
+            (&raw mut params).cast(),
+        );
+        params.sSpatialLayers[0].iDLayerQp = i32::from(settings.qp.min(MAX_QP));
+        params.sSpatialLayers[0].uiProfileIdc = PRO_HIGH;
+        params.iEntropyCodingModeFlag = 1;
+        let set = api.set_option(
+            ENCODER_OPTION_SVC_ENCODE_PARAM_EXT,
+            (&raw mut params).cast(),
+        );
+        (got, set)
+    };
+    if got != 0 || set != 0 {
+        return Err(failed(openh264::Error::msg(
+            "OpenH264 refused the quantiser and entropy coder settings",
+        )));
+    }
+    Ok(encoder)
 }
 
 /// A NAL unit's payload without its Annex B start code.
@@ -198,16 +283,13 @@ impl VideoFile {
         width: u32,
         height: u32,
         fps: u32,
+        settings: VideoSettings,
     ) -> Result<VideoFile, VideoError> {
         if let Some(dir) = path.parent() {
             std::fs::create_dir_all(dir)?;
         }
         let file = File::create(&path)?;
-        let encoder = Encoder::with_api_config(OpenH264API::from_source(), encoder_config())
-            .map_err(|source| VideoError::Encoder {
-                frame: None,
-                source,
-            })?;
+        let encoder = start_encoder(width as usize, height as usize, settings)?;
         Ok(VideoFile {
             index,
             path,
@@ -395,8 +477,24 @@ mod tests {
     }
 
     fn write(path: &Path, frames: &[Vec<u8>], episode_starts: &[usize]) {
-        let mut v = VideoFile::create(path.to_path_buf(), FileIndex::default(), 48, 32, 10)
-            .expect("create");
+        write_with(path, frames, episode_starts, VideoSettings::default());
+    }
+
+    fn write_with(
+        path: &Path,
+        frames: &[Vec<u8>],
+        episode_starts: &[usize],
+        settings: VideoSettings,
+    ) {
+        let mut v = VideoFile::create(
+            path.to_path_buf(),
+            FileIndex::default(),
+            48,
+            32,
+            10,
+            settings,
+        )
+        .expect("create");
         for (k, f) in frames.iter().enumerate() {
             v.push(f, episode_starts.contains(&k)).expect("push");
         }
@@ -444,6 +542,94 @@ mod tests {
             "{e:?}"
         );
         assert!(std::error::Error::source(&e).is_some_and(|c| c.is::<mp4::Error>()));
+    }
+
+    /// Mean PSNR of decoded frames against the raw ones, dB.
+    fn mean_psnr(raw: &[Vec<u8>], decoded: &[Vec<u8>]) -> f64 {
+        let psnr = |a: &[u8], b: &[u8]| {
+            let mse = a
+                .iter()
+                .zip(b)
+                .map(|(x, y)| (f64::from(*x) - f64::from(*y)).powi(2))
+                .sum::<f64>()
+                / a.len() as f64;
+            10.0 * (255.0f64 * 255.0 / mse.max(1e-9)).log10()
+        };
+        raw.iter()
+            .zip(decoded)
+            .map(|(a, b)| psnr(a, b))
+            .sum::<f64>()
+            / raw.len() as f64
+    }
+
+    #[test]
+    fn the_quantiser_trades_bytes_for_quality_in_a_high_profile_cabac_stream() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let frames: Vec<Vec<u8>> = (0..20).map(|k| frame(k, 48, 32)).collect();
+        let mut last: Option<(u64, f64)> = None;
+        for qp in [16u8, 26, 38] {
+            let path = dir.path().join(format!("q{qp}.mp4"));
+            let settings = VideoSettings::with_qp(qp).expect("a quantiser");
+            write_with(&path, &frames, &[0], settings);
+            let bytes = std::fs::read(&path).expect("read");
+            // The stream says what it is: High profile (profile_idc 100) in the SPS, CABAC
+            // (entropy_coding_mode_flag, the bit after the PPS's two ids) in the PPS.
+            let mp4 = mp4::Mp4Reader::read_header(std::io::Cursor::new(&bytes), bytes.len() as u64)
+                .expect("an MP4");
+            let track = mp4.tracks().values().next().expect("a track");
+            let sps = track.sequence_parameter_set().expect("SPS");
+            let pps = track.picture_parameter_set().expect("PPS");
+            assert_eq!(sps[1], 100, "qp {qp}: profile_idc");
+            let mut bits = BitReader::new(&pps[1..]);
+            let (_pps_id, _sps_id) = (bits.ue(), bits.ue());
+            assert_eq!(bits.bit(), 1, "qp {qp}: entropy_coding_mode_flag");
+            let v = super::super::video_read::read_video(&path, true).expect("decodes");
+            assert_eq!(v.frames.len(), frames.len());
+            let psnr = mean_psnr(&frames, &v.frames);
+            // A coarser quantiser: fewer bytes, a lower PSNR, still the same pictures.
+            if let Some((size, quality)) = last {
+                assert!(
+                    (bytes.len() as u64) < size,
+                    "qp {qp}: {} bytes",
+                    bytes.len()
+                );
+                assert!(psnr < quality, "qp {qp}: {psnr:.2} dB");
+            }
+            assert!(psnr > 24.0, "qp {qp}: {psnr:.2} dB");
+            last = Some((bytes.len() as u64, psnr));
+        }
+        assert!(VideoSettings::with_qp(MAX_QP).is_some());
+        assert!(VideoSettings::with_qp(MAX_QP + 1).is_none());
+        assert!(VideoSettings::default()
+            .storage()
+            .contains("constant QP 26"));
+    }
+
+    /// Reads an H.264 RBSP's bits (enough for the PPS's first fields).
+    struct BitReader<'a> {
+        bytes: &'a [u8],
+        at: usize,
+    }
+
+    impl<'a> BitReader<'a> {
+        fn new(bytes: &'a [u8]) -> Self {
+            BitReader { bytes, at: 0 }
+        }
+
+        fn bit(&mut self) -> u32 {
+            let b = self.bytes[self.at / 8] >> (7 - self.at % 8) & 1;
+            self.at += 1;
+            u32::from(b)
+        }
+
+        /// An unsigned Exp-Golomb number.
+        fn ue(&mut self) -> u32 {
+            let mut zeros = 0;
+            while self.bit() == 0 {
+                zeros += 1;
+            }
+            (0..zeros).fold(0, |v, _| (v << 1) | self.bit()) + (1 << zeros) - 1
+        }
     }
 
     #[test]

@@ -22,6 +22,7 @@ use serde_json::Value;
 
 use super::{check_shards, recorded_shard, MergeError, MergeReport};
 use crate::atomic::{sweep_stale, write_bytes_atomic};
+use crate::io::lerobot::VideoSettings;
 use crate::io::rrd::{recordings_of, write_recordings};
 use crate::io::run_dir::{RunDir, RunManifest, RunManifestError};
 use crate::io::tables::{
@@ -57,8 +58,8 @@ struct ShardRun {
     episodes: RecordBatch,
     failures: Vec<FailedEpisode>,
     lerobot: bool,
-    /// Its LeRobot copy stores cameras as video (`info.json` has a `video_path`).
-    lerobot_video: bool,
+    /// Its LeRobot copy stores cameras as video, encoded so (as its `info.json` says).
+    lerobot_video: Option<VideoSettings>,
 }
 
 /// What is wrong with a shard's file `path`.
@@ -126,7 +127,7 @@ fn read_shard(dir: &Path) -> Result<(ShardRun, Shard), MergeError> {
         lerobot_video: std::fs::read(&info)
             .ok()
             .and_then(|b| serde_json::from_slice::<Value>(&b).ok())
-            .is_some_and(|info| info.get("video_path").is_some_and(|p| !p.is_null())),
+            .and_then(|info| crate::io::lerobot::video_settings(&info)),
     };
     Ok((run, shard))
 }

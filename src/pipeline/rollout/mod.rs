@@ -33,7 +33,7 @@ use crate::atomic::{remove_dir_atomic, sweep_stale, write_bytes_atomic};
 use crate::body::{AgentPreset, BodyMismatch};
 use crate::episode::Episode;
 use crate::io::image_codec::ImageEncoding;
-use crate::io::lerobot::DatasetOptions;
+use crate::io::lerobot::{DatasetOptions, VideoSettings};
 use crate::io::rrd::RecordingError;
 use crate::io::run_dir::{PartFile, RunDir, RunManifest, RunManifestError};
 use crate::io::tables::{merge, observation_schema, trajectory_schema};
@@ -89,8 +89,9 @@ pub struct RunConfig {
     pub encoding: ImageEncoding,
     /// Also write the run as a LeRobot v3.0 dataset in `out/lerobot/`.
     pub lerobot: bool,
-    /// In that dataset, colour cameras as H.264 video features (`--video`).
-    pub lerobot_video: bool,
+    /// In that dataset, colour cameras as H.264 video features encoded so (`--video`,
+    /// `--video-qp`); `None`: as lossless image files.
+    pub lerobot_video: Option<VideoSettings>,
     /// Also record episodes for the rerun viewer.
     pub rerun: Option<RerunOutput>,
     /// Run on grids baked for another body than `body` (recorded in the manifest).
@@ -351,7 +352,7 @@ pub fn rollout_with(
     mode: LockMode,
     progress: &dyn Progress,
 ) -> Result<RunReport, RolloutError> {
-    if cfg.lerobot_video && !cfg.lerobot {
+    if cfg.lerobot_video.is_some() && !cfg.lerobot {
         return Err(RolloutError::VideoWithoutLerobot);
     }
     let mine = select(episodes, cfg.shard);
@@ -795,12 +796,12 @@ pub fn write_metrics(
 
 /// Writes the LeRobot copy of the tables of the run folder `run` into `RUN/lerobot`, as
 /// the run's `manifest` says (its frame rate from the agent's step, its configuration
-/// recorded in the copy's provenance: [`DatasetOptions::of_manifest`]); `video`: colour
-/// cameras as video features.
+/// recorded in the copy's provenance: [`DatasetOptions::of_manifest`]); with `video`, colour
+/// cameras as video features encoded so.
 pub fn write_lerobot(
     run: &RunDir,
     manifest: &RunManifest,
-    video: bool,
+    video: Option<VideoSettings>,
 ) -> Result<(), RolloutError> {
     let options = DatasetOptions::of_manifest(manifest, None, video)?;
     crate::io::lerobot::write_dataset(
