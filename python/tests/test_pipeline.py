@@ -225,12 +225,16 @@ def test_run_writes_what_the_cli_writes(world, tmp_path, minos_bin):
 
 
 def test_run_takes_the_clis_video_and_batch_options(world, tmp_path, minos_bin):
-    # `video=True` is `--format lerobot --video`: the same dataset files; `batch=N` is
-    # `--batch N`: lockstep batches write the bytes of one simulator per thread.
+    # `video=True, video_qp=Q` is `--format lerobot --video --video-qp Q`: the same dataset
+    # files; `batch=N` is `--batch N`: lockstep batches write the bytes of one simulator per
+    # thread.
     minos.run(world.data, world.point, "oracle", tmp_path / "py", size=16, format="lerobot",
-              video=True, batch=3)
+              video=True, video_qp=34, batch=3)
     cli(minos_bin, "run", "--data", world.data, "--episodes", world.point, "--agent", "oracle",
-        "--size", "16", "--format", "lerobot", "--video", "--out", tmp_path / "cli")
+        "--size", "16", "--format", "lerobot", "--video", "--video-qp", "34",
+        "--out", tmp_path / "cli")
+    info = json.loads((tmp_path / "py" / "lerobot" / "meta" / "info.json").read_text())
+    assert info["features"]["observation.images.color"]["info"]["minos.video_qp"] == 34
     videos = sorted(p.relative_to(tmp_path / "py")
                     for p in (tmp_path / "py" / "lerobot" / "videos").rglob("*.mp4"))
     assert videos, "video=True writes the colour cameras as MP4 files"
@@ -239,6 +243,12 @@ def test_run_takes_the_clis_video_and_batch_options(world, tmp_path, minos_bin):
         assert (tmp_path / "py" / name).read_bytes() == (tmp_path / "cli" / name).read_bytes(), name
     with pytest.raises(minos.MinosError, match="video are a feature of the LeRobot copy"):
         minos.run(world.data, world.point, "oracle", tmp_path / "no", size=16, video=True)
+    with pytest.raises(ValueError, match="not an H.264 quantiser"):
+        minos.run(world.data, world.point, "oracle", tmp_path / "no", size=16, format="lerobot",
+                  video=True, video_qp=52)
+    with pytest.raises(ValueError, match="needs video=True"):
+        minos.run(world.data, world.point, "oracle", tmp_path / "no", size=16, format="lerobot",
+                  video_qp=30)
 
 
 def test_verify_and_diff_report_what_the_cli_prints(world, tmp_path, minos_bin):
