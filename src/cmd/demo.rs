@@ -5,6 +5,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
 
+use minos::episode::Task;
 use minos::io::run_dir::RunDir;
 use minos::pipeline::demo::{DemoJob, DemoObserver, DemoStage};
 use minos::progress::Progress;
@@ -154,7 +155,7 @@ pub fn run(args: Args, ctx: &Context) -> anyhow::Result<ExitCode> {
         nav = minos::store::DataDir::new(&report.data).nav_dir().display(),
         d = report.data.display(),
         id = report.first_scene.as_deref().unwrap_or("ID"),
-        e = report.pointgoal_episodes.display(),
+        e = report.episode_file(Task::PointGoal).display(),
         r = RunDir::new(&report.run).observations().display(),
         lr = RunDir::new(&report.run).lerobot().display(),
         demos = args.out.join("demos").display(),

@@ -120,8 +120,6 @@ pub struct DemoReport {
     pub data: PathBuf,
     /// The episode files' folder.
     pub episodes: PathBuf,
-    /// The PointGoal episode file in it (every split), the one the next commands' examples use.
-    pub pointgoal_episodes: PathBuf,
     /// The oracle's run folder.
     pub run: PathBuf,
     /// The rerun recording.
@@ -137,6 +135,13 @@ pub struct DemoReport {
 /// The demo's episode file of `task` in the episodes folder `dir` (`pointgoal.parquet`, …).
 fn task_file(dir: &Path, task: Task) -> PathBuf {
     dir.join(format!("{}.parquet", task.name()))
+}
+
+impl DemoReport {
+    /// The episode file of `task` (every split) in [`DemoReport::episodes`].
+    pub fn episode_file(&self, task: Task) -> PathBuf {
+        task_file(&self.episodes, task)
+    }
 }
 
 /// A stage of the demo that failed.
@@ -314,7 +319,6 @@ impl DemoJob {
         });
         Ok(DemoReport {
             data,
-            pointgoal_episodes: task_file(&episodes_dir, Task::PointGoal),
             episodes: episodes_dir,
             run: run_dir,
             recording,
