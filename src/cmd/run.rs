@@ -108,8 +108,8 @@ pub struct Args {
     #[arg(long)]
     video: bool,
     /// With --video: H.264's quantiser, the same for every frame, 0–51 (lower: larger files,
-    /// closer to the raw frames). On 84² rendered rooms 26 decodes at ≈ 38.9 dB mean PSNR and
-    /// 37 at ≈ 32.7 dB in 40 % of the bytes (docs/PERFORMANCE.md).
+    /// closer to the raw frames). On 84² rendered rooms 26 decodes at ≈ 38.5 dB mean PSNR and
+    /// 38 at ≈ 31.7 dB in 42 % of the video bytes (docs/PERFORMANCE.md).
     #[arg(long, value_name = "QP", requires = "video", default_value_t = minos::io::lerobot::video::DEFAULT_QP,
           value_parser = clap::value_parser!(u8).range(0..=i64::from(minos::io::lerobot::video::MAX_QP)))]
     video_qp: u8,
