@@ -80,7 +80,7 @@ fn config(f: &Fixture) -> RunConfig {
         reward: Reward::Geodesic,
         encoding: ImageEncoding::Raw,
         lerobot: true,
-        lerobot_video: Some(minos::io::lerobot::VideoSettings::default()),
+        lerobot_video: Some(minos::io::lerobot::video::VideoSettings::default()),
         rerun: None,
         allow_body_mismatch: false,
         provenance: Default::default(),

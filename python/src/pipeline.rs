@@ -18,8 +18,8 @@ use minos::episode::vln::export::{EpisodeExport, VlnFormat};
 use minos::episode::Task;
 use minos::generate::{GenerateConfig, HouseFormat};
 use minos::io::image_codec::ImageEncoding;
+use minos::io::lerobot::video::VideoSettings;
 use minos::io::lerobot::video::MAX_QP;
-use minos::io::lerobot::VideoSettings;
 use minos::lock::LockMode;
 use minos::navmesh::NavParams;
 use minos::pipeline::bake::{

@@ -5,9 +5,8 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use minos::io::lerobot::source::RunTables;
-use minos::io::lerobot::{
-    write_dataset_of, DatasetLayout, DatasetOptions, DemoSource, VideoSettings,
-};
+use minos::io::lerobot::video::VideoSettings;
+use minos::io::lerobot::{write_dataset_of, DatasetLayout, DatasetOptions, DemoSource};
 use minos::io::run_dir::RunDir;
 use minos::serve::campaign::record::SessionQc;
 

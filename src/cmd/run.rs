@@ -9,7 +9,7 @@ use anyhow::Context as _;
 use minos::body::AgentPreset;
 use minos::episode::Episode;
 use minos::io::image_codec::ImageEncoding;
-use minos::io::lerobot::VideoSettings;
+use minos::io::lerobot::video::VideoSettings;
 use minos::pipeline::rollout::{
     rollout_with as run_episodes, run_episodes_of, AgentKind, Provenance, RerunOutput,
     RolloutError, RunConfig, RunEpisodesError, RunFormat,

@@ -331,7 +331,7 @@ pub fn splits(episodes: &[(String, usize)], total: usize) -> Value {
 /// How the dataset whose `meta/info.json` is `info` encodes its video features: `None`
 /// without video (no `video_path`); a feature that records no quantiser (minos before
 /// `minos.video_qp`) was encoded at [`super::video::DEFAULT_QP`].
-pub fn video_settings(info: &Value) -> Option<super::VideoSettings> {
+pub fn video_settings(info: &Value) -> Option<super::video::VideoSettings> {
     if info.get("video_path").is_none_or(|p| p.is_null()) {
         return None;
     }
@@ -343,8 +343,8 @@ pub fn video_settings(info: &Value) -> Option<super::VideoSettings> {
         .filter(|f| f.get("dtype").and_then(|d| d.as_str()) == Some("video"))
         .find_map(|f| f.pointer("/info/minos.video_qp").and_then(|q| q.as_u64()));
     Some(match recorded.and_then(|q| u8::try_from(q).ok()) {
-        Some(qp) => super::VideoSettings::with_qp(qp).unwrap_or_default(),
-        None => super::VideoSettings::default(),
+        Some(qp) => super::video::VideoSettings::with_qp(qp).unwrap_or_default(),
+        None => super::video::VideoSettings::default(),
     })
 }
 
@@ -416,7 +416,7 @@ mod tests {
                 },
             })
         };
-        let qp = |v: Option<super::super::VideoSettings>| v.map(|s| s.qp);
+        let qp = |v: Option<super::super::video::VideoSettings>| v.map(|s| s.qp);
         assert_eq!(qp(video_settings(&info(json!(34)))), Some(34));
         // Written before minos recorded it: the quantiser there was, the default.
         assert_eq!(qp(video_settings(&info(Value::Null))), Some(26));

@@ -85,7 +85,7 @@ impl crate::vocab::Vocabulary for DatasetLayout {
 
 crate::vocab::name_traits!(DatasetLayout);
 use source::{read_episodes, read_steps, EpisodeRow, ObservationRows, StepRow};
-pub use video::VideoSettings;
+use video::VideoSettings;
 use video::{video_file_path, VideoFile};
 
 /// Why the LeRobot copy could not be written; every message names the file.

@@ -22,7 +22,7 @@ use serde_json::Value;
 
 use super::{check_shards, recorded_shard, MergeError, MergeReport};
 use crate::atomic::{sweep_stale, write_bytes_atomic};
-use crate::io::lerobot::VideoSettings;
+use crate::io::lerobot::video::VideoSettings;
 use crate::io::rrd::{recordings_of, write_recordings};
 use crate::io::run_dir::{RunDir, RunManifest, RunManifestError};
 use crate::io::tables::{
