@@ -5,12 +5,11 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use minos::io::lerobot::source::RunTables;
-use minos::io::lerobot::video::VideoSettings;
 use minos::io::lerobot::{write_dataset_of, DatasetLayout, DatasetOptions, DemoSource};
 use minos::io::run_dir::RunDir;
 use minos::serve::campaign::record::SessionQc;
 
-use super::common::vocab;
+use super::common::{vocab, VideoQp};
 use super::Context;
 
 const AFTER_HELP: &str = "\
@@ -62,12 +61,8 @@ pub struct Args {
     /// (the default). Depth and labels stay lossless either way.
     #[arg(long)]
     video: bool,
-    /// With --video: H.264's quantiser, the same for every frame, 0–51 (lower: larger files,
-    /// closer to the raw frames). On 84² rendered rooms 26 decodes at ≈ 38.5 dB mean PSNR and
-    /// 38 at ≈ 31.7 dB in 42 % of the video bytes (docs/PERFORMANCE.md).
-    #[arg(long, value_name = "QP", requires = "video", default_value_t = minos::io::lerobot::video::DEFAULT_QP,
-          value_parser = clap::value_parser!(u8).range(0..=i64::from(minos::io::lerobot::video::MAX_QP)))]
-    video_qp: u8,
+    #[command(flatten)]
+    video_qp: VideoQp,
 }
 
 /// What to export.
@@ -101,8 +96,7 @@ pub fn config(args: &Args) -> anyhow::Result<ExportConfig> {
         anyhow::bail!("no run to export (the campaign has no session yet)");
     };
     // Without --fps, the frame rate is the manifest's: its errors say how to do without.
-    let video = args.video.then_some(VideoSettings { qp: args.video_qp });
-    let options = DatasetOptions::of_run(first, args.fps, video)
+    let options = DatasetOptions::of_run(first, args.fps, args.video_qp.settings(args.video))
         .map_err(|e| anyhow::anyhow!("{} (give --fps)", minos::escape::error_line(&e)))?;
     let mut sources = Vec::with_capacity(runs.len());
     for run in &runs {

@@ -9,7 +9,6 @@ use anyhow::Context as _;
 use minos::body::AgentPreset;
 use minos::episode::Episode;
 use minos::io::image_codec::ImageEncoding;
-use minos::io::lerobot::video::VideoSettings;
 use minos::pipeline::rollout::{
     rollout_with as run_episodes, run_episodes_of, AgentKind, Provenance, RerunOutput,
     RolloutError, RunConfig, RunEpisodesError, RunFormat,
@@ -21,7 +20,7 @@ use minos::shard::ShardSpec;
 use minos::sim::{AgentConfig, SensorSuite};
 use minos::store::DataDir;
 
-use super::common::{sensor_suite, sensors_help, vocab};
+use super::common::{sensor_suite, sensors_help, vocab, VideoQp};
 use super::Context;
 
 /// Roll out episodes with an agent, writing Parquet datasets (trajectories, observations,
@@ -107,12 +106,8 @@ pub struct Args {
     /// install reads without a video decoder). Depth and labels stay lossless either way.
     #[arg(long)]
     video: bool,
-    /// With --video: H.264's quantiser, the same for every frame, 0–51 (lower: larger files,
-    /// closer to the raw frames). On 84² rendered rooms 26 decodes at ≈ 38.5 dB mean PSNR and
-    /// 38 at ≈ 31.7 dB in 42 % of the video bytes (docs/PERFORMANCE.md).
-    #[arg(long, value_name = "QP", requires = "video", default_value_t = minos::io::lerobot::video::DEFAULT_QP,
-          value_parser = clap::value_parser!(u8).range(0..=i64::from(minos::io::lerobot::video::MAX_QP)))]
-    video_qp: u8,
+    #[command(flatten)]
+    video_qp: VideoQp,
     /// Renderer.
     #[arg(long, value_parser = vocab::<RendererChoice>(), default_value = "cpu")]
     renderer: RendererChoice,
@@ -170,7 +165,7 @@ pub fn config(args: &Args) -> anyhow::Result<(RunConfig, Vec<Episode>)> {
         reward: args.reward,
         encoding: args.image_encoding,
         lerobot: args.format.writes_lerobot(),
-        lerobot_video: args.video.then_some(VideoSettings { qp: args.video_qp }),
+        lerobot_video: args.video_qp.settings(args.video),
         rerun: args.rerun.as_ref().map(|path| RerunOutput {
             path: path.clone(),
             episodes: args.rerun_episodes,

@@ -342,10 +342,12 @@ pub fn video_settings(info: &Value) -> Option<super::video::VideoSettings> {
         .flat_map(|f| f.values())
         .filter(|f| f.get("dtype").and_then(|d| d.as_str()) == Some("video"))
         .find_map(|f| f.pointer("/info/minos.video_qp").and_then(|q| q.as_u64()));
-    Some(match recorded.and_then(|q| u8::try_from(q).ok()) {
-        Some(qp) => super::video::VideoSettings::with_qp(qp).unwrap_or_default(),
-        None => super::video::VideoSettings::default(),
-    })
+    Some(
+        recorded
+            .and_then(|q| u8::try_from(q).ok())
+            .and_then(super::video::VideoSettings::with_qp)
+            .unwrap_or_default(),
+    )
 }
 
 /// The contents of `meta/info.json`.
