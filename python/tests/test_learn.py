@@ -341,6 +341,56 @@ def test_dagger_rows_are_other_rows_than_their_cloned_ones(tmp_path):
     assert row_file(tmp_path, same, seeing).name == "MD-gru-s0-dagger2.json"
 
 
+def test_a_rows_draws_are_other_rows_and_the_report_gives_their_mean_and_spread(tmp_path):
+    from dataclasses import replace
+
+    from minos.learn import tables
+    from minos.learn.cell import CellConfig, check_same_data, policy_seed, row_file
+
+    seeing = ("M", "D")
+    cfg = CellConfig(work=str(tmp_path), dagger=2, epochs=8, dagger_epochs=3)
+    # The cell's own seed keeps the row's name; another training seed is another file.
+    assert row_file(tmp_path, replace(cfg, train_seed=0), seeing).name == \
+        "MD-gru-s0-dagger2e3.json"
+    assert row_file(tmp_path, replace(cfg, train_seed=2), seeing).name == \
+        "MD-gru-s0-train2-dagger2e3.json"
+    assert (policy_seed(cfg), policy_seed(replace(cfg, seed=4)),
+            policy_seed(replace(cfg, train_seed=1))) == (0, 4, 1)
+    # A training seed is not a data setting: a cell folder takes its other draws.
+    work = tmp_path / "cell"
+    work.mkdir()
+    (work / "cell.json").write_text(json.dumps({"seed": 0, "train_seed": None}))
+    check_same_data(replace(cfg, work=str(work), train_seed=3), work)
+
+    # Three draws of door-small-empty M+D and one of M+V: the mean and the sample sd of
+    # the draws' success (percentage points), their number, and speed's mean.
+    root = tmp_path / "tables"
+    col = tables.cells()["door-small-empty/M+D"]
+    draws = [(0.90, 0.70), (0.95, 0.80), (1.00, 0.75)]
+    for k, (success, speed) in enumerate(draws):
+        f = row_file(root / col.work, replace(col, train_seed=col.seed + k), seeing)
+        f.parent.mkdir(parents=True, exist_ok=True)
+        f.write_text(json.dumps({"success": success, "speed": speed}))
+    one = row_file(root / col.work, col, ("M", "V"))
+    one.write_text(json.dumps({"success": 0.5, "speed": 0.25}))
+    rows = {ln.split("|")[1].strip(): ln.split("|")[2].strip()
+            for ln in tables.report(root).splitlines() if ln.startswith("| M")}
+    succ = [s for s, _ in draws]
+    mean = sum(succ) / 3
+    sd = (sum((s - mean) ** 2 for s in succ) / 2) ** 0.5
+    assert rows["M+D"] == (f"{100 * mean:.1f} / {100 * sum(v for _, v in draws) / 3:.1f} "
+                           f"±{100 * sd:.1f} ×3 (92.7 / 77.6)")
+    assert rows["M+D"].startswith("95.0 / 75.0 ±5.0 ×3")
+    assert rows["M+V"] == "50.0 / 25.0 (86.8 / 71.2)"  # one draw: no spread
+    assert rows["M"] == "— (90.6 / 68.1)"
+    assert tables.summary([], "success") is None
+    assert tables.summary([{"success": 0.4}], "success") == (0.4, 0.0, 1)
+    assert tables.is_done(root, "door-small-empty/M+D", col, draws=3)
+    assert not tables.is_done(root, "door-small-empty/M+D", col, draws=4)
+    with pytest.raises(ValueError, match="draws must be 1..32"):
+        tables.run(root, ["door-small-empty/M+D"], draws=0)
+
+
 def test_a_rows_table_line_counts_the_frames_its_rounds_added():
     from minos.learn.cell import markdown
 

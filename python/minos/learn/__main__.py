@@ -93,6 +93,9 @@ def _parser() -> argparse.ArgumentParser:
     tb.add_argument("--report", action="store_true", help="only write ROOT/tables.md")
     tb.add_argument("--random-only", action="store_true", help="stop each cell after its "
                     "random row (the task-difficulty check: no oracle dataset, no training)")
+    tb.add_argument("--draws", type=int, default=1, metavar="N",
+                    help="train and evaluate each row N times, with training seeds 0..N-1 "
+                         "(same houses and episodes); the report gives the mean and spread")
     tb.add_argument("--device", default="auto")
 
     c = sub.add_parser("cell", help="DATA → episodes → oracle → LeRobot → train → eval → table")
@@ -135,6 +138,10 @@ def _parser() -> argparse.ArgumentParser:
     c.add_argument("--max-steps", type=int, default=500)
     c.add_argument("--num-envs", type=int, default=8)
     c.add_argument("--greedy", action="store_true")
+    c.add_argument("--train-seed", type=int, default=None, metavar="T",
+                   help="seed of the policies' own draws (weights, batch order, DAgger/DART "
+                        "rollouts, evaluation's sampled actions; default: --seed); houses, "
+                        "episodes and the random row keep --seed")
     c.add_argument("--random-only", action="store_true",
                    help="stop after the random row (the task-difficulty check)")
     _common_train(c)
@@ -163,7 +170,7 @@ def main(argv: list[str] | None = None) -> int:
             print(tables.report(root))
             return 0
         tables.run(root, args.cell, device=args.device, progress=progress,
-                   random_only=args.random_only)
+                   random_only=args.random_only, draws=args.draws)
         return 0
     if args.command == "cell":
         cfg = CellConfig(
@@ -179,7 +186,8 @@ def main(argv: list[str] | None = None) -> int:
             memory=args.memory, hidden=args.hidden, epochs=args.epochs,
             batch_frames=args.batch_frames, lr=args.lr, dagger=args.dagger, beta=args.beta,
             dagger_epochs=args.dagger_epochs, noise=args.noise, noise_eps=args.noise_eps,
-            num_envs=args.num_envs, sample=not args.greedy, seed=args.seed, device=args.device)
+            num_envs=args.num_envs, sample=not args.greedy, seed=args.seed,
+            train_seed=args.train_seed, device=args.device)
         run_cell(cfg, progress=progress, random_only=args.random_only)
         return 0
 

@@ -92,6 +92,10 @@ class CellConfig:
     num_envs: int = 8
     sample: bool = True
     seed: int = 0
+    # The policy's own draws (initial weights, batch order, the DART and DAgger rollouts,
+    # the evaluation's sampled actions); None: `seed`. Houses, episodes and the random row
+    # keep `seed`, so the draws of one row differ only in what training drew.
+    train_seed: Optional[int] = None
     # The random row: `minos-random` is MINOS's baseline (each button pressed with
     # probability ½), `random` uniform over the moves; averaged over this many seeds.
     random_agent: str = "minos-random"
@@ -130,13 +134,21 @@ def round_epochs(cfg: CellConfig) -> Optional[int]:
     return cfg.dagger_epochs
 
 
+def policy_seed(cfg: CellConfig) -> int:
+    """The seed of the policy's own draws: ``cfg.train_seed``, or ``cfg.seed`` when unset."""
+    return cfg.seed if cfg.train_seed is None else cfg.train_seed
+
+
 def row_file(work: Path, cfg: CellConfig, mods: tuple[str, ...]) -> Path:
     """Where a row's result is written:
-    ``WORK/results/<MODS>-<memory>-s<seed>[-dagger<N>[e<E>]|-noise<N>[e<ε>]].json`` (a row
-    trained with DAgger or DART is another row than its behaviour-cloned one; a DAgger row's
-    tag also names its epochs a round when they are not the cloning's, a DART row's its ε
-    when it is not 0.3)."""
+    ``WORK/results/<MODS>-<memory>-s<seed>[-train<T>][-dagger<N>[e<E>]|-noise<N>[e<ε>]].json``
+    (a row trained with DAgger or DART is another row than its behaviour-cloned one; a DAgger
+    row's tag also names its epochs a round when they are not the cloning's, a DART row's its
+    ε when it is not 0.3; ``-train<T>`` names a training seed other than the cell's seed:
+    another draw of the same row)."""
     tag = f"{modality_tag(mods)}-{cfg.memory}-s{cfg.seed}"
+    if policy_seed(cfg) != cfg.seed:
+        tag += f"-train{policy_seed(cfg)}"
     if dagger_rounds(cfg, mods):
         tag += f"-dagger{dagger_rounds(cfg, mods)}"
         if round_epochs(cfg) is not None:
@@ -350,6 +362,7 @@ def run_cell(cfg: CellConfig, progress: bool = True, random_only: bool = False) 
     env = make_env(data, test_eps, agent=cfg.preset, num_envs=cfg.num_envs, size=cfg.size,
                    seed=cfg.seed, max_steps=cfg.max_steps, variant=cfg.variant)
 
+    drawn = policy_seed(cfg)
     rows = []
     for mods in sets:
         name = modality_name(mods)
@@ -361,10 +374,10 @@ def run_cell(cfg: CellConfig, progress: bool = True, random_only: bool = False) 
             continue
         ckpt = work / "models" / f"{tag}.pt"
         tc = TrainConfig(epochs=cfg.epochs, batch_frames=cfg.batch_frames, lr=cfg.lr,
-                         seed=cfg.seed, device=cfg.device)
+                         seed=drawn, device=cfg.device)
         t0 = time.perf_counter()
         policy = make_policy(demos, mods, memory=cfg.memory, hidden=cfg.hidden,
-                             image_size=cfg.size, seed=cfg.seed)
+                             image_size=cfg.size, seed=drawn)
 
         def training_env():
             return make_env(data, train_eps, agent=cfg.preset, num_envs=cfg.num_envs,
@@ -376,7 +389,7 @@ def run_cell(cfg: CellConfig, progress: bool = True, random_only: bool = False) 
             cloned_from = _subset(demos, policy.spec.keys)
             noise = noisy_demonstrations(cloned_from, training_env(),
                                          rounds=noise_rounds(cfg, mods), eps=cfg.noise_eps,
-                                         seed=cfg.seed, progress=progress)
+                                         seed=drawn, progress=progress)
             _log(f"{name}: DART added {cloned_from.num_frames - demos.num_frames} frames")
         history = train_bc(policy, cloned_from, tc, checkpoint=ckpt, resume=True,
                            progress=progress)
@@ -390,13 +403,13 @@ def run_cell(cfg: CellConfig, progress: bool = True, random_only: bool = False) 
                          epochs=cfg.dagger_epochs)
             train_s = time.perf_counter() - t0
         t0 = time.perf_counter()
-        ev = evaluate_policy(policy, env, seed=cfg.seed, sample=cfg.sample,
+        ev = evaluate_policy(policy, env, seed=drawn, sample=cfg.sample,
                              max_steps=cfg.max_steps, device=cfg.device, progress=progress)
         eval_s = time.perf_counter() - t0
         a = ev["aggregate"]
         row = {
             "name": name, "modalities": list(mods), "task": cfg.task, "preset": cfg.preset,
-            "memory": cfg.memory, "seed": cfg.seed, "houses": cfg.houses,
+            "memory": cfg.memory, "seed": cfg.seed, "train_seed": drawn, "houses": cfg.houses,
             "test_houses": cfg.test_houses, "rooms": list(cfg.rooms),
             "train_episodes": demos.num_episodes, "train_frames": demos.num_frames,
             "epochs": cfg.epochs, "dagger_epochs": cfg.dagger_epochs if dag else None,

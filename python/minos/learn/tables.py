@@ -34,8 +34,8 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Optional
 
-from .cell import (CellConfig, dagger_rounds, noise_rounds, random_file, round_epochs, row_file,
-                   run_cell)
+from .cell import (CellConfig, dagger_rounds, noise_rounds, policy_seed, random_file,
+                   round_epochs, row_file, run_cell)
 from .features import parse_modalities
 
 #: The paper's numbers: complexity cells → (random success %, best agent success %, agent).
@@ -140,38 +140,80 @@ def cells() -> dict[str, CellConfig]:
     return out
 
 
+#: The training seeds the report looks for: a row's draws are those of seeds below this.
+MAX_DRAWS = 32
+
+
 def _row_file(root: Path, cfg: CellConfig, row: str) -> Path:
     return row_file(root / cfg.work, cfg, parse_modalities(row))
 
 
-def is_done(root: Path, name: str, cfg: CellConfig) -> bool:
-    return all(_row_file(root, cfg, r).is_file() for r in cfg.modalities)
+def _draw(cfg: CellConfig, k: int) -> CellConfig:
+    """The cell's ``k``-th draw: training seed ``seed + k`` (the cell's own seed for k = 0,
+    whose rows keep their names)."""
+    return replace(cfg, train_seed=None if k == 0 else cfg.seed + k)
+
+
+def is_done(root: Path, name: str, cfg: CellConfig, draws: int = 1) -> bool:
+    """Whether every row of the cell has its first ``draws`` draws."""
+    return all(_row_file(root, _draw(cfg, k), r).is_file()
+               for r in cfg.modalities for k in range(draws))
 
 
 def run(root: str | Path, names: Optional[list[str]] = None, device: str = "auto",
-        progress: bool = True, random_only: bool = False) -> None:
+        progress: bool = True, random_only: bool = False, draws: int = 1) -> None:
     """Runs the named cells (default: every cell not done yet), then rewrites the report.
     With ``random_only``, each cell stops after its random row (the task-difficulty check:
-    houses, episodes and the random agent's runs, minutes for all cells)."""
+    houses, episodes and the random agent's runs, minutes for all cells). ``draws``: train
+    and evaluate each row this many times, with training seeds ``seed`` … ``seed + draws −
+    1`` (same houses and episodes); the report gives their mean and spread."""
+    if not 1 <= draws <= MAX_DRAWS:
+        raise ValueError(f"draws must be 1..{MAX_DRAWS}, got {draws}")
     root = Path(root)
     all_cells = cells()
     if random_only:
         todo = names or [n for n, c in all_cells.items()
                          if not random_file(root / c.work, c).is_file()]
     else:
-        todo = names or [n for n, c in all_cells.items() if not is_done(root, n, c)]
+        todo = names or [n for n, c in all_cells.items() if not is_done(root, n, c, draws)]
     for name in todo:
         if name not in all_cells:
             raise SystemExit(f"no cell `{name}` (see --list)")
         cfg = replace(all_cells[name], work=str(root / all_cells[name].work), device=device)
-        print(f"[minos.learn tables] cell {name}", flush=True)
-        run_cell(cfg, progress=progress, random_only=random_only)
-        (root / "tables.md").write_text(report(root))
+        for k in range(1 if random_only else draws):
+            print(f"[minos.learn tables] cell {name}"
+                  + (f", training seed {policy_seed(_draw(cfg, k))}" if draws > 1 else ""),
+                  flush=True)
+            run_cell(_draw(cfg, k), progress=progress, random_only=random_only)
+            (root / "tables.md").write_text(report(root))
     (root / "tables.md").write_text(report(root))
 
 
 def _load(path: Path) -> Optional[dict]:
     return json.loads(path.read_text()) if path.is_file() else None
+
+
+def _draws(root: Path, cfg: CellConfig, row: str) -> list[dict]:
+    """Every draw of a row that is done (training seeds ``seed`` … ``seed + MAX_DRAWS − 1``),
+    the cell's own seed first."""
+    found = (_load(_row_file(root, _draw(cfg, k), row)) for k in range(MAX_DRAWS))
+    return [d for d in found if d is not None]
+
+
+def summary(draws: list[dict], key: str) -> Optional[tuple[float, float, int]]:
+    """Mean and sample standard deviation of ``key`` over a row's draws, and their number
+    (sd 0 for one draw; None for none)."""
+    if not draws:
+        return None
+    vals = [float(d[key]) for d in draws]
+    mean = sum(vals) / len(vals)
+    sd = (sum((v - mean) ** 2 for v in vals) / (len(vals) - 1)) ** 0.5 if len(vals) > 1 else 0.0
+    return mean, sd, len(vals)
+
+
+def _spread(s: Optional[tuple[float, float, int]]) -> str:
+    """`` ±sd ×n`` (percentage points) when a row has more than one draw."""
+    return f" ±{100 * s[1]:.1f} ×{s[2]}" if s and s[2] > 1 else ""
 
 
 def report(root: str | Path) -> str:
@@ -189,18 +231,24 @@ def report(root: str | Path) -> str:
         return "cloned"
 
     first = next(iter(allc.values()))
-    lines = ["## Complexity (success %)", "",
+    lines = ["## Complexity (success %; a row trained more than once: the mean over its draws, "
+             "±sd ×draws)", "",
              "| cell | rooms | houses (train/test) | test eps | paper random | minos random | "
              f"paper best | minos M ({how(first, 'M')}) | minos M+D, {how(first, 'M+D')} (SPL) "
              "| oracle frames | cell s |",
              "|---|---|---|---|---|---|---|---|---|---|---|"]
     for name, (prand, pbest, agent) in PAPER_COMPLEXITY.items():
         cfg = allc[name]
-        m = _load(_row_file(root, cfg, "M"))
-        row = _load(_row_file(root, cfg, "M+D"))
+        m_draws, md_draws = _draws(root, cfg, "M"), _draws(root, cfg, "M+D")
+        m = m_draws[0] if m_draws else None
+        row = md_draws[0] if md_draws else None
         rand = _load(random_file(root / cfg.work, cfg))
         rs = rand["aggregate"]["success"] if rand else None
-        md = f"{pct(row['success'])} ({pct(row['spl'])})" if row else "—"
+        ms, mds = summary(m_draws, "success"), summary(md_draws, "success")
+        md = "—"
+        if mds:
+            md = f"{pct(mds[0])}{_spread(mds)} ({pct(summary(md_draws, 'spl')[0])})"
+        m_cell = f"{pct(ms[0])}{_spread(ms)}" if ms else "—"
         some = row or m
         frames = some["train_frames"] if some else "—"
         eps = some["test_episodes"] if some else "—"
@@ -215,10 +263,11 @@ def report(root: str | Path) -> str:
         lines.append(
             f"| {name} | {cfg.rooms[0]}–{cfg.rooms[1]} ({cfg.format}) | "
             f"{cfg.houses - cfg.test_houses}/{cfg.test_houses} | {eps} | {prand} | {pct(rs)} | "
-            f"{pbest} ({agent}) | {pct(m['success'] if m else None)} | {md} | {frames} | "
+            f"{pbest} ({agent}) | {m_cell} | {md} | {frames} | "
             f"{secs} |")
     door = allc[f"door-{MOD_COLUMNS[0]}/M+D"]
-    lines += ["", "## Modalities (ObjectGoal door, success / speed %; paper DFP in brackets; "
+    lines += ["", "## Modalities (ObjectGoal door, success / speed %, the mean over a row's draws "
+              "with ±sd of success ×draws when more than one; paper DFP in brackets; "
               f"M {how(door, 'M')}, M+F {how(door, 'M+F')}, the rows with an image "
               f"{how(door, 'M+D')})",
               "",
@@ -232,13 +281,14 @@ def report(root: str | Path) -> str:
             if row_name == "random":
                 r = _load(random_file(root / cfg.work, cfg))
                 got = (r["aggregate"]["success"], r["aggregate"]["speed"]) if r else None
+                mine = f"{pct(got[0])} / {pct(got[1])}" if got else "—"
             else:
-                r = _load(_row_file(root, cfg, row_name))
-                got = (r["success"], r["speed"]) if r else None
-            mine = f"{pct(got[0])} / {pct(got[1])}" if got else "—"
+                draws = _draws(root, cfg, row_name)
+                s, v = summary(draws, "success"), summary(draws, "speed")
+                mine = f"{pct(s[0])} / {pct(v[0])}{_spread(s)}" if s else "—"
             cols.append(f"{mine} ({ps} / {pv})")
         lines.append(f"| {row_name} | " + " | ".join(cols) + " |")
     return "\n".join(lines) + "\n"
 
 
-__all__ = ["PAPER_COMPLEXITY", "PAPER_MODALITIES", "cells", "report", "run"]
+__all__ = ["PAPER_COMPLEXITY", "PAPER_MODALITIES", "cells", "report", "run", "summary"]
