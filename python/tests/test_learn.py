@@ -249,6 +249,74 @@ def test_dart_adds_the_perturbed_oracles_frames_labelled_by_the_oracle(world, or
         noisy_demonstrations(demos, venv, rounds=1, eps=1.0)
 
 
+def _blind_frame(distance, angle_deg, contact=(0, 0, 0, 0), collided=0.0):
+    """One environment's goal (distance, right, forward), contact bits and collision."""
+    a = math.radians(angle_deg)
+    return {"goal": np.array([[distance, math.sin(a), math.cos(a)]], np.float32),
+            "contact": np.array([contact], np.float32),
+            "collision": np.array([[collided]], np.float32)}
+
+
+def test_the_wall_follower_decides_from_what_a_blind_agent_senses():
+    from minos.learn.wall import WallFollower
+
+    fwd, left, right = 0, 1, 2
+    wf = WallFollower(1, ENV_ACTIONS, budget=5, seed=0)
+    act = lambda *a, **k: int(wf(_blind_frame(*a, **k), 1)[0])  # noqa: E731
+    # Free: forward within the aim (12°), else the turn towards the goal.
+    assert [act(3.0, 5), act(3.0, 40), act(3.0, -40)] == [fwd, right, left]
+    # A collision with the goal ahead: it follows the wall on a side drawn from its seed
+    # (+1: the wall on the right), first turning away from it.
+    side = 1 if np.random.default_rng(0).random() < 0.5 else -1
+    away, toward = (left, right) if side == 1 else (right, left)
+    felt = (0, 0, 0, 1) if side == 1 else (0, 1, 0, 0)
+    assert act(3.0, 0, collided=1.0) == away and wf.states[0].following
+    assert act(3.0, 0, contact=(1, 0, 0, 0)) == away  # the front bit: away again
+    assert act(3.0, 0, contact=felt) == fwd  # the wall at its side: along it
+    # The wall gone (a corner, a doorway): into it and a step, in turn.
+    assert [act(3.0, 0), act(3.0, 0)] == [toward, fwd]
+    # The budget (5 steps along this wall) spent: it turns round, the wall now on the
+    # other side, whose bit is not set, so it turns towards the new side.
+    assert act(3.0, 0, contact=felt) == (right if side == -1 else left)
+    assert wf.states[0].side == -side and wf.states[0].limit == 10
+    # It leaves the wall once nearer the goal than where it met it by the margin (0.25 m)
+    # and the goal is not through the wall's side.
+    for _ in range(4):
+        act(3.0, 0)
+    assert wf.states[0].following
+    assert act(2.5, 0) == fwd and not wf.states[0].following
+    # A new episode forgets the wall.
+    act(2.5, 0, collided=1.0)
+    assert wf.states[0].following
+    wf.clear(np.array([True]))
+    assert not wf.states[0].following
+    with pytest.raises(ValueError, match="turn_left"):
+        WallFollower(1, ["forward", "backward", "stop"])
+
+
+def test_wall_demonstrations_are_labelled_by_the_wall_follower(world, oracle_dataset):
+    from minos.learn.wall import wall_demonstrations
+
+    keys = ["goal", "steps_left", "contact", "collision"]
+    oracle = load_lerobot(oracle_dataset, ENV_ACTIONS, keys=keys)
+    venv = make_env(world.data, world.point, agent="habitat", num_envs=2, size=16)
+    demos, recs = wall_demonstrations(oracle, venv, passes=2, budget=30, seed=1)
+    assert [r["pass"] for r in recs] == [1, 2] and recs[-1]["frames"] == demos.num_frames
+    assert demos.num_frames == sum(r["frames_added"] for r in recs) > 0
+    assert demos.num_episodes == 2 * len(world.episodes)  # the oracle's frames are not kept
+    assert set(demos.frames) == set(keys) and demos.env_actions == oracle.env_actions
+    # Labels are the follower's moves: never stop, and at each episode's first frame (no
+    # wall met yet) forward when the goal is within 12°, else the turn towards it.
+    assert ((demos.labels >= 0) & (demos.labels < 3)).all()
+    for e in range(demos.num_episodes):
+        frames, labels = demos.episode(e)
+        _, right, forward = frames["goal"][0].tolist()
+        angle = math.degrees(math.atan2(right, forward))
+        assert int(labels[0]) == (0 if abs(angle) < 12 else 2 if angle > 0 else 1), e
+    with pytest.raises(ValueError, match="passes"):
+        wall_demonstrations(oracle, venv, passes=0)
+
+
 def test_command_line_train_and_eval(world, oracle_dataset, tmp_path):
     from minos.learn.__main__ import main
 
@@ -298,14 +366,19 @@ def test_tables_name_every_paper_cell_and_report_what_is_not_run(tmp_path):
         assert c.states == (c.task == "objectgoal"), name
         # Two DAgger rounds for every row that sees an image; blind rows are cloned only.
         assert c.dagger == 2 and not c.dagger_blind, name
-        # The modality table's blind rows get two DART rounds; the complexity table's M
+        # The modality table's blind rows would get two DART rounds; the complexity table's M
         # rows (an ablation: the paper's agents all saw images) are cloned only.
         assert c.noise == (2 if c.task == "objectgoal" else 0) and c.noise_eps == 0.3, name
+        # ... and are cloned from the wall follower instead (which takes DART's place).
+        assert c.blind_teacher == ("wall-follower" if c.task == "objectgoal" else "oracle")
+        assert c.teacher_passes == 2, name
     rep = tables.report(tmp_path)
     assert "point-suncg-furnished-small" in rep and "| — |" in rep
 
 
 def test_dagger_rows_are_other_rows_than_their_cloned_ones(tmp_path):
+    from dataclasses import replace
+
     from minos.learn.cell import CellConfig, dagger_rounds, row_file
 
     seeing, blind = ("M", "D"), ("M",)
@@ -339,6 +412,18 @@ def test_dagger_rows_are_other_rows_than_their_cloned_ones(tmp_path):
     assert row_file(tmp_path, short, seeing).name == "MD-gru-s0-dagger2e3.json"
     same = CellConfig(work=str(tmp_path), dagger=2, epochs=8, dagger_epochs=8)
     assert row_file(tmp_path, same, seeing).name == "MD-gru-s0-dagger2.json"
+    # The wall follower teaches the blind rows without DAgger, in DART's place.
+    from minos.learn.cell import wall_passes
+
+    taught = replace(dart, blind_teacher="wall-follower", teacher_passes=3)
+    assert [wall_passes(taught, m) for m in (seeing, blind, touch)] == [0, 3, 3]
+    assert [noise_rounds(taught, m) for m in (seeing, blind, touch)] == [0, 0, 0]
+    assert row_file(tmp_path, taught, blind).name == "M-gru-s0-wall3.json"
+    assert row_file(tmp_path, taught, touch).name == "MF-gru-s0-wall3.json"
+    assert row_file(tmp_path, taught, seeing).name == "MD-gru-s0-dagger2.json"
+    assert wall_passes(replace(taught, dagger_blind=True), touch) == 0  # DAgger's
+    with pytest.raises(ValueError, match="blind_teacher"):
+        wall_passes(replace(taught, blind_teacher="bug"), touch)
 
 
 def test_a_rows_draws_are_other_rows_and_the_report_gives_their_mean_and_spread(tmp_path):
@@ -400,13 +485,16 @@ def test_a_rows_table_line_counts_the_frames_its_rounds_added():
             "seconds": {"train": 12.0, "eval": 3.0}}
     dart = {**base, "noise": [{"frames_added": 300}, {"frames_added": 200}]}
     dag = {**base, "name": "M+D", "dagger": [{"frames_added": 70}]}
-    head, rule, *lines = markdown([base, dart, dag]).splitlines()
+    wall = {**base, "wall": [{"frames_added": 900}, {"frames_added": 800}]}
+    head, rule, *lines = markdown([base, dart, dag, wall]).splitlines()
     cols = [c.strip() for c in head.strip("|").split("|")]
     assert len(cols) == rule.count("---")
     cells_of = [dict(zip(cols, (c.strip() for c in ln.strip("|").split("|")))) for ln in lines]
-    assert [c["oracle frames"] for c in cells_of] == ["1000"] * 3
-    assert [c["frames added"] for c in cells_of] == ["0", "500", "70"]
-    assert [(c["DAgger"], c["DART"]) for c in cells_of] == [("0", "0"), ("0", "2"), ("1", "0")]
+    # The wall follower's frames replace the oracle's: none of the oracle's in that row.
+    assert [c["oracle frames"] for c in cells_of] == ["1000"] * 3 + ["0"]
+    assert [c["frames added"] for c in cells_of] == ["0", "500", "70", "1700"]
+    assert [(c["DAgger"], c["DART"], c["wall follower"]) for c in cells_of] == [
+        ("0", "0", "0"), ("0", "2", "0"), ("1", "0", "0"), ("0", "0", "2")]
     assert cells_of[1]["success %"] == "50.0" and cells_of[1]["speed %"] == "12.5"
 
 

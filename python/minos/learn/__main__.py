@@ -138,6 +138,11 @@ def _parser() -> argparse.ArgumentParser:
     c.add_argument("--max-steps", type=int, default=500)
     c.add_argument("--num-envs", type=int, default=8)
     c.add_argument("--greedy", action="store_true")
+    c.add_argument("--blind-teacher", default="oracle", choices=["oracle", "wall-follower"],
+                   help="blind rows' teacher without DAgger (wall-follower: Bug-style wall "
+                        "following from the goal vector and contact bits, minos.learn.wall)")
+    c.add_argument("--teacher-passes", type=int, default=2, metavar="N",
+                   help="the wall follower's passes over the training episodes")
     c.add_argument("--train-seed", type=int, default=None, metavar="T",
                    help="seed of the policies' own draws (weights, batch order, DAgger/DART "
                         "rollouts, evaluation's sampled actions; default: --seed); houses, "
@@ -187,7 +192,8 @@ def main(argv: list[str] | None = None) -> int:
             batch_frames=args.batch_frames, lr=args.lr, dagger=args.dagger, beta=args.beta,
             dagger_epochs=args.dagger_epochs, noise=args.noise, noise_eps=args.noise_eps,
             num_envs=args.num_envs, sample=not args.greedy, seed=args.seed,
-            train_seed=args.train_seed, device=args.device)
+            train_seed=args.train_seed, blind_teacher=args.blind_teacher,
+            teacher_passes=args.teacher_passes, device=args.device)
         run_cell(cfg, progress=progress, random_only=args.random_only)
         return 0
 

@@ -89,6 +89,13 @@ class CellConfig:
     # contact (`noise_rounds`).
     noise: int = 0
     noise_eps: float = 0.3
+    # The blind rows' teacher: `oracle` (its demonstrations, plus DART for rows with F) or
+    # `wall-follower` (minos.learn.wall: Bug-style wall following from the goal vector and
+    # contact bits alone, whose decisions a blind policy can observe); `teacher_passes`
+    # runs of it over the training episodes replace the oracle's demonstrations for the
+    # blind rows that get no DAgger rounds.
+    blind_teacher: str = "oracle"
+    teacher_passes: int = 2
     num_envs: int = 8
     sample: bool = True
     seed: int = 0
@@ -106,6 +113,9 @@ class CellConfig:
 #: The modalities that are images; a row with none of them is blind.
 IMAGE_MODALITIES = frozenset({"V", "D", "S"})
 
+#: The teachers of blind rows (``CellConfig.blind_teacher``).
+BLIND_TEACHERS = ("oracle", "wall-follower")
+
 
 def dagger_rounds(cfg: CellConfig, mods: tuple[str, ...]) -> int:
     """The DAgger rounds of a row with modalities ``mods``: ``cfg.dagger``, except for blind
@@ -115,13 +125,28 @@ def dagger_rounds(cfg: CellConfig, mods: tuple[str, ...]) -> int:
     return cfg.dagger
 
 
+def wall_passes(cfg: CellConfig, mods: tuple[str, ...]) -> int:
+    """The wall follower's passes over the training episodes that a row with modalities
+    ``mods`` is cloned from instead of the oracle's demonstrations: ``cfg.teacher_passes``
+    for a blind row without DAgger rounds when ``cfg.blind_teacher`` is ``wall-follower``,
+    else none."""
+    if cfg.blind_teacher not in BLIND_TEACHERS:
+        raise ValueError(f"blind_teacher: {cfg.blind_teacher!r} is not one of "
+                         f"{', '.join(BLIND_TEACHERS)}")
+    if (cfg.blind_teacher != "wall-follower" or dagger_rounds(cfg, mods)
+            or set(mods) & IMAGE_MODALITIES):
+        return 0
+    return cfg.teacher_passes
+
+
 def noise_rounds(cfg: CellConfig, mods: tuple[str, ...]) -> int:
     """The DART rounds of a row with modalities ``mods``: ``cfg.noise`` for a row that gets
-    no DAgger rounds (:func:`dagger_rounds`) and senses contact (F), else none. The
-    perturbed oracle's corrections are learnable only by a policy that observes the state
-    they correct: with measurements alone a policy pressed against a wall sees what it saw
-    before touching it (DART gave M 84.4 % against 87.2 % cloned, docs/RESULTS.md)."""
-    if dagger_rounds(cfg, mods) or "F" not in mods:
+    no DAgger rounds (:func:`dagger_rounds`), senses contact (F) and learns from the oracle
+    (not :func:`wall_passes`), else none. The perturbed oracle's corrections are learnable
+    only by a policy that observes the state they correct: with measurements alone a policy
+    pressed against a wall sees what it saw before touching it (DART gave M 84.4 % against
+    87.2 % cloned, docs/RESULTS.md)."""
+    if dagger_rounds(cfg, mods) or "F" not in mods or wall_passes(cfg, mods):
         return 0
     return cfg.noise
 
@@ -157,6 +182,8 @@ def row_file(work: Path, cfg: CellConfig, mods: tuple[str, ...]) -> Path:
         tag += f"-noise{noise_rounds(cfg, mods)}"
         if cfg.noise_eps != 0.3:
             tag += f"e{cfg.noise_eps:g}"
+    elif wall_passes(cfg, mods):
+        tag += f"-wall{wall_passes(cfg, mods)}"
     return Path(work) / "results" / f"{tag}.json"
 
 
@@ -307,6 +334,7 @@ def run_cell(cfg: CellConfig, progress: bool = True, random_only: bool = False) 
     from .evaluate import evaluate_policy, make_env
     from .features import keys_for
     from .train import TrainConfig, make_policy, train_bc
+    from .wall import wall_demonstrations
 
     work = Path(cfg.work)
     work.mkdir(parents=True, exist_ok=True)
@@ -384,8 +412,15 @@ def run_cell(cfg: CellConfig, progress: bool = True, random_only: bool = False) 
                             size=cfg.size, seed=cfg.seed, max_steps=cfg.max_steps,
                             variant=cfg.variant)
 
-        cloned_from, noise = demos, []
-        if noise_rounds(cfg, mods):
+        cloned_from, noise, walls = demos, [], []
+        if wall_passes(cfg, mods):
+            cloned_from, walls = wall_demonstrations(
+                _subset(demos, policy.spec.keys), training_env(),
+                passes=wall_passes(cfg, mods), seed=drawn, progress=progress)
+            rates = ", ".join(f"{w['teacher_success']:.3f}" for w in walls)
+            _log(f"{name}: the wall follower's {cloned_from.num_frames} frames replace the "
+                 f"oracle's (its success on the training episodes: {rates})")
+        elif noise_rounds(cfg, mods):
             cloned_from = _subset(demos, policy.spec.keys)
             noise = noisy_demonstrations(cloned_from, training_env(),
                                          rounds=noise_rounds(cfg, mods), eps=cfg.noise_eps,
@@ -413,7 +448,7 @@ def run_cell(cfg: CellConfig, progress: bool = True, random_only: bool = False) 
             "test_houses": cfg.test_houses, "rooms": list(cfg.rooms),
             "train_episodes": demos.num_episodes, "train_frames": demos.num_frames,
             "epochs": cfg.epochs, "dagger_epochs": cfg.dagger_epochs if dag else None,
-            "dagger": dag, "noise": noise,
+            "dagger": dag, "noise": noise, "wall": walls,
             "final_loss": history[-1]["loss"] if history else None,
             "train_accuracy": history[-1]["accuracy"] if history else None,
             "test_episodes": a["episodes"], "success": a["success"], "spl": a["spl"],
@@ -443,20 +478,24 @@ def _subset(demos, keys: Sequence[str]):
 
 def markdown(rows: Sequence[dict]) -> str:
     """Result rows as a Markdown table (percentages). ``oracle frames`` are the oracle's
-    demonstrations the row was cloned from; ``frames added`` those its DAgger or DART rounds
-    added before its last training."""
+    demonstrations the row was cloned from (0 when the wall follower's replace them);
+    ``frames added`` those its DAgger or DART rounds or the wall follower's passes added
+    before its last training."""
     head = ("| task | preset | modalities | memory | oracle frames | frames added | epochs | "
-            "DAgger | DART | success % | SPL % | speed % | random success % | random SPL % | "
-            "random speed % | train s | eval s |\n"
-            "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n")
+            "DAgger | DART | wall follower | success % | SPL % | speed % | random success % | "
+            "random SPL % | random speed % | train s | eval s |\n"
+            "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n")
     lines = []
     for r in rows:
         pct = lambda v: f"{100 * v:.1f}"  # noqa: E731
-        rounds = list(r["dagger"]) + list(r.get("noise", []))
+        walls = list(r.get("wall", []))
+        rounds = list(r["dagger"]) + list(r.get("noise", [])) + walls
         added = sum(rec["frames_added"] for rec in rounds)
+        oracle = 0 if walls else r["train_frames"]
         lines.append(
-            f"| {r['task']} | {r['preset']} | {r['name']} | {r['memory']} | {r['train_frames']} "
+            f"| {r['task']} | {r['preset']} | {r['name']} | {r['memory']} | {oracle} "
             f"| {added} | {r['epochs']} | {len(r['dagger'])} | {len(r.get('noise', []))} | "
+            f"{len(walls)} | "
             f"{pct(r['success'])} | {pct(r['spl'])} | "
             f"{pct(r['speed'])} | {pct(r['random']['success'])} | {pct(r['random']['spl'])} | "
             f"{pct(r['random']['speed'])} | {r['seconds']['train']:.0f} | "

@@ -93,7 +93,8 @@ def run_episodes(venv, choose: Optional[Chooser], keys: Sequence[str],
                  seed: int = 0, record: bool = False, beta: float = 0.0,
                  max_steps: Optional[int] = None,
                  progress: Optional[Callable[[int, int], None]] = None,
-                 goal_objects: Optional[Sequence[str]] = None) -> RolloutResult:
+                 goal_objects: Optional[Sequence[str]] = None,
+                 teacher=None) -> RolloutResult:
     """Runs every episode of ``venv`` (a :class:`minos.gym.VectorNavEnv`) once, choosing
     actions with ``choose`` (None: the oracle's).
 
@@ -103,6 +104,9 @@ def run_episodes(venv, choose: Optional[Chooser], keys: Sequence[str],
     the environment's step limit override (None: each episode's own). ``progress(done,
     total)`` is called as episodes finish. ``goal_objects``: the vocabulary ``goal_object``
     frames index (a dataset's, the policy's; None: the environment's ``goal_objects``).
+    ``teacher``: the expert in the oracle's place — driving when ``choose`` is None, labelling
+    the recorded frames, taking β's share — a chooser with ``keys`` (the frame keys it reads)
+    and ``clear(mask)`` (:class:`minos.learn.wall.WallFollower`).
     """
     n = venv.num_envs
     names = list(venv.action_names)
@@ -123,12 +127,17 @@ def run_episodes(venv, choose: Optional[Chooser], keys: Sequence[str],
                 tracks[k].start(current[k], info["position"][k])
             if clear is not None:
                 clear(fresh)
+            if teacher is not None:
+                teacher.clear(fresh)
         limits = np.array([max_steps or (t.episode.max_steps if t.episode else 500)
                            for t in tracks], np.float32)
         frames = env_frames(obs, keys, gmap)
         # The oracle is asked once per step: a second question in the same state makes it
         # re-plan, which may break a tie the other way.
-        oracle = venv.oracle_actions() if need_oracle or choose is None else None
+        if teacher is not None:
+            oracle = teacher(env_frames(obs, teacher.keys), n)
+        else:
+            oracle = venv.oracle_actions() if need_oracle or choose is None else None
         # -1: the oracle found no plan from where the learner led the agent; such a frame
         # gets no label, and the oracle's turn falls to the learner (or, alone, forward).
         if choose is None:

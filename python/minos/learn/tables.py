@@ -18,9 +18,9 @@ rows are MINOS's random agent (``minos-random``: each button pressed with probab
 step), averaged over five seeds. Every row that sees an image (V or D) is
 behaviour-cloned from the oracle and then trained in two DAgger rounds of three epochs
 (the oracle labelling the states the policy reaches in the training houses); blind rows
-(M, M+F) are cloned without DAgger; in the modality table M+F (which senses contact)
-learns from the oracle's demonstrations plus two DART rounds (the oracle with a random move
-30 % of the time, labelled by the oracle). The data sizes are chosen so that a cell's training and
+(M, M+F) are cloned without DAgger: in the complexity table from the oracle, in the
+modality table from two passes of the wall follower over the training episodes
+(:mod:`minos.learn.wall`: a teacher that decides from what a blind policy senses). The data sizes are chosen so that a cell's training and
 evaluation fit about 10 minutes of a 2-core CPU (docs/RESULTS.md says what each cell chose and
 what it took). ``--random-only`` stops each cell after its random row: the task-difficulty
 check in minutes, without training. A modality-table cell is one row of one column; the rows
@@ -35,7 +35,7 @@ from pathlib import Path
 from typing import Optional
 
 from .cell import (CellConfig, dagger_rounds, noise_rounds, policy_seed, random_file,
-                   round_epochs, row_file, run_cell)
+                   round_epochs, row_file, run_cell, wall_passes)
 from .features import parse_modalities
 
 #: The paper's numbers: complexity cells → (random success %, best agent success %, agent).
@@ -110,11 +110,14 @@ def _modalities() -> dict[str, CellConfig]:
     # MINOS's objectgoal_suncg_* configs: one random instance of `['arch', 'door']` is the
     # goal (`select: random`), from the starts of the episode states (`states`), which have
     # `pathNumDoors > 0` in 2-room houses and `> 1` in 3–5-room ones on their PointGoal
-    # paths; no ratio rule.
+    # paths; no ratio rule. The blind rows (M, M+F) are cloned from the wall follower
+    # (minos.learn.wall), whose decisions they can observe: cloned from the oracle (M+F with
+    # DART) they stayed 10–16 points below the paper in the empty columns (docs/RESULTS.md).
     base = CellConfig(work="", task="objectgoal", categories=["door", "arch"], select="random",
                       preset="minos-paper", per_scene=10, test_per_scene=10, max_steps=500,
                       size=84, epochs=8, ratio_rule=False, dagger=2, dagger_blind=False,
-                      dagger_epochs=DAGGER_EPOCHS, states=True, noise=2)
+                      dagger_epochs=DAGGER_EPOCHS, states=True, noise=2,
+                      blind_teacher="wall-follower", teacher_passes=2)
     small = dict(rooms=(2, 2), min_doors=1, houses=100, test_houses=30)
     # Medium houses keep fewer of their starts (two doorways on the path), so more houses
     # for a training set and a test set the size of the small columns'.
@@ -228,6 +231,8 @@ def report(root: str | Path) -> str:
             return f"cloned + {dagger_rounds(cfg, mods)} DAgger rounds{per}"
         if noise_rounds(cfg, mods):
             return f"cloned with {noise_rounds(cfg, mods)} DART rounds (ε {cfg.noise_eps:g})"
+        if wall_passes(cfg, mods):
+            return f"cloned from {wall_passes(cfg, mods)} passes of the wall follower"
         return "cloned"
 
     first = next(iter(allc.values()))
