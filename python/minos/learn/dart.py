@@ -51,13 +51,10 @@ def noisy_demonstrations(demos: Demonstrations, venv, rounds: int = 2, eps: floa
             res = run_episodes(venv, choose, keys, seed=seed + r, record=True,
                                beta=1.0 - eps, progress=bar, goal_objects=goal_objects)
         bar.close()
-        frames, labels, lengths = res.recorded(keys)
-        demos.extend(frames, labels, lengths)
-        metrics = res.metrics.values()
-        rec = {"round": r, "eps": eps, "frames_added": int(labels.numel()),
-               "frames": demos.num_frames,
-               "rollout_success": sum(m.success for m in metrics) / max(len(metrics), 1),
-               "collisions": int(sum(m.collisions for m in metrics))}
+        added = res.record_into(demos)
+        rec = {"round": r, "eps": eps, "frames_added": added["frames_added"],
+               "frames": added["frames"], "rollout_success": added["success"],
+               "collisions": added["collisions"]}
         records.append(rec)
         if callback is not None:
             callback(rec)

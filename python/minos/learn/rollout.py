@@ -41,6 +41,17 @@ class RolloutResult:
         labels = torch.cat([lab for _, lab in self.episodes])
         return frames, labels, [len(lab) for _, lab in self.episodes]
 
+    def record_into(self, demos) -> dict:
+        """Appends the recorded episodes (the keys ``demos`` holds) to ``demos``; returns the
+        pass's record: ``frames_added``, ``frames`` (now in ``demos``), the rollout's
+        ``success`` rate and ``collisions``."""
+        frames, labels, lengths = self.recorded(list(demos.frames))
+        demos.extend(frames, labels, lengths)
+        metrics = self.metrics.values()
+        return {"frames_added": int(labels.numel()), "frames": demos.num_frames,
+                "success": sum(m.success for m in metrics) / max(len(metrics), 1),
+                "collisions": int(sum(m.collisions for m in metrics))}
+
 
 class _Track:
     """One environment's running episode."""

@@ -49,8 +49,10 @@ class WallFollower:
     ``forward``, ``turn_left`` and ``turn_right``), and :meth:`clear` for environments that
     start an episode. ``frames`` holds :data:`KEYS`: ``goal`` (distance, right, forward),
     ``contact`` (front, left, back, right) and ``collision``. ``seed`` draws the side of each
-    wall followed; ``budget`` is the first stretch along a wall before turning round (the
-    door columns' test episodes: 40 steps 90.8 % success, 120 steps 87.1 %)."""
+    wall followed; ``budget`` is the first stretch along a wall before turning round (on the
+    door-small-empty test episodes 40 steps give 91.4–94.5 % success over three seeds; a
+    first version of this follower did worse with longer stretches: 89.0 % at 80 steps,
+    87.1 % at 120, 79.1 % at 200)."""
 
     def __init__(self, num_envs: int, action_names: Sequence[str], budget: int = 40,
                  seed: int = 0, aim_deg: float = 12.0, blocked_deg: float = 30.0,
@@ -154,13 +156,10 @@ def wall_demonstrations(like: Demonstrations, venv, passes: int = 2, budget: int
             res = run_episodes(venv, None, keys, seed=seed + p, record=True, progress=bar,
                                goal_objects=like.info.get("goal_objects"), teacher=teacher)
         bar.close()
-        frames, labels, lengths = res.recorded(keys)
-        out.extend(frames, labels, lengths)
-        metrics = res.metrics.values()
-        rec = {"pass": p, "budget": budget, "frames_added": int(labels.numel()),
-               "frames": out.num_frames,
-               "teacher_success": sum(m.success for m in metrics) / max(len(metrics), 1),
-               "collisions": int(sum(m.collisions for m in metrics))}
+        added = res.record_into(out)
+        rec = {"pass": p, "budget": budget, "frames_added": added["frames_added"],
+               "frames": added["frames"], "teacher_success": added["success"],
+               "collisions": added["collisions"]}
         records.append(rec)
         if callback is not None:
             callback(rec)
