@@ -30,6 +30,7 @@ of a column share its houses, episodes and oracle dataset (made by the first one
 from __future__ import annotations
 
 import json
+import statistics
 from dataclasses import replace
 from pathlib import Path
 from typing import Optional
@@ -209,9 +210,7 @@ def summary(draws: list[dict], key: str) -> Optional[tuple[float, float, int]]:
     if not draws:
         return None
     vals = [float(d[key]) for d in draws]
-    mean = sum(vals) / len(vals)
-    sd = (sum((v - mean) ** 2 for v in vals) / (len(vals) - 1)) ** 0.5 if len(vals) > 1 else 0.0
-    return mean, sd, len(vals)
+    return statistics.fmean(vals), statistics.stdev(vals) if len(vals) > 1 else 0.0, len(vals)
 
 
 def _spread(s: Optional[tuple[float, float, int]]) -> str:
