@@ -94,6 +94,82 @@ def test_rollout_metrics_equal_minos_run(world, tmp_path):
             assert math.isclose(getattr(m, k), r[k], abs_tol=1e-4), (eid, k)
 
 
+class _ScriptedVectorEnv:
+    """VectorNavEnv's scheduling (environment i's k-th episode is the order's (i + k·n)-th,
+    wrapping round) with scripted runs: ``runs[(episode, instance)] = (steps, success)``."""
+
+    def __init__(self, ids, num_envs, runs):
+        from types import SimpleNamespace
+
+        self.num_envs, self.runs = num_envs, runs
+        self.action_names = ["forward", "turn_left", "turn_right", "stop"]
+        self.goal_objects = []
+        self._core = SimpleNamespace(episodes=[
+            SimpleNamespace(episode_id=e, max_steps=500, geodesic_distance=1.0) for e in ids])
+        self.instances = {e: 0 for e in ids}
+
+    def _obs(self):
+        return {"goal": np.zeros((self.num_envs, 3), np.float32)}
+
+    def _info(self, reset):
+        n = self.num_envs
+        return {"reset": np.array(reset), "position": np.zeros((n, 3)),
+                "collision": np.zeros(n, bool), "geodesic": np.zeros(n),
+                "success": np.array([s.get("won", False) for s in self.slots])}
+
+    def _next(self, i):
+        eps = self._core.episodes
+        slot = self.slots[i]
+        ep = eps[(i + slot["started"] * self.num_envs) % len(eps)]
+        self.instances[ep.episode_id] += 1
+        steps, won = self.runs[(ep.episode_id, self.instances[ep.episode_id])]
+        slot.update(started=slot["started"] + 1, ep=ep, left=steps, end=won, won=False,
+                    done=False)
+
+    def reset(self, seed=None):
+        self.slots = [{"started": 0} for _ in range(self.num_envs)]
+        for i in range(self.num_envs):
+            self._next(i)
+        return self._obs(), self._info([True] * self.num_envs)
+
+    def current_episodes(self):
+        return [s["ep"] for s in self.slots]
+
+    def step(self, actions):
+        n = self.num_envs
+        reset, term, trunc = [False] * n, np.zeros(n, bool), np.zeros(n, bool)
+        for i, slot in enumerate(self.slots):
+            if slot["done"]:
+                self._next(i)
+                reset[i] = True
+                continue
+            slot["left"] -= 1
+            if slot["left"] == 0:
+                slot.update(done=True, won=slot["end"])
+                term[i], trunc[i] = slot["end"], not slot["end"]
+        return self._obs(), np.zeros(n), term, trunc, self._info(reset)
+
+    def oracle_actions(self):
+        return np.zeros(self.num_envs, np.int64)
+
+
+def test_each_episode_counts_once_by_the_run_that_started_it():
+    # Two environments, three episodes: environment 1 finishes `b` at once and goes on to
+    # `a` (its (1 + 2)-th in the order), which environment 0 is still running and will fail;
+    # the repeat succeeds in one step, long before. `a` counts as the first run's failure.
+    runs = {("a", 1): (6, False), ("a", 2): (1, True), ("b", 1): (1, True),
+            ("c", 1): (1, True), ("c", 2): (1, True), ("b", 2): (1, True)}
+    venv = _ScriptedVectorEnv(["a", "b", "c"], 2, runs)
+    res = run_episodes(venv, None, keys=["goal"], record=True)
+    assert venv.instances["a"] == 2, "the scripted schedule did not repeat `a`"
+    assert set(res.metrics) == {"a", "b", "c"}
+    assert not res.metrics["a"].success and res.metrics["a"].steps == 6
+    assert res.metrics["b"].success and res.metrics["c"].success
+    # Recorded frames: one run of each episode, the first started.
+    lengths = dict(zip(res.episode_ids, (len(lab) for _, lab in res.episodes)))
+    assert lengths == {"a": 6, "b": 1, "c": 1}
+
+
 @pytest.fixture(scope="module")
 def oracle_dataset(world, tmp_path_factory):
     """The oracle's run of the point episodes as a LeRobot dataset (24² images)."""

@@ -63,6 +63,7 @@ class _Track:
         self.collisions = 0
         self.pos = np.zeros(3)
         self.ended = False
+        self.repeat = False  # another environment started this episode first
         self.frames: list[dict[str, torch.Tensor]] = []
         self.labels: list[int] = []
 
@@ -118,6 +119,11 @@ def run_episodes(venv, choose: Optional[Chooser], keys: Sequence[str],
     ``teacher``: the expert in the oracle's place — driving when ``choose`` is None, labelling
     the recorded frames, taking β's share — a chooser with ``keys`` (the frame keys it reads)
     and ``clear(mask)`` (:class:`minos.learn.wall.WallFollower`).
+
+    Each episode counts once, by the run that started it first: an environment that has
+    finished its share of the episodes goes on to others' while the last ones run (the batch
+    steps together), and those repeats are neither measured nor recorded — the first of two
+    runs to *finish* would favour the shorter, successful one.
     """
     n = venv.num_envs
     names = list(venv.action_names)
@@ -128,6 +134,7 @@ def run_episodes(venv, choose: Optional[Chooser], keys: Sequence[str],
     tracks = [_Track() for _ in range(n)]
     result = RolloutResult(metrics={})
     need_oracle = record or beta > 0.0
+    started: set[str] = set()
     gmap = (goal_object_map(venv.goal_objects, goal_objects)
             if goal_objects is not None else None)
     while len(result.metrics) < total:
@@ -136,6 +143,8 @@ def run_episodes(venv, choose: Optional[Chooser], keys: Sequence[str],
             current = venv.current_episodes()
             for k in np.nonzero(fresh)[0]:
                 tracks[k].start(current[k], info["position"][k])
+                tracks[k].repeat = current[k].episode_id in started
+                started.add(current[k].episode_id)
             if clear is not None:
                 clear(fresh)
             if teacher is not None:
@@ -160,7 +169,7 @@ def run_episodes(venv, choose: Optional[Chooser], keys: Sequence[str],
             actions = np.where(mix, oracle, actions)
         if record:
             for k, t in enumerate(tracks):
-                if not t.ended:
+                if not t.ended and not t.repeat:
                     t.frames.append({key: v[k:k + 1] for key, v in frames.items()})
                     t.labels.append(int(oracle[k]) if oracle[k] >= 0 else -100)
         obs, _, term, trunc, info = venv.step(actions)
@@ -177,7 +186,7 @@ def run_episodes(venv, choose: Optional[Chooser], keys: Sequence[str],
             if term[k] or trunc[k]:
                 t.ended = True
                 ep = t.episode
-                if ep.episode_id in result.metrics:
+                if t.repeat:
                     continue
                 g = float(info["geodesic"][k])
                 result.metrics[ep.episode_id] = EpisodeMetrics.finish(
