@@ -417,6 +417,11 @@ def test_command_line_train_and_eval(world, oracle_dataset, tmp_path):
                  "--episodes", str(world.point), "--agent", "habitat", "--max-steps", "30",
                  "--size", "24", "--out", str(out)]) == 0
     assert json.loads(out.read_text())["aggregate"]["episodes"] == len(world.episodes)
+    # --variant reaches the environment: a variant the DATA folder lacks is named.
+    with pytest.raises(Exception, match="nosuch"):
+        main(["-q", "eval", "--checkpoint", str(ckpt), "--data", str(world.data),
+              "--episodes", str(world.point), "--agent", "habitat", "--size", "24",
+              "--variant", "nosuch"])
 
 
 def test_tables_name_every_paper_cell_and_report_what_is_not_run(tmp_path):
@@ -638,6 +643,35 @@ def test_a_cells_random_row_is_minos_random_averaged_over_seeds(world, tmp_path)
 
     doors = pq.read_table(work / "eps" / "test.parquet").column("path_num_doors").to_pylist()
     assert doors and min(doors) >= 1, doors
+
+
+def test_a_cells_rows_name_the_policy_they_evaluated(world, tmp_path):
+    # A whole cell on the test world: the oracle's LeRobot run, a cloned blind row and a
+    # DAgger row with depth, each evaluated on the held-out episodes. The row names the
+    # checkpoint it evaluated (for a DAgger row the policy after its rounds, not the cloned
+    # one), and that checkpoint, evaluated again, gives the row's every episode.
+    from minos.learn.cell import CellConfig, run_cell
+
+    _split(world.data, "learn-rows", world.scenes)
+    cfg = CellConfig(work=str(tmp_path / "cell"), data=str(world.data), split="learn-rows",
+                     preset="habitat", per_scene=2, test_per_scene=2, max_steps=40, size=40,
+                     random_seeds=1, ratio_rule=False, modalities=["M", "M,D"], epochs=1,
+                     dagger=1, dagger_blind=False, num_envs=2)
+    rows = {r["name"]: r for r in run_cell(cfg, progress=False)}
+    work = tmp_path / "cell"
+    assert rows["M"]["checkpoint"] == "models/M-gru-s0.pt"
+    assert rows["M+D"]["checkpoint"] == "models/MD-gru-s0-dagger1-dagger.pt"
+    cloned = torch.load(work / "models" / "MD-gru-s0-dagger1.pt", weights_only=False)["model"]
+    after = torch.load(work / rows["M+D"]["checkpoint"], weights_only=False)["model"]
+    assert any(not torch.equal(cloned[k], after[k]) for k in cloned)
+    for row in rows.values():
+        policy, _ = load_policy(work / row["checkpoint"])
+        env = make_env(cfg.data, work / "eps" / "test.parquet", agent=cfg.preset,
+                       num_envs=cfg.num_envs, size=cfg.size, seed=cfg.seed,
+                       max_steps=cfg.max_steps)
+        again = evaluate_policy(policy, env, seed=cfg.seed, sample=cfg.sample,
+                                max_steps=cfg.max_steps)
+        assert again["episodes"] == row["evaluation"]["episodes"], row["name"]
 
 
 def test_a_cells_door_goals_come_from_the_starts_of_its_episode_states(world, tmp_path):

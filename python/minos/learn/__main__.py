@@ -81,7 +81,10 @@ def _parser() -> argparse.ArgumentParser:
     e.add_argument("--require-stop", action="store_true")
     e.add_argument("--greedy", action="store_true", help="argmax actions (default: sample)")
     e.add_argument("--size", type=int, default=84)
-    e.add_argument("--seed", type=int, default=0)
+    e.add_argument("--seed", type=int, default=0,
+                   help="the episodes' order among the environments and the sampled actions")
+    e.add_argument("--variant", default=None,
+                   help="run the episodes on this variant of their scenes (e.g. empty)")
     e.add_argument("--device", default="auto")
     e.add_argument("--out", help="write the results (JSON) here")
 
@@ -258,7 +261,7 @@ def main(argv: list[str] | None = None) -> int:
         require_stop = require_stop or policy.spec.use_stop
     venv = make_env(args.data, args.episodes, agent=agent, num_envs=args.num_envs,
                     size=args.size, seed=args.seed, max_steps=args.max_steps,
-                    require_stop=require_stop)
+                    require_stop=require_stop, variant=args.variant)
     if policy is None:
         res = evaluate_random(venv, seed=args.seed, max_steps=args.max_steps, progress=progress)
     else:

@@ -431,12 +431,13 @@ def run_cell(cfg: CellConfig, progress: bool = True, random_only: bool = False) 
                            progress=progress)
         train_s = time.perf_counter() - t0
         dag = []
+        evaluated = ckpt
         if rounds:
             train_env = training_env()
             sub = _subset(demos, policy.spec.keys)
+            evaluated = ckpt.with_name(ckpt.stem + "-dagger.pt")
             dag = dagger(policy, sub, train_env, tc, iterations=rounds, beta=cfg.beta,
-                         checkpoint=ckpt.with_name(ckpt.stem + "-dagger.pt"), progress=progress,
-                         epochs=cfg.dagger_epochs)
+                         checkpoint=evaluated, progress=progress, epochs=cfg.dagger_epochs)
             train_s = time.perf_counter() - t0
         t0 = time.perf_counter()
         ev = evaluate_policy(policy, env, seed=drawn, sample=cfg.sample,
@@ -456,7 +457,8 @@ def run_cell(cfg: CellConfig, progress: bool = True, random_only: bool = False) 
             "soft_spl": a["soft_spl"], "speed": a["speed"],
             "random": {k: ra[k] for k in ("success", "spl", "soft_spl", "speed")},
             "seconds": {**times, "train": train_s, "eval": eval_s},
-            "inputs": list(policy.spec.keys), "evaluation": ev,
+            "inputs": list(policy.spec.keys),
+            "checkpoint": str(evaluated.relative_to(work)), "evaluation": ev,
         }
         out_file.write_text(json.dumps(row, indent=1))
         rows.append(row)
