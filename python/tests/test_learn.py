@@ -457,6 +457,37 @@ def test_tables_name_every_paper_cell_and_report_what_is_not_run(tmp_path):
     assert "point-suncg-furnished-small" in rep and "| — |" in rep
 
 
+def test_tables_take_another_number_of_dagger_rounds(tmp_path):
+    # `tables --dagger 3`: the rows with an image get three rounds and are other rows (their
+    # files are kept apart from the two-round ones); the blind rows are the same rows.
+    from minos.learn import tables
+    from minos.learn.__main__ import main
+    from minos.learn.cell import row_file
+
+    two, three = tables.cells(), tables.cells(3)
+    assert all(c.dagger == 3 for c in three.values())
+    name = "door-small-empty/M+V+F"
+    files = [row_file(tmp_path / c[name].work, c[name], ("M", "V", "F")) for c in (two, three)]
+    assert [f.name for f in files] == ["MVF-gru-s0-dagger2e3.json", "MVF-gru-s0-dagger3e3.json"]
+    blind = {row_file(tmp_path, c["door-small-empty/M"], ("M",)).name for c in (two, three)}
+    assert blind == {"M-gru-s0-wall2.json"}
+    files[0].parent.mkdir(parents=True)
+    for f, (success, speed) in zip(files, [(0.853, 0.772), (0.969, 0.827)]):
+        f.write_text(json.dumps({"success": success, "speed": speed}))
+
+    def cell(report):
+        line = next(ln for ln in report.splitlines() if ln.startswith("| M+V+F |"))
+        return line.split("|")[2].strip()
+
+    assert cell(tables.report(tmp_path)).startswith("85.3 / 77.2")
+    assert cell(tables.report(tmp_path, 3)).startswith("96.9 / 82.7")
+    assert "3 DAgger rounds of 3 epochs" in tables.report(tmp_path, 3)
+    assert main(["-q", "tables", "--root", str(tmp_path), "--report", "--dagger", "3"]) == 0
+    assert cell((tmp_path / "tables.md").read_text()).startswith("96.9 / 82.7")
+    with pytest.raises(ValueError, match="at least 1"):
+        tables.cells(0)
+
+
 def test_dagger_rows_are_other_rows_than_their_cloned_ones(tmp_path):
     from dataclasses import replace
 

@@ -96,6 +96,9 @@ def _parser() -> argparse.ArgumentParser:
     tb.add_argument("--report", action="store_true", help="only write ROOT/tables.md")
     tb.add_argument("--random-only", action="store_true", help="stop each cell after its "
                     "random row (the task-difficulty check: no oracle dataset, no training)")
+    tb.add_argument("--dagger", type=int, default=None, metavar="N",
+                    help="DAgger rounds of the rows with an image (default: the tables' 2); "
+                    "other rows than the two-round ones, which are kept")
     tb.add_argument("--draws", type=int, default=1, metavar="N",
                     help="train and evaluate each row N times, with training seeds 0..N-1 "
                          "(same houses and episodes); the report gives the mean and spread")
@@ -165,7 +168,7 @@ def main(argv: list[str] | None = None) -> int:
 
         root = Path(args.root)
         if args.list:
-            for name, cfg in tables.cells().items():
+            for name, cfg in tables.cells(args.dagger).items():
                 done = "done" if tables.is_done(root, name, cfg) else "not run"
                 print(f"{name:34s} {done:8s} {cfg.task} rooms {cfg.rooms[0]}..{cfg.rooms[1]} "
                       f"{cfg.format} {cfg.furnishing} variant={cfg.variant or '-'} houses {cfg.houses} "
@@ -174,11 +177,11 @@ def main(argv: list[str] | None = None) -> int:
             return 0
         if args.report:
             root.mkdir(parents=True, exist_ok=True)
-            (root / "tables.md").write_text(tables.report(root))
-            print(tables.report(root))
+            (root / "tables.md").write_text(tables.report(root, args.dagger))
+            print(tables.report(root, args.dagger))
             return 0
         tables.run(root, args.cell, device=args.device, progress=progress,
-                   random_only=args.random_only, draws=args.draws)
+                   random_only=args.random_only, draws=args.draws, dagger=args.dagger)
         return 0
     if args.command == "cell":
         cfg = CellConfig(

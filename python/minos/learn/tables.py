@@ -136,11 +136,16 @@ def _modalities() -> dict[str, CellConfig]:
     return out
 
 
-def cells() -> dict[str, CellConfig]:
-    """Every cell by name (work folders relative to the root)."""
+def cells(dagger: Optional[int] = None) -> dict[str, CellConfig]:
+    """Every cell by name (work folders relative to the root). ``dagger``: the DAgger rounds
+    of the rows with an image instead of the tables' two (its rows are other rows, written
+    as ``-dagger<N>e3``, so cells made with two rounds keep theirs)."""
+    if dagger is not None and dagger < 1:
+        raise ValueError(f"dagger: {dagger} rounds; at least 1")
     out = {}
     for name, cfg in {**_complexity(), **_modalities()}.items():
-        out[name] = replace(cfg, work=name.split("/")[0])
+        out[name] = replace(cfg, work=name.split("/")[0],
+                            dagger=cfg.dagger if dagger is None else dagger)
     return out
 
 
@@ -165,16 +170,18 @@ def is_done(root: Path, name: str, cfg: CellConfig, draws: int = 1) -> bool:
 
 
 def run(root: str | Path, names: Optional[list[str]] = None, device: str = "auto",
-        progress: bool = True, random_only: bool = False, draws: int = 1) -> None:
+        progress: bool = True, random_only: bool = False, draws: int = 1,
+        dagger: Optional[int] = None) -> None:
     """Runs the named cells (default: every cell not done yet), then rewrites the report.
     With ``random_only``, each cell stops after its random row (the task-difficulty check:
     houses, episodes and the random agent's runs, minutes for all cells). ``draws``: train
     and evaluate each row this many times, with training seeds ``seed`` … ``seed + draws −
-    1`` (same houses and episodes); the report gives their mean and spread."""
+    1`` (same houses and episodes); the report gives their mean and spread. ``dagger``: the
+    rows with an image get this many DAgger rounds (:func:`cells`)."""
     if not 1 <= draws <= MAX_DRAWS:
         raise ValueError(f"draws must be 1..{MAX_DRAWS}, got {draws}")
     root = Path(root)
-    all_cells = cells()
+    all_cells = cells(dagger)
     if random_only:
         todo = names or [n for n, c in all_cells.items()
                          if not random_file(root / c.work, c).is_file()]
@@ -189,8 +196,8 @@ def run(root: str | Path, names: Optional[list[str]] = None, device: str = "auto
                   + (f", training seed {policy_seed(_draw(cfg, k))}" if draws > 1 else ""),
                   flush=True)
             run_cell(_draw(cfg, k), progress=progress, random_only=random_only)
-            (root / "tables.md").write_text(report(root))
-    (root / "tables.md").write_text(report(root))
+            (root / "tables.md").write_text(report(root, dagger))
+    (root / "tables.md").write_text(report(root, dagger))
 
 
 def _load(path: Path) -> Optional[dict]:
@@ -218,10 +225,11 @@ def _spread(s: Optional[tuple[float, float, int]]) -> str:
     return f" ±{100 * s[1]:.1f} ×{s[2]}" if s and s[2] > 1 else ""
 
 
-def report(root: str | Path) -> str:
-    """Both tables in Markdown, minos's numbers beside the paper's (`—`: not run yet)."""
+def report(root: str | Path, dagger: Optional[int] = None) -> str:
+    """Both tables in Markdown, minos's numbers beside the paper's (`—`: not run yet), of
+    the rows with ``dagger`` DAgger rounds (None: the tables' two; :func:`cells`)."""
     root = Path(root)
-    allc = cells()
+    allc = cells(dagger)
     pct = lambda v: "—" if v is None else f"{100 * v:.1f}"  # noqa: E731
     def how(cfg: CellConfig, row: str) -> str:
         mods = parse_modalities(row)
