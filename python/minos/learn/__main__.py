@@ -177,8 +177,9 @@ def main(argv: list[str] | None = None) -> int:
             return 0
         if args.report:
             root.mkdir(parents=True, exist_ok=True)
-            (root / "tables.md").write_text(tables.report(root, args.dagger))
-            print(tables.report(root, args.dagger))
+            text = tables.report(root, args.dagger)
+            (root / "tables.md").write_text(text)
+            print(text)
             return 0
         tables.run(root, args.cell, device=args.device, progress=progress,
                    random_only=args.random_only, draws=args.draws, dagger=args.dagger)
