@@ -6,7 +6,7 @@
 #   scripts/reproduce_minos_tables.sh ROOT --report     ROOT/tables.md from the finished cells
 #   scripts/reproduce_minos_tables.sh ROOT --random-only  every cell up to its random row (minutes)
 #   scripts/reproduce_minos_tables.sh ROOT --draws 3    each row trained with training seeds 0, 1, 2 (mean ± sd)
-#   scripts/reproduce_minos_tables.sh ROOT --dagger 3   the rows with an image with three DAgger rounds (other rows)
+#   scripts/reproduce_minos_tables.sh ROOT --dagger N   the rows with an image with N DAgger rounds (other rows)
 # Needs: the `minos` binary on PATH and the minos wheel with torch, lerobot and gymnasium in
 # the Python environment ($PYTHON, default python3). Uses CUDA when torch sees a GPU.
 set -euo pipefail

@@ -116,7 +116,7 @@ def _modalities() -> dict[str, CellConfig]:
     # DART) they stayed 10–16 points below the paper in the empty columns (docs/RESULTS.md).
     base = CellConfig(work="", task="objectgoal", categories=["door", "arch"], select="random",
                       preset="minos-paper", per_scene=10, test_per_scene=10, max_steps=500,
-                      size=84, epochs=8, ratio_rule=False, dagger=2, dagger_blind=False,
+                      size=84, epochs=8, ratio_rule=False, dagger=3, dagger_blind=False,
                       dagger_epochs=DAGGER_EPOCHS, states=True, noise=2,
                       blind_teacher="wall-follower", teacher_passes=2)
     small = dict(rooms=(2, 2), min_doors=1, houses=100, test_houses=30)
@@ -138,8 +138,9 @@ def _modalities() -> dict[str, CellConfig]:
 
 def cells(dagger: Optional[int] = None) -> dict[str, CellConfig]:
     """Every cell by name (work folders relative to the root). ``dagger``: the DAgger rounds
-    of the rows with an image instead of the tables' two (its rows are other rows, written
-    as ``-dagger<N>e3``, so cells made with two rounds keep theirs)."""
+    of the rows with an image instead of the tables' (three in the modality table, two in
+    the complexity table; its rows are other rows, written as ``-dagger<N>e3``, so a folder
+    keeps the rows of every number of rounds)."""
     if dagger is not None and dagger < 1:
         raise ValueError(f"dagger: {dagger} rounds; at least 1")
     out = {}
@@ -197,7 +198,8 @@ def run(root: str | Path, names: Optional[list[str]] = None, device: str = "auto
                   flush=True)
             run_cell(_draw(cfg, k), progress=progress, random_only=random_only)
             (root / "tables.md").write_text(report(root, dagger))
-    (root / "tables.md").write_text(report(root, dagger))
+    if not todo:
+        (root / "tables.md").write_text(report(root, dagger))
 
 
 def _load(path: Path) -> Optional[dict]:
@@ -227,7 +229,7 @@ def _spread(s: Optional[tuple[float, float, int]]) -> str:
 
 def report(root: str | Path, dagger: Optional[int] = None) -> str:
     """Both tables in Markdown, minos's numbers beside the paper's (`—`: not run yet), of
-    the rows with ``dagger`` DAgger rounds (None: the tables' two; :func:`cells`)."""
+    the rows with ``dagger`` DAgger rounds (None: the tables' own; :func:`cells`)."""
     root = Path(root)
     allc = cells(dagger)
     pct = lambda v: "—" if v is None else f"{100 * v:.1f}"  # noqa: E731
