@@ -438,16 +438,15 @@ def test_tables_name_every_paper_cell_and_report_what_is_not_run(tmp_path):
     # no Habitat ratio rule, the empty cells on the furnished houses' episodes.
     for name, c in names.items():
         assert not c.ratio_rule and c.random_agent == "minos-random", name
-        assert c.dagger_epochs == tables.DAGGER_EPOCHS, name
+        assert (c.dagger, c.dagger_epochs) == (3, tables.DAGGER_EPOCHS), name
         assert c.select == ("any" if c.task == "pointgoal" else "random"), name
         if c.format == "suncg":
             assert c.min_doors == (1 if c.rooms == (2, 2) else 2), name
         assert c.episodes_on_base == (c.variant == "empty"), name
         # The door cells' goals are drawn from the starts of MINOS's episode states.
         assert c.states == (c.task == "objectgoal"), name
-        # Three DAgger rounds for every row that sees an image in the modality table, two in
-        # the complexity table; blind rows are cloned only.
-        assert c.dagger == (3 if c.task == "objectgoal" else 2) and not c.dagger_blind, name
+        # Three DAgger rounds for every row that sees an image; blind rows are cloned only.
+        assert not c.dagger_blind, name
         # The modality table's blind rows would get two DART rounds; the complexity table's M
         # rows (an ablation: the paper's agents all saw images) are cloned only.
         assert c.noise == (2 if c.task == "objectgoal" else 0) and c.noise_eps == 0.3, name
@@ -459,8 +458,8 @@ def test_tables_name_every_paper_cell_and_report_what_is_not_run(tmp_path):
 
 
 def test_tables_take_another_number_of_dagger_rounds(tmp_path):
-    # `tables --dagger 2`: the door rows with an image get two rounds (the modality table's
-    # three by default) and are other rows (their files are kept apart from the three-round
+    # `tables --dagger 2`: the rows with an image get two rounds (the tables' three by
+    # default) and are other rows (their files are kept apart from the three-round
     # ones); the blind rows are the same rows.
     from minos.learn import tables
     from minos.learn.__main__ import main
@@ -468,7 +467,7 @@ def test_tables_take_another_number_of_dagger_rounds(tmp_path):
 
     two, three = tables.cells(2), tables.cells()
     assert all(c.dagger == 2 for c in two.values())
-    assert all(c.dagger == 3 for n, c in three.items() if n.startswith("door-"))
+    assert all(c.dagger == 3 for c in three.values())
     assert all(c.dagger == 4 for c in tables.cells(4).values())
     name = "door-small-empty/M+V+F"
     files = [row_file(tmp_path / c[name].work, c[name], ("M", "V", "F")) for c in (two, three)]

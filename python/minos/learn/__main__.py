@@ -97,9 +97,8 @@ def _parser() -> argparse.ArgumentParser:
     tb.add_argument("--random-only", action="store_true", help="stop each cell after its "
                     "random row (the task-difficulty check: no oracle dataset, no training)")
     tb.add_argument("--dagger", type=int, default=None, metavar="N",
-                    help="DAgger rounds of the rows with an image (default: 3 in the "
-                    "modality table, 2 in the complexity table); other rows than those, "
-                    "which are kept")
+                    help="DAgger rounds of the rows with an image (default: the tables' 3); "
+                    "other rows than the three-round ones, which are kept")
     tb.add_argument("--draws", type=int, default=1, metavar="N",
                     help="train and evaluate each row N times, with training seeds 0..N-1 "
                          "(same houses and episodes); the report gives the mean and spread")

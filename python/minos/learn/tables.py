@@ -83,7 +83,7 @@ def _complexity() -> dict[str, CellConfig]:
     # goal is one random room (`select: random`, success in that room only).
     base = CellConfig(work="", modalities=list(COMPLEXITY_ROWS), preset="minos-paper",
                       per_scene=10, test_per_scene=10, max_steps=500, size=84, epochs=10,
-                      ratio_rule=False, dagger=2, dagger_blind=False,
+                      ratio_rule=False, dagger=3, dagger_blind=False,
                       dagger_epochs=DAGGER_EPOCHS)
     small = dict(houses=40, test_houses=10, rooms=(2, 2), min_doors=1)
     medium = dict(houses=30, test_houses=10, rooms=(3, 5), epochs=8, min_doors=2)
@@ -138,9 +138,8 @@ def _modalities() -> dict[str, CellConfig]:
 
 def cells(dagger: Optional[int] = None) -> dict[str, CellConfig]:
     """Every cell by name (work folders relative to the root). ``dagger``: the DAgger rounds
-    of the rows with an image instead of the tables' (three in the modality table, two in
-    the complexity table; its rows are other rows, written as ``-dagger<N>e3``, so a folder
-    keeps the rows of every number of rounds)."""
+    of the rows with an image instead of the tables' three (its rows are other rows,
+    written as ``-dagger<N>e3``, so a folder keeps the rows of every number of rounds)."""
     if dagger is not None and dagger < 1:
         raise ValueError(f"dagger: {dagger} rounds; at least 1")
     out = {}
@@ -229,7 +228,7 @@ def _spread(s: Optional[tuple[float, float, int]]) -> str:
 
 def report(root: str | Path, dagger: Optional[int] = None) -> str:
     """Both tables in Markdown, minos's numbers beside the paper's (`—`: not run yet), of
-    the rows with ``dagger`` DAgger rounds (None: the tables' own; :func:`cells`)."""
+    the rows with ``dagger`` DAgger rounds (None: the tables' three; :func:`cells`)."""
     root = Path(root)
     allc = cells(dagger)
     pct = lambda v: "—" if v is None else f"{100 * v:.1f}"  # noqa: E731
