@@ -16,7 +16,7 @@ episodes sampled in the furnished houses and run with the furniture removed (MIN
 furnished configs shared one states file). The random
 rows are MINOS's random agent (``minos-random``: each button pressed with probability ½ per
 step), averaged over five seeds. Every row that sees an image (V or D) is
-behaviour-cloned from the oracle and then trained in two DAgger rounds of three epochs
+behaviour-cloned from the oracle and then trained in three DAgger rounds of three epochs
 (the oracle labelling the states the policy reaches in the training houses); blind rows
 (M, M+F) are cloned without DAgger: in the complexity table from the oracle, in the
 modality table from two passes of the wall follower over the training episodes
