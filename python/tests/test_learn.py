@@ -492,6 +492,9 @@ def test_tables_take_another_number_of_dagger_rounds(tmp_path):
     assert cell((tmp_path / "tables.md").read_text()).startswith("96.9 / 82.7")
     with pytest.raises(ValueError, match="at least 1"):
         tables.cells(0)
+    # At the command line, a one-line error rather than a traceback.
+    with pytest.raises(SystemExit, match="^dagger: 0 rounds; at least 1$"):
+        main(["-q", "tables", "--root", str(tmp_path), "--report", "--dagger", "0"])
 
 
 def test_dagger_rows_are_other_rows_than_their_cloned_ones(tmp_path):

@@ -167,8 +167,12 @@ def main(argv: list[str] | None = None) -> int:
         from . import tables
 
         root = Path(args.root)
+        try:
+            all_cells = tables.cells(args.dagger)
+        except ValueError as e:
+            raise SystemExit(str(e)) from None
         if args.list:
-            for name, cfg in tables.cells(args.dagger).items():
+            for name, cfg in all_cells.items():
                 done = "done" if tables.is_done(root, name, cfg) else "not run"
                 print(f"{name:34s} {done:8s} {cfg.task} rooms {cfg.rooms[0]}..{cfg.rooms[1]} "
                       f"{cfg.format} {cfg.furnishing} variant={cfg.variant or '-'} houses {cfg.houses} "
