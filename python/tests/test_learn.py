@@ -391,6 +391,21 @@ def test_wall_demonstrations_are_labelled_by_the_wall_follower(world, oracle_dat
         assert int(labels[0]) == (0 if abs(angle) < 12 else 2 if angle > 0 else 1), e
     with pytest.raises(ValueError, match="passes"):
         wall_demonstrations(oracle, venv, passes=0)
+    # Filtered cloning keeps the follower's successful episodes of the same passes, frame
+    # for frame, and drops the others; the records still give the passes' own success.
+    kept, krecs = wall_demonstrations(oracle, venv, passes=2, budget=30, seed=1,
+                                      successes_only=True)
+    for r, k in zip(recs, krecs):
+        assert k["teacher_success"] == r["teacher_success"]
+        assert k["episodes_kept"] == round(r["teacher_success"] * len(world.episodes))
+    assert 0 < kept.num_episodes < demos.num_episodes  # the follower fails some here
+    assert kept.num_episodes == sum(k["episodes_kept"] for k in krecs)
+    assert kept.num_frames == sum(k["frames_added"] for k in krecs) <= demos.num_frames
+    every = [demos.episode(e) for e in range(demos.num_episodes)]
+    for e in range(kept.num_episodes):  # each kept episode is one of the unfiltered ones
+        frames, labels = kept.episode(e)
+        assert any(torch.equal(labels, lab) and torch.equal(frames["goal"], f["goal"])
+                   for f, lab in every), e
 
 
 def test_command_line_train_and_eval(world, oracle_dataset, tmp_path):
@@ -495,6 +510,11 @@ def test_tables_take_another_number_of_dagger_rounds(tmp_path):
     # At the command line, a one-line error rather than a traceback.
     with pytest.raises(SystemExit, match="^dagger: 0 rounds; at least 1$"):
         main(["-q", "tables", "--root", str(tmp_path), "--report", "--dagger", "0"])
+    for bad in ("0", "33"):
+        with pytest.raises(SystemExit, match=f"^draws: {bad}; must be 1..32$"):
+            main(["-q", "tables", "--root", str(tmp_path), "--draws", bad])
+    with pytest.raises(ValueError, match="^draws: 0; must be 1..32$"):
+        tables.run(tmp_path, draws=0)
 
 
 def test_dagger_rows_are_other_rows_than_their_cloned_ones(tmp_path):
@@ -541,6 +561,9 @@ def test_dagger_rows_are_other_rows_than_their_cloned_ones(tmp_path):
     assert [noise_rounds(taught, m) for m in (seeing, blind, touch)] == [0, 0, 0]
     assert row_file(tmp_path, taught, blind).name == "M-gru-s0-wall3.json"
     assert row_file(tmp_path, taught, touch).name == "MF-gru-s0-wall3.json"
+    filtered = replace(taught, teacher_successes=True)
+    assert row_file(tmp_path, filtered, blind).name == "M-gru-s0-wall3s.json"
+    assert row_file(tmp_path, filtered, seeing).name == "MD-gru-s0-dagger2.json"
     assert row_file(tmp_path, taught, seeing).name == "MD-gru-s0-dagger2.json"
     assert wall_passes(replace(taught, dagger_blind=True), touch) == 0  # DAgger's
     with pytest.raises(ValueError, match="blind_teacher"):
@@ -593,7 +616,7 @@ def test_a_rows_draws_are_other_rows_and_the_report_gives_their_mean_and_spread(
     assert tables.summary([{"success": 0.4}], "success") == (0.4, 0.0, 1)
     assert tables.is_done(root, "door-small-empty/M+D", col, draws=3)
     assert not tables.is_done(root, "door-small-empty/M+D", col, draws=4)
-    with pytest.raises(ValueError, match="draws must be 1..32"):
+    with pytest.raises(ValueError, match="must be 1..32"):
         tables.run(root, ["door-small-empty/M+D"], draws=0)
 
 

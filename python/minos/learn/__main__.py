@@ -149,6 +149,8 @@ def _parser() -> argparse.ArgumentParser:
                         "following from the goal vector and contact bits, minos.learn.wall)")
     c.add_argument("--teacher-passes", type=int, default=2, metavar="N",
                    help="the wall follower's passes over the training episodes")
+    c.add_argument("--teacher-successes-only", action="store_true",
+                   help="clone only the wall follower's episodes that reached the goal")
     c.add_argument("--train-seed", type=int, default=None, metavar="T",
                    help="seed of the policies' own draws (weights, batch order, DAgger/DART "
                         "rollouts, evaluation's sampled actions; default: --seed); houses, "
@@ -169,6 +171,7 @@ def main(argv: list[str] | None = None) -> int:
         root = Path(args.root)
         try:
             all_cells = tables.cells(args.dagger)
+            tables.check_draws(args.draws)
         except ValueError as e:
             raise SystemExit(str(e)) from None
         if args.list:
@@ -204,7 +207,8 @@ def main(argv: list[str] | None = None) -> int:
             dagger_epochs=args.dagger_epochs, noise=args.noise, noise_eps=args.noise_eps,
             num_envs=args.num_envs, sample=not args.greedy, seed=args.seed,
             train_seed=args.train_seed, blind_teacher=args.blind_teacher,
-            teacher_passes=args.teacher_passes, device=args.device)
+            teacher_passes=args.teacher_passes,
+            teacher_successes=args.teacher_successes_only, device=args.device)
         run_cell(cfg, progress=progress, random_only=args.random_only)
         return 0
 

@@ -96,6 +96,9 @@ class CellConfig:
     # blind rows that get no DAgger rounds.
     blind_teacher: str = "oracle"
     teacher_passes: int = 2
+    # Keep only the wall follower's episodes that reached the goal (filtered behaviour
+    # cloning); its failed searches run to the step limit.
+    teacher_successes: bool = False
     num_envs: int = 8
     sample: bool = True
     seed: int = 0
@@ -166,9 +169,9 @@ def policy_seed(cfg: CellConfig) -> int:
 
 def row_file(work: Path, cfg: CellConfig, mods: tuple[str, ...]) -> Path:
     """Where a row's result is written:
-    ``WORK/results/<MODS>-<memory>-s<seed>[-train<T>][-dagger<N>[e<E>]|-noise<N>[e<ε>]|-wall<N>].json``
-    (a row trained with DAgger or DART, or cloned from the wall follower's N passes, is
-    another row than its behaviour-cloned one; a DAgger row's tag also names its epochs a
+    ``WORK/results/<MODS>-<memory>-s<seed>[-train<T>][-dagger<N>[e<E>]|-noise<N>[e<ε>]|-wall<N>[s]].json``
+    (a row trained with DAgger or DART, or cloned from the wall follower's N passes — ``s``:
+    their successful episodes only — is another row than its behaviour-cloned one; a DAgger row's tag also names its epochs a
     round when they are not the cloning's, a DART row's its ε when it is not 0.3;
     ``-train<T>`` names a training seed other than the cell's seed: another draw of the
     same row)."""
@@ -184,7 +187,7 @@ def row_file(work: Path, cfg: CellConfig, mods: tuple[str, ...]) -> Path:
         if cfg.noise_eps != 0.3:
             tag += f"e{cfg.noise_eps:g}"
     elif wall_passes(cfg, mods):
-        tag += f"-wall{wall_passes(cfg, mods)}"
+        tag += f"-wall{wall_passes(cfg, mods)}" + ("s" if cfg.teacher_successes else "")
     return Path(work) / "results" / f"{tag}.json"
 
 
@@ -417,7 +420,8 @@ def run_cell(cfg: CellConfig, progress: bool = True, random_only: bool = False) 
         if wall_passes(cfg, mods):
             cloned_from, walls = wall_demonstrations(
                 _subset(demos, policy.spec.keys), training_env(),
-                passes=wall_passes(cfg, mods), seed=drawn, progress=progress)
+                passes=wall_passes(cfg, mods), seed=drawn,
+                successes_only=cfg.teacher_successes, progress=progress)
             rates = ", ".join(f"{w['teacher_success']:.3f}" for w in walls)
             _log(f"{name}: the wall follower's {cloned_from.num_frames} frames replace the "
                  f"oracle's (its success on the training episodes: {rates})")

@@ -41,16 +41,30 @@ class RolloutResult:
         labels = torch.cat([lab for _, lab in self.episodes])
         return frames, labels, [len(lab) for _, lab in self.episodes]
 
+    def successful(self) -> "RolloutResult":
+        """The same rollout with only its successful episodes' recordings (every episode's
+        metrics kept): filtered behaviour cloning's demonstrations."""
+        kept = [k for k, e in enumerate(self.episode_ids) if self.metrics[e].success]
+        return RolloutResult(self.metrics, [self.episodes[k] for k in kept],
+                             [self.episode_ids[k] for k in kept], self.steps)
+
     def record_into(self, demos) -> dict:
         """Appends the recorded episodes (the keys ``demos`` holds) to ``demos``; returns the
         pass's record: ``frames_added``, ``frames`` (now in ``demos``), the rollout's
         ``success`` rate and ``collisions``."""
+        if not self.episodes:
+            return {"frames_added": 0, "frames": demos.num_frames,
+                    "success": self._success_rate(), "collisions": self._collisions()}
         frames, labels, lengths = self.recorded(list(demos.frames))
         demos.extend(frames, labels, lengths)
-        metrics = self.metrics.values()
         return {"frames_added": int(labels.numel()), "frames": demos.num_frames,
-                "success": sum(m.success for m in metrics) / max(len(metrics), 1),
-                "collisions": int(sum(m.collisions for m in metrics))}
+                "success": self._success_rate(), "collisions": self._collisions()}
+
+    def _success_rate(self) -> float:
+        return sum(m.success for m in self.metrics.values()) / max(len(self.metrics), 1)
+
+    def _collisions(self) -> int:
+        return int(sum(m.collisions for m in self.metrics.values()))
 
 
 class _Track:

@@ -153,6 +153,14 @@ def cells(dagger: Optional[int] = None) -> dict[str, CellConfig]:
 MAX_DRAWS = 32
 
 
+def check_draws(draws: int) -> int:
+    """``draws`` if it is a number of training draws :func:`run` can make and :func:`report`
+    finds (1 … :data:`MAX_DRAWS`), else ValueError."""
+    if not 1 <= draws <= MAX_DRAWS:
+        raise ValueError(f"draws: {draws}; must be 1..{MAX_DRAWS}")
+    return draws
+
+
 def _row_file(root: Path, cfg: CellConfig, row: str) -> Path:
     return row_file(root / cfg.work, cfg, parse_modalities(row))
 
@@ -178,8 +186,7 @@ def run(root: str | Path, names: Optional[list[str]] = None, device: str = "auto
     and evaluate each row this many times, with training seeds ``seed`` … ``seed + draws −
     1`` (same houses and episodes); the report gives their mean and spread. ``dagger``: the
     rows with an image get this many DAgger rounds (:func:`cells`)."""
-    if not 1 <= draws <= MAX_DRAWS:
-        raise ValueError(f"draws must be 1..{MAX_DRAWS}, got {draws}")
+    check_draws(draws)
     root = Path(root)
     all_cells = cells(dagger)
     if random_only:

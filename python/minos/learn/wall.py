@@ -128,16 +128,20 @@ class WallFollower:
 
 
 def wall_demonstrations(like: Demonstrations, venv, passes: int = 2, budget: int = 40,
-                        seed: int = 0, progress: ProgressArg = None,
+                        seed: int = 0, successes_only: bool = False,
+                        progress: ProgressArg = None,
                         callback: Optional[Callable[[dict], Any]] = None
                         ) -> tuple[Demonstrations, list[dict]]:
     """The wall follower's demonstrations: ``passes`` runs of :class:`WallFollower` over
     every episode of ``venv`` (a :class:`minos.gym.VectorNavEnv` over the *training*
     episodes), pass ``p`` drawing its walls' sides from ``seed + p``, every frame labelled
-    with the follower's action. The frames have ``like``'s keys, and the demonstrations its
-    actions, camera and info (the goal categories' vocabulary among them); ``like``'s own
-    frames are not among them. Returns them and one record per pass (``pass``,
-    ``frames_added``, ``frames``, the pass's ``teacher_success`` and ``collisions``)."""
+    with the follower's action. ``successes_only``: keep only the episodes the follower
+    finished at the goal (filtered behaviour cloning: its failed searches, run to the step
+    limit, are most of its frames in 3–5-room houses). The frames have ``like``'s keys, and
+    the demonstrations its actions, camera and info (the goal categories' vocabulary among
+    them); ``like``'s own frames are not among them. Returns them and one record per pass
+    (``pass``, ``frames_added``, ``frames``, ``episodes_kept``, the pass's
+    ``teacher_success`` and ``collisions`` over all its episodes)."""
     if passes < 1:
         raise ValueError(f"passes must be at least 1, got {passes}")
     if list(venv.action_names) != list(like.env_actions):
@@ -156,9 +160,12 @@ def wall_demonstrations(like: Demonstrations, venv, passes: int = 2, budget: int
             res = run_episodes(venv, None, keys, seed=seed + p, record=True, progress=bar,
                                goal_objects=like.info.get("goal_objects"), teacher=teacher)
         bar.close()
+        if successes_only:
+            res = res.successful()
         added = res.record_into(out)
         rec = {"pass": p, "budget": budget, "frames_added": added["frames_added"],
-               "frames": added["frames"], "teacher_success": added["success"],
+               "frames": added["frames"], "episodes_kept": len(res.episodes),
+               "teacher_success": added["success"],
                "collisions": added["collisions"]}
         records.append(rec)
         if callback is not None:
