@@ -468,6 +468,8 @@ def test_tables_name_every_paper_cell_and_report_what_is_not_run(tmp_path):
         # ... and are cloned from the wall follower instead (which takes DART's place).
         assert c.blind_teacher == ("wall-follower" if c.task == "objectgoal" else "oracle")
         assert c.teacher_passes == 2, name
+        # ... of whose episodes only those that reached the goal are kept.
+        assert c.teacher_successes == (c.task == "objectgoal"), name
     rep = tables.report(tmp_path)
     assert "point-suncg-furnished-small" in rep and "| — |" in rep
 
@@ -488,7 +490,7 @@ def test_tables_take_another_number_of_dagger_rounds(tmp_path):
     files = [row_file(tmp_path / c[name].work, c[name], ("M", "V", "F")) for c in (two, three)]
     assert [f.name for f in files] == ["MVF-gru-s0-dagger2e3.json", "MVF-gru-s0-dagger3e3.json"]
     blind = {row_file(tmp_path, c["door-small-empty/M"], ("M",)).name for c in (two, three)}
-    assert blind == {"M-gru-s0-wall2.json"}
+    assert blind == {"M-gru-s0-wall2s.json"}
     files[0].parent.mkdir(parents=True)
     for f, (success, speed) in zip(files, [(0.853, 0.772), (0.969, 0.827)]):
         f.write_text(json.dumps({"success": success, "speed": speed}))
