@@ -171,8 +171,9 @@ def row_file(work: Path, cfg: CellConfig, mods: tuple[str, ...]) -> Path:
     """Where a row's result is written:
     ``WORK/results/<MODS>-<memory>-s<seed>[-train<T>][-dagger<N>[e<E>]|-noise<N>[e<ε>]|-wall<N>[s]].json``
     (a row trained with DAgger or DART, or cloned from the wall follower's N passes — ``s``:
-    their successful episodes only — is another row than its behaviour-cloned one; a DAgger row's tag also names its epochs a
-    round when they are not the cloning's, a DART row's its ε when it is not 0.3;
+    their successful episodes only — is another row than its behaviour-cloned one; a DAgger
+    row's tag also names its epochs a round when they are not the cloning's, a DART row's
+    its ε when it is not 0.3;
     ``-train<T>`` names a training seed other than the cell's seed: another draw of the
     same row)."""
     tag = f"{modality_tag(mods)}-{cfg.memory}-s{cfg.seed}"

@@ -316,4 +316,5 @@ def report(root: str | Path, dagger: Optional[int] = None) -> str:
     return "\n".join(lines) + "\n"
 
 
-__all__ = ["PAPER_COMPLEXITY", "PAPER_MODALITIES", "cells", "report", "run", "summary"]
+__all__ = ["PAPER_COMPLEXITY", "PAPER_MODALITIES", "cells", "check_draws", "report", "run",
+           "summary"]
