@@ -138,9 +138,12 @@ fn bench_json_has_consistent_counts_for_every_benchmark() {
     );
     // Where the lockstep's time went: every phase, counted in lockstep steps (two
     // environments: at least half a step each), by the wall clock, within the whole loop.
+    // A lockstep may take no step: an episode's first observation, or an oracle's stop,
+    // while the other environment is still starting its episode (how often depends on the
+    // starts' timing), so at most one of each per episode comes on top of the steps.
     let lockstep = count(&batched, minos::pipeline::bench::PHASES[0]);
     assert!(
-        lockstep >= steps.div_ceil(2) && lockstep <= steps,
+        lockstep >= steps.div_ceil(2) && lockstep <= steps + 2 * sampled,
         "{batched}"
     );
     let mut phases = 0.0;
