@@ -618,7 +618,7 @@ def test_a_rows_draws_are_other_rows_and_the_report_gives_their_mean_and_spread(
     assert tables.summary([{"success": 0.4}], "success") == (0.4, 0.0, 1)
     assert tables.is_done(root, "door-small-empty/M+D", col, draws=3)
     assert not tables.is_done(root, "door-small-empty/M+D", col, draws=4)
-    with pytest.raises(ValueError, match="must be 1..32"):
+    with pytest.raises(ValueError, match="^draws: 0; must be 1..32$"):
         tables.run(root, ["door-small-empty/M+D"], draws=0)
 
 

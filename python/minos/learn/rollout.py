@@ -51,20 +51,16 @@ class RolloutResult:
     def record_into(self, demos) -> dict:
         """Appends the recorded episodes (the keys ``demos`` holds) to ``demos``; returns the
         pass's record: ``frames_added``, ``frames`` (now in ``demos``), the rollout's
-        ``success`` rate and ``collisions``."""
-        if not self.episodes:
-            return {"frames_added": 0, "frames": demos.num_frames,
-                    "success": self._success_rate(), "collisions": self._collisions()}
-        frames, labels, lengths = self.recorded(list(demos.frames))
-        demos.extend(frames, labels, lengths)
-        return {"frames_added": int(labels.numel()), "frames": demos.num_frames,
-                "success": self._success_rate(), "collisions": self._collisions()}
-
-    def _success_rate(self) -> float:
-        return sum(m.success for m in self.metrics.values()) / max(len(self.metrics), 1)
-
-    def _collisions(self) -> int:
-        return int(sum(m.collisions for m in self.metrics.values()))
+        ``success`` rate and ``collisions`` (over every episode, recorded or not)."""
+        added = 0
+        if self.episodes:  # none when filtering kept none
+            frames, labels, lengths = self.recorded(list(demos.frames))
+            demos.extend(frames, labels, lengths)
+            added = int(labels.numel())
+        metrics = self.metrics.values()
+        return {"frames_added": added, "frames": demos.num_frames,
+                "success": sum(m.success for m in metrics) / max(len(metrics), 1),
+                "collisions": int(sum(m.collisions for m in metrics))}
 
 
 class _Track:

@@ -157,12 +157,11 @@ def cells(dagger: Optional[int] = None) -> dict[str, CellConfig]:
 MAX_DRAWS = 32
 
 
-def check_draws(draws: int) -> int:
-    """``draws`` if it is a number of training draws :func:`run` can make and :func:`report`
-    finds (1 … :data:`MAX_DRAWS`), else ValueError."""
+def check_draws(draws: int) -> None:
+    """ValueError unless ``draws`` is a number of training draws :func:`run` can make and
+    :func:`report` finds (1 … :data:`MAX_DRAWS`)."""
     if not 1 <= draws <= MAX_DRAWS:
         raise ValueError(f"draws: {draws}; must be 1..{MAX_DRAWS}")
-    return draws
 
 
 def _row_file(root: Path, cfg: CellConfig, row: str) -> Path:
