@@ -2,6 +2,8 @@
 //! reaches and stops on every episode, for MINOS's continuous agent and for the paper's
 //! agent (forward / turn left / turn right only, which its plans then use alone). Episodes
 //! that fail with an error count as failures in every summary. Doors on the way are counted.
+//! From a pocket of floor the grid closes off but the body squeezes into, it finds the way
+//! out and on to the goal.
 
 use crate::common;
 
@@ -323,4 +325,128 @@ fn paths_between_rooms_count_the_doorway_they_pass() {
         through_arches > 0,
         "no path between rooms joined by an arch"
     );
+}
+
+/// A room split by a wall (z 4.9–5.0, x 0–7; the way round is past x = 7) with an alcove on
+/// the start's side of it (x 1.5–2.9, z 5.0–6.3) whose far wall has a 0.4 m gap (x 2.0–2.4):
+/// wide enough for MINOS's body (radius 0.1), closed on a grid baked for a body of radius
+/// 0.25, so the alcove is a pocket of floor the grid's distance field does not reach.
+fn pocket_sim() -> minos::sim::Simulator {
+    use common::scenes::SceneBuilder;
+    use minos::navmesh::NavParams;
+    use minos::render::Renderer;
+    use minos::scene::RoomClass;
+    use minos::sim::{SceneAssets, Simulator};
+    use std::sync::Arc;
+
+    let wall = |x0: f32, z0: f32, x1: f32, z1: f32| ([x0, 0.0, z0], [x1, 2.7, z1]);
+    let scene = SceneBuilder::new("pocket")
+        .room(
+            "r",
+            RoomClass::Hallway,
+            [0.0, 0.0, 10.0, 10.0],
+            0.0,
+            &[
+                wall(0.0, 4.9, 7.0, 5.0),
+                wall(1.4, 5.0, 1.5, 6.4),
+                wall(2.9, 5.0, 3.0, 6.4),
+                wall(1.4, 6.3, 2.0, 6.4),
+                wall(2.4, 6.3, 3.0, 6.4),
+            ],
+        )
+        .build();
+    let agent = AgentConfig::minos_paper();
+    let fat = AgentBody {
+        radius: 0.25,
+        ..agent.body
+    };
+    let grid = minos::navmesh::build::build(&scene, &NavParams::for_body(fat)).unwrap();
+    let assets = Arc::new(SceneAssets::new_allowing_body_mismatch(&scene, grid, &agent).unwrap());
+    let renderer = Arc::new(Renderer::new(RendererChoice::Cpu, &assets.render).unwrap());
+    let blind = SensorSuite {
+        cameras: vec![],
+        contact: None,
+    };
+    Simulator::new(assets, renderer, agent, blind, 500, 0)
+}
+
+#[test]
+fn the_oracle_leads_the_agent_out_of_a_pocket_the_grid_closes_off() {
+    use glam::Vec3;
+    use minos::episode::{Difficulty, Goal};
+    use minos::run::agents::{Agent, Decision};
+    use minos::run::oracle::OracleAgent;
+    use minos::sim::{Actions, GoalSpec, Observation};
+
+    let goal = Vec3::new(2.2, 0.0, 2.0);
+    let inside = Vec3::new(2.2, 0.0, 5.6);
+    let outside = Vec3::new(2.2, 0.0, 8.0);
+    let mut sim = pocket_sim();
+    let grid = &sim.assets().grid;
+    // The pocket: walkable floor on another island than the room's; the body fits the gap.
+    let (pocket, room) = (grid.island_of(inside), grid.island_of(outside));
+    assert!(
+        pocket.is_some() && room.is_some() && pocket != room,
+        "{pocket:?} {room:?}"
+    );
+    assert!(grid.island_of(goal) == room);
+    for yaw in [0.0, 1.5, std::f32::consts::PI] {
+        let episode = Episode {
+            episode_id: format!("pocket:{yaw}"),
+            scene_id: "pocket".into(),
+            split: String::new(),
+            task: Task::PointGoal,
+            seed: 0,
+            start_position: inside.to_array(),
+            start_yaw: yaw,
+            goal: Goal::Point {
+                position: goal.to_array(),
+            },
+            euclidean_distance: inside.distance(goal),
+            geodesic_distance: f32::NAN,
+            path_num_doors: 0,
+            path_num_rooms: 0,
+            difficulty: Difficulty::Easy,
+            success_radius: 0.4,
+            max_steps: 500,
+            levels_crossed: 0,
+            route: None,
+        };
+        sim.reset(
+            inside,
+            yaw,
+            Some(GoalSpec::Point(goal)),
+            &episode.episode_id,
+        );
+        // Before, the planner took the straight line to the goal for the distance from a
+        // pocket, led the agent to the alcove's wall nearest the goal and found no plan.
+        let mut oracle = OracleAgent::new();
+        oracle.reset(&episode, &sim).unwrap();
+        let mut left_the_pocket = false;
+        let mut steps = 0;
+        loop {
+            match oracle.decide(&Observation::blind(), &sim).unwrap() {
+                Decision::Stop => break,
+                Decision::Act(a) => {
+                    assert!(
+                        a == Actions::single("forward").unwrap()
+                            || a == Actions::single("turn_left").unwrap()
+                            || a == Actions::single("turn_right").unwrap(),
+                        "{a:?}"
+                    );
+                    sim.advance(a);
+                }
+            }
+            steps += 1;
+            let p = Vec3::from_array(sim.state().position);
+            left_the_pocket |= p.z > 6.5;
+            assert!(
+                steps < 500,
+                "yaw {yaw}: not at the goal after 500 steps, at {p}"
+            );
+        }
+        let end = Vec3::from_array(sim.state().position);
+        assert!(left_the_pocket, "yaw {yaw}: never left through the gap");
+        assert!(end.distance(goal) <= 0.4, "yaw {yaw}: stopped at {end}");
+    }
 }

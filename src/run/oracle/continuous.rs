@@ -12,6 +12,12 @@
 //! position, heading (one cell per turn step), velocity and angular velocity, so the
 //! continuum of reachable states does not explode; a collision costs half a step extra. When
 //! that fails, finer cells and a larger budget are tried before giving up.
+//!
+//! Searches keep to floor the goal's distance field reaches. A body slimmer than the grid's
+//! erosion can squeeze through a gap the grid closes, into a pocket the field does not
+//! reach; when another driver (a learner in DAgger) has led the agent into one, the plan
+//! starts with a search for the way out, guided by a walk out over a fine lattice of the
+//! positions where the body fits.
 
 use std::cmp::Reverse;
 use std::collections::{BinaryHeap, HashMap};
@@ -60,6 +66,108 @@ const RESOLUTIONS: [Resolution; 2] = [
 /// Progress (m of remaining geodesic distance) the segments of a hybrid A* aim for, tried in
 /// order.
 const SEGMENTS: [f32; 3] = [0.5, 1.5, 0.25];
+
+/// Where a hybrid A* segment ends.
+#[derive(Debug, Clone, Copy)]
+enum Aim<'a> {
+    /// At a state whose remaining distance is at most this (m), or at the goal.
+    Below(f32),
+    /// At any state the goal's field reaches, from a pocket it does not reach, guided along
+    /// the body's way out ([`way_out`]).
+    OutOfPocket(&'a WayOut),
+}
+
+/// Spacing (m) of the lattice [`way_out`] walks: fine enough that a gap the body passes
+/// with a few centimetres to spare has a lattice line through it.
+const POCKET_CELL: f32 = 0.02;
+/// How far (m) from the agent [`way_out`] looks.
+const POCKET_REACH: f32 = 2.0;
+
+/// The way out of a pocket: lattice points from the agent to the first the goal's field
+/// reaches, with the length of the walk left from each.
+#[derive(Debug)]
+struct WayOut {
+    points: Vec<Vec3>,
+    left: Vec<f32>,
+}
+
+impl WayOut {
+    /// The length (m) of a way from `p` out of the pocket: to a point of the walk, then
+    /// along it.
+    fn from(&self, p: Vec3) -> f32 {
+        let flat = |a: Vec3| Vec3::new(a.x - p.x, 0.0, a.z - p.z).length();
+        self.points
+            .iter()
+            .zip(&self.left)
+            .map(|(q, l)| flat(*q) + l)
+            .fold(f32::INFINITY, f32::min)
+    }
+}
+
+/// The body's own way out of a pocket of floor the goal's field does not reach (the grid is
+/// eroded and rasterised more coarsely than the body is shaped, so the body squeezes through
+/// gaps the grid closes): a shortest 8-connected walk over a [`POCKET_CELL`] lattice around
+/// `from`, through positions where the body overlaps nothing, to the first position the
+/// field reaches; `None` when there is none within [`POCKET_REACH`].
+fn way_out(sim: &Simulator, from: Vec3) -> Option<WayOut> {
+    let collision = &sim.assets().collision;
+    let r = (POCKET_REACH / POCKET_CELL) as i32;
+    let at = |c: (i32, i32)| {
+        Vec3::new(
+            from.x + c.0 as f32 * POCKET_CELL,
+            from.y,
+            from.z + c.1 as f32 * POCKET_CELL,
+        )
+    };
+    // Each cell's cost in hundredths of a cell (100 straight, 141 diagonal) and the cell
+    // it was reached from.
+    type Cell = (i32, i32);
+    let mut cost: HashMap<Cell, (u32, Cell), BuildHasherDefault<KeyHasher>> = HashMap::default();
+    let mut open = BinaryHeap::new();
+    cost.insert((0, 0), (0, (0, 0)));
+    open.push(Reverse((0u32, (0i32, 0i32))));
+    while let Some(Reverse((c, cell))) = open.pop() {
+        if cost.get(&cell).is_some_and(|&(b, _)| b < c) {
+            continue;
+        }
+        if sim.goal_field_distance(at(cell)).is_some() {
+            let mut points = vec![at(cell)];
+            let mut cur = cell;
+            while cur != (0, 0) {
+                cur = cost[&cur].1;
+                points.push(at(cur));
+            }
+            points.reverse();
+            let mut left = vec![0.0; points.len()];
+            for i in (0..points.len().saturating_sub(1)).rev() {
+                left[i] = left[i + 1] + points[i].distance(points[i + 1]);
+            }
+            return Some(WayOut { points, left });
+        }
+        for (dx, dz) in [
+            (1, 0),
+            (-1, 0),
+            (0, 1),
+            (0, -1),
+            (1, 1),
+            (1, -1),
+            (-1, 1),
+            (-1, -1),
+        ] {
+            let next = (cell.0 + dx, cell.1 + dz);
+            if next.0.abs() > r || next.1.abs() > r {
+                continue;
+            }
+            let nc = c + if dx != 0 && dz != 0 { 141 } else { 100 };
+            if cost.get(&next).is_some_and(|&(b, _)| b <= nc) || collision.blocked(at(next)) {
+                continue;
+            }
+            cost.insert(next, (nc, cell));
+            open.push(Reverse((nc, next)));
+        }
+    }
+    None
+}
 
 /// What planning needs of the agent's dynamics.
 #[derive(Debug, Clone, Copy)]
@@ -121,25 +229,25 @@ pub(super) fn plan(
             return Some(out);
         }
         let now = remaining(sim, episode, &state);
-        if !now.is_finite() {
-            return None;
-        }
-        if let Some(end) = greedy_step(sim, episode, &state, now, &dynamics, &mut out) {
-            state = end;
-            continue;
-        }
+        let pocket;
+        let aims: Vec<Aim> = if now.is_finite() {
+            if let Some(end) = greedy_step(sim, episode, &state, now, &dynamics, &mut out) {
+                state = end;
+                continue;
+            }
+            SEGMENTS
+                .iter()
+                .map(|seg| Aim::Below((now - seg).max(-1.0)))
+                .collect()
+        } else {
+            // In a pocket the goal's field does not reach (a driver other than the oracle
+            // led the agent there): first the way out.
+            pocket = way_out(sim, Vec3::from_array(state.position))?;
+            vec![Aim::OutOfPocket(&pocket)]
+        };
         let attempt = RESOLUTIONS.iter().find_map(|res| {
-            SEGMENTS.iter().find_map(|seg| {
-                search(
-                    sim,
-                    episode,
-                    state,
-                    (now - seg).max(-1.0),
-                    &dynamics,
-                    names,
-                    res,
-                )
-            })
+            aims.iter()
+                .find_map(|&aim| search(sim, episode, state, aim, &dynamics, names, res))
         });
         let (actions, end) = attempt?;
         if actions.is_empty() {
@@ -282,13 +390,13 @@ impl Hasher for KeyHasher {
     }
 }
 
-/// Hybrid A* from `start` to a state that reaches the goal or whose remaining distance is
-/// at most `target`; returns the actions and the end state.
+/// Hybrid A* from `start` to a state where `aim` ends it; returns the actions and the end
+/// state.
 fn search(
     sim: &Simulator,
     episode: &Episode,
     start: AgentState,
-    target: f32,
+    aim: Aim,
     d: &Dynamics,
     names: &'static [&'static str],
     res: &Resolution,
@@ -312,9 +420,13 @@ fn search(
         .collect();
     // Steps still needed: the distance left to the target over the longest move, plus the
     // turns needed before some move goes towards the next corner of the shortest path (the
-    // field's anchor).
+    // field's anchor). Out of a pocket: the body's way out over the longest move.
     let h = |s: &AgentState, dist: f32| -> f32 {
         let p = Vec3::from_array(s.position);
+        let target = match aim {
+            Aim::Below(target) => target,
+            Aim::OutOfPocket(way) => return WEIGHT * (way.from(p) / d.max_move).floor(),
+        };
         let mut turns = 0.0;
         if let Some(anchor) = grid.snap(p).and_then(|sp| sim.goal_anchor(sp)) {
             let a = grid.span_position(anchor as usize) - p;
@@ -345,7 +457,11 @@ fn search(
             continue; // a cheaper way to this cell was found after this entry was queued
         }
         let dist = remaining(sim, episode, &state);
-        if id != 0 && (dist <= target || reached(sim, episode, &state)) {
+        let arrived = match aim {
+            Aim::Below(target) => dist <= target || reached(sim, episode, &state),
+            Aim::OutOfPocket(_) => dist.is_finite(),
+        };
+        if id != 0 && arrived {
             return Some((backtrack(&states, id, names), state));
         }
         expansions += 1;
@@ -360,8 +476,8 @@ fn search(
                 continue;
             }
             let nd = remaining(sim, episode, &t.state);
-            if !nd.is_finite() {
-                continue;
+            if !nd.is_finite() && matches!(aim, Aim::Below(_)) {
+                continue; // into a pocket the field does not reach
             }
             best.insert(k, ng);
             states.push((t.state, ng, Some((id, ai as u8))));

@@ -111,16 +111,18 @@ const SEGMENT: f32 = 3.0;
 const SHORT_SEGMENT: f32 = 0.5;
 
 /// The geodesic distance that counts for planning: to the goal field, minus the success radius
-/// of a point goal.
+/// of a point goal; infinite where the field does not reach, also for a point goal. (Not the
+/// straight line to the goal there: a pocket of floor that the body can squeeze into but the
+/// grid closes off would then look like a short cut across whatever wall parts it from the
+/// goal, and a search would lead the agent in and find no way on.)
 fn remaining(sim: &Simulator, episode: &Episode, s: &AgentState) -> f32 {
     let p = Vec3::from_array(s.position);
+    let Some(d) = sim.goal_field_distance(p) else {
+        return f32::INFINITY;
+    };
     match &episode.goal {
-        Goal::Point { position } => {
-            sim.goal_field_distance(p)
-                .unwrap_or_else(|| p.distance(Vec3::from_array(*position)))
-                - episode.success_radius
-        }
-        _ => sim.goal_field_distance(p).unwrap_or(f32::INFINITY),
+        Goal::Point { .. } => d - episode.success_radius,
+        _ => d,
     }
 }
 
