@@ -373,7 +373,6 @@ fn pocket_sim() -> minos::sim::Simulator {
 #[test]
 fn the_oracle_leads_the_agent_out_of_a_pocket_the_grid_closes_off() {
     use glam::Vec3;
-    use minos::episode::{Difficulty, Goal};
     use minos::run::agents::{Agent, Decision};
     use minos::run::oracle::OracleAgent;
     use minos::sim::{Actions, GoalSpec, Observation};
@@ -391,27 +390,8 @@ fn the_oracle_leads_the_agent_out_of_a_pocket_the_grid_closes_off() {
     );
     assert!(grid.island_of(goal) == room);
     for yaw in [0.0, 1.5, std::f32::consts::PI] {
-        let episode = Episode {
-            episode_id: format!("pocket:{yaw}"),
-            scene_id: "pocket".into(),
-            split: String::new(),
-            task: Task::PointGoal,
-            seed: 0,
-            start_position: inside.to_array(),
-            start_yaw: yaw,
-            goal: Goal::Point {
-                position: goal.to_array(),
-            },
-            euclidean_distance: inside.distance(goal),
-            geodesic_distance: f32::NAN,
-            path_num_doors: 0,
-            path_num_rooms: 0,
-            difficulty: Difficulty::Easy,
-            success_radius: 0.4,
-            max_steps: 500,
-            levels_crossed: 0,
-            route: None,
-        };
+        let id = format!("pocket:{yaw}");
+        let episode = Episode::point("pocket", &id, inside, yaw, goal, 0.4, 500);
         sim.reset(
             inside,
             yaw,

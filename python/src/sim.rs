@@ -5,12 +5,11 @@
 
 use std::sync::Arc;
 
-use glam::Vec3;
 use numpy::{PyArray1, PyArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use minos::episode::{Difficulty, Episode, Goal, Task};
+use minos::episode::Episode;
 use minos::pipeline::rollout::{load_scene_assets, SceneLoadError};
 use minos::render::{Image, PixelType};
 use minos::render::{Renderer, RendererChoice};
@@ -156,40 +155,6 @@ fn named_action(name: &str) -> PyResult<Actions> {
     Actions::single(name).ok_or_else(|| unknown_action(name))
 }
 
-/// An episode for a start pose and a point goal given directly (`Simulator.reset(start=…,
-/// goal=…)`), so the success test and the oracle work on it.
-pub fn point_episode(
-    scene_id: &str,
-    id: &str,
-    start: Vec3,
-    yaw: f32,
-    goal: Vec3,
-    success_radius: f32,
-    max_steps: u32,
-) -> Episode {
-    Episode {
-        episode_id: id.to_string(),
-        scene_id: scene_id.to_string(),
-        split: String::new(),
-        task: Task::PointGoal,
-        seed: 0,
-        start_position: start.to_array(),
-        start_yaw: yaw,
-        goal: Goal::Point {
-            position: goal.to_array(),
-        },
-        euclidean_distance: start.distance(goal),
-        geodesic_distance: f32::NAN,
-        path_num_doors: 0,
-        path_num_rooms: 0,
-        difficulty: Difficulty::Easy,
-        success_radius,
-        max_steps,
-        levels_crossed: 0,
-        route: None,
-    }
-}
-
 /// One agent in one scene: `Simulator(data, scene, agent="habitat", sensors=None, size=84,
 /// renderer="cpu", seed=0, max_steps=500, allow_body_mismatch=False)`.
 ///
@@ -275,7 +240,7 @@ impl Simulator {
                 let goal = goal.filter(|g| !g.is_none()).map(point).transpose()?;
                 let scene = self.sim.assets().id.clone();
                 self.episode = goal.map(|g| {
-                    point_episode(
+                    Episode::point(
                         &scene,
                         episode_id,
                         start,

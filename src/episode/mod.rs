@@ -207,6 +207,42 @@ pub struct Episode {
 }
 
 impl Episode {
+    /// A PointGoal episode for a start pose and a goal given directly (a simulator reset
+    /// to a pose rather than to a sampled episode), so the success test and the oracle work
+    /// on it: no split, seed, route or door counts, and no geodesic distance (NaN).
+    #[allow(clippy::too_many_arguments)]
+    pub fn point(
+        scene_id: &str,
+        episode_id: &str,
+        start: glam::Vec3,
+        yaw: f32,
+        goal: glam::Vec3,
+        success_radius: f32,
+        max_steps: u32,
+    ) -> Episode {
+        Episode {
+            episode_id: episode_id.to_string(),
+            scene_id: scene_id.to_string(),
+            split: String::new(),
+            task: Task::PointGoal,
+            seed: 0,
+            start_position: start.to_array(),
+            start_yaw: yaw,
+            goal: Goal::Point {
+                position: goal.to_array(),
+            },
+            euclidean_distance: start.distance(goal),
+            geodesic_distance: f32::NAN,
+            path_num_doors: 0,
+            path_num_rooms: 0,
+            difficulty: Difficulty::Easy,
+            success_radius,
+            max_steps,
+            levels_crossed: 0,
+            route: None,
+        }
+    }
+
     /// Checks what later stages compute with: start, goal, target and view-point positions and
     /// the start yaw finite; the success radius finite and not negative; the distances not
     /// negative (NaN stands for "not known", as Habitat files without them give; a target whose
