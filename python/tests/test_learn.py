@@ -304,6 +304,119 @@ def test_a_policys_initial_weights_are_a_function_of_its_seed(world, oracle_data
     assert torch.equal(weights(a), weights(b)) and not torch.equal(weights(a), weights(c))
 
 
+# A depth policy's forward and backward pass over fixed frames, in a fresh process (oneDNN
+# reads its settings once per process); prints the hash of the logits and the gradients.
+_POLICY_BITS = """
+import hashlib, sys
+import numpy as np
+if sys.argv[1] == "minos":
+    import minos.learn  # noqa: F401  (selects the kernels)
+import torch
+from minos.learn.policy import NavPolicy, PolicySpec
+torch.set_num_threads(1)
+spec = PolicySpec(keys=["depth"], channels={"depth": 1}, num_actions=4,
+                  env_actions=["forward", "turn_left", "turn_right", "stop"],
+                  modalities=["D"], memory="none")
+torch.manual_seed(0)
+policy = NavPolicy(spec)
+rng = np.random.default_rng(0)
+depth = torch.from_numpy(rng.uniform(0, 10, (32, 1, 84, 84)).astype(np.float32))
+logits = policy({"depth": depth}, torch.ones(32, 1, dtype=torch.bool))
+logits.square().sum().backward()
+h = hashlib.sha256(logits.detach().numpy().tobytes())
+for p in policy.parameters():
+    h.update(p.grad.numpy().tobytes())
+print(h.hexdigest())
+"""
+
+
+def _policy_bits(tmp_path, how: str, **env: str) -> str:
+    import subprocess
+    import sys
+
+    script = tmp_path / "bits.py"
+    script.write_text(_POLICY_BITS)
+    base = {k: v for k, v in os.environ.items()
+            if k not in ("ONEDNN_MAX_CPU_ISA", "MKL_CBWR", "MINOS_LEARN_KERNELS")}
+    out = subprocess.run([sys.executable, str(script), how], env={**base, **env},
+                         capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    return out.stdout.strip()
+
+
+def _kernel_env(**env: str) -> dict:
+    import subprocess
+    import sys
+
+    base = {k: v for k, v in os.environ.items()
+            if k not in ("ONEDNN_MAX_CPU_ISA", "MKL_CBWR", "MINOS_LEARN_KERNELS")}
+    code = ("import json, os, minos.learn\n"
+            "print(json.dumps({**minos.learn.kernels.settings(), "
+            "'env': os.environ.get('MINOS_LEARN_KERNELS')}))")
+    out = subprocess.run([sys.executable, "-c", code], env={**base, **env},
+                         capture_output=True, text=True, timeout=120)
+    if out.returncode != 0:
+        return {"error": out.stderr.strip().splitlines()[-1]}
+    return json.loads(out.stdout)
+
+
+def test_importing_the_learner_caps_the_cpu_kernels_unless_told_otherwise():
+    assert _kernel_env() == {"mode": "portable", "ONEDNN_MAX_CPU_ISA": "AVX2",
+                             "MKL_CBWR": "AVX2", "env": "portable"}
+    # a value the user set is kept, and says which kernels run
+    assert _kernel_env(ONEDNN_MAX_CPU_ISA="AVX512_CORE", MKL_CBWR="AUTO") == {
+        "mode": "native", "ONEDNN_MAX_CPU_ISA": "AVX512_CORE", "MKL_CBWR": "AUTO",
+        "env": "portable"}
+    assert _kernel_env(MINOS_LEARN_KERNELS="native") == {
+        "mode": "native", "ONEDNN_MAX_CPU_ISA": None, "MKL_CBWR": None, "env": "native"}
+    assert "MINOS_LEARN_KERNELS: 'fast' is not one of portable, native" in \
+        _kernel_env(MINOS_LEARN_KERNELS="fast")["error"]
+
+
+def test_native_kernels_undo_only_what_the_portable_ones_set(monkeypatch):
+    from minos.learn import kernels
+
+    monkeypatch.delenv("ONEDNN_MAX_CPU_ISA", raising=False)
+    monkeypatch.setenv("MKL_CBWR", "COMPATIBLE")
+    monkeypatch.setattr(kernels, "_set_here", set())
+    assert kernels.select("portable") == "portable"
+    assert os.environ["ONEDNN_MAX_CPU_ISA"] == "AVX2" and os.environ["MKL_CBWR"] == "COMPATIBLE"
+    assert kernels.select("native") == "native" and kernels.mode() == "native"
+    assert "ONEDNN_MAX_CPU_ISA" not in os.environ and os.environ["MKL_CBWR"] == "COMPATIBLE"
+
+
+def test_a_row_with_an_image_trained_with_native_kernels_is_another_row(monkeypatch, tmp_path):
+    from minos.learn.cell import CellConfig, row_file
+
+    cfg = CellConfig(work="w", dagger=2)
+    monkeypatch.setenv("ONEDNN_MAX_CPU_ISA", "AVX2")
+    assert row_file(tmp_path, cfg, ("M", "D")).name == "MD-gru-s0-dagger2.json"
+    monkeypatch.delenv("ONEDNN_MAX_CPU_ISA")
+    assert row_file(tmp_path, cfg, ("M", "D")).name == "MD-gru-s0-dagger2-native.json"
+    # a blind row has no convolution: the same bits with either kernels
+    assert row_file(tmp_path, cfg, ("M", "F")).name == "MF-gru-s0-dagger2.json"
+
+
+def test_a_policy_with_an_image_computes_with_the_learners_kernels_what_an_avx2_cpu_does(
+        tmp_path):
+    # With minos.learn's default kernels a convolutional policy's outputs and gradients are
+    # the bits oneDNN computes capped at AVX2 — what an AVX2-only processor computes — on
+    # this processor whatever it has.
+    portable = _policy_bits(tmp_path, "minos")
+    assert portable == _policy_bits(tmp_path, "torch", ONEDNN_MAX_CPU_ISA="AVX2")
+    assert portable == _policy_bits(tmp_path, "minos", MKL_CBWR="AVX2")
+
+
+def test_native_kernels_on_an_avx512_cpu_compute_other_bits(tmp_path):
+    # Why the cap is the default: on a processor with AVX-512 the native kernels sum in
+    # another order (docs/RESULTS.md, "Seeds").
+    flags = open("/proc/cpuinfo").read() if os.path.exists("/proc/cpuinfo") else ""
+    if " avx512f" not in flags:
+        pytest.skip("this processor has no AVX-512: oneDNN's native kernels are its AVX2 ones")
+    assert _policy_bits(tmp_path, "minos", MINOS_LEARN_KERNELS="native") != \
+        _policy_bits(tmp_path, "minos")
+
+
 def test_dart_adds_the_perturbed_oracles_frames_labelled_by_the_oracle(world, oracle_dataset):
     from minos.learn.dart import noisy_demonstrations
 

@@ -10,7 +10,15 @@ minos's metrics (docs/PYTHON.md, "Learning"). Needs torch and lerobot.
     print(evaluate_policy(policy, make_env("DATA", "eps/test.parquet"))["aggregate"])
 
 Command line: ``python -m minos.learn {train,eval,cell} --help``.
+
+Importing it selects torch's CPU kernels (:mod:`minos.learn.kernels`): by default the
+portable ones, which give the same bits on AVX2 and AVX-512 processors.
 """
+
+from . import kernels
+
+kernels.select()
+
 
 from .cell import CellConfig, run_cell
 from .dagger import dagger
@@ -23,6 +31,6 @@ from .train import TrainConfig, load_policy, make_policy, train_bc
 
 __all__ = [
     "CellConfig", "Demonstrations", "EpisodeMetrics", "NavPolicy", "PolicySpec", "TrainConfig",
-    "aggregate", "dagger", "evaluate_policy", "evaluate_random", "load_lerobot", "load_policy",
+    "aggregate", "dagger", "kernels", "evaluate_policy", "evaluate_random", "load_lerobot", "load_policy",
     "make_env", "make_policy", "noisy_demonstrations", "run_cell", "train_bc",
 ]

@@ -13,6 +13,7 @@ import logging
 import sys
 from pathlib import Path
 
+from . import kernels
 from .cell import PRESET_ACTIONS, CellConfig, run_cell
 
 
@@ -49,6 +50,10 @@ def _parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(prog="python -m minos.learn", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
+    ap.add_argument("--kernels", choices=list(kernels.MODES), default=None,
+                    help="torch's CPU kernels: portable (the same bits on AVX2 and AVX-512 "
+                         "processors; the default, or $MINOS_LEARN_KERNELS) or native "
+                         "(fastest)")
     sub = ap.add_subparsers(dest="command", required=True)
 
     t = sub.add_parser("train", help="behaviour cloning (and DAgger) from a LeRobot dataset")
@@ -163,6 +168,7 @@ def _parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
+    kernels.select(args.kernels)
     logging.basicConfig(level=logging.WARNING, format="%(name)s: %(message)s")
     progress = not args.quiet
     if args.command == "tables":

@@ -18,6 +18,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 
+from . import kernels
 from .features import modality_name, modality_tag, parse_modalities
 
 PRESET_ACTIONS = {
@@ -175,7 +176,8 @@ def row_file(work: Path, cfg: CellConfig, mods: tuple[str, ...]) -> Path:
     row's tag also names its epochs a round when they are not the cloning's, a DART row's
     its ε when it is not 0.3;
     ``-train<T>`` names a training seed other than the cell's seed: another draw of the
-    same row)."""
+    same row; ``-native``: a row with an image trained with the native CPU kernels,
+    :mod:`minos.learn.kernels`)."""
     tag = f"{modality_tag(mods)}-{cfg.memory}-s{cfg.seed}"
     if policy_seed(cfg) != cfg.seed:
         tag += f"-train{policy_seed(cfg)}"
@@ -189,6 +191,8 @@ def row_file(work: Path, cfg: CellConfig, mods: tuple[str, ...]) -> Path:
             tag += f"e{cfg.noise_eps:g}"
     elif wall_passes(cfg, mods):
         tag += f"-wall{wall_passes(cfg, mods)}" + ("s" if cfg.teacher_successes else "")
+    if set(mods) & IMAGE_MODALITIES and kernels.mode() == "native":
+        tag += "-native"
     return Path(work) / "results" / f"{tag}.json"
 
 
@@ -462,7 +466,7 @@ def run_cell(cfg: CellConfig, progress: bool = True, random_only: bool = False) 
             "soft_spl": a["soft_spl"], "speed": a["speed"],
             "random": {k: ra[k] for k in ("success", "spl", "soft_spl", "speed")},
             "seconds": {**times, "train": train_s, "eval": eval_s},
-            "inputs": list(policy.spec.keys),
+            "inputs": list(policy.spec.keys), "cpu_kernels": kernels.settings(),
             "checkpoint": str(evaluated.relative_to(work)), "evaluation": ev,
         }
         out_file.write_text(json.dumps(row, indent=1))

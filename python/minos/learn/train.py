@@ -14,6 +14,7 @@ import numpy as np
 import torch
 import torch.nn.functional as F
 
+from . import kernels
 from .data import Demonstrations
 from .features import keys_for
 from .policy import NavPolicy, PolicySpec
@@ -101,7 +102,7 @@ def checkpoint_state(policy: NavPolicy, optimiser, epoch: int, history: list,
         "optimiser": optimiser.state_dict() if optimiser is not None else None,
         "epoch": epoch, "history": history, "config": asdict(config),
         "rng": {"torch": torch.get_rng_state(), "numpy": np.random.get_state()},
-        "extra": extra or {},
+        "extra": extra or {}, "cpu_kernels": kernels.settings(),
     }
 
 
