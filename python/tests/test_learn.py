@@ -330,15 +330,20 @@ print(h.hexdigest())
 """
 
 
+def _kernel_free_env(**env: str) -> dict:
+    """This process's environment without the kernel settings, plus ``env``."""
+    keep = {k: v for k, v in os.environ.items()
+            if k not in ("ONEDNN_MAX_CPU_ISA", "MKL_CBWR", "MINOS_LEARN_KERNELS")}
+    return {**keep, **env}
+
+
 def _policy_bits(tmp_path, how: str, **env: str) -> str:
     import subprocess
     import sys
 
     script = tmp_path / "bits.py"
     script.write_text(_POLICY_BITS)
-    base = {k: v for k, v in os.environ.items()
-            if k not in ("ONEDNN_MAX_CPU_ISA", "MKL_CBWR", "MINOS_LEARN_KERNELS")}
-    out = subprocess.run([sys.executable, str(script), how], env={**base, **env},
+    out = subprocess.run([sys.executable, str(script), how], env=_kernel_free_env(**env),
                          capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
     return out.stdout.strip()
@@ -348,12 +353,10 @@ def _kernel_env(**env: str) -> dict:
     import subprocess
     import sys
 
-    base = {k: v for k, v in os.environ.items()
-            if k not in ("ONEDNN_MAX_CPU_ISA", "MKL_CBWR", "MINOS_LEARN_KERNELS")}
     code = ("import json, os, minos.learn\n"
             "print(json.dumps({**minos.learn.kernels.settings(), "
             "'env': os.environ.get('MINOS_LEARN_KERNELS')}))")
-    out = subprocess.run([sys.executable, "-c", code], env={**base, **env},
+    out = subprocess.run([sys.executable, "-c", code], env=_kernel_free_env(**env),
                          capture_output=True, text=True, timeout=120)
     if out.returncode != 0:
         return {"error": out.stderr.strip().splitlines()[-1]}
