@@ -379,7 +379,10 @@ def test_importing_the_learner_caps_the_cpu_kernels_unless_told_otherwise():
 def test_native_kernels_undo_only_what_the_portable_ones_set(monkeypatch):
     from minos.learn import kernels
 
+    # every variable select() writes is restored afterwards (the mode too: `python -m
+    # minos.learn` in a later test reads it)
     monkeypatch.delenv("ONEDNN_MAX_CPU_ISA", raising=False)
+    monkeypatch.delenv(kernels.ENV, raising=False)
     monkeypatch.setenv("MKL_CBWR", "COMPATIBLE")
     monkeypatch.setattr(kernels, "_set_here", set())
     assert kernels.select("portable") == "portable"
