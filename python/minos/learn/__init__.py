@@ -17,8 +17,7 @@ portable ones, which give the same bits on AVX2 and AVX-512 processors.
 
 from . import kernels
 
-kernels.select()
-
+kernels.select()  # before any of torch's convolutions (oneDNN reads its settings once)
 
 from .cell import CellConfig, run_cell
 from .dagger import dagger
@@ -31,6 +30,6 @@ from .train import TrainConfig, load_policy, make_policy, train_bc
 
 __all__ = [
     "CellConfig", "Demonstrations", "EpisodeMetrics", "NavPolicy", "PolicySpec", "TrainConfig",
-    "aggregate", "dagger", "kernels", "evaluate_policy", "evaluate_random", "load_lerobot", "load_policy",
-    "make_env", "make_policy", "noisy_demonstrations", "run_cell", "train_bc",
+    "aggregate", "dagger", "evaluate_policy", "evaluate_random", "kernels", "load_lerobot",
+    "load_policy", "make_env", "make_policy", "noisy_demonstrations", "run_cell", "train_bc",
 ]
