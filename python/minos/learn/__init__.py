@@ -15,9 +15,15 @@ Importing it selects torch's CPU kernels (:mod:`minos.learn.kernels`): by defaul
 portable ones, which give the same bits on AVX2 and AVX-512 processors.
 """
 
+import warnings
+
 from . import kernels
 
-kernels.select()  # before any of torch's convolutions (oneDNN reads its settings once)
+try:  # before any of torch's convolutions (oneDNN reads its settings once)
+    kernels.select()
+except ValueError as e:
+    warnings.warn(f"{e}; the portable kernels are used", stacklevel=2)
+    kernels.select("portable")
 
 from .cell import CellConfig, run_cell
 from .dagger import dagger

@@ -13,7 +13,8 @@ same bits either way.
 
 ``MINOS_LEARN_KERNELS=native`` (or ``python -m minos.learn --kernels native``, or
 :func:`select` before the first convolution) lets the libraries use every instruction the
-processor has. A value the user set for ``ONEDNN_MAX_CPU_ISA`` or ``MKL_CBWR`` is kept.
+processor has. A value the user set for ``ONEDNN_MAX_CPU_ISA`` or ``MKL_CBWR`` is kept; an
+unknown ``MINOS_LEARN_KERNELS`` is named in a warning at import, and the portable kernels run.
 
 The settings take effect only before the process's first convolution (oneDNN reads them
 once); GPUs are not affected.
