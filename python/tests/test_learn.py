@@ -332,9 +332,10 @@ print(h.hexdigest())
 
 def _kernel_free_env(**env: str) -> dict:
     """This process's environment without the kernel settings, plus ``env``."""
-    keep = {k: v for k, v in os.environ.items()
-            if k not in ("ONEDNN_MAX_CPU_ISA", "MKL_CBWR", "MINOS_LEARN_KERNELS")}
-    return {**keep, **env}
+    from minos.learn import kernels
+
+    settings = {*kernels.PORTABLE, kernels.ENV}
+    return {**{k: v for k, v in os.environ.items() if k not in settings}, **env}
 
 
 def _policy_bits(tmp_path, how: str, **env: str) -> str:
@@ -358,8 +359,7 @@ def _kernel_env(**env: str) -> dict:
             "'env': os.environ.get('MINOS_LEARN_KERNELS')}))")
     out = subprocess.run([sys.executable, "-c", code], env=_kernel_free_env(**env),
                          capture_output=True, text=True, timeout=120)
-    if out.returncode != 0:
-        return {"error": out.stderr.strip().splitlines()[-1]}
+    assert out.returncode == 0, out.stderr
     return {**json.loads(out.stdout), **({"warning": out.stderr.strip()} if out.stderr else {})}
 
 
