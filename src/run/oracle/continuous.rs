@@ -16,12 +16,11 @@
 //! Searches keep to floor the goal's distance field reaches. A body slimmer than the grid's
 //! erosion can squeeze through a gap the grid closes, into a pocket the field does not
 //! reach; when another driver (a learner in DAgger) has led the agent into one, the plan
-//! starts with a search for the way out, guided by a walk out over a fine lattice of the
-//! positions where the body fits.
+//! starts with a search for the way out ([`super::pocket`]).
 
 use std::cmp::Reverse;
 use std::collections::{BinaryHeap, HashMap};
-use std::hash::{BuildHasherDefault, Hasher};
+use std::hash::BuildHasherDefault;
 
 use glam::Vec3;
 
@@ -30,7 +29,8 @@ use crate::run::metrics::reached;
 use crate::sim::{Actions, Simulator};
 use crate::sim::{AgentState, Motion};
 
-use super::{angle_between, backtrack, remaining, Node};
+use super::pocket::way_out;
+use super::{angle_between, backtrack, remaining, Aim, KeyHasher, Node};
 
 /// Weight of the heuristic (weighted A*): high, since the states of one cost form wide
 /// plateaus (every cell reachable in so many steps) that a low weight explores in full.
@@ -66,108 +66,6 @@ const RESOLUTIONS: [Resolution; 2] = [
 /// Progress (m of remaining geodesic distance) the segments of a hybrid A* aim for, tried in
 /// order.
 const SEGMENTS: [f32; 3] = [0.5, 1.5, 0.25];
-
-/// Where a hybrid A* segment ends.
-#[derive(Debug, Clone, Copy)]
-enum Aim<'a> {
-    /// At a state whose remaining distance is at most this (m), or at the goal.
-    Below(f32),
-    /// At any state the goal's field reaches, from a pocket it does not reach, guided along
-    /// the body's way out ([`way_out`]).
-    OutOfPocket(&'a WayOut),
-}
-
-/// Spacing (m) of the lattice [`way_out`] walks: fine enough that a gap the body passes
-/// with a few centimetres to spare has a lattice line through it.
-const POCKET_CELL: f32 = 0.02;
-/// How far (m) from the agent [`way_out`] looks.
-const POCKET_REACH: f32 = 2.0;
-
-/// The way out of a pocket: lattice points from the agent to the first the goal's field
-/// reaches, with the length of the walk left from each.
-#[derive(Debug)]
-struct WayOut {
-    points: Vec<Vec3>,
-    left: Vec<f32>,
-}
-
-impl WayOut {
-    /// The length (m) of a way from `p` out of the pocket: to a point of the walk, then
-    /// along it.
-    fn from(&self, p: Vec3) -> f32 {
-        let flat = |a: Vec3| Vec3::new(a.x - p.x, 0.0, a.z - p.z).length();
-        self.points
-            .iter()
-            .zip(&self.left)
-            .map(|(q, l)| flat(*q) + l)
-            .fold(f32::INFINITY, f32::min)
-    }
-}
-
-/// The body's own way out of a pocket of floor the goal's field does not reach (the grid is
-/// eroded and rasterised more coarsely than the body is shaped, so the body squeezes through
-/// gaps the grid closes): a shortest 8-connected walk over a [`POCKET_CELL`] lattice around
-/// `from`, through positions where the body overlaps nothing, to the first position the
-/// field reaches; `None` when there is none within [`POCKET_REACH`].
-fn way_out(sim: &Simulator, from: Vec3) -> Option<WayOut> {
-    let collision = &sim.assets().collision;
-    let r = (POCKET_REACH / POCKET_CELL) as i32;
-    let at = |c: (i32, i32)| {
-        Vec3::new(
-            from.x + c.0 as f32 * POCKET_CELL,
-            from.y,
-            from.z + c.1 as f32 * POCKET_CELL,
-        )
-    };
-    // Each cell's cost in hundredths of a cell (100 straight, 141 diagonal) and the cell
-    // it was reached from.
-    type Cell = (i32, i32);
-    let mut cost: HashMap<Cell, (u32, Cell), BuildHasherDefault<KeyHasher>> = HashMap::default();
-    let mut open = BinaryHeap::new();
-    cost.insert((0, 0), (0, (0, 0)));
-    open.push(Reverse((0u32, (0i32, 0i32))));
-    while let Some(Reverse((c, cell))) = open.pop() {
-        if cost.get(&cell).is_some_and(|&(b, _)| b < c) {
-            continue;
-        }
-        if sim.goal_field_distance(at(cell)).is_some() {
-            let mut points = vec![at(cell)];
-            let mut cur = cell;
-            while cur != (0, 0) {
-                cur = cost[&cur].1;
-                points.push(at(cur));
-            }
-            points.reverse();
-            let mut left = vec![0.0; points.len()];
-            for i in (0..points.len().saturating_sub(1)).rev() {
-                left[i] = left[i + 1] + points[i].distance(points[i + 1]);
-            }
-            return Some(WayOut { points, left });
-        }
-        for (dx, dz) in [
-            (1, 0),
-            (-1, 0),
-            (0, 1),
-            (0, -1),
-            (1, 1),
-            (1, -1),
-            (-1, 1),
-            (-1, -1),
-        ] {
-            let next = (cell.0 + dx, cell.1 + dz);
-            if next.0.abs() > r || next.1.abs() > r {
-                continue;
-            }
-            let nc = c + if dx != 0 && dz != 0 { 141 } else { 100 };
-            if cost.get(&next).is_some_and(|&(b, _)| b <= nc) || collision.blocked(at(next)) {
-                continue;
-            }
-            cost.insert(next, (nc, cell));
-            open.push(Reverse((nc, next)));
-        }
-    }
-    None
-}
 
 /// What planning needs of the agent's dynamics.
 #[derive(Debug, Clone, Copy)]
@@ -355,39 +253,6 @@ fn key(s: &AgentState, start_yaw: f32, d: &Dynamics, res: &Resolution) -> Key {
         q(carried(s.velocity[1]), res.velocity),
         spin,
     ]
-}
-
-/// FxHash's mixing: the keys are small integers, and SipHash's strength buys nothing here.
-#[derive(Default)]
-struct KeyHasher(u64);
-
-impl Hasher for KeyHasher {
-    fn finish(&self) -> u64 {
-        self.0
-    }
-    fn write(&mut self, bytes: &[u8]) {
-        let mut chunks = bytes.chunks_exact(8);
-        for c in &mut chunks {
-            let mut word = [0u8; 8];
-            word.copy_from_slice(c);
-            self.write_u64(u64::from_le_bytes(word));
-        }
-        for &b in chunks.remainder() {
-            self.write_u64(u64::from(b));
-        }
-    }
-    fn write_u32(&mut self, v: u32) {
-        self.write_u64(u64::from(v));
-    }
-    fn write_i32(&mut self, v: i32) {
-        self.write_u64(u64::from(v as u32));
-    }
-    fn write_u64(&mut self, v: u64) {
-        self.0 = (self.0.rotate_left(5) ^ v).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
-    }
-    fn write_usize(&mut self, v: usize) {
-        self.write_u64(v as u64);
-    }
 }
 
 /// Hybrid A* from `start` to a state where `aim` ends it; returns the actions and the end

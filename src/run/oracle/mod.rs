@@ -13,6 +13,10 @@
 //! searched again with A* segments alone, so the oracle succeeds wherever the plain search
 //! does.
 //!
+//! Searches keep to floor the goal's distance field reaches. From a pocket of floor the body
+//! squeezed into but the field does not reach (another driver led the agent there), either
+//! planner first searches for the way out along the body's own walk out ([`pocket`]).
+//!
 //! Continuous agents (momentum: a state is a position, heading and velocities, and no two
 //! reachable states are quite alike) plan in `continuous.rs`: greedy turn-then-forward steps
 //! checked the same way, and a hybrid A* that merges the states of one coarse cell.
@@ -25,9 +29,11 @@
 //! agent plans with forward and turns alone.
 
 mod continuous;
+mod pocket;
 
 use std::cmp::Reverse;
 use std::collections::{BinaryHeap, HashMap};
+use std::hash::Hasher;
 
 use glam::Vec3;
 
@@ -105,6 +111,49 @@ fn backtrack(states: &[Node], id: u32, names: &[&'static str]) -> Vec<&'static s
     out
 }
 
+/// Where a search segment ends.
+#[derive(Debug, Clone, Copy)]
+enum Aim<'a> {
+    /// At a state whose remaining distance is at most this (m), or at the goal.
+    Below(f32),
+    /// At any state the goal's field reaches, from a pocket it does not reach, guided along
+    /// the body's way out ([`pocket::way_out`]).
+    OutOfPocket(&'a pocket::WayOut),
+}
+
+/// FxHash's mixing: the keys are small integers, and SipHash's strength buys nothing here.
+#[derive(Default)]
+struct KeyHasher(u64);
+
+impl Hasher for KeyHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        let mut chunks = bytes.chunks_exact(8);
+        for c in &mut chunks {
+            let mut word = [0u8; 8];
+            word.copy_from_slice(c);
+            self.write_u64(u64::from_le_bytes(word));
+        }
+        for &b in chunks.remainder() {
+            self.write_u64(u64::from(b));
+        }
+    }
+    fn write_u32(&mut self, v: u32) {
+        self.write_u64(u64::from(v));
+    }
+    fn write_i32(&mut self, v: i32) {
+        self.write_u64(u64::from(v as u32));
+    }
+    fn write_u64(&mut self, v: u64) {
+        self.0 = (self.0.rotate_left(5) ^ v).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
+    }
+    fn write_usize(&mut self, v: usize) {
+        self.write_u64(v as u64);
+    }
+}
+
 /// Progress (m of geodesic distance) each planning segment must make.
 const SEGMENT: f32 = 3.0;
 /// Progress (m) of a planning segment between greedy steps.
@@ -155,7 +204,16 @@ fn plan_with(
         }
         let now = remaining(sim, episode, &state);
         if !now.is_finite() {
-            return None;
+            // In a pocket the goal's field does not reach (a driver other than the oracle
+            // led the agent there): first the way out.
+            let way = pocket::way_out(sim, Vec3::from_array(state.position))?;
+            let (actions, end) = search(sim, episode, state, Aim::OutOfPocket(&way))?;
+            if actions.is_empty() {
+                return None;
+            }
+            out.extend(actions);
+            state = end;
+            continue;
         }
         if greedy {
             if let Some(end) = greedy_step(sim, episode, &state, now, &mut out) {
@@ -171,7 +229,7 @@ fn plan_with(
         };
         let attempt = segments
             .iter()
-            .find_map(|seg| search(sim, episode, state, (now - seg).max(-1.0)));
+            .find_map(|seg| search(sim, episode, state, Aim::Below((now - seg).max(-1.0))));
         let (actions, end) = attempt?;
         if actions.is_empty() {
             return None;
@@ -274,13 +332,13 @@ fn turn_candidates(sim: &Simulator, state: &AgentState, reach: f32, turn: f32) -
     )
 }
 
-/// Weighted A* from `start` to a state that reaches the goal or whose remaining distance is at
-/// most `target`; returns the actions and the end state.
+/// Weighted A* from `start` to a state where `aim` ends it; returns the actions and the end
+/// state.
 fn search(
     sim: &Simulator,
     episode: &Episode,
     start: AgentState,
-    target: f32,
+    aim: Aim,
 ) -> Option<(Vec<&'static str>, AgentState)> {
     let continuous = matches!(sim.agent().motion, Motion::Continuous { .. });
     let max_move = match sim.agent().motion {
@@ -297,9 +355,14 @@ fn search(
     };
     let grid = &sim.assets().grid;
     // Steps still needed: the distance left to the target over the longest move, plus the
-    // turns needed to face the next corner of the shortest path (the field's anchor).
+    // turns needed to face the next corner of the shortest path (the field's anchor). Out of
+    // a pocket: the body's way out over the longest move.
     let h = |s: &AgentState, d: f32| -> f32 {
         let p = Vec3::from_array(s.position);
+        let target = match aim {
+            Aim::Below(target) => target,
+            Aim::OutOfPocket(way) => return WEIGHT * (way.from(p) / max_move).floor(),
+        };
         let mut turns = 0.0;
         if let Some(anchor) = grid.snap(p).and_then(|sp| sim.goal_anchor(sp)) {
             let a = grid.span_position(anchor as usize) - p;
@@ -312,7 +375,10 @@ fn search(
         }
         WEIGHT * (((d - target).max(0.0) / max_move).floor() + turns)
     };
-    let done = |s: &AgentState, d: f32| d <= target || reached(sim, episode, s);
+    let done = |s: &AgentState, d: f32| match aim {
+        Aim::Below(target) => d <= target || reached(sim, episode, s),
+        Aim::OutOfPocket(_) => d.is_finite(),
+    };
     let actions = action_set(sim);
     let mut states: Vec<Node> = vec![(start, 0, None)];
     let mut best: HashMap<(i32, i32, i32, i32, i32, i32), u32> = HashMap::new();
@@ -344,8 +410,8 @@ fn search(
                 continue;
             }
             let d = remaining(sim, episode, &t.state);
-            if !d.is_finite() {
-                continue;
+            if !d.is_finite() && matches!(aim, Aim::Below(_)) {
+                continue; // into a pocket the field does not reach
             }
             best.insert(k, ng);
             states.push((t.state, ng, Some((id, ai as u8))));
