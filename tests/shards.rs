@@ -253,6 +253,28 @@ fn merged_run_shards_are_the_unsharded_run() {
             && err.contains("not shards of one run"),
         "{err}"
     );
+    // So are shards whose LeRobot copies encode the cameras otherwise (the merged copy is
+    // encoded once, as the first shard's).
+    let video = dir.path().join("video/1");
+    let mut c = run_cmd(&data, &eps, &video, &dir.path().join("video/1.rrd"), "1/2");
+    c.args(["--video", "--video-qp", "30"]).ok_output();
+    let o = minos()
+        .args(["merge", "--out"])
+        .arg(&full)
+        .arg("--rerun")
+        .arg(&full_rrd)
+        .arg(dir.path().join("r2/0"))
+        .arg(&video)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success()
+            && err.contains("video at quantiser 30")
+            && err.contains("images, not video")
+            && err.contains("not shards of one run"),
+        "{err}"
+    );
     // A recording run needs --rerun for the merged recording.
     let o = minos()
         .args(["merge", "--out"])

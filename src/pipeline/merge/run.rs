@@ -179,6 +179,23 @@ fn check_same_job(runs: &[ShardRun]) -> Result<(), MergeError> {
                 ),
             ));
         }
+        // The merged copy is encoded once, so its cameras' encoding must be every shard's.
+        if run.lerobot_video != first.lerobot_video {
+            let encoding = |v: Option<VideoSettings>| {
+                v.map_or("images, not video".to_string(), |v| {
+                    format!("video at quantiser {}", v.qp)
+                })
+            };
+            return Err(shard_error(
+                run.dir.root(),
+                format!(
+                    "its LeRobot copy stores cameras as {} but {}'s as {}: not shards of one run",
+                    encoding(run.lerobot_video),
+                    first.dir.root().display(),
+                    encoding(first.lerobot_video)
+                ),
+            ));
+        }
     }
     Ok(())
 }
