@@ -117,6 +117,11 @@ class CellConfig:
 #: The modalities that are images; a row with none of them is blind.
 IMAGE_MODALITIES = frozenset({"V", "D", "S"})
 
+def has_image(mods: tuple[str, ...]) -> bool:
+    """Whether a row with modalities ``mods`` sees an image (else it is blind)."""
+    return bool(set(mods) & IMAGE_MODALITIES)
+
+
 #: The teachers of blind rows (``CellConfig.blind_teacher``).
 BLIND_TEACHERS = ("oracle", "wall-follower")
 
@@ -124,7 +129,7 @@ BLIND_TEACHERS = ("oracle", "wall-follower")
 def dagger_rounds(cfg: CellConfig, mods: tuple[str, ...]) -> int:
     """The DAgger rounds of a row with modalities ``mods``: ``cfg.dagger``, except for blind
     rows (no image among ``mods``) when ``cfg.dagger_blind`` is off."""
-    if not cfg.dagger_blind and not set(mods) & IMAGE_MODALITIES:
+    if not cfg.dagger_blind and not has_image(mods):
         return 0
     return cfg.dagger
 
@@ -137,8 +142,7 @@ def wall_passes(cfg: CellConfig, mods: tuple[str, ...]) -> int:
     if cfg.blind_teacher not in BLIND_TEACHERS:
         raise ValueError(f"blind_teacher: {cfg.blind_teacher!r} is not one of "
                          f"{', '.join(BLIND_TEACHERS)}")
-    if (cfg.blind_teacher != "wall-follower" or dagger_rounds(cfg, mods)
-            or set(mods) & IMAGE_MODALITIES):
+    if cfg.blind_teacher != "wall-follower" or dagger_rounds(cfg, mods) or has_image(mods):
         return 0
     return cfg.teacher_passes
 
@@ -191,7 +195,7 @@ def row_file(work: Path, cfg: CellConfig, mods: tuple[str, ...]) -> Path:
             tag += f"e{cfg.noise_eps:g}"
     elif wall_passes(cfg, mods):
         tag += f"-wall{wall_passes(cfg, mods)}" + ("s" if cfg.teacher_successes else "")
-    if set(mods) & IMAGE_MODALITIES and kernels.mode() == "native":
+    if has_image(mods) and kernels.mode() == "native":
         tag += "-native"
     return Path(work) / "results" / f"{tag}.json"
 
