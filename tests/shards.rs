@@ -237,20 +237,22 @@ fn merged_run_shards_are_the_unsharded_run() {
     let other_rrd = dir.path().join("other/0.rrd");
     let mut c = run_cmd(&data, &eps, &other, &other_rrd, "0/2");
     c.args(["--reward", "geodesic"]).ok_output();
-    let o = minos()
-        .args(["merge", "--out"])
-        .arg(&full)
-        .arg("--rerun")
-        .arg(&full_rrd)
-        .arg(&other)
-        .arg(dir.path().join("r2/1"))
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&o.stderr);
+    // A refused merge of `shards` with a recording: its stderr.
+    let refused = |shards: [&Path; 2]| {
+        let o = minos()
+            .args(["merge", "--out"])
+            .arg(&full)
+            .arg("--rerun")
+            .arg(&full_rrd)
+            .args(shards)
+            .output()
+            .unwrap();
+        assert!(!o.status.success(), "{shards:?} merged");
+        String::from_utf8_lossy(&o.stderr).into_owned()
+    };
+    let err = refused([&other, &dir.path().join("r2/1")]);
     assert!(
-        !o.status.success()
-            && err.contains("`reward` differs")
-            && err.contains("not shards of one run"),
+        err.contains("`reward` differs") && err.contains("not shards of one run"),
         "{err}"
     );
     // So are shards whose LeRobot copies encode the cameras otherwise (the merged copy is
@@ -258,19 +260,9 @@ fn merged_run_shards_are_the_unsharded_run() {
     let video = dir.path().join("video/1");
     let mut c = run_cmd(&data, &eps, &video, &dir.path().join("video/1.rrd"), "1/2");
     c.args(["--video", "--video-qp", "30"]).ok_output();
-    let o = minos()
-        .args(["merge", "--out"])
-        .arg(&full)
-        .arg("--rerun")
-        .arg(&full_rrd)
-        .arg(dir.path().join("r2/0"))
-        .arg(&video)
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&o.stderr);
+    let err = refused([&dir.path().join("r2/0"), &video]);
     assert!(
-        !o.status.success()
-            && err.contains("video at quantiser 30")
+        err.contains("video at quantiser 30")
             && err.contains("images, not video")
             && err.contains("not shards of one run"),
         "{err}"
@@ -287,18 +279,9 @@ fn merged_run_shards_are_the_unsharded_run() {
     assert!(!o.status.success() && err.contains("--rerun"), "{err}");
     // An unfinished shard (no manifest) is named.
     std::fs::remove_file(dir.path().join("r2/1/manifest.json")).unwrap();
-    let o = minos()
-        .args(["merge", "--out"])
-        .arg(&full)
-        .arg("--rerun")
-        .arg(&full_rrd)
-        .arg(dir.path().join("r2/0"))
-        .arg(dir.path().join("r2/1"))
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&o.stderr);
+    let err = refused([&dir.path().join("r2/0"), &dir.path().join("r2/1")]);
     assert!(
-        !o.status.success() && err.contains("r2/1/manifest.json") && err.contains("--resume"),
+        err.contains("r2/1/manifest.json") && err.contains("--resume"),
         "{err}"
     );
 }
