@@ -15,7 +15,7 @@
 //!
 //! Searches keep to floor the goal's distance field reaches. From a pocket of floor the body
 //! squeezed into but the field does not reach (another driver led the agent there), either
-//! planner first searches for the way out along the body's own walk out ([`pocket`]).
+//! planner first searches for the way out along the body's own walk out (`pocket.rs`).
 //!
 //! Continuous agents (momentum: a state is a position, heading and velocities, and no two
 //! reachable states are quite alike) plan in `continuous.rs`: greedy turn-then-forward steps
