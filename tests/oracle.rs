@@ -443,3 +443,68 @@ fn leads_out_of_the_pocket(agent: AgentConfig) {
         assert!(end.distance(goal) <= 0.4, "yaw {yaw}: stopped at {end}");
     }
 }
+
+/// A room split by a wall at z 4.9–5.0 with one 0.19 m gap (x 5.0–5.19): open on a 2 cm grid
+/// baked for a body of radius 0.03, too narrow for MINOS's (radius 0.1).
+fn too_narrow_sim() -> minos::sim::Simulator {
+    use common::scenes::SceneBuilder;
+    use minos::navmesh::NavParams;
+    use minos::render::Renderer;
+    use minos::scene::RoomClass;
+    use minos::sim::{SceneAssets, Simulator};
+    use std::sync::Arc;
+
+    let wall = |x0: f32, z0: f32, x1: f32, z1: f32| ([x0, 0.0, z0], [x1, 2.7, z1]);
+    let scene = SceneBuilder::new("narrow")
+        .room(
+            "r",
+            RoomClass::Hallway,
+            [0.0, 0.0, 10.0, 10.0],
+            0.0,
+            &[wall(0.0, 4.9, 5.0, 5.0), wall(5.19, 4.9, 10.0, 5.0)],
+        )
+        .build();
+    let agent = AgentConfig::minos_paper();
+    let thin = AgentBody {
+        radius: 0.03,
+        ..agent.body
+    };
+    let params = NavParams {
+        cell_size: 0.02,
+        ..NavParams::for_body(thin)
+    };
+    let grid = minos::navmesh::build::build(&scene, &params).unwrap();
+    let assets = Arc::new(SceneAssets::new_allowing_body_mismatch(&scene, grid, &agent).unwrap());
+    let renderer = Arc::new(Renderer::new(RendererChoice::Cpu, &assets.render).unwrap());
+    let blind = SensorSuite {
+        cameras: vec![],
+        contact: None,
+    };
+    Simulator::new(assets, renderer, agent, blind, 500, 0)
+}
+
+#[test]
+fn the_oracle_gives_up_on_a_goal_its_body_cannot_reach() {
+    use glam::Vec3;
+    use minos::run::agents::{Agent, AgentError};
+    use minos::run::oracle::OracleAgent;
+    use minos::sim::GoalSpec;
+
+    // The grid's field reaches the goal through the gap; the body does not pass it. The
+    // planner's searches fail on the field, where no pocket and no momentum is to blame:
+    // the plan ends there ("no plan"), rather than searching on from state to state.
+    let (start, goal) = (Vec3::new(5.095, 0.0, 7.0), Vec3::new(5.095, 0.0, 3.0));
+    let mut sim = too_narrow_sim();
+    let here = sim.assets().grid.island_of(start);
+    assert!(here.is_some() && sim.assets().grid.island_of(goal) == here);
+    let episode = Episode::point("narrow", "narrow:0", start, 0.0, goal, 0.4, 500);
+    sim.reset(start, 0.0, Some(GoalSpec::Point(goal)), &episode.episode_id);
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let _ = tx.send(OracleAgent::new().reset(&episode, &sim));
+    });
+    let answer = rx
+        .recv_timeout(std::time::Duration::from_secs(120))
+        .expect("the planner still searching after two minutes");
+    assert!(matches!(answer, Err(AgentError::NoPlan(_))), "{answer:?}");
+}
