@@ -117,6 +117,7 @@ class CellConfig:
 #: The modalities that are images; a row with none of them is blind.
 IMAGE_MODALITIES = frozenset({"V", "D", "S"})
 
+
 def has_image(mods: tuple[str, ...]) -> bool:
     """Whether a row with modalities ``mods`` sees an image (else it is blind)."""
     return bool(set(mods) & IMAGE_MODALITIES)
