@@ -334,10 +334,7 @@ fn paths_between_rooms_count_the_doorway_they_pass() {
 fn pocket_sim(agent: AgentConfig) -> minos::sim::Simulator {
     use common::scenes::SceneBuilder;
     use minos::navmesh::NavParams;
-    use minos::render::Renderer;
     use minos::scene::RoomClass;
-    use minos::sim::{SceneAssets, Simulator};
-    use std::sync::Arc;
 
     let wall = |x0: f32, z0: f32, x1: f32, z1: f32| ([x0, 0.0, z0], [x1, 2.7, z1]);
     let scene = SceneBuilder::new("pocket")
@@ -359,8 +356,22 @@ fn pocket_sim(agent: AgentConfig) -> minos::sim::Simulator {
         radius: 0.25,
         ..agent.body
     };
-    let grid = minos::navmesh::build::build(&scene, &NavParams::for_body(fat)).unwrap();
-    let assets = Arc::new(SceneAssets::new_allowing_body_mismatch(&scene, grid, &agent).unwrap());
+    blind_sim(&scene, &NavParams::for_body(fat), agent)
+}
+
+/// A blind simulator of `agent` in `scene`, on a grid built with `params` (baked for another
+/// body than the agent's where a test needs the grid and the body to disagree).
+fn blind_sim(
+    scene: &minos::scene::Scene,
+    params: &minos::navmesh::NavParams,
+    agent: AgentConfig,
+) -> minos::sim::Simulator {
+    use minos::render::Renderer;
+    use minos::sim::{SceneAssets, Simulator};
+    use std::sync::Arc;
+
+    let grid = minos::navmesh::build::build(scene, params).unwrap();
+    let assets = Arc::new(SceneAssets::new_allowing_body_mismatch(scene, grid, &agent).unwrap());
     let renderer = Arc::new(Renderer::new(RendererChoice::Cpu, &assets.render).unwrap());
     let blind = SensorSuite {
         cameras: vec![],
@@ -449,10 +460,7 @@ fn leads_out_of_the_pocket(agent: AgentConfig) {
 fn too_narrow_sim() -> minos::sim::Simulator {
     use common::scenes::SceneBuilder;
     use minos::navmesh::NavParams;
-    use minos::render::Renderer;
     use minos::scene::RoomClass;
-    use minos::sim::{SceneAssets, Simulator};
-    use std::sync::Arc;
 
     let wall = |x0: f32, z0: f32, x1: f32, z1: f32| ([x0, 0.0, z0], [x1, 2.7, z1]);
     let scene = SceneBuilder::new("narrow")
@@ -473,14 +481,7 @@ fn too_narrow_sim() -> minos::sim::Simulator {
         cell_size: 0.02,
         ..NavParams::for_body(thin)
     };
-    let grid = minos::navmesh::build::build(&scene, &params).unwrap();
-    let assets = Arc::new(SceneAssets::new_allowing_body_mismatch(&scene, grid, &agent).unwrap());
-    let renderer = Arc::new(Renderer::new(RendererChoice::Cpu, &assets.render).unwrap());
-    let blind = SensorSuite {
-        cameras: vec![],
-        contact: None,
-    };
-    Simulator::new(assets, renderer, agent, blind, 500, 0)
+    blind_sim(&scene, &params, agent)
 }
 
 #[test]
