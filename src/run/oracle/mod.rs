@@ -181,10 +181,30 @@ fn remaining(sim: &Simulator, episode: &Episode, s: &AgentState) -> f32 {
 fn plan(sim: &Simulator, episode: &Episode, start: AgentState) -> Option<Vec<&'static str>> {
     match sim.agent().motion {
         Motion::Discrete { .. } => {
-            plan_with(sim, episode, start, true).or_else(|| plan_with(sim, episode, start, false))
+            let (mut out, start) = out_of_pocket(sim, episode, start)?;
+            let rest = plan_with(sim, episode, start, true)
+                .or_else(|| plan_with(sim, episode, start, false))?;
+            out.extend(rest);
+            Some(out)
         }
         Motion::Continuous { .. } => continuous::plan(sim, episode, start),
     }
+}
+
+/// A discrete agent's way out of a pocket the goal's field does not reach (a driver other
+/// than the oracle led it there): the actions to the first state the field reaches, and that
+/// state; no actions and `start` itself on the field. Only a plan's start can be in a pocket
+/// (greedy steps and searches keep to the field), so both passes of [`plan`] share it.
+fn out_of_pocket(
+    sim: &Simulator,
+    episode: &Episode,
+    start: AgentState,
+) -> Option<(Vec<&'static str>, AgentState)> {
+    if remaining(sim, episode, &start).is_finite() || reached(sim, episode, &start) {
+        return Some((Vec::new(), start));
+    }
+    let way = pocket::way_out(sim, Vec3::from_array(start.position))?;
+    search(sim, episode, start, Aim::OutOfPocket(&way)).filter(|(actions, _)| !actions.is_empty())
 }
 
 /// Plans in segments: a greedy step when `greedy` and one is safe, else a weighted A* over
@@ -204,16 +224,7 @@ fn plan_with(
         }
         let now = remaining(sim, episode, &state);
         if !now.is_finite() {
-            // In a pocket the goal's field does not reach (a driver other than the oracle
-            // led the agent there): first the way out.
-            let way = pocket::way_out(sim, Vec3::from_array(state.position))?;
-            let (actions, end) = search(sim, episode, state, Aim::OutOfPocket(&way))?;
-            if actions.is_empty() {
-                return None;
-            }
-            out.extend(actions);
-            state = end;
-            continue;
+            return None;
         }
         if greedy {
             if let Some(end) = greedy_step(sim, episode, &state, now, &mut out) {
