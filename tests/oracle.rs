@@ -455,6 +455,56 @@ fn leads_out_of_the_pocket(agent: AgentConfig) {
     }
 }
 
+#[test]
+fn the_oracle_plans_when_momentum_carries_the_agent_into_a_pocket() {
+    use glam::Vec3;
+    use minos::run::agents::{Agent, Decision};
+    use minos::run::oracle::OracleAgent;
+    use minos::sim::{Actions, GoalSpec, Observation};
+
+    // Running at the alcove's gap from the room (yaw 0 faces -z): a few presses in, every
+    // action leads into the pocket, since momentum carries the body on.
+    let start = Vec3::new(2.2, 0.0, 7.6);
+    let goal = Vec3::new(5.0, 0.0, 8.5);
+    let mut sim = pocket_sim(AgentConfig::minos_paper());
+    let forward = Actions::single("forward").unwrap();
+    let mut on_field_at_speed = 0;
+    for presses in 0..12 {
+        let id = format!("run-in:{presses}");
+        let episode = Episode::point("pocket", &id, start, 0.0, goal, 0.4, 500);
+        sim.reset(start, 0.0, Some(GoalSpec::Point(goal)), &episode.episode_id);
+        for _ in 0..presses {
+            sim.advance(forward);
+        }
+        let here = Vec3::from_array(sim.state().position);
+        if sim.goal_field_distance(here).is_some() && sim.state().velocity[1] < -0.1 {
+            on_field_at_speed += 1;
+        }
+        let mut oracle = OracleAgent::new();
+        oracle
+            .reset(&episode, &sim)
+            .unwrap_or_else(|e| panic!("{presses} presses, at {here}: {e}"));
+        let mut steps = 0;
+        while let Decision::Act(a) = oracle.decide(&Observation::blind(), &sim).unwrap() {
+            sim.advance(a);
+            steps += 1;
+            assert!(
+                steps < 500,
+                "{presses} presses: not at the goal after 500 steps"
+            );
+        }
+        let end = Vec3::from_array(sim.state().position);
+        assert!(
+            end.distance(goal) <= 0.4,
+            "{presses} presses: stopped at {end}"
+        );
+    }
+    assert!(
+        on_field_at_speed > 0,
+        "never on the field at speed towards the gap"
+    );
+}
+
 /// A room split by a wall at z 4.9–5.0 with one 0.19 m gap (x 5.0–5.19): open on a 2 cm grid
 /// baked for a body of radius 0.03, too narrow for MINOS's (radius 0.1).
 fn too_narrow_sim() -> minos::sim::Simulator {

@@ -147,7 +147,31 @@ pub(super) fn plan(
             aims.iter()
                 .find_map(|&aim| search(sim, episode, state, aim, &dynamics, names, res))
         });
-        let (actions, end) = attempt?;
+        let (actions, end) = match attempt {
+            Some(found) => found,
+            // In a pocket whose way out the search did not find (a long turn about), or on
+            // the field with every action leading into one (momentum carries the body in
+            // whatever it does: it left a pocket still moving back, or a learner ran it at
+            // a gap the grid closes): through the pocket to a state that can stay out,
+            // turning to head out on the way. Such an end can stay on the field, so this
+            // cannot repeat without the searches between making progress; elsewhere a
+            // failed search is the end of the plan.
+            None if !now.is_finite() || leaves_field(sim, episode, &state, names) => {
+                let here = way_out(sim, Vec3::from_array(state.position))?;
+                RESOLUTIONS.iter().find_map(|res| {
+                    search(
+                        sim,
+                        episode,
+                        state,
+                        Aim::Steady(&here),
+                        &dynamics,
+                        names,
+                        res,
+                    )
+                })?
+            }
+            None => return None,
+        };
         if actions.is_empty() {
             return None;
         }
@@ -155,6 +179,20 @@ pub(super) fn plan(
         state = end;
     }
     None
+}
+
+/// Whether every action of `names` takes the agent from `state` off the floor the goal's
+/// field reaches.
+fn leaves_field(
+    sim: &Simulator,
+    episode: &Episode,
+    state: &AgentState,
+    names: &[&'static str],
+) -> bool {
+    names
+        .iter()
+        .filter_map(|n| Actions::single(n))
+        .all(|a| !remaining(sim, episode, &sim.transition(state, a).state).is_finite())
 }
 
 /// One greedy step: turn towards the next corner of the goal field's path (keeping the
@@ -283,27 +321,38 @@ fn search(
             _ => None,
         })
         .collect();
+    // Turns needed before some move goes along `a` (none within a move of its end).
+    let turns_along = |s: &AgentState, a: Vec3| -> f32 {
+        if a.x * a.x + a.z * a.z <= d.max_move * d.max_move {
+            return 0.0;
+        }
+        let want = (-a.x).atan2(-a.z);
+        let off = offsets
+            .iter()
+            .map(|o| angle_between(s.yaw + o, want).abs())
+            .fold(std::f32::consts::PI, f32::min);
+        ((off - 0.5 * d.turn) / d.turn).ceil().max(0.0)
+    };
     // Steps still needed: the distance left to the target over the longest move, plus the
     // turns needed before some move goes towards the next corner of the shortest path (the
-    // field's anchor). Out of a pocket: the body's way out over the longest move.
+    // field's anchor). Out of a pocket: the body's way out over the longest move (for a
+    // steady end, plus the turns to head along it).
     let h = |s: &AgentState, dist: f32| -> f32 {
         let p = Vec3::from_array(s.position);
         let target = match aim {
             Aim::Below(target) => target,
             Aim::OutOfPocket(way) => return WEIGHT * (way.from(p) / d.max_move).floor(),
-        };
-        let mut turns = 0.0;
-        if let Some(anchor) = grid.snap(p).and_then(|sp| sim.goal_anchor(sp)) {
-            let a = grid.span_position(anchor as usize) - p;
-            if a.x * a.x + a.z * a.z > d.max_move * d.max_move {
-                let want = (-a.x).atan2(-a.z);
-                let off = offsets
-                    .iter()
-                    .map(|o| angle_between(s.yaw + o, want).abs())
-                    .fold(std::f32::consts::PI, f32::min);
-                turns = ((off - 0.5 * d.turn) / d.turn).ceil().max(0.0);
+            Aim::Steady(way) => {
+                let turns = turns_along(s, way.ahead(p, d.max_move) - p);
+                return WEIGHT * ((way.from(p) / d.max_move).floor() + turns);
             }
-        }
+        };
+        let turns = grid
+            .snap(p)
+            .and_then(|sp| sim.goal_anchor(sp))
+            .map_or(0.0, |anchor| {
+                turns_along(s, grid.span_position(anchor as usize) - p)
+            });
         WEIGHT * (((dist - target).max(0.0) / d.max_move).floor() + turns)
     };
     let start_yaw = start.yaw;
@@ -325,6 +374,12 @@ fn search(
         let arrived = match aim {
             Aim::Below(target) => dist <= target || reached(sim, episode, &state),
             Aim::OutOfPocket(_) => dist.is_finite(),
+            Aim::Steady(_) => {
+                dist.is_finite()
+                    && actions.iter().any(|a| {
+                        remaining(sim, episode, &sim.transition(&state, *a).state).is_finite()
+                    })
+            }
         };
         if id != 0 && arrived {
             return Some((backtrack(&states, id, names), state));

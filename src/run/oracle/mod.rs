@@ -119,6 +119,10 @@ enum Aim<'a> {
     /// At any state the goal's field reaches, from a pocket it does not reach, guided along
     /// the body's way out ([`pocket::way_out`]).
     OutOfPocket(&'a pocket::WayOut),
+    /// As [`Aim::OutOfPocket`], at a state from which some action keeps the agent on the
+    /// field: where momentum would carry it back into the pocket whatever it did next, no
+    /// later search could start (the continuous planner's last resort).
+    Steady(&'a pocket::WayOut),
 }
 
 /// FxHash's mixing: the keys are small integers, and SipHash's strength buys nothing here.
@@ -372,7 +376,9 @@ fn search(
         let p = Vec3::from_array(s.position);
         let target = match aim {
             Aim::Below(target) => target,
-            Aim::OutOfPocket(way) => return WEIGHT * (way.from(p) / max_move).floor(),
+            Aim::OutOfPocket(way) | Aim::Steady(way) => {
+                return WEIGHT * (way.from(p) / max_move).floor()
+            }
         };
         let mut turns = 0.0;
         if let Some(anchor) = grid.snap(p).and_then(|sp| sim.goal_anchor(sp)) {
@@ -388,7 +394,8 @@ fn search(
     };
     let done = |s: &AgentState, d: f32| match aim {
         Aim::Below(target) => d <= target || reached(sim, episode, s),
-        Aim::OutOfPocket(_) => d.is_finite(),
+        // A discrete agent can always turn on the spot: on the field is steady.
+        Aim::OutOfPocket(_) | Aim::Steady(_) => d.is_finite(),
     };
     let actions = action_set(sim);
     let mut states: Vec<Node> = vec![(start, 0, None)];

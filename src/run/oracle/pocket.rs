@@ -3,7 +3,10 @@
 //! grid closes (a cabinet beside an open door's leaf, furniture in a corner); when another
 //! driver (a learner in DAgger, a person) has led the agent into such a pocket, both planners
 //! start with a search for the way out, guided by [`way_out`]: a walk over a fine lattice of
-//! the positions where the body fits, to the first the field reaches.
+//! the positions where the body fits, to the first the field reaches. When that search fails,
+//! or momentum carries the body on into a pocket whatever it does, the continuous planner
+//! searches on to a *steady* state (one some action keeps on the field), its heuristic
+//! counting the turns to head along the walk as well.
 
 use std::cmp::Reverse;
 use std::collections::{BinaryHeap, HashMap};
@@ -33,13 +36,41 @@ impl WayOut {
     /// The length (m) of a way from `p` out of the pocket: to a point of the walk, then
     /// along it.
     pub(super) fn from(&self, p: Vec3) -> f32 {
-        let flat = |a: Vec3| Vec3::new(a.x - p.x, 0.0, a.z - p.z).length();
+        self.joined(p).1
+    }
+
+    /// Where to head from `p`: the first point of the walk at least `reach` away after the
+    /// one [`WayOut::from`] joins it at, else the walk's end.
+    pub(super) fn ahead(&self, p: Vec3, reach: f32) -> Vec3 {
+        let (i, _) = self.joined(p);
+        let rest = self.points.get(i..).unwrap_or_default();
+        rest.iter()
+            .find(|q| flat(**q, p) >= reach)
+            .or(rest.last())
+            .copied()
+            .unwrap_or(p)
+    }
+
+    /// The index of the point where the way from `p` joins the walk, and the way's length.
+    fn joined(&self, p: Vec3) -> (usize, f32) {
         self.points
             .iter()
             .zip(&self.left)
-            .map(|(q, l)| flat(*q) + l)
-            .fold(f32::INFINITY, f32::min)
+            .map(|(q, l)| flat(*q, p) + l)
+            .enumerate()
+            .fold((0, f32::INFINITY), |best, (i, len)| {
+                if len < best.1 {
+                    (i, len)
+                } else {
+                    best
+                }
+            })
     }
+}
+
+/// Horizontal distance (m) between `a` and `b`.
+fn flat(a: Vec3, b: Vec3) -> f32 {
+    Vec3::new(a.x - b.x, 0.0, a.z - b.z).length()
 }
 
 /// The body's own way out of a pocket of floor the goal's field does not reach (the grid is
