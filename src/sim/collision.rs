@@ -114,6 +114,17 @@ impl CollisionWorld {
             .is_ok_and(|r| r.intersecting)
     }
 
+    /// True when the body standing on `base` overlaps the scene by more than `skin` (m): as
+    /// [`CollisionWorld::blocked`] with a body `skin` slimmer where it touches, for walks
+    /// over a lattice that must not miss a gap the sliding body passes with no room to spare.
+    pub fn blocked_beyond(&self, base: Vec3, skin: f32) -> bool {
+        let pose = self.body_pose(base);
+        query::contact(&pose, &self.body, &Pose::IDENTITY, &self.mesh, 0.0)
+            .ok()
+            .flatten()
+            .is_some_and(|c| c.dist < -skin)
+    }
+
     /// The horizontal direction pushing the body at `base` out of what it touches, if any.
     pub fn push_out(&self, base: Vec3) -> Option<Vec3> {
         let pose = self.body_pose(base);

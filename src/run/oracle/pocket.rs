@@ -3,7 +3,8 @@
 //! grid closes (a cabinet beside an open door's leaf, furniture in a corner); when another
 //! driver (a learner in DAgger, a person) has led the agent into such a pocket, both planners
 //! start with a search for the way out, guided by [`way_out`]: a walk over a fine lattice of
-//! the positions where the body fits, to the first the field reaches. When that search fails,
+//! the positions where the body fits (within a skin as thin as the lattice is fine), to the
+//! first the field reaches. When that search fails,
 //! or momentum carries the body on into a pocket whatever it does, the continuous planner
 //! searches on to a *steady* state (one some action keeps on the field), its heuristic
 //! counting the turns to head along the walk as well.
@@ -21,6 +22,10 @@ use super::KeyHasher;
 /// Spacing (m) of the lattice [`way_out`] walks: fine enough that a gap the body passes
 /// with a few centimetres to spare has a lattice line through it.
 const POCKET_CELL: f32 = 0.02;
+/// How deep (m) a lattice point may overlap the scene: the body slides along what it touches,
+/// so it passes gaps with no room to spare that a lattice, however fine, may have no point
+/// in; half a lattice step of overlap puts one in every gap the body passes.
+const POCKET_SKIN: f32 = 0.5 * POCKET_CELL;
 /// How far (m) from the agent [`way_out`] looks.
 const POCKET_REACH: f32 = 2.0;
 
@@ -76,8 +81,8 @@ fn flat(a: Vec3, b: Vec3) -> f32 {
 /// The body's own way out of a pocket of floor the goal's field does not reach (the grid is
 /// eroded and rasterised more coarsely than the body is shaped, so the body squeezes through
 /// gaps the grid closes): a shortest 8-connected walk over a [`POCKET_CELL`] lattice around
-/// `from`, through positions where the body overlaps nothing, to the first position the
-/// field reaches; `None` when there is none within [`POCKET_REACH`].
+/// `from`, through positions where the body overlaps nothing deeper than [`POCKET_SKIN`], to
+/// the first position the field reaches; `None` when there is none within [`POCKET_REACH`].
 pub(super) fn way_out(sim: &Simulator, from: Vec3) -> Option<WayOut> {
     let collision = &sim.assets().collision;
     let r = (POCKET_REACH / POCKET_CELL) as i32;
@@ -128,7 +133,9 @@ pub(super) fn way_out(sim: &Simulator, from: Vec3) -> Option<WayOut> {
                 continue;
             }
             let nc = c + if dx != 0 && dz != 0 { 141 } else { 100 };
-            if cost.get(&next).is_some_and(|&(b, _)| b <= nc) || collision.blocked(at(next)) {
+            if cost.get(&next).is_some_and(|&(b, _)| b <= nc)
+                || collision.blocked_beyond(at(next), POCKET_SKIN)
+            {
                 continue;
             }
             cost.insert(next, (nc, cell));
