@@ -280,9 +280,22 @@ def test_smoke_the_loss_falls_and_the_loop_runs(world, oracle_dataset, tmp_path)
     # holds one epoch.
     with pytest.raises(ValueError, match="at least 1"):
         dagger(policy, demos, venv, TrainConfig(epochs=3), iterations=1, epochs=0)
+    # The oracle finds no plan (-1) in the first environment: its frames are added
+    # unlabelled (-100, trained on by nothing), and the round counts them.
+    real = venv.oracle_actions
+
+    def no_plan_in_the_first():
+        o = np.array(real(), copy=True)
+        o[0] = -1
+        return o
+
+    venv.oracle_actions = no_plan_in_the_first
     rounds = dagger(policy, demos, venv, TrainConfig(epochs=3, batch_frames=64), iterations=1,
                     epochs=1, checkpoint=tmp_path / "d.pt")
+    del venv.oracle_actions
     assert rounds[0]["frames_added"] > 0 and demos.num_frames == rounds[0]["frames"]
+    added = demos.labels[-rounds[0]["frames_added"]:]
+    assert 0 < rounds[0]["unlabelled"] == int((added == -100).sum()) < rounds[0]["frames_added"]
     assert len(torch.load(tmp_path / "d.pt", weights_only=False)["history"]) == 1
     res = evaluate_policy(policy, venv, max_steps=40)
     agg = res["aggregate"]

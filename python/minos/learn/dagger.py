@@ -31,6 +31,7 @@ def dagger(policy, demos: Demonstrations, venv, config: TrainConfig, iterations:
     the *training* episodes), each followed by ``epochs`` (default ``config.epochs``) epochs
     of behaviour cloning on all the frames so far; ``policy`` should already be trained on
     ``demos``. Returns one record per round (``iteration``, ``beta``, ``frames_added``,
+    ``unlabelled`` — the frames added where the oracle found no plan, which train nothing —,
     ``frames``, the rollout's success, and the last epoch's ``loss``). ``checkpoint`` is
     rewritten after every round.
     """
@@ -63,7 +64,7 @@ def dagger(policy, demos: Demonstrations, venv, config: TrainConfig, iterations:
                            start_epoch=len(history), history=history)
         success = sum(m.success for m in res.metrics.values()) / max(len(res.metrics), 1)
         rec = {"iteration": i, "beta": b, "frames_added": int(labels.numel()),
-               "frames": demos.num_frames, "rollout_success": success,
+               "unlabelled": int((labels < 0).sum()), "frames": demos.num_frames, "rollout_success": success,
                "loss": history[-1]["loss"]}
         records.append(rec)
         if checkpoint is not None:
