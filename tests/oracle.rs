@@ -335,7 +335,7 @@ fn pocket_sim(agent: AgentConfig) -> minos::sim::Simulator {
     pocket_sim_with_gap(agent, 2.0, 2.4)
 }
 
-/// [`pocket_sim`] with the gap in the alcove's far wall from `gap.0` to `gap.1` along x.
+/// [`pocket_sim`] with the gap in the alcove's far wall from x = `gap_from` to `gap_to`.
 fn pocket_sim_with_gap(agent: AgentConfig, gap_from: f32, gap_to: f32) -> minos::sim::Simulator {
     use common::scenes::SceneBuilder;
     use minos::navmesh::NavParams;
