@@ -127,21 +127,25 @@ pub(super) fn plan(
             return Some(out);
         }
         let now = remaining(sim, episode, &state);
-        let pocket;
-        let aims: Vec<Aim> = if now.is_finite() {
-            if let Some(end) = greedy_step(sim, episode, &state, now, &dynamics, &mut out) {
-                state = end;
-                continue;
-            }
-            SEGMENTS
-                .iter()
-                .map(|seg| Aim::Below((now - seg).max(-1.0)))
-                .collect()
+        // In a pocket the goal's field does not reach (a driver other than the oracle led
+        // the agent there): first the way out.
+        let pocket = if now.is_finite() {
+            None
         } else {
-            // In a pocket the goal's field does not reach (a driver other than the oracle
-            // led the agent there): first the way out.
-            pocket = way_out(sim, Vec3::from_array(state.position))?;
-            vec![Aim::OutOfPocket(&pocket)]
+            Some(way_out(sim, Vec3::from_array(state.position))?)
+        };
+        let aims: Vec<Aim> = match &pocket {
+            None => {
+                if let Some(end) = greedy_step(sim, episode, &state, now, &dynamics, &mut out) {
+                    state = end;
+                    continue;
+                }
+                SEGMENTS
+                    .iter()
+                    .map(|seg| Aim::Below((now - seg).max(-1.0)))
+                    .collect()
+            }
+            Some(way) => vec![Aim::OutOfPocket(way)],
         };
         let attempt = RESOLUTIONS.iter().find_map(|res| {
             aims.iter()
@@ -157,13 +161,21 @@ pub(super) fn plan(
             // cannot repeat without the searches between making progress; elsewhere a
             // failed search is the end of the plan.
             None if !now.is_finite() || leaves_field(sim, episode, &state, names) => {
-                let here = way_out(sim, Vec3::from_array(state.position))?;
+                // In a pocket, the walk out found above; at the field's edge, a new one.
+                let fresh;
+                let here = match &pocket {
+                    Some(way) => way,
+                    None => {
+                        fresh = way_out(sim, Vec3::from_array(state.position))?;
+                        &fresh
+                    }
+                };
                 RESOLUTIONS.iter().find_map(|res| {
                     search(
                         sim,
                         episode,
                         state,
-                        Aim::Steady(&here),
+                        Aim::Steady(here),
                         &dynamics,
                         names,
                         res,
